@@ -1,0 +1,71 @@
+/**
+ * @file ub_config.h
+ * @brief Compile-time capacities of the runtime. All memory is sized here and
+ *        owned by the caller's context structs: there is no malloc after init.
+ *
+ * Override any value by defining it on the compiler command line
+ * (-DUB_MAX_PAYLOAD=2048) or by pointing UB_CONFIG_FILE at a header of your own
+ * (-DUB_CONFIG_FILE='"my_ub_config.h"'), which is included first.
+ */
+#ifndef UB_CONFIG_H
+#define UB_CONFIG_H
+
+#ifdef UB_CONFIG_FILE
+#include UB_CONFIG_FILE
+#endif
+
+/** Largest payload (packed directory) one frame carries, in bytes. */
+#ifndef UB_MAX_PAYLOAD
+#define UB_MAX_PAYLOAD 1024
+#endif
+/** Entity-table rows per node: every entity this node knows (local and remote). */
+#ifndef UB_MAX_ENTITIES
+#define UB_MAX_ENTITIES 16
+#endif
+/** Links per entity; the paper allows 8 ("a maximum of 8 links originating at one entity"). */
+#ifndef UB_MAX_LINKS_PER_ENTITY
+#define UB_MAX_LINKS_PER_ENTITY 8
+#endif
+/** Link slots per node (all local entities' links together). */
+#ifndef UB_MAX_NODE_LINKS
+#define UB_MAX_NODE_LINKS 16
+#endif
+/** Entities hosted by one node (process). */
+#ifndef UB_MAX_LOCAL_ENTITIES
+#define UB_MAX_LOCAL_ENTITIES 4
+#endif
+/** Publish/subscribe table rows per local entity. */
+#ifndef UB_MAX_PUBSUB_ROWS
+#define UB_MAX_PUBSUB_ROWS 32
+#endif
+/** Rows of the global administration table. */
+#ifndef UB_MAX_ADMIN_ROWS
+#define UB_MAX_ADMIN_ROWS 32
+#endif
+/** Directory instances one node binds to local storage. */
+#ifndef UB_MAX_BINDINGS
+#define UB_MAX_BINDINGS 64
+#endif
+/** Sources tracked by the duplicate-suppression window. */
+#ifndef UB_DEDUP_SOURCES
+#define UB_DEDUP_SOURCES 16
+#endif
+/** Hop limit written into frames this node originates. */
+#ifndef UB_DEFAULT_HOP_LIMIT
+#define UB_DEFAULT_HOP_LIMIT 8
+#endif
+
+#if UB_MAX_PAYLOAD < 64 || UB_MAX_PAYLOAD > 65000
+#error "UB_MAX_PAYLOAD must be between 64 and 65000 (the frame's payload size field is 16 bits)"
+#endif
+#if UB_MAX_LINKS_PER_ENTITY < 1 || UB_MAX_LINKS_PER_ENTITY > 8
+#error "UB_MAX_LINKS_PER_ENTITY must be 1..8: the paper's link masks have one hex digit per link, 8 digits"
+#endif
+#if UB_MAX_ENTITIES < 2
+#error "UB_MAX_ENTITIES must be at least 2"
+#endif
+#if UB_DEFAULT_HOP_LIMIT < 1 || UB_DEFAULT_HOP_LIMIT > 255
+#error "UB_DEFAULT_HOP_LIMIT must be 1..255"
+#endif
+
+#endif /* UB_CONFIG_H */
