@@ -2,11 +2,11 @@
  * @file ub_frame.h
  * @brief The publish/subscribe frame: build, verify, and a streaming decoder.
  *
- * Byte layout (little-endian; diagram in docs/wire-format.md):
+ * Byte layout (little-endian; diagram and rationale in docs/wire-format.md):
  *
  *   off len field
  *    0   2  sync            0xA5 0x5B
- *    2   1  hdr_check       CRC-32C of bytes [4,60), folded to 8 bits
+ *    2   1  hdr_check       CRC-32C of bytes [4,60), folded to 8 bits (XOR of its 4 bytes)
  *    3   1  version         UB_WIRE_VERSION
  *    4   2  msg_type        UB_MSG_TYPE_PUBSUB (the datalink's message type)
  *    6   2  msg_size        whole frame: 64 + payload_size
@@ -21,9 +21,32 @@
  *   60   4  msg_crc         CRC-32C (Castagnoli) of bytes [4,60) then the payload
  *   64   n  payload
  *
+ * Both checks come from one CRC pass: the CRC-32C of bytes [4,60) (a finished
+ * CRC, i.e. after the final XOR) folds to `hdr_check`; continuing that CRC
+ * over the payload with ub_crc32c_update() gives `msg_crc`. The version byte
+ * and the sync bytes are not under a check: they are compared with constants.
+ *
+ * Building a frame (the payload is packed in place, so nothing is copied):
+ *
+ *     uint8_t frame[UB_FRAME_MAX];
+ *     int n = type->pack(obj, frame + UB_FRAME_HEADER_LEN, UB_MAX_PAYLOAD);
+ *     if (n < 0) return n;
+ *     ub_frame_header_t h = {.admin = UB_ADMIN_DATA, .hop_limit = UB_DEFAULT_HOP_LIMIT,
+ *                            .payload_size = (uint16_t)n, .seq = next_seq++,
+ *                            .fingerprint = type->fingerprint};
+ *     memcpy(h.dir_id, inst->id, UB_DIR_ID_LEN);  // and dest_id, src_id
+ *     int len = ub_frame_finish(frame, sizeof frame, &h);  // total length or < 0
+ *
+ * Receiving from a byte stream:
+ *
+ *     ub_decoder_t dec;                  // caller-owned, ~1.1 KiB
+ *     ub_decoder_init(&dec);
+ *     ... on every read(): ub_decoder_feed(&dec, bytes, n, on_frame, ctx);
+ *
  * The decoder is a pure state machine: no I/O, no allocation, no globals. Feed
  * it any chunking of a byte stream; it calls back once per verified frame and
- * counts every rejection by reason.
+ * counts every rejection by reason. Every function here is reentrant on
+ * distinct objects; none keeps state outside its arguments.
  */
 #ifndef UB_FRAME_H
 #define UB_FRAME_H
@@ -45,7 +68,25 @@ extern "C" {
 #define UB_FRAME_HEADER_LEN 64u
 #define UB_FRAME_MAX (UB_FRAME_HEADER_LEN + UB_MAX_PAYLOAD)
 
-/** Admin codes (docs/wire-format.md, "Admin codes"). */
+/* Field offsets, for code that reads one field of a verified frame in place. */
+#define UB_FRAME_OFF_HDR_CHECK 2u
+#define UB_FRAME_OFF_VERSION 3u
+#define UB_FRAME_OFF_MSG_TYPE 4u
+#define UB_FRAME_OFF_MSG_SIZE 6u
+#define UB_FRAME_OFF_DIR_ID 8u
+#define UB_FRAME_OFF_DEST_ID 24u
+#define UB_FRAME_OFF_SRC_ID 36u
+#define UB_FRAME_OFF_ADMIN 48u
+#define UB_FRAME_OFF_HOP_LIMIT 49u
+#define UB_FRAME_OFF_PAYLOAD_SIZE 50u
+#define UB_FRAME_OFF_SEQ 52u
+#define UB_FRAME_OFF_FINGERPRINT 56u
+#define UB_FRAME_OFF_MSG_CRC 60u
+/** The header bytes both checks cover: [UB_FRAME_CHECKED_OFF, UB_FRAME_CHECKED_OFF + UB_FRAME_CHECKED_LEN). */
+#define UB_FRAME_CHECKED_OFF 4u
+#define UB_FRAME_CHECKED_LEN 56u
+
+/** Admin codes (docs/wire-format.md, "Admin codes and payloads"). */
 typedef enum ub_admin_code {
     UB_ADMIN_DATA = 0,        /**< payload is a packed directory instance */
     UB_ADMIN_PUB_REQUEST = 1, /**< add/renew a publication at the source entity */
@@ -56,14 +97,18 @@ typedef enum ub_admin_code {
     UB_ADMIN_NACK = 6         /**< a table-change request was refused (reason in payload) */
 } ub_admin_code_t;
 
-/** Host form of a frame header; ub_frame_finish() fills in the checks and sizes. */
+/**
+ * Host form of a frame header. ub_frame_finish() reads it (and fills in the
+ * checks, sizes, sync, version and message type itself); ub_frame_parse()
+ * and the decoder fill every field.
+ */
 typedef struct ub_frame_header {
-    uint16_t msg_type;
+    uint16_t msg_type; /**< filled by parse; ignored by finish, which always writes UB_MSG_TYPE_PUBSUB */
     uint8_t dir_id[UB_DIR_ID_LEN];
     uint8_t dest_id[UB_ENTITY_ID_LEN];
     uint8_t src_id[UB_ENTITY_ID_LEN];
     uint8_t admin;
-    uint8_t hop_limit;
+    uint8_t hop_limit; /**< 1..255 on the wire; finish refuses 0 */
     uint16_t payload_size;
     uint32_t seq;
     uint32_t fingerprint;
@@ -72,16 +117,23 @@ typedef struct ub_frame_header {
 /**
  * Completes a frame whose payload the caller has already written at
  * `frame + UB_FRAME_HEADER_LEN` (so pack writes straight into the frame, with
- * no copy): writes the header from `h`, then both checks.
- * @return total frame length, UB_ERR_NOSPACE if `cap` is too small, or
- *         UB_ERR_RANGE if h->payload_size > UB_MAX_PAYLOAD.
+ * no copy): writes the header from `h`, then both checks. Reads exactly
+ * `h->payload_size` payload bytes and writes only bytes [0, 64) of `frame`.
+ * @return total frame length (64 + payload_size), UB_ERR_INVAL if `frame` or
+ *         `h` is NULL, UB_ERR_NOSPACE if `cap` is too small, or UB_ERR_RANGE
+ *         if h->payload_size > UB_MAX_PAYLOAD or h->hop_limit == 0.
  */
 UB_CHECK int ub_frame_finish(uint8_t *frame, size_t cap, const ub_frame_header_t *h);
 
 /**
- * Verifies one complete frame of exactly `len` bytes and decodes its header.
- * @return UB_OK, UB_ERR_TRUNCATED, UB_ERR_CHECKSUM, or UB_ERR_INVAL (bad sync,
- *         version or inconsistent sizes).
+ * Verifies one complete frame of exactly `len` bytes and decodes its header
+ * into `h` (which may be NULL to verify only; `h` is written only on UB_OK).
+ * Never reads outside [frame, frame + len).
+ * @return UB_OK; UB_ERR_TRUNCATED (`len` shorter than the header or than
+ *         msg_size); UB_ERR_CHECKSUM (header check or message CRC mismatch);
+ *         UB_ERR_INVAL (NULL `frame`, bad sync, version or message type,
+ *         msg_size/payload_size inconsistent or above UB_FRAME_MAX, or `len`
+ *         longer than msg_size).
  */
 UB_CHECK int ub_frame_parse(const uint8_t *frame, size_t len, ub_frame_header_t *h);
 
@@ -89,45 +141,96 @@ UB_CHECK int ub_frame_parse(const uint8_t *frame, size_t len, ub_frame_header_t 
 typedef enum ub_rx_reason {
     UB_RX_BAD_HDR_CHECK = 0, /**< header check byte mismatch */
     UB_RX_BAD_CRC,           /**< message CRC mismatch (corrupt payload, truncation, lying length) */
-    UB_RX_BAD_LENGTH,        /**< msg_size/payload_size inconsistent or above UB_MAX_PAYLOAD */
+    UB_RX_BAD_LENGTH,        /**< msg_size/payload_size inconsistent or above UB_MAX_PAYLOAD; datagram size != msg_size */
     UB_RX_BAD_VERSION,       /**< unknown wire version or message type */
+    UB_RX_BAD_SYNC,          /**< datagram not starting with the sync bytes (the stream decoder counts these as garbage_bytes) */
     UB_RX_REASON_COUNT
 } ub_rx_reason_t;
 
+/** @return a static name for a reason ("bad_hdr_check", ...), or "?" when out of range. */
+const char *ub_rx_reason_name(ub_rx_reason_t reason);
+
+/**
+ * ub_frame_parse() for datagram transports, which must count rejections by
+ * reason as the stream decoder does. Same checks, same order, same returns;
+ * on failure `*reason` (if not NULL) says why: bad sync -> UB_RX_BAD_SYNC; a
+ * datagram shorter than the header, or whose size differs from msg_size ->
+ * UB_RX_BAD_LENGTH; otherwise the decoder's reason for the same bytes.
+ */
+UB_CHECK int ub_frame_parse_reason(const uint8_t *frame, size_t len, ub_frame_header_t *h, ub_rx_reason_t *reason);
+
+/**
+ * Rewrites the hop limit of a verified frame in place and recomputes both
+ * checks (they cover the hop limit), for forwarders. The caller must have
+ * verified the frame (decoder or ub_frame_parse()): this function recomputes
+ * the checks and does not re-verify the old ones.
+ * @return UB_OK; UB_ERR_RANGE if `hop_limit` is 0; UB_ERR_INVAL if `frame` is
+ *         NULL or `len` is not the frame's msg_size.
+ */
+UB_CHECK int ub_frame_set_hop_limit(uint8_t *frame, size_t len, uint8_t hop_limit);
+
+/**
+ * Decoder counters. Every byte fed ends up in exactly one place, so
+ * `bytes_in == bytes_ok + garbage_bytes + ub_decoder_pending(d)` always holds.
+ */
 typedef struct ub_decoder_stats {
     uint64_t frames_ok;                     /**< frames delivered to the callback */
     uint64_t bytes_in;                      /**< bytes fed */
-    uint64_t garbage_bytes;                 /**< bytes skipped while hunting for sync */
-    uint64_t rejected[UB_RX_REASON_COUNT];  /**< rejected candidate frames, by reason */
+    uint64_t bytes_ok;                      /**< bytes of delivered frames */
+    uint64_t garbage_bytes;                 /**< bytes dropped: skipped while hunting for sync, and the sync byte of every rejected candidate */
+    uint64_t rejected[UB_RX_REASON_COUNT];  /**< rejected candidate frames, by reason (never UB_RX_BAD_SYNC) */
 } ub_decoder_stats_t;
 
 /**
  * Called once per verified frame. `frame` points to the whole frame
- * (`frame_len` bytes) and is valid only during the call.
+ * (`frame_len` bytes) and is valid only during the call: either into the
+ * caller's input (whole frames are verified in place) or into the decoder's
+ * buffer. The callback must not feed the same decoder.
  */
 typedef void (*ub_frame_cb)(void *user, const ub_frame_header_t *h, const uint8_t *frame, size_t frame_len);
 
-/** Streaming decoder; caller-owned, no allocation. Treat the fields as private. */
+/** Streaming decoder; caller-owned, no allocation. Treat the fields as private; read `stats`. */
 typedef struct ub_decoder {
-    uint8_t buf[UB_FRAME_MAX]; /* a partial frame carried between feeds */
+    uint8_t buf[UB_FRAME_MAX]; /* bytes of an unfinished candidate frame, starting at its sync */
     size_t have;
     ub_decoder_stats_t stats;
 } ub_decoder_t;
 
+/** Empties the decoder and zeroes its counters. */
 void ub_decoder_init(ub_decoder_t *d);
 
 /**
- * Feeds `len` bytes. Calls `cb` for each verified frame, in stream order.
- * After any rejection it resumes the search one byte past the rejected sync,
- * so a valid frame that follows garbage, a truncated frame or a lying length
- * is still found.
+ * Feeds `len` bytes (`data` may be NULL only when `len` is 0). Calls `cb`
+ * (may be NULL: count only) for each verified frame, in stream order.
+ *
+ * Every position holding the sync pair that is not inside a delivered frame
+ * is tried as a frame start; a candidate is accepted or rejected only once
+ * all its bytes are present, so the outcome does not depend on how the
+ * stream is chunked. After a rejection the search resumes one byte past the
+ * rejected sync, including bytes already buffered, so a valid frame after
+ * garbage, a truncated frame or a lying length is still found. A candidate
+ * is checked in this order: header check (UB_RX_BAD_HDR_CHECK), version and
+ * message type (UB_RX_BAD_VERSION), msg_size/payload_size (UB_RX_BAD_LENGTH),
+ * message CRC (UB_RX_BAD_CRC). Never reads or writes outside `data[0..len)`
+ * and `*d`.
  * @return the number of frames delivered by this call (never negative).
  */
 size_t ub_decoder_feed(ub_decoder_t *d, const uint8_t *data, size_t len, ub_frame_cb cb, void *user);
 
-/** CRC-32C (Castagnoli, reflected, init/xorout 0xFFFFFFFF) of a buffer. */
+/** @return bytes held for an unfinished candidate frame (at most UB_FRAME_MAX - 1). */
+size_t ub_decoder_pending(const ub_decoder_t *d);
+
+/**
+ * CRC-32C (Castagnoli, reflected polynomial 0x82F63B78, init and final XOR
+ * 0xFFFFFFFF) of a buffer: ub_crc32c("123456789", 9) == 0xE3069283. Uses the
+ * CPU's CRC instructions when present (x86-64 SSE4.2, ARMv8 CRC), else a
+ * table. `data` may be NULL only when `len` is 0.
+ */
 uint32_t ub_crc32c(const uint8_t *data, size_t len);
-/** Continues a CRC-32C: pass the previous result as `crc` (0 to start). */
+/**
+ * Continues a CRC-32C: pass the previous result as `crc` (0 to start), so
+ * ub_crc32c_update(ub_crc32c(a, n), b, m) is the CRC of a then b.
+ */
 uint32_t ub_crc32c_update(uint32_t crc, const uint8_t *data, size_t len);
 
 #ifdef __cplusplus

@@ -1,0 +1,44 @@
+/**
+ * @file ub_crc32c_impl.h
+ * @brief Private: the two CRC-32C implementations behind ub_crc32c_update(),
+ *        exposed so tests and the benchmark can check them against each other.
+ *        Not part of the public API; include only from runtime_c/src, tests and tools.
+ *
+ * Both functions have ub_crc32c_update()'s contract: `crc` is a previous result
+ * (0 to start), `data` may be NULL only when `len` is 0.
+ */
+#ifndef UB_CRC32C_IMPL_H
+#define UB_CRC32C_IMPL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Slicing-by-8 over a `static const` table; correct on every host. */
+uint32_t ub_crc32c_update_portable(uint32_t crc, const uint8_t *data, size_t len);
+
+/** 1 when this CPU has CRC-32C instructions this build can use (SSE4.2, ARMv8 CRC), else 0. */
+int ub_crc32c_hw_available(void);
+
+/**
+ * The hardware path, 8 bytes per instruction. Call only when
+ * ub_crc32c_hw_available() returns 1; otherwise it falls back to the portable path.
+ */
+uint32_t ub_crc32c_update_hw(uint32_t crc, const uint8_t *data, size_t len);
+
+/**
+ * CRC-32C (finished, started from 0) of bytes [4,60) of a 64-byte frame header
+ * given as eight little-endian words: word k holds bytes [8k, 8k+8), byte 8k in
+ * its low 8 bits. Equal to ub_crc32c(bytes + 4, 56) on the encoded bytes; it
+ * exists so ub_frame_finish() can check the header from registers instead of
+ * re-reading bytes it has just stored (see ub_frame.c).
+ */
+uint32_t ub_crc32c_header_words(const uint64_t words[8]);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* UB_CRC32C_IMPL_H */
