@@ -1,0 +1,235 @@
+/**
+ * @file ub_nodecfg.h
+ * @brief Node configuration: the paper's entity table (section III.D, Tables 1
+ *        and 2) read from a JSON file, validated, into a caller-owned struct.
+ *
+ * The format is documented in docs/config-format.md and its structure in
+ * schemas/config.schema.json. In short:
+ *
+ * @code{.json}
+ * {
+ *   "system": "hitl-table2",
+ *   "entities": [
+ *     {"name": "rmax1ob1",
+ *      "links": ["onboardPortDatalink1", "onboardPortDatalink2", "onboardPortIPC"],
+ *      "linktoentity": {"gcs1": "0x00000011", "rmax1ob2": ["onboardPortIPC"]}},
+ *     {"name": "rmax1ob2", "links": ["onboard2PortIPC"], "linktoentity": ["0x1", "0x0", "0x1"]},
+ *     {"name": "gcs1", "links": ["gcsPortDatalink1", "gcsPortDatalink2"],
+ *      "linktoentity": ["0x00000011", "0x00000011", "0x00000000"]}
+ *   ],
+ *   "hosts": ["rmax1ob1"]
+ * }
+ * @endcode
+ *
+ * Link masks: bit i set = "send over this entity's link[i]". In the paper's hex
+ * notation each hex digit is one link and must be 0 or 1, least-significant
+ * digit = link 0 ("0x00000110" = links 1 and 2). Lists of link indices ([1, 2])
+ * or link names (["onboardPortIPC"]) mean the same.
+ *
+ * Every error is reported as one line,
+ *   "<file>:<line>: entity '<name>', field '<path>': <what is wrong and what to do>"
+ * (the entity part only where one applies), e.g.
+ *   "table2.json:7: entity 'gcs1', field 'linktoentity.fcs20': hex digit '2' is
+ *    not 0 or 1 (each hex digit is one link: 0x00000110 means links 1 and 2)".
+ * runtime_py/uavbus/config.py produces the same messages for the same files
+ * (shared cases in tests/unit/config_cases/).
+ *
+ * Memory: ub_nodecfg_t is a plain value sized by ub_config.h and the limits
+ * below. Nothing here allocates or keeps state outside the caller's structs.
+ *
+ * Example (set-up time; `cfg`, `node` and `text` are the caller's, e.g. static
+ * storage of the application, since ub_nodecfg_t and ub_node_t are large):
+ * @code
+ *   char err[UB_NODECFG_ERR_LEN];
+ *   if (ub_nodecfg_load_file(&cfg, "examples/configs/table2.json", text, sizeof text, err, sizeof err) != UB_OK
+ *       || ub_nodecfg_select_node(&cfg, "gcs", err, sizeof err) != UB_OK
+ *       || ub_node_init(&node, &my_catalogue, NULL) != UB_OK
+ *       || ub_nodecfg_apply(&cfg, &node, err, sizeof err) != UB_OK) {
+ *       fprintf(stderr, "%s\n", err);
+ *       return 1;
+ *   }
+ *   int m = ub_nodecfg_mask(&cfg, "rmax1ob1", "gcs1");   // 0x03: links 0 and 1
+ *   int l = ub_node_find_link(&node, "gcsPortDatalink1"); // then ub_node_link_attach(&node, l, ...)
+ * @endcode
+ */
+#ifndef UB_NODECFG_H
+#define UB_NODECFG_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ub_catalogue.h" /* UB_ENTITY_ID_LEN */
+#include "ub_config.h"
+#include "ub_error.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Limits of the config format itself. Overridable like ub_config.h; they are
+ * documented in docs/config-format.md and mirrored in the JSON Schema. */
+/** Longest link, node or port-parameter value name (the paper's link names are ~20). */
+#ifndef UB_NODECFG_NAME_MAX
+#define UB_NODECFG_NAME_MAX 31
+#endif
+/** Longest free text: "system", a port's parameter values. */
+#ifndef UB_NODECFG_TEXT_MAX
+#define UB_NODECFG_TEXT_MAX 63
+#endif
+/** Longest port key: a link name, optionally qualified "entity:link". */
+#define UB_NODECFG_PORT_KEY_MAX (UB_ENTITY_ID_LEN + 1 + UB_NODECFG_NAME_MAX)
+/** Longest transport or port-parameter name ("tcp", "connect"). */
+#define UB_NODECFG_WORD_MAX 15
+/** Entries of the "ports" section (reserved for the links issue). */
+#ifndef UB_NODECFG_MAX_PORTS
+#define UB_NODECFG_MAX_PORTS 32
+#endif
+/** Parameters per port besides "transport". */
+#ifndef UB_NODECFG_MAX_PORT_PARAMS
+#define UB_NODECFG_MAX_PORT_PARAMS 4
+#endif
+/** Recommended size of the error-message buffers passed to this API. */
+#define UB_NODECFG_ERR_LEN 256
+/** Size of a formatted hex mask: "0x" + 8 digits + NUL. */
+#define UB_MASK_HEX_SIZE 11
+
+#if UB_MAX_ENTITIES > 255 || UB_NODECFG_MAX_PORTS > 255
+#error "ub_nodecfg counts entities and ports in uint8_t: keep UB_MAX_ENTITIES and UB_NODECFG_MAX_PORTS <= 255"
+#endif
+
+/** One row of the entity table (the paper's "systemEntity"). */
+typedef struct ub_nodecfg_entity {
+    char name[UB_ENTITY_ID_LEN + 1]; /**< 1..12 chars of [A-Za-z0-9_.-]; the entity ID */
+    uint8_t link_count;              /**< entries used in links[] */
+    char links[UB_MAX_LINKS_PER_ENTITY][UB_NODECFG_NAME_MAX + 1]; /**< the paper's link[i] */
+    /** mask[j]: links of this entity toward entities[j]; bit i = link[i]. mask[self] == 0. */
+    uint8_t mask[UB_MAX_ENTITIES];
+    uint32_t line; /**< line of the entity's object in the file */
+} ub_nodecfg_entity_t;
+
+/** A named group of entities one process hosts ("nodes" section). */
+typedef struct ub_nodecfg_node {
+    char name[UB_NODECFG_NAME_MAX + 1];
+    uint8_t entity_count;
+    uint8_t entity[UB_MAX_LOCAL_ENTITIES]; /**< indices into ub_nodecfg_t.entities */
+} ub_nodecfg_node_t;
+
+/** One extra parameter of a port, kept as text ("127.0.0.1:5001", "115200", "true"). */
+typedef struct ub_nodecfg_port_param {
+    char key[UB_NODECFG_WORD_MAX + 1];
+    char value[UB_NODECFG_TEXT_MAX + 1];
+} ub_nodecfg_port_param_t;
+
+/** A "ports" entry: binds a link name to a transport. Shape-checked only. */
+typedef struct ub_nodecfg_port {
+    char name[UB_NODECFG_PORT_KEY_MAX + 1];
+    char transport[UB_NODECFG_WORD_MAX + 1];
+    uint8_t param_count;
+    ub_nodecfg_port_param_t params[UB_NODECFG_MAX_PORT_PARAMS];
+    uint32_t line;
+} ub_nodecfg_port_t;
+
+/** Longest source name kept for ub_nodecfg_apply()'s messages (longer ones are cut). */
+#define UB_NODECFG_SOURCE_MAX 128
+
+/** A parsed, validated configuration. Caller-owned; no pointers into the source text. */
+typedef struct ub_nodecfg {
+    char source[UB_NODECFG_SOURCE_MAX]; /**< the source name given to the parser, for messages */
+    char system[UB_NODECFG_TEXT_MAX + 1]; /**< "" if the file gives none */
+    uint8_t entity_count;
+    ub_nodecfg_entity_t entities[UB_MAX_ENTITIES]; /**< in file order: the paper's index i */
+    uint8_t host_count;
+    uint8_t hosts[UB_MAX_LOCAL_ENTITIES]; /**< entities this process hosts (indices) */
+    uint8_t node_count;
+    ub_nodecfg_node_t nodes[UB_MAX_ENTITIES]; /**< each entity is in at most one node */
+    uint8_t port_count;
+    ub_nodecfg_port_t ports[UB_NODECFG_MAX_PORTS];
+} ub_nodecfg_t;
+
+/**
+ * Parses and validates a configuration held in `text[0, len)` (need not be
+ * NUL-terminated). `source_name` names it in messages (normally the path).
+ * On success `cfg` holds the configuration, with hosts taken from "hosts"
+ * (possibly none: see ub_nodecfg_select_node()).
+ * @retval UB_OK
+ * @retval UB_ERR_CONFIG invalid JSON or configuration; `err` says where and why.
+ *                       `cfg` is zeroed.
+ * @retval UB_ERR_INVAL  a NULL pointer argument (err_cap may be 0; err then unused).
+ */
+UB_CHECK int ub_nodecfg_parse(ub_nodecfg_t *cfg, const char *text, size_t len, const char *source_name,
+                              char *err, size_t err_cap);
+
+/**
+ * Reads file `path` into the caller's `buf` (at most `buf_cap` bytes) and
+ * parses it with `source_name` = path.
+ * @retval UB_OK
+ * @retval UB_ERR_IO      the file cannot be opened or read ("<path>: cannot open: <reason>").
+ * @retval UB_ERR_NOSPACE the file is larger than `buf_cap`.
+ * @retval UB_ERR_CONFIG, UB_ERR_INVAL as ub_nodecfg_parse().
+ */
+UB_CHECK int ub_nodecfg_load_file(ub_nodecfg_t *cfg, const char *path, char *buf, size_t buf_cap, char *err,
+                                  size_t err_cap);
+
+/**
+ * Makes the entities of node `node` (from the "nodes" section) this process's
+ * hosts, replacing what "hosts" said.
+ * @retval UB_OK
+ * @retval UB_ERR_NOTFOUND no such node; `err` lists the known ones.
+ * @retval UB_ERR_INVAL    a NULL argument.
+ */
+UB_CHECK int ub_nodecfg_select_node(ub_nodecfg_t *cfg, const char *node, char *err, size_t err_cap);
+
+/** @return the index of entity `name` in cfg->entities, or UB_ERR_NOTFOUND / UB_ERR_INVAL. */
+UB_CHECK int ub_nodecfg_find_entity(const ub_nodecfg_t *cfg, const char *name);
+
+/**
+ * @return the link mask of entity `from` toward entity `to` (0..255, bit i =
+ *         from's link[i]), or UB_ERR_NOTFOUND if either is unknown, UB_ERR_INVAL on NULL.
+ */
+UB_CHECK int ub_nodecfg_mask(const ub_nodecfg_t *cfg, const char *from, const char *to);
+
+/**
+ * Parses the paper's hex notation: "0x" then 1..16 hex digits, each 0 or 1;
+ * the least-significant digit is link 0, and digits for links 8 and up must be
+ * 0 (the paper's Figure 8 prints nine digits, "0x000000011").
+ * @retval UB_OK         *mask holds the bits.
+ * @retval UB_ERR_CONFIG the text is not such a mask.
+ * @retval UB_ERR_INVAL  NULL argument.
+ */
+UB_CHECK int ub_mask_parse_hex(const char *text, uint8_t *mask);
+
+/**
+ * Formats `mask` in the paper's notation, 8 digits: 0x06 -> "0x00000110".
+ * @return 10 (the length written, plus a NUL), or UB_ERR_NOSPACE if
+ *         cap < UB_MASK_HEX_SIZE, UB_ERR_INVAL if buf is NULL.
+ */
+UB_CHECK int ub_mask_format_hex(uint8_t mask, char *buf, size_t cap);
+
+struct ub_node; /* ub_node.h; only a pointer is needed here */
+
+/**
+ * Applies the table to a node initialised with ub_node_init():
+ *  1. adds every entity in file order, the hosted ones (cfg->hosts) as local
+ *     entities, the others as known remote entities;
+ *  2. creates each hosted entity's links, link[i] named links[i] (detached:
+ *     attach transports with ub_node_find_link() + ub_node_link_attach();
+ *     the "ports" section is reserved for doing that from the file);
+ *  3. sets each hosted entity's mask toward every entity.
+ * Remote entities' own rows (their links and masks) belong to the nodes that
+ * host them and are not applied. The node may already hold other entities;
+ * entity indices in the node are whatever ub_node_add_entity() returns.
+ * @retval UB_OK
+ * @retval UB_ERR_CONFIG the node refused the table: no hosted entity, an entity
+ *         already in the node, two hosted entities with the same link name,
+ *         more links than UB_MAX_NODE_LINKS, a link name too long for
+ *         UB_LINK_NAME_LEN... `err` says which, as
+ *         "<source>:<line>: entity '<name>', field 'links[i]': ...". The node is
+ *         then partly set up: initialise it again before retrying.
+ * @retval UB_ERR_INVAL NULL argument.
+ */
+UB_CHECK int ub_nodecfg_apply(const ub_nodecfg_t *cfg, struct ub_node *node, char *err, size_t err_cap);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* UB_NODECFG_H */

@@ -1,0 +1,777 @@
+#include "ub/ub_nodecfg.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "ub/ub_node.h"
+#include "ub_json.h"
+
+/* Every message below is mirrored word for word in runtime_py/uavbus/config.py;
+ * change both together (tests/unit/config_cases/ checks that they agree). */
+#define HEX_HINT "(each hex digit is one link: 0x00000110 means links 1 and 2)"
+#define NAME_CHARS "A-Z a-z 0-9 _ . -"
+#define MASK_SHAPE "a mask is a hex string such as \"0x00000110\" or a list of links such as [1, 2] or [\"linkName\"]"
+#define PATH_LEN 128
+#define KEY_BUF 64 /* > every name limit, so "fits" is checked on the decoded length */
+#define ECHO_MAX 40
+
+typedef struct parser {
+    ub_json_doc_t doc;
+    const char *file;
+    char *err;
+    size_t err_cap;
+    ub_nodecfg_t *cfg;
+} parser_t;
+
+static void append(char *buf, size_t cap, size_t *used, const char *fmt, va_list ap) {
+    if (*used >= cap) return;
+    int n = vsnprintf(buf + *used, cap - *used, fmt, ap);
+    if (n > 0) *used += (size_t)n;
+}
+
+static void appendf(char *buf, size_t cap, size_t *used, const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    append(buf, cap, used, fmt, ap);
+    va_end(ap);
+}
+
+/* "<file>:<line>: [entity '<e>', ][field '<f>': ]<message>" */
+static int fail(const parser_t *p, uint32_t line, const char *entity, const char *field, const char *fmt, ...) {
+    if (p->err == NULL || p->err_cap == 0) return UB_ERR_CONFIG;
+    size_t used = 0;
+    appendf(p->err, p->err_cap, &used, "%s:%lu: ", p->file, (unsigned long)line);
+    if (entity != NULL) appendf(p->err, p->err_cap, &used, "entity '%s', ", entity);
+    if (field != NULL) appendf(p->err, p->err_cap, &used, "field '%s': ", field);
+    va_list ap;
+    va_start(ap, fmt);
+    append(p->err, p->err_cap, &used, fmt, ap);
+    va_end(ap);
+    return UB_ERR_CONFIG;
+}
+
+static bool is_name_char(char c) {
+    return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '.' ||
+           c == '-';
+}
+
+static bool is_name(const char *s, size_t n, size_t max) {
+    if (n == 0 || n > max) return false;
+    for (size_t i = 0; i < n; i++)
+        if (!is_name_char(s[i])) return false;
+    return true;
+}
+
+/* Transport and parameter names: [a-z][a-z0-9_]{0,14}. */
+static bool is_word(const char *s, size_t n) {
+    if (n == 0 || n > UB_NODECFG_WORD_MAX || !(s[0] >= 'a' && s[0] <= 'z')) return false;
+    for (size_t i = 1; i < n; i++)
+        if (!((s[i] >= 'a' && s[i] <= 'z') || (s[i] >= '0' && s[i] <= '9') || s[i] == '_')) return false;
+    return true;
+}
+
+/* Unknown keys are quoted back only when that is safe and short; the Python
+ * port applies the same rule so messages stay identical. */
+static const char *echo(const char *s, size_t n) {
+    if (n == 0 || n > ECHO_MAX) return "?";
+    for (size_t i = 0; i < n; i++)
+        if (s[i] < 0x20 || s[i] > 0x7e || s[i] == '\'') return "?";
+    return s;
+}
+
+/* Shows a number literal, shortened so a huge one cannot flood the message. */
+static void number_text(const parser_t *p, const ub_json_value_t *v, char *out, size_t cap) {
+    size_t n = v->end - v->start;
+    if (n > 24)
+        (void)snprintf(out, cap, "%.20s...", p->doc.text + v->start);
+    else
+        (void)snprintf(out, cap, "%.*s", (int)n, p->doc.text + v->start);
+}
+
+static bool is_integer_literal(const parser_t *p, const ub_json_value_t *v) {
+    for (size_t i = v->start; i < v->end; i++) {
+        char c = p->doc.text[i];
+        if (c == '.' || c == 'e' || c == 'E') return false;
+    }
+    return true;
+}
+
+static size_t key_text(const parser_t *p, const ub_json_value_t *v, char *buf) {
+    return ub_json_string(&p->doc, v, buf, KEY_BUF);
+}
+
+static void describe_links(int count, char *out, size_t cap) {
+    if (count == 0)
+        (void)snprintf(out, cap, "no links");
+    else if (count == 1)
+        (void)snprintf(out, cap, "1 link (link 0)");
+    else
+        (void)snprintf(out, cap, "%d links (link 0 to link %d)", count, count - 1);
+}
+
+/* Looks fields up by name, rejecting unknown and repeated ones; values[k] gets
+ * the member for fields[k] (kind 0 when absent). */
+static int check_fields(const parser_t *p, const ub_json_value_t *obj, const char *const *fields, size_t nfields,
+                        const char *entity, const char *prefix, ub_json_value_t *values) {
+    uint32_t first_line[8] = {0};
+    ub_json_iter_t it;
+    ub_json_value_t key, val;
+    char name[KEY_BUF], path[PATH_LEN], expected[96];
+    size_t used = 0;
+    for (size_t k = 0; k < nfields; k++) {
+        values[k].kind = (ub_json_kind_t)0;
+        appendf(expected, sizeof expected, &used, "%s%s", k ? ", " : "", fields[k]);
+    }
+    ub_json_iter_begin(&it, &p->doc, obj);
+    while (ub_json_iter_next(&it, &key, &val)) {
+        size_t n = key_text(p, &key, name);
+        size_t k = 0;
+        while (k < nfields && !(n < KEY_BUF && strlen(fields[k]) == n && memcmp(fields[k], name, n) == 0)) k++;
+        (void)snprintf(path, sizeof path, "%s%s", prefix, k < nfields ? fields[k] : echo(name, n));
+        if (k == nfields)
+            return fail(p, key.line, entity, path, "unknown field (expected one of: %s)", expected);
+        if (first_line[k] != 0)
+            return fail(p, key.line, entity, path, "duplicate field (first given on line %lu)",
+                        (unsigned long)first_line[k]);
+        first_line[k] = key.line;
+        values[k] = val;
+    }
+    return UB_OK;
+}
+
+static int find_entity(const ub_nodecfg_t *cfg, const char *name, size_t n) {
+    for (int i = 0; i < cfg->entity_count; i++)
+        if (strlen(cfg->entities[i].name) == n && memcmp(cfg->entities[i].name, name, n) == 0) return i;
+    return UB_ERR_NOTFOUND;
+}
+
+/* ---- masks ---- */
+
+static int hex_parse(const char *s, size_t n, uint8_t *mask, char *why, size_t why_cap) {
+    if (n < 2 || s[0] != '0' || (s[1] != 'x' && s[1] != 'X')) {
+        (void)snprintf(why, why_cap, "a hex mask starts with \"0x\" " HEX_HINT);
+        return UB_ERR_CONFIG;
+    }
+    size_t digits = n - 2;
+    if (digits == 0 || digits > 16) {
+        (void)snprintf(why, why_cap, "a hex mask has 1 to 16 digits after \"0x\" " HEX_HINT);
+        return UB_ERR_CONFIG;
+    }
+    for (size_t i = 2; i < n; i++) {
+        unsigned char c = (unsigned char)s[i];
+        if (c == '0' || c == '1') continue;
+        if ((c >= '2' && c <= '9') || (c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F'))
+            (void)snprintf(why, why_cap, "hex digit '%c' is not 0 or 1 " HEX_HINT, c);
+        else if (c >= 0x20 && c <= 0x7e && c != '\'')
+            (void)snprintf(why, why_cap, "'%c' is not a hex digit " HEX_HINT, c);
+        else
+            (void)snprintf(why, why_cap, "byte 0x%02x is not a hex digit " HEX_HINT, c);
+        return UB_ERR_CONFIG;
+    }
+    uint8_t bits = 0;
+    for (size_t i = 2; i < n; i++) {
+        size_t link = n - 1 - i;
+        if (s[i] != '1') continue;
+        if (link >= 8) {
+            (void)snprintf(why, why_cap, "hex digit for link %u is set, but links are numbered 0 to 7 " HEX_HINT,
+                           (unsigned)link);
+            return UB_ERR_CONFIG;
+        }
+        bits = (uint8_t)(bits | (1u << link));
+    }
+    *mask = bits;
+    return UB_OK;
+}
+
+static int mask_list(const parser_t *p, const ub_nodecfg_entity_t *e, const ub_json_value_t *list,
+                     const char *field, uint8_t *out) {
+    ub_json_iter_t it;
+    ub_json_value_t v;
+    char path[PATH_LEN], text[KEY_BUF], links[48];
+    uint8_t bits = 0;
+    int k = 0;
+    describe_links(e->link_count, links, sizeof links);
+    ub_json_iter_begin(&it, &p->doc, list);
+    for (; ub_json_iter_next(&it, NULL, &v); k++) {
+        int link = -1;
+        (void)snprintf(path, sizeof path, "%s[%d]", field, k);
+        if (v.kind == UB_JSON_NUMBER) {
+            number_text(p, &v, text, sizeof text);
+            if (!is_integer_literal(p, &v) || p->doc.text[v.start] == '-')
+                return fail(p, v.line, e->name, path, "link index %s must be a whole number 0 to 7", text);
+            size_t digits = v.end - v.start;
+            link = 0;
+            for (size_t i = v.start; i < v.end && digits <= 3; i++) link = link * 10 + (p->doc.text[i] - '0');
+            if (digits > 3 || link >= e->link_count)
+                return fail(p, v.line, e->name, path, "link index %s is out of range: this entity has %s", text,
+                            links);
+        } else if (v.kind == UB_JSON_STRING) {
+            size_t n = key_text(p, &v, text);
+            if (!is_name(text, n, UB_NODECFG_NAME_MAX))
+                return fail(p, v.line, e->name, path, "list elements are link indices (0 to 7) or link names");
+            for (int i = 0; i < e->link_count && link < 0; i++)
+                if (strcmp(e->links[i], text) == 0) link = i;
+            if (link < 0) return fail(p, v.line, e->name, path, "no link named '%s' in this entity's 'links'", text);
+        } else {
+            return fail(p, v.line, e->name, path, "list elements are link indices (0 to 7) or link names");
+        }
+        if (bits & (1u << link)) return fail(p, v.line, e->name, path, "link %d is listed twice", link);
+        bits = (uint8_t)(bits | (1u << link));
+    }
+    *out = bits;
+    return UB_OK;
+}
+
+/* One linktoentity value of entity `self` toward entity `target`. */
+static int parse_mask(const parser_t *p, int self, int target, const ub_json_value_t *v, const char *field) {
+    ub_nodecfg_entity_t *e = &p->cfg->entities[self];
+    uint8_t bits = 0;
+    int rc;
+    if (v->kind == UB_JSON_STRING) {
+        char text[KEY_BUF], why[160], links[48];
+        /* An over-long string is cut in `text`, but hex_parse rejects it by its
+         * length after reading only the "0x" prefix. */
+        size_t n = key_text(p, v, text);
+        if (hex_parse(text, n, &bits, why, sizeof why) != UB_OK) return fail(p, v->line, e->name, field, "%s", why);
+        for (int link = e->link_count; link < 8; link++) {
+            if (!(bits & (1u << link))) continue;
+            describe_links(e->link_count, links, sizeof links);
+            return fail(p, v->line, e->name, field, "link %d is set, but this entity has %s", link, links);
+        }
+    } else if (v->kind == UB_JSON_ARRAY) {
+        if ((rc = mask_list(p, e, v, field, &bits)) != UB_OK) return rc;
+    } else {
+        return fail(p, v->line, e->name, field, MASK_SHAPE);
+    }
+    if (self == target && bits != 0)
+        return fail(p, v->line, e->name, field,
+                    "an entity's mask to itself must be 0x00000000 (frames for a local entity are delivered, "
+                    "not sent)");
+    e->mask[target] = bits;
+    return UB_OK;
+}
+
+static int parse_linktoentity(const parser_t *p, int self, const ub_json_value_t *lte) {
+    const ub_nodecfg_t *cfg = p->cfg;
+    const char *ename = cfg->entities[self].name;
+    ub_json_iter_t it;
+    ub_json_value_t key, v;
+    char path[PATH_LEN], name[KEY_BUF];
+    int rc;
+    if (lte->kind == UB_JSON_OBJECT) {
+        uint32_t first_line[UB_MAX_ENTITIES] = {0};
+        ub_json_iter_begin(&it, &p->doc, lte);
+        while (ub_json_iter_next(&it, &key, &v)) {
+            size_t n = key_text(p, &key, name);
+            if (!is_name(name, n, UB_ENTITY_ID_LEN))
+                return fail(p, key.line, ename, "linktoentity",
+                            "'linktoentity' keys are entity names (1 to 12 characters from " NAME_CHARS ")");
+            (void)snprintf(path, sizeof path, "linktoentity.%s", name);
+            int target = find_entity(cfg, name, n);
+            if (target < 0) return fail(p, key.line, ename, path, "no entity named '%s' in 'entities'", name);
+            if (first_line[target] != 0)
+                return fail(p, key.line, ename, path, "duplicate field (first given on line %lu)",
+                            (unsigned long)first_line[target]);
+            first_line[target] = key.line;
+            if ((rc = parse_mask(p, self, target, &v, path)) != UB_OK) return rc;
+        }
+        return UB_OK;
+    }
+    if (lte->kind != UB_JSON_ARRAY)
+        return fail(p, lte->line, ename, "linktoentity",
+                    "must be an object keyed by entity name or a list with one mask per entity");
+    int count = 0;
+    ub_json_iter_begin(&it, &p->doc, lte);
+    while (ub_json_iter_next(&it, NULL, &v)) count++;
+    if (count != cfg->entity_count)
+        return fail(p, lte->line, ename, "linktoentity",
+                    "has %d masks but 'entities' lists %d; give one mask per entity in 'entities' order, "
+                    "or key the masks by entity name",
+                    count, cfg->entity_count);
+    ub_json_iter_begin(&it, &p->doc, lte);
+    for (int target = 0; ub_json_iter_next(&it, NULL, &v); target++) {
+        (void)snprintf(path, sizeof path, "linktoentity[%d]", target);
+        if ((rc = parse_mask(p, self, target, &v, path)) != UB_OK) return rc;
+    }
+    return UB_OK;
+}
+
+/* ---- entities ---- */
+
+static const char *const ENTITY_FIELDS[] = {"name", "links", "linktoentity"};
+enum { F_NAME, F_LINKS, F_LTE, N_ENTITY_FIELDS };
+
+static int parse_links(const parser_t *p, ub_nodecfg_entity_t *e, const ub_json_value_t *links) {
+    ub_json_iter_t it;
+    ub_json_value_t v;
+    char path[PATH_LEN], name[KEY_BUF];
+    if (links->kind != UB_JSON_ARRAY) return fail(p, links->line, e->name, "links", "must be a list of link names");
+    ub_json_iter_begin(&it, &p->doc, links);
+    for (int k = 0; ub_json_iter_next(&it, NULL, &v); k++) {
+        (void)snprintf(path, sizeof path, "links[%d]", k);
+        if (k == UB_MAX_LINKS_PER_ENTITY)
+            return fail(p, v.line, e->name, path,
+                        "too many links: at most %d per entity (the paper's limit is 8; UB_MAX_LINKS_PER_ENTITY)",
+                        UB_MAX_LINKS_PER_ENTITY);
+        size_t n = v.kind == UB_JSON_STRING ? key_text(p, &v, name) : 0;
+        if (!is_name(name, n, UB_NODECFG_NAME_MAX))
+            return fail(p, v.line, e->name, path, "link names are 1 to %d characters from " NAME_CHARS,
+                        UB_NODECFG_NAME_MAX);
+        for (int i = 0; i < k; i++)
+            if (strcmp(e->links[i], name) == 0)
+                return fail(p, v.line, e->name, path, "duplicate link name '%s' (first at links[%d])", name, i);
+        memcpy(e->links[k], name, n + 1);
+        e->link_count = (uint8_t)(k + 1);
+    }
+    return UB_OK;
+}
+
+/* First pass over one entity: everything but linktoentity, which needs all names. */
+static int parse_entity(const parser_t *p, int index, const ub_json_value_t *obj, ub_json_value_t *lte) {
+    ub_nodecfg_t *cfg = p->cfg;
+    ub_nodecfg_entity_t *e = &cfg->entities[index];
+    ub_json_value_t values[N_ENTITY_FIELDS], key, v;
+    ub_json_iter_t it;
+    char path[PATH_LEN], name[KEY_BUF];
+    int rc;
+    (void)snprintf(path, sizeof path, "entities[%d]", index);
+    if (obj->kind != UB_JSON_OBJECT)
+        return fail(p, obj->line, NULL, path,
+                    "must be an object {\"name\": ..., \"links\": [...], \"linktoentity\": ...}");
+    bool have_name = false;
+    ub_json_iter_begin(&it, &p->doc, obj);
+    while (!have_name && ub_json_iter_next(&it, &key, &v))
+        have_name = key_text(p, &key, name) == 4 && memcmp(name, "name", 4) == 0;
+    (void)snprintf(path, sizeof path, "entities[%d].name", index);
+    if (!have_name) return fail(p, obj->line, NULL, path, "missing (every entity needs a name: its 12-byte ID)");
+    size_t n = v.kind == UB_JSON_STRING ? key_text(p, &v, name) : 0;
+    if (!is_name(name, n, UB_ENTITY_ID_LEN))
+        return fail(p, v.line, NULL, path,
+                    "entity names are 1 to 12 characters from " NAME_CHARS " (the name is the 12-byte entity ID)");
+    int first = find_entity(cfg, name, n);
+    if (first >= 0)
+        return fail(p, v.line, name, "name", "duplicate entity name (first defined on line %lu)",
+                    (unsigned long)cfg->entities[first].line);
+    memcpy(e->name, name, n + 1);
+    e->line = obj->line;
+    cfg->entity_count = (uint8_t)(index + 1);
+    if ((rc = check_fields(p, obj, ENTITY_FIELDS, N_ENTITY_FIELDS, e->name, "", values)) != UB_OK) return rc;
+    if (values[F_LINKS].kind != 0 && (rc = parse_links(p, e, &values[F_LINKS])) != UB_OK) return rc;
+    *lte = values[F_LTE];
+    return UB_OK;
+}
+
+static int parse_entities(const parser_t *p, const ub_json_value_t *arr) {
+    ub_json_value_t lte[UB_MAX_ENTITIES], v;
+    ub_json_iter_t it;
+    char path[PATH_LEN];
+    int count = 0, rc;
+    if (arr->kind != UB_JSON_ARRAY) return fail(p, arr->line, NULL, "entities", "must be a list of entity objects");
+    ub_json_iter_begin(&it, &p->doc, arr);
+    for (; ub_json_iter_next(&it, NULL, &v); count++) {
+        if (count == UB_MAX_ENTITIES) {
+            (void)snprintf(path, sizeof path, "entities[%d]", count);
+            return fail(p, v.line, NULL, path, "too many entities: this build holds %d (raise UB_MAX_ENTITIES in "
+                                               "ub_config.h)", UB_MAX_ENTITIES);
+        }
+        if ((rc = parse_entity(p, count, &v, &lte[count])) != UB_OK) return rc;
+    }
+    if (count == 0) return fail(p, arr->line, NULL, "entities", "must list at least one entity");
+    for (int i = 0; i < count; i++)
+        if (lte[i].kind != 0 && (rc = parse_linktoentity(p, i, &lte[i])) != UB_OK) return rc;
+    return UB_OK;
+}
+
+/* ---- hosts and nodes ---- */
+
+/* Reads a list of entity names into out[]; `node` >= 0 also rejects entities
+ * that an earlier node already hosts. */
+static int parse_entity_list(const parser_t *p, const ub_json_value_t *list, const char *field, int node,
+                             uint8_t *out, uint8_t *count) {
+    const ub_nodecfg_t *cfg = p->cfg;
+    ub_json_iter_t it;
+    ub_json_value_t v;
+    char path[PATH_LEN], name[KEY_BUF];
+    if (list->kind != UB_JSON_ARRAY) return fail(p, list->line, NULL, field, "must be a list of entity names");
+    ub_json_iter_begin(&it, &p->doc, list);
+    for (int k = 0; ub_json_iter_next(&it, NULL, &v); k++) {
+        (void)snprintf(path, sizeof path, "%s[%d]", field, k);
+        if (k == UB_MAX_LOCAL_ENTITIES)
+            return fail(p, v.line, NULL, path,
+                        "too many hosted entities: this build holds %d (raise UB_MAX_LOCAL_ENTITIES in ub_config.h)",
+                        UB_MAX_LOCAL_ENTITIES);
+        size_t n = v.kind == UB_JSON_STRING ? key_text(p, &v, name) : 0;
+        if (!is_name(name, n, UB_ENTITY_ID_LEN)) return fail(p, v.line, NULL, path, "must be an entity name");
+        int e = find_entity(cfg, name, n);
+        if (e < 0) return fail(p, v.line, NULL, path, "no entity named '%s' in 'entities'", name);
+        for (int i = 0; i < k; i++)
+            if (out[i] == e) return fail(p, v.line, NULL, path, "entity '%s' is listed twice", name);
+        for (int other = 0; other < node; other++)
+            for (int i = 0; i < cfg->nodes[other].entity_count; i++)
+                if (cfg->nodes[other].entity[i] == e)
+                    return fail(p, v.line, NULL, path, "entity '%s' is already hosted by node '%s'", name,
+                                cfg->nodes[other].name);
+        out[k] = (uint8_t)e;
+        *count = (uint8_t)(k + 1);
+    }
+    return UB_OK;
+}
+
+static int parse_nodes(const parser_t *p, const ub_json_value_t *obj) {
+    ub_nodecfg_t *cfg = p->cfg;
+    uint32_t first_line[UB_MAX_ENTITIES] = {0};
+    ub_json_iter_t it;
+    ub_json_value_t key, v;
+    char path[PATH_LEN], name[KEY_BUF];
+    int rc;
+    if (obj->kind != UB_JSON_OBJECT)
+        return fail(p, obj->line, NULL, "nodes", "must be an object mapping node names to lists of entity names");
+    ub_json_iter_begin(&it, &p->doc, obj);
+    while (ub_json_iter_next(&it, &key, &v)) {
+        size_t n = key_text(p, &key, name);
+        if (!is_name(name, n, UB_NODECFG_NAME_MAX))
+            return fail(p, key.line, NULL, "nodes", "node names are 1 to %d characters from " NAME_CHARS,
+                        UB_NODECFG_NAME_MAX);
+        (void)snprintf(path, sizeof path, "nodes.%s", name);
+        for (int i = 0; i < cfg->node_count; i++)
+            if (strcmp(cfg->nodes[i].name, name) == 0)
+                return fail(p, key.line, NULL, path, "duplicate field (first given on line %lu)",
+                            (unsigned long)first_line[i]);
+        if (cfg->node_count == UB_MAX_ENTITIES)
+            return fail(p, key.line, NULL, path, "too many nodes: this build holds %d (UB_MAX_ENTITIES)",
+                        UB_MAX_ENTITIES);
+        int node = cfg->node_count;
+        ub_nodecfg_node_t *nd = &cfg->nodes[node];
+        memcpy(nd->name, name, n + 1);
+        first_line[node] = key.line;
+        if ((rc = parse_entity_list(p, &v, path, node, nd->entity, &nd->entity_count)) != UB_OK) return rc;
+        if (nd->entity_count == 0) return fail(p, v.line, NULL, path, "must list at least one entity");
+        cfg->node_count = (uint8_t)(node + 1);
+    }
+    return UB_OK;
+}
+
+/* ---- ports (reserved for the links issue: shape only) ---- */
+
+static bool is_port_key(const char *s, size_t n) {
+    const char *colon = memchr(s, ':', n);
+    if (colon == NULL) return is_name(s, n, UB_NODECFG_NAME_MAX);
+    size_t left = (size_t)(colon - s);
+    return is_name(s, left, UB_ENTITY_ID_LEN) && is_name(colon + 1, n - left - 1, UB_NODECFG_NAME_MAX);
+}
+
+static int parse_port_value(const parser_t *p, ub_nodecfg_port_t *port, const ub_json_value_t *obj,
+                            const char *port_path) {
+    uint32_t transport_line = 0, param_line[UB_NODECFG_MAX_PORT_PARAMS] = {0};
+    ub_json_iter_t it;
+    ub_json_value_t key, v;
+    char path[PATH_LEN], name[KEY_BUF], text[UB_NODECFG_TEXT_MAX + 1];
+    if (obj->kind != UB_JSON_OBJECT)
+        return fail(p, obj->line, NULL, port_path, "must be an object with a \"transport\" string");
+    ub_json_iter_begin(&it, &p->doc, obj);
+    while (ub_json_iter_next(&it, &key, &v)) {
+        size_t n = key_text(p, &key, name);
+        if (!is_word(name, n))
+            return fail(p, key.line, NULL, port_path,
+                        "parameter names are lower-case words of 1 to 15 characters such as \"connect\"");
+        (void)snprintf(path, sizeof path, "%s.%s", port_path, name);
+        if (strcmp(name, "transport") == 0) {
+            if (transport_line != 0)
+                return fail(p, key.line, NULL, path, "duplicate field (first given on line %lu)",
+                            (unsigned long)transport_line);
+            transport_line = key.line;
+            size_t tn = v.kind == UB_JSON_STRING ? ub_json_string(&p->doc, &v, text, sizeof text) : 0;
+            if (!is_word(text, tn))
+                return fail(p, v.line, NULL, path, "must be a lower-case word of 1 to 15 characters such as \"tcp\"");
+            memcpy(port->transport, text, tn + 1);
+            continue;
+        }
+        for (int i = 0; i < port->param_count; i++)
+            if (strcmp(port->params[i].key, name) == 0)
+                return fail(p, key.line, NULL, path, "duplicate field (first given on line %lu)",
+                            (unsigned long)param_line[i]);
+        if (port->param_count == UB_NODECFG_MAX_PORT_PARAMS)
+            return fail(p, key.line, NULL, path,
+                        "too many parameters: this build holds %d per port (UB_NODECFG_MAX_PORT_PARAMS)",
+                        UB_NODECFG_MAX_PORT_PARAMS);
+        ub_nodecfg_port_param_t *param = &port->params[port->param_count];
+        size_t len = v.end - v.start;
+        if (v.kind == UB_JSON_STRING) {
+            len = ub_json_string(&p->doc, &v, text, sizeof text);
+            if (len >= sizeof text || strlen(text) != len) len = sizeof text; /* too long, or an escaped NUL */
+        } else if ((v.kind == UB_JSON_NUMBER && is_integer_literal(p, &v)) || v.kind == UB_JSON_TRUE ||
+                   v.kind == UB_JSON_FALSE) {
+            if (len < sizeof text) memcpy(text, p->doc.text + v.start, len);
+        } else {
+            len = sizeof text;
+        }
+        if (len >= sizeof text)
+            return fail(p, v.line, NULL, path, "must be a string of up to %d characters, a whole number or true/false",
+                        UB_NODECFG_TEXT_MAX);
+        text[len] = '\0';
+        memcpy(param->key, name, n + 1);
+        memcpy(param->value, text, len + 1);
+        param_line[port->param_count] = key.line;
+        port->param_count++;
+    }
+    if (transport_line == 0) {
+        (void)snprintf(path, sizeof path, "%s.transport", port_path);
+        return fail(p, obj->line, NULL, path, "missing (for example \"tcp\", \"udp\", \"serial\" or \"mem\")");
+    }
+    return UB_OK;
+}
+
+static int parse_ports(const parser_t *p, const ub_json_value_t *obj) {
+    ub_nodecfg_t *cfg = p->cfg;
+    ub_json_iter_t it;
+    ub_json_value_t key, v;
+    char path[PATH_LEN], name[KEY_BUF];
+    int rc;
+    if (obj->kind != UB_JSON_OBJECT)
+        return fail(p, obj->line, NULL, "ports",
+                    "must be an object mapping link names to {\"transport\": ...} (reserved for the links issue)");
+    ub_json_iter_begin(&it, &p->doc, obj);
+    while (ub_json_iter_next(&it, &key, &v)) {
+        size_t n = key_text(p, &key, name);
+        if (n >= KEY_BUF || !is_port_key(name, n))
+            return fail(p, key.line, NULL, "ports", "port keys are link names, optionally qualified as \"entity:link\"");
+        (void)snprintf(path, sizeof path, "ports.%s", name);
+        for (int i = 0; i < cfg->port_count; i++)
+            if (strcmp(cfg->ports[i].name, name) == 0)
+                return fail(p, key.line, NULL, path, "duplicate field (first given on line %lu)",
+                            (unsigned long)cfg->ports[i].line);
+        if (cfg->port_count == UB_NODECFG_MAX_PORTS)
+            return fail(p, key.line, NULL, path, "too many ports: this build holds %d (UB_NODECFG_MAX_PORTS)",
+                        UB_NODECFG_MAX_PORTS);
+        ub_nodecfg_port_t *port = &cfg->ports[cfg->port_count];
+        memcpy(port->name, name, n + 1);
+        port->line = key.line;
+        if ((rc = parse_port_value(p, port, &v, path)) != UB_OK) return rc;
+        cfg->port_count++;
+    }
+    return UB_OK;
+}
+
+/* ---- top level ---- */
+
+static const char *const TOP_FIELDS[] = {"system", "entities", "hosts", "nodes", "ports"};
+enum { T_SYSTEM, T_ENTITIES, T_HOSTS, T_NODES, T_PORTS, N_TOP_FIELDS };
+
+static int parse_document(const parser_t *p, const ub_json_value_t *root) {
+    ub_nodecfg_t *cfg = p->cfg;
+    ub_json_value_t values[N_TOP_FIELDS];
+    int rc;
+    if (root->kind != UB_JSON_OBJECT)
+        return fail(p, root->line, NULL, NULL,
+                    "the top level must be an object {\"entities\": [...], ...} (see docs/config-format.md)");
+    if ((rc = check_fields(p, root, TOP_FIELDS, N_TOP_FIELDS, NULL, "", values)) != UB_OK) return rc;
+    const ub_json_value_t *system = &values[T_SYSTEM];
+    if (system->kind != 0) {
+        size_t n = system->kind == UB_JSON_STRING ? ub_json_string(&p->doc, system, cfg->system, sizeof cfg->system) : 0;
+        if (n == 0 || n > UB_NODECFG_TEXT_MAX || strlen(cfg->system) != n)
+            return fail(p, system->line, NULL, "system", "must be a string of 1 to %d characters", UB_NODECFG_TEXT_MAX);
+    }
+    if (values[T_ENTITIES].kind == 0)
+        return fail(p, root->line, NULL, "entities", "missing (list every entity this node knows)");
+    if ((rc = parse_entities(p, &values[T_ENTITIES])) != UB_OK) return rc;
+    if (values[T_HOSTS].kind != 0 &&
+        (rc = parse_entity_list(p, &values[T_HOSTS], "hosts", -1, cfg->hosts, &cfg->host_count)) != UB_OK)
+        return rc;
+    if (values[T_NODES].kind != 0 && (rc = parse_nodes(p, &values[T_NODES])) != UB_OK) return rc;
+    if (values[T_PORTS].kind != 0 && (rc = parse_ports(p, &values[T_PORTS])) != UB_OK) return rc;
+    return UB_OK;
+}
+
+int ub_nodecfg_parse(ub_nodecfg_t *cfg, const char *text, size_t len, const char *source_name, char *err,
+                     size_t err_cap) {
+    if (cfg == NULL || text == NULL || source_name == NULL || (err == NULL && err_cap > 0)) return UB_ERR_INVAL;
+    memset(cfg, 0, sizeof *cfg);
+    (void)snprintf(cfg->source, sizeof cfg->source, "%s", source_name);
+    parser_t p = {.file = source_name, .err = err, .err_cap = err_cap, .cfg = cfg};
+    ub_json_value_t root;
+    uint32_t line = 0;
+    char why[160];
+    int rc = ub_json_parse(&p.doc, text, len, &root, &line, why, sizeof why);
+    if (rc != UB_OK)
+        rc = fail(&p, line, NULL, NULL, "%s", why);
+    else
+        rc = parse_document(&p, &root);
+    if (rc != UB_OK) memset(cfg, 0, sizeof *cfg);
+    return rc;
+}
+
+/* POSIX read() rather than stdio: fopen() may allocate its FILE, and nothing
+ * in the runtime library touches the heap (checked by ub_noalloc_nm). */
+static int read_all(int fd, char *buf, size_t cap, size_t *len, bool *too_large) {
+    *len = 0;
+    for (;;) {
+        char probe;
+        char *to = *len < cap ? buf + *len : &probe;
+        ssize_t n = read(fd, to, *len < cap ? cap - *len : 1);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) return UB_ERR_IO;
+        if (n == 0) return UB_OK;
+        if (*len >= cap) {
+            *too_large = true;
+            return UB_OK;
+        }
+        *len += (size_t)n;
+    }
+}
+
+int ub_nodecfg_load_file(ub_nodecfg_t *cfg, const char *path, char *buf, size_t buf_cap, char *err,
+                         size_t err_cap) {
+    if (cfg == NULL || path == NULL || buf == NULL || (err == NULL && err_cap > 0)) return UB_ERR_INVAL;
+    memset(cfg, 0, sizeof *cfg);
+    int fd = open(path, O_RDONLY);
+    if (fd < 0) {
+        if (err_cap > 0) (void)snprintf(err, err_cap, "%s: cannot open: %s", path, strerror(errno));
+        return UB_ERR_IO;
+    }
+    size_t len = 0;
+    bool too_large = false;
+    int rc = read_all(fd, buf, buf_cap, &len, &too_large);
+    int read_errno = errno;
+    (void)close(fd);
+    if (rc != UB_OK) {
+        if (err_cap > 0) (void)snprintf(err, err_cap, "%s: cannot read: %s", path, strerror(read_errno));
+        return UB_ERR_IO;
+    }
+    if (too_large) {
+        if (err_cap > 0)
+            (void)snprintf(err, err_cap, "%s: file is larger than the %lu-byte buffer given to ub_nodecfg_load_file",
+                           path, (unsigned long)buf_cap);
+        return UB_ERR_NOSPACE;
+    }
+    return ub_nodecfg_parse(cfg, buf, len, path, err, err_cap);
+}
+
+int ub_nodecfg_select_node(ub_nodecfg_t *cfg, const char *node, char *err, size_t err_cap) {
+    if (cfg == NULL || node == NULL || (err == NULL && err_cap > 0)) return UB_ERR_INVAL;
+    for (int i = 0; i < cfg->node_count; i++) {
+        if (strcmp(cfg->nodes[i].name, node) != 0) continue;
+        cfg->host_count = cfg->nodes[i].entity_count;
+        memcpy(cfg->hosts, cfg->nodes[i].entity, cfg->host_count);
+        return UB_OK;
+    }
+    if (err_cap > 0) {
+        size_t used = 0;
+        appendf(err, err_cap, &used, "no node named '%s' in 'nodes' (known: ", echo(node, strlen(node)));
+        for (int i = 0; i < cfg->node_count; i++)
+            appendf(err, err_cap, &used, "%s%s", i ? ", " : "", cfg->nodes[i].name);
+        appendf(err, err_cap, &used, "%s)", cfg->node_count == 0 ? "none" : "");
+    }
+    return UB_ERR_NOTFOUND;
+}
+
+int ub_nodecfg_find_entity(const ub_nodecfg_t *cfg, const char *name) {
+    if (cfg == NULL || name == NULL) return UB_ERR_INVAL;
+    return find_entity(cfg, name, strlen(name));
+}
+
+int ub_nodecfg_mask(const ub_nodecfg_t *cfg, const char *from, const char *to) {
+    if (cfg == NULL || from == NULL || to == NULL) return UB_ERR_INVAL;
+    int f = find_entity(cfg, from, strlen(from));
+    int t = find_entity(cfg, to, strlen(to));
+    if (f < 0 || t < 0) return UB_ERR_NOTFOUND;
+    return cfg->entities[f].mask[t];
+}
+
+int ub_mask_parse_hex(const char *text, uint8_t *mask) {
+    if (text == NULL || mask == NULL) return UB_ERR_INVAL;
+    char why[160];
+    return hex_parse(text, strlen(text), mask, why, sizeof why);
+}
+
+int ub_mask_format_hex(uint8_t mask, char *buf, size_t cap) {
+    if (buf == NULL) return UB_ERR_INVAL;
+    if (cap < UB_MASK_HEX_SIZE) return UB_ERR_NOSPACE;
+    buf[0] = '0';
+    buf[1] = 'x';
+    for (int link = 0; link < 8; link++) buf[9 - link] = (mask & (1u << link)) ? '1' : '0';
+    buf[10] = '\0';
+    return 10;
+}
+
+/* ---- applying to a node ---- */
+
+static int apply_failed(const ub_nodecfg_t *cfg, char *err, size_t err_cap, const ub_nodecfg_entity_t *e,
+                        const char *field, const char *fmt, ...) {
+    if (err_cap == 0) return UB_ERR_CONFIG;
+    size_t used = 0;
+    if (e != NULL)
+        appendf(err, err_cap, &used, "%s:%lu: entity '%s', ", cfg->source, (unsigned long)e->line, e->name);
+    else
+        appendf(err, err_cap, &used, "%s: ", cfg->source);
+    appendf(err, err_cap, &used, "field '%s': ", field);
+    va_list ap;
+    va_start(ap, fmt);
+    append(err, err_cap, &used, fmt, ap);
+    va_end(ap);
+    return UB_ERR_CONFIG;
+}
+
+static bool is_hosted(const ub_nodecfg_t *cfg, int entity) {
+    for (int h = 0; h < cfg->host_count; h++)
+        if (cfg->hosts[h] == entity) return true;
+    return false;
+}
+
+static int apply_links(const ub_nodecfg_t *cfg, ub_node_t *node, int index, int node_entity, char *err,
+                       size_t err_cap) {
+    const ub_nodecfg_entity_t *e = &cfg->entities[index];
+    char field[32];
+    for (int i = 0; i < e->link_count; i++) {
+        (void)snprintf(field, sizeof field, "links[%d]", i);
+        int rc = ub_node_add_link(node, node_entity, (unsigned)i, e->links[i]);
+        if (rc == UB_ERR_EXISTS)
+            return apply_failed(cfg, err, err_cap, e, field,
+                                "link '%s' already exists in this node (another hosted entity has a link of that "
+                                "name; rename one)", e->links[i]);
+        if (rc == UB_ERR_FULL)
+            return apply_failed(cfg, err, err_cap, e, field,
+                                "the node holds at most %d links in all (raise UB_MAX_NODE_LINKS in ub_config.h)",
+                                UB_MAX_NODE_LINKS);
+        if (rc < 0)
+            return apply_failed(cfg, err, err_cap, e, field, "the node refused link '%s': %s (names are at most %d "
+                                "characters here: UB_LINK_NAME_LEN)", e->links[i], ub_strerror(rc),
+                                UB_LINK_NAME_LEN - 1);
+    }
+    return UB_OK;
+}
+
+int ub_nodecfg_apply(const ub_nodecfg_t *cfg, struct ub_node *node, char *err, size_t err_cap) {
+    if (cfg == NULL || node == NULL || (err == NULL && err_cap > 0)) return UB_ERR_INVAL;
+    int node_index[UB_MAX_ENTITIES];
+    if (cfg->host_count == 0)
+        return apply_failed(cfg, err, err_cap, NULL, "hosts",
+                            "this process hosts no entity: list them in 'hosts' or select one of 'nodes'");
+    for (int i = 0; i < cfg->entity_count; i++) {
+        const ub_nodecfg_entity_t *e = &cfg->entities[i];
+        node_index[i] = ub_node_add_entity_name(node, e->name, is_hosted(cfg, i));
+        if (node_index[i] == UB_ERR_EXISTS)
+            return apply_failed(cfg, err, err_cap, e, "name", "the node already has an entity of this name");
+        if (node_index[i] < 0)
+            return apply_failed(cfg, err, err_cap, e, "name",
+                                "the node refused the entity: %s (its tables hold %d entities, %d of them local)",
+                                ub_strerror(node_index[i]), UB_MAX_ENTITIES, UB_MAX_LOCAL_ENTITIES);
+    }
+    for (int h = 0; h < cfg->host_count; h++) {
+        int i = cfg->hosts[h];
+        int rc = apply_links(cfg, node, i, node_index[i], err, err_cap);
+        if (rc != UB_OK) return rc;
+        for (int j = 0; j < cfg->entity_count; j++) {
+            rc = ub_node_set_mask(node, node_index[i], node_index[j], cfg->entities[i].mask[j]);
+            if (rc != UB_OK) /* validated masks: only a node not built from this table gets here */
+                return apply_failed(cfg, err, err_cap, &cfg->entities[i], "linktoentity",
+                                    "the node refused the mask toward '%s': %s", cfg->entities[j].name,
+                                    ub_strerror(rc));
+        }
+    }
+    return UB_OK;
+}
