@@ -470,7 +470,8 @@ static int parse_port_value(const parser_t *p, ub_nodecfg_port_t *port, const ub
     uint32_t transport_line = 0, param_line[UB_NODECFG_MAX_PORT_PARAMS] = {0};
     ub_json_iter_t it;
     ub_json_value_t key, v;
-    char path[PATH_LEN], name[KEY_BUF], text[UB_NODECFG_TEXT_MAX + 1];
+    /* Room for "<port_path>.<key>" at their longest, so a field path is never cut short. */
+    char path[PATH_LEN + 1 + KEY_BUF], name[KEY_BUF], text[UB_NODECFG_TEXT_MAX + 1];
     if (obj->kind != UB_JSON_OBJECT)
         return fail(p, obj->line, NULL, port_path, "must be an object with a \"transport\" string");
     ub_json_iter_begin(&it, &p->doc, obj);
