@@ -1,0 +1,129 @@
+/**
+ * @file ub_link.h
+ * @brief The one interface every transport implements, the per-link counters,
+ *        and the paper's link-mask notation.
+ *
+ * A **link** is a slot in a node (`ub_link_t`, owned by the node, addressed by
+ * a stable `link_id`). It belongs to exactly one local entity, at an index
+ * `0..7` of that entity's `link[]` array, and has a name ("onboardPortIPC").
+ * Behind the slot sits a **transport**: a vtable plus an opaque `impl`
+ * pointer. Drivers only move bytes:
+ *
+ *  - outbound, the node calls `ops->send(impl, frame, len, now_ms)` with one
+ *    whole, verified frame;
+ *  - inbound, the driver hands bytes to the node with ub_node_rx() (stream
+ *    transports: TCP, serial; the slot's decoder finds the frames) or
+ *    ub_node_rx_frame() (datagram transports: UDP, the in-memory link).
+ *
+ * Because the node refers to links only through slots, the transport behind a
+ * slot can be replaced at run time with ub_node_link_attach() (e.g. the
+ * paper's "software switch" from a memory link to Ethernet) without touching
+ * entity tables, masks or publish/subscribe state.
+ *
+ * Link masks (paper III.D): bit i set means "send over this entity's link[i]".
+ * The paper writes them in hexadecimal with one digit per link, each digit 0 or
+ * 1 (`0x00000110` = links 1 and 2); ub_link_mask_parse() reads that notation.
+ */
+#ifndef UB_LINK_H
+#define UB_LINK_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include "ub_config.h"
+#include "ub_error.h"
+#include "ub_frame.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Longest link name, including the terminating NUL. */
+#define UB_LINK_NAME_LEN 32
+
+/** Why the router dropped a verified frame; indexes the `drops[]` counters. */
+typedef enum ub_drop_reason {
+    UB_DROP_NO_ROUTE = 0,    /**< destination unknown, or no link left after removing the ingress */
+    UB_DROP_HOP_LIMIT,       /**< forwarding would send hop limit 0 */
+    UB_DROP_DUPLICATE,       /**< (source, sequence) already seen by the handling entity */
+    UB_DROP_LAYOUT_MISMATCH, /**< DATA fingerprint or size differs from the local catalogue */
+    UB_DROP_UNKNOWN_CONTENT, /**< DATA or request for a content ID not in the local catalogue */
+    UB_DROP_UNBOUND,         /**< DATA for an instance this node did not bind */
+    UB_DROP_BAD_PAYLOAD,     /**< admin payload too short / invalid, or unknown admin code */
+    UB_DROP_TX_ERROR,        /**< the transport's send failed (UB_ERR_IO, UB_ERR_CLOSED, ...) */
+    UB_DROP_BACKPRESSURE,    /**< the transport's send returned UB_ERR_AGAIN or its queue is full */
+    UB_DROP_DETACHED,        /**< the slot has no transport attached */
+    UB_DROP_REASON_COUNT
+} ub_drop_reason_t;
+
+/** @return a static name for a drop reason ("no_route", ...), or "?" when out of range. */
+const char *ub_drop_reason_name(ub_drop_reason_t reason);
+
+/** Counters of one link slot. They survive ub_node_link_attach(). */
+typedef struct ub_link_counters {
+    uint64_t frames_in;  /**< verified frames received */
+    uint64_t bytes_in;   /**< bytes handed to ub_node_rx()/ub_node_rx_frame() */
+    uint64_t frames_out; /**< frames the transport accepted */
+    uint64_t bytes_out;  /**< bytes the transport accepted */
+    /** Datagrams rejected by ub_node_rx_frame(), by decoder reason. Stream
+     *  rejections are in the slot decoder's stats (see ub_node_link_bad_frames()). */
+    uint64_t bad_datagrams[UB_RX_REASON_COUNT];
+    /** Frames dropped, counted on the link they arrived on (receive side) or
+     *  were to leave on (TX_ERROR, BACKPRESSURE, DETACHED). */
+    uint64_t drops[UB_DROP_REASON_COUNT];
+} ub_link_counters_t;
+
+/**
+ * What a transport provides. All functions receive the `impl` pointer given
+ * to ub_node_link_attach().
+ */
+typedef struct ub_link_ops {
+    /** Short transport kind for diagnostics: "mem", "udp", "tcp", "serial". */
+    const char *kind;
+    /**
+     * Sends one whole frame (`len` bytes, already verified and finished).
+     * Must not call back into the node synchronously (queue instead).
+     * @return UB_OK; UB_ERR_AGAIN when the transport cannot take it now
+     *         (counted as backpressure); any other negative code on failure
+     *         (counted as tx_error).
+     */
+    int (*send)(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms);
+    /** @return a pollable file descriptor, or -1 if the transport has none. May be NULL (= -1). */
+    int (*fileno)(void *impl);
+} ub_link_ops_t;
+
+/** One link slot of a node. Owned by ub_node_t; treat the fields as read-only. */
+typedef struct ub_link {
+    char name[UB_LINK_NAME_LEN];
+    uint8_t in_use;
+    uint8_t owner;      /**< local entity slot that owns this link */
+    uint8_t index;      /**< position in the owner's link[] (bit `index` of its masks) */
+    const ub_link_ops_t *ops; /**< NULL while detached */
+    void *impl;
+    ub_decoder_t decoder; /**< stream reassembly for ub_node_rx(); reset on attach */
+    ub_link_counters_t counters;
+} ub_link_t;
+
+/**
+ * Parses a link mask in the paper's notation: "0x" then hex digits, each 0 or
+ * 1, the rightmost digit being link[0]. Leading zeros beyond 8 digits are
+ * accepted (the paper's Figure 8 prints "0x000000011"); a 1 in a digit
+ * position >= UB_MAX_LINKS_PER_ENTITY is refused.
+ * Examples: "0x00000110" -> 0x06 (links 1, 2); "0x00000011" -> 0x03.
+ * @return UB_OK, or UB_ERR_INVAL (NULL, no "0x", empty, a digit other than 0/1,
+ *         trailing characters) or UB_ERR_RANGE (a link index too high).
+ */
+UB_CHECK int ub_link_mask_parse(const char *text, uint8_t *mask);
+
+/**
+ * Formats a mask in the paper's notation, always "0x" + 8 digits
+ * (0x06 -> "0x00000110"). `out` must hold at least 11 bytes.
+ */
+void ub_link_mask_format(uint8_t mask, char out[11]);
+
+/** @return the transport's descriptor, or -1 if detached or the transport has none. */
+int ub_link_fileno(const ub_link_t *link);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* UB_LINK_H */

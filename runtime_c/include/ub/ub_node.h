@@ -1,0 +1,285 @@
+/**
+ * @file ub_node.h
+ * @brief A node: one process's router (paper III.B, III.D, III.E). Entity
+ *        table, local entities with their links and link masks, duplicate
+ *        suppression, multi-hop forwarding, bindings of directory instances to
+ *        storage, and the publish/subscribe tables of its local entities.
+ *
+ * All state lives in the caller-owned ub_node_t (size fixed by ub_config.h):
+ * no allocation, no globals, so any number of nodes run in one process.
+ *
+ * Set-up (what a node configuration applies, in this order):
+ *
+ *     ub_node_t node;                                         // every call below returns
+ *     ub_node_init(&node, &fsw_catalogue, NULL);              // an error code: check it
+ *     int e0 = ub_node_add_entity(&node, id_e0, true);        // local entity
+ *     int e1 = ub_node_add_entity(&node, id_e1, false);       // known remote entity
+ *     int l  = ub_node_add_link(&node, e0, 0, "e0Toe1");      // e0's link[0]
+ *     ub_node_set_mask(&node, e0, e1, 0x01);                  // "0x00000001"
+ *     ub_node_link_attach(&node, l, &my_udp_ops, &my_udp);    // any transport
+ *     ub_node_bind(&node, instance_index, &gpsOut);           // local storage
+ *
+ * Run: feed received bytes with ub_node_rx()/ub_node_rx_frame(), and call
+ * ub_node_tick(&node, now_ms) periodically. Time is only ever passed in.
+ *
+ * Routing (docs/architecture.md, "Nodes, entities and links"):
+ *  - **Originate** (local entity S sends to D): D local -> delivered directly;
+ *    otherwise sent on every link of S's mask for D; none -> drop `no_route`.
+ *    The frame's (S, seq) is entered in S's duplicate window, so a copy that
+ *    loops back to S is cut.
+ *  - **Receive** on link L owned by local entity R: the frame is verified,
+ *    then checked against a duplicate window. The window belongs to the
+ *    *handling* entity: D when D is local (so two copies over a 0x11 pair
+ *    deliver once), R otherwise (so entities of one node that forward to each
+ *    other over a real link each forward once). D local -> deliver. Otherwise
+ *    forward on R's mask for D minus L with hop limit - 1; D unknown or no
+ *    link left -> `no_route`; hop limit would reach 0 -> `hop_limit`.
+ *    Forwarders never look at the content ID.
+ *  - **Deliver** DATA: catalogue lookup (`unknown_content`), fingerprint and
+ *    payload size check (`layout_mismatch`, storage never written), binding
+ *    (`unbound`), unpack, then the subscription bookkeeping and the delivery
+ *    hook. Admin frames go to the entity's publish/subscribe table or its
+ *    administration table.
+ *
+ * Duplicate window: per (handling entity, source entity) the highest sequence
+ * seen and a 64-bit bitmap below it (UB_DEDUP_WINDOW). A sequence more than the
+ * window behind is taken as a restarted source: the window resets to it and
+ * the frame is accepted (`dedup_resets`). A source restarting within 64 frames
+ * of its old sequence loses at most 64 frames; ub_node_options_t.first_seq
+ * lets a node start elsewhere (e.g. from a boot counter). Full source tables
+ * evict the least recently seen source (`dedup_evictions`).
+ */
+#ifndef UB_NODE_H
+#define UB_NODE_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include "ub_admin.h"
+#include "ub_catalogue.h"
+#include "ub_config.h"
+#include "ub_error.h"
+#include "ub_frame.h"
+#include "ub_link.h"
+#include "ub_pubsub.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Sequences remembered below the highest one per source (bits of the window). */
+#define UB_DEDUP_WINDOW 64
+
+/** Direction of a tapped frame. */
+typedef enum ub_tap_dir { UB_TAP_RX = 0, UB_TAP_TX = 1 } ub_tap_dir_t;
+
+/**
+ * Frame tap (for the log recorder): called with every verified frame received
+ * on a link (before routing) and every frame the transport accepted. `frame`
+ * is valid only during the call. The tap must not call back into the node.
+ */
+typedef void (*ub_tap_fn)(void *user, int link_id, ub_tap_dir_t dir, const uint8_t *frame, size_t len,
+                          uint64_t now_ms);
+
+/**
+ * Delivery hook: called after DATA was unpacked into the bound storage of
+ * `instance` for local entity `entity` (entity-table index). `h` is the frame
+ * header (source, sequence...). May send (e.g. ub_node_send_data()).
+ */
+typedef void (*ub_deliver_fn)(void *user, int entity, uint32_t instance, const ub_frame_header_t *h, uint64_t now_ms);
+
+/** Node options; NULL or 0 fields mean the defaults. */
+typedef struct ub_node_options {
+    uint8_t hop_limit;         /**< hop limit of originated frames; default UB_DEFAULT_HOP_LIMIT */
+    uint32_t first_seq;        /**< first sequence number this node uses; default 1 */
+    ub_pubsub_timing_t timing; /**< publish/subscribe timing (ub_pubsub.h) */
+} ub_node_options_t;
+
+/** Node-wide counters. Drops are also counted on the link concerned. */
+typedef struct ub_node_counters {
+    uint64_t originated;      /**< frames originated by local entities (once per frame) */
+    uint64_t forwarded;       /**< received frames forwarded (once per frame) */
+    uint64_t delivered;       /**< DATA unpacked into bound storage */
+    uint64_t admin_handled;   /**< admin frames handled by a local entity */
+    uint64_t local_direct;    /**< frames from one local entity to another, delivered without a link */
+    uint64_t dedup_resets;    /**< restarted sources detected */
+    uint64_t dedup_evictions; /**< sources evicted from a full window table */
+    uint64_t leases_expired;  /**< publish/subscribe rows removed because their lease ran out */
+    uint64_t drops[UB_DROP_REASON_COUNT];
+} ub_node_counters_t;
+
+/** Entity-table row. */
+typedef struct ub_entity_row {
+    uint8_t id[UB_ENTITY_ID_LEN];
+    uint8_t in_use;
+    int8_t local;            /**< local-entity slot, or -1 for a remote entity */
+} ub_entity_row_t;
+
+/** Duplicate window of one source, as seen by one handling entity. */
+typedef struct ub_dedup_entry {
+    uint8_t src[UB_ENTITY_ID_LEN];
+    uint8_t in_use;
+    uint32_t highest;
+    uint64_t seen;           /**< bit k: highest - k was seen */
+    uint64_t last_used;      /**< node-wide use stamp, for LRU eviction */
+} ub_dedup_entry_t;
+
+/** A local entity: its links, masks, duplicate windows and tables. */
+typedef struct ub_local_entity {
+    uint8_t in_use;
+    uint8_t entity;                              /**< its entity-table index */
+    int16_t link_ids[UB_MAX_LINKS_PER_ENTITY];   /**< link[i] -> link slot, -1 if none */
+    uint8_t masks[UB_MAX_ENTITIES];              /**< per destination entity-table index */
+    ub_dedup_entry_t dedup[UB_DEDUP_SOURCES];
+    ub_pubsub_table_t ps;
+    ub_admin_t *admin;                           /**< attached administration table, or NULL */
+} ub_local_entity_t;
+
+typedef struct ub_binding {
+    uint32_t instance;
+    void *storage;
+} ub_binding_t;
+
+/** The node. Caller-owned; treat the fields as private (use the functions). */
+struct ub_node {
+    const ub_catalogue_t *cat;
+    ub_node_options_t opt;
+    ub_entity_row_t entities[UB_MAX_ENTITIES];
+    ub_local_entity_t locals[UB_MAX_LOCAL_ENTITIES];
+    ub_link_t links[UB_MAX_NODE_LINKS];
+    ub_binding_t bindings[UB_MAX_BINDINGS];
+    size_t n_bindings;
+    uint32_t next_seq;
+    uint32_t next_request_id;
+    uint64_t use_stamp;
+    ub_tap_fn tap;
+    void *tap_user;
+    ub_deliver_fn deliver;
+    void *deliver_user;
+    ub_node_counters_t counters;
+};
+
+/**
+ * Initialises an empty node over `cat` (which must outlive the node).
+ * @return UB_OK, or UB_ERR_INVAL (NULL node/catalogue, catalogue ABI version
+ *         mismatch, or a catalogue type larger than UB_MAX_PAYLOAD).
+ */
+UB_CHECK int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt);
+
+/**
+ * Adds an entity to the entity table; `local` makes it one of this node's
+ * entities (with links, masks and a publish/subscribe table).
+ * @return its entity-table index; UB_ERR_EXISTS (ID already present),
+ *         UB_ERR_FULL (UB_MAX_ENTITIES or UB_MAX_LOCAL_ENTITIES), UB_ERR_INVAL.
+ */
+UB_CHECK int ub_node_add_entity(ub_node_t *node, const uint8_t id[UB_ENTITY_ID_LEN], bool local);
+
+/** Same as ub_node_add_entity() with the ID made from a name (ub_entity_id()); UB_ERR_RANGE if too long. */
+UB_CHECK int ub_node_add_entity_name(ub_node_t *node, const char *name, bool local);
+
+/** @return the entity-table index of `id`, or UB_ERR_NOTFOUND. */
+UB_CHECK int ub_node_find_entity(const ub_node_t *node, const uint8_t id[UB_ENTITY_ID_LEN]);
+
+/** @return the ID of entity `entity`, or NULL if out of range. */
+const uint8_t *ub_node_entity_id(const ub_node_t *node, int entity);
+
+/**
+ * Creates link slot `name` as `link[index]` of local entity `entity`. The slot
+ * starts detached (frames sent on it are dropped as `detached`).
+ * @return the link id (stable for the node's life); UB_ERR_INVAL (not local,
+ *         index >= UB_MAX_LINKS_PER_ENTITY, empty name or longer than
+ *         UB_LINK_NAME_LEN - 1), UB_ERR_EXISTS (index taken, or name used in
+ *         this node), UB_ERR_FULL (UB_MAX_NODE_LINKS).
+ */
+UB_CHECK int ub_node_add_link(ub_node_t *node, int entity, unsigned index, const char *name);
+
+/** @return the link id named `name`, or UB_ERR_NOTFOUND. */
+UB_CHECK int ub_node_find_link(const ub_node_t *node, const char *name);
+
+/** @return the link slot, or NULL if `link_id` is not a link of this node. */
+const ub_link_t *ub_node_link(const ub_node_t *node, int link_id);
+
+/**
+ * Sets local entity `entity`'s link mask for destination `dest` (bit i = its
+ * link[i]). The mask for the entity itself must be 0.
+ * @return UB_OK; UB_ERR_INVAL (bad indexes, not local, non-zero mask to
+ *         itself); UB_ERR_NOTFOUND (a bit names a link[i] not created yet).
+ */
+UB_CHECK int ub_node_set_mask(ub_node_t *node, int entity, int dest, uint8_t mask);
+
+/** Reads a mask. @return UB_OK or UB_ERR_INVAL. */
+UB_CHECK int ub_node_get_mask(const ub_node_t *node, int entity, int dest, uint8_t *mask);
+
+/**
+ * Puts transport (`ops`, `impl`) behind link slot `link_id`, replacing any
+ * previous one. Entity tables, masks, publish/subscribe state and counters
+ * are kept; the slot's stream decoder is reset (its partial bytes belonged to
+ * the old transport).
+ * @return UB_OK, or UB_ERR_INVAL (bad id, NULL ops or ops->send).
+ */
+UB_CHECK int ub_node_link_attach(ub_node_t *node, int link_id, const ub_link_ops_t *ops, void *impl);
+
+/** Detaches the transport of a slot. @return UB_OK or UB_ERR_INVAL. */
+UB_CHECK int ub_node_link_detach(ub_node_t *node, int link_id);
+
+/** @return decoder (stream) plus datagram rejections of `reason` on a link; 0 for a bad id. */
+uint64_t ub_node_link_bad_frames(const ub_node_t *node, int link_id, ub_rx_reason_t reason);
+
+/**
+ * Binds catalogue instance `instance` to `storage` (a variable of the
+ * instance's C type, which must outlive the node). DATA for that instance is
+ * unpacked into it; publications pack from it. Rebinding replaces.
+ * @return UB_OK; UB_ERR_INVAL (NULL, instance out of range); UB_ERR_FULL.
+ */
+UB_CHECK int ub_node_bind(ub_node_t *node, uint32_t instance, void *storage);
+
+/** @return the storage bound to `instance`, or NULL. */
+void *ub_node_binding(const ub_node_t *node, uint32_t instance);
+
+/**
+ * Feeds bytes received on a stream link. The slot's decoder finds and verifies
+ * frames (rejections counted by reason in its stats) and routes each one.
+ * @return the number of frames found, or UB_ERR_INVAL (bad link id / NULL data with len > 0).
+ */
+UB_CHECK int ub_node_rx(ub_node_t *node, int link_id, const uint8_t *data, size_t len, uint64_t now_ms);
+
+/**
+ * Hands one datagram (exactly one frame) received on a link to the router.
+ * @return UB_OK (routed, delivered or dropped-and-counted); the error of
+ *         ub_frame_parse() when the datagram is not a valid frame (counted in
+ *         `bad_datagrams`); UB_ERR_INVAL (bad link id).
+ */
+UB_CHECK int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms);
+
+/**
+ * Originates DATA: packs the storage bound to `instance` and sends it from
+ * local entity `entity` to `dest_id`.
+ * @return the number of links whose transport accepted the frame (0 when
+ *         delivered to a local entity, or when every transport refused it:
+ *         refusals are counted as tx_error / backpressure / detached);
+ *         UB_ERR_INVAL; UB_ERR_NOTFOUND (instance not bound);
+ *         UB_ERR_NOROUTE (no link for the destination; counted `no_route`).
+ */
+UB_CHECK int ub_node_send_data(ub_node_t *node, int entity, uint32_t instance, const uint8_t dest_id[UB_ENTITY_ID_LEN],
+                               uint64_t now_ms);
+
+/**
+ * Advances every local entity's publish/subscribe table (and attached
+ * administration table) to `now_ms`: due DATA, requests, renewals, timeouts,
+ * lease expiry. Time must not go backwards.
+ */
+void ub_node_tick(ub_node_t *node, uint64_t now_ms);
+
+/** Installs (or with NULL removes) the frame tap. */
+void ub_node_set_tap(ub_node_t *node, ub_tap_fn fn, void *user);
+
+/** Installs (or with NULL removes) the delivery hook. */
+void ub_node_set_deliver_hook(ub_node_t *node, ub_deliver_fn fn, void *user);
+
+/** @return the node-wide counters. */
+const ub_node_counters_t *ub_node_counters(const ub_node_t *node);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* UB_NODE_H */

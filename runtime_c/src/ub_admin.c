@@ -1,0 +1,208 @@
+#include "ub/ub_admin.h"
+
+#include <string.h>
+
+#include "ub/ub_node.h"
+#include "ub/ub_wire.h"
+#include "ub_router_private.h"
+
+static const char *const status_names[] = {
+    [UB_ADMIN_INACTIVE] = "inactive",         [UB_ADMIN_PENDING] = "pending", [UB_ADMIN_ACKNOWLEDGED] = "acknowledged",
+    [UB_ADMIN_ACTIVE] = "active",             [UB_ADMIN_FAILED] = "failed",   [UB_ADMIN_STOPPING] = "stopping",
+};
+
+const char *ub_admin_status_name(ub_admin_status_t status) {
+    if ((unsigned)status >= sizeof status_names / sizeof status_names[0]) return "?";
+    return status_names[status];
+}
+
+int ub_admin_init(ub_admin_t *adm, ub_node_t *node, int entity, const ub_admin_options_t *opt) {
+    if (adm == NULL || node == NULL) return UB_ERR_INVAL;
+    int slot = ub_priv_local_slot(node, entity);
+    if (slot < 0) return UB_ERR_INVAL;
+    memset(adm, 0, sizeof *adm);
+    if (opt != NULL) adm->opt = *opt;
+    if (adm->opt.retry_ms == 0) adm->opt.retry_ms = UB_PS_DEFAULT_RETRY_MS;
+    if (adm->opt.renew_ms == 0) adm->opt.renew_ms = UB_PS_DEFAULT_RENEW_MS;
+    if (adm->opt.lease_ms == 0) adm->opt.lease_ms = 3u * adm->opt.renew_ms;
+    if (adm->opt.max_stop_retries == 0) adm->opt.max_stop_retries = UB_PS_DEFAULT_STOP_RETRIES;
+    adm->node = node;
+    adm->entity = entity;
+    node->locals[slot].admin = adm;
+    return UB_OK;
+}
+
+void ub_admin_detach(ub_admin_t *adm) {
+    if (adm == NULL || adm->node == NULL) return;
+    int slot = ub_priv_local_slot(adm->node, adm->entity);
+    if (slot >= 0 && adm->node->locals[slot].admin == adm) adm->node->locals[slot].admin = NULL;
+    adm->node = NULL;
+}
+
+static ub_admin_row_t *row_at(const ub_admin_t *adm, int row) {
+    if (adm == NULL || row < 0 || row >= UB_MAX_ADMIN_ROWS || !adm->rows[row].in_use) return NULL;
+    return (ub_admin_row_t *)&adm->rows[row];
+}
+
+int ub_admin_add_row(ub_admin_t *adm, const ub_admin_row_spec_t *spec) {
+    if (adm == NULL || adm->node == NULL || spec == NULL) return UB_ERR_INVAL;
+    if (spec->instance >= adm->node->cat->n_instances || spec->period_ms == 0) return UB_ERR_INVAL;
+    if (memcmp(spec->source, spec->destination, UB_ENTITY_ID_LEN) == 0) return UB_ERR_INVAL;
+    if (spec->type != UB_ADMIN_ROW_PUBLICATION && spec->type != UB_ADMIN_ROW_SUBSCRIPTION) return UB_ERR_INVAL;
+    for (int r = 0; r < UB_MAX_ADMIN_ROWS; r++) {
+        if (adm->rows[r].in_use) continue;
+        memset(&adm->rows[r], 0, sizeof adm->rows[r]);
+        adm->rows[r].in_use = 1;
+        adm->rows[r].info.spec = *spec;
+        return r;
+    }
+    return UB_ERR_FULL;
+}
+
+static void enter(ub_admin_row_t *row, ub_admin_status_t status, uint64_t now_ms) {
+    row->info.status = status;
+    row->info.attempts = 0;
+    row->next_send_ms = now_ms;
+}
+
+int ub_admin_set_active(ub_admin_t *adm, int row, bool active, uint64_t now_ms) {
+    ub_admin_row_t *r = row_at(adm, row);
+    if (r == NULL) return UB_ERR_NOTFOUND;
+    ub_admin_status_t st = r->info.status;
+    if (active && (!r->info.active_flag || st == UB_ADMIN_FAILED)) {
+        /* A fresh request id, so late replies to an earlier activation are not mistaken for this one. */
+        r->info.request_id = adm->node->next_request_id++;
+        r->info.nack_reason = UB_NACK_NONE;
+        r->info.acked_at_ms = 0;
+        r->info.active_at_ms = 0;
+        r->info.last_ack_ms = 0;
+        enter(r, UB_ADMIN_PENDING, now_ms);
+    } else if (!active && r->info.active_flag) {
+        enter(r, st == UB_ADMIN_FAILED ? UB_ADMIN_INACTIVE : UB_ADMIN_STOPPING, now_ms);
+    }
+    r->info.active_flag = active;
+    return UB_OK;
+}
+
+int ub_admin_remove_row(ub_admin_t *adm, int row) {
+    ub_admin_row_t *r = row_at(adm, row);
+    if (r == NULL) return UB_ERR_NOTFOUND;
+    if (r->info.status != UB_ADMIN_INACTIVE && r->info.status != UB_ADMIN_FAILED) return UB_ERR_INVAL;
+    r->in_use = 0;
+    return UB_OK;
+}
+
+int ub_admin_row_status(const ub_admin_t *adm, int row, ub_admin_row_info_t *out) {
+    const ub_admin_row_t *r = row_at(adm, row);
+    if (r == NULL || out == NULL) return UB_ERR_NOTFOUND;
+    *out = r->info;
+    return UB_OK;
+}
+
+/* Publication rows talk to the source, subscription rows to the destination. */
+static const uint8_t *target_of(const ub_admin_row_spec_t *spec) {
+    return spec->type == UB_ADMIN_ROW_PUBLICATION ? spec->source : spec->destination;
+}
+
+static const uint8_t *peer_of(const ub_admin_row_spec_t *spec) {
+    return spec->type == UB_ADMIN_ROW_PUBLICATION ? spec->destination : spec->source;
+}
+
+static ub_admin_code_t request_code(const ub_admin_row_spec_t *spec) {
+    return spec->type == UB_ADMIN_ROW_PUBLICATION ? UB_ADMIN_PUB_REQUEST : UB_ADMIN_SUB_REQUEST;
+}
+
+static ub_admin_code_t stop_code(const ub_admin_row_spec_t *spec) {
+    return spec->type == UB_ADMIN_ROW_PUBLICATION ? UB_ADMIN_PUB_STOP : UB_ADMIN_SUB_STOP;
+}
+
+static void send_row(ub_admin_t *adm, const ub_admin_row_t *row, bool stop, uint64_t now_ms) {
+    ub_node_t *node = adm->node;
+    const ub_admin_row_spec_t *spec = &row->info.spec;
+    const ub_instance_desc_t *inst = &node->cat->instances[spec->instance];
+    uint8_t payload[UB_PL_REQUEST_LEN];
+    uint16_t len;
+    if (stop) {
+        ub_put_u32le(payload + UB_PL_STOP_ID, row->info.request_id);
+        memcpy(payload + UB_PL_STOP_PEER, peer_of(spec), UB_ENTITY_ID_LEN);
+        len = UB_PL_STOP_LEN;
+    } else {
+        ub_put_u32le(payload + UB_PL_REQUEST_ID, row->info.request_id);
+        ub_put_u32le(payload + UB_PL_REQUEST_PERIOD, spec->period_ms);
+        ub_put_u32le(payload + UB_PL_REQUEST_LEASE, adm->opt.lease_ms);
+        memcpy(payload + UB_PL_REQUEST_PEER, peer_of(spec), UB_ENTITY_ID_LEN);
+        len = UB_PL_REQUEST_LEN;
+    }
+    int slot = ub_priv_local_slot(node, adm->entity);
+    (void)ub_priv_send_admin(node, slot, stop ? stop_code(spec) : request_code(spec), inst->id,
+                             inst->type->fingerprint, target_of(spec), payload, len, now_ms);
+}
+
+bool ub_priv_admin_on_reply(ub_admin_t *adm, uint32_t request_id, uint8_t code, bool nack, uint8_t detail,
+                            uint64_t now_ms) {
+    for (int r = 0; r < UB_MAX_ADMIN_ROWS; r++) {
+        ub_admin_row_t *row = &adm->rows[r];
+        if (!row->in_use || row->info.request_id != request_id) continue;
+        ub_admin_row_info_t *info = &row->info;
+        if (info->status == UB_ADMIN_STOPPING) {
+            if (code == stop_code(&info->spec)) enter(row, UB_ADMIN_INACTIVE, now_ms);
+            return true;
+        }
+        bool live = info->status == UB_ADMIN_PENDING || info->status == UB_ADMIN_ACKNOWLEDGED ||
+                    info->status == UB_ADMIN_ACTIVE;
+        if (!live || code != request_code(&info->spec)) return true;
+        if (nack) {
+            info->nack_reason = (ub_nack_reason_t)detail;
+            enter(row, UB_ADMIN_FAILED, now_ms);
+            return true;
+        }
+        info->last_ack_ms = now_ms;
+        if (info->acked_at_ms == 0) info->acked_at_ms = now_ms;
+        info->status = (detail & UB_ACK_FLOWING) ? UB_ADMIN_ACTIVE : UB_ADMIN_ACKNOWLEDGED;
+        if (info->status == UB_ADMIN_ACTIVE && info->active_at_ms == 0) info->active_at_ms = now_ms;
+        info->attempts = 0;
+        row->next_send_ms = now_ms + adm->opt.renew_ms;
+        return true;
+    }
+    return false;
+}
+
+void ub_priv_admin_tick(ub_admin_t *adm, uint64_t now_ms) {
+    for (int r = 0; r < UB_MAX_ADMIN_ROWS; r++) {
+        ub_admin_row_t *row = &adm->rows[r];
+        ub_admin_row_info_t *info = &row->info;
+        if (!row->in_use) continue;
+        switch (info->status) {
+        case UB_ADMIN_ACKNOWLEDGED:
+        case UB_ADMIN_ACTIVE:
+            /* Renewals keep the target's lease; silence for a whole lease means the target is gone. */
+            if (now_ms - info->last_ack_ms > adm->opt.lease_ms) enter(row, UB_ADMIN_PENDING, now_ms);
+            /* fall through */
+        case UB_ADMIN_PENDING:
+            if (now_ms < row->next_send_ms) break;
+            if (info->status == UB_ADMIN_PENDING && adm->opt.max_retries != 0 &&
+                info->attempts >= adm->opt.max_retries) {
+                enter(row, UB_ADMIN_FAILED, now_ms);
+                break;
+            }
+            /* Requests and renewals are repeated at the retry pace until an ACK moves the next one out
+             * to the renewal pace, so one lost renewal does not cost a lease. */
+            send_row(adm, row, false, now_ms);
+            info->attempts++;
+            if (row->next_send_ms <= now_ms) row->next_send_ms = now_ms + adm->opt.retry_ms;
+            break;
+        case UB_ADMIN_STOPPING:
+            if (now_ms < row->next_send_ms) break;
+            if (info->attempts >= adm->opt.max_stop_retries) {
+                enter(row, UB_ADMIN_INACTIVE, now_ms);
+                break;
+            }
+            send_row(adm, row, true, now_ms);
+            info->attempts++;
+            row->next_send_ms = now_ms + adm->opt.retry_ms;
+            break;
+        default:
+            break;
+        }
+    }
+}

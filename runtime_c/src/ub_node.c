@@ -1,0 +1,500 @@
+#include "ub/ub_node.h"
+
+#include <string.h>
+
+#include "ub/ub_wire.h"
+#include "ub_router_private.h"
+
+/* Per-call context of the stream decoder callback. */
+typedef struct rx_ctx {
+    ub_node_t *node;
+    int link_id;
+    uint64_t now_ms;
+} rx_ctx_t;
+
+bool ub_priv_id_is_zero(const uint8_t id[UB_ENTITY_ID_LEN]) {
+    for (size_t i = 0; i < UB_ENTITY_ID_LEN; i++)
+        if (id[i] != 0) return false;
+    return true;
+}
+
+static bool entity_index_ok(const ub_node_t *node, int entity) {
+    return entity >= 0 && entity < UB_MAX_ENTITIES && node->entities[entity].in_use;
+}
+
+int ub_priv_local_slot(const ub_node_t *node, int entity) {
+    if (!entity_index_ok(node, entity)) return -1;
+    return node->entities[entity].local;
+}
+
+static bool link_id_ok(const ub_node_t *node, int link_id) {
+    return link_id >= 0 && link_id < UB_MAX_NODE_LINKS && node->links[link_id].in_use;
+}
+
+static void count_drop(ub_node_t *node, int link_id, ub_drop_reason_t reason) {
+    node->counters.drops[reason]++;
+    if (link_id_ok(node, link_id)) node->links[link_id].counters.drops[reason]++;
+}
+
+/* ---- set-up ------------------------------------------------------------ */
+
+int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt) {
+    if (node == NULL || cat == NULL) return UB_ERR_INVAL;
+    if (cat->abi_version != UB_CATALOGUE_ABI_VERSION || cat->max_packed_size > UB_MAX_PAYLOAD) return UB_ERR_INVAL;
+    memset(node, 0, sizeof *node);
+    node->cat = cat;
+    if (opt != NULL) node->opt = *opt;
+    if (node->opt.hop_limit == 0) node->opt.hop_limit = UB_DEFAULT_HOP_LIMIT;
+    ub_priv_timing_defaults(&node->opt.timing);
+    node->next_seq = node->opt.first_seq != 0 ? node->opt.first_seq : 1u;
+    node->next_request_id = 1;
+    for (size_t e = 0; e < UB_MAX_ENTITIES; e++) node->entities[e].local = -1;
+    for (size_t s = 0; s < UB_MAX_LOCAL_ENTITIES; s++)
+        for (size_t i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) node->locals[s].link_ids[i] = -1;
+    return UB_OK;
+}
+
+int ub_node_find_entity(const ub_node_t *node, const uint8_t id[UB_ENTITY_ID_LEN]) {
+    if (node == NULL || id == NULL) return UB_ERR_INVAL;
+    for (int e = 0; e < UB_MAX_ENTITIES; e++)
+        if (node->entities[e].in_use && memcmp(node->entities[e].id, id, UB_ENTITY_ID_LEN) == 0) return e;
+    return UB_ERR_NOTFOUND;
+}
+
+const uint8_t *ub_node_entity_id(const ub_node_t *node, int entity) {
+    if (node == NULL || !entity_index_ok(node, entity)) return NULL;
+    return node->entities[entity].id;
+}
+
+int ub_node_add_entity(ub_node_t *node, const uint8_t id[UB_ENTITY_ID_LEN], bool local) {
+    if (node == NULL || id == NULL || ub_priv_id_is_zero(id)) return UB_ERR_INVAL;
+    if (ub_node_find_entity(node, id) >= 0) return UB_ERR_EXISTS;
+    int row = -1;
+    for (int e = 0; e < UB_MAX_ENTITIES && row < 0; e++)
+        if (!node->entities[e].in_use) row = e;
+    if (row < 0) return UB_ERR_FULL;
+    int slot = -1;
+    if (local) {
+        for (int s = 0; s < UB_MAX_LOCAL_ENTITIES && slot < 0; s++)
+            if (!node->locals[s].in_use) slot = s;
+        if (slot < 0) return UB_ERR_FULL;
+        node->locals[slot].in_use = 1;
+        node->locals[slot].entity = (uint8_t)row;
+    }
+    memcpy(node->entities[row].id, id, UB_ENTITY_ID_LEN);
+    node->entities[row].in_use = 1;
+    node->entities[row].local = (int8_t)slot;
+    return row;
+}
+
+int ub_node_add_entity_name(ub_node_t *node, const char *name, bool local) {
+    uint8_t id[UB_ENTITY_ID_LEN];
+    if (name == NULL) return UB_ERR_INVAL;
+    int rc = ub_entity_id(name, id);
+    if (rc < 0) return rc;
+    return ub_node_add_entity(node, id, local);
+}
+
+int ub_node_find_link(const ub_node_t *node, const char *name) {
+    if (node == NULL || name == NULL) return UB_ERR_INVAL;
+    for (int l = 0; l < UB_MAX_NODE_LINKS; l++)
+        if (node->links[l].in_use && strcmp(node->links[l].name, name) == 0) return l;
+    return UB_ERR_NOTFOUND;
+}
+
+int ub_node_add_link(ub_node_t *node, int entity, unsigned index, const char *name) {
+    if (node == NULL || name == NULL) return UB_ERR_INVAL;
+    int slot = ub_priv_local_slot(node, entity);
+    size_t name_len = strlen(name);
+    if (slot < 0 || index >= UB_MAX_LINKS_PER_ENTITY || name_len == 0 || name_len >= UB_LINK_NAME_LEN)
+        return UB_ERR_INVAL;
+    if (node->locals[slot].link_ids[index] >= 0 || ub_node_find_link(node, name) >= 0) return UB_ERR_EXISTS;
+    int id = -1;
+    for (int l = 0; l < UB_MAX_NODE_LINKS && id < 0; l++)
+        if (!node->links[l].in_use) id = l;
+    if (id < 0) return UB_ERR_FULL;
+    ub_link_t *link = &node->links[id];
+    memset(link, 0, sizeof *link);
+    memcpy(link->name, name, name_len + 1);
+    link->in_use = 1;
+    link->owner = (uint8_t)slot;
+    link->index = (uint8_t)index;
+    ub_decoder_init(&link->decoder);
+    node->locals[slot].link_ids[index] = (int16_t)id;
+    return id;
+}
+
+const ub_link_t *ub_node_link(const ub_node_t *node, int link_id) {
+    if (node == NULL || !link_id_ok(node, link_id)) return NULL;
+    return &node->links[link_id];
+}
+
+int ub_node_set_mask(ub_node_t *node, int entity, int dest, uint8_t mask) {
+    if (node == NULL) return UB_ERR_INVAL;
+    int slot = ub_priv_local_slot(node, entity);
+    if (slot < 0 || !entity_index_ok(node, dest) || (dest == entity && mask != 0)) return UB_ERR_INVAL;
+    for (unsigned i = 0; i < 8; i++) {
+        if (!(mask & (1u << i))) continue;
+        if (i >= UB_MAX_LINKS_PER_ENTITY || node->locals[slot].link_ids[i] < 0) return UB_ERR_NOTFOUND;
+    }
+    node->locals[slot].masks[dest] = mask;
+    return UB_OK;
+}
+
+int ub_node_get_mask(const ub_node_t *node, int entity, int dest, uint8_t *mask) {
+    if (node == NULL || mask == NULL) return UB_ERR_INVAL;
+    int slot = ub_priv_local_slot(node, entity);
+    if (slot < 0 || !entity_index_ok(node, dest)) return UB_ERR_INVAL;
+    *mask = node->locals[slot].masks[dest];
+    return UB_OK;
+}
+
+int ub_node_link_attach(ub_node_t *node, int link_id, const ub_link_ops_t *ops, void *impl) {
+    if (node == NULL || !link_id_ok(node, link_id) || ops == NULL || ops->send == NULL) return UB_ERR_INVAL;
+    ub_link_t *link = &node->links[link_id];
+    /* Keep the counters across the switch: they describe the port, not the transport. */
+    ub_decoder_stats_t kept = link->decoder.stats;
+    ub_decoder_init(&link->decoder);
+    link->decoder.stats = kept;
+    link->ops = ops;
+    link->impl = impl;
+    return UB_OK;
+}
+
+int ub_node_link_detach(ub_node_t *node, int link_id) {
+    if (node == NULL || !link_id_ok(node, link_id)) return UB_ERR_INVAL;
+    node->links[link_id].ops = NULL;
+    node->links[link_id].impl = NULL;
+    return UB_OK;
+}
+
+uint64_t ub_node_link_bad_frames(const ub_node_t *node, int link_id, ub_rx_reason_t reason) {
+    if (node == NULL || !link_id_ok(node, link_id) || (unsigned)reason >= UB_RX_REASON_COUNT) return 0;
+    const ub_link_t *link = &node->links[link_id];
+    return link->decoder.stats.rejected[reason] + link->counters.bad_datagrams[reason];
+}
+
+int ub_node_bind(ub_node_t *node, uint32_t instance, void *storage) {
+    if (node == NULL || storage == NULL || instance >= node->cat->n_instances) return UB_ERR_INVAL;
+    for (size_t b = 0; b < node->n_bindings; b++) {
+        if (node->bindings[b].instance == instance) {
+            node->bindings[b].storage = storage;
+            return UB_OK;
+        }
+    }
+    if (node->n_bindings >= UB_MAX_BINDINGS) return UB_ERR_FULL;
+    node->bindings[node->n_bindings].instance = instance;
+    node->bindings[node->n_bindings].storage = storage;
+    node->n_bindings++;
+    return UB_OK;
+}
+
+void *ub_node_binding(const ub_node_t *node, uint32_t instance) {
+    if (node == NULL) return NULL;
+    for (size_t b = 0; b < node->n_bindings; b++)
+        if (node->bindings[b].instance == instance) return node->bindings[b].storage;
+    return NULL;
+}
+
+void ub_node_set_tap(ub_node_t *node, ub_tap_fn fn, void *user) {
+    node->tap = fn;
+    node->tap_user = user;
+}
+
+void ub_node_set_deliver_hook(ub_node_t *node, ub_deliver_fn fn, void *user) {
+    node->deliver = fn;
+    node->deliver_user = user;
+}
+
+const ub_node_counters_t *ub_node_counters(const ub_node_t *node) { return &node->counters; }
+
+/* ---- duplicate suppression --------------------------------------------- */
+
+static ub_dedup_entry_t *dedup_entry(ub_node_t *node, ub_local_entity_t *loc, const uint8_t src[UB_ENTITY_ID_LEN],
+                                     bool *fresh) {
+    ub_dedup_entry_t *free_entry = NULL;
+    ub_dedup_entry_t *oldest = NULL;
+    for (size_t i = 0; i < UB_DEDUP_SOURCES; i++) {
+        ub_dedup_entry_t *e = &loc->dedup[i];
+        if (!e->in_use) {
+            if (free_entry == NULL) free_entry = e;
+            continue;
+        }
+        if (memcmp(e->src, src, UB_ENTITY_ID_LEN) == 0) {
+            *fresh = false;
+            return e;
+        }
+        if (oldest == NULL || e->last_used < oldest->last_used) oldest = e;
+    }
+    ub_dedup_entry_t *victim = free_entry;
+    if (victim == NULL) {
+        node->counters.dedup_evictions++;
+        victim = oldest;
+    }
+    memset(victim, 0, sizeof *victim);
+    memcpy(victim->src, src, UB_ENTITY_ID_LEN);
+    victim->in_use = 1;
+    *fresh = true;
+    return victim;
+}
+
+/* Records (src, seq) in `loc`'s window. Returns true if it was already there. */
+static bool dedup_seen(ub_node_t *node, ub_local_entity_t *loc, const uint8_t src[UB_ENTITY_ID_LEN], uint32_t seq) {
+    bool fresh;
+    ub_dedup_entry_t *e = dedup_entry(node, loc, src, &fresh);
+    e->last_used = ++node->use_stamp;
+    if (fresh) {
+        e->highest = seq;
+        e->seen = 1;
+        return false;
+    }
+    /* Serial-number arithmetic, so the 32-bit sequence may wrap. */
+    int64_t ahead = (int32_t)(seq - e->highest);
+    if (ahead > 0) {
+        e->seen = ahead >= UB_DEDUP_WINDOW ? 1u : (e->seen << ahead) | 1u;
+        e->highest = seq;
+        return false;
+    }
+    if (-ahead < UB_DEDUP_WINDOW) {
+        uint64_t bit = (uint64_t)1 << (-ahead);
+        if (e->seen & bit) return true;
+        e->seen |= bit;
+        return false;
+    }
+    /* Far behind the window: the source restarted its sequence; do not silence it. */
+    node->counters.dedup_resets++;
+    e->highest = seq;
+    e->seen = 1;
+    return false;
+}
+
+/* ---- transmit and routing ---------------------------------------------- */
+
+static bool transmit(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    ub_link_t *link = &node->links[link_id];
+    if (link->ops == NULL) {
+        count_drop(node, link_id, UB_DROP_DETACHED);
+        return false;
+    }
+    int rc = link->ops->send(link->impl, frame, len, now_ms);
+    if (rc < 0) {
+        count_drop(node, link_id, rc == UB_ERR_AGAIN ? UB_DROP_BACKPRESSURE : UB_DROP_TX_ERROR);
+        return false;
+    }
+    link->counters.frames_out++;
+    link->counters.bytes_out += len;
+    if (node->tap != NULL) node->tap(node->tap_user, link_id, UB_TAP_TX, frame, len, now_ms);
+    return true;
+}
+
+static int send_on_mask(ub_node_t *node, const ub_local_entity_t *loc, uint8_t mask, const uint8_t *frame,
+                        size_t len, uint64_t now_ms) {
+    int sent = 0;
+    for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) {
+        if (!(mask & (1u << i)) || loc->link_ids[i] < 0) continue;
+        if (transmit(node, loc->link_ids[i], frame, len, now_ms)) sent++;
+    }
+    return sent;
+}
+
+static void deliver_data(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
+                         uint64_t now_ms) {
+    int idx = ub_catalogue_find(node->cat, h->dir_id);
+    if (idx < 0) {
+        count_drop(node, link_id, UB_DROP_UNKNOWN_CONTENT);
+        return;
+    }
+    const ub_type_desc_t *type = node->cat->instances[idx].type;
+    if (h->fingerprint != type->fingerprint || h->payload_size != type->packed_size) {
+        count_drop(node, link_id, UB_DROP_LAYOUT_MISMATCH);
+        return;
+    }
+    void *storage = ub_node_binding(node, (uint32_t)idx);
+    if (storage == NULL) {
+        count_drop(node, link_id, UB_DROP_UNBOUND);
+        return;
+    }
+    if (type->unpack(storage, payload, h->payload_size) < 0) {
+        count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+        return;
+    }
+    node->counters.delivered++;
+    ub_priv_pubsub_on_data(node, slot, (uint32_t)idx, h->src_id, now_ms);
+    if (node->deliver != NULL) node->deliver(node->deliver_user, node->locals[slot].entity, (uint32_t)idx, h, now_ms);
+}
+
+/* A frame reached its destination, local slot `slot`; `link_id` is -1 for a node-local hand-over. */
+static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
+                     uint64_t now_ms) {
+    const uint8_t *payload = frame + UB_FRAME_HEADER_LEN;
+    if (h->admin == UB_ADMIN_DATA) {
+        deliver_data(node, slot, link_id, h, payload, now_ms);
+        return;
+    }
+    node->counters.admin_handled++;
+    if (ub_priv_pubsub_on_admin(node, slot, h, payload, now_ms) < 0) count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+}
+
+static int local_destination(const ub_node_t *node, const uint8_t dest_id[UB_ENTITY_ID_LEN], int *dest_row) {
+    *dest_row = ub_node_find_entity(node, dest_id);
+    return *dest_row >= 0 ? node->entities[*dest_row].local : -1;
+}
+
+/* Finishes the header of a frame whose payload is already in place, and routes it from local slot `slot`. */
+static int originate(ub_node_t *node, int slot, uint8_t *frame, size_t cap, ub_frame_header_t *h, uint64_t now_ms) {
+    ub_local_entity_t *loc = &node->locals[slot];
+    h->msg_type = UB_MSG_TYPE_PUBSUB;
+    memcpy(h->src_id, node->entities[loc->entity].id, UB_ENTITY_ID_LEN);
+    h->hop_limit = node->opt.hop_limit;
+    h->seq = node->next_seq++;
+    int len = ub_frame_finish(frame, cap, h);
+    if (len < 0) return len;
+    node->counters.originated++;
+    /* Our own frames enter our window, so a copy that loops back is cut here. */
+    (void)dedup_seen(node, loc, h->src_id, h->seq);
+    int dest_row;
+    int dest_slot = local_destination(node, h->dest_id, &dest_row);
+    if (dest_slot >= 0) {
+        node->counters.local_direct++;
+        dispatch(node, dest_slot, -1, h, frame, now_ms);
+        return 0;
+    }
+    uint8_t mask = dest_row >= 0 ? loc->masks[dest_row] : 0;
+    if (mask == 0) {
+        count_drop(node, -1, UB_DROP_NO_ROUTE);
+        return UB_ERR_NOROUTE;
+    }
+    return send_on_mask(node, loc, mask, frame, (size_t)len, now_ms);
+}
+
+static void route_received(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
+                           size_t len, uint64_t now_ms) {
+    ub_link_t *link = &node->links[link_id];
+    link->counters.frames_in++;
+    if (node->tap != NULL) node->tap(node->tap_user, link_id, UB_TAP_RX, frame, len, now_ms);
+    int dest_row;
+    int dest_slot = local_destination(node, h->dest_id, &dest_row);
+    int handler = dest_slot >= 0 ? dest_slot : link->owner;
+    if (dedup_seen(node, &node->locals[handler], h->src_id, h->seq)) {
+        count_drop(node, link_id, UB_DROP_DUPLICATE);
+        return;
+    }
+    if (dest_slot >= 0) {
+        dispatch(node, dest_slot, link_id, h, frame, now_ms);
+        return;
+    }
+    const ub_local_entity_t *owner = &node->locals[link->owner];
+    uint8_t mask = dest_row >= 0 ? (uint8_t)(owner->masks[dest_row] & ~(1u << link->index)) : 0;
+    if (mask == 0) {
+        count_drop(node, link_id, UB_DROP_NO_ROUTE);
+        return;
+    }
+    if (h->hop_limit <= 1) {
+        count_drop(node, link_id, UB_DROP_HOP_LIMIT);
+        return;
+    }
+    uint8_t out[UB_FRAME_MAX];
+    if (len > sizeof out) {
+        count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+        return;
+    }
+    memcpy(out, frame, len);
+    if (ub_frame_set_hop_limit(out, len, (uint8_t)(h->hop_limit - 1)) < 0) {
+        count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+        return;
+    }
+    node->counters.forwarded++;
+    (void)send_on_mask(node, owner, mask, out, len, now_ms);
+}
+
+static void on_stream_frame(void *user, const ub_frame_header_t *h, const uint8_t *frame, size_t frame_len) {
+    rx_ctx_t *ctx = user;
+    route_received(ctx->node, ctx->link_id, h, frame, frame_len, ctx->now_ms);
+}
+
+int ub_node_rx(ub_node_t *node, int link_id, const uint8_t *data, size_t len, uint64_t now_ms) {
+    if (node == NULL || !link_id_ok(node, link_id) || (data == NULL && len > 0)) return UB_ERR_INVAL;
+    node->links[link_id].counters.bytes_in += len;
+    rx_ctx_t ctx = {node, link_id, now_ms};
+    size_t frames = ub_decoder_feed(&node->links[link_id].decoder, data, len, on_stream_frame, &ctx);
+    return frames > (size_t)INT32_MAX ? INT32_MAX : (int)frames;
+}
+
+int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    if (node == NULL || !link_id_ok(node, link_id) || frame == NULL) return UB_ERR_INVAL;
+    ub_link_t *link = &node->links[link_id];
+    link->counters.bytes_in += len;
+    ub_frame_header_t h;
+    ub_rx_reason_t reason = UB_RX_BAD_LENGTH;
+    int rc = ub_frame_parse_reason(frame, len, &h, &reason);
+    if (rc < 0) {
+        if ((unsigned)reason < UB_RX_REASON_COUNT) link->counters.bad_datagrams[reason]++;
+        return rc;
+    }
+    route_received(node, link_id, &h, frame, len, now_ms);
+    return UB_OK;
+}
+
+/* ---- originating ------------------------------------------------------- */
+
+int ub_priv_send_data_from_slot(ub_node_t *node, int slot, uint32_t instance, const uint8_t dest_id[UB_ENTITY_ID_LEN],
+                                uint64_t now_ms) {
+    if (instance >= node->cat->n_instances) return UB_ERR_INVAL;
+    void *storage = ub_node_binding(node, instance);
+    if (storage == NULL) return UB_ERR_NOTFOUND;
+    const ub_instance_desc_t *inst = &node->cat->instances[instance];
+    uint8_t frame[UB_FRAME_MAX];
+    int packed = inst->type->pack(storage, frame + UB_FRAME_HEADER_LEN, UB_MAX_PAYLOAD);
+    if (packed < 0) return packed;
+    ub_frame_header_t h;
+    memset(&h, 0, sizeof h);
+    memcpy(h.dir_id, inst->id, UB_DIR_ID_LEN);
+    memcpy(h.dest_id, dest_id, UB_ENTITY_ID_LEN);
+    h.admin = UB_ADMIN_DATA;
+    h.payload_size = (uint16_t)packed;
+    h.fingerprint = inst->type->fingerprint;
+    return originate(node, slot, frame, sizeof frame, &h, now_ms);
+}
+
+int ub_node_send_data(ub_node_t *node, int entity, uint32_t instance, const uint8_t dest_id[UB_ENTITY_ID_LEN],
+                      uint64_t now_ms) {
+    if (node == NULL || dest_id == NULL) return UB_ERR_INVAL;
+    int slot = ub_priv_local_slot(node, entity);
+    if (slot < 0) return UB_ERR_INVAL;
+    return ub_priv_send_data_from_slot(node, slot, instance, dest_id, now_ms);
+}
+
+int ub_priv_send_admin(ub_node_t *node, int slot, ub_admin_code_t code, const uint8_t dir_id[UB_DIR_ID_LEN],
+                       uint32_t fingerprint, const uint8_t dest_id[UB_ENTITY_ID_LEN], const uint8_t *payload,
+                       uint16_t len, uint64_t now_ms) {
+    if (len > UB_PL_MAX_LEN) return UB_ERR_RANGE;
+    uint8_t frame[UB_FRAME_HEADER_LEN + UB_PL_MAX_LEN];
+    memcpy(frame + UB_FRAME_HEADER_LEN, payload, len);
+    ub_frame_header_t h;
+    memset(&h, 0, sizeof h);
+    memcpy(h.dir_id, dir_id, UB_DIR_ID_LEN);
+    memcpy(h.dest_id, dest_id, UB_ENTITY_ID_LEN);
+    h.admin = (uint8_t)code;
+    h.payload_size = len;
+    h.fingerprint = fingerprint;
+    return originate(node, slot, frame, sizeof frame, &h, now_ms);
+}
+
+int ub_priv_send_reply(ub_node_t *node, int slot, bool nack, const uint8_t dir_id[UB_DIR_ID_LEN],
+                       const uint8_t dest_id[UB_ENTITY_ID_LEN], uint32_t request_id, uint8_t code, uint8_t detail,
+                       uint64_t now_ms) {
+    uint8_t payload[UB_PL_REPLY_LEN] = {0};
+    ub_put_u32le(payload + UB_PL_REPLY_ID, request_id);
+    ub_put_u8(payload + UB_PL_REPLY_CODE, code);
+    ub_put_u8(payload + UB_PL_REPLY_DETAIL, detail);
+    return ub_priv_send_admin(node, slot, nack ? UB_ADMIN_NACK : UB_ADMIN_ACK, dir_id, 0, dest_id, payload,
+                              UB_PL_REPLY_LEN, now_ms);
+}
+
+void ub_node_tick(ub_node_t *node, uint64_t now_ms) {
+    for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
+        if (!node->locals[slot].in_use) continue;
+        ub_priv_pubsub_tick(node, slot, now_ms);
+        if (node->locals[slot].admin != NULL) ub_priv_admin_tick(node->locals[slot].admin, now_ms);
+    }
+}

@@ -1,0 +1,84 @@
+/*
+ * Internal contract between ub_node.c, ub_pubsub.c and ub_admin.c. Not
+ * installed, not part of the API; symbols are prefixed ub_priv_.
+ *
+ * Admin payload layouts (little-endian, documented byte by byte in
+ * docs/pubsub.md). The frame header's dir_id names the content and its
+ * fingerprint field carries the content type's fingerprint on requests.
+ */
+#ifndef UB_ROUTER_PRIVATE_H
+#define UB_ROUTER_PRIVATE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "ub/ub_admin.h"
+#include "ub/ub_frame.h"
+#include "ub/ub_node.h"
+#include "ub/ub_pubsub.h"
+
+/* Largest admin payload. */
+#define UB_PL_MAX_LEN 32u
+/* PUB_REQUEST / SUB_REQUEST: request_id u32, period_ms u32, lease_ms u32, peer ID[12]. */
+#define UB_PL_REQUEST_LEN 24u
+#define UB_PL_REQUEST_ID 0u
+#define UB_PL_REQUEST_PERIOD 4u
+#define UB_PL_REQUEST_LEASE 8u
+#define UB_PL_REQUEST_PEER 12u
+/* PUB_STOP / SUB_STOP: request_id u32, peer ID[12]. */
+#define UB_PL_STOP_LEN 16u
+#define UB_PL_STOP_ID 0u
+#define UB_PL_STOP_PEER 4u
+/* ACK / NACK: request_id u32, code u8 (the admin code answered), flags (ACK) or reason (NACK) u8, reserved u16. */
+#define UB_PL_REPLY_LEN 8u
+#define UB_PL_REPLY_ID 0u
+#define UB_PL_REPLY_CODE 4u
+#define UB_PL_REPLY_DETAIL 5u
+
+/* Local-entity slot of entity-table index `entity`, or -1 if it is not local. */
+int ub_priv_local_slot(const ub_node_t *node, int entity);
+
+/* Fills 0 fields of `t` with the defaults of ub_pubsub.h. */
+void ub_priv_timing_defaults(ub_pubsub_timing_t *t);
+
+/*
+ * Sends an admin frame from local slot `slot` to `dest_id`. `payload` is
+ * copied. Routing as for any originated frame.
+ * Returns links used (>= 0) or a negative error.
+ */
+int ub_priv_send_admin(ub_node_t *node, int slot, ub_admin_code_t code, const uint8_t dir_id[UB_DIR_ID_LEN],
+                       uint32_t fingerprint, const uint8_t dest_id[UB_ENTITY_ID_LEN], const uint8_t *payload,
+                       uint16_t len, uint64_t now_ms);
+
+/* Sends ACK (nack == false, detail = flags) or NACK (detail = reason). */
+int ub_priv_send_reply(ub_node_t *node, int slot, bool nack, const uint8_t dir_id[UB_DIR_ID_LEN],
+                       const uint8_t dest_id[UB_ENTITY_ID_LEN], uint32_t request_id, uint8_t code, uint8_t detail,
+                       uint64_t now_ms);
+
+/* Originates DATA of `instance` from `slot`; same returns as ub_node_send_data(). */
+int ub_priv_send_data_from_slot(ub_node_t *node, int slot, uint32_t instance, const uint8_t dest_id[UB_ENTITY_ID_LEN],
+                                uint64_t now_ms);
+
+/*
+ * An admin frame reached local slot `slot`. Returns UB_OK, or a negative
+ * error when the frame is unusable (the node counts it as bad_payload).
+ */
+int ub_priv_pubsub_on_admin(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
+                            uint64_t now_ms);
+
+/* DATA of `instance` from `src_id` was unpacked for local slot `slot`. */
+void ub_priv_pubsub_on_data(ub_node_t *node, int slot, uint32_t instance, const uint8_t src_id[UB_ENTITY_ID_LEN],
+                            uint64_t now_ms);
+
+void ub_priv_pubsub_tick(ub_node_t *node, int slot, uint64_t now_ms);
+
+/* An ACK/NACK reached the administration table's entity. Returns true if it answered one of its rows. */
+bool ub_priv_admin_on_reply(ub_admin_t *adm, uint32_t request_id, uint8_t code, bool nack, uint8_t detail,
+                            uint64_t now_ms);
+
+void ub_priv_admin_tick(ub_admin_t *adm, uint64_t now_ms);
+
+/* Whether an entity ID is all zero (the "no owner" marker). */
+bool ub_priv_id_is_zero(const uint8_t id[UB_ENTITY_ID_LEN]);
+
+#endif /* UB_ROUTER_PRIVATE_H */

@@ -1,0 +1,196 @@
+/*
+ * The global administration table: retry until acknowledged, status read back
+ * (pending, acknowledged, active, failed, stopping, inactive), NACKs, retry
+ * limits, losing the target after the ACK, deactivation, and the admin being
+ * the destination itself.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <string.h>
+
+#include "support/ub_test_pair.h"
+#include "ub/ub_admin.h"
+#include "ub/ub_pubsub.h"
+
+/* The admin table sits on the "sub" entity; rows publish gpsOut from "pub" to "sub". */
+static int add_row(pair_t *p, ub_admin_t *adm, ub_admin_row_type_t type, uint32_t instance) {
+    ub_admin_row_spec_t spec = {.instance = instance, .period_ms = 100, .type = type};
+    memcpy(spec.source, p->pub_id, UB_ENTITY_ID_LEN);
+    memcpy(spec.destination, p->sub_id, UB_ENTITY_ID_LEN);
+    int row = ub_admin_add_row(adm, &spec);
+    assert_true(row >= 0);
+    return row;
+}
+
+static ub_admin_row_info_t info_of(const ub_admin_t *adm, int row) {
+    ub_admin_row_info_t info;
+    assert_int_equal(ub_admin_row_status(adm, row, &info), UB_OK);
+    return info;
+}
+
+static void test_retried_until_acknowledged(void **state) {
+    (void)state;
+    pair_t *p = pair_new(NULL);
+    ub_admin_t adm;
+    assert_int_equal(ub_admin_init(&adm, p->sub_node, p->sub, NULL), UB_OK);
+    int row = add_row(p, &adm, UB_ADMIN_ROW_PUBLICATION, TEST_GPS);
+    ub_memlink_faults_t dark = {.loss_ppm = 1000000};
+    ub_memlink_set_faults(p->ml, &dark);
+    assert_int_equal(ub_admin_set_active(&adm, row, true, 0), UB_OK);
+    world_run(p->w, 999, 1);
+    ub_admin_row_info_t info = info_of(&adm, row);
+    assert_int_equal(info.status, UB_ADMIN_PENDING);
+    assert_int_equal(info.attempts, 5); /* t = 1, 201, 401, 601, 801 (retry_ms 200) */
+    ub_memlink_set_faults(p->ml, NULL);
+    world_run(p->w, 1300, 1);
+    info = info_of(&adm, row);
+    assert_int_equal(info.status, UB_ADMIN_ACTIVE);
+    assert_true(info.acked_at_ms >= 1000 && info.acked_at_ms <= 1010);
+    assert_true(info.active_at_ms >= info.acked_at_ms);
+    assert_string_equal(ub_admin_status_name(info.status), "active");
+    assert_true(p->log.n > 0);
+    pair_free(p);
+}
+
+static void test_nack_fails_row_and_reactivation_retries(void **state) {
+    (void)state;
+    pair_t *p = pair_new(NULL);
+    ub_admin_t adm;
+    assert_int_equal(ub_admin_init(&adm, p->sub_node, p->sub, NULL), UB_OK);
+    int row = add_row(p, &adm, UB_ADMIN_ROW_PUBLICATION, TEST_IMU); /* not bound at the source */
+    assert_int_equal(ub_admin_set_active(&adm, row, true, 0), UB_OK);
+    world_run(p->w, 100, 1);
+    ub_admin_row_info_t info = info_of(&adm, row);
+    assert_int_equal(info.status, UB_ADMIN_FAILED);
+    assert_int_equal(info.nack_reason, UB_NACK_UNBOUND);
+    /* The source binds it; the operator activates the row again. */
+    struct test_imu imu = {0};
+    assert_int_equal(ub_node_bind(p->pub_node, TEST_IMU, &imu), UB_OK);
+    assert_int_equal(ub_admin_set_active(&adm, row, true, p->w->now_ms), UB_OK);
+    world_run(p->w, 300, 1);
+    info = info_of(&adm, row);
+    assert_int_equal(info.status, UB_ADMIN_ACTIVE);
+    assert_int_equal(info.nack_reason, UB_NACK_NONE);
+    pair_free(p);
+}
+
+static void test_retry_limit_fails_row(void **state) {
+    (void)state;
+    pair_t *p = pair_new(NULL);
+    ub_admin_t adm;
+    ub_admin_options_t opt = {.retry_ms = 50, .max_retries = 4};
+    assert_int_equal(ub_admin_init(&adm, p->sub_node, p->sub, &opt), UB_OK);
+    int row = add_row(p, &adm, UB_ADMIN_ROW_PUBLICATION, TEST_GPS);
+    ub_memlink_faults_t dark = {.loss_ppm = 1000000};
+    ub_memlink_set_faults(p->ml, &dark);
+    assert_int_equal(ub_admin_set_active(&adm, row, true, 0), UB_OK);
+    world_run(p->w, 1000, 1);
+    ub_admin_row_info_t info = info_of(&adm, row);
+    assert_int_equal(info.status, UB_ADMIN_FAILED);
+    assert_int_equal(info.nack_reason, UB_NACK_NONE);
+    assert_int_equal(ub_memlink_stats(p->ml, 1)->sent, 4);
+    pair_free(p);
+}
+
+static void test_target_lost_after_ack_falls_back_to_pending(void **state) {
+    (void)state;
+    pair_t *p = pair_new(NULL);
+    ub_admin_t adm;
+    assert_int_equal(ub_admin_init(&adm, p->sub_node, p->sub, NULL), UB_OK);
+    int row = add_row(p, &adm, UB_ADMIN_ROW_PUBLICATION, TEST_GPS);
+    assert_int_equal(ub_admin_set_active(&adm, row, true, 0), UB_OK);
+    world_run(p->w, 500, 1);
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_ACTIVE);
+    ub_memlink_faults_t dark = {.loss_ppm = 1000000};
+    ub_memlink_set_faults(p->ml, &dark);
+    world_run(p->w, 500 + 3000 + 300, 1); /* no ACK for longer than the lease (3 s) */
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_PENDING);
+    ub_memlink_set_faults(p->ml, NULL);
+    world_run(p->w, p->w->now_ms + 500, 1);
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_ACTIVE);
+    pair_free(p);
+}
+
+static void test_deactivate_stops_and_row_reads_back(void **state) {
+    (void)state;
+    pair_t *p = pair_new(NULL);
+    ub_admin_t adm;
+    assert_int_equal(ub_admin_init(&adm, p->sub_node, p->sub, NULL), UB_OK);
+    int row = add_row(p, &adm, UB_ADMIN_ROW_PUBLICATION, TEST_GPS);
+    assert_int_equal(ub_admin_remove_row(&adm, 5), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_admin_set_active(&adm, row, true, 0), UB_OK);
+    world_run(p->w, 500, 1);
+    assert_int_equal(ub_admin_remove_row(&adm, row), UB_ERR_INVAL); /* still active */
+    ub_admin_row_info_t info = info_of(&adm, row);
+    assert_true(info.active_flag);
+    assert_int_equal(info.spec.period_ms, 100);
+    assert_memory_equal(info.spec.source, p->pub_id, UB_ENTITY_ID_LEN);
+    assert_int_equal(ub_admin_set_active(&adm, row, false, p->w->now_ms), UB_OK);
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_STOPPING);
+    world_run(p->w, 600, 1);
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_INACTIVE);
+    assert_int_equal(ub_pubsub_count(p->pub_node, p->pub, UB_PS_PUBLICATION), 0);
+    assert_int_equal(ub_admin_remove_row(&adm, row), UB_OK);
+    assert_int_equal(ub_admin_row_status(&adm, row, &info), UB_ERR_NOTFOUND);
+    pair_free(p);
+}
+
+/* A subscription row whose destination is the admin's own entity: the SUB_REQUEST is handed over locally. */
+static void test_admin_as_destination_subscribes(void **state) {
+    (void)state;
+    pair_t *p = pair_new(NULL);
+    ub_admin_t adm;
+    assert_int_equal(ub_admin_init(&adm, p->sub_node, p->sub, NULL), UB_OK);
+    int row = add_row(p, &adm, UB_ADMIN_ROW_SUBSCRIPTION, TEST_GPS);
+    assert_int_equal(ub_admin_set_active(&adm, row, true, 0), UB_OK);
+    world_run(p->w, 1000, 1);
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_ACTIVE);
+    assert_true(ub_pubsub_find(p->sub_node, p->sub, UB_PS_SUBSCRIPTION, TEST_GPS, p->pub_id) >= 0);
+    assert_in_range(delivery_count(&p->log, p->sub, TEST_GPS, 500, 1000), 4, 6);
+    assert_int_equal(ub_admin_set_active(&adm, row, false, p->w->now_ms), UB_OK);
+    world_run(p->w, 1500, 1);
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_INACTIVE);
+    assert_int_equal(ub_pubsub_count(p->sub_node, p->sub, UB_PS_SUBSCRIPTION), 0);
+    assert_int_equal(ub_pubsub_count(p->pub_node, p->pub, UB_PS_PUBLICATION), 0);
+    ub_admin_detach(&adm);
+    pair_free(p);
+}
+
+static void test_row_validation(void **state) {
+    (void)state;
+    pair_t *p = pair_new(NULL);
+    ub_admin_t adm;
+    assert_int_equal(ub_admin_init(&adm, p->sub_node, p->sub_peer, NULL), UB_ERR_INVAL); /* not local */
+    assert_int_equal(ub_admin_init(&adm, p->sub_node, p->sub, NULL), UB_OK);
+    ub_admin_row_spec_t spec = {.instance = TEST_GPS, .period_ms = 100, .type = UB_ADMIN_ROW_PUBLICATION};
+    memcpy(spec.source, p->pub_id, UB_ENTITY_ID_LEN);
+    memcpy(spec.destination, p->pub_id, UB_ENTITY_ID_LEN);
+    assert_int_equal(ub_admin_add_row(&adm, &spec), UB_ERR_INVAL); /* source == destination */
+    memcpy(spec.destination, p->sub_id, UB_ENTITY_ID_LEN);
+    spec.period_ms = 0;
+    assert_int_equal(ub_admin_add_row(&adm, &spec), UB_ERR_INVAL);
+    spec.period_ms = 100;
+    spec.instance = 9;
+    assert_int_equal(ub_admin_add_row(&adm, &spec), UB_ERR_INVAL);
+    spec.instance = TEST_GPS;
+    for (int i = 0; i < UB_MAX_ADMIN_ROWS; i++) assert_int_equal(ub_admin_add_row(&adm, &spec), i);
+    assert_int_equal(ub_admin_add_row(&adm, &spec), UB_ERR_FULL);
+    assert_string_equal(ub_admin_status_name((ub_admin_status_t)42), "?");
+    pair_free(p);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_retried_until_acknowledged),
+        cmocka_unit_test(test_nack_fails_row_and_reactivation_retries),
+        cmocka_unit_test(test_retry_limit_fails_row),
+        cmocka_unit_test(test_target_lost_after_ack_falls_back_to_pending),
+        cmocka_unit_test(test_deactivate_stops_and_row_reads_back),
+        cmocka_unit_test(test_admin_as_destination_subscribes),
+        cmocka_unit_test(test_row_validation),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,189 @@
+/*
+ * Node set-up API (entity table, links, masks, bindings) and the duplicate
+ * window: (source, sequence) suppression, out-of-order acceptance inside the
+ * window, restarted sources, sequence wrap, and eviction of old sources.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "support/ub_test_world.h"
+#include "ub/ub_node.h"
+
+static void test_setup_api_contracts(void **state) {
+    (void)state;
+    ub_node_t *n = calloc(1, sizeof *n);
+    assert_non_null(n);
+    assert_int_equal(ub_node_init(n, NULL, NULL), UB_ERR_INVAL);
+    ub_catalogue_t wrong_abi = ub_test_cat;
+    wrong_abi.abi_version = UB_CATALOGUE_ABI_VERSION + 1;
+    assert_int_equal(ub_node_init(n, &wrong_abi, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_node_init(n, &ub_test_cat, NULL), UB_OK);
+
+    int gcs = ub_node_add_entity_name(n, "gcs1", true);
+    int uav = ub_node_add_entity_name(n, "rmax1ob1", false);
+    assert_int_equal(gcs, 0);
+    assert_int_equal(uav, 1);
+    assert_int_equal(ub_node_add_entity_name(n, "gcs1", false), UB_ERR_EXISTS);
+    assert_int_equal(ub_node_add_entity_name(n, "averyveryverylongname", false), UB_ERR_RANGE);
+    uint8_t id[UB_ENTITY_ID_LEN];
+    test_eid("rmax1ob1", id);
+    assert_int_equal(ub_node_find_entity(n, id), uav);
+    assert_memory_equal(ub_node_entity_id(n, uav), id, UB_ENTITY_ID_LEN);
+
+    /* Links belong to local entities, at a free index < 8, with a node-unique name. */
+    assert_int_equal(ub_node_add_link(n, uav, 0, "x"), UB_ERR_INVAL);
+    assert_int_equal(ub_node_add_link(n, gcs, UB_MAX_LINKS_PER_ENTITY, "x"), UB_ERR_INVAL);
+    assert_int_equal(ub_node_add_link(n, gcs, 0, ""), UB_ERR_INVAL);
+    int l1 = ub_node_add_link(n, gcs, 1, "gcsPortDatalink2");
+    assert_true(l1 >= 0);
+    assert_int_equal(ub_node_add_link(n, gcs, 1, "other"), UB_ERR_EXISTS);
+    assert_int_equal(ub_node_add_link(n, gcs, 0, "gcsPortDatalink2"), UB_ERR_EXISTS);
+    int l0 = ub_node_add_link(n, gcs, 0, "gcsPortDatalink1");
+    assert_true(l0 >= 0 && l0 != l1);
+    assert_int_equal(ub_node_find_link(n, "gcsPortDatalink1"), l0);
+    assert_int_equal(ub_node_find_link(n, "nope"), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_node_link(n, l1)->index, 1);
+    assert_string_equal(ub_node_link(n, l1)->name, "gcsPortDatalink2");
+    assert_int_equal(ub_link_fileno(ub_node_link(n, l0)), -1); /* detached */
+
+    /* Masks: Table 2's gcs1 row, "0x00000011" to rmax1ob1. */
+    uint8_t mask;
+    assert_int_equal(ub_link_mask_parse("0x00000011", &mask), UB_OK);
+    assert_int_equal(ub_node_set_mask(n, gcs, uav, mask), UB_OK);
+    uint8_t back = 0;
+    assert_int_equal(ub_node_get_mask(n, gcs, uav, &back), UB_OK);
+    assert_int_equal(back, 0x03);
+    assert_int_equal(ub_node_set_mask(n, gcs, uav, 0x04), UB_ERR_NOTFOUND); /* link[2] does not exist */
+    assert_int_equal(ub_node_set_mask(n, gcs, gcs, 0x01), UB_ERR_INVAL);    /* "this is entity 0" */
+    assert_int_equal(ub_node_set_mask(n, uav, gcs, 0x01), UB_ERR_INVAL);    /* not local */
+
+    struct test_gps g;
+    assert_int_equal(ub_node_bind(n, 99, &g), UB_ERR_INVAL);
+    assert_int_equal(ub_node_bind(n, TEST_GPS, &g), UB_OK);
+    assert_ptr_equal(ub_node_binding(n, TEST_GPS), &g);
+    assert_null(ub_node_binding(n, TEST_IMU));
+
+    /* Sending over a detached port is counted, never silent. */
+    assert_int_equal(ub_node_send_data(n, gcs, TEST_GPS, id, 0), 0);
+    assert_int_equal(ub_node_counters(n)->drops[UB_DROP_DETACHED], 2);
+    assert_int_equal(ub_node_link(n, l0)->counters.drops[UB_DROP_DETACHED], 1);
+    free(n);
+}
+
+static void test_tables_fill_up(void **state) {
+    (void)state;
+    ub_node_t *n = calloc(1, sizeof *n);
+    assert_non_null(n);
+    assert_int_equal(ub_node_init(n, &ub_test_cat, NULL), UB_OK);
+    char name[8];
+    for (int i = 0; i < UB_MAX_ENTITIES; i++) {
+        snprintf(name, sizeof name, "e%d", i);
+        assert_int_equal(ub_node_add_entity_name(n, name, i < UB_MAX_LOCAL_ENTITIES), i);
+    }
+    assert_int_equal(ub_node_add_entity_name(n, "one_more", false), UB_ERR_FULL);
+    ub_node_t *m = calloc(1, sizeof *m);
+    assert_non_null(m);
+    assert_int_equal(ub_node_init(m, &ub_test_cat, NULL), UB_OK);
+    for (int i = 0; i < UB_MAX_LOCAL_ENTITIES; i++) {
+        snprintf(name, sizeof name, "l%d", i);
+        assert_true(ub_node_add_entity_name(m, name, true) >= 0);
+    }
+    assert_int_equal(ub_node_add_entity_name(m, "l_more", true), UB_ERR_FULL);
+    free(n);
+    free(m);
+}
+
+/* A node hosting "dst" that hears DATA from "src" on one link. */
+typedef struct rx_fixture {
+    ub_node_t node;
+    int link;
+    struct test_gps gps;
+    uint8_t payload[24];
+} rx_fixture_t;
+
+static rx_fixture_t *rx_fixture(void) {
+    rx_fixture_t *f = calloc(1, sizeof *f);
+    assert_non_null(f);
+    assert_int_equal(ub_node_init(&f->node, &ub_test_cat, NULL), UB_OK);
+    int dst = ub_node_add_entity_name(&f->node, "dst", true);
+    assert_true(dst >= 0);
+    f->link = ub_node_add_link(&f->node, dst, 0, "in");
+    assert_int_equal(ub_node_bind(&f->node, TEST_GPS, &f->gps), UB_OK);
+    struct test_gps v = {1.5, 2.5, 3.5f, 4};
+    assert_int_equal(ub_test_cat.instances[TEST_GPS].type->pack(&v, f->payload, sizeof f->payload), 24);
+    return f;
+}
+
+/* Feeds one DATA frame from `src` with `seq`; returns 1 if it was delivered. */
+static int feed(rx_fixture_t *f, const char *src, uint32_t seq) {
+    uint8_t frame[UB_FRAME_MAX];
+    const ub_instance_desc_t *inst = &ub_test_cat.instances[TEST_GPS];
+    size_t len = make_frame(frame, UB_ADMIN_DATA, inst->id, src, "dst", seq, 4, inst->type->fingerprint, f->payload, 24);
+    uint64_t before = ub_node_counters(&f->node)->delivered;
+    assert_int_equal(ub_node_rx_frame(&f->node, f->link, frame, len, 0), UB_OK);
+    return (int)(ub_node_counters(&f->node)->delivered - before);
+}
+
+static void test_duplicate_window(void **state) {
+    (void)state;
+    rx_fixture_t *f = rx_fixture();
+    assert_int_equal(feed(f, "src", 100), 1);
+    assert_int_equal(feed(f, "src", 100), 0); /* duplicate */
+    assert_int_equal(feed(f, "src", 99), 1);  /* late, but inside the window and unseen */
+    assert_int_equal(feed(f, "src", 101), 1);
+    assert_int_equal(feed(f, "src", 99), 0);
+    assert_int_equal(feed(f, "other", 100), 1); /* windows are per source */
+    assert_int_equal(feed(f, "src", 200), 1);   /* a jump */
+    assert_int_equal(feed(f, "src", 137), 1);   /* 63 behind: still inside */
+    assert_int_equal(feed(f, "src", 137), 0);
+    assert_int_equal(feed(f, "src", 101), 1); /* 99 behind: a restarted source, not silenced */
+    assert_int_equal(ub_node_counters(&f->node)->dedup_resets, 1);
+    assert_int_equal(feed(f, "src", 102), 1);
+    assert_int_equal(feed(f, "src", 101), 0);
+    assert_int_equal(ub_node_counters(&f->node)->drops[UB_DROP_DUPLICATE], 4);
+    assert_int_equal(ub_node_link(&f->node, f->link)->counters.drops[UB_DROP_DUPLICATE], 4);
+    free(f);
+}
+
+static void test_sequence_wraps(void **state) {
+    (void)state;
+    rx_fixture_t *f = rx_fixture();
+    assert_int_equal(feed(f, "src", 0xFFFFFFFEu), 1);
+    assert_int_equal(feed(f, "src", 0xFFFFFFFFu), 1);
+    assert_int_equal(feed(f, "src", 0), 1);
+    assert_int_equal(feed(f, "src", 1), 1);
+    assert_int_equal(feed(f, "src", 0xFFFFFFFFu), 0);
+    assert_int_equal(ub_node_counters(&f->node)->dedup_resets, 0);
+    free(f);
+}
+
+static void test_full_window_table_evicts_least_recent(void **state) {
+    (void)state;
+    rx_fixture_t *f = rx_fixture();
+    char name[8];
+    for (int s = 0; s <= UB_DEDUP_SOURCES; s++) {
+        snprintf(name, sizeof name, "s%d", s);
+        assert_int_equal(feed(f, name, 7), 1);
+    }
+    assert_int_equal(ub_node_counters(&f->node)->dedup_evictions, 1);
+    assert_int_equal(feed(f, "s16", 7), 0); /* recent sources are still remembered */
+    assert_int_equal(feed(f, "s0", 7), 1);  /* s0 was evicted: its window starts again */
+    free(f);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_setup_api_contracts),
+        cmocka_unit_test(test_tables_fill_up),
+        cmocka_unit_test(test_duplicate_window),
+        cmocka_unit_test(test_sequence_wraps),
+        cmocka_unit_test(test_full_window_table_evicts_least_recent),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
