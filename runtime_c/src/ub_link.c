@@ -25,7 +25,8 @@ int ub_link_mask_parse(const char *text, uint8_t *mask) {
     if (text[0] != '0' || (text[1] != 'x' && text[1] != 'X')) return UB_ERR_INVAL;
     const char *digits = text + 2;
     size_t n = strlen(digits);
-    if (n == 0) return UB_ERR_INVAL;
+    /* 1..16 digits, as the config format documents; Figure 8 itself prints nine. */
+    if (n == 0 || n > 16) return UB_ERR_INVAL;
     unsigned value = 0;
     /* The rightmost digit is link[0]; every digit is a yes/no for one link. */
     for (size_t pos = 0; pos < n; pos++) {

@@ -683,22 +683,6 @@ int ub_nodecfg_mask(const ub_nodecfg_t *cfg, const char *from, const char *to) {
     return cfg->entities[f].mask[t];
 }
 
-int ub_mask_parse_hex(const char *text, uint8_t *mask) {
-    if (text == NULL || mask == NULL) return UB_ERR_INVAL;
-    char why[160];
-    return hex_parse(text, strlen(text), mask, why, sizeof why);
-}
-
-int ub_mask_format_hex(uint8_t mask, char *buf, size_t cap) {
-    if (buf == NULL) return UB_ERR_INVAL;
-    if (cap < UB_MASK_HEX_SIZE) return UB_ERR_NOSPACE;
-    buf[0] = '0';
-    buf[1] = 'x';
-    for (int link = 0; link < 8; link++) buf[9 - link] = (mask & (1u << link)) ? '1' : '0';
-    buf[10] = '\0';
-    return 10;
-}
-
 /* ---- applying to a node ---- */
 
 static int apply_failed(const ub_nodecfg_t *cfg, char *err, size_t err_cap, const ub_nodecfg_entity_t *e,

@@ -105,7 +105,7 @@ typedef struct ub_link {
 
 /**
  * Parses a link mask in the paper's notation: "0x" then hex digits, each 0 or
- * 1, the rightmost digit being link[0]. Leading zeros beyond 8 digits are
+ * 1, the rightmost digit being link[0]; 1 to 16 digits. Leading zeros beyond 8 digits are
  * accepted (the paper's Figure 8 prints "0x000000011"); a 1 in a digit
  * position >= UB_MAX_LINKS_PER_ENTITY is refused.
  * Examples: "0x00000110" -> 0x06 (links 1, 2); "0x00000011" -> 0x03.

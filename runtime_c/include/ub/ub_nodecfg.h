@@ -90,8 +90,6 @@ extern "C" {
 #endif
 /** Recommended size of the error-message buffers passed to this API. */
 #define UB_NODECFG_ERR_LEN 256
-/** Size of a formatted hex mask: "0x" + 8 digits + NUL. */
-#define UB_MASK_HEX_SIZE 11
 
 #if UB_MAX_ENTITIES > 255 || UB_NODECFG_MAX_PORTS > 255
 #error "ub_nodecfg counts entities and ports in uint8_t: keep UB_MAX_ENTITIES and UB_NODECFG_MAX_PORTS <= 255"
@@ -188,22 +186,7 @@ UB_CHECK int ub_nodecfg_find_entity(const ub_nodecfg_t *cfg, const char *name);
  */
 UB_CHECK int ub_nodecfg_mask(const ub_nodecfg_t *cfg, const char *from, const char *to);
 
-/**
- * Parses the paper's hex notation: "0x" then 1..16 hex digits, each 0 or 1;
- * the least-significant digit is link 0, and digits for links 8 and up must be
- * 0 (the paper's Figure 8 prints nine digits, "0x000000011").
- * @retval UB_OK         *mask holds the bits.
- * @retval UB_ERR_CONFIG the text is not such a mask.
- * @retval UB_ERR_INVAL  NULL argument.
- */
-UB_CHECK int ub_mask_parse_hex(const char *text, uint8_t *mask);
-
-/**
- * Formats `mask` in the paper's notation, 8 digits: 0x06 -> "0x00000110".
- * @return 10 (the length written, plus a NUL), or UB_ERR_NOSPACE if
- *         cap < UB_MASK_HEX_SIZE, UB_ERR_INVAL if buf is NULL.
- */
-UB_CHECK int ub_mask_format_hex(uint8_t mask, char *buf, size_t cap);
+/* Hex masks on their own ("0x00000110"): ub_link_mask_parse() / ub_link_mask_format() in ub_link.h. */
 
 struct ub_node; /* ub_node.h; only a pointer is needed here */
 
