@@ -15,7 +15,7 @@ BUILD_ASAN  := build-asan
 APT_PKGS    := libcmocka-dev cmake ninja-build pkg-config
 SETUP_STAMP := $(VENV)/.uavbus-setup-stamp
 
-.PHONY: setup test test-c test-py demo clean apt-deps
+.PHONY: setup test test-c test-py demo bench clean apt-deps
 
 setup: apt-deps $(SETUP_STAMP)
 
@@ -56,5 +56,9 @@ demo: setup
 	$(VENV)/bin/uavbus gen examples/flightsw/*.h -I examples/flightsw --name flightsw -o demo-out/gen
 	$(VENV)/bin/uavbus selftest examples/flightsw/*.h -I examples/flightsw --name flightsw
 
+# Measurements, not tests: optimised build of the tools, results in bench/results.md.
+bench: setup
+	bench/run.sh
+
 clean:
-	rm -rf $(BUILD) $(BUILD_ASAN) demo-out
+	rm -rf $(BUILD) $(BUILD_ASAN) build-bench demo-out
