@@ -30,8 +30,11 @@ apt-deps:
 	  DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing >/dev/null; \
 	fi
 
-# The stamp depends on everything that changes what pip installs.
-$(SETUP_STAMP): pyproject.toml setup.py
+# The stamp depends on everything that changes what pip installs, the cffi extension (uavbus._ub,
+# compiled from the runtime_c sources) included, so Python never tests a stale build of the C runtime.
+FFI_INPUTS := $(wildcard runtime_c/src/*.c runtime_c/src/*.h runtime_c/include/ub/*.h \
+                runtime_py/uavbus/_cdefs/*.h) runtime_py/uavbus/_build_ffi.py
+$(SETUP_STAMP): pyproject.toml setup.py $(FFI_INPUTS)
 	@test -x $(VPY) || $(PYTHON) -m venv $(VENV)
 	$(VPY) -m pip install -q --upgrade pip setuptools wheel
 	$(VPY) -m pip install -q -e '.[test]'

@@ -396,7 +396,7 @@ static int parse_entity_list(const parser_t *p, const ub_json_value_t *list, con
     const ub_nodecfg_t *cfg = p->cfg;
     ub_json_iter_t it;
     ub_json_value_t v;
-    char path[PATH_LEN], name[KEY_BUF];
+    char path[PATH_LEN + 16], name[KEY_BUF]; /* room for "<field>[<index>]" */
     if (list->kind != UB_JSON_ARRAY) return fail(p, list->line, NULL, field, "must be a list of entity names");
     ub_json_iter_begin(&it, &p->doc, list);
     for (int k = 0; ub_json_iter_next(&it, NULL, &v); k++) {

@@ -1,0 +1,112 @@
+"""Wrappers for ub_error.h: the exception hierarchy for the runtime's negative error codes.
+
+Every code maps to one `UbError` subclass that also inherits from the closest builtin, so callers can
+catch either (`except ValueError` or `except ChecksumError`). Code values are read from C.
+"""
+
+from __future__ import annotations
+
+import builtins
+
+from uavbus._ub import ffi, lib
+
+
+class UbError(Exception):
+    """A uavbus runtime function returned a negative error code (`code`, named by `name`)."""
+
+    code: int = 0
+
+    def __init__(self, message: str = "") -> None:
+        super().__init__(f"{self.name}: {message}" if message else self.name)
+
+    @property
+    def name(self) -> str:
+        return ub_strerror(self.code)
+
+
+class InvalidArgumentError(UbError, builtins.ValueError):
+    code = lib.UB_ERR_INVAL
+
+
+class NoSpaceError(UbError, builtins.BufferError):
+    code = lib.UB_ERR_NOSPACE
+
+
+class TruncatedError(UbError, builtins.ValueError):
+    code = lib.UB_ERR_TRUNCATED
+
+
+class FullError(UbError):
+    code = lib.UB_ERR_FULL
+
+
+class NotFoundError(UbError, builtins.LookupError):
+    code = lib.UB_ERR_NOTFOUND
+
+
+class ExistsError(UbError):
+    code = lib.UB_ERR_EXISTS
+
+
+class ChecksumError(UbError, builtins.ValueError):
+    code = lib.UB_ERR_CHECKSUM
+
+
+class LayoutError(UbError, builtins.ValueError):
+    code = lib.UB_ERR_LAYOUT
+
+
+class NoRouteError(UbError):
+    code = lib.UB_ERR_NOROUTE
+
+
+class IoError(UbError, builtins.OSError):
+    code = lib.UB_ERR_IO
+
+
+class WouldBlockError(UbError, builtins.BlockingIOError):
+    code = lib.UB_ERR_AGAIN
+
+
+class ConfigError(UbError, builtins.ValueError):
+    code = lib.UB_ERR_CONFIG
+
+
+class ClosedError(UbError, builtins.ConnectionError):
+    code = lib.UB_ERR_CLOSED
+
+
+class RangeError(UbError, builtins.OverflowError):
+    code = lib.UB_ERR_RANGE
+
+
+ERRORS_BY_CODE: dict[int, type[UbError]] = {
+    cls.code: cls
+    for cls in (
+        InvalidArgumentError, NoSpaceError, TruncatedError, FullError, NotFoundError, ExistsError,
+        ChecksumError, LayoutError, NoRouteError, IoError, WouldBlockError, ConfigError, ClosedError,
+        RangeError,
+    )
+}
+
+
+def ub_strerror(err: int) -> str:
+    """The C name of an error code ("UB_ERR_INVAL", ...), as the runtime reports it."""
+    return ffi.string(lib.ub_strerror(err)).decode("ascii")
+
+
+def error_for(code: int, message: str = "") -> UbError:
+    """The exception for a negative `code`; an unknown code gives a bare `UbError` that keeps it."""
+    cls = ERRORS_BY_CODE.get(code)
+    if cls is not None:
+        return cls(message)
+    unknown = UbError(f"unknown error code {code}: {message}")
+    unknown.code = code
+    return unknown
+
+
+def ensure(rc: int, message: str) -> int:
+    """Returns `rc` when it is not negative; raises the matching `UbError` otherwise."""
+    if rc < 0:
+        raise error_for(rc, message)
+    return rc
