@@ -1,0 +1,169 @@
+/**
+ * @file ub_tcp.h
+ * @brief TCP link driver: a client (connects out, reconnects with exponential
+ *        backoff) or a server (listens, serves one peer connection), both
+ *        non-blocking, IPv4.
+ *
+ * The byte stream is handed to the node with ub_node_rx(); the slot's decoder
+ * reassembles and verifies frames (rejections are counted in its stats, see
+ * ub_node_link_bad_frames()). Each new connection re-attaches the slot, which
+ * resets that decoder: bytes of a frame cut by a lost connection cannot be
+ * glued to the next connection's stream.
+ *
+ * Sending goes through a fixed transmit buffer of UB_TCP_TX_BUFFER bytes.
+ * Partial writes leave the rest queued; ub_tcp_service() flushes it (poll the
+ * descriptor for POLLOUT while ub_tcp_tx_pending() is non-zero). A frame that
+ * does not fit beside what is queued is refused whole with UB_ERR_AGAIN
+ * (the node counts it as backpressure; the driver counts it too). Sending
+ * while no connection is up returns UB_ERR_CLOSED (counted as tx_error by the
+ * node, `send_closed` here). Bytes still queued when a connection dies are
+ * counted in `tx_discarded`. Nothing is dropped silently.
+ *
+ * Time is passed in: the client's reconnect schedule is driven only by the
+ * `now_ms` given to ub_tcp_service() (no sleeps, no clock reads). After a
+ * failed attempt or a lost connection the next attempt is `backoff` later;
+ * the backoff starts at `backoff_initial_ms` and doubles per failure up to
+ * `backoff_max_ms`; a connection that comes up resets it. Call
+ * ub_tcp_service() on readiness *and* periodically (e.g. with ub_node_tick()),
+ * since a client waiting to retry has no descriptor to wait on.
+ *
+ * Server: while a peer is connected a newer incoming connection replaces it
+ * (the usual cause is the same client reconnecting after a half-open
+ * connection); `replaced` counts this. Poll both ub_tcp_listen_fileno() and
+ * ub_tcp_fileno().
+ */
+#ifndef UB_TCP_H
+#define UB_TCP_H
+
+#include <stdint.h>
+#include <netinet/in.h>
+
+#include "ub_error.h"
+#include "ub_frame.h"
+#include "ub_link.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Transmit buffer per connection, in bytes. At least one whole frame. */
+#ifndef UB_TCP_TX_BUFFER
+#define UB_TCP_TX_BUFFER (4 * UB_FRAME_MAX)
+#endif
+/** Bytes read per read() call, and read() calls per ub_tcp_service() at most. */
+#ifndef UB_TCP_RX_CHUNK
+#define UB_TCP_RX_CHUNK 2048
+#endif
+#ifndef UB_TCP_RX_BUDGET
+#define UB_TCP_RX_BUDGET 16
+#endif
+
+#if UB_TCP_TX_BUFFER < UB_FRAME_MAX
+#error "UB_TCP_TX_BUFFER must hold at least one whole frame (UB_FRAME_MAX)"
+#endif
+
+typedef struct ub_node ub_node_t;
+
+typedef enum ub_tcp_role { UB_TCP_CLIENT = 0, UB_TCP_SERVER = 1 } ub_tcp_role_t;
+
+typedef enum ub_tcp_state {
+    UB_TCP_DOWN = 0,       /**< no connection (client: waiting for the next attempt) */
+    UB_TCP_CONNECTING = 1, /**< client: connect() in progress */
+    UB_TCP_UP = 2          /**< connected */
+} ub_tcp_state_t;
+
+/** Options; zero fields mean the defaults. */
+typedef struct ub_tcp_options {
+    uint32_t backoff_initial_ms; /**< default 100 */
+    uint32_t backoff_max_ms;     /**< default 5000 */
+} ub_tcp_options_t;
+
+typedef struct ub_tcp_stats {
+    uint64_t connects;         /**< connections that came up (client: connected; server: accepted) */
+    uint64_t reconnects;       /**< connections that came up after an earlier one was lost */
+    uint64_t disconnects;      /**< connections lost (peer closed, reset, I/O error) */
+    uint64_t attempts;         /**< client connect() attempts */
+    uint64_t failed_attempts;  /**< client attempts that failed */
+    uint64_t replaced;         /**< server: connections replaced by a newer one */
+    uint64_t bytes_in;
+    uint64_t bytes_out;        /**< bytes the kernel accepted */
+    uint64_t frames_out;       /**< frames accepted into the transmit path */
+    uint64_t backpressure;     /**< frames refused with UB_ERR_AGAIN: transmit buffer full */
+    uint64_t send_closed;      /**< frames refused with UB_ERR_CLOSED: no connection */
+    uint64_t tx_discarded;     /**< queued bytes thrown away with a lost connection */
+} ub_tcp_stats_t;
+
+/** A TCP link. Caller-owned; treat the fields as private. */
+typedef struct ub_tcp {
+    ub_tcp_role_t role;
+    ub_tcp_state_t state;
+    int listen_fd;
+    int fd;
+    struct sockaddr_in addr; /* client: where to connect; server: where it listens */
+    ub_tcp_options_t opt;
+    uint32_t backoff_ms;
+    uint64_t next_attempt_ms;
+    uint8_t had_connection;
+    ub_node_t *node;
+    int link_id;
+    ub_tcp_stats_t stats;
+    size_t tx_len;
+    uint8_t tx[UB_TCP_TX_BUFFER];
+    uint8_t rx[UB_TCP_RX_CHUNK];
+} ub_tcp_t;
+
+/** The transport vtable (kind "tcp"); `impl` is the ub_tcp_t. */
+extern const ub_link_ops_t ub_tcp_ops;
+
+/**
+ * Initialises a client for `addr`:`port` (dotted IPv4). Nothing is opened yet:
+ * the first ub_tcp_service() starts the first attempt.
+ * @return UB_OK or UB_ERR_INVAL (NULL, unparsable address, port 0).
+ */
+UB_CHECK int ub_tcp_client_init(ub_tcp_t *tcp, const char *addr, uint16_t port, const ub_tcp_options_t *opt);
+
+/**
+ * Opens a listening server on `addr`:`port` (port 0 = any free port, see
+ * ub_tcp_local_port()), with SO_REUSEADDR so a restarted server can take its
+ * port back at once.
+ * @return UB_OK; UB_ERR_INVAL; UB_ERR_IO (socket, bind or listen failed, errno set).
+ */
+UB_CHECK int ub_tcp_server_open(ub_tcp_t *tcp, const char *addr, uint16_t port, const ub_tcp_options_t *opt);
+
+/** Reads the server's listening port. @return UB_OK, UB_ERR_INVAL (not a server) or UB_ERR_IO. */
+UB_CHECK int ub_tcp_local_port(const ub_tcp_t *tcp, uint16_t *port);
+
+/** Puts this driver behind slot `link_id` of `node`. @return UB_OK or the error of ub_node_link_attach(). */
+UB_CHECK int ub_tcp_attach(ub_tcp_t *tcp, ub_node_t *node, int link_id);
+
+/**
+ * Does everything due at `now_ms`: server accepts; client starts or completes
+ * a connection attempt when due; flushes the transmit buffer; reads what is
+ * available (at most UB_TCP_RX_BUDGET reads) into the node with ub_node_rx().
+ * A lost connection is closed, counted and (client) scheduled for retry.
+ * @return the number of frames the node found; UB_ERR_INVAL (not attached to `node`).
+ */
+UB_CHECK int ub_tcp_service(ub_tcp_t *tcp, ub_node_t *node, uint64_t now_ms);
+
+/** @return the connection's descriptor (also while connecting), or -1. */
+int ub_tcp_fileno(const ub_tcp_t *tcp);
+
+/** @return the server's listening descriptor, or -1. */
+int ub_tcp_listen_fileno(const ub_tcp_t *tcp);
+
+/** @return the connection state. */
+ub_tcp_state_t ub_tcp_state(const ub_tcp_t *tcp);
+
+/** @return bytes waiting in the transmit buffer (poll for POLLOUT while non-zero). */
+size_t ub_tcp_tx_pending(const ub_tcp_t *tcp);
+
+/** @return the driver counters. */
+const ub_tcp_stats_t *ub_tcp_stats(const ub_tcp_t *tcp);
+
+/** Closes the connection and the listening socket. Safe to call twice. */
+void ub_tcp_close(ub_tcp_t *tcp);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* UB_TCP_H */

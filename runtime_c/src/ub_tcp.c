@@ -1,0 +1,259 @@
+#include "ub/ub_tcp.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "ub/ub_node.h"
+#include "ub_stream_tx_private.h"
+
+#define DEFAULT_BACKOFF_INITIAL_MS 100u
+#define DEFAULT_BACKOFF_MAX_MS 5000u
+
+static int make_address(const char *addr, uint16_t port, struct sockaddr_in *out) {
+    if (addr == NULL) return UB_ERR_INVAL;
+    memset(out, 0, sizeof *out);
+    out->sin_family = AF_INET;
+    out->sin_port = htons(port);
+    return inet_pton(AF_INET, addr, &out->sin_addr) == 1 ? UB_OK : UB_ERR_INVAL;
+}
+
+static int set_nonblocking(int fd) {
+    int flags = fcntl(fd, F_GETFL);
+    return (flags < 0 || fcntl(fd, F_SETFL, flags | O_NONBLOCK) < 0) ? UB_ERR_IO : UB_OK;
+}
+
+static void close_keep_errno(int fd) {
+    int saved = errno;
+    close(fd);
+    errno = saved;
+}
+
+/* Frames are small and latency matters more than packet count. */
+static void set_nodelay(int fd) {
+    int one = 1;
+    (void)setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+}
+
+static long socket_write(int fd, const uint8_t *data, size_t len) { return (long)send(fd, data, len, MSG_NOSIGNAL); }
+
+static void reset(ub_tcp_t *tcp, ub_tcp_role_t role, const ub_tcp_options_t *opt) {
+    memset(tcp, 0, sizeof *tcp);
+    tcp->role = role;
+    tcp->fd = -1;
+    tcp->listen_fd = -1;
+    tcp->link_id = -1;
+    if (opt != NULL) tcp->opt = *opt;
+    if (tcp->opt.backoff_initial_ms == 0) tcp->opt.backoff_initial_ms = DEFAULT_BACKOFF_INITIAL_MS;
+    if (tcp->opt.backoff_max_ms == 0) tcp->opt.backoff_max_ms = DEFAULT_BACKOFF_MAX_MS;
+    if (tcp->opt.backoff_max_ms < tcp->opt.backoff_initial_ms) tcp->opt.backoff_max_ms = tcp->opt.backoff_initial_ms;
+    tcp->backoff_ms = tcp->opt.backoff_initial_ms;
+}
+
+int ub_tcp_client_init(ub_tcp_t *tcp, const char *addr, uint16_t port, const ub_tcp_options_t *opt) {
+    if (tcp == NULL) return UB_ERR_INVAL;
+    reset(tcp, UB_TCP_CLIENT, opt);
+    if (port == 0) return UB_ERR_INVAL;
+    return make_address(addr, port, &tcp->addr);
+}
+
+int ub_tcp_server_open(ub_tcp_t *tcp, const char *addr, uint16_t port, const ub_tcp_options_t *opt) {
+    if (tcp == NULL) return UB_ERR_INVAL;
+    reset(tcp, UB_TCP_SERVER, opt);
+    if (make_address(addr, port, &tcp->addr) < 0) return UB_ERR_INVAL;
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    if (fd < 0) return UB_ERR_IO;
+    int one = 1;
+    if (setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) < 0 || set_nonblocking(fd) < 0 ||
+        bind(fd, (const struct sockaddr *)&tcp->addr, sizeof tcp->addr) < 0 || listen(fd, 4) < 0) {
+        close_keep_errno(fd);
+        return UB_ERR_IO;
+    }
+    tcp->listen_fd = fd;
+    return UB_OK;
+}
+
+int ub_tcp_local_port(const ub_tcp_t *tcp, uint16_t *port) {
+    if (tcp == NULL || port == NULL || tcp->listen_fd < 0) return UB_ERR_INVAL;
+    struct sockaddr_in local;
+    socklen_t len = sizeof local;
+    if (getsockname(tcp->listen_fd, (struct sockaddr *)&local, &len) < 0) return UB_ERR_IO;
+    *port = ntohs(local.sin_port);
+    return UB_OK;
+}
+
+/* Drops the connection; a client schedules its next attempt with the current backoff, then doubles it. */
+static void connection_lost(ub_tcp_t *tcp, uint64_t now_ms, int was_up) {
+    if (tcp->fd >= 0) close(tcp->fd);
+    tcp->fd = -1;
+    tcp->stats.tx_discarded += tcp->tx_len;
+    tcp->tx_len = 0;
+    tcp->state = UB_TCP_DOWN;
+    if (was_up) tcp->stats.disconnects++;
+    if (tcp->role == UB_TCP_CLIENT) {
+        tcp->next_attempt_ms = now_ms + tcp->backoff_ms;
+        uint32_t max = tcp->opt.backoff_max_ms;
+        tcp->backoff_ms = tcp->backoff_ms > max / 2u ? max : tcp->backoff_ms * 2u;
+    }
+}
+
+static int tcp_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    ub_tcp_t *tcp = impl;
+    if (tcp->state != UB_TCP_UP) {
+        tcp->stats.send_closed++;
+        return UB_ERR_CLOSED;
+    }
+    int rc = ub_stream_tx_send(tcp->fd, socket_write, tcp->tx, sizeof tcp->tx, &tcp->tx_len, frame, len,
+                               &tcp->stats.bytes_out);
+    if (rc == UB_ERR_AGAIN) {
+        tcp->stats.backpressure++;
+        return rc;
+    }
+    if (rc < 0) {
+        /* The frame was copied into the buffer before the failure, so it is among the discarded bytes. */
+        connection_lost(tcp, now_ms, 1);
+        return UB_ERR_CLOSED;
+    }
+    tcp->stats.frames_out++;
+    return UB_OK;
+}
+
+static int tcp_fileno(void *impl) { return ub_tcp_fileno(impl); }
+
+const ub_link_ops_t ub_tcp_ops = {.kind = "tcp", .send = tcp_send, .fileno = tcp_fileno};
+
+int ub_tcp_attach(ub_tcp_t *tcp, ub_node_t *node, int link_id) {
+    if (tcp == NULL) return UB_ERR_INVAL;
+    int rc = ub_node_link_attach(node, link_id, &ub_tcp_ops, tcp);
+    if (rc < 0) return rc;
+    tcp->node = node;
+    tcp->link_id = link_id;
+    return UB_OK;
+}
+
+/* A new stream starts: re-attaching resets the slot's decoder (no half frame from the old stream survives). */
+static void connection_up(ub_tcp_t *tcp, int fd) {
+    tcp->fd = fd;
+    tcp->state = UB_TCP_UP;
+    tcp->tx_len = 0;
+    tcp->backoff_ms = tcp->opt.backoff_initial_ms;
+    tcp->stats.connects++;
+    if (tcp->had_connection) tcp->stats.reconnects++;
+    tcp->had_connection = 1;
+    set_nodelay(fd);
+    /* Cannot fail: ub_tcp_attach() succeeded with these same arguments. */
+    int attached = ub_node_link_attach(tcp->node, tcp->link_id, &ub_tcp_ops, tcp);
+    (void)attached;
+}
+
+static void server_accept(ub_tcp_t *tcp, uint64_t now_ms) {
+    for (;;) {
+        int fd = accept(tcp->listen_fd, NULL, NULL);
+        if (fd < 0) return; /* EAGAIN: nobody waiting; other errors: the next service retries */
+        if (set_nonblocking(fd) < 0) {
+            close(fd);
+            continue;
+        }
+        if (tcp->state == UB_TCP_UP) {
+            tcp->stats.replaced++;
+            connection_lost(tcp, now_ms, 1);
+        }
+        connection_up(tcp, fd);
+    }
+}
+
+static void client_start_attempt(ub_tcp_t *tcp, uint64_t now_ms) {
+    tcp->stats.attempts++;
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    if (fd < 0 || set_nonblocking(fd) < 0) {
+        if (fd >= 0) close(fd);
+        tcp->stats.failed_attempts++;
+        connection_lost(tcp, now_ms, 0);
+        return;
+    }
+    if (connect(fd, (const struct sockaddr *)&tcp->addr, sizeof tcp->addr) == 0) {
+        connection_up(tcp, fd);
+        return;
+    }
+    if (errno == EINPROGRESS || errno == EINTR) {
+        tcp->fd = fd;
+        tcp->state = UB_TCP_CONNECTING;
+        return;
+    }
+    close(fd);
+    tcp->stats.failed_attempts++;
+    connection_lost(tcp, now_ms, 0);
+}
+
+/* Checks a connect() in progress without waiting: writable means finished, SO_ERROR says how. */
+static void client_check_attempt(ub_tcp_t *tcp, uint64_t now_ms) {
+    struct pollfd p = {.fd = tcp->fd, .events = POLLOUT};
+    if (poll(&p, 1, 0) <= 0) return;
+    int err = 0;
+    socklen_t len = sizeof err;
+    if (getsockopt(tcp->fd, SOL_SOCKET, SO_ERROR, &err, &len) < 0 || err != 0) {
+        tcp->stats.failed_attempts++;
+        connection_lost(tcp, now_ms, 0);
+        return;
+    }
+    int fd = tcp->fd;
+    connection_up(tcp, fd);
+}
+
+/* @return frames found, or -1 when the connection was lost. */
+static int read_available(ub_tcp_t *tcp, uint64_t now_ms) {
+    int frames = 0;
+    for (int i = 0; i < UB_TCP_RX_BUDGET && tcp->state == UB_TCP_UP; i++) {
+        ssize_t n = recv(tcp->fd, tcp->rx, sizeof tcp->rx, 0);
+        if (n > 0) {
+            tcp->stats.bytes_in += (uint64_t)n;
+            int found = ub_node_rx(tcp->node, tcp->link_id, tcp->rx, (size_t)n, now_ms);
+            if (found > 0) frames += found;
+            continue;
+        }
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
+        connection_lost(tcp, now_ms, 1); /* 0: orderly close by the peer; < 0: reset or error */
+        break;
+    }
+    return frames;
+}
+
+int ub_tcp_service(ub_tcp_t *tcp, ub_node_t *node, uint64_t now_ms) {
+    if (tcp == NULL || node == NULL || node != tcp->node) return UB_ERR_INVAL;
+    if (tcp->role == UB_TCP_SERVER && tcp->listen_fd >= 0) server_accept(tcp, now_ms);
+    if (tcp->role == UB_TCP_CLIENT && tcp->state == UB_TCP_DOWN && now_ms >= tcp->next_attempt_ms)
+        client_start_attempt(tcp, now_ms);
+    if (tcp->state == UB_TCP_CONNECTING) client_check_attempt(tcp, now_ms);
+    if (tcp->state != UB_TCP_UP) return 0;
+    if (tcp->tx_len > 0 &&
+        ub_stream_tx_flush(tcp->fd, socket_write, tcp->tx, &tcp->tx_len, &tcp->stats.bytes_out) < 0) {
+        connection_lost(tcp, now_ms, 1);
+        return 0;
+    }
+    return read_available(tcp, now_ms);
+}
+
+int ub_tcp_fileno(const ub_tcp_t *tcp) { return tcp == NULL ? -1 : tcp->fd; }
+
+int ub_tcp_listen_fileno(const ub_tcp_t *tcp) { return tcp == NULL ? -1 : tcp->listen_fd; }
+
+ub_tcp_state_t ub_tcp_state(const ub_tcp_t *tcp) { return tcp == NULL ? UB_TCP_DOWN : tcp->state; }
+
+size_t ub_tcp_tx_pending(const ub_tcp_t *tcp) { return tcp == NULL ? 0 : tcp->tx_len; }
+
+const ub_tcp_stats_t *ub_tcp_stats(const ub_tcp_t *tcp) { return tcp == NULL ? NULL : &tcp->stats; }
+
+void ub_tcp_close(ub_tcp_t *tcp) {
+    if (tcp == NULL) return;
+    if (tcp->fd >= 0) close(tcp->fd);
+    if (tcp->listen_fd >= 0) close(tcp->listen_fd);
+    tcp->fd = -1;
+    tcp->listen_fd = -1;
+    tcp->state = UB_TCP_DOWN;
+}

@@ -1,0 +1,11 @@
+# Socket and serial driver tests (test_udp, test_tcp, test_serial): they reuse the router tests'
+# support (hand-written catalogue, the two-node pair) and replace the pair's memlink with a real transport.
+foreach(t test_udp test_tcp test_serial)
+  if(TARGET ${t})
+    target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_fig9.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_pair.c)
+    target_include_directories(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests)
+    set_tests_properties(${t} PROPERTIES TIMEOUT 60)
+  endif()
+endforeach()

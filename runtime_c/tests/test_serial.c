@@ -1,0 +1,209 @@
+/*
+ * The serial driver over a pseudo-terminal pair: a subscription runs over the
+ * "wire"; frames survive arbitrary read chunking and garbage injected between
+ * them (seeded, so every run writes the same bytes); termios settings and
+ * argument errors.
+ */
+#define _XOPEN_SOURCE 700 /* posix_openpt, grantpt, unlockpt, ptsname */
+
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <stdlib.h>
+#include <string.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include "support/ub_test_pair.h"
+#include "ub/ub_pubsub.h"
+#include "ub/ub_serial.h"
+
+typedef struct serial_pair {
+    pair_t *p;
+    int master;
+    ub_serial_t slave_end;  /* sub side: the "device" */
+    ub_serial_t master_end; /* pub side */
+} serial_pair_t;
+
+static int open_pty_master(char *slave_path, size_t cap) {
+    int master = posix_openpt(O_RDWR | O_NOCTTY);
+    assert_true(master >= 0);
+    assert_int_equal(grantpt(master), 0);
+    assert_int_equal(unlockpt(master), 0);
+    const char *name = ptsname(master);
+    assert_non_null(name);
+    assert_true(strlen(name) < cap);
+    strcpy(slave_path, name);
+    return master;
+}
+
+static serial_pair_t *serial_pair_new(void) {
+    serial_pair_t *s = calloc(1, sizeof *s);
+    assert_non_null(s);
+    s->p = pair_new(NULL);
+    char slave_path[128];
+    s->master = open_pty_master(slave_path, sizeof slave_path);
+    /* Raw mode on the slave first: with the default line discipline the pty would echo and translate bytes. */
+    assert_int_equal(ub_serial_open(&s->slave_end, slave_path, 115200), UB_OK);
+    assert_int_equal(ub_serial_adopt(&s->master_end, s->master, 0), UB_OK);
+    assert_int_equal(ub_serial_attach(&s->slave_end, s->p->sub_node, s->p->sub_link), UB_OK);
+    assert_int_equal(ub_serial_attach(&s->master_end, s->p->pub_node, s->p->pub_link), UB_OK);
+    return s;
+}
+
+static void serial_pair_free(serial_pair_t *s) {
+    ub_serial_close(&s->slave_end);
+    ub_serial_close(&s->master_end); /* adopted: not closed by the driver */
+    close(s->master);
+    pair_free(s->p);
+    free(s);
+}
+
+/* The pty hands written bytes to the other side asynchronously: wait briefly (real time) for input. */
+static void wait_input(serial_pair_t *s, int wait_ms) {
+    struct pollfd fds[2] = {{.fd = ub_serial_fileno(&s->slave_end), .events = POLLIN},
+                            {.fd = s->master, .events = POLLIN}};
+    (void)poll(fds, 2, wait_ms);
+}
+
+static void step(serial_pair_t *s, uint64_t now_ms) {
+    ub_node_tick(s->p->pub_node, now_ms);
+    ub_node_tick(s->p->sub_node, now_ms);
+    wait_input(s, 0);
+    assert_true(ub_serial_service(&s->master_end, s->p->pub_node, now_ms) >= 0);
+    assert_true(ub_serial_service(&s->slave_end, s->p->sub_node, now_ms) >= 0);
+}
+
+static void test_two_nodes_exchange_over_a_pty(void **state) {
+    (void)state;
+    serial_pair_t *s = serial_pair_new();
+    pair_t *p = s->p;
+    struct termios tio;
+    assert_int_equal(tcgetattr(ub_serial_fileno(&s->slave_end), &tio), 0);
+    assert_int_equal(cfgetospeed(&tio), B115200);
+    assert_int_equal(tio.c_cflag & CSIZE, CS8);
+    assert_int_equal(tio.c_cflag & (PARENB | CSTOPB), 0);
+    assert_int_equal(tio.c_lflag & (ICANON | ECHO), 0);
+
+    assert_true(ub_pubsub_subscribe(p->sub_node, p->sub, TEST_GPS, p->pub_id, 50, 0) >= 0);
+    for (uint64_t now = 0; now < 1000; now++) {
+        if (now % 50 == 1) wait_input(s, 20); /* let the request and each DATA frame cross the pty */
+        step(s, now);
+    }
+    /* Frames that crossed the pty late arrive a step or two later; they still count. */
+    size_t got = delivery_count(&p->log, p->sub, TEST_GPS, 0, 1000);
+    assert_in_range(got, 15, 21);
+    assert_memory_equal(&p->gps_dst, &p->gps_src, sizeof p->gps_src);
+    assert_int_equal(s->master_end.stats.bytes_out, ub_node_link(p->pub_node, p->pub_link)->counters.bytes_out);
+    assert_true(ub_node_link(p->pub_node, p->pub_link)->counters.frames_in >= 1); /* the subscription request */
+    serial_pair_free(s);
+}
+
+/* xorshift64: the test's own seeded byte source. */
+static uint64_t next_random(uint64_t *state) {
+    uint64_t x = *state;
+    x ^= x << 13;
+    x ^= x >> 7;
+    x ^= x << 17;
+    *state = x;
+    return x;
+}
+
+#define N_FRAMES 30
+#define STREAM_MAX (N_FRAMES * (UB_FRAME_MAX + 64))
+
+static void test_frames_survive_chunking_and_garbage(void **state) {
+    (void)state;
+    serial_pair_t *s = serial_pair_new();
+    pair_t *p = s->p;
+    /* Capture real DATA frames from the pub node instead of sending them on the pty. */
+    capture_t *cap = calloc(1, sizeof *cap);
+    assert_non_null(cap);
+    assert_int_equal(ub_node_link_attach(p->pub_node, p->pub_link, &capture_ops, cap), UB_OK);
+    for (int i = 0; i < N_FRAMES; i++)
+        assert_int_equal(ub_node_send_data(p->pub_node, p->pub, TEST_GPS, p->sub_id, 0), 1);
+    assert_int_equal(cap->n, N_FRAMES);
+
+    /* Stream: garbage (random bytes; every 3rd time a stray sync word, every 5th a frame's first half), then a
+     * frame; repeat. */
+    uint8_t *stream = calloc(1, STREAM_MAX);
+    assert_non_null(stream);
+    size_t len = 0;
+    uint64_t rng = 0x5eed5eed12345678ULL;
+    size_t garbage = 0;
+    for (size_t f = 0; f < N_FRAMES; f++) {
+        size_t junk = next_random(&rng) % 40;
+        for (size_t j = 0; j < junk; j++) stream[len++] = (uint8_t)next_random(&rng);
+        if (f % 3 == 1) {
+            stream[len++] = UB_SYNC0;
+            stream[len++] = UB_SYNC1;
+            junk += 2;
+        }
+        if (f % 5 == 2) {
+            memcpy(stream + len, cap->frame[f], cap->len[f] / 2); /* a cut-off frame */
+            len += cap->len[f] / 2;
+            junk += cap->len[f] / 2;
+        }
+        garbage += junk;
+        memcpy(stream + len, cap->frame[f], cap->len[f]);
+        len += cap->len[f];
+    }
+
+    /* Write in random chunks of 1..64 bytes, serving the slave between writes. */
+    size_t off = 0;
+    for (int i = 0; i < 100000 && off < len; i++) {
+        size_t chunk = 1 + next_random(&rng) % 64;
+        if (chunk > len - off) chunk = len - off;
+        ssize_t n = write(s->master, stream + off, chunk);
+        if (n > 0) off += (size_t)n;
+        else assert_true(n < 0 && errno == EAGAIN);
+        assert_true(ub_serial_service(&s->slave_end, p->sub_node, 0) >= 0);
+    }
+    assert_int_equal(off, len);
+    for (int i = 0; i < 200 && p->log.n < N_FRAMES; i++) {
+        wait_input(s, 5);
+        assert_true(ub_serial_service(&s->slave_end, p->sub_node, 0) >= 0);
+    }
+    assert_int_equal(p->log.n, N_FRAMES);
+    for (size_t i = 0; i < N_FRAMES; i++) assert_int_equal(p->log.d[i].seq, i + 1);
+    const ub_link_t *link = ub_node_link(p->sub_node, p->sub_link);
+    assert_int_equal(link->counters.frames_in, N_FRAMES);
+    assert_int_equal(s->slave_end.stats.bytes_in, len);
+    /* Everything that was not a delivered frame is accounted for as garbage or rejected candidates. */
+    assert_int_equal(link->decoder.stats.bytes_ok + garbage, len);
+    assert_true(link->decoder.stats.garbage_bytes > 0);
+    uint64_t rejected = 0;
+    for (int r = 0; r < UB_RX_REASON_COUNT; r++)
+        rejected += ub_node_link_bad_frames(p->sub_node, p->sub_link, (ub_rx_reason_t)r);
+    assert_true(rejected >= N_FRAMES / 3); /* the stray sync words and cut-off frames were candidates, then refused */
+    free(stream);
+    free(cap);
+    serial_pair_free(s);
+}
+
+static void test_open_errors(void **state) {
+    (void)state;
+    ub_serial_t s;
+    assert_int_equal(ub_serial_open(&s, "/nonexistent/tty", 115200), UB_ERR_IO);
+    assert_int_equal(ub_serial_open(&s, "/dev/null", 12345), UB_ERR_RANGE);
+    assert_int_equal(ub_serial_open(&s, "/dev/null", 9600), UB_ERR_IO); /* not a tty */
+    assert_int_equal(errno, ENOTTY);
+    assert_int_equal(ub_serial_fileno(&s), -1);
+    assert_int_equal(ub_serial_adopt(&s, -1, 0), UB_ERR_INVAL);
+    assert_int_equal(ub_serial_service(&s, NULL, 0), UB_ERR_INVAL);
+    ub_serial_close(&s);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_two_nodes_exchange_over_a_pty),
+        cmocka_unit_test(test_frames_survive_chunking_and_garbage),
+        cmocka_unit_test(test_open_errors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,141 @@
+/*
+ * The UDP driver over 127.0.0.1: two nodes run a subscription over real
+ * sockets (request one way, DATA the other), bad datagrams are counted by
+ * reason, datagrams from a stranger are ignored and counted.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <arpa/inet.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "support/ub_test_pair.h"
+#include "ub/ub_pubsub.h"
+#include "ub/ub_udp.h"
+
+typedef struct udp_pair {
+    pair_t *p;
+    ub_udp_t a; /* pub side */
+    ub_udp_t b; /* sub side */
+    uint16_t port_a, port_b;
+} udp_pair_t;
+
+static udp_pair_t *udp_pair_new(void) {
+    udp_pair_t *u = calloc(1, sizeof *u);
+    assert_non_null(u);
+    u->p = pair_new(NULL);
+    assert_int_equal(ub_udp_open(&u->a, "127.0.0.1", 0, "127.0.0.1", 9), UB_OK);
+    assert_int_equal(ub_udp_open(&u->b, "127.0.0.1", 0, "127.0.0.1", 9), UB_OK);
+    assert_int_equal(ub_udp_local_port(&u->a, &u->port_a), UB_OK);
+    assert_int_equal(ub_udp_local_port(&u->b, &u->port_b), UB_OK);
+    assert_int_equal(ub_udp_set_peer(&u->a, "127.0.0.1", u->port_b), UB_OK);
+    assert_int_equal(ub_udp_set_peer(&u->b, "127.0.0.1", u->port_a), UB_OK);
+    assert_int_equal(ub_udp_attach(&u->a, u->p->pub_node, u->p->pub_link), UB_OK);
+    assert_int_equal(ub_udp_attach(&u->b, u->p->sub_node, u->p->sub_link), UB_OK);
+    return u;
+}
+
+static void udp_pair_free(udp_pair_t *u) {
+    ub_udp_close(&u->a);
+    ub_udp_close(&u->b);
+    pair_free(u->p);
+    free(u);
+}
+
+/* One simulated millisecond: tick both nodes, then serve both sockets (loopback UDP delivers within sendto()). */
+static void step(udp_pair_t *u, uint64_t now_ms) {
+    ub_node_tick(u->p->pub_node, now_ms);
+    ub_node_tick(u->p->sub_node, now_ms);
+    assert_true(ub_udp_service(&u->a, u->p->pub_node, now_ms) >= 0);
+    assert_true(ub_udp_service(&u->b, u->p->sub_node, now_ms) >= 0);
+}
+
+static void run(udp_pair_t *u, uint64_t from_ms, uint64_t to_ms) {
+    for (uint64_t t = from_ms; t < to_ms; t++) step(u, t);
+}
+
+static void test_two_nodes_exchange_over_udp(void **state) {
+    (void)state;
+    udp_pair_t *u = udp_pair_new();
+    pair_t *p = u->p;
+    assert_true(ub_pubsub_subscribe(p->sub_node, p->sub, TEST_GPS, p->pub_id, 50, 0) >= 0);
+    run(u, 0, 1000);
+    /* About 19 DATA frames at 50 ms in the second after the request; allow a few for timing. */
+    size_t got = delivery_count(&p->log, p->sub, TEST_GPS, 0, 1000);
+    assert_in_range(got, 15, 21);
+    assert_memory_equal(&p->gps_dst, &p->gps_src, sizeof p->gps_src);
+    const ub_link_counters_t *pub = &ub_node_link(p->pub_node, p->pub_link)->counters;
+    const ub_link_counters_t *sub = &ub_node_link(p->sub_node, p->sub_link)->counters;
+    assert_true(pub->frames_in >= 1);                  /* the subscription request */
+    assert_int_equal(sub->frames_in, pub->frames_out); /* nothing lost on loopback */
+    assert_int_equal(u->a.stats.datagrams_out, pub->frames_out);
+    assert_int_equal(u->b.stats.datagrams_in, sub->frames_in);
+    assert_int_equal(u->b.stats.rejected, 0);
+    udp_pair_free(u);
+}
+
+static void send_raw(int fd, uint16_t port, const uint8_t *bytes, size_t len) {
+    struct sockaddr_in to = {.sin_family = AF_INET, .sin_port = htons(port)};
+    assert_int_equal(inet_pton(AF_INET, "127.0.0.1", &to.sin_addr), 1);
+    assert_int_equal(sendto(fd, bytes, len, 0, (const struct sockaddr *)&to, sizeof to), (ssize_t)len);
+}
+
+static void test_bad_and_foreign_datagrams_are_counted(void **state) {
+    (void)state;
+    udp_pair_t *u = udp_pair_new();
+    pair_t *p = u->p;
+    assert_true(ub_node_send_data(p->pub_node, p->pub, TEST_GPS, p->sub_id, 0) == 1);
+    run(u, 0, 20);
+    assert_int_equal(p->log.n, 1);
+    uint8_t frame[UB_FRAME_MAX];
+    const uint8_t dir_id[UB_DIR_ID_LEN] = {0};
+    size_t len = make_frame(frame, UB_ADMIN_DATA, dir_id, "pub", "sub", 99, 8, 0, NULL, 0);
+    assert_true(len > 0);
+    uint8_t bad_crc[UB_FRAME_MAX];
+    memcpy(bad_crc, frame, len);
+    bad_crc[len - 1] ^= 0x40;
+    const uint8_t garbage[] = "hello, not a frame";
+    int from_peer = ub_udp_fileno(&u->a); /* the peer's own socket: these pass the source filter */
+    send_raw(from_peer, u->port_b, bad_crc, len);
+    send_raw(from_peer, u->port_b, garbage, sizeof garbage);
+    send_raw(from_peer, u->port_b, frame, len - 3);
+    ub_udp_t stranger;
+    assert_int_equal(ub_udp_open(&stranger, "127.0.0.1", 0, "127.0.0.1", u->port_b), UB_OK);
+    send_raw(ub_udp_fileno(&stranger), u->port_b, frame, len);
+    run(u, 20, 60);
+    assert_int_equal(ub_node_link_bad_frames(p->sub_node, p->sub_link, UB_RX_BAD_CRC), 1);
+    assert_int_equal(ub_node_link_bad_frames(p->sub_node, p->sub_link, UB_RX_BAD_SYNC), 1);
+    assert_int_equal(ub_node_link_bad_frames(p->sub_node, p->sub_link, UB_RX_BAD_LENGTH), 1);
+    assert_int_equal(u->b.stats.rejected, 3);
+    assert_int_equal(u->b.stats.foreign, 1);
+    assert_int_equal(p->log.n, 1); /* the stranger's valid frame was not delivered */
+    ub_udp_close(&stranger);
+    udp_pair_free(u);
+}
+
+static void test_argument_errors(void **state) {
+    (void)state;
+    ub_udp_t u;
+    assert_int_equal(ub_udp_open(&u, "not an address", 0, "127.0.0.1", 1), UB_ERR_INVAL);
+    assert_int_equal(ub_udp_open(&u, "127.0.0.1", 0, NULL, 1), UB_ERR_INVAL);
+    assert_int_equal(ub_udp_fileno(&u), -1);
+    assert_int_equal(ub_udp_open(&u, "127.0.0.1", 0, "127.0.0.1", 1), UB_OK);
+    assert_int_equal(ub_udp_service(&u, NULL, 0), UB_ERR_INVAL); /* not attached */
+    ub_udp_close(&u);
+    ub_udp_close(&u);
+    assert_int_equal(ub_udp_fileno(&u), -1);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_two_nodes_exchange_over_udp),
+        cmocka_unit_test(test_bad_and_foreign_datagrams_are_counted),
+        cmocka_unit_test(test_argument_errors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
