@@ -69,6 +69,9 @@ static void check_catalogue(check_state_t *st) {
     expect(st, cat->n_instances >= MIN_INSTANCES, "at least 700 instances", detail);
     expect(st, cat->abi_version == UB_CATALOGUE_ABI_VERSION, "catalogue ABI version", "regenerate");
     expect(st, cat->id_scheme == UB_ID_SCHEME_PAPER, "paper ID scheme", "uavbus_generate default");
+    expect(st, cat->json != NULL && cat->json_len == strlen(cat->json) && cat->json_len > 1000 &&
+                   strncmp(cat->json, "{\"catalogue\":\"flightsw\"", 23) == 0,
+           "embedded self-description", "the compact catalogue JSON, for log headers");
     for (size_t i = 0; i < cat->n_instances; i++) {
         const ub_instance_desc_t *in = &cat->instances[i];
         if (i > 0) {

@@ -9,8 +9,12 @@ from .model import Catalogue, Field, StructType
 from .render import ABI_VERSION
 
 
-def catalogue_json(cat: Catalogue, name: str) -> str:
-    """Deterministic JSON text: fixed key order, two-space indent, one final newline."""
+def catalogue_json(cat: Catalogue, name: str, compact: bool = False) -> str:
+    """Deterministic JSON text: fixed key order, two-space indent, one final newline.
+
+    `compact` gives the same document on one line with no spaces: the self-description embedded in
+    the generated C catalogue (ub_catalogue_t.json), which binary logs copy into their header.
+    """
     doc = {
         "catalogue": name,
         "abi_version": ABI_VERSION,
@@ -24,6 +28,8 @@ def catalogue_json(cat: Catalogue, name: str) -> str:
             {"name": s.name, "file": s.loc.file, "line": s.loc.line, "reason": s.reason} for s in cat.skipped_instances
         ],
     }
+    if compact:
+        return json.dumps(doc, separators=(",", ":"), ensure_ascii=True)
     return json.dumps(doc, indent=2, ensure_ascii=True) + "\n"
 
 

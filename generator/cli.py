@@ -127,7 +127,7 @@ def generate(job: Job, cat: model.Catalogue, with_selftest: bool = False) -> dic
     if f"{job.name}.h" in {os.path.basename(i) for i in includes}:
         raise UsageError(f"--name {job.name} would make {job.name}.h include itself instead of the input "
                          f"header of that name; choose another --name")
-    renderer = render.Renderer(cat, render.RenderInputs(job.name, includes))
+    renderer = render.Renderer(cat, render.RenderInputs(job.name, includes, catalogue_json(cat, job.name, compact=True)))
     files = renderer.render()
     files[f"{job.name}.catalogue.json"] = catalogue_json(cat, job.name)
     if with_selftest:

@@ -7,6 +7,7 @@ deterministic self-test values (mavgen `gen_test_value` style) shared by the C a
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 import os
@@ -368,9 +369,20 @@ def _make_types(records: dict[str, FeRecord], needed: set[str], relpath: Callabl
     return done
 
 
+_ANONYMOUS_AT = re.compile(r"\((unnamed|anonymous) at ([^():]+):(\d+):(\d+)\)")
+
+
+def _spelling(text: str, relpath: Callable[[str], str]) -> str:
+    """clang spells anonymous records with the header's absolute path; write it relative, so the
+    output does not depend on where the tree is checked out."""
+    return _ANONYMOUS_AT.sub(lambda m: f"({m[1]} at {relpath(m[2])}:{m[3]}:{m[4]})", text)
+
+
 def _make_field(f: FeField, relpath: Callable[[str], str]) -> Field:
     loc = SourceLoc(relpath(f.loc.file), f.loc.line)
     t = f.type
+    if isinstance(t, FeOther):
+        t = dataclasses.replace(t, spelling=_spelling(t.spelling, relpath))
     common = dict(name=f.name, dims=f.dims, offset_bits=f.offset_bits, loc=loc)
     if isinstance(t, FeOther):
         reason = {"pointer": SKIP_POINTER, "union": SKIP_UNION, "flexible": SKIP_FLEXIBLE}.get(t.what)

@@ -20,7 +20,7 @@ from . import model
 from .model import Catalogue, Field, StructType
 
 TEMPLATE_DIR = Path(__file__).resolve().parent.parent / "templates"
-ABI_VERSION = 1  # must equal UB_CATALOGUE_ABI_VERSION in runtime_c/include/ub/ub_catalogue.h
+ABI_VERSION = 2  # must equal UB_CATALOGUE_ABI_VERSION in runtime_c/include/ub/ub_catalogue.h
 
 
 class Properties:
@@ -45,6 +45,7 @@ class Properties:
 class RenderInputs:
     name: str  # NAME: output base name and C/Python prefix
     includes: tuple[str, ...]  # headers NAME.h includes, as written in #include "..."
+    catalogue_json: str = ""  # compact catalogue JSON, embedded in NAME.c as the catalogue's self-description
 
 
 class Renderer:
@@ -63,14 +64,14 @@ class Renderer:
             autoescape=False,
         )
         self.env.filters.update(
-            c_put=c_put, c_get=c_get, c_literal=c_literal, c_bytes=c_bytes, c_string=c_string,
+            c_put=c_put, c_get=c_get, c_literal=c_literal, c_bytes=c_bytes, c_string=c_string, c_string_lines=c_string_lines,
             py_attr=lambda n: self.props.mangle(n, "py"), py_class=self.py_class,
             py_format=self.py_format, py_literal=py_literal, hex8=lambda v: f"0x{v:08x}",
         )
         self.env.globals.update(
             cat=cat, NAME=inputs.name, includes=inputs.includes, abi_version=ABI_VERSION, model=model,
             type_of=cat.type, leaves_of=self.leaves_count, C_PATH=c_path, render_node=self.render_node,
-            id_scheme_c="UB_ID_SCHEME_" + cat.id_scheme.upper(),
+            id_scheme_c="UB_ID_SCHEME_" + cat.id_scheme.upper(), catalogue_json=inputs.catalogue_json,
         )
 
     # -- template resolution ------------------------------------------------------------------
@@ -200,6 +201,12 @@ def c_bytes(raw: bytes) -> str:
 def c_string(text: str) -> str:
     """A C string literal."""
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def c_string_lines(text: str, width: int = 96) -> str:
+    """A long C string literal as adjacent literals, one per line (the compiler joins them)."""
+    chunks = [text[i:i + width] for i in range(0, len(text), width)] or [""]
+    return "\n".join("    " + c_string(c) for c in chunks)
 
 
 def c_path(path: model.Path, base: str) -> str:

@@ -314,7 +314,9 @@ static void deliver_data(ub_node_t *node, int slot, int link_id, const ub_frame_
         count_drop(node, link_id, UB_DROP_UNBOUND);
         return;
     }
-    if (type->unpack(storage, payload, h->payload_size) < 0) {
+    if (type->unpack == NULL) {
+        memcpy(storage, payload, h->payload_size); /* wire-image storage (ub_type_desc_t) */
+    } else if (type->unpack(storage, payload, h->payload_size) < 0) {
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
         return;
     }
@@ -444,8 +446,14 @@ int ub_priv_send_data_from_slot(ub_node_t *node, int slot, uint32_t instance, co
     if (storage == NULL) return UB_ERR_NOTFOUND;
     const ub_instance_desc_t *inst = &node->cat->instances[instance];
     uint8_t frame[UB_FRAME_MAX];
-    int packed = inst->type->pack(storage, frame + UB_FRAME_HEADER_LEN, UB_MAX_PAYLOAD);
-    if (packed < 0) return packed;
+    int packed;
+    if (inst->type->pack == NULL) { /* wire-image storage (ub_type_desc_t) */
+        memcpy(frame + UB_FRAME_HEADER_LEN, storage, inst->type->packed_size);
+        packed = (int)inst->type->packed_size;
+    } else {
+        packed = inst->type->pack(storage, frame + UB_FRAME_HEADER_LEN, UB_MAX_PAYLOAD);
+        if (packed < 0) return packed;
+    }
     ub_frame_header_t h;
     memset(&h, 0, sizeof h);
     memcpy(h.dir_id, inst->id, UB_DIR_ID_LEN);

@@ -177,6 +177,51 @@ static void test_full_window_table_evicts_least_recent(void **state) {
     free(f);
 }
 
+
+/* A catalogue whose types have no codec (what the Python binding builds from catalogue.json): the
+ * bound storage is the wire image, copied as is, and still checked by fingerprint and size. */
+static void test_wire_image_storage(void **state) {
+    (void)state;
+    ub_type_desc_t wire_types[2] = {*ub_test_cat.instances[TEST_GPS].type, *ub_test_cat.instances[TEST_IMU].type};
+    for (int i = 0; i < 2; i++) wire_types[i].pack = NULL, wire_types[i].unpack = NULL;
+    ub_instance_desc_t wire_instances[2] = {ub_test_cat.instances[TEST_GPS], ub_test_cat.instances[TEST_IMU]};
+    wire_instances[0].type = &wire_types[0];
+    wire_instances[1].type = &wire_types[1];
+    ub_catalogue_t wire_cat = ub_test_cat;
+    wire_cat.types = wire_types;
+    wire_cat.instances = wire_instances;
+
+    world_t *w = world_new();
+    ub_node_t *c = world_node(w, &ub_test_cat, NULL);
+    ub_node_t *py = world_node(w, &wire_cat, NULL);
+    int c_uav = ub_node_add_entity_name(c, "uav", true), c_gcs = ub_node_add_entity_name(c, "gcs", false);
+    int p_uav = ub_node_add_entity_name(py, "uav", false), p_gcs = ub_node_add_entity_name(py, "gcs", true);
+    int lc = ub_node_add_link(c, c_uav, 0, "toGcs"), lp = ub_node_add_link(py, p_gcs, 0, "toUav");
+    assert_int_equal(ub_node_set_mask(c, c_uav, c_gcs, 1), UB_OK);
+    assert_int_equal(ub_node_set_mask(py, p_gcs, p_uav, 1), UB_OK);
+    world_connect(w, c, lc, py, lp, NULL, 1);
+    struct test_gps gps = {47.5, 8.25, 512.5f, 3}, back;
+    uint8_t image[24] = {0};
+    assert_int_equal(ub_node_bind(c, TEST_GPS, &gps), UB_OK);
+    assert_int_equal(ub_node_bind(py, TEST_GPS, image), UB_OK);
+    uint8_t gcs_id[UB_ENTITY_ID_LEN], uav_id[UB_ENTITY_ID_LEN], expect[24];
+    test_eid("gcs", gcs_id);
+    test_eid("uav", uav_id);
+    assert_int_equal(ub_node_send_data(c, c_uav, TEST_GPS, gcs_id, 0), 1);
+    world_run(w, 1, 1);
+    assert_int_equal(ub_test_cat.instances[TEST_GPS].type->pack(&gps, expect, sizeof expect), 24);
+    assert_memory_equal(image, expect, 24);
+
+    image[0] ^= 0x01; /* the wire-image side changes a value and sends it back */
+    assert_int_equal(ub_node_bind(c, TEST_GPS, &back), UB_OK);
+    assert_int_equal(ub_node_send_data(py, p_gcs, TEST_GPS, uav_id, 1), 1);
+    world_run(w, 2, 1);
+    assert_int_equal(ub_node_counters(c)->delivered, 1);
+    assert_true(back.lat != gps.lat);
+    assert_true(back.lon == gps.lon && back.alt == gps.alt && back.fix == gps.fix);
+    free(w);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_setup_api_contracts),
@@ -184,6 +229,7 @@ int main(void) {
         cmocka_unit_test(test_duplicate_window),
         cmocka_unit_test(test_sequence_wraps),
         cmocka_unit_test(test_full_window_table_evicts_least_recent),
+        cmocka_unit_test(test_wire_image_storage),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

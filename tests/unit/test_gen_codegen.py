@@ -13,6 +13,7 @@ from types import ModuleType
 
 import jsonschema
 import pytest
+from uavbus_gen import render
 from gen_testutil import ALL_KINDS, REPO, RUNTIME_INCLUDE, gcc, needs_gcc, run_cli, write
 
 SCHEMA = json.loads((REPO / "schemas" / "catalogue.schema.json").read_text())
@@ -58,7 +59,7 @@ def test_generated_code_has_banner_abi_check_and_static_asserts(kinds_out: Path)
     h = (kinds_out / "kinds.h").read_text()
     c = (kinds_out / "kinds.c").read_text()
     assert "DO NOT EDIT" in h and "DO NOT EDIT" in c and "DO NOT EDIT" in (kinds_out / "kinds.py").read_text()
-    assert "#if UB_CATALOGUE_ABI_VERSION != 1" in h
+    assert f"#if UB_CATALOGUE_ABI_VERSION != {render.ABI_VERSION}" in h
     assert "_Static_assert(sizeof(struct vec3) == 12u" in c
     assert "_Static_assert(offsetof(struct all_kinds, roll)" in c
     assert "offsetof(struct all_kinds, bf_u3)" not in c  # bitfields have no offsetof
@@ -135,7 +136,7 @@ def test_python_module_catalogue(kinds_out: Path) -> None:
     assert ids == sorted(ids)
     assert mod.BY_NAME["kinds"][1] is mod.all_kinds
     assert mod.BY_ID[b"lattice[ce[1][0]"] == ("lattice[1][0]", mod.vec3)
-    assert mod.ID_SCHEME == "paper" and mod.ABI_VERSION == 1
+    assert mod.ID_SCHEME == "paper" and mod.ABI_VERSION == render.ABI_VERSION
     assert mod.empty_set().pack() == b""
 
 

@@ -24,7 +24,7 @@ extern "C" {
 #define UB_ENTITY_ID_LEN 12 /**< entity ID length, paper III.C */
 
 /** Bumped whenever the layout of these descriptors changes; generated code checks it. */
-#define UB_CATALOGUE_ABI_VERSION 1
+#define UB_CATALOGUE_ABI_VERSION 2
 
 /**
  * Packs `obj` into `buf`. Never writes past `cap`.
@@ -38,13 +38,19 @@ typedef int (*ub_pack_fn)(const void *obj, uint8_t *buf, size_t cap);
  */
 typedef int (*ub_unpack_fn)(void *obj, const uint8_t *buf, size_t len);
 
+/**
+ * One directory type. Generated C fills `pack`/`unpack`. A catalogue built at
+ * run time from `<name>.catalogue.json` (the Python binding) leaves both NULL:
+ * its bound storage then holds the **wire image** (packed_size bytes) and the
+ * router copies it as is. Either way the fingerprint and size checks apply.
+ */
 typedef struct ub_type_desc {
     const char *name;       /**< C type name, e.g. "struct gps_out" or a typedef name */
     uint32_t fingerprint;   /**< layout fingerprint (docs/wire-format.md) */
     uint32_t packed_size;   /**< bytes on the wire; fixed per type */
     uint32_t c_size;        /**< sizeof the C type, as measured by clang */
-    ub_pack_fn pack;
-    ub_unpack_fn unpack;
+    ub_pack_fn pack;        /**< NULL: storage is the wire image */
+    ub_unpack_fn unpack;    /**< NULL: storage is the wire image */
 } ub_type_desc_t;
 
 typedef struct ub_instance_desc {
@@ -64,6 +70,11 @@ typedef struct ub_catalogue {
     const ub_instance_desc_t *instances;  /**< sorted by id */
     size_t n_instances;
     uint32_t max_packed_size;             /**< largest packed_size of any type */
+    /** Self-description: the compact `<name>.catalogue.json` text (types with
+     *  field layout, instances with IDs), NUL-terminated; NULL if absent.
+     *  Binary logs embed it so they decode without the build that wrote them. */
+    const char *json;
+    size_t json_len;                      /**< strlen(json), 0 if absent */
 } ub_catalogue_t;
 
 /**

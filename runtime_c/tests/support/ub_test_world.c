@@ -109,7 +109,7 @@ static const ub_instance_desc_t base_instances[] = {
     {ID_IMU, "imuOut", &base_types[1]},
 };
 const ub_catalogue_t ub_test_cat = {"test", UB_ID_SCHEME_PAPER, UB_CATALOGUE_ABI_VERSION, base_types, 2,
-                                    base_instances, 2, 28};
+                                    base_instances, 2, 28, NULL, 0};
 
 static const ub_type_desc_t newer_types[] = {gps_type, imu_type, new_type};
 static const ub_instance_desc_t newer_instances[] = {
@@ -118,7 +118,7 @@ static const ub_instance_desc_t newer_instances[] = {
     {ID_NEW, "newMsg", &newer_types[2]},
 };
 const ub_catalogue_t ub_test_cat_newer = {"test_newer", UB_ID_SCHEME_PAPER, UB_CATALOGUE_ABI_VERSION, newer_types, 3,
-                                          newer_instances, 3, 28};
+                                          newer_instances, 3, 28, NULL, 0};
 
 static const ub_type_desc_t changed_types[] = {gps_v2_type, imu_type};
 static const ub_instance_desc_t changed_instances[] = {
@@ -126,7 +126,7 @@ static const ub_instance_desc_t changed_instances[] = {
     {ID_IMU, "imuOut", &changed_types[1]},
 };
 const ub_catalogue_t ub_test_cat_changed = {"test_changed", UB_ID_SCHEME_PAPER, UB_CATALOGUE_ABI_VERSION,
-                                            changed_types, 2, changed_instances, 2, 28};
+                                            changed_types, 2, changed_instances, 2, 28, NULL, 0};
 
 void test_eid(const char *name, uint8_t out[UB_ENTITY_ID_LEN]) { assert_int_equal(ub_entity_id(name, out), UB_OK); }
 

@@ -16,8 +16,8 @@
 
 #include "all_kinds.h"
 
-#if UB_CATALOGUE_ABI_VERSION != 1
-#error "kinds.h was generated for catalogue ABI 1; regenerate it with this runtime's uavbus gen"
+#if UB_CATALOGUE_ABI_VERSION != 2
+#error "kinds.h was generated for catalogue ABI 2; regenerate it with this runtime's uavbus gen"
 #endif
 
 #ifdef __cplusplus

@@ -120,6 +120,33 @@ static const ub_instance_desc_t navcat_instances[5] = {
     { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x31, 0x5d, 0x5b, 0x31, 0x5d }, "waypoint[1][1]", &navcat_types[navcat_TYPE_position_t] },
 };
 
+/* The catalogue's self-description (the compact form of navcat.catalogue.json): binary logs copy it
+ * into their header so they stay decodable without this build. */
+static const char navcat_catalogue_json[] =
+    "{\"catalogue\":\"navcat\",\"abi_version\":2,\"id_scheme\":\"paper\",\"types\":[{\"name\":\"position_t\",\"c_name\""
+    ":\"position_t\",\"size\":24,\"align\":8,\"packed_attr\":false,\"packed_size\":20,\"fingerprint\":\"1de000c6\","
+    "\"file\":\"nav.h\",\"line\":7,\"fields\":[{\"name\":\"lat\",\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":0"
+    ",\"bit_offset\":0,\"bits\":null,\"c_type\":\"double\",\"long_double\":false,\"skipped\":null},{\"name\":\"lon\","
+    "\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"double\",\""
+    "long_double\":false,\"skipped\":null},{\"name\":\"alt\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":"
+    "16,\"bit_offset\":128,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null}]},{\"name\":\""
+    "struct nav_state\",\"c_name\":\"struct nav_state\",\"size\":48,\"align\":8,\"packed_attr\":false,\"packed_si"
+    "ze\":34,\"fingerprint\":\"65445540\",\"file\":\"nav.h\",\"line\":12,\"fields\":[{\"name\":\"pos\",\"wire\":\"struct\""
+    ",\"struct\":\"position_t\",\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"position_t\",\"l"
+    "ong_double\":false,\"skipped\":null},{\"name\":\"vel\",\"wire\":\"f32\",\"struct\":null,\"count\":[3],\"offset\":"
+    "24,\"bit_offset\":192,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null},{\"name\":\"mo"
+    "de\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":36,\"bit_offset\":288,\"bits\":4,\"c_type\":\"unsigne"
+    "d char\",\"long_double\":false,\"skipped\":null},{\"name\":\"valid\",\"wire\":\"u8\",\"struct\":null,\"count\":[]"
+    ",\"offset\":36,\"bit_offset\":292,\"bits\":1,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":nu"
+    "ll},{\"name\":\"label\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":40,\"bit_offset\":320,\"bits\":nul"
+    "l,\"c_type\":\"char *\",\"long_double\":false,\"skipped\":\"pointer\"}]}],\"instances\":[{\"name\":\"onboardSet"
+    "\",\"type\":\"struct nav_state\",\"id\":\"6f6e626f61726453626f617264536574\",\"file\":\"nav.h\",\"line\":20},{\""
+    "name\":\"waypoint[0][0]\",\"type\":\"position_t\",\"id\":\"776179706f696e746e745b305d5b305d\",\"file\":\"nav.h"
+    "\",\"line\":21},{\"name\":\"waypoint[0][1]\",\"type\":\"position_t\",\"id\":\"776179706f696e746e745b305d5b315d"
+    "\",\"file\":\"nav.h\",\"line\":21},{\"name\":\"waypoint[1][0]\",\"type\":\"position_t\",\"id\":\"776179706f696e746"
+    "e745b315d5b305d\",\"file\":\"nav.h\",\"line\":21},{\"name\":\"waypoint[1][1]\",\"type\":\"position_t\",\"id\":\"77"
+    "6179706f696e746e745b315d5b315d\",\"file\":\"nav.h\",\"line\":21}],\"skipped_instances\":[]}";
+
 const ub_catalogue_t navcat_catalogue = {
     "navcat",
     UB_ID_SCHEME_PAPER,
@@ -129,4 +156,6 @@ const ub_catalogue_t navcat_catalogue = {
     navcat_instances,
     navcat_N_INSTANCES,
     navcat_MAX_PACKED_SIZE,
+    navcat_catalogue_json,
+    sizeof navcat_catalogue_json - 1,
 };

@@ -16,8 +16,8 @@
 
 #include "nav.h"
 
-#if UB_CATALOGUE_ABI_VERSION != 1
-#error "navcat.h was generated for catalogue ABI 1; regenerate it with this runtime's uavbus gen"
+#if UB_CATALOGUE_ABI_VERSION != 2
+#error "navcat.h was generated for catalogue ABI 2; regenerate it with this runtime's uavbus gen"
 #endif
 
 #ifdef __cplusplus

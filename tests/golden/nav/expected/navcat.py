@@ -16,7 +16,7 @@ import math as _math
 import struct as _struct
 from typing import Any, Callable, Iterator
 
-ABI_VERSION = 1  # UB_CATALOGUE_ABI_VERSION of the C runtime this matches
+ABI_VERSION = 2  # UB_CATALOGUE_ABI_VERSION of the C runtime this matches
 CATALOGUE_NAME = 'navcat'
 ID_SCHEME = 'paper'
 MAX_PACKED_SIZE = 34
