@@ -108,8 +108,23 @@ static int tcp_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_m
         tcp->stats.send_closed++;
         return UB_ERR_CLOSED;
     }
-    int rc = ub_stream_tx_send(tcp->fd, socket_write, tcp->tx, sizeof tcp->tx, &tcp->tx_len, frame, len,
+    int rc;
+    if (tcp->batching && len <= sizeof tcp->tx - tcp->tx_len) {
+        /* Batching: queue only; the buffer goes out in one send() when full, at flush or at service. */
+        memcpy(tcp->tx + tcp->tx_len, frame, len);
+        tcp->tx_len += len;
+        rc = UB_OK;
+    } else if (tcp->batching) {
+        rc = ub_stream_tx_flush(tcp->fd, socket_write, tcp->tx, &tcp->tx_len, &tcp->stats.bytes_out);
+        if (rc == UB_OK && len > sizeof tcp->tx - tcp->tx_len) rc = UB_ERR_AGAIN;
+        if (rc == UB_OK) {
+            memcpy(tcp->tx + tcp->tx_len, frame, len);
+            tcp->tx_len += len;
+        }
+    } else {
+        rc = ub_stream_tx_send(tcp->fd, socket_write, tcp->tx, sizeof tcp->tx, &tcp->tx_len, frame, len,
                                &tcp->stats.bytes_out);
+    }
     if (rc == UB_ERR_AGAIN) {
         tcp->stats.backpressure++;
         return rc;
@@ -237,6 +252,22 @@ int ub_tcp_service(ub_tcp_t *tcp, ub_node_t *node, uint64_t now_ms) {
         return 0;
     }
     return read_available(tcp, now_ms);
+}
+
+int ub_tcp_set_batching(ub_tcp_t *tcp, int on) {
+    if (tcp == NULL) return UB_ERR_INVAL;
+    tcp->batching = on != 0;
+    return UB_OK;
+}
+
+int ub_tcp_flush(ub_tcp_t *tcp, uint64_t now_ms) {
+    if (tcp == NULL) return UB_ERR_INVAL;
+    if (tcp->state != UB_TCP_UP || tcp->tx_len == 0) return (int)tcp->tx_len;
+    if (ub_stream_tx_flush(tcp->fd, socket_write, tcp->tx, &tcp->tx_len, &tcp->stats.bytes_out) < 0) {
+        connection_lost(tcp, now_ms, 1);
+        return UB_ERR_CLOSED;
+    }
+    return (int)tcp->tx_len;
 }
 
 int ub_tcp_fileno(const ub_tcp_t *tcp) { return tcp == NULL ? -1 : tcp->fd; }

@@ -209,6 +209,29 @@ static void test_full_transmit_buffer_is_backpressure(void **state) {
     tcp_pair_free(t);
 }
 
+/* Batching: frames collect in the transmit buffer (nothing written until flush or service), then go
+ * out in one write; every one is delivered in order. */
+static void test_batching_collects_frames_for_one_write(void **state) {
+    (void)state;
+    tcp_pair_t *t = tcp_pair_new();
+    pair_t *p = t->p;
+    uint64_t now = run_until_connected(t, 0);
+    assert_int_equal(ub_tcp_set_batching(&t->client, 1), UB_OK);
+    uint64_t bytes_before = ub_tcp_stats(&t->client)->bytes_out;
+    enum { N = 10 };
+    for (int i = 0; i < N; i++) assert_int_equal(ub_node_send_data(p->pub_node, p->pub, TEST_GPS, p->sub_id, now), 1);
+    size_t queued = ub_tcp_tx_pending(&t->client);
+    assert_true(queued > 0);
+    assert_int_equal(ub_tcp_stats(&t->client)->bytes_out, bytes_before);
+    assert_int_equal(ub_tcp_flush(&t->client, now), 0);
+    assert_int_equal(ub_tcp_stats(&t->client)->bytes_out, bytes_before + queued);
+    run(t, now, now + 50);
+    assert_int_equal(delivery_count(&p->log, p->sub, TEST_GPS, 0, now + 50), N);
+    assert_int_equal(ub_tcp_set_batching(NULL, 1), UB_ERR_INVAL);
+    assert_int_equal(ub_tcp_flush(NULL, 0), UB_ERR_INVAL);
+    tcp_pair_free(t);
+}
+
 static void test_send_without_connection_is_counted(void **state) {
     (void)state;
     tcp_pair_t *t = tcp_pair_new();
@@ -227,6 +250,7 @@ int main(void) {
         cmocka_unit_test(test_server_restart_client_reconnects),
         cmocka_unit_test(test_reconnect_backoff_follows_the_injected_clock),
         cmocka_unit_test(test_full_transmit_buffer_is_backpressure),
+        cmocka_unit_test(test_batching_collects_frames_for_one_write),
         cmocka_unit_test(test_send_without_connection_is_counted),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -118,6 +118,58 @@ static void test_bad_and_foreign_datagrams_are_counted(void **state) {
     udp_pair_free(u);
 }
 
+/* Batching: frames queue (nothing on the wire until a flush or a service), go out coalesced into a
+ * few datagrams, and every one of them is delivered; the frame counters tell frames from datagrams. */
+static void test_batching_coalesces_frames_into_few_datagrams(void **state) {
+    (void)state;
+    udp_pair_t *u = udp_pair_new();
+    pair_t *p = u->p;
+    assert_int_equal(ub_udp_set_batching(&u->a, 1), UB_OK);
+    enum { N = 30 };
+    for (int i = 0; i < N; i++) assert_int_equal(ub_node_send_data(p->pub_node, p->pub, TEST_GPS, p->sub_id, 0), 1);
+    assert_int_equal(ub_udp_tx_pending(&u->a), N);
+    assert_int_equal(u->a.stats.datagrams_out, 0);
+    assert_int_equal(ub_udp_flush(&u->a), 0);
+    assert_int_equal(ub_udp_tx_pending(&u->a), 0);
+    run(u, 1, 5);
+    assert_int_equal(delivery_count(&p->log, p->sub, TEST_GPS, 0, 5), N);
+    assert_int_equal(u->a.stats.frames_out, N);
+    assert_true(u->a.stats.datagrams_out >= 2 && u->a.stats.datagrams_out < N / 4);
+    assert_true(u->a.stats.tx_calls <= 2);
+    assert_int_equal(u->b.stats.datagrams_in, u->a.stats.datagrams_out);
+    assert_int_equal(u->b.stats.frames_in, N);
+    assert_int_equal(u->b.stats.rejected, 0);
+    /* Off again: the next frame is its own datagram, sent at once. */
+    assert_int_equal(ub_udp_set_batching(&u->a, 0), UB_OK);
+    uint64_t before = u->a.stats.datagrams_out;
+    assert_int_equal(ub_node_send_data(p->pub_node, p->pub, TEST_GPS, p->sub_id, 5), 1);
+    assert_int_equal(u->a.stats.datagrams_out, before + 1);
+    udp_pair_free(u);
+}
+
+/* A multi-frame datagram with a corrupt frame in the middle: the good ones still pass, the bad one is
+ * counted by reason, and a tail that is not a whole frame is rejected too. */
+static void test_multi_frame_datagram_with_a_bad_frame(void **state) {
+    (void)state;
+    udp_pair_t *u = udp_pair_new();
+    pair_t *p = u->p;
+    const uint8_t dir_id[UB_DIR_ID_LEN] = {0};
+    uint8_t dgram[4 * 100];
+    size_t a = make_frame(dgram, UB_ADMIN_DATA, dir_id, "pub", "sub", 200, 8, 0, NULL, 0);
+    size_t b = make_frame(dgram + a, UB_ADMIN_DATA, dir_id, "pub", "sub", 201, 8, 0, NULL, 0);
+    dgram[a + b - 1] ^= 0x01;
+    size_t c = make_frame(dgram + a + b, UB_ADMIN_DATA, dir_id, "pub", "sub", 202, 8, 0, NULL, 0);
+    memcpy(dgram + a + b + c, "tail", 4);
+    send_raw(ub_udp_fileno(&u->a), u->port_b, dgram, a + b + c + 4);
+    run(u, 0, 5);
+    assert_int_equal(ub_node_link(p->sub_node, p->sub_link)->counters.frames_in, 2);
+    assert_int_equal(ub_node_link_bad_frames(p->sub_node, p->sub_link, UB_RX_BAD_CRC), 1);
+    assert_int_equal(u->b.stats.datagrams_in, 1);
+    assert_int_equal(u->b.stats.frames_in, 4);
+    assert_int_equal(u->b.stats.rejected, 2);
+    udp_pair_free(u);
+}
+
 static void test_argument_errors(void **state) {
     (void)state;
     ub_udp_t u;
@@ -135,6 +187,8 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_two_nodes_exchange_over_udp),
         cmocka_unit_test(test_bad_and_foreign_datagrams_are_counted),
+        cmocka_unit_test(test_batching_coalesces_frames_into_few_datagrams),
+        cmocka_unit_test(test_multi_frame_datagram_with_a_bad_frame),
         cmocka_unit_test(test_argument_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

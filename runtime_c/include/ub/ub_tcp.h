@@ -108,6 +108,7 @@ typedef struct ub_tcp {
     int link_id;
     ub_tcp_stats_t stats;
     size_t tx_len;
+    uint8_t batching;
     uint8_t tx[UB_TCP_TX_BUFFER];
     uint8_t rx[UB_TCP_RX_CHUNK];
 } ub_tcp_t;
@@ -144,6 +145,25 @@ UB_CHECK int ub_tcp_attach(ub_tcp_t *tcp, ub_node_t *node, int link_id);
  * @return the number of frames the node found; UB_ERR_INVAL (not attached to `node`).
  */
 UB_CHECK int ub_tcp_service(ub_tcp_t *tcp, ub_node_t *node, uint64_t now_ms);
+
+/**
+ * Turns write batching on (`on` != 0) or off (the default). Off, every frame is
+ * written at once (one send() per frame). On, frames collect in the transmit
+ * buffer and go out in one send() when the next frame does not fit, at
+ * ub_tcp_flush(), or at the start of ub_tcp_service(): ub_tcp_tx_pending() is
+ * then non-zero, so a poll loop that asks for POLLOUT flushes within the same
+ * turn. A frame that does not fit while the socket refuses is UB_ERR_AGAIN
+ * (push back), as without batching.
+ * @return UB_OK or UB_ERR_INVAL.
+ */
+UB_CHECK int ub_tcp_set_batching(ub_tcp_t *tcp, int on);
+
+/**
+ * Writes what the socket takes of the transmit buffer.
+ * @return bytes still queued (0: all written); UB_ERR_INVAL; UB_ERR_CLOSED
+ *         (the connection was lost and is closed, counted as with ub_tcp_service()).
+ */
+UB_CHECK int ub_tcp_flush(ub_tcp_t *tcp, uint64_t now_ms);
 
 /** @return the connection's descriptor (also while connecting), or -1. */
 int ub_tcp_fileno(const ub_tcp_t *tcp);

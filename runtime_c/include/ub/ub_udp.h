@@ -3,12 +3,24 @@
  * @brief UDP link driver: one non-blocking IPv4 socket bound to a local
  *        address, exchanging datagrams with one unicast peer.
  *
- * Each datagram carries exactly one frame. ub_udp_service() reads every
- * datagram waiting (up to UB_UDP_RX_BUDGET per call, so one busy link cannot
- * starve an event loop) and hands each one to the node with
- * ub_node_rx_frame(); a datagram that fails verification is counted there by
- * reason (ub_link_counters_t.bad_datagrams). Datagrams from any address other
- * than the peer are not handed on; they are counted as `foreign`.
+ * A datagram carries one frame, or with batching on (ub_udp_set_batching())
+ * several whole frames back to back, up to UB_UDP_DATAGRAM_MAX bytes: the
+ * frame's msg_size says where the next one starts. ub_udp_service() reads
+ * every datagram waiting (recvmmsg(), UB_UDP_RX_SLOTS per system call, up to
+ * UB_UDP_RX_BUDGET per call, so one busy link cannot starve an event loop)
+ * and hands each frame to the node with ub_node_rx_frame(); a frame that fails
+ * verification is counted there by reason (ub_link_counters_t.bad_datagrams).
+ * Datagrams from any address other than the peer are not handed on; they are
+ * counted as `foreign`.
+ *
+ * Batching (off by default, so every send is one datagram at once): sends are
+ * packed into up to UB_UDP_TX_SLOTS datagrams and written with one sendmmsg()
+ * when the slots are full, by ub_udp_flush(), or at the start of
+ * ub_udp_service(); ub_udp_tx_pending() says when a flush is owed (poll for
+ * POLLOUT). A loopback send costs ~1 us of kernel time whatever its size, so
+ * this is what takes a link past ~0.8 M frames/s (bench/results.md). A frame
+ * that finds every slot full and the socket refusing is UB_ERR_AGAIN (push
+ * back: the caller keeps it and retries), never a silent drop.
  *
  * The socket's descriptor is exposed (ops->fileno, ub_udp_fileno()) so one
  * poll()/select() loop drives many links: call ub_udp_service() when it is
@@ -40,6 +52,26 @@ extern "C" {
 #define UB_UDP_RX_BUDGET 64
 #endif
 
+/** Bytes of one datagram at most, sent (batching) or received (one receive slot). Default:
+ *  an Ethernet MTU's UDP payload, so batched datagrams are never IP-fragmented on a real network. */
+#ifndef UB_UDP_DATAGRAM_MAX
+#define UB_UDP_DATAGRAM_MAX ((UB_FRAME_MAX + 1) > 1472 ? (UB_FRAME_MAX + 1) : 1472)
+#endif
+/** Datagrams received per recvmmsg() call. */
+#ifndef UB_UDP_RX_SLOTS
+#define UB_UDP_RX_SLOTS 4
+#endif
+/** Datagrams queued for one sendmmsg() call when batching. */
+#ifndef UB_UDP_TX_SLOTS
+#define UB_UDP_TX_SLOTS 4
+#endif
+#if UB_UDP_DATAGRAM_MAX < UB_FRAME_MAX + 1 || UB_UDP_DATAGRAM_MAX > 65507
+#error "UB_UDP_DATAGRAM_MAX must be UB_FRAME_MAX + 1 .. 65507 (an oversize datagram must not pass as a whole frame)"
+#endif
+#if UB_UDP_RX_SLOTS < 1 || UB_UDP_TX_SLOTS < 1
+#error "UB_UDP_RX_SLOTS and UB_UDP_TX_SLOTS must be at least 1"
+#endif
+
 typedef struct ub_node ub_node_t;
 
 /** Driver counters (the node keeps the per-link frame counters). */
@@ -50,6 +82,11 @@ typedef struct ub_udp_stats {
     uint64_t datagrams_out; /**< datagrams sent */
     uint64_t again;         /**< sends refused because the socket buffer was full */
     uint64_t send_errors;   /**< other send failures */
+    uint64_t frames_in;     /**< frames handed to the node (several per datagram when the peer batches) */
+    uint64_t frames_out;    /**< frames accepted for sending (sent, or queued when batching) */
+    uint64_t rx_calls;      /**< receive system calls that returned data */
+    uint64_t tx_calls;      /**< send system calls that sent something */
+    uint64_t tx_discarded;  /**< queued frames thrown away because their datagram's send failed (send_errors) */
 } ub_udp_stats_t;
 
 /** A UDP link. Caller-owned; treat the fields as private. */
@@ -59,7 +96,12 @@ typedef struct ub_udp {
     ub_node_t *node;
     int link_id;
     ub_udp_stats_t stats;
-    uint8_t rx[UB_FRAME_MAX + 1]; /* one byte more: an oversize datagram must not pass as a whole frame */
+    uint8_t batching;
+    uint16_t tx_count;                          /* datagrams queued (the last one may still grow) */
+    uint16_t tx_frames[UB_UDP_TX_SLOTS];        /* frames in each queued datagram */
+    uint16_t tx_len[UB_UDP_TX_SLOTS];           /* bytes in each queued datagram */
+    uint8_t tx[UB_UDP_TX_SLOTS][UB_UDP_DATAGRAM_MAX];
+    uint8_t rx[UB_UDP_RX_SLOTS][UB_UDP_DATAGRAM_MAX]; /* > UB_FRAME_MAX: an oversize datagram must not pass as a frame */
 } ub_udp_t;
 
 /** The transport vtable (kind "udp"); `impl` is the ub_udp_t. */
@@ -88,12 +130,28 @@ UB_CHECK int ub_udp_local_port(const ub_udp_t *udp, uint16_t *port);
 UB_CHECK int ub_udp_attach(ub_udp_t *udp, ub_node_t *node, int link_id);
 
 /**
- * Reads the waiting datagrams (at most UB_UDP_RX_BUDGET) and hands those from
- * the peer to `node` on the attached slot.
+ * Flushes queued datagrams (batching), then reads the waiting datagrams (at
+ * most UB_UDP_RX_BUDGET) and hands the frames of those from the peer to `node`
+ * on the attached slot.
  * @return the number of datagrams handed to the node (valid or not);
  *         UB_ERR_INVAL (not open, or not attached to `node`); UB_ERR_IO (read error).
  */
 UB_CHECK int ub_udp_service(ub_udp_t *udp, ub_node_t *node, uint64_t now_ms);
+
+/**
+ * Turns batching on (`on` != 0) or off. Turning it off flushes what is queued first.
+ * @return UB_OK; UB_ERR_INVAL (NULL); UB_ERR_AGAIN (off refused: frames still queued, socket full).
+ */
+UB_CHECK int ub_udp_set_batching(ub_udp_t *udp, int on);
+
+/**
+ * Sends every queued datagram it can (one sendmmsg() per UB_UDP_TX_SLOTS).
+ * @return the number of frames still queued (0: all sent); UB_ERR_INVAL.
+ */
+UB_CHECK int ub_udp_flush(ub_udp_t *udp);
+
+/** @return frames queued and not yet sent (poll for POLLOUT while non-zero). */
+size_t ub_udp_tx_pending(const ub_udp_t *udp);
 
 /** @return the socket descriptor, or -1 when closed. */
 int ub_udp_fileno(const ub_udp_t *udp);
