@@ -161,6 +161,13 @@ int ub_node_link_attach(ub_node_t *node, int link_id, const ub_link_ops_t *ops, 
     return UB_OK;
 }
 
+int ub_node_link_set_transport(ub_node_t *node, int link_id, const ub_link_ops_t *ops, void *impl) {
+    if (node == NULL || !link_id_ok(node, link_id) || ops == NULL || ops->send == NULL) return UB_ERR_INVAL;
+    node->links[link_id].ops = ops;
+    node->links[link_id].impl = impl;
+    return UB_OK;
+}
+
 int ub_node_link_detach(ub_node_t *node, int link_id) {
     if (node == NULL || !link_id_ok(node, link_id)) return UB_ERR_INVAL;
     node->links[link_id].ops = NULL;

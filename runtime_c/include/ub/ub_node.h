@@ -219,6 +219,15 @@ UB_CHECK int ub_node_get_mask(const ub_node_t *node, int entity, int dest, uint8
  */
 UB_CHECK int ub_node_link_attach(ub_node_t *node, int link_id, const ub_link_ops_t *ops, void *impl);
 
+/**
+ * Replaces the transport behind a slot *without* resetting its stream decoder:
+ * for a decorator (ub_impair.h) put in front of, or taken away from, the
+ * transport already there, whose byte stream simply continues. A new
+ * connection or device must use ub_node_link_attach() instead.
+ * @return UB_OK, or UB_ERR_INVAL (bad id, NULL ops or ops->send).
+ */
+UB_CHECK int ub_node_link_set_transport(ub_node_t *node, int link_id, const ub_link_ops_t *ops, void *impl);
+
 /** Detaches the transport of a slot. @return UB_OK or UB_ERR_INVAL. */
 UB_CHECK int ub_node_link_detach(ub_node_t *node, int link_id);
 

@@ -1,0 +1,329 @@
+/* Link impairment decorator (ub_impair.h). */
+#include "ub/ub_impair.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* xorshift64* (Vigna): small, fast, state in the struct; seed 0 is remapped because 0 is a fixed point. */
+static uint64_t rng_next(ub_impair_t *imp) {
+    uint64_t x = imp->rng;
+    x ^= x >> 12;
+    x ^= x << 25;
+    x ^= x >> 27;
+    imp->rng = x;
+    return x * 0x2545F4914F6CDD1DULL;
+}
+
+/* True with probability ppm / 10^6. A zero probability consumes no random number, so enabling one
+ * impairment does not shift the decisions of the others. */
+static bool chance(ub_impair_t *imp, uint32_t ppm) {
+    if (ppm == 0) return false;
+    if (ppm >= UB_IMPAIR_PPM_MAX) return true;
+    return (rng_next(imp) >> 11) % UB_IMPAIR_PPM_MAX < ppm;
+}
+
+static uint32_t uniform(ub_impair_t *imp, uint32_t max_inclusive) {
+    if (max_inclusive == 0) return 0;
+    return (uint32_t)((rng_next(imp) >> 11) % ((uint64_t)max_inclusive + 1));
+}
+
+void ub_impair_reseed(ub_impair_t *imp, uint64_t seed) {
+    if (imp == NULL) return;
+    /* splitmix64 step: neighbouring seeds (1, 2, ...) give unrelated streams. */
+    uint64_t z = seed + 0x9E3779B97F4A7C15ULL;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    z ^= z >> 31;
+    imp->rng = z != 0 ? z : 0x9E3779B97F4A7C15ULL;
+}
+
+void ub_impair_init(ub_impair_t *imp, const ub_impair_params_t *params, uint64_t seed) {
+    if (imp == NULL) return;
+    memset(imp, 0, sizeof *imp);
+    if (params != NULL) imp->params = *params;
+    ub_impair_reseed(imp, seed);
+}
+
+void ub_impair_set_params(ub_impair_t *imp, const ub_impair_params_t *params) {
+    if (imp == NULL) return;
+    if (params != NULL) {
+        imp->params = *params;
+    } else {
+        memset(&imp->params, 0, sizeof imp->params);
+    }
+}
+
+int ub_impair_wrap(ub_impair_t *imp, const ub_link_ops_t *ops, void *impl) {
+    if (imp == NULL) return UB_ERR_INVAL;
+    if (ops != NULL && (ops->send == NULL || (ops == &ub_impair_ops && impl == imp))) return UB_ERR_INVAL;
+    imp->inner_ops = ops;
+    imp->inner = ops != NULL ? impl : NULL;
+    return UB_OK;
+}
+
+static uint32_t hold_ms(const ub_impair_t *imp) {
+    return imp->params.reorder_hold_ms != 0 ? imp->params.reorder_hold_ms : UB_IMPAIR_REORDER_HOLD_MS;
+}
+
+/* Hands one copy to the inner transport, counting the outcome. */
+static int inner_send(ub_impair_t *imp, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    int rc = imp->inner_ops != NULL ? imp->inner_ops->send(imp->inner, frame, len, now_ms) : UB_ERR_CLOSED;
+    if (rc == UB_OK) {
+        imp->stats.passed++;
+    } else if (rc == UB_ERR_AGAIN) {
+        imp->stats.inner_again++;
+    } else {
+        imp->stats.inner_errors++;
+    }
+    return rc;
+}
+
+static void remove_at(ub_impair_t *imp, size_t i) {
+    imp->count--;
+    if (i != imp->count) imp->queue[i] = imp->queue[imp->count];
+}
+
+/* When a held (reordered) copy may leave: once a later copy has left, or when its hold runs out. */
+static uint64_t held_deadline(const ub_impair_t *imp, const ub_impair_frame_t *f) {
+    return f->due_ms + hold_ms(imp);
+}
+
+/* Index of the next copy to leave at now_ms, or -1. Unheld copies that are due leave first (lowest due
+ * time, then send order); a held copy leaves only when a later copy has already left (`released_after`
+ * is the order of the last copy that left) or its hold has run out. */
+static long next_ready(const ub_impair_t *imp, uint64_t now_ms, uint64_t released_after, bool any_released) {
+    long best = -1;
+    for (size_t i = 0; i < imp->count; i++) {
+        const ub_impair_frame_t *f = &imp->queue[i];
+        bool ready;
+        if (!f->held) {
+            ready = f->due_ms <= now_ms;
+        } else {
+            ready = (any_released && f->order < released_after && f->due_ms <= now_ms)
+                    || held_deadline(imp, f) <= now_ms;
+        }
+        if (!ready) continue;
+        if (best < 0) {
+            best = (long)i;
+            continue;
+        }
+        const ub_impair_frame_t *b = &imp->queue[best];
+        /* A held copy goes after the unheld ones that are ready now: that is the point of holding it. */
+        if (f->held != b->held) {
+            if (!f->held) best = (long)i;
+            continue;
+        }
+        if (f->due_ms < b->due_ms || (f->due_ms == b->due_ms && f->order < b->order)) best = (long)i;
+    }
+    return best;
+}
+
+size_t ub_impair_service(ub_impair_t *imp, uint64_t now_ms) {
+    if (imp == NULL || imp->inner_ops == NULL) return 0;
+    size_t accepted = 0;
+    uint64_t last_order = 0;
+    bool any = false;
+    /* Bounded: every iteration removes one queued copy. */
+    for (;;) {
+        long i = next_ready(imp, now_ms, last_order, any);
+        if (i < 0) break;
+        ub_impair_frame_t *f = &imp->queue[i];
+        if (!f->held && (!any || f->order > last_order)) last_order = f->order;
+        any = true;
+        if (inner_send(imp, f->bytes, f->len, now_ms) == UB_OK) accepted++;
+        remove_at(imp, (size_t)i);
+    }
+    return accepted;
+}
+
+/* Queues one copy; false (counted queue_full) when the queue is full. */
+static bool enqueue(ub_impair_t *imp, const uint8_t *frame, size_t len, uint64_t due_ms, bool held) {
+    if (imp->count >= UB_IMPAIR_DEPTH) {
+        imp->stats.queue_full++;
+        return false;
+    }
+    ub_impair_frame_t *f = &imp->queue[imp->count++];
+    f->due_ms = due_ms;
+    f->order = ++imp->next_order;
+    f->held = held ? 1 : 0;
+    f->len = (uint16_t)len;
+    memcpy(f->bytes, frame, len);
+    return true;
+}
+
+/* One copy: decide its delay and whether it is held back, then send now or queue. Returns the result the
+ * node should see for this copy. */
+static int send_copy(ub_impair_t *imp, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    uint32_t delay = imp->params.delay_ms + uniform(imp, imp->params.jitter_ms);
+    bool held = chance(imp, imp->params.reorder_ppm);
+    if (delay > 0) imp->stats.delayed++;
+    if (held) imp->stats.reordered++;
+    if (delay == 0 && !held && imp->count == 0) {
+        /* Straight through: the node sees the inner transport's own answer (backpressure, errors). */
+        return inner_send(imp, frame, len, now_ms);
+    }
+    if (!enqueue(imp, frame, len, now_ms + delay, held)) return UB_ERR_AGAIN;
+    /* An unheld copy due now leaves at once (with anything ready before it, and held copies it overtakes). */
+    if (delay == 0 && !held) (void)ub_impair_service(imp, now_ms);
+    return UB_OK;
+}
+
+static int impair_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    ub_impair_t *imp = impl;
+    if (imp == NULL || frame == NULL || len == 0 || len > UB_FRAME_MAX) return UB_ERR_INVAL;
+    imp->stats.offered++;
+    if (imp->inner_ops == NULL) {
+        imp->stats.inner_errors++;
+        return UB_ERR_CLOSED;
+    }
+    if (chance(imp, imp->params.loss_ppm)) {
+        imp->stats.lost++;
+        return UB_OK;
+    }
+    bool dup = chance(imp, imp->params.dup_ppm);
+    int rc = send_copy(imp, frame, len, now_ms);
+    if (dup) {
+        imp->stats.duplicated++;
+        (void)send_copy(imp, frame, len, now_ms); /* its failure is counted; the node sent one frame */
+    }
+    return rc;
+}
+
+static int impair_fileno(void *impl) {
+    const ub_impair_t *imp = impl;
+    if (imp == NULL || imp->inner_ops == NULL || imp->inner_ops->fileno == NULL) return -1;
+    return imp->inner_ops->fileno(imp->inner);
+}
+
+const ub_link_ops_t ub_impair_ops = {.kind = "impair", .send = impair_send, .fileno = impair_fileno};
+
+size_t ub_impair_pending(const ub_impair_t *imp) { return imp != NULL ? imp->count : 0; }
+
+bool ub_impair_next_due(const ub_impair_t *imp, uint64_t *due_ms) {
+    if (imp == NULL || imp->count == 0) return false;
+    uint64_t best = UINT64_MAX;
+    for (size_t i = 0; i < imp->count; i++) {
+        const ub_impair_frame_t *f = &imp->queue[i];
+        /* A held copy may leave earlier (after a successor), but that happens inside a send or service. */
+        uint64_t due = f->held ? held_deadline(imp, f) : f->due_ms;
+        if (due < best) best = due;
+    }
+    if (due_ms != NULL) *due_ms = best;
+    return true;
+}
+
+const ub_impair_stats_t *ub_impair_stats(const ub_impair_t *imp) { return imp != NULL ? &imp->stats : NULL; }
+
+bool ub_impair_check_balance(const ub_impair_t *imp) {
+    if (imp == NULL) return false;
+    const ub_impair_stats_t *s = &imp->stats;
+    return s->offered + s->duplicated
+           == s->lost + s->queue_full + s->passed + s->inner_again + s->inner_errors + imp->count;
+}
+
+/* ---- "loss=0.2,reorder=0.1,delay=5" ------------------------------------------------------------------ */
+
+static void set_err(char *err, size_t cap, const char *msg, const char *item, size_t item_len) {
+    if (err == NULL || cap == 0) return;
+    snprintf(err, cap, "impairment item '%.*s': %s", (int)(item_len > 40 ? 40 : item_len), item, msg);
+}
+
+/* "0.25" / "1" / "0" / ".5" -> ppm, up to 6 fraction digits, at most 1. */
+static bool parse_prob(const char *s, size_t n, uint32_t *ppm) {
+    uint64_t whole = 0, frac = 0;
+    size_t i = 0, whole_digits = 0, frac_digits = 0;
+    while (i < n && s[i] >= '0' && s[i] <= '9') {
+        whole = whole * 10 + (uint64_t)(s[i] - '0');
+        if (whole > 1) return false;
+        i++;
+        whole_digits++;
+    }
+    if (i < n && s[i] == '.') {
+        i++;
+        while (i < n && s[i] >= '0' && s[i] <= '9') {
+            if (frac_digits == 6) return false;
+            frac = frac * 10 + (uint64_t)(s[i] - '0');
+            frac_digits++;
+            i++;
+        }
+    }
+    if (i != n || whole_digits + frac_digits == 0) return false;
+    for (size_t k = frac_digits; k < 6; k++) frac *= 10;
+    uint64_t v = whole * UB_IMPAIR_PPM_MAX + frac;
+    if (v > UB_IMPAIR_PPM_MAX) return false;
+    *ppm = (uint32_t)v;
+    return true;
+}
+
+static bool parse_uint(const char *s, size_t n, uint64_t max, uint64_t *out) {
+    if (n == 0 || n > 20) return false;
+    uint64_t v = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (s[i] < '0' || s[i] > '9') return false;
+        uint64_t d = (uint64_t)(s[i] - '0');
+        if (v > (max - d) / 10) return false;
+        v = v * 10 + d;
+    }
+    *out = v;
+    return true;
+}
+
+int ub_impair_parse(const char *text, ub_impair_params_t *params, uint64_t *seed, char *err, size_t err_cap) {
+    if (text == NULL || params == NULL) return UB_ERR_INVAL;
+    ub_impair_params_t p;
+    memset(&p, 0, sizeof p);
+    uint64_t new_seed = 0;
+    bool seed_given = false;
+    const char *s = text;
+    while (*s != '\0') {
+        const char *end = strchr(s, ',');
+        size_t n = end != NULL ? (size_t)(end - s) : strlen(s);
+        const char *eq = memchr(s, '=', n);
+        if (eq == NULL) {
+            set_err(err, err_cap, "expected KEY=VALUE (keys: loss, dup, reorder, delay, jitter, hold, seed)", s, n);
+            return UB_ERR_INVAL;
+        }
+        size_t kn = (size_t)(eq - s);
+        const char *v = eq + 1;
+        size_t vn = n - kn - 1;
+        uint64_t u = 0;
+        bool ok;
+#define KEY_IS(k) (kn == sizeof(k) - 1 && memcmp(s, k, kn) == 0)
+        if (KEY_IS("loss") || KEY_IS("dup") || KEY_IS("reorder")) {
+            uint32_t *dst = KEY_IS("loss") ? &p.loss_ppm : KEY_IS("dup") ? &p.dup_ppm : &p.reorder_ppm;
+            ok = parse_prob(v, vn, dst);
+            if (!ok) {
+                set_err(err, err_cap, "probability must be a decimal from 0 to 1 (e.g. 0.2), at most 6 fraction digits",
+                        s, n);
+                return UB_ERR_INVAL;
+            }
+        } else if (KEY_IS("delay") || KEY_IS("jitter") || KEY_IS("hold")) {
+            ok = parse_uint(v, vn, 600000u, &u);
+            if (!ok) {
+                set_err(err, err_cap, "time must be whole milliseconds from 0 to 600000", s, n);
+                return UB_ERR_INVAL;
+            }
+            if (KEY_IS("delay")) p.delay_ms = (uint32_t)u;
+            else if (KEY_IS("jitter")) p.jitter_ms = (uint32_t)u;
+            else p.reorder_hold_ms = (uint32_t)u;
+        } else if (KEY_IS("seed")) {
+            ok = parse_uint(v, vn, UINT64_MAX, &u);
+            if (!ok) {
+                set_err(err, err_cap, "seed must be a whole number (0 to 18446744073709551615)", s, n);
+                return UB_ERR_INVAL;
+            }
+            new_seed = u;
+            seed_given = true;
+        } else {
+            set_err(err, err_cap, "unknown key (expected one of: loss, dup, reorder, delay, jitter, hold, seed)", s, n);
+            return UB_ERR_INVAL;
+        }
+#undef KEY_IS
+        s += n;
+        if (*s == ',') s++;
+    }
+    *params = p;
+    if (seed_given && seed != NULL) *seed = new_seed;
+    return UB_OK;
+}
