@@ -1,0 +1,244 @@
+/**
+ * @file ub_ports.h
+ * @brief Ports: the transports behind one node's links, opened from text
+ *        (command line or the config's "ports" section), serviced from one
+ *        poll() loop, switched at run time, optionally impaired.
+ *
+ * A **port spec** binds a link to a transport. The same text is used on the
+ * command line (`--port onboardPortIPC=tcp:connect=127.0.0.1:5001`) and in
+ * the config file (`"ports": {"onboardPortIPC": {"transport": "tcp",
+ * "connect": "127.0.0.1:5001"}}`):
+ *
+ * | transport | parameters |
+ * |---|---|
+ * | `udp`    | `bind=HOST:PORT` (PORT 0 = any free port), `peer=HOST:PORT` (both required) |
+ * | `tcp`    | `listen=HOST:PORT` (server; PORT 0 = any) or `connect=HOST:PORT` (client) |
+ * | `serial` | `device=PATH`, optional `baud=` one of ub_serial's rates (default 115200) |
+ * | `mem`    | none: the program attaches a ub_memlink itself; ub_ports skips it |
+ *
+ * HOST is a dotted IPv4 address (127.0.0.1), or `localhost`.
+ *
+ * Opening a link that is already open is the **runtime software switch**
+ * (paper III.E): the new transport is opened and attached to the link slot
+ * (ub_node_link_attach()) before the old one is closed, so entity tables,
+ * masks, publish/subscribe tables and link counters are untouched. When the
+ * new transport needs the very address the old one holds (same UDP bind or
+ * TCP listen port), the old one is closed first and the open retried.
+ *
+ * Memory: ub_ports_t is caller-owned and large (two driver slots per port so
+ * a rebind can hold old and new at once, plus an impairment queue): give it
+ * static storage. It keeps a pointer to the node, which must outlive it.
+ *
+ *     static ub_ports_t ports;
+ *     ub_ports_init(&ports, &node);
+ *     ub_ports_open_config(&ports, &cfg, now, err, sizeof err);       // the file's ports
+ *     ub_port_spec_t spec;
+ *     ub_port_spec_parse("udp:bind=127.0.0.1:0,peer=127.0.0.1:5001", &spec, err, sizeof err);
+ *     ub_ports_open(&ports, "gcsPortDatalink1", &spec, now, err, sizeof err);
+ *     for (;;) {
+ *         int n = ub_ports_pollfds(&ports, fds, cap);
+ *         poll(fds, n, ub_ports_poll_timeout(&ports, now, 10));
+ *         now = monotonic_ms();
+ *         ub_ports_service(&ports, now);
+ *         ub_node_tick(&node, now);
+ *     }
+ *     ub_ports_close_all(&ports);
+ */
+#ifndef UB_PORTS_H
+#define UB_PORTS_H
+
+#include <poll.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ub_config.h"
+#include "ub_error.h"
+#include "ub_impair.h"
+#include "ub_link.h"
+#include "ub_node.h"
+#include "ub_nodecfg.h"
+#include "ub_serial.h"
+#include "ub_tcp.h"
+#include "ub_udp.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Ports of one ub_ports_t (one per link slot at most). */
+#ifndef UB_PORTS_MAX
+#define UB_PORTS_MAX UB_MAX_NODE_LINKS
+#endif
+/** Longest host text ("127.0.0.1"), including the NUL. */
+#define UB_PORT_HOST_LEN 64
+/** Longest serial device path, including the NUL. */
+#define UB_PORT_DEVICE_LEN 64
+/** Recommended error buffer size for this API. */
+#define UB_PORTS_ERR_LEN 256
+/** Default serial rate. */
+#define UB_PORT_DEFAULT_BAUD 115200u
+
+typedef enum ub_port_kind {
+    UB_PORT_NONE = 0,
+    UB_PORT_UDP,         /**< bind + peer */
+    UB_PORT_TCP_LISTEN,  /**< server */
+    UB_PORT_TCP_CONNECT, /**< client (reconnects with backoff) */
+    UB_PORT_SERIAL,      /**< device + baud */
+    UB_PORT_MEM          /**< attached by the program */
+} ub_port_kind_t;
+
+/** A parsed port spec. Plain value; no pointers. */
+typedef struct ub_port_spec {
+    ub_port_kind_t kind;
+    char host[UB_PORT_HOST_LEN];      /**< udp bind / tcp listen / tcp connect address (dotted) */
+    uint16_t port;                    /**< its port */
+    char peer_host[UB_PORT_HOST_LEN]; /**< udp peer address (dotted) */
+    uint16_t peer_port;
+    char device[UB_PORT_DEVICE_LEN];  /**< serial device */
+    uint32_t baud;                    /**< serial rate */
+} ub_port_spec_t;
+
+/** @return the transport word of a kind: "udp", "tcp", "serial", "mem", or "none". */
+const char *ub_port_kind_transport(ub_port_kind_t kind);
+
+/**
+ * Parses the spec text of the command-line form: `TRANSPORT[:KEY=VALUE[,KEY=VALUE]...]`,
+ * e.g. "tcp:connect=127.0.0.1:5001", "udp:bind=127.0.0.1:0,peer=127.0.0.1:5001",
+ * "serial:device=/dev/pts/3,baud=57600", "mem".
+ * @return UB_OK, or UB_ERR_INVAL with `err` saying what is wrong and what to
+ *         write instead (no location prefix: the caller adds where the text came from).
+ */
+UB_CHECK int ub_port_spec_parse(const char *text, ub_port_spec_t *spec, char *err, size_t err_cap);
+
+/**
+ * Splits a whole `--port` argument "NAME=SPEC" into the link name (at most
+ * UB_NODECFG_PORT_KEY_MAX characters, may be "entity:link") and the parsed spec.
+ * @return UB_OK, or UB_ERR_INVAL with `err` as ub_port_spec_parse() says.
+ */
+UB_CHECK int ub_port_arg_parse(const char *arg, char *name, size_t name_cap, ub_port_spec_t *spec, char *err,
+                               size_t err_cap);
+
+/**
+ * Converts a config "ports" entry (shape-checked by ub_nodecfg) into a spec.
+ * Errors read "<source>:<line>: port '<name>', field '<param>': <what to do>".
+ * @return UB_OK, or UB_ERR_CONFIG with `err` set.
+ */
+UB_CHECK int ub_port_spec_from_config(const ub_nodecfg_port_t *entry, const char *source, ub_port_spec_t *spec,
+                                      char *err, size_t err_cap);
+
+/** Formats a spec back into its command-line form (for messages and "ready" events); a text longer
+ *  than `cap` is cut and ends in "...". */
+void ub_port_spec_format(const ub_port_spec_t *spec, char *out, size_t cap);
+
+/** One driver instance. Private. */
+typedef struct ub_port_driver {
+    ub_port_kind_t kind;
+    union {
+        ub_udp_t udp;
+        ub_tcp_t tcp;
+        ub_serial_t serial;
+    } u;
+} ub_port_driver_t;
+
+/** One open port. Treat as read-only (use the functions). */
+typedef struct ub_port {
+    uint8_t in_use;
+    uint8_t active;           /**< which of drv[] is current */
+    uint8_t impaired;         /**< impair sits between the slot and drv[active] */
+    int link_id;
+    ub_port_spec_t spec;      /**< the spec now in force */
+    uint32_t rebinds;         /**< successful software switches */
+    uint64_t service_errors;  /**< driver service calls that failed (e.g. serial device gone) */
+    ub_port_driver_t drv[2];
+    ub_impair_t impair;
+} ub_port_t;
+
+/** The ports of one node. Caller-owned; large: use static storage. */
+typedef struct ub_ports {
+    ub_node_t *node;
+    uint8_t impair_on;
+    ub_impair_params_t impair_params;
+    uint64_t impair_seed;
+    ub_port_t port[UB_PORTS_MAX];
+} ub_ports_t;
+
+/** Prepares an empty set for `node`. @return UB_OK or UB_ERR_INVAL. */
+UB_CHECK int ub_ports_init(ub_ports_t *ports, ub_node_t *node);
+
+/**
+ * Opens `spec` behind link `link_name` (a link of a hosted entity; "entity:link"
+ * also accepted), or switches an open one to it (see the file comment).
+ * @return UB_OK; UB_ERR_NOTFOUND (no such link in the node); UB_ERR_INVAL
+ *         (bad spec, or kind UB_PORT_MEM); UB_ERR_IO (socket/device could not
+ *         be opened: the old transport, if any, stays in place); UB_ERR_FULL.
+ *         `err` says which and what to do.
+ */
+UB_CHECK int ub_ports_open(ub_ports_t *ports, const char *link_name, const ub_port_spec_t *spec, uint64_t now_ms,
+                           char *err, size_t err_cap);
+
+/** ub_port_spec_parse() + ub_ports_open(). */
+UB_CHECK int ub_ports_open_text(ub_ports_t *ports, const char *link_name, const char *spec_text, uint64_t now_ms,
+                                char *err, size_t err_cap);
+
+/**
+ * Opens every "ports" entry of `cfg` that names a link of this node (entries
+ * for links of entities hosted elsewhere are skipped, and so are `mem` ones).
+ * @return the number of ports opened; UB_ERR_CONFIG (bad entry: "<file>:<line>: port ...");
+ *         or the error of ub_ports_open() with `err` prefixed by the entry's file:line.
+ */
+UB_CHECK int ub_ports_open_config(ub_ports_t *ports, const ub_nodecfg_t *cfg, uint64_t now_ms, char *err,
+                                  size_t err_cap);
+
+/** Closes the port of `link_name` and detaches its slot. @return UB_OK or UB_ERR_NOTFOUND. */
+UB_CHECK int ub_ports_close(ub_ports_t *ports, const char *link_name);
+
+/** Closes every port (detaching the slots). Safe to call twice. */
+void ub_ports_close_all(ub_ports_t *ports);
+
+/**
+ * Services every open port without blocking: reads, flushes, TCP accepts and
+ * reconnects, impairment releases. Also re-installs the impairment in front of
+ * a TCP port whose driver re-attached itself on a new connection.
+ * @return frames/datagrams handed to the node (driver errors are counted per port).
+ */
+int ub_ports_service(ub_ports_t *ports, uint64_t now_ms);
+
+/**
+ * Fills `fds` with the descriptors to poll: POLLIN for every socket and
+ * device (TCP servers: listening and connected), plus POLLOUT while output is
+ * pending or a TCP connect is in progress.
+ * @return the number filled, or UB_ERR_NOSPACE (more than `cap` needed;
+ *         2 * UB_PORTS_MAX always suffices).
+ */
+UB_CHECK int ub_ports_pollfds(const ub_ports_t *ports, struct pollfd *fds, int cap);
+
+/**
+ * A poll() timeout: ms until the next impairment release or TCP retry is due,
+ * capped at `max_ms` (and 0 when something is due already).
+ */
+int ub_ports_poll_timeout(const ub_ports_t *ports, uint64_t now_ms, int max_ms);
+
+/**
+ * Reads back the local port of `link_name`: a UDP port's bound port, a TCP
+ * server's listening port.
+ * @return UB_OK; UB_ERR_NOTFOUND (no open port for that link); UB_ERR_INVAL (a
+ *         TCP client or serial port has no local port); UB_ERR_IO.
+ */
+UB_CHECK int ub_ports_local_port(const ub_ports_t *ports, const char *link_name, uint16_t *port);
+
+/** @return the open port of `link_name`, or NULL. */
+const ub_port_t *ub_ports_find(const ub_ports_t *ports, const char *link_name);
+
+/**
+ * Puts the seeded impairment (ub_impair.h) in front of every socket and serial
+ * port, open now or opened later; each port gets its own PRNG stream
+ * (seed mixed with its link id). `params` NULL (or all zero) removes it.
+ * @return UB_OK or UB_ERR_INVAL.
+ */
+UB_CHECK int ub_ports_set_impairment(ub_ports_t *ports, const ub_impair_params_t *params, uint64_t seed);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* UB_PORTS_H */

@@ -1,0 +1,342 @@
+/*
+ * Ports (ub_ports.h): spec parsing in both forms with their messages, and the runtime software switch
+ * between two nodes in one process over real 127.0.0.1 sockets: a subscription runs over TCP, both ends
+ * switch to UDP, and the subscription, the publication row and the link counters carry on.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <poll.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "support/ub_test_pair.h"
+#include "ub/ub_nodecfg.h"
+#include "ub/ub_ports.h"
+#include "ub/ub_pubsub.h"
+
+static void test_spec_parse_forms(void **state) {
+    (void)state;
+    ub_port_spec_t s;
+    char err[UB_PORTS_ERR_LEN], text[128];
+    assert_int_equal(ub_port_spec_parse("udp:bind=127.0.0.1:0,peer=localhost:5001", &s, err, sizeof err), UB_OK);
+    assert_int_equal(s.kind, UB_PORT_UDP);
+    assert_string_equal(s.host, "127.0.0.1");
+    assert_int_equal(s.port, 0);
+    assert_string_equal(s.peer_host, "127.0.0.1");
+    assert_int_equal(s.peer_port, 5001);
+    ub_port_spec_format(&s, text, sizeof text);
+    assert_string_equal(text, "udp:bind=127.0.0.1:0,peer=127.0.0.1:5001");
+    assert_int_equal(ub_port_spec_parse("tcp:connect=127.0.0.1:5001", &s, err, sizeof err), UB_OK);
+    assert_int_equal(s.kind, UB_PORT_TCP_CONNECT);
+    assert_int_equal(ub_port_spec_parse("tcp:listen=0.0.0.0:0", &s, err, sizeof err), UB_OK);
+    assert_int_equal(s.kind, UB_PORT_TCP_LISTEN);
+    assert_int_equal(ub_port_spec_parse("serial:device=/dev/pts/3", &s, err, sizeof err), UB_OK);
+    assert_int_equal(s.kind, UB_PORT_SERIAL);
+    assert_int_equal(s.baud, 115200);
+    assert_int_equal(ub_port_spec_parse("serial:baud=57600,device=/dev/ttyS1", &s, err, sizeof err), UB_OK);
+    assert_int_equal(s.baud, 57600);
+    assert_int_equal(ub_port_spec_parse("mem", &s, err, sizeof err), UB_OK);
+    assert_int_equal(s.kind, UB_PORT_MEM);
+    char name[64];
+    assert_int_equal(ub_port_arg_parse("fcs20:onboardPortIPC=tcp:connect=127.0.0.1:7", name, sizeof name, &s, err,
+                                       sizeof err),
+                     UB_OK);
+    assert_string_equal(name, "fcs20:onboardPortIPC");
+    assert_int_equal(s.port, 7);
+}
+
+/* Each bad spec is refused with a message that says what to write instead. */
+static void test_spec_parse_errors(void **state) {
+    (void)state;
+    static const struct {
+        const char *text;
+        const char *says;
+    } cases[] = {
+        {"", "TRANSPORT[:KEY=VALUE"},
+        {"xmpp:host=a", "unknown transport 'xmpp' (expected udp, tcp, serial or mem"},
+        {"udp:bind=127.0.0.1:0", "udp needs both bind=HOST:PORT and peer=HOST:PORT"},
+        {"udp:bind=127.0.0.1,peer=127.0.0.1:1", "'bind=127.0.0.1': expected HOST:PORT"},
+        {"udp:bind=127.0.0.1:70000,peer=127.0.0.1:1", "port 0..65535"},
+        {"udp:bind=example.com:1,peer=127.0.0.1:1", "dotted IPv4"},
+        {"udp:bind=127.0.0.1:0,peer=127.0.0.1:0", "peer port must not be 0"},
+        {"udp:bind=127.0.0.1:0,bind=127.0.0.1:0,peer=127.0.0.1:1", "'bind' given twice"},
+        {"udp:listen=127.0.0.1:1", "unknown parameter 'listen' for udp (expected: bind, peer)"},
+        {"tcp", "tcp needs listen=HOST:PORT (server) or connect=HOST:PORT (client)"},
+        {"tcp:listen=127.0.0.1:1,connect=127.0.0.1:2", "either listens or connects"},
+        {"tcp:connect=127.0.0.1:0", "must not be 0"},
+        {"serial:baud=115200", "serial needs device=PATH"},
+        {"serial:device=/dev/x,baud=12345", "use one of 1200, 2400"},
+        {"tcp:connect", "is not KEY=VALUE"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        ub_port_spec_t s;
+        char err[UB_PORTS_ERR_LEN] = "";
+        int rc = ub_port_spec_parse(cases[i].text, &s, err, sizeof err);
+        if (rc != UB_ERR_INVAL || strstr(err, cases[i].says) == NULL) {
+            fail_msg("spec '%s': rc %d, message '%s' (wanted '%s')", cases[i].text, rc, err, cases[i].says);
+        }
+    }
+    char name[64], err[UB_PORTS_ERR_LEN];
+    ub_port_spec_t s;
+    assert_int_equal(ub_port_arg_parse("tcp:connect=1.2.3.4:5", name, sizeof name, &s, err, sizeof err), UB_ERR_INVAL);
+    assert_non_null(strstr(err, "expected LINK=SPEC"));
+    assert_int_equal(ub_port_arg_parse("linkA=udp:bind=1.2.3.4:5", name, sizeof name, &s, err, sizeof err),
+                     UB_ERR_INVAL);
+    assert_non_null(strstr(err, "port 'linkA': udp needs both"));
+}
+
+static const char k_config[] = "{\n"
+                               "  \"entities\": [{\"name\": \"pub\", \"links\": [\"pubPort\"]},\n"
+                               "               {\"name\": \"sub\", \"links\": [\"subPort\"]}],\n"
+                               "  \"ports\": {\n"
+                               "    \"pubPort\": {\"transport\": \"udp\", \"bind\": \"127.0.0.1:0\",\n"
+                               "                  \"peer\": \"127.0.0.1:9\"},\n"
+                               "    \"sub:subPort\": {\"transport\": \"tcp\", \"listen\": 5001}\n"
+                               "  }\n"
+                               "}\n";
+
+static void test_config_entries(void **state) {
+    (void)state;
+    ub_nodecfg_t *cfg = calloc(1, sizeof *cfg);
+    assert_non_null(cfg);
+    char err[UB_NODECFG_ERR_LEN];
+    assert_int_equal(ub_nodecfg_parse(cfg, k_config, strlen(k_config), "t.json", err, sizeof err), UB_OK);
+    assert_int_equal(cfg->port_count, 2);
+    ub_port_spec_t s;
+    assert_int_equal(ub_port_spec_from_config(&cfg->ports[0], cfg->source, &s, err, sizeof err), UB_OK);
+    assert_int_equal(s.kind, UB_PORT_UDP);
+    assert_int_equal(s.peer_port, 9);
+    assert_int_equal(ub_port_spec_from_config(&cfg->ports[1], cfg->source, &s, err, sizeof err), UB_ERR_CONFIG);
+    assert_string_equal(err, "t.json:7: port 'sub:subPort', field 'listen': 'listen=5001': expected HOST:PORT with a "
+                             "dotted IPv4 host and a port 0..65535, e.g. 127.0.0.1:5001");
+    /* ub_ports_open_config checks every entry before opening anything. */
+    pair_t *p = pair_new(NULL);
+    ub_ports_t *ports = calloc(1, sizeof *ports);
+    assert_non_null(ports);
+    assert_int_equal(ub_ports_init(ports, p->pub_node), UB_OK);
+    assert_int_equal(ub_ports_open_config(ports, cfg, 0, err, sizeof err), UB_ERR_CONFIG);
+    assert_non_null(strstr(err, "t.json:7:"));
+    assert_null(ub_ports_find(ports, "pubPort"));
+    /* Fixed, only pubPort belongs to this node: sub:subPort is skipped. */
+    snprintf(cfg->ports[1].params[0].value, sizeof cfg->ports[1].params[0].value, "127.0.0.1:0");
+    assert_int_equal(ub_ports_open_config(ports, cfg, 0, err, sizeof err), 1);
+    uint16_t port = 0;
+    assert_int_equal(ub_ports_local_port(ports, "pubPort", &port), UB_OK);
+    assert_true(port != 0);
+    assert_int_equal(ub_ports_local_port(ports, "subPort", &port), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_ports_open_text(ports, "nosuch", "tcp:listen=127.0.0.1:0", 0, err, sizeof err),
+                     UB_ERR_NOTFOUND);
+    assert_non_null(strstr(err, "port 'nosuch': this node has no such link"));
+    assert_int_equal(ub_ports_open_text(ports, "sub:pubPort", "tcp:listen=127.0.0.1:0", 0, err, sizeof err),
+                     UB_ERR_NOTFOUND); /* pubPort is pub's link, not sub's */
+    assert_int_equal(ub_ports_open_text(ports, "pubPort", "mem", 0, err, sizeof err), UB_ERR_INVAL);
+    ub_ports_close_all(ports);
+    assert_null(ub_ports_find(ports, "pubPort"));
+    free(ports);
+    pair_free(p);
+    free(cfg);
+}
+
+/* Two nodes, each with its ports, stepped on a simulated clock; every step polls (without waiting), services
+ * and ticks both. */
+typedef struct net {
+    pair_t *p;
+    ub_ports_t *a; /* pub node */
+    ub_ports_t *b; /* sub node */
+} net_t;
+
+static void step(net_t *n, uint64_t now_ms) {
+    struct pollfd fds[4 * UB_PORTS_MAX];
+    int na = ub_ports_pollfds(n->a, fds, 2 * UB_PORTS_MAX);
+    int nb = ub_ports_pollfds(n->b, fds + na, 2 * UB_PORTS_MAX);
+    assert_true(na >= 1 && nb >= 1);
+    assert_true(poll(fds, (nfds_t)(na + nb), 0) >= 0);
+    (void)ub_ports_service(n->a, now_ms);
+    (void)ub_ports_service(n->b, now_ms);
+    ub_node_tick(n->p->pub_node, now_ms);
+    ub_node_tick(n->p->sub_node, now_ms);
+}
+
+static void run(net_t *n, uint64_t from_ms, uint64_t to_ms) {
+    for (uint64_t t = from_ms; t < to_ms; t++) step(n, t);
+}
+
+static void test_rebind_tcp_to_udp_keeps_the_subscription(void **state) {
+    (void)state;
+    net_t n = {.p = pair_new(NULL)};
+    n.a = calloc(1, sizeof *n.a);
+    n.b = calloc(1, sizeof *n.b);
+    assert_non_null(n.a);
+    assert_non_null(n.b);
+    pair_t *p = n.p;
+    char err[UB_PORTS_ERR_LEN], spec[128];
+    assert_int_equal(ub_ports_init(n.a, p->pub_node), UB_OK);
+    assert_int_equal(ub_ports_init(n.b, p->sub_node), UB_OK);
+    /* TCP: sub listens, pub connects. */
+    assert_int_equal(ub_ports_open_text(n.b, "subPort", "tcp:listen=127.0.0.1:0", 0, err, sizeof err), UB_OK);
+    uint16_t listen_port = 0;
+    assert_int_equal(ub_ports_local_port(n.b, "subPort", &listen_port), UB_OK);
+    snprintf(spec, sizeof spec, "tcp:connect=127.0.0.1:%u", (unsigned)listen_port);
+    assert_int_equal(ub_ports_open_text(n.a, "pubPort", spec, 0, err, sizeof err), UB_OK);
+    assert_int_equal(ub_ports_local_port(n.a, "pubPort", &listen_port), UB_ERR_INVAL); /* a client has none */
+    int sub_row = ub_pubsub_subscribe(p->sub_node, p->sub, TEST_GPS, p->pub_id, 20, 0);
+    assert_true(sub_row >= 0);
+    run(&n, 0, 500);
+    size_t over_tcp = delivery_count(&p->log, p->sub, TEST_GPS, 0, 500);
+    assert_in_range(over_tcp, 20, 25);
+    int pub_row = ub_pubsub_find(p->pub_node, p->pub, UB_PS_PUBLICATION, TEST_GPS, p->sub_id);
+    assert_true(pub_row >= 0);
+    const ub_ps_row_t *srow = ub_pubsub_row(p->sub_node, p->sub, sub_row);
+    assert_int_equal(srow->state, UB_SUB_RECEIVING);
+    uint32_t request_id = srow->request_id;
+    uint64_t frames_before = ub_pubsub_row(p->pub_node, p->pub, pub_row)->frames;
+    const ub_link_counters_t *ca = &ub_node_link(p->pub_node, p->pub_link)->counters;
+    const ub_link_counters_t *cb = &ub_node_link(p->sub_node, p->sub_link)->counters;
+    uint64_t a_out_tcp = ca->frames_out, b_in_tcp = cb->frames_in;
+    assert_int_equal(a_out_tcp, b_in_tcp); /* nothing lost over TCP */
+
+    /* The switch, at t = 500: sub opens UDP first (its peer not known yet), pub follows with sub's port,
+     * and sub re-opens on its own port with pub's: the same-address case (old transport closed first). */
+    assert_int_equal(ub_ports_open_text(n.b, "subPort", "udp:bind=127.0.0.1:0,peer=127.0.0.1:9", 500, err, sizeof err),
+                     UB_OK);
+    uint16_t ub = 0, ua = 0;
+    assert_int_equal(ub_ports_local_port(n.b, "subPort", &ub), UB_OK);
+    snprintf(spec, sizeof spec, "udp:bind=127.0.0.1:0,peer=127.0.0.1:%u", (unsigned)ub);
+    assert_int_equal(ub_ports_open_text(n.a, "pubPort", spec, 500, err, sizeof err), UB_OK);
+    assert_int_equal(ub_ports_local_port(n.a, "pubPort", &ua), UB_OK);
+    snprintf(spec, sizeof spec, "udp:bind=127.0.0.1:%u,peer=127.0.0.1:%u", (unsigned)ub, (unsigned)ua);
+    assert_int_equal(ub_ports_open_text(n.b, "subPort", spec, 500, err, sizeof err), UB_OK);
+    assert_int_equal(ub_ports_find(n.a, "pubPort")->rebinds, 1);
+    assert_int_equal(ub_ports_find(n.b, "subPort")->rebinds, 2);
+    assert_string_equal(ub_node_link(p->pub_node, p->pub_link)->ops->kind, "udp");
+    run(&n, 500, 1000);
+
+    /* The subscription never noticed: same row, same request, still receiving, no re-request needed. */
+    srow = ub_pubsub_row(p->sub_node, p->sub, sub_row);
+    assert_int_equal(srow->kind, UB_PS_SUBSCRIPTION);
+    assert_int_equal(srow->state, UB_SUB_RECEIVING);
+    assert_int_equal(srow->request_id, request_id);
+    assert_int_equal(ub_pubsub_find(p->pub_node, p->pub, UB_PS_PUBLICATION, TEST_GPS, p->sub_id), pub_row);
+    assert_int_equal(ub_pubsub_count(p->pub_node, p->pub, UB_PS_PUBLICATION), 1);
+    assert_true(ub_pubsub_row(p->pub_node, p->pub, pub_row)->frames > frames_before + 20);
+    size_t over_udp = delivery_count(&p->log, p->sub, TEST_GPS, 500, 1000);
+    assert_in_range(over_udp, 23, 26);
+    /* Counters survive the switch and account for every frame: sent = received + dropped on the way. */
+    assert_true(ca->frames_out > a_out_tcp);
+    assert_true(cb->frames_in > b_in_tcp);
+    uint64_t refused = ca->drops[UB_DROP_TX_ERROR] + ca->drops[UB_DROP_BACKPRESSURE] + ca->drops[UB_DROP_DETACHED];
+    assert_int_equal(refused, 0);
+    assert_true(cb->frames_in <= ca->frames_out);
+    assert_true(ca->frames_out - cb->frames_in <= 2); /* at most the frames in flight during the switch */
+
+    ub_ports_close_all(n.a);
+    ub_ports_close_all(n.b);
+    assert_null(ub_node_link(p->pub_node, p->pub_link)->ops);
+    free(n.a);
+    free(n.b);
+    pair_free(p);
+}
+
+/* Impairment in front of real ports: seeded loss on the publisher's UDP port, counted exactly. */
+static void test_impairment_on_ports(void **state) {
+    (void)state;
+    net_t n = {.p = pair_new(NULL)};
+    n.a = calloc(1, sizeof *n.a);
+    n.b = calloc(1, sizeof *n.b);
+    assert_non_null(n.a);
+    assert_non_null(n.b);
+    pair_t *p = n.p;
+    char err[UB_PORTS_ERR_LEN], spec[128];
+    assert_int_equal(ub_ports_init(n.a, p->pub_node), UB_OK);
+    assert_int_equal(ub_ports_init(n.b, p->sub_node), UB_OK);
+    const ub_impair_params_t imp = {.loss_ppm = 200000, .delay_ms = 3};
+    assert_int_equal(ub_ports_set_impairment(n.a, &imp, 11), UB_OK); /* before opening: applies to later ports */
+    assert_int_equal(ub_ports_open_text(n.b, "subPort", "udp:bind=127.0.0.1:0,peer=127.0.0.1:9", 0, err, sizeof err),
+                     UB_OK);
+    uint16_t ub = 0, ua = 0;
+    assert_int_equal(ub_ports_local_port(n.b, "subPort", &ub), UB_OK);
+    snprintf(spec, sizeof spec, "udp:bind=127.0.0.1:0,peer=127.0.0.1:%u", (unsigned)ub);
+    assert_int_equal(ub_ports_open_text(n.a, "pubPort", spec, 0, err, sizeof err), UB_OK);
+    assert_int_equal(ub_ports_local_port(n.a, "pubPort", &ua), UB_OK);
+    snprintf(spec, sizeof spec, "udp:bind=127.0.0.1:%u,peer=127.0.0.1:%u", (unsigned)ub, (unsigned)ua);
+    assert_int_equal(ub_ports_open_text(n.b, "subPort", spec, 0, err, sizeof err), UB_OK);
+    const ub_port_t *pa = ub_ports_find(n.a, "pubPort");
+    assert_true(pa->impaired);
+    assert_string_equal(ub_node_link(p->pub_node, p->pub_link)->ops->kind, "impair");
+    assert_true(ub_pubsub_subscribe(p->sub_node, p->sub, TEST_GPS, p->pub_id, 10, 0) >= 0);
+    run(&n, 0, 1000);
+    assert_int_equal(ub_ports_poll_timeout(n.a, 1000, 50) <= 50, 1);
+    run(&n, 1000, 1010); /* let the delayed copies out */
+    const ub_impair_stats_t *s = ub_impair_stats(&pa->impair);
+    const ub_link_counters_t *ca = &ub_node_link(p->pub_node, p->pub_link)->counters;
+    const ub_link_counters_t *cb = &ub_node_link(p->sub_node, p->sub_link)->counters;
+    assert_int_equal(s->offered, ca->frames_out);
+    assert_true(ub_impair_check_balance(&pa->impair));
+    assert_int_equal(s->passed + ub_impair_pending(&pa->impair), s->offered - s->lost);
+    assert_int_equal(cb->frames_in, s->passed);
+    assert_true(s->lost > s->offered / 10 && s->lost < s->offered * 3 / 10);
+    /* Turning it off puts the bare socket back. */
+    assert_int_equal(ub_ports_set_impairment(n.a, NULL, 0), UB_OK);
+    assert_string_equal(ub_node_link(p->pub_node, p->pub_link)->ops->kind, "udp");
+    ub_ports_close_all(n.a);
+    ub_ports_close_all(n.b);
+    free(n.a);
+    free(n.b);
+    pair_free(p);
+}
+
+/* A TCP driver re-attaches itself when its connection comes up; the impairment must come back in front. */
+static void test_impairment_survives_tcp_connects(void **state) {
+    (void)state;
+    net_t n = {.p = pair_new(NULL)};
+    n.a = calloc(1, sizeof *n.a);
+    n.b = calloc(1, sizeof *n.b);
+    assert_non_null(n.a);
+    assert_non_null(n.b);
+    pair_t *p = n.p;
+    char err[UB_PORTS_ERR_LEN], spec[128];
+    assert_int_equal(ub_ports_init(n.a, p->pub_node), UB_OK);
+    assert_int_equal(ub_ports_init(n.b, p->sub_node), UB_OK);
+    const ub_impair_params_t imp = {.dup_ppm = 300000};
+    assert_int_equal(ub_ports_set_impairment(n.a, &imp, 5), UB_OK);
+    assert_int_equal(ub_ports_open_text(n.b, "subPort", "tcp:listen=127.0.0.1:0", 0, err, sizeof err), UB_OK);
+    uint16_t port = 0;
+    assert_int_equal(ub_ports_local_port(n.b, "subPort", &port), UB_OK);
+    snprintf(spec, sizeof spec, "tcp:connect=127.0.0.1:%u", (unsigned)port);
+    assert_int_equal(ub_ports_open_text(n.a, "pubPort", spec, 0, err, sizeof err), UB_OK);
+    assert_true(ub_pubsub_subscribe(p->sub_node, p->sub, TEST_GPS, p->pub_id, 10, 0) >= 0);
+    run(&n, 0, 300);
+    const ub_port_t *pa = ub_ports_find(n.a, "pubPort");
+    assert_int_equal(ub_tcp_state(&pa->drv[pa->active].u.tcp), UB_TCP_UP);
+    assert_string_equal(ub_node_link(p->pub_node, p->pub_link)->ops->kind, "impair");
+    const ub_impair_stats_t *s = ub_impair_stats(&pa->impair);
+    const ub_link_counters_t *ca = &ub_node_link(p->pub_node, p->pub_link)->counters;
+    const ub_link_counters_t *cb = &ub_node_link(p->sub_node, p->sub_link)->counters;
+    assert_true(s->duplicated > 3);
+    assert_int_equal(s->offered, ca->frames_out);
+    assert_int_equal(cb->frames_in, s->passed);                                  /* TCP loses nothing */
+    assert_int_equal(ca->drops[UB_DROP_TX_ERROR] + ca->drops[UB_DROP_BACKPRESSURE], 0);
+    assert_int_equal(cb->drops[UB_DROP_DUPLICATE], s->duplicated);               /* every copy cut by dedup */
+    assert_true(ub_impair_check_balance(&pa->impair));
+    ub_ports_close_all(n.a);
+    ub_ports_close_all(n.b);
+    free(n.a);
+    free(n.b);
+    pair_free(p);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_spec_parse_forms),
+        cmocka_unit_test(test_spec_parse_errors),
+        cmocka_unit_test(test_config_entries),
+        cmocka_unit_test(test_rebind_tcp_to_udp_keeps_the_subscription),
+        cmocka_unit_test(test_impairment_on_ports),
+        cmocka_unit_test(test_impairment_survives_tcp_connects),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
