@@ -1,0 +1,24 @@
+# Smoke test of uavbus_node (ctest examples_uavbus_node_smoke): one process with a UDP port publishing
+# gpsOut for 300 ms exits 0 with a ready event, stats and frames sent; a bad port spec exits 2 with a
+# message naming the argument. The multi-process behaviour is tested from Python (tests/system).
+#   cmake -DNODE=<uavbus_node> -DCONFIG=<table2.json> -P smoke.cmake
+execute_process(
+  COMMAND ${NODE} --config ${CONFIG} --node primary
+          --port onboardPortRelay=udp:bind=127.0.0.1:0,peer=127.0.0.1:9
+          --publish rmax1ob1:gpsOut>fcs20/20 --duration-ms 300 --stats-ms 100
+  INPUT_FILE /dev/null OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 20)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "uavbus_node exited ${rc}, expected 0\nstdout: ${out}\nstderr: ${err}")
+endif()
+foreach(want "\"event\":\"ready\",\"node\":\"primary\"" "\"local_port\":[1-9]" "\"final\":true"
+        "\"onboardPortRelay\":{\"id\":3,\"frames_in\":0,\"bytes_in\":0,\"frames_out\":[1-9]")
+  if(NOT out MATCHES "${want}")
+    message(FATAL_ERROR "uavbus_node output lacks /${want}/:\n${out}")
+  endif()
+endforeach()
+execute_process(
+  COMMAND ${NODE} --config ${CONFIG} --node primary --port onboardPortRelay=udp:bind=127.0.0.1:0
+  INPUT_FILE /dev/null OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 20)
+if(NOT rc EQUAL 2 OR NOT err MATCHES "^uavbus_node:argv\\[6\\]: port 'onboardPortRelay': udp needs both")
+  message(FATAL_ERROR "bad spec: exit ${rc} (expected 2), stderr: ${err}")
+endif()
