@@ -12,50 +12,24 @@ per type). Skipped members (pointers, strings, unions, flexible arrays) are not 
 
 from __future__ import annotations
 
-import math as _math
 import struct as _struct
-from typing import Any, Callable, Iterator
+from typing import Any
+
+from uavbus._gen_support import SUPPORT_VERSION as _SUPPORT_VERSION
+from uavbus._gen_support import build as _build
+from uavbus._gen_support import flatten as _flatten
+from uavbus._gen_support import map_nested as _map
+from uavbus._gen_support import nest as _nest
+from uavbus._gen_support import same as _same
+from uavbus._gen_support import take_structs as _take_structs
 
 ABI_VERSION = 2  # UB_CATALOGUE_ABI_VERSION of the C runtime this matches
 CATALOGUE_NAME = 'kinds'
 ID_SCHEME = 'hashed'
 MAX_PACKED_SIZE = 302
 
-def _flatten(seq: Any, depth: int) -> Iterator[Any]:
-    """Elements of a nested list `depth` levels deep, row-major."""
-    if depth == 1:
-        yield from seq
-    else:
-        for sub in seq:
-            yield from _flatten(sub, depth - 1)
-
-def _nest(flat: Any, dims: tuple[int, ...]) -> list:
-    """A flat row-major sequence as nested lists of shape `dims`."""
-    if len(dims) == 1:
-        return list(flat)
-    step = len(flat) // dims[0]
-    return [_nest(flat[k * step:(k + 1) * step], dims[1:]) for k in range(dims[0])]
-
-def _map(fn: Callable[[Any], Any], seq: Any, depth: int) -> list:
-    """`fn` applied to every element of a nested list `depth` levels deep, keeping the shape."""
-    if depth == 1:
-        return [fn(x) for x in seq]
-    return [_map(fn, sub, depth - 1) for sub in seq]
-
-def _same(x: Any) -> Any:
-    return x
-
-def _take_structs(cls: Any, v: tuple, i: int, dims: tuple[int, ...]) -> list:
-    """Nested lists of `cls` objects read from the flat values `v` starting at `i`."""
-    if len(dims) == 1:
-        return [cls._take(v, i + k * cls._NLEAVES) for k in range(dims[0])]
-    step = cls._NLEAVES * _math.prod(dims[1:])
-    return [_take_structs(cls, v, i + k * step, dims[1:]) for k in range(dims[0])]
-
-def _build(fn: Callable[[], Any], dims: tuple[int, ...]) -> list:
-    if len(dims) == 1:
-        return [fn() for _ in range(dims[0])]
-    return [_build(fn, dims[1:]) for _ in range(dims[0])]
+if _SUPPORT_VERSION != 1:
+    raise ImportError("kinds.py was generated for uavbus._gen_support version 1; regenerate it with `uavbus gen`")
 
 class all_kinds:
     """struct all_kinds (all_kinds.h:33): 302 bytes on the wire.

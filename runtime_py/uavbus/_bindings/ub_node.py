@@ -1,0 +1,184 @@
+"""Wrappers for ub_node.h: the router's set-up, I/O entry points, hooks and counters.
+
+The delivery hook and the frame tap call back into Python through `extern "Python"` functions; the
+`user` pointer is an `ffi.new_handle()` of a Python sink object (kept alive by its owner), whose
+`on_deliver(entity, instance, header, now_ms)` / `on_tap(link_id, dir, frame, now_ms)` run inside
+the C call. Sinks must not raise (cffi would only print the error): they queue and return.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from uavbus._bindings.ub_catalogue import ENTITY_ID_LEN, _c_name
+from uavbus._bindings.ub_error import InvalidArgumentError, ensure
+from uavbus._bindings.ub_frame import _header_from_c
+from uavbus._ub import ffi, lib
+
+MAX_ENTITIES: int = lib.UB_MAX_ENTITIES
+MAX_LOCAL_ENTITIES: int = lib.UB_MAX_LOCAL_ENTITIES
+MAX_NODE_LINKS: int = lib.UB_MAX_NODE_LINKS
+DROP_REASONS: tuple[str, ...] = tuple(
+    ffi.string(lib.ub_drop_reason_name(r)).decode("ascii") for r in range(lib.UB_DROP_REASON_COUNT))
+RX_REASONS: tuple[str, ...] = tuple(
+    ffi.string(lib.ub_rx_reason_name(r)).decode("ascii") for r in range(lib.UB_RX_REASON_COUNT))
+_COUNTER_FIELDS = ("originated", "forwarded", "delivered", "admin_handled", "local_direct", "dedup_resets",
+                   "dedup_evictions", "leases_expired")
+
+
+def entity_id(name: str) -> bytes:
+    """The 12-byte entity ID of `name` (RangeError when longer than 12 characters)."""
+    out = ffi.new("uint8_t[]", ENTITY_ID_LEN)
+    ensure(lib.ub_entity_id(_c_name(name), out), f"entity name {name!r}")
+    return bytes(ffi.buffer(out))
+
+
+def entity_name(raw: bytes) -> str:
+    """An entity ID as text: the name without its NUL padding."""
+    return bytes(raw).rstrip(b"\0").decode("utf-8", "replace")
+
+
+def ub_node_new(c_catalogue: Any, hop_limit: int = 0, first_seq: int = 0,
+                timing: dict[str, int] | None = None) -> Any:
+    """A fresh node over `c_catalogue` (which must outlive it), freed with the returned cdata."""
+    node = ffi.new("ub_node_t *")
+    opt = ffi.new("ub_node_options_t *")
+    opt.hop_limit, opt.first_seq = hop_limit, first_seq
+    for key, value in (timing or {}).items():
+        if not hasattr(opt.timing, key):
+            raise InvalidArgumentError(f"unknown pubsub timing field {key!r} (retry_ms, renew_ms, lease_ms, "
+                                       "timeout_min_ms, stop_retries)")
+        setattr(opt.timing, key, value)
+    ensure(lib.ub_node_init(node, c_catalogue, opt), "ub_node_init")
+    return node
+
+
+def ub_node_add_entity_name(node: Any, name: str, local: bool) -> int:
+    return ensure(lib.ub_node_add_entity_name(node, _c_name(name), local), f"entity {name!r}")
+
+
+def ub_node_find_entity(node: Any, name: str) -> int:
+    return ensure(lib.ub_node_find_entity(node, entity_id(name)), f"entity {name!r} is not in the node's table")
+
+
+def ub_node_add_link(node: Any, entity: int, index: int, name: str) -> int:
+    return ensure(lib.ub_node_add_link(node, entity, index, _c_name(name)), f"link {name!r}")
+
+
+def ub_node_find_link(node: Any, name: str) -> int:
+    return ensure(lib.ub_node_find_link(node, _c_name(name)), f"link {name!r} is not a link of this node")
+
+
+def ub_node_set_mask(node: Any, entity: int, dest: int, mask: int) -> None:
+    ensure(lib.ub_node_set_mask(node, entity, dest, mask), f"mask of entity {entity} toward {dest}")
+
+
+def ub_node_bind(node: Any, instance: int, storage: Any) -> None:
+    ensure(lib.ub_node_bind(node, instance, storage), f"binding instance {instance}")
+
+
+def ub_node_rx(node: Any, link_id: int, data: bytes, now_ms: int) -> int:
+    return ensure(lib.ub_node_rx(node, link_id, data, len(data), now_ms), "ub_node_rx")
+
+
+def ub_node_rx_frame(node: Any, link_id: int, frame: bytes, now_ms: int) -> None:
+    ensure(lib.ub_node_rx_frame(node, link_id, frame, len(frame), now_ms), "ub_node_rx_frame")
+
+
+def ub_node_send_data(node: Any, entity: int, instance: int, dest: str, now_ms: int) -> int:
+    return ensure(lib.ub_node_send_data(node, entity, instance, entity_id(dest), now_ms), f"send to {dest!r}")
+
+
+def ub_node_tick(node: Any, now_ms: int) -> None:
+    lib.ub_node_tick(node, now_ms)
+
+
+def ub_node_counters(node: Any) -> dict[str, Any]:
+    """The node-wide counters; `drops` keyed by ub_drop_reason_name()."""
+    c = lib.ub_node_counters(node)
+    out: dict[str, Any] = {k: int(getattr(c, k)) for k in _COUNTER_FIELDS}
+    out["drops"] = {DROP_REASONS[r]: int(c.drops[r]) for r in range(len(DROP_REASONS))}
+    return out
+
+
+def ub_node_links(node: Any) -> list[tuple[int, Any]]:
+    """(link_id, ub_link_t *) of every link slot in use."""
+    out = []
+    for link_id in range(MAX_NODE_LINKS):
+        link = lib.ub_node_link(node, link_id)
+        if link != ffi.NULL and link.in_use:
+            out.append((link_id, link))
+    return out
+
+
+def link_name(node: Any, link_id: int) -> str:
+    """The name of link slot `link_id` ("link<id>" if there is no such slot)."""
+    link = lib.ub_node_link(node, link_id)
+    if link == ffi.NULL or not link.in_use:
+        return f"link{link_id}"
+    return ffi.string(link.name).decode("utf-8")
+
+
+def link_counters(node: Any, link_id: int, link: Any) -> dict[str, Any]:
+    """One slot's counters: frames/bytes in and out, drops by reason, bad frames by decoder reason
+    (stream decoder and datagram rejections together, as ub_node_link_bad_frames() adds them)."""
+    c = link.counters
+    return {
+        "name": ffi.string(link.name).decode("utf-8"),
+        "transport": ffi.string(link.ops.kind).decode("ascii") if link.ops != ffi.NULL else None,
+        "frames_in": int(c.frames_in), "bytes_in": int(c.bytes_in),
+        "frames_out": int(c.frames_out), "bytes_out": int(c.bytes_out),
+        "drops": {DROP_REASONS[r]: int(c.drops[r]) for r in range(len(DROP_REASONS))},
+        "bad_frames": {RX_REASONS[r]: int(lib.ub_node_link_bad_frames(node, link_id, r))
+                       for r in range(len(RX_REASONS))},
+    }
+
+
+def ub_node_entities(node: Any) -> list[dict[str, Any]]:
+    """The entity table: index, name, local, and for local entities their links (link[i] names)."""
+    out = []
+    for index in range(MAX_ENTITIES):
+        row = node.entities[index]
+        if not row.in_use:
+            continue
+        entry: dict[str, Any] = {"index": index, "name": entity_name(bytes(row.id)), "local": row.local >= 0}
+        if row.local >= 0:
+            loc = node.locals[row.local]
+            links = []
+            for i, link_id in enumerate(loc.link_ids):
+                if link_id >= 0:
+                    links.append(ffi.string(lib.ub_node_link(node, link_id).name).decode("utf-8"))
+                else:
+                    links.append(None)
+            while links and links[-1] is None:
+                links.pop()
+            entry["links"] = links
+        out.append(entry)
+    return out
+
+
+def set_deliver_sink(node: Any, handle: Any) -> None:
+    """Routes the delivery hook to `ffi.from_handle(handle).on_deliver`; None removes it."""
+    if handle is None:
+        lib.ub_node_set_deliver_hook(node, ffi.NULL, ffi.NULL)
+    else:
+        lib.ub_node_set_deliver_hook(node, lib.ub_py_deliver, handle)
+
+
+def set_tap_sink(node: Any, handle: Any) -> None:
+    """Routes the frame tap to `ffi.from_handle(handle).on_tap`; None removes it."""
+    if handle is None:
+        lib.ub_node_set_tap(node, ffi.NULL, ffi.NULL)
+    else:
+        lib.ub_node_set_tap(node, lib.ub_py_tap, handle)
+
+
+@ffi.def_extern()
+def ub_py_deliver(user: Any, entity: int, instance: int, h: Any, now_ms: int) -> None:
+    ffi.from_handle(user).on_deliver(entity, instance, _header_from_c(h), now_ms)
+
+
+@ffi.def_extern()
+def ub_py_tap(user: Any, link_id: int, direction: int, frame: Any, length: int, now_ms: int) -> None:
+    # `frame` is valid only during the call: copy it.
+    ffi.from_handle(user).on_tap(link_id, direction, bytes(ffi.buffer(frame, length)), now_ms)

@@ -1,0 +1,97 @@
+"""Wrappers for ub_ports.h (with ub_impair.h): the transports behind a node's links, by spec text."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from uavbus._bindings.ub_catalogue import _c_name
+from uavbus._bindings.ub_error import InvalidArgumentError, ensure
+from uavbus._ub import ffi, lib
+
+ERR_LEN: int = lib.UB_PORTS_ERR_LEN
+POLLFD_CAP: int = 2 * lib.UB_PORTS_MAX
+PPM: int = lib.UB_IMPAIR_PPM_MAX
+
+
+def _err() -> Any:
+    return ffi.new("char[]", ERR_LEN)
+
+
+def _text(err: Any) -> str:
+    return ffi.string(err).decode("utf-8", "replace")
+
+
+def ub_ports_new(node: Any) -> Any:
+    # ~1.3 MB: allocated once per Node by cffi (zeroed), freed with the cdata.
+    ports = ffi.new("ub_ports_t *")
+    ensure(lib.ub_ports_init(ports, node), "ub_ports_init")
+    return ports
+
+
+def ub_ports_open_text(ports: Any, link: str, spec: str, now_ms: int) -> None:
+    err = _err()
+    ensure(lib.ub_ports_open_text(ports, _c_name(link), _c_name(spec), now_ms, err, ERR_LEN),
+           f"port {link}={spec}: {_text(err)}")
+
+
+def ub_ports_open_config(ports: Any, cfg: Any, now_ms: int) -> int:
+    err = _err()
+    return ensure(lib.ub_ports_open_config(ports, cfg, now_ms, err, ERR_LEN), _text(err) or "ports section")
+
+
+def ub_ports_close(ports: Any, link: str) -> None:
+    ensure(lib.ub_ports_close(ports, _c_name(link)), f"port {link!r} is not open")
+
+
+def ub_ports_close_all(ports: Any) -> None:
+    lib.ub_ports_close_all(ports)
+
+
+def ub_ports_service(ports: Any, now_ms: int) -> int:
+    return int(lib.ub_ports_service(ports, now_ms))
+
+
+def ub_ports_pollfds(ports: Any, fds: Any) -> list[tuple[int, int]]:
+    """(fd, poll events) pairs, using the caller's `struct pollfd[POLLFD_CAP]` scratch array."""
+    n = ensure(lib.ub_ports_pollfds(ports, fds, POLLFD_CAP), "ub_ports_pollfds")
+    return [(int(fds[k].fd), int(fds[k].events)) for k in range(n)]
+
+
+def ub_ports_poll_timeout(ports: Any, now_ms: int, max_ms: int) -> int:
+    return int(lib.ub_ports_poll_timeout(ports, now_ms, max_ms))
+
+
+def ub_ports_local_port(ports: Any, link: str) -> int:
+    port = ffi.new("uint16_t *")
+    ensure(lib.ub_ports_local_port(ports, _c_name(link), port), f"local port of {link!r}")
+    return int(port[0])
+
+
+def ub_ports_describe(ports: Any, link: str) -> dict[str, Any] | None:
+    p = lib.ub_ports_find(ports, _c_name(link))
+    if p == ffi.NULL:
+        return None
+    text = ffi.new("char[]", 256)
+    lib.ub_port_spec_format(ffi.addressof(p.spec), text, 256)
+    out: dict[str, Any] = {"spec": ffi.string(text).decode("utf-8"),
+                           "transport": ffi.string(lib.ub_port_kind_transport(p.spec.kind)).decode("ascii"),
+                           "rebinds": int(p.rebinds), "service_errors": int(p.service_errors),
+                           "impaired": bool(p.impaired)}
+    if p.impaired:
+        s = lib.ub_impair_stats(ffi.addressof(p.impair))
+        out["impair"] = {k: int(getattr(s, k)) for k in ("offered", "lost", "duplicated", "reordered", "delayed",
+                                                        "queue_full", "passed", "inner_again", "inner_errors")}
+    return out
+
+
+def ub_ports_set_impairment(ports: Any, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0,
+                            delay_ms: int = 0, jitter_ms: int = 0, hold_ms: int = 0, seed: int = 0) -> None:
+    """Probabilities in 0..1 (converted to parts per million); all zero removes the impairment."""
+    params = ffi.new("ub_impair_params_t *")
+    for name, p in (("loss", loss), ("dup", dup), ("reorder", reorder)):
+        if not 0.0 <= p <= 1.0:
+            raise InvalidArgumentError(f"impairment {name}={p}: give a probability between 0 and 1")
+    params.loss_ppm, params.dup_ppm = round(loss * PPM), round(dup * PPM)
+    params.reorder_ppm, params.delay_ms, params.jitter_ms = round(reorder * PPM), delay_ms, jitter_ms
+    params.reorder_hold_ms = hold_ms
+    ensure(lib.ub_ports_set_impairment(ports, params, seed), "ub_ports_set_impairment")

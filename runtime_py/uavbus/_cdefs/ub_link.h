@@ -1,0 +1,47 @@
+/* cffi cdef for runtime_c/include/ub/ub_link.h: link slots, their counters and the mask notation.
+ * Python never implements a transport; it only reads slots and counters. */
+
+#define UB_LINK_NAME_LEN ...
+
+typedef enum ub_drop_reason {
+    UB_DROP_NO_ROUTE, UB_DROP_HOP_LIMIT, UB_DROP_DUPLICATE, UB_DROP_LAYOUT_MISMATCH, UB_DROP_UNKNOWN_CONTENT,
+    UB_DROP_UNBOUND, UB_DROP_BAD_PAYLOAD, UB_DROP_TX_ERROR, UB_DROP_BACKPRESSURE, UB_DROP_DETACHED,
+    UB_DROP_REASON_COUNT, ...
+} ub_drop_reason_t;
+
+const char *ub_drop_reason_name(ub_drop_reason_t reason);
+
+typedef struct ub_link_counters {
+    uint64_t frames_in;
+    uint64_t bytes_in;
+    uint64_t frames_out;
+    uint64_t bytes_out;
+    uint64_t bad_datagrams[...];
+    uint64_t drops[...];
+    ...;
+} ub_link_counters_t;
+
+typedef struct ub_link_ops {
+    const char *kind;
+    ...;
+} ub_link_ops_t;
+
+typedef struct ub_link {
+    char name[...];
+    uint8_t in_use;
+    uint8_t owner;
+    uint8_t index;
+    const ub_link_ops_t *ops;
+    ub_link_counters_t counters;
+    ...;
+} ub_link_t;
+
+int ub_link_mask_parse(const char *text, uint8_t *mask);
+void ub_link_mask_format(uint8_t mask, char out[11]);
+int ub_link_fileno(const ub_link_t *link);
+
+/* From ub_node.h, declared here because the cdefs load in name order and ub_log.h needs them. */
+typedef enum ub_tap_dir { UB_TAP_RX, UB_TAP_TX, ... } ub_tap_dir_t;
+
+typedef void (*ub_tap_fn)(void *user, int link_id, ub_tap_dir_t dir, const uint8_t *frame, size_t len,
+                          uint64_t now_ms);

@@ -1,0 +1,90 @@
+/* cffi cdef for runtime_c/include/ub/ub_node.h: the router. ub_node_t is opaque (its size comes
+ * from the compiler); Python reads it only through the functions. Tap and delivery hook are
+ * `extern "Python"` callbacks defined in uavbus._bindings.ub_node. */
+
+#define UB_MAX_ENTITIES ...
+#define UB_MAX_LOCAL_ENTITIES ...
+#define UB_MAX_NODE_LINKS ...
+#define UB_MAX_BINDINGS ...
+
+/* ub_tap_dir_t and ub_tap_fn are declared in ub_link.h (cdefs load in name order; ub_log.h needs them). */
+typedef void (*ub_deliver_fn)(void *user, int entity, uint32_t instance, const ub_frame_header_t *h,
+                              uint64_t now_ms);
+
+/* From ub_pubsub.h (declared here because the cdefs load in name order). */
+typedef struct ub_pubsub_timing {
+    uint32_t retry_ms;
+    uint32_t renew_ms;
+    uint32_t lease_ms;
+    uint32_t timeout_min_ms;
+    uint32_t stop_retries;
+    ...;
+} ub_pubsub_timing_t;
+
+typedef struct ub_node_options {
+    uint8_t hop_limit;
+    uint32_t first_seq;
+    ub_pubsub_timing_t timing;
+    ...;
+} ub_node_options_t;
+
+typedef struct ub_node_counters {
+    uint64_t originated;
+    uint64_t forwarded;
+    uint64_t delivered;
+    uint64_t admin_handled;
+    uint64_t local_direct;
+    uint64_t dedup_resets;
+    uint64_t dedup_evictions;
+    uint64_t leases_expired;
+    uint64_t drops[...];
+    ...;
+} ub_node_counters_t;
+
+/* Read-only views of the entity table, for Node.entities(); the header documents these fields. */
+typedef struct ub_entity_row {
+    uint8_t id[...];
+    uint8_t in_use;
+    int8_t local;
+    ...;
+} ub_entity_row_t;
+
+typedef struct ub_local_entity {
+    uint8_t in_use;
+    uint8_t entity;
+    int16_t link_ids[...];
+    ...;
+} ub_local_entity_t;
+
+struct ub_node {
+    ub_entity_row_t entities[...];
+    ub_local_entity_t locals[...];
+    ...;
+};
+
+int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt);
+int ub_node_add_entity(ub_node_t *node, const uint8_t id[], bool local);
+int ub_node_add_entity_name(ub_node_t *node, const char *name, bool local);
+int ub_node_find_entity(const ub_node_t *node, const uint8_t id[]);
+const uint8_t *ub_node_entity_id(const ub_node_t *node, int entity);
+int ub_node_add_link(ub_node_t *node, int entity, unsigned index, const char *name);
+int ub_node_find_link(const ub_node_t *node, const char *name);
+const ub_link_t *ub_node_link(const ub_node_t *node, int link_id);
+int ub_node_set_mask(ub_node_t *node, int entity, int dest, uint8_t mask);
+int ub_node_get_mask(const ub_node_t *node, int entity, int dest, uint8_t *mask);
+int ub_node_link_detach(ub_node_t *node, int link_id);
+uint64_t ub_node_link_bad_frames(const ub_node_t *node, int link_id, ub_rx_reason_t reason);
+int ub_node_bind(ub_node_t *node, uint32_t instance, void *storage);
+void *ub_node_binding(const ub_node_t *node, uint32_t instance);
+int ub_node_rx(ub_node_t *node, int link_id, const uint8_t *data, size_t len, uint64_t now_ms);
+int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms);
+int ub_node_send_data(ub_node_t *node, int entity, uint32_t instance, const uint8_t dest_id[], uint64_t now_ms);
+void ub_node_tick(ub_node_t *node, uint64_t now_ms);
+void ub_node_set_tap(ub_node_t *node, ub_tap_fn fn, void *user);
+void ub_node_set_deliver_hook(ub_node_t *node, ub_deliver_fn fn, void *user);
+const ub_node_counters_t *ub_node_counters(const ub_node_t *node);
+
+extern "Python" void ub_py_deliver(void *user, int entity, uint32_t instance, const ub_frame_header_t *h,
+                                   uint64_t now_ms);
+extern "Python" void ub_py_tap(void *user, int link_id, ub_tap_dir_t dir, const uint8_t *frame, size_t len,
+                               uint64_t now_ms);

@@ -1,0 +1,53 @@
+/* cffi cdef for runtime_c/include/ub/ub_ports.h: port specs, opening/rebinding, one poll loop
+ * (Contract 1). ub_ports_t is opaque; its size comes from the compiler. */
+
+#define UB_PORTS_MAX ...
+#define UB_PORTS_ERR_LEN ...
+
+typedef enum ub_port_kind {
+    UB_PORT_NONE, UB_PORT_UDP, UB_PORT_TCP_LISTEN, UB_PORT_TCP_CONNECT, UB_PORT_SERIAL, UB_PORT_MEM, ...
+} ub_port_kind_t;
+
+typedef struct ub_port_spec {
+    ub_port_kind_t kind;
+    char host[...];
+    uint16_t port;
+    char peer_host[...];
+    uint16_t peer_port;
+    char device[...];
+    uint32_t baud;
+    ...;
+} ub_port_spec_t;
+
+typedef struct ub_port {
+    uint8_t in_use;
+    uint8_t impaired;
+    int link_id;
+    ub_port_spec_t spec;
+    uint32_t rebinds;
+    uint64_t service_errors;
+    ub_impair_t impair;
+    ...;
+} ub_port_t;
+
+typedef struct ub_ports { ...; } ub_ports_t;
+
+struct pollfd { int fd; short events; short revents; ...; };
+
+const char *ub_port_kind_transport(ub_port_kind_t kind);
+int ub_port_spec_parse(const char *text, ub_port_spec_t *spec, char *err, size_t err_cap);
+void ub_port_spec_format(const ub_port_spec_t *spec, char *out, size_t cap);
+int ub_ports_init(ub_ports_t *ports, ub_node_t *node);
+int ub_ports_open(ub_ports_t *ports, const char *link_name, const ub_port_spec_t *spec, uint64_t now_ms, char *err,
+                  size_t err_cap);
+int ub_ports_open_text(ub_ports_t *ports, const char *link_name, const char *spec_text, uint64_t now_ms, char *err,
+                       size_t err_cap);
+int ub_ports_open_config(ub_ports_t *ports, const ub_nodecfg_t *cfg, uint64_t now_ms, char *err, size_t err_cap);
+int ub_ports_close(ub_ports_t *ports, const char *link_name);
+void ub_ports_close_all(ub_ports_t *ports);
+int ub_ports_service(ub_ports_t *ports, uint64_t now_ms);
+int ub_ports_pollfds(const ub_ports_t *ports, struct pollfd *fds, int cap);
+int ub_ports_poll_timeout(const ub_ports_t *ports, uint64_t now_ms, int max_ms);
+int ub_ports_local_port(const ub_ports_t *ports, const char *link_name, uint16_t *port);
+const ub_port_t *ub_ports_find(const ub_ports_t *ports, const char *link_name);
+int ub_ports_set_impairment(ub_ports_t *ports, const ub_impair_params_t *params, uint64_t seed);

@@ -1,0 +1,517 @@
+"""Node: a Python process's router. All routing, framing, duplicate suppression, publish/subscribe
+and admin tables run in the C runtime (uavbus._ub); Python hosts directories as wire images,
+drives the loop (poll/select on the ports' descriptors, then service + tick) and reads counters.
+
+    cat = Catalogue.load("flightsw.catalogue.json")
+    node = Node(cat, config="examples/configs/table2.json", node="gcs")
+    node.open_ports_from_config()
+    node.subscribe("gcs1", "imuOut", source="fcs20", period_ms=20)
+    for msg in node.messages(timeout=1.0):
+        print(msg.name, msg.source, msg.value)
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterator
+
+from uavbus._bindings import ub_admin, ub_log, ub_memlink, ub_node, ub_nodecfg, ub_ports, ub_pubsub
+from uavbus._bindings.ub_error import InvalidArgumentError, NotFoundError, ensure
+from uavbus._bindings.ub_frame import FrameHeader
+from uavbus._ub import ffi, lib
+from uavbus.catalogue import Catalogue, Instance
+from uavbus.directory import Directory
+
+Clock = Callable[[], float]
+INBOX_MAX = 10000  # messages kept for messages() when no on_data callback consumes them
+
+
+def monotonic_ms() -> float:
+    """CLOCK_MONOTONIC in ms: the clock of the C node program, so latencies compare on one machine."""
+    return time.monotonic() * 1000.0
+
+
+@dataclass
+class Message:
+    """One DATA delivery: the router already unpacked it into the bound directory; `raw` is a copy
+    of that image at delivery time, `value` its decoded dict (computed on first use)."""
+
+    name: str
+    instance: Instance
+    entity: str  # the local entity it was delivered to
+    source: str
+    dest: str
+    seq: int
+    t_ms: int
+    raw: bytes
+    catalogue: Catalogue = field(repr=False)
+    _value: dict[str, Any] | None = field(default=None, repr=False)
+
+    @property
+    def value(self) -> dict[str, Any]:
+        if self._value is None:
+            self._value = self.catalogue.decode(self.instance.type, self.raw)
+        return self._value
+
+
+class _Sink:
+    """What the C hooks call (through ffi handles); only queues, so no Python error escapes into C."""
+
+    def __init__(self, node: "Node") -> None:
+        self.node = node
+        self.pending: list[tuple[int, int, FrameHeader, int, bytes]] = []
+        self.frames: list[tuple[int, int, bytes, int]] = []
+
+    def on_deliver(self, entity: int, instance: int, header: FrameHeader, now_ms: int) -> None:
+        # Copy the image now: a later delivery in the same C call overwrites the bound storage.
+        d = self.node._dirs.get(instance)
+        self.pending.append((entity, instance, header, now_ms, d.raw if d is not None else b""))
+
+    def on_tap(self, link_id: int, direction: int, frame: bytes, now_ms: int) -> None:
+        # Installed only while Python frame callbacks exist (Node.on_frame). The node has one tap, so
+        # a running recording is fed from here too, by the same C writer.
+        log = self.node._log
+        if log is not None:
+            lib.ub_log_write(log, link_id, direction, frame, len(frame), now_ms)  # counted in its stats
+        if len(self.frames) < INBOX_MAX:
+            self.frames.append((link_id, direction, frame, now_ms))
+        else:
+            self.node._frames_dropped += 1
+
+
+class Node:
+    """One router (ub_node_t) with its ports, bindings and tables. Not thread-safe: use it from the
+    thread that polls it."""
+
+    def __init__(self, catalogue: Catalogue | str | Path, config: str | Path | None = None, node: str | None = None,
+                 clock: Clock | None = None, *, hop_limit: int = 0, first_seq: int = 0,
+                 timing: dict[str, int] | None = None) -> None:
+        self.catalogue = catalogue if isinstance(catalogue, Catalogue) else Catalogue.load(catalogue)
+        self.name = node or "python"
+        self._clock: Clock = clock or monotonic_ms
+        self._real_clock = clock is None
+        self._c = ub_node.ub_node_new(self.catalogue.c_catalogue, hop_limit, first_seq, timing)
+        self._sink = _Sink(self)
+        self._handle = ffi.new_handle(self._sink)
+        ub_node.set_deliver_sink(self._c, self._handle)
+        self._dirs: dict[int, Directory] = {}
+        self._callbacks: list[Callable[[Message], Any]] = []
+        self._frame_callbacks: list[Callable[[str, str, bytes, int], Any]] = []
+        self._frames_dropped = 0
+        self._inbox: deque[Message] = deque()
+        self._inbox_dropped = 0
+        self._callback_errors = 0
+        self._memlinks: list[MemLink] = []
+        self._admins: dict[str, Admin] = {}
+        self._ports: Any = None
+        self._pollfds = ffi.new("struct pollfd[]", ub_ports.POLLFD_CAP)
+        self._log: Any = None
+        self._log_fd = -1
+        self._closed = False
+        self._cfg: Any = None
+        if config is not None:
+            self._cfg = ub_nodecfg.ub_nodecfg_load_file(str(config))
+            if node is not None:
+                ub_nodecfg.ub_nodecfg_select_node(self._cfg, node)
+            ub_nodecfg.ub_nodecfg_apply(self._cfg, self._c)
+
+    # -- time ----------------------------------------------------------------------------------
+    def now(self) -> int:
+        return int(self._clock())
+
+    # -- tables --------------------------------------------------------------------------------
+    def add_entity(self, name: str, local: bool = False) -> int:
+        """Adds an entity by hand (tests, tools); a config file does this through ub_nodecfg_apply."""
+        return ub_node.ub_node_add_entity_name(self._c, name, local)
+
+    def add_link(self, entity: str, index: int, name: str) -> int:
+        return ub_node.ub_node_add_link(self._c, self.entity_index(entity), index, name)
+
+    def set_mask(self, entity: str, dest: str, mask: int | str) -> None:
+        """Link mask of local `entity` toward `dest`: an int (bit i = link[i]) or the paper's "0x00000110"."""
+        if isinstance(mask, str):
+            out = ffi.new("uint8_t *")
+            ensure(lib.ub_link_mask_parse(mask.encode("ascii"), out), f"mask {mask!r}")
+            mask = int(out[0])
+        ub_node.ub_node_set_mask(self._c, self.entity_index(entity), self.entity_index(dest), mask)
+
+    def entity_index(self, name: str) -> int:
+        return ub_node.ub_node_find_entity(self._c, name)
+
+    def link_id(self, name: str) -> int:
+        return ub_node.ub_node_find_link(self._c, name)
+
+    def entities(self) -> list[dict[str, Any]]:
+        """The entity table: index, name, local, and links (link[i] names) of local entities."""
+        return ub_node.ub_node_entities(self._c)
+
+    @property
+    def local_entities(self) -> list[str]:
+        return [e["name"] for e in self.entities() if e["local"]]
+
+    # -- directories ---------------------------------------------------------------------------
+    def bind(self, content: str) -> Directory:
+        """Hosts instance `content`: binds a zeroed wire image to it (idempotent) and returns it."""
+        inst = self.catalogue.instance(content)
+        d = self._dirs.get(inst.index)
+        if d is None:
+            storage = ffi.new("uint8_t[]", max(inst.type.packed_size, 1))
+            ub_node.ub_node_bind(self._c, inst.index, storage)
+            d = Directory(inst.type, storage, 0, inst)
+            self._dirs[inst.index] = d
+        return d
+
+    def directory(self, content: str) -> Directory | None:
+        return self._dirs.get(self.catalogue.instance(content).index)
+
+    # -- publish / subscribe -------------------------------------------------------------------
+    def publish(self, entity: str, content: str, to: str, period_ms: int) -> int:
+        """Local publication (no lease): `entity` sends `content` to `to` every period (binds it)."""
+        inst = self.catalogue.instance(content)
+        self.bind(content)
+        return ub_pubsub.ub_pubsub_publish(self._c, self.entity_index(entity), inst.index, to, period_ms, self.now())
+
+    def subscribe(self, entity: str, content: str, source: str, period_ms: int) -> int:
+        """Local subscription: `entity` requests `content` from `source` (binds it here to receive)."""
+        inst = self.catalogue.instance(content)
+        self.bind(content)
+        return ub_pubsub.ub_pubsub_subscribe(self._c, self.entity_index(entity), inst.index, source, period_ms,
+                                             self.now())
+
+    def stop(self, entity: str, row: int) -> None:
+        ub_pubsub.ub_pubsub_stop(self._c, self.entity_index(entity), row, self.now())
+
+    def send(self, entity: str, content: str, to: str) -> int:
+        """One DATA frame now (binds `content` if needed). Returns the links that accepted it."""
+        inst = self.catalogue.instance(content)
+        self.bind(content)
+        n = ub_node.ub_node_send_data(self._c, self.entity_index(entity), inst.index, to, self.now())
+        self._dispatch()  # a local destination is delivered synchronously
+        return n
+
+    def pubsub_rows(self, entity: str) -> list[dict[str, Any]]:
+        rows = []
+        for k, r in ub_pubsub.ub_pubsub_rows(self._c, self.entity_index(entity)):
+            r["row"] = k
+            r["content"] = self.catalogue.instances[r["instance"]].name
+            rows.append(r)
+        return rows
+
+    def admin(self, entity: str, **options: int) -> "Admin":
+        """The global administration table hosted by local `entity` (created on first use;
+        options: retry_ms, renew_ms, lease_ms, max_retries, max_stop_retries)."""
+        adm = self._admins.get(entity)
+        if adm is None:
+            adm = Admin(self, entity, options)
+            self._admins[entity] = adm
+        return adm
+
+    # -- receiving -----------------------------------------------------------------------------
+    def on_data(self, callback: Callable[[Message], Any]) -> None:
+        """Calls `callback(msg)` for every delivery, from poll() (never from inside C). While any
+        callback is registered, messages() sees nothing (callbacks consume the deliveries)."""
+        self._callbacks.append(callback)
+
+    def on_frame(self, callback: Callable[[str, str, bytes, int], Any]) -> None:
+        """Calls `callback(link_name, "rx" | "tx", frame, t_ms)` for every verified frame received
+        on a link and every frame a transport accepted (the node's frame tap), from poll(). For
+        monitors (spy, hz); a running record() keeps recording."""
+        self._frame_callbacks.append(callback)
+        ub_node.set_tap_sink(self._c, self._handle)
+
+    def _dispatch_frames(self) -> None:
+        frames, self._sink.frames = self._sink.frames, []
+        names: dict[int, str] = {}
+        for link_id, direction, frame, t_ms in frames:
+            name = names.get(link_id)
+            if name is None:
+                name = names[link_id] = ub_node.link_name(self._c, link_id)
+            for cb in list(self._frame_callbacks):
+                cb(name, "tx" if direction else "rx", frame, t_ms)
+
+    def _dispatch(self) -> int:
+        if self._sink.frames:
+            self._dispatch_frames()
+        pending, self._sink.pending = self._sink.pending, []
+        for k, (entity, instance, h, now_ms, raw) in enumerate(pending):
+            inst = self.catalogue.instances[instance]
+            msg = Message(inst.name, inst, _entity_at(self, entity), ub_node.entity_name(h.src_id),
+                          ub_node.entity_name(h.dest_id), h.seq, now_ms, raw, self.catalogue)
+            if self._callbacks:
+                for cb in list(self._callbacks):
+                    try:
+                        cb(msg)
+                    except Exception:
+                        # The caller sees the error; the deliveries after this one wait for the next turn.
+                        self._callback_errors += 1
+                        self._sink.pending[:0] = pending[k + 1:]
+                        raise
+            else:
+                if len(self._inbox) >= INBOX_MAX:
+                    self._inbox.popleft()
+                    self._inbox_dropped += 1
+                self._inbox.append(msg)
+        return len(pending)
+
+    # -- the loop ------------------------------------------------------------------------------
+    def fds(self) -> list[tuple[int, int]]:
+        """(fd, poll events) to wait on (select.POLLIN/POLLOUT bits), for selectors or asyncio."""
+        if self._ports is None:
+            return []
+        return ub_ports.ub_ports_pollfds(self._ports, self._pollfds)
+
+    def poll(self, timeout: float = 0.05) -> int:
+        """One loop turn: waits up to `timeout` s for a descriptor (never sleeps with an injected
+        clock and no descriptors), services ports and memlinks, ticks the tables, dispatches
+        deliveries. Returns the number of messages delivered."""
+        self._check_open()
+        wait_ms = max(0, int(timeout * 1000))
+        now = self.now()
+        if self._ports is not None:
+            wait_ms = ub_ports.ub_ports_poll_timeout(self._ports, now, wait_ms)
+        if any(ub_memlink.ub_memlink_pending(m._c) for m in self._memlinks):
+            wait_ms = min(wait_ms, 1)
+        fds = self.fds()
+        if fds and wait_ms >= 0:
+            p = select.poll()
+            for fd, events in fds:
+                p.register(fd, events)
+            p.poll(wait_ms)
+        elif self._real_clock and wait_ms > 0:
+            time.sleep(wait_ms / 1000.0)
+        return self.service()
+
+    def service(self, now_ms: int | None = None) -> int:
+        """The non-blocking part of poll(): ports, memlinks, tick, dispatch (at `now_ms` or now)."""
+        now = self.now() if now_ms is None else now_ms
+        if self._ports is not None:
+            ub_ports.ub_ports_service(self._ports, now)
+        for m in self._memlinks:
+            ub_memlink.ub_memlink_pump(m._c, now)
+        ub_node.ub_node_tick(self._c, now)
+        return self._dispatch()
+
+    def messages(self, timeout: float | None = None, poll_s: float = 0.01) -> Iterator[Message]:
+        """Deliveries as they come, driving poll() itself; stops after `timeout` s (wall clock)
+        without a message (None: never)."""
+        last = time.monotonic()
+        while True:
+            while self._inbox:
+                last = time.monotonic()
+                yield self._inbox.popleft()
+            if timeout is not None and time.monotonic() - last >= timeout:
+                return
+            self.poll(poll_s)
+
+    async def run(self, poll_s: float = 0.01) -> None:
+        """asyncio helper: services the node whenever a port's descriptor is readable, and at least
+        every `poll_s` (timers). Cancel the task to stop."""
+        import asyncio
+
+        loop = asyncio.get_running_loop()
+        wake = asyncio.Event()
+        watched: set[int] = set()
+        try:
+            while not self._closed:
+                fds = {fd for fd, _ in self.fds()}
+                for fd in fds - watched:
+                    loop.add_reader(fd, wake.set)
+                for fd in watched - fds:
+                    loop.remove_reader(fd)
+                watched = fds
+                try:
+                    await asyncio.wait_for(wake.wait(), poll_s)
+                except asyncio.TimeoutError:
+                    pass
+                wake.clear()
+                self.service()
+        finally:
+            for fd in watched:
+                loop.remove_reader(fd)
+
+    # -- ports ---------------------------------------------------------------------------------
+    def _ports_obj(self) -> Any:
+        if self._ports is None:
+            self._ports = ub_ports.ub_ports_new(self._c)
+        return self._ports
+
+    def open_port(self, link: str, spec: str) -> None:
+        """Opens (or, if open, switches at run time) the transport of `link`: "udp:bind=H:P,peer=H:P",
+        "tcp:listen=H:P", "tcp:connect=H:P", "serial:device=PATH[,baud=N]" (Contract 1)."""
+        ub_ports.ub_ports_open_text(self._ports_obj(), link, spec, self.now())
+
+    def open_ports_from_config(self) -> int:
+        """Opens every port of the config's "ports" section that names a link of this node."""
+        if self._cfg is None:
+            raise InvalidArgumentError("open_ports_from_config() needs Node(..., config=...)")
+        return ub_ports.ub_ports_open_config(self._ports_obj(), self._cfg, self.now())
+
+    def close_port(self, link: str) -> None:
+        ub_ports.ub_ports_close(self._ports_obj(), link)
+
+    def local_port(self, link: str) -> int:
+        return ub_ports.ub_ports_local_port(self._ports_obj(), link)
+
+    def port_info(self, link: str) -> dict[str, Any] | None:
+        return None if self._ports is None else ub_ports.ub_ports_describe(self._ports, link)
+
+    def set_impairment(self, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0, delay: int = 0,
+                       jitter: int = 0, hold: int = 0, seed: int = 0) -> None:
+        """Seeded impairment in front of every socket/serial port, now and later (Contract 4)."""
+        ub_ports.ub_ports_set_impairment(self._ports_obj(), loss, dup, reorder, delay, jitter, hold, seed)
+
+    # -- recording -----------------------------------------------------------------------------
+    def record(self, path: str | Path, tx: bool = False) -> None:
+        """Records received (and with tx=True sent) frames to a binary log with the C writer."""
+        self.stop_recording()
+        fd = os.open(str(path), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        try:
+            self._log = ub_log.ub_log_open(fd, self._c, self.name, tx, int(time.time() * 1000), self.now())
+        except Exception:
+            os.close(fd)
+            raise
+        self._log_fd = fd
+        if not self._frame_callbacks:  # otherwise the Python tap feeds the log (_Sink.on_tap)
+            ub_log.ub_log_install(self._c, self._log)
+
+    def stop_recording(self) -> dict[str, int] | None:
+        if self._log is None:
+            return None
+        if not self._frame_callbacks:
+            ub_node.set_tap_sink(self._c, None)
+        stats = ub_log.ub_log_stats(self._log)
+        ub_log.ub_log_close(self._log)
+        os.close(self._log_fd)
+        self._log, self._log_fd = None, -1
+        return stats
+
+    # -- counters ------------------------------------------------------------------------------
+    def counters(self) -> dict[str, Any]:
+        """The C node counters (drops by reason) plus what the Python layer itself dropped."""
+        out = ub_node.ub_node_counters(self._c)
+        out["python"] = {"inbox_dropped": self._inbox_dropped, "callback_errors": self._callback_errors,
+                         "frames_dropped": self._frames_dropped}
+        if self._log is not None:
+            out["log"] = ub_log.ub_log_stats(self._log)
+        return out
+
+    def link_counters(self) -> dict[str, dict[str, Any]]:
+        """Per link slot: C counters, drops by reason, bad frames by reason, and its port if open."""
+        out = {}
+        for link_id, link in ub_node.ub_node_links(self._c):
+            c = ub_node.link_counters(self._c, link_id, link)
+            c["link_id"] = link_id
+            port = self.port_info(c["name"])
+            if port is not None:
+                c["port"] = port
+            out[c.pop("name")] = c
+        return out
+
+    # -- life ----------------------------------------------------------------------------------
+    def _check_open(self) -> None:
+        if self._closed:
+            raise InvalidArgumentError("node is closed")
+
+    def close(self) -> None:
+        """Closes ports and the log, detaches hooks and admin tables. Safe to call twice."""
+        if self._closed:
+            return
+        self._closed = True
+        self.stop_recording()
+        if self._ports is not None:
+            ub_ports.ub_ports_close_all(self._ports)
+        for adm in self._admins.values():
+            adm._detach()
+        ub_node.set_deliver_sink(self._c, None)
+
+    def __enter__(self) -> "Node":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"<Node {self.name} entities={self.local_entities}>"
+
+
+def _entity_at(node: Node, index: int) -> str:
+    raw = ffi.buffer(node._c.entities[index].id)
+    return ub_node.entity_name(bytes(raw))
+
+
+class Admin:
+    """The global administration table (paper Figure 5) on one local entity: the GCS API."""
+
+    def __init__(self, node: Node, entity: str, options: dict[str, int] | None = None) -> None:
+        self.node = node
+        self.entity = entity
+        self._c = ub_admin.ub_admin_new(node._c, node.entity_index(entity), options)
+
+    def add(self, content: str, source: str, destination: str, period_ms: int, kind: str = "publication") -> int:
+        """An inactive row: `kind` "publication" (request to the source) or "subscription" (to the
+        destination). Returns the row index."""
+        if kind not in ub_admin.ROW_TYPES:
+            raise InvalidArgumentError(f"kind {kind!r}: use 'publication' or 'subscription'")
+        inst = self.node.catalogue.instance(content)
+        return ub_admin.ub_admin_add_row(self._c, inst.index, source, destination, period_ms, kind)
+
+    def activate(self, row: int) -> None:
+        ub_admin.ub_admin_set_active(self._c, row, True, self.node.now())
+
+    def deactivate(self, row: int) -> None:
+        ub_admin.ub_admin_set_active(self._c, row, False, self.node.now())
+
+    def remove(self, row: int) -> None:
+        ub_admin.ub_admin_remove_row(self._c, row)
+
+    def status(self, row: int) -> dict[str, Any]:
+        """status: "inactive" | "pending" | "acknowledged" | "active" | "failed" | "stopping"."""
+        s = ub_admin.ub_admin_row_status(self._c, row)
+        s["content"] = self.node.catalogue.instances[s["instance"]].name
+        return s
+
+    def rows(self) -> list[dict[str, Any]]:
+        out = []
+        for k in range(ub_admin.MAX_ADMIN_ROWS):
+            try:
+                out.append(self.status(k))
+            except NotFoundError:
+                continue
+        return out
+
+    def _detach(self) -> None:
+        lib.ub_admin_detach(self._c)
+
+
+class MemLink:
+    """An in-process link between `link_a` of node `a` and `link_b` of node `b` (the C memlink,
+    with seeded faults: loss_ppm, duplicate_ppm, reorder_ppm, corrupt_ppm, delay_ms, jitter_ms).
+    Both nodes pump it from their poll()/service()."""
+
+    def __init__(self, a: Node, link_a: str, b: Node, link_b: str, faults: dict[str, int] | None = None,
+                 seed: int = 0) -> None:
+        self.a, self.b = a, b
+        self._c = ub_memlink.ub_memlink_new(faults, seed)
+        ub_memlink.ub_memlink_connect(self._c, a._c, a.link_id(link_a), b._c, b.link_id(link_b))
+        a._memlinks.append(self)
+        if b is not a:
+            b._memlinks.append(self)
+
+    def set_faults(self, faults: dict[str, int] | None) -> None:
+        ub_memlink.ub_memlink_set_faults(self._c, faults)
+
+    def pending(self) -> int:
+        return ub_memlink.ub_memlink_pending(self._c)
+
+    def pump(self, now_ms: int) -> int:
+        """Delivers the frames due at `now_ms` (poll() does this; tests call it to interleave steps)."""
+        return ub_memlink.ub_memlink_pump(self._c, now_ms)
+
+    def stats(self) -> dict[str, dict[str, int]]:
+        """Counters of frames sent from each end: {"a": {...}, "b": {...}}."""
+        return {"a": ub_memlink.ub_memlink_stats(self._c, 0), "b": ub_memlink.ub_memlink_stats(self._c, 1)}
