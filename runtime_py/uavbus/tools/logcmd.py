@@ -1,0 +1,214 @@
+"""`uavbus log info|export|play FILE`: read, export and replay binary logs (docs/log-format.md).
+
+    uavbus log info FILE
+    uavbus log export FILE (--csv | --jsonl) [--only NAME...] [--admin] [-o OUT]
+    uavbus log play FILE --into SPEC [--only NAME...] [--speed X | --fast] [--dir rx|tx|all]
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+import time
+from collections import Counter, defaultdict
+from collections.abc import Callable, Iterable
+from typing import IO, Any
+
+from uavbus.logfile import LogFormatError, LogReader, LogRecord
+from uavbus.tools.common import Contents, Seen, admin_name, flatten, jsonable
+from uavbus.tools.endpoint import SpecError, open_sink
+
+
+def _seen(rec: LogRecord) -> Seen:
+    return Seen(t_ms=rec.t_ms, link=rec.link, dir=rec.dir, header=rec.header, frame=rec.frame)
+
+
+def _open(path: str) -> tuple[LogReader, Contents]:
+    log = LogReader(path)
+    log.records()
+    return log, Contents(log.catalogue())
+
+
+def _check_only(contents: Contents, only: list[str] | None, path: str) -> set[str] | None:
+    if not only:
+        return None
+    missing = [n for n in only if not contents.known(n)]
+    if missing:
+        raise SystemExit(f"{path}: --only {' '.join(missing)}: not in the log's catalogue "
+                         f"'{contents.catalogue.name}' (names are instance names, e.g. gpsOut)")
+    return set(only)
+
+
+def _truncation_note(log: LogReader) -> str:
+    s = log.stats
+    if not s.ignored_bytes:
+        return ""
+    return f"{log.path}: ignored the last {s.ignored_bytes} bytes: {s.ignored_reason}"
+
+
+def cmd_info(args: argparse.Namespace, out: IO[str]) -> int:
+    log, contents = _open(args.file)
+    h, cat, recs = log.header, contents.catalogue, log.records()
+    print(f"log:        {log.path}", file=out)
+    print(f"node:       {h.node}", file=out)
+    print(f"started:    unix ms {h.start_unix_ms} at node clock {h.start_t_ms} ms; "
+          f"{'received and sent' if h.record_tx else 'received'} frames recorded", file=out)
+    print(f"catalogue:  {cat.name} (id scheme {cat.id_scheme}, {len(cat.types)} types, "
+          f"{len(cat.instances)} instances)", file=out)
+    print("links:      " + (", ".join(f"{k}={v}" for k, v in sorted(h.links.items())) or "none"), file=out)
+    print(f"records:    {len(recs)} ({log.stats.record_bytes} bytes)", file=out)
+    if recs:
+        t0, t1 = recs[0].t_ms, recs[-1].t_ms
+        print(f"time span:  {t0} .. {t1} ms ({(t1 - t0) / 1000:.3f} s)", file=out)
+    by_link: Counter[tuple[str, str]] = Counter((r.link, r.dir) for r in recs)
+    for (link, d), n in sorted(by_link.items()):
+        print(f"  {link:<24} {d}  {n}", file=out)
+    groups: dict[tuple[str, str, str], list[int]] = defaultdict(list)
+    for r in recs:
+        groups[(contents.name(r.header), admin_name(r.header.admin), r.dir)].append(r.t_ms)
+    if groups:
+        print("contents:", file=out)
+        print(f"  {'name':<28} {'kind':<12} {'dir':<4} {'count':>7} {'rate Hz':>9}", file=out)
+        for (name, kind, d), times in sorted(groups.items()):
+            span = (times[-1] - times[0]) / 1000.0
+            rate = f"{(len(times) - 1) / span:9.2f}" if len(times) > 1 and span > 0 else f"{'-':>9}"
+            print(f"  {name:<28} {kind:<12} {d:<4} {len(times):>7} {rate}", file=out)
+    if log.stats.bad_frames:
+        print(f"bad frames: {log.stats.bad_frames} (record CRC held, frame check failed: {log.stats.by_reason})",
+              file=out)
+    note = _truncation_note(log)
+    print("tail:       " + (note or "complete (no truncated record)"), file=out)
+    return 0
+
+
+def _export_rows(log: LogReader, contents: Contents, only: set[str] | None,
+                 admin: bool) -> Iterable[tuple[LogRecord, str, dict[str, Any] | None]]:
+    for rec in log.records():
+        name = contents.name(rec.header)
+        if only is not None and name not in only:
+            continue
+        seen = _seen(rec)
+        if not seen.is_data and not admin:
+            continue
+        yield rec, name, contents.decode(seen)
+
+
+def _meta(rec: LogRecord, name: str) -> dict[str, Any]:
+    h = rec.header
+    return {"t_ms": rec.t_ms, "link": rec.link, "dir": rec.dir, "name": name,
+            "source": h.src_id.rstrip(b"\0").decode("ascii", "replace"),
+            "dest": h.dest_id.rstrip(b"\0").decode("ascii", "replace"),
+            "seq": h.seq, "kind": admin_name(h.admin)}
+
+
+def cmd_export(args: argparse.Namespace, out: IO[str]) -> int:
+    log, contents = _open(args.file)
+    only = _check_only(contents, args.only, args.file)
+    rows = list(_export_rows(log, contents, only, args.admin))
+    if args.jsonl:
+        for rec, name, value in rows:
+            line = _meta(rec, name)
+            if value is not None:
+                line["value"] = jsonable(value)
+            out.write(json.dumps(line, separators=(",", ":"), allow_nan=False) + "\n")
+    else:
+        # One table for every content: the union of the leaf columns, in order of first appearance,
+        # empty where a row's content has no such field. Floats are written with repr (exact).
+        flat = [dict(flatten(v)) if v is not None else {} for _, _, v in rows]
+        columns: dict[str, None] = {}
+        for f in flat:
+            columns.update(dict.fromkeys(f))
+        writer = csv.writer(out, lineterminator="\n")
+        base = ["t_ms", "link", "dir", "name", "source", "dest", "seq", "kind"]
+        writer.writerow(base + list(columns))
+        for (rec, name, _), f in zip(rows, flat):
+            m = _meta(rec, name)
+            writer.writerow([m[k] for k in base] + [_cell(f.get(c, "")) for c in columns])
+    note = _truncation_note(log)
+    if note:
+        print(note, file=sys.stderr)
+    if contents.unknown or contents.layout_mismatch:
+        print(f"{args.file}: {contents.unknown} frames of unknown content and {contents.layout_mismatch} "
+              "with another layout were exported without values", file=sys.stderr)
+    return 0
+
+
+def _cell(v: Any) -> Any:
+    return repr(v) if isinstance(v, float) else jsonable(v)
+
+
+def cmd_play(args: argparse.Namespace, out: IO[str], sleep: Callable[[float], None] = time.sleep,
+             clock: Callable[[], float] = time.monotonic) -> int:
+    log, contents = _open(args.file)
+    only = _check_only(contents, args.only, args.file)
+    dirs = {"rx": ("rx",), "tx": ("tx",), "all": ("rx", "tx")}[args.dir]
+    chosen = [r for r in log.records()
+              if r.dir in dirs and (only is None or contents.name(r.header) in only)]
+    try:
+        sink = open_sink(args.into)
+    except SpecError as exc:
+        raise SystemExit(f"uavbus log play: {exc}") from None
+    sent = 0
+    try:
+        start_wall = clock()
+        t0 = chosen[0].t_ms if chosen else 0
+        for rec in chosen:
+            if not args.fast:
+                due = start_wall + (rec.t_ms - t0) / 1000.0 / args.speed
+                wait = due - clock()
+                if wait > 0:
+                    sleep(wait)
+            sink.send(rec.frame)
+            sent += 1
+    finally:
+        sink.close()
+    print(json.dumps({"event": "played", "file": args.file, "into": args.into, "frames": sent,
+                      "skipped": len(log.records()) - sent, "ignored_bytes": log.stats.ignored_bytes}), file=out)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="uavbus log", description="read, export and replay uavbus binary logs")
+    sub = p.add_subparsers(dest="cmd", required=True)
+    info = sub.add_parser("info", help="node, catalogue, links, records by link and content, truncated tail")
+    info.add_argument("file")
+    exp = sub.add_parser("export", help="decoded values as CSV or JSON lines (to stdout or -o)")
+    exp.add_argument("file")
+    fmt = exp.add_mutually_exclusive_group(required=True)
+    fmt.add_argument("--csv", action="store_true")
+    fmt.add_argument("--jsonl", action="store_true")
+    exp.add_argument("--only", nargs="+", metavar="NAME", help="only these contents (instance names)")
+    exp.add_argument("--admin", action="store_true", help="also export administrative frames (no values)")
+    exp.add_argument("-o", "--output", help="write here instead of stdout")
+    play = sub.add_parser("play", help="send the recorded frames, as they are, into a node")
+    play.add_argument("file")
+    play.add_argument("--into", required=True, metavar="SPEC",
+                      help="udp:peer=HOST:PORT | tcp:connect=HOST:PORT | serial:device=PATH[,baud=N]")
+    play.add_argument("--only", nargs="+", metavar="NAME", help="only frames of these contents")
+    pace = play.add_mutually_exclusive_group()
+    pace.add_argument("--speed", type=float, default=1.0, help="time scale (2 = twice as fast; default 1)")
+    pace.add_argument("--fast", action="store_true", help="as fast as possible, no pacing")
+    play.add_argument("--dir", choices=("rx", "tx", "all"), default="rx",
+                      help="which recorded direction to send (default rx: what the node received)")
+    return p
+
+
+def main(argv: list[str] | None = None, out: IO[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    if getattr(args, "speed", 1.0) <= 0:
+        raise SystemExit("uavbus log play: --speed must be > 0 (use --fast for no pacing)")
+    out = out or sys.stdout
+    try:
+        if args.cmd == "info":
+            return cmd_info(args, out)
+        if args.cmd == "export":
+            if args.output:
+                with open(args.output, "w", encoding="utf-8", newline="") as f:
+                    return cmd_export(args, f)
+            return cmd_export(args, out)
+        return cmd_play(args, out)
+    except (LogFormatError, OSError) as exc:
+        print(f"uavbus log {args.cmd}: {exc}", file=sys.stderr)
+        return 1

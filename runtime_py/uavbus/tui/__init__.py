@@ -1,0 +1,1 @@
+"""Terminal UI (Textual) for the variable browser: entity, publish/subscribe and administration tables."""

@@ -1,0 +1,94 @@
+"""Fixtures for the tool tests: the example flight software's catalogue, frames, small logs."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from logwriter import write_log  # noqa: E402
+from tools_testutil import ROOT, UAVBUS  # noqa: E402,F401
+
+from uavbus._bindings.ub_catalogue import ub_entity_id  # noqa: E402
+from uavbus._bindings.ub_frame import FrameHeader, ub_frame_finish  # noqa: E402
+from uavbus.catalogue import Catalogue  # noqa: E402
+
+
+
+@pytest.fixture(scope="session")
+def catalogue_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("gen")
+    headers = sorted(str(p) for p in (ROOT / "examples" / "flightsw").glob("*.h"))
+    subprocess.run([sys.executable, "-m", "uavbus.cli", "gen", *headers, "-I", str(ROOT / "examples" / "flightsw"),
+                    "--name", "flightsw", "-o", str(out)], check=True, cwd=ROOT, capture_output=True)
+    return out / "flightsw.catalogue.json"
+
+
+@pytest.fixture(scope="session")
+def cat(catalogue_path: Path) -> Catalogue:
+    return Catalogue.load(catalogue_path)
+
+
+def gps_value(cat: Catalogue, k: int) -> dict[str, Any]:
+    v = cat.default("gpsOut")
+    v["latitudeDeg"] = 33.7 + k * 1e-5
+    v["longitudeDeg"] = -84.4 - k * 0.25
+    v["satellitesUsed"] = k % 12
+    v["solutionCount"] = k
+    return v
+
+
+def imu_value(cat: Catalogue, k: int) -> dict[str, Any]:
+    v = cat.default("imuOut")
+    v["p"] = 0.01 * k
+    v["sampleCount"] = k
+    v["temperatureC"] = 20.0 + k * 0.5
+    return v
+
+
+def make_frame(cat: Catalogue, name: str, value: dict[str, Any], src: str, dest: str, seq: int,
+               admin: int = 0) -> bytes:
+    inst = cat.instance(name)
+    payload = cat.encode(inst, value) if admin == 0 else bytes(8)
+    return ub_frame_finish(FrameHeader(dir_id=inst.id, dest_id=ub_entity_id(dest), src_id=ub_entity_id(src),
+                                       admin=admin, seq=seq, fingerprint=inst.type.fingerprint if admin == 0 else 0),
+                           payload)
+
+
+@pytest.fixture
+def sample_log(tmp_path: Path, cat: Catalogue) -> Callable[..., tuple[Path, bytes, list[dict[str, Any]]]]:
+    """A gcs1 log: gpsOut every 100 ms on link 0 and imuOut every 20 ms on link 1, one tx ACK."""
+
+    def make(n_gps: int = 20, name: str = "gcs.ublog") -> tuple[Path, bytes, list[dict[str, Any]]]:
+        records = []
+        expected = []
+        seq = 1
+        for k in range(n_gps):
+            t = 1000 + 100 * k
+            v = gps_value(cat, k)
+            records.append((make_frame(cat, "gpsOut", v, "rmax1ob1", "gcs1", seq), t, 0, 0))
+            expected.append({"name": "gpsOut", "t_ms": t, "seq": seq, "value": v})
+            seq += 1
+            for j in range(5):
+                records.append((make_frame(cat, "imuOut", imu_value(cat, k), "fcs20", "gcs1", 1000 + 5 * k + j),
+                                t + 20 * j, 1, 0))
+        records.append((make_frame(cat, "gpsOut", {}, "gcs1", "rmax1ob1", 7, admin=5), 5000, 0, 1))
+        path = tmp_path / name
+        data = write_log(path, "gcs", {0: "gcsPortDatalink1", 1: "gcsPortDatalink2"}, cat.json_text, records)
+        return path, data, expected
+
+    return make
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    # Every tool test is bounded: 60 s each (the whole folder takes about 20 s).
+    here = Path(__file__).resolve().parent
+    for item in items:
+        if Path(str(item.fspath)).resolve().parent == here:
+            item.add_marker(pytest.mark.timeout(60))
