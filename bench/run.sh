@@ -1,28 +1,145 @@
 #!/usr/bin/env bash
-# make bench: builds the runtime's measurement tools optimised (Release) and writes bench/results.md.
-# Figures are medians over repeated runs on this machine; compare ratios, not absolute values.
-# Peers (MAVLink, LCM) join this run with the benchmark issue; until then this records our own costs.
+# make bench: uavbus side by side with MAVLink, LCM and the floors, in one run on this machine;
+# writes bench/results.md (bench/tables.py turns the raw outputs in build-bench/raw/ into tables).
+# Compare ratios, not absolute values: figures drift between runs and machines.
+#
+#   bench/run.sh            everything (~5 minutes on 2 vCPUs)
+#   RUNS=3 bench/run.sh     fewer loopback rounds
+#
+# Peers are installed at run time from PyPI into .venv (the `bench` extra: pymavlink, lcm); their
+# generated code goes to build-bench/peers/ and is never committed. valgrind (Debian) is installed
+# here if missing, for callgrind instruction counts; it is not part of `make test`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+root=$PWD
 build=build-bench
-cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DUAVBUS_PYTHON="$PWD/.venv/bin/python" >/dev/null
-cmake --build "$build" --target ub_frame_bench ub_router_bench ub_far >/dev/null
-out=bench/results.md
-run() {  # run "title" command...: appends the command and its output to results.md
-  local title=$1; shift
-  echo "running: $*" >&2
-  { echo "## $title"; echo; echo '```'; echo "\$ $*"; "$@"; echo '```'; echo; } >>"$out"
+raw=$build/raw
+peers=$build/peers
+gen=$build/bench-gen
+bin=$build/bench-bin
+VPY=$root/.venv/bin/python
+RUNS=${RUNS:-5}
+mkdir -p "$raw" "$peers" "$gen" "$bin"
+rm -f "$raw"/*
+
+say() { echo "bench: $*" >&2; }
+timed() { # timed NAME command...: records the command for results.md, then runs it
+  local name=$1; shift
+  echo "$*" >>"$raw/commands.txt"
+  "$@"
 }
-{
-  echo "# uavbus benchmark results"
-  echo
-  echo "Written by \`make bench\` (bench/run.sh) on $(date -u +%Y-%m-%d), $(nproc) cores,"
-  echo "$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), gcc $(gcc -dumpversion), Release (-O3)."
-  echo "Peer figures for the same machine kind are in ../shared/anchors/peers.md (MAVLink C pack 78-164 ns,"
-  echo "parse+decode 218-358 ns for 40-75 byte frames); the side-by-side run arrives with the benchmark issue."
-  echo
-} >"$out"
-run "Frame codec (build = header + both checks; parse = verify + header decode)" "$build/runtime_c/ub_frame_bench"
-run "Router, in-process (forward / deliver / originate)" "$build/runtime_c/ub_router_bench"
-run "Checksum false-accept rate under random corruption (paper's 8-bit sums vs CRC-32C)" "$build/runtime_c/ub_far" 1000000
-echo "wrote $out" >&2
+
+# ---- 0. peers and tools ----
+if ! command -v valgrind >/dev/null; then
+  say "installing valgrind (Debian)"
+  SUDO=""; [ "$(id -u)" = 0 ] || SUDO=sudo
+  $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq valgrind >/dev/null
+fi
+say "installing the bench extra (pymavlink, lcm) into .venv"
+"$VPY" -m pip install -q -e '.[bench]' --no-build-isolation 2>&1 | grep -v -i -E "warning|^ *!!|^ *\*|^ *$|corresp|wheel_obj|Please|By 2027|See https|name as your package" >&2 || true
+site=$("$VPY" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
+lcm_inc=$site/include
+lcm_lib=$site/lib
+test -f "$lcm_inc/lcm/lcm.h" -a -f "$lcm_lib/liblcm.so" || { echo "bench: the lcm wheel has no liblcm/lcm.h under $site" >&2; exit 2; }
+
+say "generating the peers' code into $peers"
+rm -rf "$peers/mavlink" "$peers/lcmgen" "$peers/lcmpy"
+mkdir -p "$peers/lcmgen" "$peers/lcmpy"
+"$root/.venv/bin/mavgen.py" --lang=C --wire-protocol=2.0 --output="$peers/mavlink" \
+  "$site/pymavlink/dialects/v20/common.xml" >/dev/null
+(cd "$peers" && "$root/.venv/bin/lcm-gen" -c --c-cpath lcmgen --c-hpath lcmgen "$root/bench/catalogue/bench_msgs.lcm" \
+  && "$root/.venv/bin/lcm-gen" -p --ppath lcmpy "$root/bench/catalogue/bench_msgs.lcm") >/dev/null
+
+# ---- 1. our side: runtime (Release), bench catalogue, bench programs ----
+say "building the runtime (Release) and the bench catalogue"
+cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DUAVBUS_PYTHON="$VPY" >/dev/null
+cmake --build "$build" --target ub_frame_bench ub_router_bench ub_far >/dev/null
+# The runtime for the bench programs: every runtime_c/src/*.c at -O2 (as the peers are built), in one archive.
+mkdir -p "$build/bench-lib"
+rm -f "$build"/bench-lib/*
+for f in runtime_c/src/*.c; do
+  gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -Iruntime_c/include -c "$f" -o "$build/bench-lib/$(basename "$f" .c).o"
+done
+ar rcs "$build/bench-lib/libub.a" "$build"/bench-lib/*.o
+"$root/.venv/bin/uavbus" gen bench/catalogue/bench_msgs.h --name benchcat -o "$gen" >/dev/null
+echo "uavbus gen bench/catalogue/bench_msgs.h --name benchcat -o $gen" >>"$raw/commands.txt"
+CFLAGS=(-O2 -std=gnu11 -Wall -Wextra -Werror -D_POSIX_C_SOURCE=200809L -Iruntime_c/include -Ibench/catalogue -I"$gen")
+LIBUB=$build/bench-lib/libub.a
+gcc "${CFLAGS[@]}" -Wno-address-of-packed-member -I"$peers/mavlink" -I"$peers/lcmgen" -I"$lcm_inc" \
+  bench/src/codec_bench.c "$gen/benchcat.c" "$peers"/lcmgen/*.c "$LIBUB" -L"$lcm_lib" -llcm -Wl,-rpath,"$lcm_lib" \
+  -o "$bin/codec_bench"
+gcc "${CFLAGS[@]}" bench/src/router_hops.c "$gen/benchcat.c" "$LIBUB" -ldl -o "$bin/router_hops"
+gcc "${CFLAGS[@]}" bench/src/loop_bench.c "$gen/benchcat.c" "$LIBUB" -o "$bin/loop_bench"
+gcc "${CFLAGS[@]}" -I"$lcm_inc" bench/src/lcm_loop.c -L"$lcm_lib" -llcm -Wl,-rpath,"$lcm_lib" -o "$bin/lcm_loop"
+
+# ---- figure 1: C codecs (3 processes x 11 interleaved samples; callgrind once) ----
+say "figure 1: C codecs"
+for p in 1 2 3; do timed codec taskset -c 0 "$bin/codec_bench" >>"$raw/codec.tsv"; done
+(mkdir -p "$raw/callgrind" && cd "$raw/callgrind" &&
+  valgrind --tool=callgrind --callgrind-out-file=cg.%p "$root/$bin/codec_bench" callgrind 2>/dev/null)
+echo "valgrind --tool=callgrind $bin/codec_bench callgrind" >>"$raw/commands.txt"
+
+# ---- figure 2: router in-process over memlinks ----
+say "figure 2: router, 1 and 3 hops"
+for h in 1 3; do timed router taskset -c 0 "$bin/router_hops" "$h" >>"$raw/router.txt"; done
+
+# ---- figure 3: loopback between 2 processes, in a private network namespace (only lo) ----
+say "figure 3: loopback UDP/TCP/raw UDP/LCM udpm, $RUNS interleaved rounds"
+unshare -rn bash -c '
+  set -e
+  ip link set lo up
+  ip route add 224.0.0.0/4 dev lo
+  if ip -o link | grep -v " lo:" | grep -q .; then echo "bench: namespace has more than lo" >&2; exit 2; fi
+  bin=$1; runs=$2
+  for r in $(seq "$runs"); do
+    for pl in split same; do
+      "$bin/loop_bench" blast udp 1000000 $pl
+      "$bin/loop_bench" blast tcp 1000000 $pl
+      "$bin/loop_bench" blast udp 300000 $pl nobatch
+      "$bin/loop_bench" blast raw-udp 300000 $pl
+      "$bin/lcm_loop" blast 200000 $pl
+      "$bin/loop_bench" rtt udp 10000 $pl
+      "$bin/loop_bench" rtt tcp 10000 $pl
+      "$bin/loop_bench" rtt raw-udp 10000 $pl
+      "$bin/lcm_loop" rtt 10000 $pl
+    done
+  done' _ "$bin" "$RUNS" >>"$raw/loop.txt"
+echo "unshare -rn: loop_bench blast udp|tcp 1000000, udp 300000 nobatch, raw-udp 300000; lcm_loop blast 200000;" \
+  "rtt 10000 each; placements split and same; $RUNS interleaved rounds (see bench/run.sh)" >>"$raw/commands.txt"
+
+# ---- figure 4: Python ----
+say "figure 4: Python"
+for p in 1 2 3; do timed py taskset -c 0 "$VPY" bench/py_bench.py "$gen/benchcat.catalogue.json" "$peers/lcmpy" >>"$raw/py.txt"; done
+
+# ---- figure 5: generator time on synthetic headers ----
+say "figure 5: generator"
+for n in 100 700 3000 10000; do
+  "$VPY" bench/tools/gen_synth.py "$n" "$gen/synth$n.h"
+  for r in 1 2 3; do
+    t0=$(date +%s%N)
+    "$root/.venv/bin/uavbus" gen "$gen/synth$n.h" --name synth -o "$gen/synth$n" >/dev/null
+    t1=$(date +%s%N)
+    echo "gen n=$n ns=$((t1 - t0))" >>"$raw/gen.txt"
+  done
+done
+echo "uavbus gen build-bench/bench-gen/synthN.h --name synth -o ... (N = 100, 700, 3000, 10000; 3 runs each)" >>"$raw/commands.txt"
+
+# ---- figure 6: RAM for the reference configuration, and allocations after init ----
+say "figure 6: RAM"
+REF=(-DUB_MAX_ENTITIES=16 -DUB_MAX_LINKS_PER_ENTITY=8 -DUB_MAX_NODE_LINKS=8 -DUB_MAX_LOCAL_ENTITIES=4 -DUB_MAX_PUBSUB_ROWS=64)
+mkdir -p "$build/ref-obj"
+rm -f "$build/ref-obj"/*.o
+for f in runtime_c/src/*.c; do
+  gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L "${REF[@]}" -Iruntime_c/include -c "$f" -o "$build/ref-obj/$(basename "$f" .c).o"
+done
+gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L "${REF[@]}" -Iruntime_c/include bench/src/ram_bench.c -o "$bin/ram_bench"
+{ "$bin/ram_bench"; size -t "$build"/ref-obj/*.o | tail -1 | sed 's/^/size /'; } >"$raw/ram.txt"
+echo "gcc -O2 ${REF[*]} runtime_c/src/*.c; size -t; bench/src/ram_bench.c" >>"$raw/commands.txt"
+
+# ---- internals kept from the first bench (frame codec, router costs, false-accept rate) ----
+"$build/runtime_c/ub_frame_bench" >"$raw/frame_bench.txt"
+"$build/runtime_c/ub_router_bench" >"$raw/router_bench.txt"
+"$build/runtime_c/ub_far" 200000 >"$raw/far.txt"
+
+"$VPY" bench/tables.py "$raw" bench/results.md
+say "wrote bench/results.md"

@@ -1,0 +1,180 @@
+"""Python rates side by side (bench figure 4): uavbus Node publish/receive vs pymavlink and LCM Python.
+
+    python bench/py_bench.py BENCHCAT.catalogue.json LCM_PY_DIR   -> lines "case<TAB>message<TAB>ops/s..."
+
+Every case is calibrated to ~0.1 s per sample and sampled 5 times round-robin (drift hits all alike).
+- uavbus publish: set the timestamp field of the bound directory (cffi-backed wire image), then
+  Node.send() (C: pack + header + CRC-32C + hand to the memlink); uavbus receive: the receiving
+  Node.service() (C: verify + dedup + unpack into its directory) and one Message per delivery,
+  with its raw image. Both go through a MemLink between two in-process Nodes, in batches of 32.
+- pymavlink: msg.pack(mav) with the timestamp changed (encode); mav.decode(frame) (decode).
+- LCM Python: obj.encode() with the timestamp changed; T.decode(bytes).
+- uavbus catalogue codec (no node): Catalogue.encode(dict) / decode(bytes).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import Callable
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from uavbus import Catalogue, MemLink, Node
+
+SAMPLES = 5
+BATCH = 32
+MESSAGES = {  # uavbus instance, timestamp field, MAVLink class, LCM type name
+    "ATTITUDE": ("benchAttitude", "time_boot_ms", "MAVLink_attitude_message", "attitude_t"),
+    "GPS_RAW_INT": ("benchGpsRawInt", "time_usec", "MAVLink_gps_raw_int_message", "gps_raw_int_t"),
+    "HIGHRES_IMU": ("benchHighresImu", "time_usec", "MAVLink_highres_imu_message", "highres_imu_t"),
+}
+
+
+def fill(cat: Catalogue, name: str) -> dict:
+    """Every field non-zero (as in peers.md), so nothing is trimmed anywhere."""
+    value = cat.default(name)
+    for k, v in value.items():
+        value[k] = 3 if isinstance(v, int) else 1.5 if isinstance(v, float) else v
+    return value
+
+
+def mavlink_message(cls_name: str, value: dict):
+    cls = getattr(mavlink, cls_name)
+    args = [value.get(f, 3) for f in cls.fieldnames]
+    return cls(*args)
+
+
+Case = tuple[str, str, Callable[[int], int]]
+
+
+def cases_for(cat: Catalogue, lcm_mod, label: str) -> tuple[list[Case], dict[str, float]]:
+    inst, ts, mav_cls, lcm_name = MESSAGES[label]
+    value = fill(cat, inst)
+    mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    msg = mavlink_message(mav_cls, value)
+    frame = bytes(msg.pack(mav))
+    lcm_type = getattr(lcm_mod, lcm_name)
+    lobj = lcm_type()
+    for k in lobj.__slots__:
+        setattr(lobj, k, 3 if isinstance(getattr(lobj, k), int) else 1.5)
+    lbytes = lobj.encode()
+    payload = cat.encode(inst, value)
+
+    tx = Node(cat, clock=lambda: 1.0)
+    rx = Node(cat, clock=lambda: 1.0)
+    tx.add_entity("tx", local=True), tx.add_entity("rx")
+    rx.add_entity("rx", local=True), rx.add_entity("tx")
+    tx.add_link("tx", 0, "l0"), rx.add_link("rx", 0, "l0")
+    tx.set_mask("tx", "rx", 1)
+    link = MemLink(tx, "l0", rx, "l0")
+    d = tx.bind(inst)
+    d.from_dict(value)
+    rx.bind(inst)
+    received = [0]
+
+    def on_data(message) -> None:
+        received[0] += 1
+
+    rx.on_data(on_data)
+    spent = {"pub": 0.0, "recv": 0.0}
+
+    def node_roundtrip(n: int) -> int:
+        """Runs n publishes and their receptions; books the time of each side separately."""
+        done = 0
+        while done < n:
+            t0 = time.perf_counter()
+            for i in range(BATCH):
+                setattr(d, ts, done + i)
+                tx.send("tx", inst, "rx")
+            t1 = time.perf_counter()
+            link.pump(1)
+            rx._dispatch()  # noqa: SLF001 - the Message objects are part of the receive cost
+            t2 = time.perf_counter()
+            spent["pub"] += t1 - t0
+            spent["recv"] += t2 - t1
+            done += BATCH
+        return done
+
+    def mav_encode(n: int) -> int:
+        for i in range(n):
+            setattr(msg, ts, i)
+            msg.pack(mav)
+        return n
+
+    def mav_decode(n: int) -> int:
+        buf = bytearray(frame)
+        for _ in range(n):
+            mav.decode(buf)
+        return n
+
+    def lcm_encode(n: int) -> int:
+        for i in range(n):
+            setattr(lobj, ts, i)
+            lobj.encode()
+        return n
+
+    def lcm_decode(n: int) -> int:
+        for _ in range(n):
+            lcm_type.decode(lbytes)
+        return n
+
+    def cat_encode(n: int) -> int:
+        for i in range(n):
+            value[ts] = i
+            cat.encode(inst, value)
+        return n
+
+    def cat_decode(n: int) -> int:
+        for _ in range(n):
+            cat.decode(inst, payload)
+        return n
+
+    return [("node", label, node_roundtrip), ("pymavlink encode", label, mav_encode),
+            ("pymavlink decode", label, mav_decode), ("lcm encode", label, lcm_encode),
+            ("lcm decode", label, lcm_decode), ("uavbus catalogue encode", label, cat_encode),
+            ("uavbus catalogue decode", label, cat_decode)], spent
+
+
+def main() -> None:
+    cat = Catalogue.load(sys.argv[1])
+    sys.path.insert(0, sys.argv[2])
+    import benchlcm  # generated by lcm-gen -p into build-bench/peers/lcmpy
+
+    all_cases = []
+    spents = {}
+    for label in MESSAGES:
+        cases, spent = cases_for(cat, benchlcm, label)
+        all_cases += cases
+        spents[label] = spent
+    iters = {}
+    for name, label, fn in all_cases:  # calibrate
+        n = 256
+        while True:
+            t0 = time.perf_counter()
+            fn(n)
+            dt = time.perf_counter() - t0
+            if dt > 0.05:
+                iters[(name, label)] = max(BATCH, int(n * 0.1 / dt) // BATCH * BATCH)
+                break
+            n *= 4
+    rates: dict[tuple[str, str], list[float]] = {}
+    for _ in range(SAMPLES):
+        for name, label, fn in all_cases:
+            n = iters[(name, label)]
+            if name == "node":
+                spent = spents[label]
+                spent["pub"] = spent["recv"] = 0.0
+                fn(n)
+                rates.setdefault(("uavbus publish", label), []).append(n / spent["pub"])
+                rates.setdefault(("uavbus receive", label), []).append(n / spent["recv"])
+                continue
+            t0 = time.perf_counter()
+            fn(n)
+            rates.setdefault((name, label), []).append(n / (time.perf_counter() - t0))
+    for (name, label), r in rates.items():
+        print("\t".join([name, label] + [f"{x:.0f}" for x in r]))
+
+
+if __name__ == "__main__":
+    main()

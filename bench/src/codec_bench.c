@@ -1,0 +1,273 @@
+/*
+ * C codecs side by side (bench figure 1): uavbus generated code + frame layer vs MAVLink v2 C
+ * (mavgen from pymavlink's common.xml) and LCM C (lcm-gen), for ATTITUDE, GPS_RAW_INT and
+ * HIGHRES_IMU, plus the memcpy and checksum floors. Built by bench/run.sh at -O2.
+ *
+ *   codec_bench            timing: every case calibrated to ~10 ms batches, SAMPLES samples taken
+ *                          round-robin across all cases (drift hits every case alike);
+ *                          prints "case<TAB>bytes<TAB>ns per op (one per sample)..."
+ *   codec_bench callgrind  runs each case BENCH_ITERS times between CALLGRIND_ZERO_STATS and
+ *                          CALLGRIND_DUMP_STATS_AT(case) (run under valgrind --tool=callgrind);
+ *                          bench/tables.py divides the dumped Ir by BENCH_ITERS.
+ *
+ * Every iteration changes the input (a timestamp field += 1) and sinks the output through an
+ * asm barrier, so no work is hoisted or deleted.
+ */
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <valgrind/callgrind.h>
+
+#include "benchcat.h"
+#include "common/mavlink.h"
+#include "benchlcm_attitude_t.h"
+#include "benchlcm_gps_raw_int_t.h"
+#include "benchlcm_highres_imu_t.h"
+#include "ub/ub_frame.h"
+
+benchAttitude_t benchAttitude;
+benchGpsRawInt_t benchGpsRawInt;
+benchHighresImu_t benchHighresImu;
+benchBlob64_t benchBlob64, benchBlob64Echo;
+
+#define SAMPLES 11
+#define BENCH_ITERS 20000
+
+static inline void sink(const void *p) { __asm__ volatile("" : : "r"(p) : "memory"); }
+static volatile size_t runtime_size; /* memcpy floor: size known only at run time */
+
+static double now_ns(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec * 1e9 + (double)ts.tv_nsec;
+}
+
+static uint8_t frame_buf[UB_FRAME_MAX];
+static ub_frame_header_t hdr;
+static ub_decoder_t dec;
+static uint8_t ub_frame_bytes[3][UB_FRAME_MAX];
+static size_t ub_frame_len[3];
+static uint8_t mav_frame_bytes[3][MAVLINK_MAX_PACKET_LEN];
+static size_t mav_frame_len[3];
+static uint8_t lcm_bytes[3][128];
+static int lcm_len[3];
+static uint8_t payload_src[128], payload_dst[128];
+
+/* ---- per-message cases, one macro instance per message ----
+ * M: index; UT: uavbus struct; PK/UN: generated pack/unpack; INST: instance; MT: mavlink struct;
+ * MN: mavlink message name (lower case); LT: lcm type; TF: the timestamp field changed per iteration. */
+#define MESSAGE_CASES(M, UT, PK, UN, INST, MT, MN, LT, TF)                                                  \
+    static UT ub_obj_##M, ub_out_##M;                                                                       \
+    static MT mav_obj_##M, mav_out_##M;                                                                     \
+    static LT lcm_obj_##M, lcm_out_##M;                                                                     \
+    static void ub_build_##M(long n) {                                                                      \
+        for (long i = 0; i < n; i++) {                                                                      \
+            ub_obj_##M.TF++;                                                                                \
+            int p = PK(&ub_obj_##M, frame_buf + UB_FRAME_HEADER_LEN, UB_MAX_PAYLOAD);                       \
+            hdr.payload_size = (uint16_t)p;                                                                 \
+            hdr.seq++;                                                                                      \
+            int len = ub_frame_finish(frame_buf, sizeof frame_buf, &hdr);                                   \
+            sink(frame_buf);                                                                                \
+            if (len < 0) abort();                                                                           \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void on_frame_##M(void *user, const ub_frame_header_t *h, const uint8_t *f, size_t len) {        \
+        (void)user;                                                                                         \
+        if (UN(&ub_out_##M, f + UB_FRAME_HEADER_LEN, h->payload_size) < 0 || len == 0) abort();             \
+        sink(&ub_out_##M);                                                                                  \
+    }                                                                                                       \
+    static void ub_parse_##M(long n) {                                                                      \
+        for (long i = 0; i < n; i++) {                                                                      \
+            sink(ub_frame_bytes[M]);                                                                        \
+            (void)ub_decoder_feed(&dec, ub_frame_bytes[M], ub_frame_len[M], on_frame_##M, NULL);            \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void ub_pack_##M(long n) {                                                                       \
+        for (long i = 0; i < n; i++) {                                                                      \
+            ub_obj_##M.TF++;                                                                                \
+            if (PK(&ub_obj_##M, payload_dst, sizeof payload_dst) < 0) abort();                              \
+            sink(payload_dst);                                                                              \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void ub_unpack_##M(long n) {                                                                     \
+        for (long i = 0; i < n; i++) {                                                                      \
+            sink(ub_frame_bytes[M]);                                                                        \
+            if (UN(&ub_out_##M, ub_frame_bytes[M] + UB_FRAME_HEADER_LEN, ub_frame_len[M] - UB_FRAME_HEADER_LEN) < 0) \
+                abort();                                                                                    \
+            sink(&ub_out_##M);                                                                              \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void mav_pack_##M(long n) {                                                                      \
+        mavlink_message_t msg;                                                                              \
+        for (long i = 0; i < n; i++) {                                                                      \
+            mav_obj_##M.TF++;                                                                               \
+            mavlink_msg_##MN##_encode(1, 1, &msg, &mav_obj_##M);                                            \
+            sink(&msg);                                                                                     \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void mav_pack_tobuf_##M(long n) {                                                                \
+        mavlink_message_t msg;                                                                              \
+        uint8_t out[MAVLINK_MAX_PACKET_LEN];                                                                \
+        for (long i = 0; i < n; i++) {                                                                      \
+            mav_obj_##M.TF++;                                                                               \
+            mavlink_msg_##MN##_encode(1, 1, &msg, &mav_obj_##M);                                            \
+            uint16_t len = mavlink_msg_to_send_buffer(out, &msg);                                           \
+            sink(out);                                                                                      \
+            if (len == 0) abort();                                                                          \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void mav_parse_##M(long n) {                                                                     \
+        mavlink_message_t msg;                                                                              \
+        mavlink_status_t st;                                                                                \
+        for (long i = 0; i < n; i++) {                                                                      \
+            sink(mav_frame_bytes[M]);                                                                       \
+            int got = 0;                                                                                    \
+            for (size_t b = 0; b < mav_frame_len[M]; b++)                                                   \
+                if (mavlink_parse_char(MAVLINK_COMM_0, mav_frame_bytes[M][b], &msg, &st)) got = 1;          \
+            if (!got) abort();                                                                              \
+            mavlink_msg_##MN##_decode(&msg, &mav_out_##M);                                                  \
+            sink(&mav_out_##M);                                                                             \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void lcm_encode_##M(long n) {                                                                    \
+        for (long i = 0; i < n; i++) {                                                                      \
+            lcm_obj_##M.TF++;                                                                               \
+            if (LT##_encode(payload_dst, 0, sizeof payload_dst, &lcm_obj_##M) < 0) abort();                 \
+            sink(payload_dst);                                                                              \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void lcm_decode_##M(long n) {                                                                    \
+        for (long i = 0; i < n; i++) {                                                                      \
+            sink(lcm_bytes[M]);                                                                             \
+            if (LT##_decode(lcm_bytes[M], 0, lcm_len[M], &lcm_out_##M) < 0) abort();                        \
+            sink(&lcm_out_##M);                                                                             \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void floor_memcpy_##M(long n) {                                                                  \
+        size_t sz = sizeof(MT) + runtime_size;                                                              \
+        for (long i = 0; i < n; i++) {                                                                      \
+            sink(payload_src);                                                                              \
+            memcpy(payload_dst, payload_src, sz);                                                           \
+            sink(payload_dst);                                                                              \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void floor_crc32c_##M(long n) {                                                                  \
+        for (long i = 0; i < n; i++) {                                                                      \
+            sink(ub_frame_bytes[M]);                                                                        \
+            uint32_t c = ub_crc32c(ub_frame_bytes[M] + 4, ub_frame_len[M] - 4);                             \
+            sink(&c);                                                                                       \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void floor_x25_##M(long n) {                                                                     \
+        for (long i = 0; i < n; i++) {                                                                      \
+            sink(mav_frame_bytes[M]);                                                                       \
+            uint16_t c = crc_calculate(mav_frame_bytes[M] + 1, (uint16_t)(mav_frame_len[M] - 3));           \
+            sink(&c);                                                                                       \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void setup_##M(void) {                                                                           \
+        memset(&ub_obj_##M, 0x11, sizeof ub_obj_##M);                                                      \
+        memset(&mav_obj_##M, 0x11, sizeof mav_obj_##M);                                                    \
+        memset(&lcm_obj_##M, 0x11, sizeof lcm_obj_##M);                                                    \
+        memcpy(hdr.dir_id, benchcat_catalogue.instances[INST].id, UB_DIR_ID_LEN);                           \
+        hdr.fingerprint = benchcat_catalogue.instances[INST].type->fingerprint;                             \
+        int p = PK(&ub_obj_##M, ub_frame_bytes[M] + UB_FRAME_HEADER_LEN, UB_MAX_PAYLOAD);                   \
+        hdr.payload_size = (uint16_t)p;                                                                     \
+        int fl = ub_frame_finish(ub_frame_bytes[M], UB_FRAME_MAX, &hdr);                                    \
+        if (p < 0 || fl < 0) abort();                                                                       \
+        ub_frame_len[M] = (size_t)fl;                                                                       \
+        mavlink_message_t msg;                                                                              \
+        mavlink_msg_##MN##_encode(1, 1, &msg, &mav_obj_##M);                                                \
+        mav_frame_len[M] = mavlink_msg_to_send_buffer(mav_frame_bytes[M], &msg);                            \
+        lcm_len[M] = LT##_encode(lcm_bytes[M], 0, sizeof lcm_bytes[M], &lcm_obj_##M);                       \
+        if (lcm_len[M] < 0) abort();                                                                        \
+    }
+
+MESSAGE_CASES(0, benchAttitude_t, benchcat_pack_benchAttitude, benchcat_unpack_benchAttitude,
+              benchcat_INST_benchAttitude, mavlink_attitude_t, attitude, benchlcm_attitude_t, time_boot_ms)
+MESSAGE_CASES(1, benchGpsRawInt_t, benchcat_pack_benchGpsRawInt, benchcat_unpack_benchGpsRawInt,
+              benchcat_INST_benchGpsRawInt, mavlink_gps_raw_int_t, gps_raw_int, benchlcm_gps_raw_int_t, time_usec)
+MESSAGE_CASES(2, benchHighresImu_t, benchcat_pack_benchHighresImu, benchcat_unpack_benchHighresImu,
+              benchcat_INST_benchHighresImu, mavlink_highres_imu_t, highres_imu, benchlcm_highres_imu_t, time_usec)
+
+typedef struct bench_case {
+    const char *name;
+    int msg;
+    int bytes_kind; /* 0 uavbus frame, 1 mavlink frame, 2 payload, 3 lcm encoding */
+    void (*fn)(long);
+    long iters;
+    double ns[SAMPLES];
+} bench_case_t;
+
+#define CASES_FOR(M)                                                                                        \
+    {"ub_frame_build", M, 0, ub_build_##M, 0, {0}}, {"mav_pack", M, 1, mav_pack_##M, 0, {0}},              \
+        {"mav_pack_tobuf", M, 1, mav_pack_tobuf_##M, 0, {0}}, {"ub_frame_parse", M, 0, ub_parse_##M, 0, {0}}, \
+        {"mav_parse_decode", M, 1, mav_parse_##M, 0, {0}}, {"ub_pack", M, 2, ub_pack_##M, 0, {0}},          \
+        {"ub_unpack", M, 2, ub_unpack_##M, 0, {0}}, {"lcm_encode", M, 3, lcm_encode_##M, 0, {0}},           \
+        {"lcm_decode", M, 3, lcm_decode_##M, 0, {0}}, {"floor_memcpy", M, 2, floor_memcpy_##M, 0, {0}},     \
+        {"floor_crc32c", M, 0, floor_crc32c_##M, 0, {0}}, {"floor_x25", M, 1, floor_x25_##M, 0, {0}}
+
+static bench_case_t cases[] = {CASES_FOR(0), CASES_FOR(1), CASES_FOR(2)};
+#define N_CASES (sizeof cases / sizeof cases[0])
+static const char *msg_names[3] = {"ATTITUDE", "GPS_RAW_INT", "HIGHRES_IMU"};
+
+static size_t case_bytes(const bench_case_t *c) {
+    static const size_t payload[3] = {28, 52, 63};
+    switch (c->bytes_kind) {
+    case 0: return ub_frame_len[c->msg];
+    case 1: return mav_frame_len[c->msg];
+    case 3: return (size_t)lcm_len[c->msg];
+    default: return payload[c->msg];
+    }
+}
+
+int main(int argc, char **argv) {
+    int callgrind = argc > 1 && strcmp(argv[1], "callgrind") == 0;
+    ub_decoder_init(&dec);
+    memcpy(hdr.dest_id, "rx\0\0\0\0\0\0\0\0\0\0", UB_ENTITY_ID_LEN);
+    memcpy(hdr.src_id, "tx\0\0\0\0\0\0\0\0\0\0", UB_ENTITY_ID_LEN);
+    hdr.admin = UB_ADMIN_DATA;
+    hdr.hop_limit = UB_DEFAULT_HOP_LIMIT;
+    memset(payload_src, 0x5a, sizeof payload_src);
+    setup_0();
+    setup_1();
+    setup_2();
+    if (callgrind) {
+        for (size_t i = 0; i < N_CASES; i++) {
+            char name[64];
+            snprintf(name, sizeof name, "%s/%s", cases[i].name, msg_names[cases[i].msg]);
+            cases[i].fn(100); /* warm: first-call effects out of the count */
+            CALLGRIND_ZERO_STATS;
+            cases[i].fn(BENCH_ITERS);
+            CALLGRIND_DUMP_STATS_AT(name);
+        }
+        return 0;
+    }
+    for (size_t i = 0; i < N_CASES; i++) { /* calibrate to ~10 ms per sample */
+        long n = 1000;
+        for (;;) {
+            double t0 = now_ns();
+            cases[i].fn(n);
+            double dt = now_ns() - t0;
+            if (dt > 5e6 || n > (1L << 30)) {
+                cases[i].iters = (long)(n * (1e7 / dt)) + 1;
+                break;
+            }
+            n *= 4;
+        }
+    }
+    for (int s = 0; s < SAMPLES; s++)
+        for (size_t i = 0; i < N_CASES; i++) {
+            double t0 = now_ns();
+            cases[i].fn(cases[i].iters);
+            cases[i].ns[s] = (now_ns() - t0) / (double)cases[i].iters;
+        }
+    for (size_t i = 0; i < N_CASES; i++) {
+        printf("%s\t%s\t%zu", cases[i].name, msg_names[cases[i].msg], case_bytes(&cases[i]));
+        for (int s = 0; s < SAMPLES; s++) printf("\t%.3f", cases[i].ns[s]);
+        printf("\n");
+    }
+    return 0;
+}
