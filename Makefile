@@ -37,7 +37,7 @@ FFI_INPUTS := $(wildcard runtime_c/src/*.c runtime_c/src/*.h runtime_c/include/u
 $(SETUP_STAMP): pyproject.toml setup.py $(FFI_INPUTS)
 	@test -x $(VPY) || $(PYTHON) -m venv $(VENV)
 	$(VPY) -m pip install -q --upgrade pip setuptools wheel
-	$(VPY) -m pip install -q -e '.[test]'
+	$(VPY) -m pip install -q -e '.[test,demo]'
 	@touch $@
 
 # C runtime + generated-code tests, plain and under ASan/UBSan.
@@ -54,10 +54,12 @@ test-py: setup
 
 test: test-c test-py
 
-# For now: generate the example catalogue and run both self-tests on it.
+# The paper's HITL and Table 1 scenarios end to end (examples/demo/hitl_demo.py). The CMake build
+# generates the flightsw catalogue through uavbus_generate() and builds the C node program.
 demo: setup
-	$(VENV)/bin/uavbus gen examples/flightsw/*.h -I examples/flightsw --name flightsw -o demo-out/gen
-	$(VENV)/bin/uavbus selftest examples/flightsw/*.h -I examples/flightsw --name flightsw
+	cmake -S . -B $(BUILD) -G Ninja -DUAVBUS_PYTHON=$(abspath $(VPY)) >/dev/null
+	cmake --build $(BUILD) --target uavbus_node
+	$(VPY) examples/demo/hitl_demo.py --out demo-out --program $(BUILD)/examples/node/uavbus_node
 
 # Measurements, not tests: optimised build of the tools, results in bench/results.md.
 bench: setup

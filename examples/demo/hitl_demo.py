@@ -1,0 +1,288 @@
+#!/usr/bin/env python3
+"""`make demo`: the paper's scenarios end to end on one machine (issue 6).
+
+1. HITL configuration (paper Table 2, figure 11) on 127.0.0.1: rmax1ob1, rmax1ob2 and fcs20 as C
+   `uavbus_node` processes, gcs1 as the Python GCS in this process; gcs1<->rmax1ob1 over UDP plus a pty
+   "wireless serial" link, rmax1ob1<->rmax1ob2 over TCP, rmax1ob1<->fcs20 over a pty serial link.
+2. From the GCS's global administration table, the paper's two tests: a publication of gpsOut from
+   rmax1ob1 to gcs1, and a subscription of gcs1 to imuOut on the backup computer fcs20 (2 hops).
+3. kill -9 rmax1ob1 and restart it: the subscription heals by itself.
+4. The Table 1 / figure 9 configuration in this process over in-memory links.
+
+Prints a summary table and writes demo-out/summary.json, demo-out/gcs1.ublog (the GCS's binary log)
+and demo-out/imu.png. Exits 0 only if every check held; each failed check names itself and says why.
+Every process it starts is stopped on success, on failure and on Ctrl-C.
+
+    .venv/bin/python examples/demo/hitl_demo.py [--short] [--out demo-out]
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parents[2]
+
+from uavbus.sim.build import node_program  # noqa: E402
+from uavbus.sim.hitl import Hitl, HitlOptions, timetag_latency_ms  # noqa: E402
+from uavbus.sim.metrics import StreamMeter, SummaryRow, largest_gap, render_table, write_summary  # noqa: E402
+
+GPS_MS, IMU_MS = 100, 20            # 10 Hz publication, 50 Hz subscription
+RENEW_S = 1.0                       # ub_pubsub/ub_admin default renew period
+RATE_TOLERANCE = 0.10
+
+
+@dataclass
+class Check:
+    name: str
+    ok: bool
+    why: str
+
+
+class Checks:
+    def __init__(self) -> None:
+        self.items: list[Check] = []
+
+    def __call__(self, name: str, ok: bool, why: str) -> bool:
+        self.items.append(Check(name, bool(ok), why))
+        print(f"  [{'ok' if ok else 'FAILED'}] {name}: {why}", flush=True)
+        return bool(ok)
+
+    @property
+    def failed(self) -> list[Check]:
+        return [c for c in self.items if not c.ok]
+
+
+def say(text: str) -> None:
+    print(text, flush=True)
+
+
+def drops_of(counters: dict[str, Any]) -> dict[str, int]:
+    """Frames dropped on one link, by reason, from a node's link counters (C stats event or Python)."""
+    out: dict[str, int] = {}
+    for group in ("drops", "bad_frames"):
+        d = counters.get(group)
+        if isinstance(d, dict):
+            out.update({str(k): int(v) for k, v in d.items() if isinstance(v, (int, float)) and v})
+    impair = (counters.get("port") or {}).get("impair") if isinstance(counters.get("port"), dict) else None
+    if isinstance(impair, dict):
+        out.update({f"impair_{k}": int(v) for k, v in impair.items() if k in ("lost", "queue_full") and v})
+    for k, v in counters.items():
+        if k not in ("drops", "bad_frames") and isinstance(v, (int, float)) and v and ("drop" in k or k.startswith("bad")
+                                                                   or k in ("tx_errors", "backpressure")):
+            out.setdefault(k, int(v))
+    return out
+
+
+def link_drops(h: Hitl, stats: dict[str, dict[str, Any]], path: list[tuple[str, str]]) -> dict[str, dict[str, int]]:
+    """{"entity:link": {reason: frames}} for the links a stream crosses."""
+    out: dict[str, dict[str, int]] = {}
+    gcs_links = h.gcs.link_counters() if h.gcs is not None else {}
+    entity = {"gcs": "gcs1", "primary": "rmax1ob1", "secondary": "rmax1ob2", "backup": "fcs20"}
+    for node, link in path:
+        counters = gcs_links.get(link, {}) if node == "gcs" else stats.get(node, {}).get("links", {}).get(link, {})
+        out[f"{entity[node]}:{link}"] = drops_of(counters or {})
+    return out
+
+
+def hitl_part(args: argparse.Namespace, check: Checks, rows: list[SummaryRow]) -> dict[str, Any]:
+    measure_s, outage_s, after_s = (1.5, 0.7, 1.0) if args.short else (4.0, 1.5, 2.5)
+    log = args.out / "gcs1.ublog"
+    if log.exists():
+        log.unlink()
+    say("\n== HITL configuration (paper Table 2, figure 11): 3 C processes + the Python GCS on 127.0.0.1")
+    opts = HitlOptions(program=args.program, record=log, stats_ms=500)
+    with Hitl(opts) as h:
+        assert h.topo is not None
+        for node in ("gcs", "primary", "secondary", "backup"):
+            pid = h.group[node].pid if node in h.group.procs else "this process"
+            say(f"  {node:9s} pid {pid}: " + ", ".join(f"{k}={v}" for k, v in h.topo.specs(node).items()))
+
+        say("\n-- GCS administration table: the paper's two tests")
+        gps = h.add_row("publication", "gpsOut", "rmax1ob1", "gcs1", GPS_MS)
+        imu = h.add_row("subscription", "imuOut", "fcs20", "gcs1", IMU_MS)
+        for label, row in (("gpsOut rmax1ob1 -> gcs1 publication", gps), ("imuOut fcs20 -> gcs1 subscription", imu)):
+            try:
+                h.wait_status(row, "active", 5.0)
+                check(f"admin row active: {label}", True, f"status {h.admin.status(row)['status']}")
+            except TimeoutError as e:
+                check(f"admin row active: {label}", False, str(e))
+        h.run_for(0.3)   # let both streams settle before measuring
+        t0 = h.mark("measure")
+        h.run_for(measure_s)
+        t1 = h.mark("kill -9 rmax1ob1")
+
+        gps_m, imu_m = h.meter("gpsOut", "rmax1ob1"), h.meter("imuOut", "fcs20")
+        say(f"\n-- kill -9 rmax1ob1 (pid {h.group['primary'].pid}), {outage_s} s outage, restart")
+        h.kill("primary")
+        h.run_for(outage_s)
+        t_up = h.restart("primary")["_rx_mono"]   # when its `ready` line arrived
+        h.marks.append((t_up, "rmax1ob1 restarted"))
+        for m in (gps_m, imu_m):
+            try:
+                h.wait_data(m.name, m.source, 1, 2 * RENEW_S + 1.0, since=t_up)
+                back = m.window(t_up)[0] - t_up
+                check(f"heals after restart: {m.name}", back <= 2 * RENEW_S,
+                      f"data back {back:.2f} s after the restart (limit: two renewal periods, {2 * RENEW_S:.0f} s)")
+            except TimeoutError as e:
+                check(f"heals after restart: {m.name}", False, str(e))
+        t_after = time.monotonic()
+        h.run_for(after_s)
+        for m in (gps_m, imu_m):
+            start, length = largest_gap(m.times)
+            check(f"gap visible: {m.name}", m.count(t1 + 0.2, t_up) == 0 and length >= outage_s,
+                  f"no data for {length:.2f} s from t={start - h.t0:.2f} s (outage {outage_s} s)")
+
+        stats: dict[str, dict[str, Any]] = {}
+        for node in ("primary", "secondary", "backup"):
+            try:
+                stats[node] = h.child_stats(node)
+            except Exception as e:   # noqa: BLE001 - reported as a failed check
+                check(f"stats from {node}", False, str(e))
+        gps_path = [("primary", "onboardPortDatalink1"), ("primary", "onboardPortDatalink2"),
+                    ("gcs", "gcsPortDatalink1"), ("gcs", "gcsPortDatalink2")]
+        imu_path = [("backup", "onboardPortDatalink1"), ("primary", "onboardPortRelay"), *gps_path]
+        rows.append(SummaryRow.from_meter(gps_m, hops=h.topo.hops("primary", "gcs"), requested_hz=1000 / GPS_MS,
+                                          t0=t0, t1=t1, dropped=link_drops(h, stats, gps_path)))
+        rows.append(SummaryRow.from_meter(imu_m, hops=h.topo.hops("backup", "gcs"), requested_hz=1000 / IMU_MS,
+                                          t0=t0, t1=t1, dropped=link_drops(h, stats, imu_path)))
+        for r in rows[-2:]:
+            check(f"rate: {r.name} {r.source} -> {r.destination}", r.rate_ok(RATE_TOLERANCE),
+                  f"{r.achieved_hz:.2f} Hz for {r.requested_hz:g} Hz requested (tolerance {RATE_TOLERANCE:.0%})")
+        check("hops: imuOut fcs20 -> gcs1", rows[-1].hops == 2, f"{rows[-1].hops} hops (gcs1 - rmax1ob1 - fcs20)")
+        after_hz = imu_m.rate_hz(t_after, None)
+        check("rate after healing: imuOut", abs(after_hz - 1000 / IMU_MS) <= 0.15 * 1000 / IMU_MS,
+              f"{after_hz:.1f} Hz after the restart")
+        plot = {"t0": h.t0, "times": list(imu_m.times), "values": list(imu_m.values),
+                "gap": (t1, t_up), "restart": t_up}
+        status = h.close()
+    check("all C nodes exit cleanly", all(s == 0 for s in status.values()),
+          ", ".join(f"{n}: exit {s}" for n, s in status.items()))
+    check("GCS binary log written", log.exists() and log.stat().st_size > 64,
+          f"{log} ({log.stat().st_size if log.exists() else 0} bytes)")
+    return plot
+
+
+def table1_part(args: argparse.Namespace, check: Checks, rows: list[SummaryRow]) -> None:
+    from uavbus import Catalogue
+    from uavbus.sim.hitl import catalogue_for
+    from uavbus.sim.memnet import MemNet
+
+    say("\n== Table 1 / figure 9: four entities in this process over in-memory links (injected clock)")
+    cat = Catalogue.load(str(catalogue_for(args.program)))
+    sim_s = 2.0 if args.short else 5.0
+    with MemNet(cat, REPO / "examples/configs/table1.json") as net:
+        e2, e0, e3 = net.of("entity2"), net.of("entity0"), net.of("entity3")
+        imu_dir, gps_dir = e2.bind("imuOut"), e0.bind("gpsOut")
+        e3.bind("imuOut")
+        e3.bind("gpsOut")
+        meters = {("imuOut", "entity2"): StreamMeter("imuOut", "entity2", "entity3"),
+                  ("gpsOut", "entity0"): StreamMeter("gpsOut", "entity0", "entity3")}
+
+        def on_data(msg: Any) -> None:
+            now_s = net.now_ms / 1000.0
+            value = msg.value.to_dict() if hasattr(msg.value, "to_dict") else msg.value
+            m = meters.get((msg.name, msg.source))
+            if m is not None:
+                m.add(now_s, timetag_latency_ms(value, now_s))
+
+        e3.on_data(on_data)
+        adm = e3.admin("entity3")
+        sub = adm.add(content="imuOut", source="entity2", destination="entity3", period_ms=IMU_MS,
+                      kind="subscription")
+        pub = adm.add(content="gpsOut", source="entity0", destination="entity3", period_ms=GPS_MS,
+                      kind="publication")
+        adm.activate(sub)
+        adm.activate(pub)
+
+        def update(now_ms: int) -> None:   # the sources' directories change every ms, stamped with sim time
+            for d in (imu_dir, gps_dir):
+                d.time.seconds, d.time.microseconds = now_ms // 1000, (now_ms % 1000) * 1000
+
+        net.run(1000, each=update)         # requests, acknowledgements, first data
+        t0 = net.now_ms / 1000.0
+        net.run(int(sim_s * 1000), each=update)
+        t1 = net.now_ms / 1000.0
+        for row, label in ((sub, "imuOut entity2 -> entity3 subscription"), (pub, "gpsOut entity0 -> entity3 publication")):
+            st = adm.status(row)["status"]
+            check(f"Table 1 admin row active: {label}", st == "active", f"status {st}")
+        hops = {"imuOut": 3, "gpsOut": 1}   # entity3 - entity0 - entity1 - entity2; entity0 - entity3 (2 links)
+        for (name, _src), m in meters.items():
+            req = 1000 / (IMU_MS if name == "imuOut" else GPS_MS)
+            r = SummaryRow.from_meter(m, hops=hops[name], requested_hz=req, t0=t0, t1=t1,
+                                      dropped={f"{n}:{link}": drops_of(c) for n, node in net.nodes.items()
+                                               for link, c in node.link_counters().items()})
+            r.dropped = {k: v for k, v in r.dropped.items() if v}
+            rows.append(r)
+            check(f"Table 1 rate: {name} {m.source} -> {m.destination}", r.rate_ok(RATE_TOLERANCE),
+                  f"{r.achieved_hz:.2f} Hz for {req:g} Hz requested ({r.hops} hops, simulated time)")
+
+
+def make_plot(args: argparse.Namespace, check: Checks, plot: dict[str, Any]) -> None:
+    from uavbus.sim.plot import plot_series
+
+    t0 = plot["t0"]
+    t = [x - t0 for x in plot["times"]]
+    values = [v for v in plot["values"] if isinstance(v, dict)]
+    series: dict[str, list[float]] = {}
+    for axis in ("p", "q", "r"):
+        ys = [float(v.get(axis, 0.0)) for v in values]
+        if ys and max(ys) != min(ys):          # a steady turn has constant body rates: nothing to see
+            series[f"imuOut.{axis} (rad/s)"] = ys
+    ylabel = "angular rate (rad/s)"
+    if not series:   # the counter of IMU samples taken on fcs20: keeps rising through the outage
+        series["imuOut.sampleCount (fcs20 IMU samples)"] = [float(v.get("sampleCount", 0)) for v in values]
+        ylabel = "IMU samples taken on fcs20"
+    g0 = plot["gap"][0]
+    first_after = next((x for x in plot["times"] if x >= plot["restart"]), plot["restart"])
+    path = args.out / "imu.png"
+    try:
+        plot_series(path, t, series, title="imuOut from fcs20 received at gcs1 (2 hops via rmax1ob1)",
+                    gaps=[(g0 - t0, first_after - t0, "rmax1ob1 killed -> restarted")], ylabel=ylabel)
+        check("plot written", path.exists(), str(path))
+    except ImportError as e:
+        check("plot written", False, f"matplotlib missing ({e}); run `make setup` (installs .[test,demo])")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--short", action="store_true", help="shorter measurement windows (for make test)")
+    ap.add_argument("--out", type=Path, default=REPO / "demo-out", help="output directory (default demo-out/)")
+    ap.add_argument("--program", type=Path, default=None, help="uavbus_node (default: build/ or $UAVBUS_NODE)")
+    args = ap.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    # SIGTERM (e.g. from make or a CI timeout) unwinds like Ctrl-C, so every `with` stops its processes.
+    signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+    started = time.monotonic()
+    check = Checks()
+    rows: list[SummaryRow] = []
+    try:
+        args.program = args.program or node_program()
+        plot = hitl_part(args, check, rows)
+        table1_part(args, check, rows)
+        make_plot(args, check, plot)
+    except KeyboardInterrupt:
+        say("\ninterrupted: every process the demo started has been stopped")
+        return 130
+    except Exception as e:  # noqa: BLE001 - a crash is a failed check with its reason
+        check("demo ran to the end", False, f"{type(e).__name__}: {e}")
+    if rows:
+        write_summary(args.out / "summary.json", rows, {"checks": [c.__dict__ for c in check.items],
+                                                        "short": args.short})
+        say("\n== Summary\n" + render_table(rows))
+        say(f"\nwrote {args.out / 'summary.json'}, {args.out / 'gcs1.ublog'}, {args.out / 'imu.png'}")
+    took = time.monotonic() - started
+    if check.failed:
+        say(f"\nDEMO FAILED ({took:.1f} s): " + "; ".join(f"{c.name}: {c.why}" for c in check.failed))
+        return 1
+    say(f"\ndemo passed: {len(check.items)} checks held ({took:.1f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,138 @@
+"""Rates, latencies and the demo's summary table (demo-out/summary.json).
+
+A `StreamMeter` collects, for one data stream (content, source -> destination), the receive time and the
+latency of every DATA that arrived. Latency is `now - stamp` on one clock: the C node writes
+CLOCK_MONOTONIC (ms) into the directory's timeTag `time` when it updates it, and the receiver compares with
+`time.monotonic()` -- the same clock on one machine (Linux: both are CLOCK_MONOTONIC).
+
+The achieved rate and the latency percentiles are measured over a window in which the stream is expected to flow (e.g. after the
+subscription became active and before a planned outage), as (messages - 1) / (last - first): it does
+not depend on when the window was opened.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+__all__ = ["StreamMeter", "SummaryRow", "percentile", "render_table", "write_summary", "largest_gap"]
+
+
+def percentile(values: Iterable[float], q: float) -> float | None:
+    """The q-th percentile (0..100) by linear interpolation between closest ranks; None when empty."""
+    xs = sorted(values)
+    if not xs:
+        return None
+    if len(xs) == 1:
+        return xs[0]
+    pos = (len(xs) - 1) * q / 100.0
+    lo, hi = math.floor(pos), math.ceil(pos)
+    return xs[lo] + (xs[hi] - xs[lo]) * (pos - lo)
+
+
+def largest_gap(times: list[float]) -> tuple[float, float]:
+    """(start, length) of the longest interval between consecutive times (seconds); (0, 0) if < 2."""
+    best = (0.0, 0.0)
+    for a, b in zip(times, times[1:]):
+        if b - a > best[1]:
+            best = (a, b - a)
+    return best
+
+
+@dataclass
+class StreamMeter:
+    name: str
+    source: str
+    destination: str
+    times: list[float] = field(default_factory=list)       # receive time, seconds (monotonic)
+    latencies_ms: list[float] = field(default_factory=list)
+    latency_times: list[float] = field(default_factory=list)  # receive time of each latency sample
+    values: list[dict[str, Any]] = field(default_factory=list)  # optional: decoded values for plots
+
+    def add(self, t: float, latency_ms: float | None = None, value: dict[str, Any] | None = None) -> None:
+        self.times.append(t)
+        if latency_ms is not None:
+            self.latencies_ms.append(latency_ms)
+            self.latency_times.append(t)
+        if value is not None:
+            self.values.append(value)
+
+    def window(self, t0: float | None = None, t1: float | None = None) -> list[float]:
+        return [t for t in self.times if (t0 is None or t >= t0) and (t1 is None or t <= t1)]
+
+    def rate_hz(self, t0: float | None = None, t1: float | None = None) -> float:
+        ts = self.window(t0, t1)
+        if len(ts) < 2 or ts[-1] <= ts[0]:
+            return 0.0
+        return (len(ts) - 1) / (ts[-1] - ts[0])
+
+    def count(self, t0: float | None = None, t1: float | None = None) -> int:
+        return len(self.window(t0, t1))
+
+    def latencies(self, t0: float | None = None, t1: float | None = None) -> list[float]:
+        return [lat for t, lat in zip(self.latency_times, self.latencies_ms)
+                if (t0 is None or t >= t0) and (t1 is None or t <= t1)]
+
+
+@dataclass
+class SummaryRow:
+    name: str
+    source: str
+    destination: str
+    hops: int
+    requested_hz: float
+    achieved_hz: float
+    latency_p50_ms: float | None
+    latency_p99_ms: float | None
+    delivered: int
+    dropped: dict[str, dict[str, int]]   # link -> reason -> frames
+
+    @classmethod
+    def from_meter(cls, m: StreamMeter, *, hops: int, requested_hz: float, t0: float | None = None,
+                   t1: float | None = None, dropped: dict[str, dict[str, int]] | None = None) -> SummaryRow:
+        lat = m.latencies(t0, t1)
+        return cls(m.name, m.source, m.destination, hops, requested_hz, round(m.rate_hz(t0, t1), 2),
+                   _r(percentile(lat, 50)), _r(percentile(lat, 99)), len(m.times), dropped or {})
+
+    def rate_ok(self, tolerance: float = 0.10) -> bool:
+        return abs(self.achieved_hz - self.requested_hz) <= tolerance * self.requested_hz
+
+    def as_dict(self) -> dict[str, Any]:
+        return dict(self.__dict__)
+
+
+def _r(x: float | None) -> float | None:
+    return None if x is None else round(x, 3)
+
+
+def _fmt_drops(d: dict[str, dict[str, int]]) -> str:
+    parts = [f"{link}:{reason}={n}" for link, reasons in sorted(d.items())
+             for reason, n in sorted(reasons.items()) if n]
+    return ", ".join(parts) if parts else "none"
+
+
+def render_table(rows: list[SummaryRow]) -> str:
+    """The summary as aligned text, one line per row (drops by link and reason on the line)."""
+    head = ["content", "source -> destination", "hops", "req Hz", "got Hz", "p50 ms", "p99 ms", "delivered",
+            "dropped (link:reason=frames)"]
+    body = [[r.name, f"{r.source} -> {r.destination}", str(r.hops), f"{r.requested_hz:g}", f"{r.achieved_hz:.1f}",
+             "-" if r.latency_p50_ms is None else f"{r.latency_p50_ms:.2f}",
+             "-" if r.latency_p99_ms is None else f"{r.latency_p99_ms:.2f}", str(r.delivered),
+             _fmt_drops(r.dropped)] for r in rows]
+    widths = [max(len(x) for x in col) for col in zip(head, *body)]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(line, widths)).rstrip() for line in [head, *body]]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def write_summary(path: str | Path, rows: list[SummaryRow], extra: dict[str, Any] | None = None) -> None:
+    doc: dict[str, Any] = {"rows": [r.as_dict() for r in rows]}
+    if extra:
+        doc.update(extra)
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    p.write_text(json.dumps(doc, indent=2) + "\n")

@@ -1,0 +1,30 @@
+"""System tests: several processes on 127.0.0.1 (issue 4 acceptance, issue 6 short demo).
+
+They need the C node program (examples/node, built through uavbus_generate()) and the Python GCS
+(uavbus.Node). The program is $UAVBUS_NODE, else <$UAVBUS_BUILD_DIR or build/>/examples/node/uavbus_node,
+which `make test` builds (test-c) before it runs pytest; pytest itself never runs a build. A missing
+program fails the tests (with how to build it) rather than skipping them: a skipped acceptance test
+would look green.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from uavbus.sim.build import NodeProgramMissing, node_program
+from uavbus.sim.hitl import HitlOptions
+
+
+@pytest.fixture(scope="session")
+def program() -> Path:
+    try:
+        return node_program(build=False)
+    except NodeProgramMissing as e:
+        pytest.fail(f"uavbus_node not available: {e}")
+
+
+@pytest.fixture
+def hitl_opts(program: Path) -> HitlOptions:
+    return HitlOptions(program=program)

@@ -1,0 +1,29 @@
+"""`make demo` in its short mode, inside `make test` (issue 6 acceptance)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.timeout(90)
+def test_demo_short_mode_passes_and_writes_its_outputs(program: Path, tmp_path: Path) -> None:
+    r = subprocess.run([sys.executable, str(REPO / "examples/demo/hitl_demo.py"), "--short", "--out", str(tmp_path),
+                        "--program", str(program)], capture_output=True, text=True, timeout=80)
+    assert r.returncode == 0, r.stdout[-4000:] + r.stderr[-2000:]
+    doc = json.loads((tmp_path / "summary.json").read_text())
+    rows = {(row["name"], row["source"]): row for row in doc["rows"]}
+    imu, gps = rows[("imuOut", "fcs20")], rows[("gpsOut", "rmax1ob1")]
+    assert imu["hops"] == 2 and gps["hops"] == 1
+    for row in (imu, gps):
+        assert abs(row["achieved_hz"] - row["requested_hz"]) <= 0.1 * row["requested_hz"]
+        assert set(row) >= {"name", "source", "destination", "hops", "requested_hz", "achieved_hz",
+                            "latency_p50_ms", "latency_p99_ms", "delivered", "dropped"}
+    assert (tmp_path / "imu.png").stat().st_size > 1000
+    assert (tmp_path / "gcs1.ublog").read_bytes()[:8] == b"UBLOG1\r\n"
