@@ -61,12 +61,14 @@ void node_motion_imu(const node_motion_t *m, double t_s, double dt_s, timeTag_t 
     kin_t k = kinematics(m, t_s);
     double centripetal = m->speed_mps * k.omega; /* v^2 / r, toward the centre = body right in a right turn */
     out->time = stamp;
-    out->p = 0.0;
-    out->q = 0.0;
+    /* A steady turn has constant body rates; a gentle, deterministic roll and pitch oscillation (as from
+     * gusts and the pilot's corrections) gives receivers and plots values that change with time. */
+    out->p = 0.20 * sin(2.0 * M_PI * 0.40 * t_s);
+    out->q = 0.10 * sin(2.0 * M_PI * 0.25 * t_s + 1.0);
     out->r = k.omega;
     out->specificForce = (vector3d_t){0.0, centripetal, -GRAVITY_MPS2};
     out->deltaVelocity = (vector3d_t){0.0, centripetal * dt_s, -GRAVITY_MPS2 * dt_s};
-    out->deltaAngle = (vector3d_t){0.0, 0.0, k.omega * dt_s};
+    out->deltaAngle = (vector3d_t){out->p * dt_s, out->q * dt_s, out->r * dt_s};
     out->temperatureC = 35.0f;
     out->sampleCount++;
     out->saturated = 0;
