@@ -257,7 +257,7 @@ def main() -> None:
     w("## 4. Python (messages/s)")
     w("")
     w("bench/py_bench.py, pinned to CPU 0, 3 processes x 5 samples round-robin. uavbus publish = set the timestamp")
-    w("field of the bound directory + `Node.send()` (C pack + header + CRC-32C + memlink); receive = the receiving")
+    w("field of the bound directory + `Publisher.send()` (C pack + header + CRC-32C + memlink); receive = the receiving")
     w("Node's memlink pump + dispatch into one `Message` per delivery (C verify + dedup + unpack). Peers: pymavlink")
     w("`msg.pack(mav)` / `mav.decode(frame)`; LCM Python `obj.encode()` / `T.decode(bytes)` (lcm-gen -p).")
     w("")

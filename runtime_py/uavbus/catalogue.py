@@ -84,6 +84,9 @@ class Type:
     _members: dict[str, tuple[struct.Struct, Any, Any]] = field(repr=False, compare=False, default_factory=dict)
     # Nested types by name (for views on nested members).
     _subtypes: dict[str, "Type"] = field(repr=False, compare=False, default_factory=dict)
+    # Plain scalar members (no array, no nested struct, no bitfield range to check): name ->
+    # (struct.Struct, wire offset), so a Directory reads and writes them with one pack_into/unpack_from.
+    _scalars: dict[str, tuple[struct.Struct, int]] = field(repr=False, compare=False, default_factory=dict)
 
     @property
     def packed_fields(self) -> tuple[Field, ...]:
@@ -357,6 +360,8 @@ def _with_codec(t: Type, types: dict[str, Type]) -> Type:
         steps_build.append(_field_builder(f, types))
         code = types[f.struct]._struct.format.lstrip("<") if f.struct else WIRE_TYPES[f.wire or ""][0]
         t._members[f.name] = (struct.Struct("<" + code * f.count), steps_flat[-1], steps_build[-1])
+        if not f.struct and not f.dims and _range_of(f) is None:
+            t._scalars[f.name] = (t._members[f.name][0], f.wire_offset)
         if f.struct:
             t._subtypes[f.struct] = types[f.struct]
 

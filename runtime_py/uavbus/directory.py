@@ -9,9 +9,10 @@ are read as (nested) lists and written whole.
 
 from __future__ import annotations
 
+import struct
 from typing import Any
 
-from uavbus.catalogue import Instance, Type, decode_type, encode_type, read_member, write_member
+from uavbus.catalogue import EncodeError, Instance, Type, decode_type, encode_type, read_member, write_member
 
 
 class Directory:
@@ -38,6 +39,9 @@ class Directory:
 
     def __getattr__(self, name: str) -> Any:
         t = self._type
+        scalar = t._scalars.get(name)
+        if scalar is not None:  # the common case, one unpack_from
+            return scalar[0].unpack_from(self._buf, self._offset + scalar[1])[0]
         if name not in t._members:
             raise AttributeError(f"{t.name} has no packed member {name!r} (members: {', '.join(self.fields)})")
         f = t.field(name)
@@ -50,6 +54,13 @@ class Directory:
         return read_member(t, name, self._buf, self._offset)
 
     def __setattr__(self, name: str, value: Any) -> None:
+        scalar = self._type._scalars.get(name)
+        if scalar is not None and name not in _OWN_ATTRIBUTES:  # the common case, one pack_into
+            try:
+                scalar[0].pack_into(self._buf, self._offset + scalar[1], value)
+            except struct.error as exc:
+                raise EncodeError(f"{self._type.name}.{name}: {exc} (check the value type)") from exc
+            return
         if isinstance(getattr(type(self), name, None), property):  # `raw`
             object.__setattr__(self, name, value)
             return
@@ -104,3 +115,7 @@ class Directory:
         what = self.instance.name if self.instance is not None else self._type.name
         return f"<Directory {what} {self.to_dict()!r}>"
 
+
+# Names a packed member must not shadow when set (properties and the view's own state).
+_OWN_ATTRIBUTES = frozenset(n for n, v in vars(Directory).items() if isinstance(v, property)) | {
+    "instance", "_type", "_storage", "_buf", "_offset"}

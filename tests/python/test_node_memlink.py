@@ -183,3 +183,43 @@ def test_record_with_c_writer(pair, tmp_path) -> None:
     data = path.read_bytes()
     assert data.startswith(b"UBLOG1\r\n") and len(data) == stats["bytes"]
     assert b'"gcs"' in data[:2048]  # the meta names this node
+
+
+def test_publisher_sends_the_directory_with_names_resolved_once(pair) -> None:
+    gcs, air, link, clock = pair
+    gcs.bind("gpsOut")
+    got = []
+    gcs.on_data(got.append)
+    pub = air.publisher("rmax1ob1", "gpsOut", to="gcs1")
+    for k in range(5):
+        pub.directory.solutionCount = 100 + k       # a plain scalar: the one-pack_into path
+        assert pub.send() == 1                      # one link (onboardPortDatalink1) took it
+        run([gcs, air], clock, 5)
+    assert [m.value["solutionCount"] for m in got] == [100, 101, 102, 103, 104]
+    assert [m.seq for m in got] == sorted(m.seq for m in got) and got[0].source == "rmax1ob1"
+    assert got[-1].raw == air.directory("gpsOut").raw
+    with pytest.raises(Exception, match="solutionCount"):
+        pub.directory.solutionCount = -1             # an unsigned member refuses, never wraps
+    # Unknown destination: the C router refuses and counts it; nothing is sent.
+    before = air.counters()["drops"]["no_route"]
+    with pytest.raises(Exception):
+        air.publisher("rmax1ob1", "gpsOut", to="nobody").send()
+    assert air.counters()["drops"]["no_route"] == before + 1
+
+
+def test_on_frame_sees_every_frame_and_recording_goes_on(pair, tmp_path) -> None:
+    from uavbus.logfile import LogReader
+
+    gcs, air, link, clock = pair
+    air.bind("gpsOut")
+    gcs.record(tmp_path / "gcs.ublog", tx=True)
+    frames = []
+    gcs.on_frame(lambda name, direction, frame, t_ms: frames.append((name, direction, len(frame))))
+    gcs.subscribe("gcs1", "gpsOut", source="rmax1ob1", period_ms=50)
+    run([gcs, air], clock, 300)
+    rx = [f for f in frames if f[1] == "rx"]
+    tx = [f for f in frames if f[1] == "tx"]
+    assert rx and tx and {f[0] for f in frames} == {"gcsPortDatalink1"}
+    stats = gcs.stop_recording()
+    assert stats is not None and stats["records"] == len(frames) and stats["write_errors"] == 0
+    assert sum(1 for _ in LogReader(tmp_path / "gcs.ublog").records()) == len(frames)

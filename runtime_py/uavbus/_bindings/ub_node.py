@@ -2,7 +2,7 @@
 
 The delivery hook and the frame tap call back into Python through `extern "Python"` functions; the
 `user` pointer is an `ffi.new_handle()` of a Python sink object (kept alive by its owner), whose
-`on_deliver(entity, instance, header, now_ms)` / `on_tap(link_id, dir, frame, now_ms)` run inside
+`on_deliver(entity, instance, src_id, dest_id, seq, now_ms)` / `on_tap(link_id, dir, frame, now_ms)` run inside
 the C call. Sinks must not raise (cffi would only print the error): they queue and return.
 """
 
@@ -12,7 +12,6 @@ from typing import Any
 
 from uavbus._bindings.ub_catalogue import ENTITY_ID_LEN, _c_name
 from uavbus._bindings.ub_error import InvalidArgumentError, ensure
-from uavbus._bindings.ub_frame import _header_from_c
 from uavbus._ub import ffi, lib
 
 MAX_ENTITIES: int = lib.UB_MAX_ENTITIES
@@ -175,7 +174,9 @@ def set_tap_sink(node: Any, handle: Any) -> None:
 
 @ffi.def_extern()
 def ub_py_deliver(user: Any, entity: int, instance: int, h: Any, now_ms: int) -> None:
-    ffi.from_handle(user).on_deliver(entity, instance, _header_from_c(h), now_ms)
+    # Only what a delivery reports (source, destination, sequence), copied: `h` lives for this call.
+    ffi.from_handle(user).on_deliver(entity, instance, ffi.buffer(h.src_id)[:], ffi.buffer(h.dest_id)[:], h.seq,
+                                     now_ms)
 
 
 @ffi.def_extern()
