@@ -11,7 +11,7 @@
  * It updates the directories its entities produce from a deterministic motion
  * model (node_motion.h), serves publish/subscribe requests, and reports on
  * stdout, one JSON object per line: "ready", "stats", "rebound", "error".
- * stdin takes line commands: `rebind NAME SPEC`, `impair SPEC`, `stats`, `quit`.
+ * stdin takes line commands: `rebind NAME SPEC`, `impair SPEC`, `dump NAME`, `stats`, `quit`.
  * See examples/node/README.md.
  *
  * One poll() loop drives everything; the time is CLOCK_MONOTONIC in ms, the
@@ -44,6 +44,7 @@
 #include "navfilter.h"
 #include "node_motion.h"
 #include "onboard.h"
+#include "waypoints.h"
 
 #define EXIT_USAGE 2
 #define MAX_PORT_ARGS 16
@@ -73,6 +74,8 @@ static const directory_t k_dirs[] = {
     {"navFilterStateBackup", &navFilterStateBackup, "fcs20", MOTION_NAV, 20},
     {"fcsSet", &fcsSet, "fcs20", MOTION_NONE, 0},
     {"onboard2Set", &onboard2Set, "rmax1ob2", MOTION_NONE, 0},
+    /* Uploaded by the GCS (gcs1 is never local here): storage for what arrives, read back with `dump`. */
+    {"gcsMissionRmax1[0]", &gcsMissionRmax1[0], "gcs1", MOTION_NONE, 0},
 };
 #define N_DIRS (sizeof k_dirs / sizeof k_dirs[0])
 
@@ -205,7 +208,7 @@ static void usage(FILE *f) {
             "                   [--publish ENTITY:CONTENT>DEST/PERIOD_MS]...\n"
             "SPEC: udp:bind=HOST:PORT,peer=HOST:PORT | tcp:listen=HOST:PORT | tcp:connect=HOST:PORT |\n"
             "      serial:device=PATH[,baud=N]\n"
-            "stdin commands: rebind LINK SPEC | impair SPEC | stats | quit\n");
+            "stdin commands: rebind LINK SPEC | impair SPEC | dump NAME | stats | quit\n");
 }
 
 /* Start-up failure: the message on stderr (file:line: ... or argv[i]: ...) and as an error event; exit 2. */
@@ -634,6 +637,26 @@ static void command(char *line, uint64_t now_ms) {
         g_stop = 1;
     } else if (strcmp(verb, "stats") == 0) {
         event_stats(now_ms, false);
+    } else if (strcmp(verb, "dump") == 0) {
+        /* The bound C struct packed again with the generated codec: a sender can check that this
+         * process unpacked what it sent into identical bytes (tests/system, mixed languages). */
+        char *name = strtok_r(NULL, " \t\r", &save);
+        int inst = name != NULL ? ub_catalogue_find_name(&flightsw_catalogue, name) : UB_ERR_NOTFOUND;
+        void *storage = inst >= 0 ? ub_node_binding(&g_node, (uint32_t)inst) : NULL;
+        if (storage == NULL) {
+            snprintf(msg, sizeof msg, "dump: '%.40s' is not a directory this node binds", name != NULL ? name : "");
+            event_error(msg);
+            return;
+        }
+        const ub_type_desc_t *type = flightsw_catalogue.instances[inst].type;
+        uint8_t packed[UB_MAX_PAYLOAD];
+        int n = type->pack(storage, packed, sizeof packed);
+        out("{\"event\":\"dump\",\"name\":");
+        out_str(name, SIZE_MAX);
+        out(",\"packed\":\"");
+        for (int i = 0; i < n; i++) out("%02x", packed[i]);
+        out("\"}");
+        out_flush();
     } else if (strcmp(verb, "impair") == 0) {
         char *spec = strtok_r(NULL, " \t\r", &save);
         apply_impair(spec != NULL ? spec : "", false);
@@ -658,7 +681,7 @@ static void command(char *line, uint64_t now_ms) {
         out(",\"rebinds\":%" PRIu32 "}", p->rebinds);
         out_flush();
     } else {
-        snprintf(msg, sizeof msg, "unknown command '%.40s' (expected: rebind LINK SPEC, impair SPEC, stats, quit)", verb);
+        snprintf(msg, sizeof msg, "unknown command '%.40s' (expected: rebind LINK SPEC, impair SPEC, dump NAME, stats, quit)", verb);
         event_error(msg);
     }
 }

@@ -130,3 +130,54 @@ def test_subscriptions_deliver_under_20_percent_loss_and_reordering(hitl_opts: H
         assert imp["lost"] > 0 and imp["reordered"] > 0, imp
         stats = h.child_stats("primary")
         assert stats["links"]["onboardPortRelay"], "rmax1ob1 reports its impaired links"
+
+
+def _distinct_value(cat: object, type_name: str, counter: "itertools.count[int]") -> dict:
+    """Every packed member of `type_name` gets its own value, exact in its wire type and inside its
+    bit width, so a member unpacked into the wrong place or width cannot go unnoticed."""
+    t = cat.type(type_name)  # type: ignore[attr-defined]
+    out: dict = {}
+    for f in t.packed_fields:
+        def leaf(f=f) -> object:
+            k = next(counter)
+            if f.struct:
+                return _distinct_value(cat, f.struct, counter)
+            if f.wire == "bool":
+                return k % 2 == 0
+            if f.wire in ("f32", "f64"):
+                return (k % 50) * 0.5 + 0.25
+            width = f.bits or int(f.wire[1:])
+            usable = width - 1 if f.wire.startswith("i") else width
+            return k % (1 << usable) if usable > 0 else 0
+
+        def build(dims: tuple[int, ...]) -> object:
+            return leaf() if not dims else [build(dims[1:]) for _ in range(dims[0])]
+
+        out[f.name] = build(tuple(f.dims))
+    return out
+
+
+@pytest.mark.parametrize("content", ["gcsMissionRmax1[0]", "onboardSet"])
+def test_python_published_struct_unpacks_in_c_to_identical_bytes(hitl_opts: HitlOptions, content: str) -> None:
+    """A Python entity (gcs1) publishes a struct to a C entity two hops away (rmax1ob2, via
+    rmax1ob1); the C process unpacks it with the generated codec, packs it again (`dump`), and the
+    bytes equal what Python sent."""
+    import itertools
+
+    with Hitl(hitl_opts) as h:
+        cat = h.gcs.catalogue
+        pub = h.gcs.publisher("gcs1", content, to="rmax1ob2")
+        pub.directory.from_dict(_distinct_value(cat, cat.instance(content).type.name, itertools.count(1)))
+        sent = pub.directory.raw
+        assert len(set(sent)) > 4, "the value fills the struct with distinct bytes"
+        h.gcs.publish("gcs1", content, to="rmax1ob2", period_ms=50)
+        proc = h.group["secondary"]
+
+        def unpacked_in_c() -> dict | None:
+            m = proc.mark()
+            proc.send(f"dump {content}")
+            ev = h.child_event("secondary", "dump", 2.0, since=m)
+            return ev if ev["packed"] == sent.hex() else None
+
+        ev = h.run_until(unpacked_in_c, 5.0, f"rmax1ob2 holding {content} as sent by gcs1")
+        assert bytes.fromhex(ev["packed"]) == sent
