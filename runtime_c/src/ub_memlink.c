@@ -130,7 +130,16 @@ size_t ub_memlink_pump(ub_memlink_t *ml, uint64_t now_ms) {
         size_t len = from->queue[index].len;
         /* Copy out and free the slot first: delivery may queue replies into this very queue. */
         memcpy(frame, from->queue[index].bytes, len);
-        from->queue[index] = from->queue[from->count - 1];
+        /* Fill the hole with the last slot, copying only its used bytes (a slot is UB_FRAME_MAX long;
+         * copying whole slots was a fifth of all instructions in the 3-hop bench). */
+        ub_memlink_frame_t *hole = &from->queue[index];
+        const ub_memlink_frame_t *last = &from->queue[from->count - 1];
+        if (hole != last) {
+            hole->due_ms = last->due_ms;
+            hole->order = last->order;
+            hole->len = last->len;
+            memcpy(hole->bytes, last->bytes, last->len);
+        }
         from->count--;
         from->stats.delivered++;
         delivered++;
