@@ -109,7 +109,7 @@ echo "unshare -rn: loop_bench blast udp|tcp 1000000, udp 300000 nobatch, raw-udp
 
 # ---- figure 4: Python ----
 say "figure 4: Python"
-for p in 1 2 3; do timed py taskset -c 0 "$VPY" bench/py_bench.py "$gen/benchcat.catalogue.json" "$peers/lcmpy" >>"$raw/py.txt"; done
+for p in 1 2 3; do timed py taskset -c 0 .venv/bin/python bench/py_bench.py "$gen/benchcat.catalogue.json" "$peers/lcmpy" >>"$raw/py.txt"; done
 
 # ---- figure 5: generator time on synthetic headers ----
 say "figure 5: generator"
