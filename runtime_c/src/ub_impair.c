@@ -5,15 +5,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* xorshift64* (Vigna): small, fast, state in the struct; seed 0 is remapped because 0 is a fixed point. */
-static uint64_t rng_next(ub_impair_t *imp) {
-    uint64_t x = imp->rng;
-    x ^= x >> 12;
-    x ^= x << 25;
-    x ^= x >> 27;
-    imp->rng = x;
-    return x * 0x2545F4914F6CDD1DULL;
-}
+#include "ub_rng_private.h"
+
+static uint64_t rng_next(ub_impair_t *imp) { return ub_rng_next(&imp->rng); }
 
 /* True with probability ppm / 10^6. A zero probability consumes no random number, so enabling one
  * impairment does not shift the decisions of the others. */

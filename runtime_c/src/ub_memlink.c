@@ -4,19 +4,12 @@
 #include <string.h>
 
 #include "ub/ub_node.h"
+#include "ub_rng_private.h"
 
 #define PPM 1000000u
 #define DEFAULT_REORDER_DELAY_MS 5u
 
-/* xorshift64*: small, fast, and its whole state is the struct's `rng`. */
-static uint64_t next_random(ub_memlink_t *ml) {
-    uint64_t x = ml->rng;
-    x ^= x >> 12;
-    x ^= x << 25;
-    x ^= x >> 27;
-    ml->rng = x;
-    return x * 0x2545F4914F6CDD1DULL;
-}
+static uint64_t next_random(ub_memlink_t *ml) { return ub_rng_next(&ml->rng); }
 
 static uint32_t random_below(ub_memlink_t *ml, uint32_t bound) {
     return bound == 0 ? 0 : (uint32_t)((next_random(ml) >> 32) % bound);

@@ -2,7 +2,6 @@
 
 #include <arpa/inet.h>
 #include <errno.h>
-#include <fcntl.h>
 #include <netinet/tcp.h>
 #include <poll.h>
 #include <string.h>
@@ -10,29 +9,11 @@
 #include <unistd.h>
 
 #include "ub/ub_node.h"
+#include "ub_sock_private.h"
 #include "ub_stream_tx_private.h"
 
 #define DEFAULT_BACKOFF_INITIAL_MS 100u
 #define DEFAULT_BACKOFF_MAX_MS 5000u
-
-static int make_address(const char *addr, uint16_t port, struct sockaddr_in *out) {
-    if (addr == NULL) return UB_ERR_INVAL;
-    memset(out, 0, sizeof *out);
-    out->sin_family = AF_INET;
-    out->sin_port = htons(port);
-    return inet_pton(AF_INET, addr, &out->sin_addr) == 1 ? UB_OK : UB_ERR_INVAL;
-}
-
-static int set_nonblocking(int fd) {
-    int flags = fcntl(fd, F_GETFL);
-    return (flags < 0 || fcntl(fd, F_SETFL, flags | O_NONBLOCK) < 0) ? UB_ERR_IO : UB_OK;
-}
-
-static void close_keep_errno(int fd) {
-    int saved = errno;
-    close(fd);
-    errno = saved;
-}
 
 /* Frames are small and latency matters more than packet count. */
 static void set_nodelay(int fd) {
@@ -59,19 +40,19 @@ int ub_tcp_client_init(ub_tcp_t *tcp, const char *addr, uint16_t port, const ub_
     if (tcp == NULL) return UB_ERR_INVAL;
     reset(tcp, UB_TCP_CLIENT, opt);
     if (port == 0) return UB_ERR_INVAL;
-    return make_address(addr, port, &tcp->addr);
+    return ub_sock_address(addr, port, &tcp->addr);
 }
 
 int ub_tcp_server_open(ub_tcp_t *tcp, const char *addr, uint16_t port, const ub_tcp_options_t *opt) {
     if (tcp == NULL) return UB_ERR_INVAL;
     reset(tcp, UB_TCP_SERVER, opt);
-    if (make_address(addr, port, &tcp->addr) < 0) return UB_ERR_INVAL;
+    if (ub_sock_address(addr, port, &tcp->addr) < 0) return UB_ERR_INVAL;
     int fd = socket(AF_INET, SOCK_STREAM, 0);
     if (fd < 0) return UB_ERR_IO;
     int one = 1;
-    if (setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) < 0 || set_nonblocking(fd) < 0 ||
+    if (setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) < 0 || ub_sock_set_nonblocking(fd) < 0 ||
         bind(fd, (const struct sockaddr *)&tcp->addr, sizeof tcp->addr) < 0 || listen(fd, 4) < 0) {
-        close_keep_errno(fd);
+        ub_sock_close_keep_errno(fd);
         return UB_ERR_IO;
     }
     tcp->listen_fd = fd;
@@ -80,11 +61,7 @@ int ub_tcp_server_open(ub_tcp_t *tcp, const char *addr, uint16_t port, const ub_
 
 int ub_tcp_local_port(const ub_tcp_t *tcp, uint16_t *port) {
     if (tcp == NULL || port == NULL || tcp->listen_fd < 0) return UB_ERR_INVAL;
-    struct sockaddr_in local;
-    socklen_t len = sizeof local;
-    if (getsockname(tcp->listen_fd, (struct sockaddr *)&local, &len) < 0) return UB_ERR_IO;
-    *port = ntohs(local.sin_port);
-    return UB_OK;
+    return ub_sock_local_port(tcp->listen_fd, port);
 }
 
 /* Drops the connection; a client schedules its next attempt with the current backoff, then doubles it. */
@@ -170,7 +147,7 @@ static void server_accept(ub_tcp_t *tcp, uint64_t now_ms) {
     for (;;) {
         int fd = accept(tcp->listen_fd, NULL, NULL);
         if (fd < 0) return; /* EAGAIN: nobody waiting; other errors: the next service retries */
-        if (set_nonblocking(fd) < 0) {
+        if (ub_sock_set_nonblocking(fd) < 0) {
             close(fd);
             continue;
         }
@@ -185,7 +162,7 @@ static void server_accept(ub_tcp_t *tcp, uint64_t now_ms) {
 static void client_start_attempt(ub_tcp_t *tcp, uint64_t now_ms) {
     tcp->stats.attempts++;
     int fd = socket(AF_INET, SOCK_STREAM, 0);
-    if (fd < 0 || set_nonblocking(fd) < 0) {
+    if (fd < 0 || ub_sock_set_nonblocking(fd) < 0) {
         if (fd >= 0) close(fd);
         tcp->stats.failed_attempts++;
         connection_lost(tcp, now_ms, 0);

@@ -4,21 +4,13 @@
 
 #include <arpa/inet.h>
 #include <errno.h>
-#include <fcntl.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include "ub/ub_node.h"
 #include "ub/ub_wire.h"
-
-static int make_address(const char *addr, uint16_t port, struct sockaddr_in *out) {
-    if (addr == NULL) return UB_ERR_INVAL;
-    memset(out, 0, sizeof *out);
-    out->sin_family = AF_INET;
-    out->sin_port = htons(port);
-    return inet_pton(AF_INET, addr, &out->sin_addr) == 1 ? UB_OK : UB_ERR_INVAL;
-}
+#include "ub_sock_private.h"
 
 int ub_udp_open(ub_udp_t *udp, const char *bind_addr, uint16_t bind_port, const char *peer_addr,
                 uint16_t peer_port) {
@@ -27,16 +19,12 @@ int ub_udp_open(ub_udp_t *udp, const char *bind_addr, uint16_t bind_port, const 
     udp->fd = -1;
     udp->link_id = -1;
     struct sockaddr_in local;
-    if (make_address(bind_addr, bind_port, &local) < 0 || make_address(peer_addr, peer_port, &udp->peer) < 0)
+    if (ub_sock_address(bind_addr, bind_port, &local) < 0 || ub_sock_address(peer_addr, peer_port, &udp->peer) < 0)
         return UB_ERR_INVAL;
     int fd = socket(AF_INET, SOCK_DGRAM, 0);
     if (fd < 0) return UB_ERR_IO;
-    int flags = fcntl(fd, F_GETFL);
-    if (flags < 0 || fcntl(fd, F_SETFL, flags | O_NONBLOCK) < 0 ||
-        bind(fd, (const struct sockaddr *)&local, sizeof local) < 0) {
-        int saved = errno;
-        close(fd);
-        errno = saved;
+    if (ub_sock_set_nonblocking(fd) < 0 || bind(fd, (const struct sockaddr *)&local, sizeof local) < 0) {
+        ub_sock_close_keep_errno(fd);
         return UB_ERR_IO;
     }
     udp->fd = fd;
@@ -46,18 +34,14 @@ int ub_udp_open(ub_udp_t *udp, const char *bind_addr, uint16_t bind_port, const 
 int ub_udp_set_peer(ub_udp_t *udp, const char *peer_addr, uint16_t peer_port) {
     if (udp == NULL) return UB_ERR_INVAL;
     struct sockaddr_in peer;
-    if (make_address(peer_addr, peer_port, &peer) < 0) return UB_ERR_INVAL;
+    if (ub_sock_address(peer_addr, peer_port, &peer) < 0) return UB_ERR_INVAL;
     udp->peer = peer;
     return UB_OK;
 }
 
 int ub_udp_local_port(const ub_udp_t *udp, uint16_t *port) {
     if (udp == NULL || port == NULL || udp->fd < 0) return UB_ERR_INVAL;
-    struct sockaddr_in local;
-    socklen_t len = sizeof local;
-    if (getsockname(udp->fd, (struct sockaddr *)&local, &len) < 0) return UB_ERR_IO;
-    *port = ntohs(local.sin_port);
-    return UB_OK;
+    return ub_sock_local_port(udp->fd, port);
 }
 
 static int send_now(ub_udp_t *udp, const uint8_t *frame, size_t len) {

@@ -161,21 +161,49 @@ static void step(net_t *n, uint64_t now_ms) {
     ub_node_tick(n->p->sub_node, now_ms);
 }
 
+/* A test pair with ports (ub_ports_t is large: heap, not stack) on both nodes. */
+static net_t net_new(void) {
+    net_t n = {.p = pair_new(NULL), .a = calloc(1, sizeof *n.a), .b = calloc(1, sizeof *n.b)};
+    assert_non_null(n.a);
+    assert_non_null(n.b);
+    assert_int_equal(ub_ports_init(n.a, n.p->pub_node), UB_OK);
+    assert_int_equal(ub_ports_init(n.b, n.p->sub_node), UB_OK);
+    return n;
+}
+
+static void net_free(net_t *n) {
+    ub_ports_close_all(n->a);
+    ub_ports_close_all(n->b);
+    free(n->a);
+    free(n->b);
+    pair_free(n->p);
+}
+
+/* UDP between pubPort and subPort (opening or rebinding them). Each side needs the other's port: sub
+ * opens first with a placeholder peer, pub follows with sub's port, and sub re-opens on its own port
+ * with pub's (the same-address switch: its old transport is closed first). */
+static void open_udp_pair(net_t *n, uint64_t now_ms) {
+    char err[UB_PORTS_ERR_LEN], spec[128];
+    uint16_t ub = 0, ua = 0;
+    assert_int_equal(ub_ports_open_text(n->b, "subPort", "udp:bind=127.0.0.1:0,peer=127.0.0.1:9", now_ms, err, sizeof err),
+                     UB_OK);
+    assert_int_equal(ub_ports_local_port(n->b, "subPort", &ub), UB_OK);
+    snprintf(spec, sizeof spec, "udp:bind=127.0.0.1:0,peer=127.0.0.1:%u", (unsigned)ub);
+    assert_int_equal(ub_ports_open_text(n->a, "pubPort", spec, now_ms, err, sizeof err), UB_OK);
+    assert_int_equal(ub_ports_local_port(n->a, "pubPort", &ua), UB_OK);
+    snprintf(spec, sizeof spec, "udp:bind=127.0.0.1:%u,peer=127.0.0.1:%u", (unsigned)ub, (unsigned)ua);
+    assert_int_equal(ub_ports_open_text(n->b, "subPort", spec, now_ms, err, sizeof err), UB_OK);
+}
+
 static void run(net_t *n, uint64_t from_ms, uint64_t to_ms) {
     for (uint64_t t = from_ms; t < to_ms; t++) step(n, t);
 }
 
 static void test_rebind_tcp_to_udp_keeps_the_subscription(void **state) {
     (void)state;
-    net_t n = {.p = pair_new(NULL)};
-    n.a = calloc(1, sizeof *n.a);
-    n.b = calloc(1, sizeof *n.b);
-    assert_non_null(n.a);
-    assert_non_null(n.b);
+    net_t n = net_new();
     pair_t *p = n.p;
     char err[UB_PORTS_ERR_LEN], spec[128];
-    assert_int_equal(ub_ports_init(n.a, p->pub_node), UB_OK);
-    assert_int_equal(ub_ports_init(n.b, p->sub_node), UB_OK);
     /* TCP: sub listens, pub connects. */
     assert_int_equal(ub_ports_open_text(n.b, "subPort", "tcp:listen=127.0.0.1:0", 0, err, sizeof err), UB_OK);
     uint16_t listen_port = 0;
@@ -199,17 +227,8 @@ static void test_rebind_tcp_to_udp_keeps_the_subscription(void **state) {
     uint64_t a_out_tcp = ca->frames_out, b_in_tcp = cb->frames_in;
     assert_int_equal(a_out_tcp, b_in_tcp); /* nothing lost over TCP */
 
-    /* The switch, at t = 500: sub opens UDP first (its peer not known yet), pub follows with sub's port,
-     * and sub re-opens on its own port with pub's: the same-address case (old transport closed first). */
-    assert_int_equal(ub_ports_open_text(n.b, "subPort", "udp:bind=127.0.0.1:0,peer=127.0.0.1:9", 500, err, sizeof err),
-                     UB_OK);
-    uint16_t ub = 0, ua = 0;
-    assert_int_equal(ub_ports_local_port(n.b, "subPort", &ub), UB_OK);
-    snprintf(spec, sizeof spec, "udp:bind=127.0.0.1:0,peer=127.0.0.1:%u", (unsigned)ub);
-    assert_int_equal(ub_ports_open_text(n.a, "pubPort", spec, 500, err, sizeof err), UB_OK);
-    assert_int_equal(ub_ports_local_port(n.a, "pubPort", &ua), UB_OK);
-    snprintf(spec, sizeof spec, "udp:bind=127.0.0.1:%u,peer=127.0.0.1:%u", (unsigned)ub, (unsigned)ua);
-    assert_int_equal(ub_ports_open_text(n.b, "subPort", spec, 500, err, sizeof err), UB_OK);
+    /* The switch, at t = 500 (open_udp_pair: sub twice, pub once). */
+    open_udp_pair(&n, 500);
     assert_int_equal(ub_ports_find(n.a, "pubPort")->rebinds, 1);
     assert_int_equal(ub_ports_find(n.b, "subPort")->rebinds, 2);
     assert_string_equal(ub_node_link(p->pub_node, p->pub_link)->ops->kind, "udp");
@@ -234,36 +253,18 @@ static void test_rebind_tcp_to_udp_keeps_the_subscription(void **state) {
     assert_true(ca->frames_out - cb->frames_in <= 2); /* at most the frames in flight during the switch */
 
     ub_ports_close_all(n.a);
-    ub_ports_close_all(n.b);
-    assert_null(ub_node_link(p->pub_node, p->pub_link)->ops);
-    free(n.a);
-    free(n.b);
-    pair_free(p);
+    assert_null(ub_node_link(p->pub_node, p->pub_link)->ops); /* closing detaches the slot */
+    net_free(&n);
 }
 
 /* Impairment in front of real ports: seeded loss on the publisher's UDP port, counted exactly. */
 static void test_impairment_on_ports(void **state) {
     (void)state;
-    net_t n = {.p = pair_new(NULL)};
-    n.a = calloc(1, sizeof *n.a);
-    n.b = calloc(1, sizeof *n.b);
-    assert_non_null(n.a);
-    assert_non_null(n.b);
+    net_t n = net_new();
     pair_t *p = n.p;
-    char err[UB_PORTS_ERR_LEN], spec[128];
-    assert_int_equal(ub_ports_init(n.a, p->pub_node), UB_OK);
-    assert_int_equal(ub_ports_init(n.b, p->sub_node), UB_OK);
     const ub_impair_params_t imp = {.loss_ppm = 200000, .delay_ms = 3};
     assert_int_equal(ub_ports_set_impairment(n.a, &imp, 11), UB_OK); /* before opening: applies to later ports */
-    assert_int_equal(ub_ports_open_text(n.b, "subPort", "udp:bind=127.0.0.1:0,peer=127.0.0.1:9", 0, err, sizeof err),
-                     UB_OK);
-    uint16_t ub = 0, ua = 0;
-    assert_int_equal(ub_ports_local_port(n.b, "subPort", &ub), UB_OK);
-    snprintf(spec, sizeof spec, "udp:bind=127.0.0.1:0,peer=127.0.0.1:%u", (unsigned)ub);
-    assert_int_equal(ub_ports_open_text(n.a, "pubPort", spec, 0, err, sizeof err), UB_OK);
-    assert_int_equal(ub_ports_local_port(n.a, "pubPort", &ua), UB_OK);
-    snprintf(spec, sizeof spec, "udp:bind=127.0.0.1:%u,peer=127.0.0.1:%u", (unsigned)ub, (unsigned)ua);
-    assert_int_equal(ub_ports_open_text(n.b, "subPort", spec, 0, err, sizeof err), UB_OK);
+    open_udp_pair(&n, 0);
     const ub_port_t *pa = ub_ports_find(n.a, "pubPort");
     assert_true(pa->impaired);
     assert_string_equal(ub_node_link(p->pub_node, p->pub_link)->ops->kind, "impair");
@@ -282,25 +283,15 @@ static void test_impairment_on_ports(void **state) {
     /* Turning it off puts the bare socket back. */
     assert_int_equal(ub_ports_set_impairment(n.a, NULL, 0), UB_OK);
     assert_string_equal(ub_node_link(p->pub_node, p->pub_link)->ops->kind, "udp");
-    ub_ports_close_all(n.a);
-    ub_ports_close_all(n.b);
-    free(n.a);
-    free(n.b);
-    pair_free(p);
+    net_free(&n);
 }
 
 /* A TCP driver re-attaches itself when its connection comes up; the impairment must come back in front. */
 static void test_impairment_survives_tcp_connects(void **state) {
     (void)state;
-    net_t n = {.p = pair_new(NULL)};
-    n.a = calloc(1, sizeof *n.a);
-    n.b = calloc(1, sizeof *n.b);
-    assert_non_null(n.a);
-    assert_non_null(n.b);
+    net_t n = net_new();
     pair_t *p = n.p;
     char err[UB_PORTS_ERR_LEN], spec[128];
-    assert_int_equal(ub_ports_init(n.a, p->pub_node), UB_OK);
-    assert_int_equal(ub_ports_init(n.b, p->sub_node), UB_OK);
     const ub_impair_params_t imp = {.dup_ppm = 300000};
     assert_int_equal(ub_ports_set_impairment(n.a, &imp, 5), UB_OK);
     assert_int_equal(ub_ports_open_text(n.b, "subPort", "tcp:listen=127.0.0.1:0", 0, err, sizeof err), UB_OK);
@@ -322,11 +313,7 @@ static void test_impairment_survives_tcp_connects(void **state) {
     assert_int_equal(ca->drops[UB_DROP_TX_ERROR] + ca->drops[UB_DROP_BACKPRESSURE], 0);
     assert_int_equal(cb->drops[UB_DROP_DUPLICATE], s->duplicated);               /* every copy cut by dedup */
     assert_true(ub_impair_check_balance(&pa->impair));
-    ub_ports_close_all(n.a);
-    ub_ports_close_all(n.b);
-    free(n.a);
-    free(n.b);
-    pair_free(p);
+    net_free(&n);
 }
 
 int main(void) {

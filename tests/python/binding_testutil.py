@@ -8,8 +8,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 
-import pytest
-
 from uavbus import Catalogue
 from uavbus_gen import cli, frontend, model
 

@@ -10,6 +10,7 @@ to imuOut on fcs20 (2 hops, forwarded by rmax1ob1).
 
 from __future__ import annotations
 
+import itertools
 import time
 
 import pytest
@@ -162,8 +163,6 @@ def test_python_published_struct_unpacks_in_c_to_identical_bytes(hitl_opts: Hitl
     """A Python entity (gcs1) publishes a struct to a C entity two hops away (rmax1ob2, via
     rmax1ob1); the C process unpacks it with the generated codec, packs it again (`dump`), and the
     bytes equal what Python sent."""
-    import itertools
-
     with Hitl(hitl_opts) as h:
         cat = h.gcs.catalogue
         pub = h.gcs.publisher("gcs1", content, to="rmax1ob2")

@@ -13,7 +13,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from logwriter import write_log  # noqa: E402
-from tools_testutil import ROOT, UAVBUS  # noqa: E402,F401
+from tools_testutil import ROOT  # noqa: E402
 
 from uavbus._bindings.ub_catalogue import ub_entity_id  # noqa: E402
 from uavbus._bindings.ub_frame import FrameHeader, ub_frame_finish  # noqa: E402
