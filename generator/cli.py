@@ -15,12 +15,12 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from uavbus._paths import RUNTIME_INCLUDE_DIR as RUNTIME_INCLUDE, RUNTIME_SOURCE_DIR  # package data
+
 from . import frontend, model, render
 from .catalogue_json import catalogue_json
 
-REPO_ROOT = Path(__file__).resolve().parent.parent
-RUNTIME_INCLUDE = REPO_ROOT / "runtime_c" / "include"
-RUNTIME_CATALOGUE_C = REPO_ROOT / "runtime_c" / "src" / "ub_catalogue.c"
+RUNTIME_CATALOGUE_C = RUNTIME_SOURCE_DIR / "ub_catalogue.c"
 SELFTEST_TIMEOUT_S = 300
 
 

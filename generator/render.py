@@ -19,7 +19,7 @@ import jinja2
 from . import model
 from .model import Catalogue, Field, StructType
 
-TEMPLATE_DIR = Path(__file__).resolve().parent.parent / "templates"
+from uavbus._paths import TEMPLATES_DIR as TEMPLATE_DIR  # package data (templates/ in the repository)
 ABI_VERSION = 2  # must equal UB_CATALOGUE_ABI_VERSION in runtime_c/include/ub/ub_catalogue.h
 
 

@@ -11,8 +11,8 @@
 #include "ub/ub_node.h"
 #include "ub_json.h"
 
-/* Every message below is mirrored word for word in runtime_py/uavbus/config.py;
- * change both together (tests/unit/config_cases/ checks that they agree). */
+/* The one configuration loader of uavbus: Python reaches it through cffi (runtime_py/uavbus/config.py),
+ * so every message below is what both languages print (tests/unit/config_cases/ holds one per error). */
 #define HEX_HINT "(each hex digit is one link: 0x00000110 means links 1 and 2)"
 #define NAME_CHARS "A-Z a-z 0-9 _ . -"
 #define MASK_SHAPE "a mask is a hex string such as \"0x00000110\" or a list of links such as [1, 2] or [\"linkName\"]"
@@ -26,6 +26,7 @@ typedef struct parser {
     char *err;
     size_t err_cap;
     ub_nodecfg_t *cfg;
+    ub_nodecfg_limits_t lim; /* every field 1..the build's capacity */
 } parser_t;
 
 static void append(char *buf, size_t cap, size_t *used, const char *fmt, va_list ap) {
@@ -75,8 +76,7 @@ static bool is_word(const char *s, size_t n) {
     return true;
 }
 
-/* Unknown keys are quoted back only when that is safe and short; the Python
- * port applies the same rule so messages stay identical. */
+/* Unknown keys are quoted back only when that is safe and short, so messages stay one clean line. */
 static const char *echo(const char *s, size_t n) {
     if (n == 0 || n > ECHO_MAX) return "?";
     for (size_t i = 0; i < n; i++)
@@ -314,10 +314,10 @@ static int parse_links(const parser_t *p, ub_nodecfg_entity_t *e, const ub_json_
     ub_json_iter_begin(&it, &p->doc, links);
     for (int k = 0; ub_json_iter_next(&it, NULL, &v); k++) {
         (void)snprintf(path, sizeof path, "links[%d]", k);
-        if (k == UB_MAX_LINKS_PER_ENTITY)
+        if (k == p->lim.max_links_per_entity)
             return fail(p, v.line, e->name, path,
                         "too many links: at most %d per entity (the paper's limit is 8; UB_MAX_LINKS_PER_ENTITY)",
-                        UB_MAX_LINKS_PER_ENTITY);
+                        p->lim.max_links_per_entity);
         size_t n = v.kind == UB_JSON_STRING ? key_text(p, &v, name) : 0;
         if (!is_name(name, n, UB_NODECFG_NAME_MAX))
             return fail(p, v.line, e->name, path, "link names are 1 to %d characters from " NAME_CHARS,
@@ -374,10 +374,10 @@ static int parse_entities(const parser_t *p, const ub_json_value_t *arr) {
     if (arr->kind != UB_JSON_ARRAY) return fail(p, arr->line, NULL, "entities", "must be a list of entity objects");
     ub_json_iter_begin(&it, &p->doc, arr);
     for (; ub_json_iter_next(&it, NULL, &v); count++) {
-        if (count == UB_MAX_ENTITIES) {
+        if (count == p->lim.max_entities) {
             (void)snprintf(path, sizeof path, "entities[%d]", count);
             return fail(p, v.line, NULL, path, "too many entities: this build holds %d (raise UB_MAX_ENTITIES in "
-                                               "ub_config.h)", UB_MAX_ENTITIES);
+                                               "ub_config.h)", p->lim.max_entities);
         }
         if ((rc = parse_entity(p, count, &v, &lte[count])) != UB_OK) return rc;
     }
@@ -401,10 +401,10 @@ static int parse_entity_list(const parser_t *p, const ub_json_value_t *list, con
     ub_json_iter_begin(&it, &p->doc, list);
     for (int k = 0; ub_json_iter_next(&it, NULL, &v); k++) {
         (void)snprintf(path, sizeof path, "%s[%d]", field, k);
-        if (k == UB_MAX_LOCAL_ENTITIES)
+        if (k == p->lim.max_local_entities)
             return fail(p, v.line, NULL, path,
                         "too many hosted entities: this build holds %d (raise UB_MAX_LOCAL_ENTITIES in ub_config.h)",
-                        UB_MAX_LOCAL_ENTITIES);
+                        p->lim.max_local_entities);
         size_t n = v.kind == UB_JSON_STRING ? key_text(p, &v, name) : 0;
         if (!is_name(name, n, UB_ENTITY_ID_LEN)) return fail(p, v.line, NULL, path, "must be an entity name");
         int e = find_entity(cfg, name, n);
@@ -442,9 +442,9 @@ static int parse_nodes(const parser_t *p, const ub_json_value_t *obj) {
             if (strcmp(cfg->nodes[i].name, name) == 0)
                 return fail(p, key.line, NULL, path, "duplicate field (first given on line %lu)",
                             (unsigned long)first_line[i]);
-        if (cfg->node_count == UB_MAX_ENTITIES)
+        if (cfg->node_count == p->lim.max_entities)
             return fail(p, key.line, NULL, path, "too many nodes: this build holds %d (UB_MAX_ENTITIES)",
-                        UB_MAX_ENTITIES);
+                        p->lim.max_entities);
         int node = cfg->node_count;
         ub_nodecfg_node_t *nd = &cfg->nodes[node];
         memcpy(nd->name, name, n + 1);
@@ -496,10 +496,10 @@ static int parse_port_value(const parser_t *p, ub_nodecfg_port_t *port, const ub
             if (strcmp(port->params[i].key, name) == 0)
                 return fail(p, key.line, NULL, path, "duplicate field (first given on line %lu)",
                             (unsigned long)param_line[i]);
-        if (port->param_count == UB_NODECFG_MAX_PORT_PARAMS)
+        if (port->param_count == p->lim.max_port_params)
             return fail(p, key.line, NULL, path,
                         "too many parameters: this build holds %d per port (UB_NODECFG_MAX_PORT_PARAMS)",
-                        UB_NODECFG_MAX_PORT_PARAMS);
+                        p->lim.max_port_params);
         ub_nodecfg_port_param_t *param = &port->params[port->param_count];
         size_t len = v.end - v.start;
         if (v.kind == UB_JSON_STRING) {
@@ -546,9 +546,9 @@ static int parse_ports(const parser_t *p, const ub_json_value_t *obj) {
             if (strcmp(cfg->ports[i].name, name) == 0)
                 return fail(p, key.line, NULL, path, "duplicate field (first given on line %lu)",
                             (unsigned long)cfg->ports[i].line);
-        if (cfg->port_count == UB_NODECFG_MAX_PORTS)
+        if (cfg->port_count == p->lim.max_ports)
             return fail(p, key.line, NULL, path, "too many ports: this build holds %d (UB_NODECFG_MAX_PORTS)",
-                        UB_NODECFG_MAX_PORTS);
+                        p->lim.max_ports);
         ub_nodecfg_port_t *port = &cfg->ports[cfg->port_count];
         memcpy(port->name, name, n + 1);
         port->line = key.line;
@@ -588,22 +588,63 @@ static int parse_document(const parser_t *p, const ub_json_value_t *root) {
     return UB_OK;
 }
 
-int ub_nodecfg_parse(ub_nodecfg_t *cfg, const char *text, size_t len, const char *source_name, char *err,
-                     size_t err_cap) {
+/* A limit of 0 means the build's capacity; a larger one than the build's cannot be held. */
+static int resolve_limit(uint8_t asked, int build, const char *name, uint8_t *out, char *err, size_t err_cap) {
+    if (asked > build) {
+        if (err_cap > 0)
+            (void)snprintf(err, err_cap, "limits: %s %u is more than this build holds (%d): give 0 for the "
+                                         "build's value or a smaller one", name, (unsigned)asked, build);
+        return UB_ERR_RANGE;
+    }
+    *out = asked == 0 ? (uint8_t)build : asked;
+    return UB_OK;
+}
+
+void ub_nodecfg_build_limits(ub_nodecfg_limits_t *limits) {
+    if (limits == NULL) return;
+    limits->max_entities = UB_MAX_ENTITIES;
+    limits->max_links_per_entity = UB_MAX_LINKS_PER_ENTITY;
+    limits->max_local_entities = UB_MAX_LOCAL_ENTITIES;
+    limits->max_ports = UB_NODECFG_MAX_PORTS;
+    limits->max_port_params = UB_NODECFG_MAX_PORT_PARAMS;
+}
+
+int ub_nodecfg_parse_limits(ub_nodecfg_t *cfg, const char *text, size_t len, const char *source_name,
+                            const ub_nodecfg_limits_t *limits, char *err, size_t err_cap) {
     if (cfg == NULL || text == NULL || source_name == NULL || (err == NULL && err_cap > 0)) return UB_ERR_INVAL;
     memset(cfg, 0, sizeof *cfg);
-    (void)snprintf(cfg->source, sizeof cfg->source, "%s", source_name);
     parser_t p = {.file = source_name, .err = err, .err_cap = err_cap, .cfg = cfg};
+    ub_nodecfg_limits_t asked = {0};
+    if (limits != NULL) asked = *limits;
+    int rc = resolve_limit(asked.max_entities, UB_MAX_ENTITIES, "max_entities", &p.lim.max_entities, err, err_cap);
+    if (rc == UB_OK)
+        rc = resolve_limit(asked.max_links_per_entity, UB_MAX_LINKS_PER_ENTITY, "max_links_per_entity",
+                           &p.lim.max_links_per_entity, err, err_cap);
+    if (rc == UB_OK)
+        rc = resolve_limit(asked.max_local_entities, UB_MAX_LOCAL_ENTITIES, "max_local_entities",
+                           &p.lim.max_local_entities, err, err_cap);
+    if (rc == UB_OK)
+        rc = resolve_limit(asked.max_ports, UB_NODECFG_MAX_PORTS, "max_ports", &p.lim.max_ports, err, err_cap);
+    if (rc == UB_OK)
+        rc = resolve_limit(asked.max_port_params, UB_NODECFG_MAX_PORT_PARAMS, "max_port_params",
+                           &p.lim.max_port_params, err, err_cap);
+    if (rc != UB_OK) return rc;
+    (void)snprintf(cfg->source, sizeof cfg->source, "%s", source_name);
     ub_json_value_t root;
     uint32_t line = 0;
     char why[160];
-    int rc = ub_json_parse(&p.doc, text, len, &root, &line, why, sizeof why);
+    rc = ub_json_parse(&p.doc, text, len, &root, &line, why, sizeof why);
     if (rc != UB_OK)
         rc = fail(&p, line, NULL, NULL, "%s", why);
     else
         rc = parse_document(&p, &root);
     if (rc != UB_OK) memset(cfg, 0, sizeof *cfg);
     return rc;
+}
+
+int ub_nodecfg_parse(ub_nodecfg_t *cfg, const char *text, size_t len, const char *source_name, char *err,
+                     size_t err_cap) {
+    return ub_nodecfg_parse_limits(cfg, text, len, source_name, NULL, err, err_cap);
 }
 
 /* POSIX read() rather than stdio: fopen() may allocate its FILE, and nothing

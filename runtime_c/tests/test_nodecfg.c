@@ -141,6 +141,38 @@ static char *read_text(const char *path, char *buf, size_t cap) {
     return buf;
 }
 
+static char *read_text_for_limits(fixture_t *f) {
+    char *text = read_text("examples/configs/table2.json", f->text, sizeof f->text);
+    assert_non_null(text);
+    return text;
+}
+
+/* A smaller build's capacities: the same file is checked as that build would check it. */
+static void test_smaller_limits(void **state) {
+    fixture_t *f = *state;
+    char *text = read_text_for_limits(f);
+    size_t len = strlen(text);
+    ub_nodecfg_limits_t lim = {0};
+    assert_int_equal(ub_nodecfg_parse_limits(&f->cfg, text, len, "t2.json", &lim, f->err, sizeof f->err), UB_OK);
+    lim.max_entities = 2;
+    assert_int_equal(ub_nodecfg_parse_limits(&f->cfg, text, len, "t2.json", &lim, f->err, sizeof f->err),
+                     UB_ERR_CONFIG);
+    assert_non_null(strstr(f->err, "field 'entities[2]': too many entities: this build holds 2 (raise "));
+    lim.max_entities = 0;
+    lim.max_links_per_entity = 3;
+    assert_int_equal(ub_nodecfg_parse_limits(&f->cfg, text, len, "t2.json", &lim, f->err, sizeof f->err),
+                     UB_ERR_CONFIG);
+    assert_non_null(strstr(f->err, "entity 'rmax1ob1', field 'links[3]': too many links: at most 3 per entity"));
+    lim.max_links_per_entity = UB_MAX_LINKS_PER_ENTITY + 1;
+    assert_int_equal(ub_nodecfg_parse_limits(&f->cfg, text, len, "t2.json", &lim, f->err, sizeof f->err),
+                     UB_ERR_RANGE);
+    assert_non_null(strstr(f->err, "limits: max_links_per_entity "));
+    ub_nodecfg_build_limits(&lim);
+    assert_int_equal(lim.max_entities, UB_MAX_ENTITIES);
+    assert_int_equal(lim.max_port_params, UB_NODECFG_MAX_PORT_PARAMS);
+}
+
+
 /* Every file in the shared corpus is rejected with exactly the message in its .expect file. */
 static void test_shared_bad_configs(void **state) {
     fixture_t *f = *state;
@@ -428,6 +460,7 @@ int main(void) {
         cmocka_unit_test_setup_teardown(test_apply_table2_each_node, setup, teardown),
         cmocka_unit_test_setup_teardown(test_apply_table1_node_a, setup, teardown),
         cmocka_unit_test_setup_teardown(test_apply_errors, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_smaller_limits, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

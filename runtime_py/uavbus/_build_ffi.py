@@ -1,9 +1,13 @@
 """cffi builder for `uavbus._ub`: out-of-line API mode over the C runtime's own sources.
 
 setuptools runs this through `cffi_modules` in setup.py, so `pip install` builds the extension with
-no manual step. The runtime_c/src/*.c files are compiled into the extension itself (one router for C
-and Python), and the cdefs in `_cdefs/` are checked against the real headers by the C compiler.
-After editing a C source or a cdef, rebuild with `pip install -e .` (from the repository root).
+no manual step. The runtime's C sources are compiled into the extension itself (one router for C and
+Python), and the cdefs in `_cdefs/` are checked against the real headers by the C compiler.
+
+The sources are found from the package, under `uavbus/_data/runtime_c/` (package data, see
+`uavbus._paths`; in the repository a link to the top-level runtime_c/), so the same build runs in a
+checkout, in an unpacked sdist and for `python -m build`. After editing a C source or a cdef, rebuild
+with `pip install -e .` (from the repository root; `make setup` does it when they change).
 """
 
 from __future__ import annotations
@@ -15,8 +19,9 @@ from cffi import FFI
 PACKAGE_DIR = Path(__file__).resolve().parent
 ROOT = PACKAGE_DIR.parents[1]
 CDEF_DIR = PACKAGE_DIR / "_cdefs"
-C_INCLUDE_DIR = ROOT / "runtime_c" / "include"
-C_SOURCE_DIR = ROOT / "runtime_c" / "src"
+C_RUNTIME_DIR = PACKAGE_DIR / "_data" / "runtime_c"  # not resolved: the paths stay inside the tree
+C_INCLUDE_DIR = C_RUNTIME_DIR / "include"
+C_SOURCE_DIR = C_RUNTIME_DIR / "src"
 
 
 def _relative_to_root(path: Path) -> str:

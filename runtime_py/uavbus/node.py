@@ -20,9 +20,10 @@ from pathlib import Path
 from typing import Any, Callable, Iterator
 
 from uavbus._bindings import ub_admin, ub_log, ub_memlink, ub_node, ub_nodecfg, ub_ports, ub_pubsub
-from uavbus._bindings.ub_error import InvalidArgumentError, NotFoundError, ensure
+from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, NotFoundError, UbError, ensure
 from uavbus._ub import ffi, lib
 from uavbus.catalogue import Catalogue, Instance
+from uavbus.config import Config, load_config
 from uavbus.directory import Directory
 
 Clock = Callable[[], float]
@@ -98,7 +99,8 @@ class Node:
     """One router (ub_node_t) with its ports, bindings and tables. Not thread-safe: use it from the
     thread that polls it."""
 
-    def __init__(self, catalogue: Catalogue | str | Path, config: str | Path | None = None, node: str | None = None,
+    def __init__(self, catalogue: Catalogue | str | Path, config: str | Path | Config | None = None,
+                 node: str | None = None,
                  clock: Clock | None = None, *, hop_limit: int = 0, first_seq: int = 0,
                  timing: dict[str, int] | None = None) -> None:
         self.catalogue = catalogue if isinstance(catalogue, Catalogue) else Catalogue.load(catalogue)
@@ -125,12 +127,16 @@ class Node:
         self._log: Any = None
         self._log_fd = -1
         self._closed = False
-        self._cfg: Any = None
+        self.config: Config | None = None
         if config is not None:
-            self._cfg = ub_nodecfg.ub_nodecfg_load_file(str(config))
+            cfg = config if isinstance(config, Config) else load_config(config)
             if node is not None:
-                ub_nodecfg.ub_nodecfg_select_node(self._cfg, node)
-            ub_nodecfg.ub_nodecfg_apply(self._cfg, self._c)
+                cfg = cfg.select_node(node)
+            try:
+                ub_nodecfg.ub_nodecfg_apply(cfg.c_config, self._c)
+            except UbError as exc:
+                raise ConfigError(exc.detail, cfg.path) from None
+            self.config = cfg
 
     # -- time ----------------------------------------------------------------------------------
     def now(self) -> int:
@@ -375,9 +381,9 @@ class Node:
 
     def open_ports_from_config(self) -> int:
         """Opens every port of the config's "ports" section that names a link of this node."""
-        if self._cfg is None:
+        if self.config is None:
             raise InvalidArgumentError("open_ports_from_config() needs Node(..., config=...)")
-        return ub_ports.ub_ports_open_config(self._ports_obj(), self._cfg, self.now())
+        return ub_ports.ub_ports_open_config(self._ports_obj(), self.config.c_config, self.now())
 
     def close_port(self, link: str) -> None:
         ub_ports.ub_ports_close(self._ports_obj(), link)

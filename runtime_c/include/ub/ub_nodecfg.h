@@ -31,8 +31,9 @@
  * (the entity part only where one applies), e.g.
  *   "table2.json:7: entity 'gcs1', field 'linktoentity.fcs20': hex digit '2' is
  *    not 0 or 1 (each hex digit is one link: 0x00000110 means links 1 and 2)".
- * runtime_py/uavbus/config.py produces the same messages for the same files
- * (shared cases in tests/unit/config_cases/).
+ * Python loads configurations through this loader too (runtime_py/uavbus/config.py
+ * is a thin layer over it via cffi), so both languages report the same messages
+ * for the same files (cases in tests/unit/config_cases/).
  *
  * Memory: ub_nodecfg_t is a plain value sized by ub_config.h and the limits
  * below. Nothing here allocates or keeps state outside the caller's structs.
@@ -156,6 +157,32 @@ typedef struct ub_nodecfg {
  */
 UB_CHECK int ub_nodecfg_parse(ub_nodecfg_t *cfg, const char *text, size_t len, const char *source_name,
                               char *err, size_t err_cap);
+
+/**
+ * Capacities a configuration is checked against, for checking a file meant
+ * for a smaller build (a microcontroller's ub_config.h) from a bigger one.
+ * Each field is at most the build's own capacity; 0 means the build's value.
+ */
+typedef struct ub_nodecfg_limits {
+    uint8_t max_entities;         /**< UB_MAX_ENTITIES: entities per file, and nodes */
+    uint8_t max_links_per_entity; /**< UB_MAX_LINKS_PER_ENTITY */
+    uint8_t max_local_entities;   /**< UB_MAX_LOCAL_ENTITIES: hosts, and entities per node */
+    uint8_t max_ports;            /**< UB_NODECFG_MAX_PORTS */
+    uint8_t max_port_params;      /**< UB_NODECFG_MAX_PORT_PARAMS */
+} ub_nodecfg_limits_t;
+
+/** Fills `limits` with this build's capacities. */
+void ub_nodecfg_build_limits(ub_nodecfg_limits_t *limits);
+
+/**
+ * ub_nodecfg_parse() against `limits` (NULL: the build's capacities). A file
+ * beyond a limit gets the same message as beyond the build's capacity, with
+ * the smaller number.
+ * @retval UB_ERR_RANGE a limit above the build's capacity (`err` names it).
+ * @retval others as ub_nodecfg_parse().
+ */
+UB_CHECK int ub_nodecfg_parse_limits(ub_nodecfg_t *cfg, const char *text, size_t len, const char *source_name,
+                                     const ub_nodecfg_limits_t *limits, char *err, size_t err_cap);
 
 /**
  * Reads file `path` into the caller's `buf` (at most `buf_cap` bytes) and

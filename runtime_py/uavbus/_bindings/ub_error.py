@@ -18,6 +18,7 @@ class UbError(Exception):
 
     def __init__(self, message: str = "") -> None:
         super().__init__(f"{self.name}: {message}" if message else self.name)
+        self.detail = message or self.name  # the message without the code name
 
     @property
     def name(self) -> str:
@@ -69,7 +70,16 @@ class WouldBlockError(UbError, builtins.BlockingIOError):
 
 
 class ConfigError(UbError, builtins.ValueError):
+    """A configuration the C loader refused. str() is its one-line message, ``file:line: ...`` (no code
+    name: the message is complete); `path` and `line` say where (line 0 when no line applies)."""
+
     code = lib.UB_ERR_CONFIG
+
+    def __init__(self, message: str = "", path: str = "", line: int = 0) -> None:
+        Exception.__init__(self, message or self.name)
+        self.detail = message or self.name
+        self.path = path
+        self.line = line
 
 
 class ClosedError(UbError, builtins.ConnectionError):

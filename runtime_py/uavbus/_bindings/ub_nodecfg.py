@@ -1,55 +1,113 @@
-"""Wrappers for ub_nodecfg.h: the C config loader, so C programs and Python apply the same table."""
+"""Wrappers for ub_nodecfg.h: the C configuration loader, the only one (uavbus.config sits on top)."""
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 from uavbus._bindings.ub_catalogue import _c_name
-from uavbus._bindings.ub_error import ensure
+from uavbus._bindings.ub_error import IoError, ensure
 from uavbus._ub import ffi, lib
 
 ERR_LEN: int = lib.UB_NODECFG_ERR_LEN
-FILE_MAX = 1 << 20  # largest config file read; the C loader reports UB_ERR_NOSPACE beyond it
+LIMIT_FIELDS = ("max_entities", "max_links_per_entity", "max_local_entities", "max_ports", "max_port_params")
 
 
 def _err() -> Any:
     return ffi.new("char[]", ERR_LEN)
 
 
-def _text(err: Any) -> str:
-    return ffi.string(err).decode("utf-8", "replace")
+def text(chars: Any) -> str:
+    """A NUL-terminated C char array as str."""
+    return ffi.string(chars).decode("utf-8", "replace")
 
 
-def ub_nodecfg_load_file(path: str) -> Any:
+def build_limits() -> dict[str, int]:
+    c = ffi.new("ub_nodecfg_limits_t *")
+    lib.ub_nodecfg_build_limits(c)
+    return {k: int(getattr(c, k)) for k in LIMIT_FIELDS}
+
+
+def parse(data: bytes, source_name: str, limits: dict[str, int] | None = None) -> Any:
+    """ub_nodecfg_parse_limits(): the parsed `ub_nodecfg_t *` (cffi-owned), or a UbError with the message."""
     cfg = ffi.new("ub_nodecfg_t *")
-    buf = ffi.new("char[]", FILE_MAX)
+    c_limits = ffi.NULL
+    if limits is not None:
+        c_limits = ffi.new("ub_nodecfg_limits_t *")
+        for k in LIMIT_FIELDS:
+            value = int(limits.get(k, 0))
+            if not 0 <= value <= 255:
+                value = 255  # the C loader refuses it with a message naming the field and the build's value
+            setattr(c_limits, k, value)
     err = _err()
-    rc = lib.ub_nodecfg_load_file(cfg, _c_name(str(path)), buf, FILE_MAX, err, ERR_LEN)
-    ensure(rc, _text(err) or str(path))
+    rc = lib.ub_nodecfg_parse_limits(cfg, data, len(data), _c_name(source_name), c_limits, err, ERR_LEN)
+    ensure(rc, text(err) or source_name)
     return cfg
 
 
-def ub_nodecfg_parse(text: str, source_name: str = "<config>") -> Any:
-    cfg = ffi.new("ub_nodecfg_t *")
-    raw = text.encode("utf-8")
-    err = _err()
-    ensure(lib.ub_nodecfg_parse(cfg, raw, len(raw), _c_name(source_name), err, ERR_LEN), _text(err) or source_name)
-    return cfg
+def load_file(path: str, limits: dict[str, int] | None = None) -> Any:
+    """Reads `path` and parses it (the C loader sees the bytes; messages name `path`)."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as exc:
+        # Same wording as ub_nodecfg_load_file().
+        raise IoError(f"{path}: cannot open: {os.strerror(exc.errno or 0)}") from None
+    return parse(data, path, limits)
+
+
+def copy(cfg: Any) -> Any:
+    out = ffi.new("ub_nodecfg_t *")
+    out[0] = cfg[0]
+    return out
 
 
 def ub_nodecfg_select_node(cfg: Any, node: str) -> None:
     err = _err()
-    ensure(lib.ub_nodecfg_select_node(cfg, _c_name(node), err, ERR_LEN), _text(err) or f"node {node!r}")
+    ensure(lib.ub_nodecfg_select_node(cfg, _c_name(node), err, ERR_LEN), text(err) or f"node {node!r}")
 
 
 def ub_nodecfg_apply(cfg: Any, node: Any) -> None:
     err = _err()
-    ensure(lib.ub_nodecfg_apply(cfg, node, err, ERR_LEN), _text(err) or "ub_nodecfg_apply")
+    ensure(lib.ub_nodecfg_apply(cfg, node, err, ERR_LEN), text(err) or "ub_nodecfg_apply")
 
 
-def hosted_entities(cfg: Any) -> list[str]:
-    return [ffi.string(cfg.entities[cfg.hosts[k]].name).decode("utf-8") for k in range(cfg.host_count)]
+def hosted_entities(cfg: Any) -> tuple[str, ...]:
+    return tuple(text(cfg.entities[cfg.hosts[k]].name) for k in range(cfg.host_count))
 
 
-def node_names(cfg: Any) -> list[str]:
-    return [ffi.string(cfg.nodes[k].name).decode("utf-8") for k in range(cfg.node_count)]
+def nodes(cfg: Any) -> dict[str, tuple[str, ...]]:
+    return {text(n.name): tuple(text(cfg.entities[n.entity[k]].name) for k in range(n.entity_count))
+            for n in (cfg.nodes[i] for i in range(cfg.node_count))}
+
+
+def rows(cfg: Any) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """(entity rows, port entries) as plain dicts, in file order."""
+    count = cfg.entity_count
+    entities = []
+    for i in range(count):
+        e = cfg.entities[i]
+        entities.append({"name": text(e.name), "links": tuple(text(e.links[k]) for k in range(e.link_count)),
+                         "masks": tuple(int(e.mask[j]) for j in range(count)), "line": int(e.line)})
+    ports = []
+    for i in range(cfg.port_count):
+        p = cfg.ports[i]
+        ports.append({"name": text(p.name), "transport": text(p.transport),
+                      "params": {text(p.params[k].key): text(p.params[k].value) for k in range(p.param_count)},
+                      "line": int(p.line)})
+    return entities, ports
+
+
+def mask_parse(mask_text: str) -> int | None:
+    """ub_link_mask_parse(): the bits, or None when the text is not the paper's notation."""
+    raw = mask_text.encode("utf-8", "replace")
+    if b"\0" in raw:
+        return None
+    out = ffi.new("uint8_t *")
+    return int(out[0]) if lib.ub_link_mask_parse(raw, out) == 0 else None
+
+
+def mask_format(mask: int) -> str:
+    out = ffi.new("char[11]")
+    lib.ub_link_mask_format(mask, out)
+    return ffi.string(out).decode("ascii")

@@ -1,13 +1,28 @@
-/* cffi cdef for runtime_c/include/ub/ub_nodecfg.h: the config loader C and Python share, so both
- * apply the same table. ub_nodecfg_t is read only through functions and a few summary fields. */
+/* cffi cdef for runtime_c/include/ub/ub_nodecfg.h: the one configuration loader. Python loads, checks and
+ * applies configurations only through it (uavbus.config reads the parsed struct back into dataclasses). */
 
 #define UB_NODECFG_ERR_LEN ...
 
-typedef struct ub_nodecfg_port { ...; } ub_nodecfg_port_t;
+typedef struct ub_nodecfg_port_param {
+    char key[...];
+    char value[...];
+} ub_nodecfg_port_param_t;
+
+typedef struct ub_nodecfg_port {
+    char name[...];
+    char transport[...];
+    uint8_t param_count;
+    ub_nodecfg_port_param_t params[...];
+    uint32_t line;
+    ...;
+} ub_nodecfg_port_t;
 
 typedef struct ub_nodecfg_entity {
     char name[...];
     uint8_t link_count;
+    char links[...][...];
+    uint8_t mask[...];
+    uint32_t line;
     ...;
 } ub_nodecfg_entity_t;
 
@@ -32,8 +47,19 @@ typedef struct ub_nodecfg {
     ...;
 } ub_nodecfg_t;
 
+typedef struct ub_nodecfg_limits {
+    uint8_t max_entities;
+    uint8_t max_links_per_entity;
+    uint8_t max_local_entities;
+    uint8_t max_ports;
+    uint8_t max_port_params;
+} ub_nodecfg_limits_t;
+
+void ub_nodecfg_build_limits(ub_nodecfg_limits_t *limits);
 int ub_nodecfg_parse(ub_nodecfg_t *cfg, const char *text, size_t len, const char *source_name, char *err,
                      size_t err_cap);
+int ub_nodecfg_parse_limits(ub_nodecfg_t *cfg, const char *text, size_t len, const char *source_name,
+                            const ub_nodecfg_limits_t *limits, char *err, size_t err_cap);
 int ub_nodecfg_load_file(ub_nodecfg_t *cfg, const char *path, char *buf, size_t buf_cap, char *err, size_t err_cap);
 int ub_nodecfg_select_node(ub_nodecfg_t *cfg, const char *node, char *err, size_t err_cap);
 int ub_nodecfg_find_entity(const ub_nodecfg_t *cfg, const char *name);

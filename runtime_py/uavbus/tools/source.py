@@ -81,7 +81,7 @@ def open_node(args: argparse.Namespace, clock: Callable[[], int] | None = None) 
     except ConfigError as exc:
         raise SystemExit(str(exc)) from None
     cat = Catalogue.load(args.catalogue)
-    node = Node(cat, config=args.config, node=args.node, clock=clock or monotonic_ms)
+    node = Node(cat, config=config, node=args.node, clock=clock or monotonic_ms)
     session = NodeSession(node=node, config=config, contents=Contents(cat))
     try:
         node.open_ports_from_config()
