@@ -37,6 +37,7 @@
 #include "ub/ub_nodecfg.h"
 #include "ub/ub_ports.h"
 #include "ub/ub_pubsub.h"
+#include "ub/ub_random.h"
 
 #include "flightsw.h"
 #include "gps.h"
@@ -487,9 +488,12 @@ static void event_stats(uint64_t now_ms, bool final) {
     const ub_node_counters_t *n = ub_node_counters(&g_node);
     out("{\"event\":\"stats\",\"t_ms\":%" PRIu64 ",\"uptime_ms\":%" PRIu64 "%s,\"node\":{\"originated\":%" PRIu64
         ",\"forwarded\":%" PRIu64 ",\"delivered\":%" PRIu64 ",\"admin_handled\":%" PRIu64 ",\"local_direct\":%" PRIu64
-        ",\"dedup_resets\":%" PRIu64 ",\"dedup_evictions\":%" PRIu64 ",\"leases_expired\":%" PRIu64 ",",
+        ",\"dedup_resets\":%" PRIu64 ",\"dedup_evictions\":%" PRIu64 ",\"leases_expired\":%" PRIu64
+        ",\"replies_unmatched\":%" PRIu64 ",\"requests_limited\":%" PRIu64 ",\"leases_clamped\":%" PRIu64
+        ",\"rows_evicted\":%" PRIu64 ",\"random_failures\":%" PRIu64 ",",
         now_ms, now_ms - g_start_ms, final ? ",\"final\":true" : "", n->originated, n->forwarded, n->delivered,
-        n->admin_handled, n->local_direct, n->dedup_resets, n->dedup_evictions, n->leases_expired);
+        n->admin_handled, n->local_direct, n->dedup_resets, n->dedup_evictions, n->leases_expired,
+        n->replies_unmatched, n->requests_limited, n->leases_clamped, n->rows_evicted, n->random_failures);
     out_drops(n->drops);
     out("},\"links\":{");
     bool first = true;
@@ -746,6 +750,7 @@ int main(int argc, char **argv) {
     ub_node_options_t node_opt = {0};
     node_opt.first_seq = (uint32_t)(((uint64_t)boot.tv_sec * 1000u + (uint64_t)boot.tv_nsec / 1000000u) & 0x7FFFFFFFu);
     if (node_opt.first_seq == 0) node_opt.first_seq = 1;
+    node_opt.random = ub_random_os; /* unguessable request ids (docs/pubsub.md, "Replies bound to their row") */
     if (ub_node_init(&g_node, &flightsw_catalogue, &node_opt) != UB_OK) die("uavbus_node: catalogue refused by the runtime");
     if (ub_nodecfg_apply(&g_cfg, &g_node, err, sizeof err) != UB_OK) die("%s", err);
     if (ub_ports_init(&g_ports, &g_node) != UB_OK) die("uavbus_node: ub_ports_init failed");

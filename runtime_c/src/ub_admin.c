@@ -16,6 +16,22 @@ const char *ub_admin_status_name(ub_admin_status_t status) {
     return status_names[status];
 }
 
+static const char *const nack_names[] = {
+    [UB_NACK_NONE] = "none",
+    [UB_NACK_UNKNOWN_CONTENT] = "unknown_content",
+    [UB_NACK_LAYOUT] = "layout",
+    [UB_NACK_UNBOUND] = "unbound",
+    [UB_NACK_TABLE_FULL] = "table_full",
+    [UB_NACK_INVALID] = "invalid",
+    [UB_NACK_NOT_AUTHORIZED] = "not_authorized",
+    [UB_NACK_LIMIT] = "limit",
+};
+
+const char *ub_nack_reason_name(ub_nack_reason_t reason) {
+    if ((unsigned)reason >= sizeof nack_names / sizeof nack_names[0]) return "?";
+    return nack_names[reason];
+}
+
 int ub_admin_init(ub_admin_t *adm, ub_node_t *node, int entity, const ub_admin_options_t *opt) {
     if (adm == NULL || node == NULL) return UB_ERR_INVAL;
     int slot = ub_priv_local_slot(node, entity);
@@ -71,7 +87,7 @@ int ub_admin_set_active(ub_admin_t *adm, int row, bool active, uint64_t now_ms) 
     ub_admin_status_t st = r->info.status;
     if (active && (!r->info.active_flag || st == UB_ADMIN_FAILED)) {
         /* A fresh request id, so late replies to an earlier activation are not mistaken for this one. */
-        r->info.request_id = adm->node->next_request_id++;
+        r->info.request_id = ub_priv_new_request_id(adm->node);
         r->info.nack_reason = UB_NACK_NONE;
         r->info.acked_at_ms = 0;
         r->info.active_at_ms = 0;
@@ -138,11 +154,21 @@ static void send_row(ub_admin_t *adm, const ub_admin_row_t *row, bool stop, uint
                              inst->type->fingerprint, target_of(spec), payload, len, now_ms);
 }
 
-bool ub_priv_admin_on_reply(ub_admin_t *adm, uint32_t request_id, uint8_t code, bool nack, uint8_t detail,
-                            uint64_t now_ms) {
+/* A reply belongs to a row only if its target sent it, about the row's content, with the row's request id:
+ * a guessed or overheard id from anyone else does not move the row (docs/pubsub.md). */
+static bool reply_is_for(const ub_admin_t *adm, const ub_admin_row_t *row, const ub_frame_header_t *h,
+                         uint32_t request_id) {
+    const ub_admin_row_spec_t *spec = &row->info.spec;
+    return row->in_use && row->info.request_id == request_id &&
+           memcmp(h->src_id, target_of(spec), UB_ENTITY_ID_LEN) == 0 &&
+           memcmp(h->dir_id, adm->node->cat->instances[spec->instance].id, UB_DIR_ID_LEN) == 0;
+}
+
+bool ub_priv_admin_on_reply(ub_admin_t *adm, const ub_frame_header_t *h, uint32_t request_id, uint8_t code, bool nack,
+                            uint8_t detail, uint64_t now_ms) {
     for (int r = 0; r < UB_MAX_ADMIN_ROWS; r++) {
         ub_admin_row_t *row = &adm->rows[r];
-        if (!row->in_use || row->info.request_id != request_id) continue;
+        if (!reply_is_for(adm, row, h, request_id)) continue;
         ub_admin_row_info_t *info = &row->info;
         if (info->status == UB_ADMIN_STOPPING) {
             if (code == stop_code(&info->spec)) enter(row, UB_ADMIN_INACTIVE, now_ms);
@@ -163,6 +189,21 @@ bool ub_priv_admin_on_reply(ub_admin_t *adm, uint32_t request_id, uint8_t code, 
         info->attempts = 0;
         row->next_send_ms = now_ms + adm->opt.renew_ms;
         return true;
+    }
+    return false;
+}
+
+bool ub_priv_admin_routes_to(const ub_admin_t *adm, uint32_t instance, const uint8_t src_id[UB_ENTITY_ID_LEN],
+                             const uint8_t dest_id[UB_ENTITY_ID_LEN]) {
+    for (int r = 0; r < UB_MAX_ADMIN_ROWS; r++) {
+        const ub_admin_row_t *row = &adm->rows[r];
+        const ub_admin_row_spec_t *spec = &row->info.spec;
+        /* A row on its way out still admits the data already under way. */
+        bool live = row->info.active_flag || row->info.status == UB_ADMIN_STOPPING;
+        if (row->in_use && live && spec->instance == instance &&
+            memcmp(spec->source, src_id, UB_ENTITY_ID_LEN) == 0 &&
+            memcmp(spec->destination, dest_id, UB_ENTITY_ID_LEN) == 0)
+            return true;
     }
     return false;
 }

@@ -13,6 +13,8 @@ static const char *const drop_reason_names[UB_DROP_REASON_COUNT] = {
     [UB_DROP_TX_ERROR] = "tx_error",
     [UB_DROP_BACKPRESSURE] = "backpressure",
     [UB_DROP_DETACHED] = "detached",
+    [UB_DROP_NOT_ALLOWED] = "not_allowed",
+    [UB_DROP_NOT_AUTHORIZED] = "not_authorized",
 };
 
 const char *ub_drop_reason_name(ub_drop_reason_t reason) {

@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "ub/ub_wire.h"
+#include "ub_rng_private.h"
 #include "ub_router_private.h"
 
 /* Per-call context of the stream decoder callback. */
@@ -47,7 +48,7 @@ int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_optio
     if (node->opt.hop_limit == 0) node->opt.hop_limit = UB_DEFAULT_HOP_LIMIT;
     ub_priv_timing_defaults(&node->opt.timing);
     node->next_seq = node->opt.first_seq != 0 ? node->opt.first_seq : 1u;
-    node->next_request_id = 1;
+    node->rng_state = node->opt.random_seed != 0 ? node->opt.random_seed : 0x9E3779B97F4A7C15ull;
     for (size_t e = 0; e < UB_MAX_ENTITIES; e++) node->entities[e].local = -1;
     for (size_t s = 0; s < UB_MAX_LOCAL_ENTITIES; s++)
         for (size_t i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) node->locals[s].link_ids[i] = -1;
@@ -213,7 +214,25 @@ void ub_node_set_deliver_hook(ub_node_t *node, ub_deliver_fn fn, void *user) {
     node->deliver_user = user;
 }
 
+void ub_node_set_policy(ub_node_t *node, const ub_policy_t *policy) {
+    if (node != NULL) node->policy = policy;
+}
+
 const ub_node_counters_t *ub_node_counters(const ub_node_t *node) { return &node->counters; }
+
+uint32_t ub_priv_new_request_id(ub_node_t *node) {
+    for (;;) {
+        uint8_t b[4];
+        uint32_t id;
+        if (node->opt.random != NULL && node->opt.random(node->opt.random_user, b, sizeof b) == UB_OK) {
+            id = ub_get_u32le(b);
+        } else {
+            if (node->opt.random != NULL) node->counters.random_failures++;
+            id = (uint32_t)(ub_rng_next(&node->rng_state) >> 32);
+        }
+        if (id != 0) return id; /* 0 is never a request id, so zeroed rows match nothing */
+    }
+}
 
 /* ---- duplicate suppression --------------------------------------------- */
 
@@ -311,6 +330,11 @@ static void deliver_data(ub_node_t *node, int slot, int link_id, const ub_frame_
         count_drop(node, link_id, UB_DROP_UNKNOWN_CONTENT);
         return;
     }
+    /* Authorization before anything else about the content: a refused writer learns nothing more. */
+    if (link_id >= 0 && !ub_priv_pubsub_may_write(node, slot, (uint32_t)idx, h->src_id)) {
+        count_drop(node, link_id, UB_DROP_NOT_ALLOWED);
+        return;
+    }
     const ub_type_desc_t *type = node->cat->instances[idx].type;
     if (h->fingerprint != type->fingerprint || h->payload_size != type->packed_size) {
         count_drop(node, link_id, UB_DROP_LAYOUT_MISMATCH);
@@ -341,7 +365,8 @@ static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_head
         return;
     }
     node->counters.admin_handled++;
-    if (ub_priv_pubsub_on_admin(node, slot, h, payload, now_ms) < 0) count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+    ub_drop_reason_t drop = UB_DROP_BAD_PAYLOAD;
+    if (!ub_priv_pubsub_on_admin(node, slot, h, payload, link_id >= 0, now_ms, &drop)) count_drop(node, link_id, drop);
 }
 
 static int local_destination(const ub_node_t *node, const uint8_t dest_id[UB_ENTITY_ID_LEN], int *dest_row) {

@@ -10,6 +10,7 @@
 
 #include "ub/ub_node.h"
 #include "ub_json.h"
+#include "ub_nodecfg_private.h"
 
 /* The one configuration loader of uavbus: Python reaches it through cffi (runtime_py/uavbus/config.py),
  * so every message below is what both languages print (tests/unit/config_cases/ holds one per error). */
@@ -558,10 +559,37 @@ static int parse_ports(const parser_t *p, const ub_json_value_t *obj) {
     return UB_OK;
 }
 
+/* ---- security ----
+ * Each key is parsed by the concern it configures: administrators, read, write and limits by ub_policy.c
+ * (ub_priv_policy_parse_key). The policy is on as soon as one of those keys is given. */
+
+static const char *const SECURITY_FIELDS[] = {UB_PRIV_POLICY_KEYS};
+#define N_SECURITY_FIELDS (sizeof SECURITY_FIELDS / sizeof SECURITY_FIELDS[0])
+
+static int parse_security(const parser_t *p, const ub_json_value_t *obj) {
+    ub_nodecfg_t *cfg = p->cfg;
+    ub_json_value_t values[N_SECURITY_FIELDS];
+    int rc;
+    if (obj->kind != UB_JSON_OBJECT)
+        return fail(p, obj->line, NULL, "security",
+                    "must be an object with administrators, read, write and/or limits (see docs/config-format.md)");
+    if ((rc = check_fields(p, obj, SECURITY_FIELDS, N_SECURITY_FIELDS, NULL, "security.", values)) != UB_OK) return rc;
+    ub_policy_init(&cfg->policy);
+    for (size_t k = 0; k < N_SECURITY_FIELDS; k++) {
+        if (values[k].kind == 0) continue;
+        ub_cfg_error_t e;
+        memset(&e, 0, sizeof e);
+        rc = ub_priv_policy_parse_key(&cfg->policy, cfg, &p->doc, SECURITY_FIELDS[k], &values[k], &e);
+        if (rc != UB_OK) return fail(p, e.line, e.entity[0] != '\0' ? e.entity : NULL, e.field, "%s", e.message);
+        cfg->has_policy = 1;
+    }
+    return UB_OK;
+}
+
 /* ---- top level ---- */
 
-static const char *const TOP_FIELDS[] = {"system", "entities", "hosts", "nodes", "ports"};
-enum { T_SYSTEM, T_ENTITIES, T_HOSTS, T_NODES, T_PORTS, N_TOP_FIELDS };
+static const char *const TOP_FIELDS[] = {"system", "entities", "hosts", "nodes", "ports", "security"};
+enum { T_SYSTEM, T_ENTITIES, T_HOSTS, T_NODES, T_PORTS, T_SECURITY, N_TOP_FIELDS };
 
 static int parse_document(const parser_t *p, const ub_json_value_t *root) {
     ub_nodecfg_t *cfg = p->cfg;
@@ -585,6 +613,7 @@ static int parse_document(const parser_t *p, const ub_json_value_t *root) {
         return rc;
     if (values[T_NODES].kind != 0 && (rc = parse_nodes(p, &values[T_NODES])) != UB_OK) return rc;
     if (values[T_PORTS].kind != 0 && (rc = parse_ports(p, &values[T_PORTS])) != UB_OK) return rc;
+    if (values[T_SECURITY].kind != 0 && (rc = parse_security(p, &values[T_SECURITY])) != UB_OK) return rc;
     return UB_OK;
 }
 
@@ -799,5 +828,6 @@ int ub_nodecfg_apply(const ub_nodecfg_t *cfg, struct ub_node *node, char *err, s
                                     ub_strerror(rc));
         }
     }
+    if (cfg->has_policy) ub_node_set_policy(node, &cfg->policy);
     return UB_OK;
 }

@@ -98,7 +98,7 @@ int ub_pubsub_subscribe(ub_node_t *node, int entity, uint32_t instance, const ui
     int r = find_row(t, UB_PS_SUBSCRIPTION, instance, source_id, true);
     ub_ps_row_t *row = r >= 0 ? &t->rows[r] : new_row(t, UB_PS_SUBSCRIPTION, instance, source_id);
     if (row == NULL) return UB_ERR_FULL;
-    if (r < 0) row->request_id = node->next_request_id++;
+    if (r < 0) row->request_id = ub_priv_new_request_id(node);
     memset(row->owner, 0, UB_ENTITY_ID_LEN);
     row->lease_until_ms = 0;
     row->period_ms = period_ms;
@@ -149,9 +149,30 @@ typedef struct request {
     const uint8_t *peer;
 } request_t;
 
+/*
+ * The sender of an admin frame as the policy sees it (ub_policy.h). `policed`: a policy is attached and
+ * the frame came over a link. `admin`: may use the exclusive rights -- everyone without a policy (the
+ * paper's closed lab) and local entities, otherwise only a listed administrator.
+ */
+typedef struct sender {
+    const ub_frame_header_t *h;
+    bool policed;
+    bool admin;
+} sender_t;
+
+static bool is_self(const uint8_t *peer, const ub_frame_header_t *h) {
+    return memcmp(peer, h->src_id, UB_ENTITY_ID_LEN) == 0;
+}
+
 static void reply(ub_node_t *node, int slot, const ub_frame_header_t *h, uint32_t request_id, bool nack,
                   uint8_t detail, uint64_t now_ms) {
     (void)ub_priv_send_reply(node, slot, nack, h->dir_id, h->src_id, request_id, h->admin, detail, now_ms);
+}
+
+/* The policy refuses this sender: tell it why; the caller's `false` makes the node count the drop. */
+static bool refuse(ub_node_t *node, int slot, const ub_frame_header_t *h, uint32_t request_id, uint64_t now_ms) {
+    reply(node, slot, h, request_id, true, UB_NACK_NOT_AUTHORIZED, now_ms);
+    return false;
 }
 
 /* Resolves and checks the content of a request; returns the instance or -(nack reason). */
@@ -163,92 +184,200 @@ static int requested_instance(const ub_node_t *node, const ub_frame_header_t *h,
     return idx;
 }
 
-static void take_ownership(ub_ps_row_t *row, const ub_frame_header_t *h, const request_t *req, uint64_t now_ms) {
-    memcpy(row->owner, h->src_id, UB_ENTITY_ID_LEN);
-    row->owner_request_id = req->id;
-    row->lease_until_ms = req->lease_ms != 0 ? now_ms + req->lease_ms : 0;
+static const char *instance_name(const ub_node_t *node, uint32_t instance) {
+    const char *name = node->cat->instances[instance].name;
+    return name != NULL ? name : "";
 }
 
-static void on_pub_request(ub_node_t *node, int slot, const ub_frame_header_t *h, const request_t *req,
+static bool may_read(const ub_node_t *node, int slot, const sender_t *s, uint32_t instance) {
+    if (!s->policed || s->admin || !node->policy->read_restricted) return true;
+    return ub_policy_rule_matches(node->policy, UB_POLICY_READ, self_id(node, slot), s->h->src_id,
+                                  instance_name(node, instance));
+}
+
+static uint64_t row_cost(const ub_node_t *node, uint32_t instance, uint32_t period_ms) {
+    return ub_policy_row_bytes_per_s(node->cat->instances[instance].type->packed_size, period_ms);
+}
+
+/*
+ * Limits of a non-administrator (ub_policy_limits_t): the period, and its rows and their bytes per second
+ * over every table of this node once `replacing` (its existing row, or NULL) takes the new period.
+ */
+static bool within_limits(const ub_node_t *node, const uint8_t requester[UB_ENTITY_ID_LEN], uint32_t instance,
+                          uint32_t period_ms, const ub_ps_row_t *replacing) {
+    const ub_policy_limits_t *lim = &node->policy->limits;
+    if (period_ms < lim->min_period_ms) return false;
+    uint64_t rows = 1, bytes = row_cost(node, instance, period_ms);
+    for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
+        if (!node->locals[slot].in_use) continue;
+        for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
+            const ub_ps_row_t *row = &node->locals[slot].ps.rows[r];
+            if (row == replacing || row->kind == UB_PS_FREE || memcmp(row->owner, requester, UB_ENTITY_ID_LEN) != 0)
+                continue;
+            rows++;
+            bytes += row_cost(node, row->instance, row->period_ms);
+        }
+    }
+    return rows <= lim->max_rows && bytes <= lim->max_bytes_per_s;
+}
+
+/* A non-administrator's lease: never "no lease", never longer than max_lease_ms. */
+static uint32_t granted_lease(ub_node_t *node, const sender_t *s, uint32_t lease_ms) {
+    if (!s->policed || s->admin) return lease_ms;
+    uint32_t max = node->policy->limits.max_lease_ms;
+    if (lease_ms != 0 && lease_ms <= max) return lease_ms;
+    node->counters.leases_clamped++;
+    return max;
+}
+
+/*
+ * The full-table rule (docs/pubsub.md): a full table never locks out an administrator. Its request takes
+ * the row of a non-administrator (remote owner, not an administrator) whose lease ends first; rows created
+ * locally and rows of administrators are never taken. Only under a policy: without one, nobody is told apart.
+ */
+static ub_ps_row_t *evict_for_admin(ub_node_t *node, ub_pubsub_table_t *t, const sender_t *s) {
+    if (!s->policed || !s->admin) return NULL;
+    ub_ps_row_t *victim = NULL;
+    for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
+        ub_ps_row_t *row = &t->rows[r];
+        if (row->kind == UB_PS_FREE || ub_priv_id_is_zero(row->owner) || ub_policy_is_admin(node->policy, row->owner))
+            continue;
+        uint64_t end = row->lease_until_ms != 0 ? row->lease_until_ms : UINT64_MAX;
+        uint64_t best = victim == NULL ? 0 : victim->lease_until_ms != 0 ? victim->lease_until_ms : UINT64_MAX;
+        if (victim == NULL || end < best) victim = row;
+    }
+    if (victim == NULL) return NULL;
+    victim->kind = UB_PS_FREE; /* its owner's next renewal finds no row and asks again */
+    node->counters.rows_evicted++;
+    return victim;
+}
+
+static ub_ps_row_t *new_row_for(ub_node_t *node, ub_pubsub_table_t *t, const sender_t *s, ub_ps_kind_t kind,
+                                uint32_t instance, const uint8_t peer[UB_ENTITY_ID_LEN]) {
+    ub_ps_row_t *row = new_row(t, kind, instance, peer);
+    if (row == NULL && evict_for_admin(node, t, s) != NULL) row = new_row(t, kind, instance, peer);
+    return row;
+}
+
+static void take_ownership(ub_ps_row_t *row, const ub_frame_header_t *h, uint32_t request_id, uint32_t lease_ms,
                            uint64_t now_ms) {
+    memcpy(row->owner, h->src_id, UB_ENTITY_ID_LEN);
+    row->owner_request_id = request_id;
+    row->lease_until_ms = lease_ms != 0 ? now_ms + lease_ms : 0;
+}
+
+static bool on_pub_request(ub_node_t *node, int slot, const sender_t *s, const request_t *req, uint64_t now_ms) {
+    const ub_frame_header_t *h = s->h;
+    /* Data for anyone but the requester itself is the administrator's business (exclusive rights). */
+    if (!s->admin && !is_self(req->peer, h)) return refuse(node, slot, h, req->id, now_ms);
     int idx = requested_instance(node, h, true);
+    if (idx >= 0 && !may_read(node, slot, s, (uint32_t)idx)) return refuse(node, slot, h, req->id, now_ms);
     if (idx >= 0 && req->period_ms == 0) idx = -UB_NACK_INVALID;
     if (idx < 0) {
         reply(node, slot, h, req->id, true, (uint8_t)-idx, now_ms);
-        return;
+        return true;
     }
     ub_pubsub_table_t *t = table_of(node, slot);
     int r = find_row(t, UB_PS_PUBLICATION, (uint32_t)idx, req->peer, false);
-    ub_ps_row_t *row = r >= 0 ? &t->rows[r] : new_row(t, UB_PS_PUBLICATION, (uint32_t)idx, req->peer);
+    ub_ps_row_t *existing = r >= 0 ? &t->rows[r] : NULL;
+    /* A remote request never changes a row created locally; a non-administrator changes only its own rows.
+     * Either way the data already flows to the requester, so it gets its ACK. */
+    bool keep = existing != NULL && (ub_priv_id_is_zero(existing->owner) ||
+                                     (!s->admin && memcmp(existing->owner, h->src_id, UB_ENTITY_ID_LEN) != 0));
+    if (!keep && s->policed && !s->admin &&
+        !within_limits(node, h->src_id, (uint32_t)idx, req->period_ms, existing)) {
+        node->counters.requests_limited++;
+        reply(node, slot, h, req->id, true, UB_NACK_LIMIT, now_ms);
+        return true;
+    }
+    ub_ps_row_t *row = existing != NULL ? existing : new_row_for(node, t, s, UB_PS_PUBLICATION, (uint32_t)idx, req->peer);
     if (row == NULL) {
         reply(node, slot, h, req->id, true, UB_NACK_TABLE_FULL, now_ms);
-        return;
+        return true;
     }
-    bool locally_owned = r >= 0 && ub_priv_id_is_zero(row->owner);
-    if (!locally_owned) {
+    if (!keep) {
         /* A new row, a changed rate or a new owner starts a fresh schedule now. */
-        if (r < 0 || row->period_ms != req->period_ms) {
+        if (existing == NULL || row->period_ms != req->period_ms) {
             row->period_ms = req->period_ms;
             row->next_due_ms = now_ms;
         }
         if (memcmp(row->owner, h->src_id, UB_ENTITY_ID_LEN) != 0 || row->owner_request_id != req->id)
             row->reported_flowing = 0;
-        take_ownership(row, h, req, now_ms);
+        take_ownership(row, h, req->id, granted_lease(node, s, req->lease_ms), now_ms);
+        if (row->frames > 0) row->reported_flowing = 1;
     }
-    if (row->frames > 0 && !locally_owned) row->reported_flowing = 1;
     reply(node, slot, h, req->id, false, row->frames > 0 ? UB_ACK_FLOWING : 0, now_ms);
+    return true;
 }
 
-static void on_sub_request(ub_node_t *node, int slot, const ub_frame_header_t *h, const request_t *req,
-                           uint64_t now_ms) {
+static bool on_sub_request(ub_node_t *node, int slot, const sender_t *s, const request_t *req, uint64_t now_ms) {
+    const ub_frame_header_t *h = s->h;
+    /* Making another entity subscribe is the administration table's job alone. */
+    if (!s->admin) return refuse(node, slot, h, req->id, now_ms);
     int idx = requested_instance(node, h, true);
     if (idx >= 0 && (req->period_ms == 0 || memcmp(req->peer, self_id(node, slot), UB_ENTITY_ID_LEN) == 0))
         idx = -UB_NACK_INVALID;
     if (idx < 0) {
         reply(node, slot, h, req->id, true, (uint8_t)-idx, now_ms);
-        return;
+        return true;
     }
     ub_pubsub_table_t *t = table_of(node, slot);
     int r = find_row(t, UB_PS_SUBSCRIPTION, (uint32_t)idx, req->peer, true);
-    ub_ps_row_t *row = r >= 0 ? &t->rows[r] : new_row(t, UB_PS_SUBSCRIPTION, (uint32_t)idx, req->peer);
+    ub_ps_row_t *row = r >= 0 ? &t->rows[r] : new_row_for(node, t, s, UB_PS_SUBSCRIPTION, (uint32_t)idx, req->peer);
     if (row == NULL) {
         reply(node, slot, h, req->id, true, UB_NACK_TABLE_FULL, now_ms);
-        return;
+        return true;
     }
-    if (r < 0) row->request_id = node->next_request_id++;
+    if (r < 0) row->request_id = ub_priv_new_request_id(node);
     if (r < 0 || row->state == UB_SUB_STOPPING || row->period_ms != req->period_ms) {
         row->period_ms = req->period_ms;
         start_requesting(row, now_ms);
     }
     if (memcmp(row->owner, h->src_id, UB_ENTITY_ID_LEN) != 0 || row->owner_request_id != req->id)
         row->reported_flowing = 0;
-    take_ownership(row, h, req, now_ms);
+    take_ownership(row, h, req->id, req->lease_ms, now_ms);
     bool flowing = row->state == UB_SUB_RECEIVING;
     if (flowing) row->reported_flowing = 1;
     reply(node, slot, h, req->id, false, flowing ? UB_ACK_FLOWING : 0, now_ms);
+    return true;
 }
 
-static void on_stop(ub_node_t *node, int slot, const ub_frame_header_t *h, uint32_t request_id,
-                    const uint8_t *peer, uint64_t now_ms) {
+static bool on_stop(ub_node_t *node, int slot, const sender_t *s, uint32_t request_id, const uint8_t *peer,
+                    uint64_t now_ms) {
+    const ub_frame_header_t *h = s->h;
+    bool pub = h->admin == UB_ADMIN_PUB_STOP;
+    /* Without exclusive rights one may only stop data sent to oneself. */
+    if (!s->admin && (!pub || !is_self(peer, h))) return refuse(node, slot, h, request_id, now_ms);
     int idx = ub_catalogue_find(node->cat, h->dir_id);
     if (idx >= 0) {
         ub_pubsub_table_t *t = table_of(node, slot);
-        bool pub = h->admin == UB_ADMIN_PUB_STOP;
         int r = find_row(t, pub ? UB_PS_PUBLICATION : UB_PS_SUBSCRIPTION, (uint32_t)idx, peer, false);
-        if (r >= 0 && pub) t->rows[r].kind = UB_PS_FREE;
-        else if (r >= 0) start_stopping(&t->rows[r], now_ms);
+        if (r >= 0) {
+            ub_ps_row_t *row = &t->rows[r];
+            /* ... and only a row it owns, bound by the request id that created it: never a local row. */
+            if (!s->admin && !(memcmp(row->owner, h->src_id, UB_ENTITY_ID_LEN) == 0 &&
+                               row->owner_request_id == request_id))
+                return refuse(node, slot, h, request_id, now_ms);
+            if (pub) row->kind = UB_PS_FREE;
+            else start_stopping(row, now_ms);
+        }
     }
     /* Stops are idempotent: an absent row is already stopped. */
     reply(node, slot, h, request_id, false, 0, now_ms);
+    return true;
 }
 
-/* A reply to one of this entity's own subscription requests. */
-static void on_reply_to_subscription(ub_node_t *node, int slot, uint32_t request_id, uint8_t code, bool nack,
-                                     uint64_t now_ms) {
+/* A reply to one of this entity's own subscription requests: bound to the row by the request id, the
+ * source that was asked and the content. Returns false when it answers no row. */
+static bool on_reply_to_subscription(ub_node_t *node, int slot, const ub_frame_header_t *h, uint32_t request_id,
+                                     uint8_t code, bool nack, uint64_t now_ms) {
     ub_pubsub_table_t *t = table_of(node, slot);
     for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
         ub_ps_row_t *row = &t->rows[r];
-        if (row->kind != UB_PS_SUBSCRIPTION || row->request_id != request_id) continue;
+        if (row->kind != UB_PS_SUBSCRIPTION || row->request_id != request_id ||
+            memcmp(row->peer, h->src_id, UB_ENTITY_ID_LEN) != 0 ||
+            memcmp(node->cat->instances[row->instance].id, h->dir_id, UB_DIR_ID_LEN) != 0)
+            continue;
         if (code == UB_ADMIN_PUB_STOP && row->state == UB_SUB_STOPPING) {
             row->kind = UB_PS_FREE;
         } else if (code == UB_ADMIN_PUB_REQUEST && row->state != UB_SUB_STOPPING) {
@@ -261,43 +390,64 @@ static void on_reply_to_subscription(ub_node_t *node, int slot, uint32_t request
                 row->next_due_ms = now_ms + ub_pubsub_data_timeout_ms(&node->opt.timing, row->period_ms);
             }
         }
-        return;
+        return true;
     }
+    return false;
 }
 
-int ub_priv_pubsub_on_admin(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
-                            uint64_t now_ms) {
+bool ub_priv_pubsub_on_admin(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
+                             bool from_link, uint64_t now_ms, ub_drop_reason_t *drop) {
     uint16_t len = h->payload_size;
+    sender_t s = {h, node->policy != NULL && from_link, true};
+    if (s.policed) s.admin = ub_policy_is_admin(node->policy, h->src_id);
+    *drop = UB_DROP_BAD_PAYLOAD;
     switch (h->admin) {
     case UB_ADMIN_PUB_REQUEST:
     case UB_ADMIN_SUB_REQUEST: {
-        if (len < UB_PL_REQUEST_LEN) return UB_ERR_TRUNCATED;
+        if (len < UB_PL_REQUEST_LEN) return false;
         request_t req = {ub_get_u32le(payload + UB_PL_REQUEST_ID), ub_get_u32le(payload + UB_PL_REQUEST_PERIOD),
                          ub_get_u32le(payload + UB_PL_REQUEST_LEASE), payload + UB_PL_REQUEST_PEER};
-        if (h->admin == UB_ADMIN_PUB_REQUEST) on_pub_request(node, slot, h, &req, now_ms);
-        else on_sub_request(node, slot, h, &req, now_ms);
-        return UB_OK;
+        *drop = UB_DROP_NOT_AUTHORIZED;
+        return h->admin == UB_ADMIN_PUB_REQUEST ? on_pub_request(node, slot, &s, &req, now_ms)
+                                                : on_sub_request(node, slot, &s, &req, now_ms);
     }
     case UB_ADMIN_PUB_STOP:
     case UB_ADMIN_SUB_STOP:
-        if (len < UB_PL_STOP_LEN) return UB_ERR_TRUNCATED;
-        on_stop(node, slot, h, ub_get_u32le(payload + UB_PL_STOP_ID), payload + UB_PL_STOP_PEER, now_ms);
-        return UB_OK;
+        if (len < UB_PL_STOP_LEN) return false;
+        *drop = UB_DROP_NOT_AUTHORIZED;
+        return on_stop(node, slot, &s, ub_get_u32le(payload + UB_PL_STOP_ID), payload + UB_PL_STOP_PEER, now_ms);
     case UB_ADMIN_ACK:
     case UB_ADMIN_NACK: {
-        if (len < UB_PL_REPLY_LEN) return UB_ERR_TRUNCATED;
+        if (len < UB_PL_REPLY_LEN) return false;
         uint32_t id = ub_get_u32le(payload + UB_PL_REPLY_ID);
         uint8_t code = ub_get_u8(payload + UB_PL_REPLY_CODE);
         uint8_t detail = ub_get_u8(payload + UB_PL_REPLY_DETAIL);
         bool nack = h->admin == UB_ADMIN_NACK;
         ub_admin_t *adm = node->locals[slot].admin;
-        if (adm != NULL && ub_priv_admin_on_reply(adm, id, code, nack, detail, now_ms)) return UB_OK;
-        on_reply_to_subscription(node, slot, id, code, nack, now_ms);
-        return UB_OK;
+        if (adm != NULL && ub_priv_admin_on_reply(adm, h, id, code, nack, detail, now_ms)) return true;
+        /* Never applied to a row it is not bound to; counted, since it is either late or forged. */
+        if (!on_reply_to_subscription(node, slot, h, id, code, nack, now_ms)) node->counters.replies_unmatched++;
+        return true;
     }
     default:
-        return UB_ERR_INVAL;
+        return false;
     }
+}
+
+bool ub_priv_pubsub_may_write(const ub_node_t *node, int slot, uint32_t instance,
+                              const uint8_t src_id[UB_ENTITY_ID_LEN]) {
+    const ub_policy_t *pol = node->policy;
+    if (pol == NULL) return true;
+    /* What the entity subscribed to (a row on its way out still admits the data under way) ... */
+    if (find_row(&node->locals[slot].ps, UB_PS_SUBSCRIPTION, instance, src_id, true) >= 0) return true;
+    /* ... what an administration table of this node set up to arrive at it ... */
+    const uint8_t *self = self_id(node, slot);
+    for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) {
+        const ub_admin_t *adm = node->locals[s].admin;
+        if (node->locals[s].in_use && adm != NULL && ub_priv_admin_routes_to(adm, instance, src_id, self)) return true;
+    }
+    /* ... or what the policy's write rules name. */
+    return ub_policy_rule_matches(pol, UB_POLICY_WRITE, self, src_id, instance_name(node, instance));
 }
 
 /* ---- data and time ----------------------------------------------------- */

@@ -38,6 +38,10 @@
 /* Local-entity slot of entity-table index `entity`, or -1 if it is not local. */
 int ub_priv_local_slot(const ub_node_t *node, int entity);
 
+/* A fresh request id for a row: from ub_node_options_t.random, never 0 (docs/pubsub.md, "Replies bound
+ * to their row"). */
+uint32_t ub_priv_new_request_id(ub_node_t *node);
+
 /* Fills 0 fields of `t` with the defaults of ub_pubsub.h. */
 void ub_priv_timing_defaults(ub_pubsub_timing_t *t);
 
@@ -60,11 +64,20 @@ int ub_priv_send_data_from_slot(ub_node_t *node, int slot, uint32_t instance, co
                                 uint64_t now_ms);
 
 /*
- * An admin frame reached local slot `slot`. Returns UB_OK, or a negative
- * error when the frame is unusable (the node counts it as bad_payload).
+ * An admin frame reached local slot `slot`, over a link (`from_link`) or from
+ * another local entity. Returns true when handled; false when the node must
+ * count it as dropped for `*drop` (bad_payload: unusable; not_authorized:
+ * refused by the policy, a NACK already sent).
  */
-int ub_priv_pubsub_on_admin(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
-                            uint64_t now_ms);
+bool ub_priv_pubsub_on_admin(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
+                             bool from_link, uint64_t now_ms, ub_drop_reason_t *drop);
+
+/*
+ * Write policy (ub_policy.h): may DATA of `instance` from `src_id`, received
+ * over a link, be stored for local slot `slot`? True without a policy.
+ */
+bool ub_priv_pubsub_may_write(const ub_node_t *node, int slot, uint32_t instance,
+                              const uint8_t src_id[UB_ENTITY_ID_LEN]);
 
 /* DATA of `instance` from `src_id` was unpacked for local slot `slot`. */
 void ub_priv_pubsub_on_data(ub_node_t *node, int slot, uint32_t instance, const uint8_t src_id[UB_ENTITY_ID_LEN],
@@ -72,9 +85,18 @@ void ub_priv_pubsub_on_data(ub_node_t *node, int slot, uint32_t instance, const 
 
 void ub_priv_pubsub_tick(ub_node_t *node, int slot, uint64_t now_ms);
 
-/* An ACK/NACK reached the administration table's entity. Returns true if it answered one of its rows. */
-bool ub_priv_admin_on_reply(ub_admin_t *adm, uint32_t request_id, uint8_t code, bool nack, uint8_t detail,
-                            uint64_t now_ms);
+/*
+ * An ACK/NACK reached the administration table's entity. Returns true if it
+ * answered one of its rows: same request id, sent by the row's target (the
+ * source of a publication row, the destination of a subscription row), about
+ * the row's content.
+ */
+bool ub_priv_admin_on_reply(ub_admin_t *adm, const ub_frame_header_t *h, uint32_t request_id, uint8_t code, bool nack,
+                            uint8_t detail, uint64_t now_ms);
+
+/* Whether an activated row of `adm` brings `instance` from `src_id` to entity `dest_id`. */
+bool ub_priv_admin_routes_to(const ub_admin_t *adm, uint32_t instance, const uint8_t src_id[UB_ENTITY_ID_LEN],
+                             const uint8_t dest_id[UB_ENTITY_ID_LEN]);
 
 void ub_priv_admin_tick(ub_admin_t *adm, uint64_t now_ms);
 

@@ -102,12 +102,13 @@ class Node:
     def __init__(self, catalogue: Catalogue | str | Path, config: str | Path | Config | None = None,
                  node: str | None = None,
                  clock: Clock | None = None, *, hop_limit: int = 0, first_seq: int = 0,
-                 timing: dict[str, int] | None = None) -> None:
+                 timing: dict[str, int] | None = None, random_seed: int | None = None) -> None:
         self.catalogue = catalogue if isinstance(catalogue, Catalogue) else Catalogue.load(catalogue)
         self.name = node or "python"
         self._clock: Clock = clock or monotonic_ms
         self._real_clock = clock is None
-        self._c = ub_node.ub_node_new(self.catalogue.c_catalogue, hop_limit, first_seq, timing)
+        # Request ids come from the OS (ub_random_os); random_seed: the seeded, guessable ids of tests.
+        self._c = ub_node.ub_node_new(self.catalogue.c_catalogue, hop_limit, first_seq, timing, random_seed)
         self._sink = _Sink(self)
         self._handle = ffi.new_handle(self._sink)
         ub_node.set_deliver_sink(self._c, self._handle)
@@ -524,7 +525,8 @@ class Admin:
         ub_admin.ub_admin_remove_row(self._c, row)
 
     def status(self, row: int) -> dict[str, Any]:
-        """status: "inactive" | "pending" | "acknowledged" | "active" | "failed" | "stopping"."""
+        """status: "inactive" | "pending" | "acknowledged" | "active" | "failed" | "stopping"; nack_reason:
+        None or the target's reason by name ("table_full", "not_authorized", "limit", ...)."""
         s = ub_admin.ub_admin_row_status(self._c, row)
         s["content"] = self.node.catalogue.instances[s["instance"]].name
         return s

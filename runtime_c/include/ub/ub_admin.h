@@ -76,8 +76,13 @@ typedef enum ub_nack_reason {
     UB_NACK_LAYOUT = 2,          /**< target's fingerprint for the content differs */
     UB_NACK_UNBOUND = 3,         /**< source does not host (bind) the instance */
     UB_NACK_TABLE_FULL = 4,      /**< target's publish/subscribe table is full */
-    UB_NACK_INVALID = 5          /**< period 0, or a payload the target cannot read */
+    UB_NACK_INVALID = 5,         /**< period 0, or a payload the target cannot read */
+    UB_NACK_NOT_AUTHORIZED = 6,  /**< the target's policy refuses the request to its source (ub_policy.h) */
+    UB_NACK_LIMIT = 7            /**< the request exceeds the requester's limits (period, rows, bytes/s) */
 } ub_nack_reason_t;
+
+/** @return a static name ("table_full", "not_authorized", ...) for a NACK reason; "none" for 0, "?" if unknown. */
+const char *ub_nack_reason_name(ub_nack_reason_t reason);
 
 /** ACK status flags (byte 5 of an ACK payload). */
 #define UB_ACK_FLOWING 0x01u /**< data is flowing for the acknowledged row */

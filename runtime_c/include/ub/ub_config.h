@@ -50,6 +50,18 @@
 #ifndef UB_DEDUP_SOURCES
 #define UB_DEDUP_SOURCES 16
 #endif
+/** Administrators ("exclusive rights", paper III.B) one policy lists (ub_policy.h). */
+#ifndef UB_POLICY_MAX_ADMINS
+#define UB_POLICY_MAX_ADMINS 8
+#endif
+/** Read and write rules of one policy together; a config rule with n sources and m contents takes n * m. */
+#ifndef UB_POLICY_MAX_RULES
+#define UB_POLICY_MAX_RULES 48
+#endif
+/** Longest content-name pattern of a policy rule ("gcsMissionRmax1*"). */
+#ifndef UB_POLICY_PATTERN_MAX
+#define UB_POLICY_PATTERN_MAX 63
+#endif
 /** Hop limit written into frames this node originates. */
 #ifndef UB_DEFAULT_HOP_LIMIT
 #define UB_DEFAULT_HOP_LIMIT 8

@@ -52,6 +52,8 @@ typedef enum ub_drop_reason {
     UB_DROP_TX_ERROR,        /**< the transport's send failed (UB_ERR_IO, UB_ERR_CLOSED, ...) */
     UB_DROP_BACKPRESSURE,    /**< the transport's send returned UB_ERR_AGAIN or its queue is full */
     UB_DROP_DETACHED,        /**< the slot has no transport attached */
+    UB_DROP_NOT_ALLOWED,     /**< DATA the destination's write policy refuses (ub_policy.h), storage untouched */
+    UB_DROP_NOT_AUTHORIZED,  /**< admin request or STOP the policy refuses to its source (NACK NOT_AUTHORIZED sent) */
     UB_DROP_REASON_COUNT
 } ub_drop_reason_t;
 

@@ -35,11 +35,13 @@
  *    forward on R's mask for D minus L with hop limit - 1; D unknown or no
  *    link left -> `no_route`; hop limit would reach 0 -> `hop_limit`.
  *    Forwarders never look at the content ID.
- *  - **Deliver** DATA: catalogue lookup (`unknown_content`), fingerprint and
- *    payload size check (`layout_mismatch`, storage never written), binding
- *    (`unbound`), unpack, then the subscription bookkeeping and the delivery
- *    hook. Admin frames go to the entity's publish/subscribe table or its
- *    administration table.
+ *  - **Deliver** DATA: catalogue lookup (`unknown_content`), the write policy
+ *    when one is attached and the frame came over a link (`not_allowed`,
+ *    ub_policy.h), fingerprint and payload size check (`layout_mismatch`,
+ *    storage never written), binding (`unbound`), unpack, then the
+ *    subscription bookkeeping and the delivery hook. Admin frames go to the
+ *    entity's publish/subscribe table or its administration table, which
+ *    apply the policy to requests and STOPs and bind replies to their rows.
  *
  * Duplicate window: per (handling entity, source entity) the highest sequence
  * seen and a 64-bit bitmap below it (UB_DEDUP_WINDOW). A sequence more than the
@@ -61,7 +63,9 @@
 #include "ub_error.h"
 #include "ub_frame.h"
 #include "ub_link.h"
+#include "ub_policy.h"
 #include "ub_pubsub.h"
+#include "ub_random.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -93,6 +97,11 @@ typedef struct ub_node_options {
     uint8_t hop_limit;         /**< hop limit of originated frames; default UB_DEFAULT_HOP_LIMIT */
     uint32_t first_seq;        /**< first sequence number this node uses; default 1 */
     ub_pubsub_timing_t timing; /**< publish/subscribe timing (ub_pubsub.h) */
+    /** Source of request ids (ub_random.h): ub_random_os on a POSIX host. NULL = the node's seeded
+     *  generator, deterministic and guessable: for tests and simulations. */
+    ub_random_fn random;
+    void *random_user;         /**< passed to `random` */
+    uint64_t random_seed;      /**< seed of the fallback generator; 0 = a fixed constant */
 } ub_node_options_t;
 
 /** Node-wide counters. Drops are also counted on the link concerned. */
@@ -105,6 +114,11 @@ typedef struct ub_node_counters {
     uint64_t dedup_resets;    /**< restarted sources detected */
     uint64_t dedup_evictions; /**< sources evicted from a full window table */
     uint64_t leases_expired;  /**< publish/subscribe rows removed because their lease ran out */
+    uint64_t replies_unmatched; /**< ACK/NACKs bound to no row (request id, counterpart or content differ): ignored */
+    uint64_t requests_limited;  /**< requests refused with NACK LIMIT (ub_policy.h limits) */
+    uint64_t leases_clamped;    /**< non-administrator leases shortened to the policy's max_lease_ms */
+    uint64_t rows_evicted;      /**< non-administrator rows given up to an administrator's request (full table) */
+    uint64_t random_failures;   /**< ub_node_options_t.random failed; the seeded generator stood in */
     uint64_t drops[UB_DROP_REASON_COUNT];
 } ub_node_counters_t;
 
@@ -150,7 +164,8 @@ struct ub_node {
     ub_binding_t bindings[UB_MAX_BINDINGS];
     size_t n_bindings;
     uint32_t next_seq;
-    uint32_t next_request_id;
+    uint64_t rng_state;        /**< seeded fallback generator of request ids (ub_random.h) */
+    const ub_policy_t *policy; /**< NULL: no authorization (the paper's closed lab) */
     uint64_t use_stamp;
     ub_tap_fn tap;
     void *tap_user;
@@ -284,6 +299,15 @@ void ub_node_set_tap(ub_node_t *node, ub_tap_fn fn, void *user);
 
 /** Installs (or with NULL removes) the delivery hook. */
 void ub_node_set_deliver_hook(ub_node_t *node, ub_deliver_fn fn, void *user);
+
+/**
+ * Attaches a policy (ub_policy.h), or with NULL removes it. The node keeps the
+ * pointer: the policy must outlive the attachment and not change while frames
+ * are handled. Rows that exist keep their owners and leases; the policy judges
+ * requests, STOPs and DATA from now on. ub_nodecfg_apply() attaches the
+ * policy of a configuration's "security" section.
+ */
+void ub_node_set_policy(ub_node_t *node, const ub_policy_t *policy);
 
 /** @return the node-wide counters. */
 const ub_node_counters_t *ub_node_counters(const ub_node_t *node);

@@ -62,6 +62,7 @@
 #include "ub_catalogue.h" /* UB_ENTITY_ID_LEN */
 #include "ub_config.h"
 #include "ub_error.h"
+#include "ub_policy.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -143,6 +144,10 @@ typedef struct ub_nodecfg {
     ub_nodecfg_node_t nodes[UB_MAX_ENTITIES]; /**< each entity is in at most one node */
     uint8_t port_count;
     ub_nodecfg_port_t ports[UB_NODECFG_MAX_PORTS];
+    /** 1 when the "security" section gives any of administrators, read, write, limits: then `policy`
+     *  holds them (ub_policy.h) and ub_nodecfg_apply() attaches it to the node. */
+    uint8_t has_policy;
+    ub_policy_t policy;
 } ub_nodecfg_t;
 
 /**
@@ -224,7 +229,9 @@ struct ub_node; /* ub_node.h; only a pointer is needed here */
  *  2. creates each hosted entity's links, link[i] named links[i] (detached:
  *     attach transports with ub_node_find_link() + ub_node_link_attach();
  *     the "ports" section is reserved for doing that from the file);
- *  3. sets each hosted entity's mask toward every entity.
+ *  3. sets each hosted entity's mask toward every entity;
+ *  4. when the file has a policy (has_policy), attaches `&cfg->policy` to the
+ *     node (ub_node_set_policy()): `cfg` must then outlive the node.
  * Remote entities' own rows (their links and masks) belong to the nodes that
  * host them and are not applied. The node may already hold other entities;
  * entity indices in the node are whatever ub_node_add_entity() returns.

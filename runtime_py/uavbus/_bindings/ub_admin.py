@@ -10,9 +10,14 @@ from uavbus._ub import ffi, lib
 
 ROW_TYPES = {"publication": lib.UB_ADMIN_ROW_PUBLICATION, "subscription": lib.UB_ADMIN_ROW_SUBSCRIPTION}
 _ROW_TYPE_NAMES = {v: k for k, v in ROW_TYPES.items()}
-_NACK_NAMES = {lib.UB_NACK_NONE: None, lib.UB_NACK_UNKNOWN_CONTENT: "unknown_content", lib.UB_NACK_LAYOUT: "layout",
-               lib.UB_NACK_UNBOUND: "unbound", lib.UB_NACK_TABLE_FULL: "table_full", lib.UB_NACK_INVALID: "invalid"}
 MAX_ADMIN_ROWS: int = lib.UB_MAX_ADMIN_ROWS
+
+
+def nack_reason_name(reason: int) -> str | None:
+    """The C name of a NACK reason ("table_full", "not_authorized", "limit", ...); None for no NACK."""
+    if reason == lib.UB_NACK_NONE:
+        return None
+    return ffi.string(lib.ub_nack_reason_name(reason)).decode("ascii")
 
 
 def ub_admin_new(node: Any, entity: int, options: dict[str, int] | None = None) -> Any:
@@ -51,7 +56,7 @@ def ub_admin_row_status(adm: Any, row: int) -> dict[str, Any]:
         "destination": entity_name(bytes(s.destination)), "period_ms": int(s.period_ms),
         "kind": _ROW_TYPE_NAMES.get(s.type, "?"),
         "status": ffi.string(lib.ub_admin_status_name(info.status)).decode("ascii"),
-        "active": bool(info.active_flag), "nack_reason": _NACK_NAMES.get(info.nack_reason, "?"),
+        "active": bool(info.active_flag), "nack_reason": nack_reason_name(info.nack_reason),
         "request_id": int(info.request_id), "attempts": int(info.attempts), "acked_at_ms": int(info.acked_at_ms),
         "active_at_ms": int(info.active_at_ms), "last_ack_ms": int(info.last_ack_ms),
     }

@@ -22,7 +22,8 @@ DROP_REASONS: tuple[str, ...] = tuple(
 RX_REASONS: tuple[str, ...] = tuple(
     ffi.string(lib.ub_rx_reason_name(r)).decode("ascii") for r in range(lib.UB_RX_REASON_COUNT))
 _COUNTER_FIELDS = ("originated", "forwarded", "delivered", "admin_handled", "local_direct", "dedup_resets",
-                   "dedup_evictions", "leases_expired")
+                   "dedup_evictions", "leases_expired", "replies_unmatched", "requests_limited", "leases_clamped",
+                   "rows_evicted", "random_failures")
 
 
 def entity_id(name: str) -> bytes:
@@ -38,11 +39,17 @@ def entity_name(raw: bytes) -> str:
 
 
 def ub_node_new(c_catalogue: Any, hop_limit: int = 0, first_seq: int = 0,
-                timing: dict[str, int] | None = None) -> Any:
-    """A fresh node over `c_catalogue` (which must outlive it), freed with the returned cdata."""
+                timing: dict[str, int] | None = None, random_seed: int | None = None) -> Any:
+    """A fresh node over `c_catalogue` (which must outlive it), freed with the returned cdata. Request ids
+    come from the operating system (ub_random_os); `random_seed` makes them the node's seeded, guessable
+    sequence instead (deterministic tests)."""
     node = ffi.new("ub_node_t *")
     opt = ffi.new("ub_node_options_t *")
     opt.hop_limit, opt.first_seq = hop_limit, first_seq
+    if random_seed is None:
+        opt.random = ffi.addressof(lib, "ub_random_os")
+    else:
+        opt.random_seed = random_seed
     for key, value in (timing or {}).items():
         if not hasattr(opt.timing, key):
             raise InvalidArgumentError(f"unknown pubsub timing field {key!r} (retry_ms, renew_ms, lease_ms, "

@@ -21,10 +21,16 @@ typedef struct ub_pubsub_timing {
     ...;
 } ub_pubsub_timing_t;
 
+/* From ub_random.h (declared here because the cdefs load in name order). */
+typedef int (*ub_random_fn)(void *user, uint8_t *out, size_t len);
+
 typedef struct ub_node_options {
     uint8_t hop_limit;
     uint32_t first_seq;
     ub_pubsub_timing_t timing;
+    ub_random_fn random;
+    void *random_user;
+    uint64_t random_seed;
     ...;
 } ub_node_options_t;
 
@@ -37,6 +43,11 @@ typedef struct ub_node_counters {
     uint64_t dedup_resets;
     uint64_t dedup_evictions;
     uint64_t leases_expired;
+    uint64_t replies_unmatched;
+    uint64_t requests_limited;
+    uint64_t leases_clamped;
+    uint64_t rows_evicted;
+    uint64_t random_failures;
     uint64_t drops[...];
     ...;
 } ub_node_counters_t;
