@@ -1,15 +1,17 @@
 # Router/pub-sub test extras (included by runtime_c/CMakeLists.txt after the test_*.c targets exist):
-#  - the shared test support (hand-written catalogues, the memlink "world") for the router tests;
+#  - the shared test support (hand-written catalogues, the memlink "world", the authorization world) for the
+#    router tests;
 #  - test_noalloc counts malloc/calloc/realloc/free through -Wl,--wrap;
 #  - ub_noalloc_nm: the static library must not reference any allocator symbol at all.
 
 set(UB_ROUTER_TESTS test_node test_router test_pubsub test_admin test_memlink test_table1 test_faults test_loops
-                    test_layout test_noalloc)
+                    test_layout test_noalloc test_authz)
 foreach(t ${UB_ROUTER_TESTS})
   if(TARGET ${t})
     target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_fig9.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_pair.c)
+                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_pair.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_authz.c)
     target_include_directories(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests ${CMAKE_CURRENT_SOURCE_DIR}/src)
   endif()
 endforeach()
