@@ -211,3 +211,18 @@ def test_limits_above_the_build_refused() -> None:
     assert build.max_entities == 16 and build.max_links_per_entity == 8
     with pytest.raises(ConfigError, match=r"limits: max_entities 17 is more than this build holds \(16\)"):
         load_config(TABLE2, limits=Limits(max_entities=17))
+
+
+def test_security_section_reaches_python_through_the_c_loader() -> None:
+    """The "security" section is checked by the C loader (ub_policy.c; every message: test_policy.c), so
+    Python accepts the same files and reports the same errors; the schema describes it too."""
+    policy = TABLE2.with_name("table2_policy.json")
+    cfg = load_config(policy, node="gcs")
+    assert cfg.hosts == ("gcs1",) and cfg.c_config.has_policy == 1
+    assert load_config(TABLE2).c_config.has_policy == 0
+    doc = json.loads(policy.read_text())
+    assert list(schema_validator().iter_errors(doc)) == []
+    doc["security"]["administrators"] = ["gcs1", "gcs9"]
+    with pytest.raises(ConfigError, match=r"^bad\.json:\d+: field 'security\.administrators\[1\]': no entity named "
+                                          r"'gcs9' in 'entities'$"):
+        parse_config(json.dumps(doc, indent=1), "bad.json")

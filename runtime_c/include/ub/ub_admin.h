@@ -18,6 +18,11 @@
  *    lease) to the **source**; a **subscription** row sends SUB_REQUEST
  *    (content, source, period, lease) to the **destination**, which from then
  *    on drives the source itself with its own PUB_REQUESTs.
+ *  - Each activation draws a random request id (ub_node_options_t.random).
+ *    An ACK or NACK changes a row only if it carries that id, comes from the
+ *    row's target (the source of a publication row, the destination of a
+ *    subscription row) and names the row's content; anything else is counted
+ *    in ub_node_counters_t.replies_unmatched and ignored.
  *  - PENDING: the request is resent every `retry_ms` until acknowledged
  *    (`max_retries` = 0 means forever; otherwise FAILED after that many).
  *  - ACKNOWLEDGED / ACTIVE: the request (same request id) is renewed every

@@ -27,6 +27,12 @@
  * not drift; after a stall longer than a period it sends once and restarts the
  * schedule from `now` (no burst of missed frames).
  *
+ * Remote requests and STOPs are judged by the node's policy when one is
+ * attached (ub_policy.h: administrators, read rules, limits; refusals are
+ * NACK NOT_AUTHORIZED or LIMIT). Replies count only for the row they are
+ * bound to: its random request id, its counterpart, its content
+ * (docs/pubsub.md, "Authorization and limits").
+ *
  * Entities are addressed by their index in the node's entity table (see
  * ub_node_add_entity()); the functions below require a local entity.
  */
@@ -83,7 +89,7 @@ typedef struct ub_ps_row {
     uint8_t peer[UB_ENTITY_ID_LEN];      /**< publication: destination; subscription: source */
     uint8_t owner[UB_ENTITY_ID_LEN];     /**< who created the row remotely; all zero = local API */
     uint32_t owner_request_id;           /**< owner's request id, echoed in status ACKs */
-    uint32_t request_id;                 /**< id of this row's own requests (subscriptions) */
+    uint32_t request_id;                 /**< id of this row's own requests (subscriptions): random, never 0 */
     uint32_t period_ms;
     uint32_t stop_tries;                 /**< PUB_STOPs sent while STOPPING */
     uint64_t lease_until_ms;             /**< 0 = no lease (created through this API) */

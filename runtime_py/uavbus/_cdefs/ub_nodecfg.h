@@ -44,6 +44,7 @@ typedef struct ub_nodecfg {
     ub_nodecfg_node_t nodes[...];
     uint8_t port_count;
     ub_nodecfg_port_t ports[...];
+    uint8_t has_policy;
     ...;
 } ub_nodecfg_t;
 

@@ -43,9 +43,11 @@ class RelayFaults:
 
 @dataclass
 class RelayCounters:
-    """Per direction ("a>b", "b>a"): bytes relayed, chunks written, garbage bytes inserted, bytes dropped."""
+    """Per direction ("a>b", "b>a"): bytes relayed, bytes injected by a third party (inject()), chunks
+    written, garbage bytes inserted, bytes dropped."""
 
     relayed: dict[str, int] = field(default_factory=lambda: {"a>b": 0, "b>a": 0})
+    injected: dict[str, int] = field(default_factory=lambda: {"a>b": 0, "b>a": 0})
     chunks: dict[str, int] = field(default_factory=lambda: {"a>b": 0, "b>a": 0})
     garbage: dict[str, int] = field(default_factory=lambda: {"a>b": 0, "b>a": 0})
     dropped: dict[str, int] = field(default_factory=lambda: {"a>b": 0, "b>a": 0})
@@ -75,6 +77,7 @@ class NullModem:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._lock = threading.Lock()
+        self._tx_lock = threading.Lock()  # one writer per side at a time: inject() never splits a relayed chunk
 
     def __enter__(self) -> NullModem:
         self.start()
@@ -111,8 +114,21 @@ class NullModem:
     def snapshot(self) -> dict[str, dict[str, int]]:
         with self._lock:
             c = self.counters
-            return {"relayed": dict(c.relayed), "chunks": dict(c.chunks), "garbage": dict(c.garbage),
-                    "dropped": dict(c.dropped)}
+            return {"relayed": dict(c.relayed), "injected": dict(c.injected), "chunks": dict(c.chunks),
+                    "garbage": dict(c.garbage), "dropped": dict(c.dropped)}
+
+    def inject(self, side: str, data: bytes) -> int:
+        """Writes `data` toward side "a" or "b" as a third transmitter on the medium would (an attacker on
+        the radio, tests/system/test_admin_security.py): between the relayed chunks, never inside one.
+        Returns the bytes written (the rest is counted as dropped)."""
+        if side not in ("a", "b"):
+            raise ValueError(f"side {side!r}: 'a' or 'b'")
+        fd, key = (self._master_a, "b>a") if side == "a" else (self._master_b, "a>b")
+        with self._tx_lock:
+            written = self._write_all(fd, key, data)
+        with self._lock:
+            self.counters.injected[key] += written
+        return written
 
     # -- relay -------------------------------------------------------------------------------------------
     def _chunks(self, data: bytes) -> list[bytes]:
@@ -128,6 +144,10 @@ class NullModem:
         return out
 
     def _write(self, fd: int, key: str, data: bytes) -> None:
+        with self._tx_lock:
+            self._write_chunks(fd, key, data)
+
+    def _write_chunks(self, fd: int, key: str, data: bytes) -> None:
         f = self.faults
         for chunk in self._chunks(data):
             if f.garbage_p > 0.0 and self._rng.random() < f.garbage_p:
