@@ -175,20 +175,26 @@ static bool cfg_has_entity(const ub_nodecfg_t *cfg, const char *name) {
     return false;
 }
 
+/* A pattern of at most `max` characters; `shape` says what is expected when it is not one. */
+static int cfg_pattern(const cfg_parse_t *c, const ub_json_value_t *v, const char *entity, const char *field,
+                       size_t max, const char *shape, char *out) {
+    char buf[KEY_BUF];
+    size_t n = cfg_string(c, v, buf);
+    if (n > max || !ub_policy_pattern_ok(buf, max))
+        return cfg_fail(c, v->line, entity, field, "must be %s (1 to %u characters from A-Z a-z 0-9 _ . - [ ] *)",
+                        shape, (unsigned)max);
+    memcpy(out, buf, n + 1);
+    return UB_OK;
+}
+
 /* An entity reference: a name of 'entities', or a pattern with '*'. */
 static int cfg_entity_pattern(const cfg_parse_t *c, const ub_json_value_t *v, const char *entity, const char *field,
                               char out[UB_POLICY_ENTITY_PATTERN_MAX + 1]) {
-    char buf[KEY_BUF];
-    size_t n = cfg_string(c, v, buf);
-    if (n > UB_POLICY_ENTITY_PATTERN_MAX || !ub_policy_pattern_ok(buf, UB_POLICY_ENTITY_PATTERN_MAX))
-        return cfg_fail(c, v->line, entity, field,
-                        "must be an entity name or a pattern such as \"gcs*\" or \"*\" (1 to %d characters from "
-                        "A-Z a-z 0-9 _ . - [ ] *)",
-                        UB_POLICY_ENTITY_PATTERN_MAX);
-    if (strchr(buf, '*') == NULL && !cfg_has_entity(c->cfg, buf))
-        return cfg_fail(c, v->line, entity, field, "no entity named '%s' in 'entities' (use '*' in a pattern)", buf);
-    memcpy(out, buf, n + 1);
-    return UB_OK;
+    int rc = cfg_pattern(c, v, entity, field, UB_POLICY_ENTITY_PATTERN_MAX,
+                         "an entity name or a pattern such as \"gcs*\" or \"*\"", out);
+    if (rc == UB_OK && strchr(out, '*') == NULL && !cfg_has_entity(c->cfg, out))
+        return cfg_fail(c, v->line, entity, field, "no entity named '%s' in 'entities' (use '*' in a pattern)", out);
+    return rc;
 }
 
 static int cfg_administrators(const cfg_parse_t *c, const ub_json_value_t *list) {
@@ -220,15 +226,8 @@ static int cfg_administrators(const cfg_parse_t *c, const ub_json_value_t *list)
 static int cfg_rule_item(const cfg_parse_t *c, const ub_json_value_t *v, const char *entity, const char *field,
                          bool is_entity, char out[UB_POLICY_PATTERN_MAX + 1]) {
     if (is_entity) return cfg_entity_pattern(c, v, entity, field, out);
-    char buf[KEY_BUF];
-    size_t n = cfg_string(c, v, buf);
-    if (n > UB_POLICY_PATTERN_MAX || !ub_policy_pattern_ok(buf, UB_POLICY_PATTERN_MAX))
-        return cfg_fail(c, v->line, entity, field,
-                        "must be a directory name or a pattern such as \"gcsMission*\" (1 to %d characters from "
-                        "A-Z a-z 0-9 _ . - [ ] *)",
-                        UB_POLICY_PATTERN_MAX);
-    memcpy(out, buf, n + 1);
-    return UB_OK;
+    return cfg_pattern(c, v, entity, field, UB_POLICY_PATTERN_MAX, "a directory name or a pattern such as \"gcsMission*\"",
+                       out);
 }
 
 /* "from" or "content" of a rule: one string or a non-empty list of strings. Returns the element count. */

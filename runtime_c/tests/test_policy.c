@@ -23,13 +23,12 @@ typedef struct fixture {
     char err[UB_NODECFG_ERR_LEN];
 } fixture_t;
 
-static int setup(void **state) {
-    *state = calloc(1, sizeof(fixture_t));
-    return *state == NULL ? -1 : 0;
-}
+/* One fixture for the whole program (large, so not on the stack), zeroed before each test. */
+static fixture_t g_fixture;
 
-static int teardown(void **state) {
-    free(*state);
+static int fresh(void **state) {
+    memset(&g_fixture, 0, sizeof g_fixture);
+    *state = &g_fixture;
     return 0;
 }
 
@@ -286,10 +285,10 @@ static void test_example_policy_file(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_patterns),
-        cmocka_unit_test_setup_teardown(test_policy_api, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_config_security_section, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_config_security_errors, setup, teardown),
-        cmocka_unit_test_setup_teardown(test_example_policy_file, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_policy_api, fresh, NULL),
+        cmocka_unit_test_setup_teardown(test_config_security_section, fresh, NULL),
+        cmocka_unit_test_setup_teardown(test_config_security_errors, fresh, NULL),
+        cmocka_unit_test_setup_teardown(test_example_policy_file, fresh, NULL),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -7,6 +7,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 from uavbus import Catalogue
 from uavbus_gen import cli, frontend, model
@@ -44,3 +45,22 @@ def _generate(tmp: Path, name: str, files: list[Path], args: list[str]) -> Gener
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return Generated(cat_model, Catalogue.load(out / f"{name}.catalogue.json"), module, out)
+
+
+class FakeClock:
+    """An injected node clock (ms) that tests advance by hand."""
+
+    def __init__(self) -> None:
+        self.t = 1000
+
+    def __call__(self) -> int:
+        return self.t
+
+
+def run_nodes(nodes: list[Any], clock: FakeClock, ms: int, step: int = 5) -> None:
+    """Advances `clock` by `ms` in `step` ms steps, polling every node (without waiting) at each."""
+    for _ in range(ms // step):
+        clock.t += step
+        for n in nodes:
+            n.poll(0)
+

@@ -5,24 +5,10 @@ from __future__ import annotations
 
 import pytest
 
-from binding_testutil import TABLE2, Generated
+from binding_testutil import TABLE2, FakeClock, Generated
+from binding_testutil import run_nodes as run
 from uavbus import Catalogue, MemLink, Node
 from uavbus_gen import model
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.t = 1000
-
-    def __call__(self) -> int:
-        return self.t
-
-
-def run(nodes: list[Node], clock: FakeClock, ms: int, step: int = 5) -> None:
-    for _ in range(ms // step):
-        clock.t += step
-        for n in nodes:
-            n.poll(0)
 
 
 @pytest.fixture()

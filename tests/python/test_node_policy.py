@@ -5,25 +5,11 @@ rights: what it may still do, it gets; the rest comes back as "not_authorized" o
 
 from __future__ import annotations
 
-from binding_testutil import TABLE2, Generated
+from binding_testutil import TABLE2, FakeClock, Generated
+from binding_testutil import run_nodes as run
 from uavbus import MemLink, Node
 
 TABLE2_POLICY = TABLE2.with_name("table2_policy.json")
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.t = 1000
-
-    def __call__(self) -> int:
-        return self.t
-
-
-def run(nodes: list[Node], clock: FakeClock, ms: int, step: int = 5) -> None:
-    for _ in range(ms // step):
-        clock.t += step
-        for n in nodes:
-            n.poll(0)
 
 
 def test_policy_from_config_and_nack_reasons_by_name(flightsw: Generated) -> None:
