@@ -116,14 +116,17 @@ static void describe_links(int count, char *out, size_t cap) {
 }
 
 /* Looks fields up by name, rejecting unknown and repeated ones; values[k] gets
- * the member for fields[k] (kind 0 when absent). */
+ * the member for fields[k] (kind 0 when absent). At most CHECK_FIELDS_MAX fields
+ * (the "security" section gathers the keys of several concerns). */
+#define CHECK_FIELDS_MAX 16
 static int check_fields(const parser_t *p, const ub_json_value_t *obj, const char *const *fields, size_t nfields,
                         const char *entity, const char *prefix, ub_json_value_t *values) {
-    uint32_t first_line[8] = {0};
+    uint32_t first_line[CHECK_FIELDS_MAX] = {0};
     ub_json_iter_t it;
     ub_json_value_t key, val;
-    char name[KEY_BUF], path[PATH_LEN], expected[96];
+    char name[KEY_BUF], path[PATH_LEN], expected[192];
     size_t used = 0;
+    if (nfields > CHECK_FIELDS_MAX) return fail(p, obj->line, entity, prefix, "internal: too many fields to check");
     for (size_t k = 0; k < nfields; k++) {
         values[k].kind = (ub_json_kind_t)0;
         appendf(expected, sizeof expected, &used, "%s%s", k ? ", " : "", fields[k]);
