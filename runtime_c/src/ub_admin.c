@@ -25,6 +25,7 @@ static const char *const nack_names[] = {
     [UB_NACK_INVALID] = "invalid",
     [UB_NACK_NOT_AUTHORIZED] = "not_authorized",
     [UB_NACK_LIMIT] = "limit",
+    [UB_NACK_UNSUPPORTED] = "unsupported",
 };
 
 const char *ub_nack_reason_name(ub_nack_reason_t reason) {

@@ -15,6 +15,7 @@ static const char *const drop_reason_names[UB_DROP_REASON_COUNT] = {
     [UB_DROP_DETACHED] = "detached",
     [UB_DROP_NOT_ALLOWED] = "not_allowed",
     [UB_DROP_NOT_AUTHORIZED] = "not_authorized",
+    [UB_DROP_ROUTING_OFF] = "routing_off",
 };
 
 const char *ub_drop_reason_name(ub_drop_reason_t reason) {

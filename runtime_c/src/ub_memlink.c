@@ -92,6 +92,21 @@ int ub_memlink_connect(ub_memlink_t *ml, ub_node_t *a, int link_a, ub_node_t *b,
     return UB_OK;
 }
 
+void ub_memlink_disconnect(ub_memlink_t *ml) {
+    if (ml == NULL) return;
+    for (int s = 0; s < 2; s++) {
+        ub_memlink_end_t *end = &ml->end[s];
+        const ub_link_t *slot = end->node != NULL ? ub_node_link(end->node, end->link_id) : NULL;
+        if (slot != NULL && slot->impl == end && ub_node_link_detach(end->node, end->link_id) != UB_OK) {
+            /* cannot happen: the slot was just found */
+        }
+        end->stats.lost += end->count;
+        end->count = 0;
+        end->node = NULL;
+        end->link_id = -1;
+    }
+}
+
 /* Earliest due frame (ties: send order) queued before `order_limit`; false if none is due. */
 static bool earliest_due(const ub_memlink_t *ml, uint64_t now_ms, uint64_t order_limit, int *side, size_t *index) {
     bool found = false;

@@ -4,6 +4,7 @@
 
 #include "ub/ub_wire.h"
 #include "ub_rng_private.h"
+#include "ub_fleet_private.h"
 #include "ub_router_private.h"
 
 /* Per-call context of the stream decoder callback. */
@@ -19,6 +20,12 @@ bool ub_priv_id_is_zero(const uint8_t id[UB_ENTITY_ID_LEN]) {
     return true;
 }
 
+bool ub_entity_id_is_link_local(const uint8_t id[UB_ENTITY_ID_LEN]) {
+    for (size_t i = 0; i < UB_ENTITY_ID_LEN; i++)
+        if (id[i] != UB_LINK_LOCAL_BYTE) return false;
+    return true;
+}
+
 static bool entity_index_ok(const ub_node_t *node, int entity) {
     return entity >= 0 && entity < UB_MAX_ENTITIES && node->entities[entity].in_use;
 }
@@ -26,6 +33,11 @@ static bool entity_index_ok(const ub_node_t *node, int entity) {
 int ub_priv_local_slot(const ub_node_t *node, int entity) {
     if (!entity_index_ok(node, entity)) return -1;
     return node->entities[entity].local;
+}
+
+int ub_priv_slot_entity(const ub_node_t *node, int slot) {
+    if (slot < 0 || slot >= UB_MAX_LOCAL_ENTITIES || !node->locals[slot].in_use) return -1;
+    return node->locals[slot].entity;
 }
 
 static bool link_id_ok(const ub_node_t *node, int link_id) {
@@ -68,7 +80,7 @@ const uint8_t *ub_node_entity_id(const ub_node_t *node, int entity) {
 }
 
 int ub_node_add_entity(ub_node_t *node, const uint8_t id[UB_ENTITY_ID_LEN], bool local) {
-    if (node == NULL || id == NULL || ub_priv_id_is_zero(id)) return UB_ERR_INVAL;
+    if (node == NULL || id == NULL || ub_priv_id_is_zero(id) || ub_entity_id_is_link_local(id)) return UB_ERR_INVAL;
     if (ub_node_find_entity(node, id) >= 0) return UB_ERR_EXISTS;
     int row = -1;
     for (int e = 0; e < UB_MAX_ENTITIES && row < 0; e++)
@@ -85,7 +97,53 @@ int ub_node_add_entity(ub_node_t *node, const uint8_t id[UB_ENTITY_ID_LEN], bool
     memcpy(node->entities[row].id, id, UB_ENTITY_ID_LEN);
     node->entities[row].in_use = 1;
     node->entities[row].local = (int8_t)slot;
+    node->counters.entities_added++;
     return row;
+}
+
+/* Whether row `r` of a publish/subscribe table names `id` as its peer or its owner and is still live. */
+static bool row_names(const ub_ps_row_t *r, const uint8_t id[UB_ENTITY_ID_LEN]) {
+    if (r == NULL || r->kind == UB_PS_FREE) return false;
+    if (r->kind == UB_PS_SUBSCRIPTION && r->state == UB_SUB_STOPPING) return false; /* already on its way out */
+    return memcmp(r->peer, id, UB_ENTITY_ID_LEN) == 0 || memcmp(r->owner, id, UB_ENTITY_ID_LEN) == 0;
+}
+
+int ub_node_remove_entity(ub_node_t *node, int entity, uint64_t now_ms) {
+    if (node == NULL || !entity_index_ok(node, entity) || node->entities[entity].local >= 0) return UB_ERR_INVAL;
+    uint8_t id[UB_ENTITY_ID_LEN];
+    memcpy(id, node->entities[entity].id, UB_ENTITY_ID_LEN);
+    for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
+        ub_local_entity_t *loc = &node->locals[slot];
+        if (!loc->in_use) continue;
+        /* Rows go through the publish/subscribe and administration API, so their own rules (STOP
+         * messages, row states) apply; only the bookkeeping of what was touched is ours. */
+        for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
+            if (!row_names(ub_pubsub_row(node, loc->entity, r), id)) continue;
+            if (ub_pubsub_stop(node, loc->entity, r, now_ms) == UB_OK) node->counters.rows_stopped++;
+        }
+        ub_admin_t *adm = loc->admin;
+        for (int r = 0; adm != NULL && r < UB_MAX_ADMIN_ROWS; r++) {
+            ub_admin_row_info_t info;
+            if (ub_admin_row_status(adm, r, &info) != UB_OK || !info.active_flag) continue;
+            if (memcmp(info.spec.source, id, UB_ENTITY_ID_LEN) != 0 &&
+                memcmp(info.spec.destination, id, UB_ENTITY_ID_LEN) != 0)
+                continue;
+            if (ub_admin_set_active(adm, r, false, now_ms) == UB_OK) node->counters.admin_rows_stopped++;
+        }
+        for (size_t i = 0; i < UB_DEDUP_SOURCES; i++) {
+            ub_dedup_entry_t *d = &loc->dedup[i];
+            if (!d->in_use || memcmp(d->src, id, UB_ENTITY_ID_LEN) != 0) continue;
+            memset(d, 0, sizeof *d);
+            node->counters.dedup_cleared++;
+        }
+        loc->masks[entity] = 0;
+        loc->pinned[entity] = 0;
+    }
+    if (node->route != NULL) ub_priv_route_forget_entity(node->route, entity, id, now_ms);
+    memset(&node->entities[entity], 0, sizeof node->entities[entity]);
+    node->entities[entity].local = -1;
+    node->counters.entities_removed++;
+    return UB_OK;
 }
 
 int ub_node_add_entity_name(ub_node_t *node, const char *name, bool local) {
@@ -122,7 +180,24 @@ int ub_node_add_link(ub_node_t *node, int entity, unsigned index, const char *na
     link->index = (uint8_t)index;
     ub_decoder_init(&link->decoder);
     node->locals[slot].link_ids[index] = (int16_t)id;
+    node->counters.links_added++;
     return id;
+}
+
+int ub_node_remove_link(ub_node_t *node, int link_id) {
+    if (node == NULL || !link_id_ok(node, link_id) || node->links[link_id].ops != NULL) return UB_ERR_INVAL;
+    ub_link_t *link = &node->links[link_id];
+    ub_local_entity_t *loc = &node->locals[link->owner];
+    uint8_t bit = (uint8_t)(1u << link->index);
+    for (int d = 0; d < UB_MAX_ENTITIES; d++) {
+        loc->masks[d] &= (uint8_t)~bit;
+        if (loc->masks[d] == 0) loc->pinned[d] = 0;
+    }
+    loc->link_ids[link->index] = -1;
+    if (node->route != NULL) ub_priv_route_forget_link(node->route, link_id, 0);
+    memset(link, 0, sizeof *link);
+    node->counters.links_removed++;
+    return UB_OK;
 }
 
 const ub_link_t *ub_node_link(const ub_node_t *node, int link_id) {
@@ -130,7 +205,7 @@ const ub_link_t *ub_node_link(const ub_node_t *node, int link_id) {
     return &node->links[link_id];
 }
 
-int ub_node_set_mask(ub_node_t *node, int entity, int dest, uint8_t mask) {
+static int write_mask(ub_node_t *node, int entity, int dest, uint8_t mask, bool manual) {
     if (node == NULL) return UB_ERR_INVAL;
     int slot = ub_priv_local_slot(node, entity);
     if (slot < 0 || !entity_index_ok(node, dest) || (dest == entity && mask != 0)) return UB_ERR_INVAL;
@@ -138,8 +213,26 @@ int ub_node_set_mask(ub_node_t *node, int entity, int dest, uint8_t mask) {
         if (!(mask & (1u << i))) continue;
         if (i >= UB_MAX_LINKS_PER_ENTITY || node->locals[slot].link_ids[i] < 0) return UB_ERR_NOTFOUND;
     }
-    node->locals[slot].masks[dest] = mask;
+    ub_local_entity_t *loc = &node->locals[slot];
+    if (!manual && loc->pinned[dest]) return UB_ERR_EXISTS;
+    loc->masks[dest] = mask;
+    if (manual) loc->pinned[dest] = mask != 0;
     return UB_OK;
+}
+
+int ub_node_set_mask(ub_node_t *node, int entity, int dest, uint8_t mask) {
+    return write_mask(node, entity, dest, mask, true);
+}
+
+int ub_node_set_auto_mask(ub_node_t *node, int entity, int dest, uint8_t mask) {
+    return write_mask(node, entity, dest, mask, false);
+}
+
+bool ub_node_mask_pinned(const ub_node_t *node, int entity, int dest) {
+    if (node == NULL) return false;
+    int slot = ub_priv_local_slot(node, entity);
+    if (slot < 0 || !entity_index_ok(node, dest)) return false;
+    return node->locals[slot].pinned[dest] != 0;
 }
 
 int ub_node_get_mask(const ub_node_t *node, int entity, int dest, uint8_t *mask) {
@@ -365,8 +458,22 @@ static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_head
         return;
     }
     node->counters.admin_handled++;
+    bool ok;
     ub_drop_reason_t drop = UB_DROP_BAD_PAYLOAD;
-    if (!ub_priv_pubsub_on_admin(node, slot, h, payload, link_id >= 0, now_ms, &drop)) count_drop(node, link_id, drop);
+    if (h->admin == UB_ADMIN_MEMBERSHIP) {
+        ok = ub_priv_member_on_request(node, slot, h, payload, link_id >= 0, now_ms, &drop);
+    } else if ((h->admin == UB_ADMIN_ACK || h->admin == UB_ADMIN_NACK) && h->payload_size >= UB_PL_REPLY_LEN &&
+               payload[UB_PL_REPLY_CODE] == UB_ADMIN_MEMBERSHIP) {
+        /* Replies to membership requests belong to the requester, not to the publish/subscribe tables. */
+        ub_priv_member_on_reply(node, slot, h->src_id, ub_get_u32le(payload + UB_PL_REPLY_ID),
+                                h->admin == UB_ADMIN_NACK, payload[UB_PL_REPLY_DETAIL], now_ms);
+        ok = true;
+    } else if (h->admin == UB_ADMIN_HELLO || h->admin == UB_ADMIN_ROUTE_UPDATE) {
+        ok = false; /* routing frames are link-local only */
+    } else {
+        ok = ub_priv_pubsub_on_admin(node, slot, h, payload, link_id >= 0, now_ms, &drop);
+    }
+    if (!ok) count_drop(node, link_id, drop);
 }
 
 static int local_destination(const ub_node_t *node, const uint8_t dest_id[UB_ENTITY_ID_LEN], int *dest_row) {
@@ -374,18 +481,27 @@ static int local_destination(const ub_node_t *node, const uint8_t dest_id[UB_ENT
     return *dest_row >= 0 ? node->entities[*dest_row].local : -1;
 }
 
-/* Finishes the header of a frame whose payload is already in place, and routes it from local slot `slot`. */
-static int originate(ub_node_t *node, int slot, uint8_t *frame, size_t cap, ub_frame_header_t *h, uint64_t now_ms) {
+/* Stamps a frame originated by local slot `slot` (source, hop limit, sequence), finishes it and enters it
+ * in the slot's duplicate window. Every originated frame, routed or link-local, goes through here. */
+static int stamp(ub_node_t *node, int slot, uint8_t *frame, size_t cap, ub_frame_header_t *h, uint8_t hop_limit) {
     ub_local_entity_t *loc = &node->locals[slot];
     h->msg_type = UB_MSG_TYPE_PUBSUB;
     memcpy(h->src_id, node->entities[loc->entity].id, UB_ENTITY_ID_LEN);
-    h->hop_limit = node->opt.hop_limit;
+    h->hop_limit = hop_limit;
     h->seq = node->next_seq++;
     int len = ub_frame_finish(frame, cap, h);
     if (len < 0) return len;
     node->counters.originated++;
     /* Our own frames enter our window, so a copy that loops back is cut here. */
     (void)dedup_seen(node, loc, h->src_id, h->seq);
+    return len;
+}
+
+/* Finishes the header of a frame whose payload is already in place, and routes it from local slot `slot`. */
+static int originate(ub_node_t *node, int slot, uint8_t *frame, size_t cap, ub_frame_header_t *h, uint64_t now_ms) {
+    ub_local_entity_t *loc = &node->locals[slot];
+    int len = stamp(node, slot, frame, cap, h, node->opt.hop_limit);
+    if (len < 0) return len;
     int dest_row;
     int dest_slot = local_destination(node, h->dest_id, &dest_row);
     if (dest_slot >= 0) {
@@ -401,11 +517,36 @@ static int originate(ub_node_t *node, int slot, uint8_t *frame, size_t cap, ub_f
     return send_on_mask(node, loc, mask, frame, (size_t)len, now_ms);
 }
 
+/* A link-local frame: for the owner of the ingress link, never forwarded (docs/routing.md). */
+static void route_link_local(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
+                             uint64_t now_ms) {
+    ub_link_t *link = &node->links[link_id];
+    if (dedup_seen(node, &node->locals[link->owner], h->src_id, h->seq)) {
+        count_drop(node, link_id, UB_DROP_DUPLICATE);
+        return;
+    }
+    if (h->admin != UB_ADMIN_HELLO && h->admin != UB_ADMIN_ROUTE_UPDATE) {
+        count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+        return;
+    }
+    if (node->route == NULL) {
+        count_drop(node, link_id, UB_DROP_ROUTING_OFF);
+        return;
+    }
+    node->counters.admin_handled++;
+    if (ub_priv_route_on_frame(node->route, link_id, h, frame + UB_FRAME_HEADER_LEN, now_ms) < 0)
+        count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+}
+
 static void route_received(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
                            size_t len, uint64_t now_ms) {
     ub_link_t *link = &node->links[link_id];
     link->counters.frames_in++;
     if (node->tap != NULL) node->tap(node->tap_user, link_id, UB_TAP_RX, frame, len, now_ms);
+    if (ub_entity_id_is_link_local(h->dest_id)) {
+        route_link_local(node, link_id, h, frame, now_ms);
+        return;
+    }
     int dest_row;
     int dest_slot = local_destination(node, h->dest_id, &dest_row);
     int handler = dest_slot >= 0 ? dest_slot : link->owner;
@@ -507,8 +648,8 @@ int ub_node_send_data(ub_node_t *node, int entity, uint32_t instance, const uint
 int ub_priv_send_admin(ub_node_t *node, int slot, ub_admin_code_t code, const uint8_t dir_id[UB_DIR_ID_LEN],
                        uint32_t fingerprint, const uint8_t dest_id[UB_ENTITY_ID_LEN], const uint8_t *payload,
                        uint16_t len, uint64_t now_ms) {
-    if (len > UB_PL_MAX_LEN) return UB_ERR_RANGE;
-    uint8_t frame[UB_FRAME_HEADER_LEN + UB_PL_MAX_LEN];
+    if (len > UB_MAX_PAYLOAD) return UB_ERR_RANGE;
+    uint8_t frame[UB_FRAME_MAX];
     memcpy(frame + UB_FRAME_HEADER_LEN, payload, len);
     ub_frame_header_t h;
     memset(&h, 0, sizeof h);
@@ -531,10 +672,34 @@ int ub_priv_send_reply(ub_node_t *node, int slot, bool nack, const uint8_t dir_i
                               UB_PL_REPLY_LEN, now_ms);
 }
 
+int ub_node_send_link_local(ub_node_t *node, int link_id, ub_admin_code_t code, const uint8_t *payload,
+                            uint16_t len, uint64_t now_ms) {
+    if (node == NULL || !link_id_ok(node, link_id) || (payload == NULL && len > 0)) return UB_ERR_INVAL;
+    if (len > UB_MAX_PAYLOAD) return UB_ERR_RANGE;
+    uint8_t frame[UB_FRAME_MAX];
+    if (len > 0) memcpy(frame + UB_FRAME_HEADER_LEN, payload, len);
+    ub_frame_header_t h;
+    memset(&h, 0, sizeof h);
+    memset(h.dest_id, UB_LINK_LOCAL_BYTE, UB_ENTITY_ID_LEN);
+    h.admin = (uint8_t)code;
+    h.payload_size = len;
+    int n = stamp(node, node->links[link_id].owner, frame, sizeof frame, &h, 1);
+    if (n < 0) return n;
+    return transmit(node, link_id, frame, (size_t)n, now_ms) ? 1 : 0;
+}
+
+bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN]) {
+    /* The paper's exclusive rights (ub_policy.h): without a policy every entity has them. */
+    (void)entity;
+    return node->policy == NULL || ub_policy_is_admin(node->policy, src_id);
+}
+
 void ub_node_tick(ub_node_t *node, uint64_t now_ms) {
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
         if (!node->locals[slot].in_use) continue;
         ub_priv_pubsub_tick(node, slot, now_ms);
         if (node->locals[slot].admin != NULL) ub_priv_admin_tick(node->locals[slot].admin, now_ms);
     }
+    if (node->route != NULL) ub_priv_route_tick(node->route, now_ms);
+    if (node->member != NULL) ub_priv_member_tick(node->member, now_ms);
 }

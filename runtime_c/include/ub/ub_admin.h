@@ -83,7 +83,8 @@ typedef enum ub_nack_reason {
     UB_NACK_TABLE_FULL = 4,      /**< target's publish/subscribe table is full */
     UB_NACK_INVALID = 5,         /**< period 0, or a payload the target cannot read */
     UB_NACK_NOT_AUTHORIZED = 6,  /**< the target's policy refuses the request to its source (ub_policy.h) */
-    UB_NACK_LIMIT = 7            /**< the request exceeds the requester's limits (period, rows, bytes/s) */
+    UB_NACK_LIMIT = 7,           /**< the request exceeds the requester's limits (period, rows, bytes/s) */
+    UB_NACK_UNSUPPORTED = 8      /**< the target cannot do this membership operation (e.g. links: no handler) */
 } ub_nack_reason_t;
 
 /** @return a static name ("table_full", "not_authorized", ...) for a NACK reason; "none" for 0, "?" if unknown. */

@@ -67,6 +67,15 @@
 #define UB_DEFAULT_HOP_LIMIT 8
 #endif
 
+/** Outstanding membership requests one node can track (ub_member.h). */
+#ifndef UB_MAX_MEMBER_REQUESTS
+#define UB_MAX_MEMBER_REQUESTS 16
+#endif
+/** Removed entities the routing engine refuses to re-learn for a while (ub_route.h). */
+#ifndef UB_ROUTE_TOMBSTONES
+#define UB_ROUTE_TOMBSTONES 8
+#endif
+
 #if UB_MAX_PAYLOAD < 64 || UB_MAX_PAYLOAD > 65000
 #error "UB_MAX_PAYLOAD must be between 64 and 65000 (the frame's payload size field is 16 bits)"
 #endif

@@ -94,7 +94,11 @@ typedef enum ub_admin_code {
     UB_ADMIN_PUB_STOP = 3,    /**< remove a publication at the source entity */
     UB_ADMIN_SUB_STOP = 4,    /**< remove a subscription at the destination entity */
     UB_ADMIN_ACK = 5,         /**< a table-change request was applied */
-    UB_ADMIN_NACK = 6         /**< a table-change request was refused (reason in payload) */
+    UB_ADMIN_NACK = 6,        /**< a table-change request was refused (reason in payload) */
+    /* 7, 8: allocated to the trust work (CHALLENGE, CHALLENGE_REPLY). */
+    UB_ADMIN_HELLO = 9,        /**< routing: link-local hello + IHU (docs/routing.md); never forwarded */
+    UB_ADMIN_ROUTE_UPDATE = 10, /**< routing: link-local hello + route entries + seqno requests; never forwarded */
+    UB_ADMIN_MEMBERSHIP = 11    /**< an administrator's membership change (ub_member.h); answered by ACK/NACK */
 } ub_admin_code_t;
 
 /**

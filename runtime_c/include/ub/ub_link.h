@@ -54,6 +54,7 @@ typedef enum ub_drop_reason {
     UB_DROP_DETACHED,        /**< the slot has no transport attached */
     UB_DROP_NOT_ALLOWED,     /**< DATA the destination's write policy refuses (ub_policy.h), storage untouched */
     UB_DROP_NOT_AUTHORIZED,  /**< admin request or STOP the policy refuses to its source (NACK NOT_AUTHORIZED sent) */
+    UB_DROP_ROUTING_OFF,     /**< a routing frame (HELLO, ROUTE_UPDATE) reached a node not running ub_route */
     UB_DROP_REASON_COUNT
 } ub_drop_reason_t;
 

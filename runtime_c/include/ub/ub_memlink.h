@@ -120,6 +120,14 @@ void ub_memlink_set_faults(ub_memlink_t *ml, const ub_memlink_faults_t *faults);
 UB_CHECK int ub_memlink_connect(ub_memlink_t *ml, ub_node_t *a, int link_a, ub_node_t *b, int link_b);
 
 /**
+ * Takes both ends off their nodes (ub_node_link_detach(), when the slot still
+ * holds this memlink) and drops the frames queued in both directions (counted
+ * as lost). Afterwards the slots can be removed (ub_node_remove_link()) or
+ * connected elsewhere; pumping a disconnected memlink does nothing.
+ */
+void ub_memlink_disconnect(ub_memlink_t *ml);
+
+/**
  * Delivers every frame due at `now_ms` that was queued before this call
  * (frames queued while pumping wait for the next pump, which bounds the work).
  * @return the number of frames delivered.

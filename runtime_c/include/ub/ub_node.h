@@ -43,6 +43,25 @@
  *    entity's publish/subscribe table or its administration table, which
  *    apply the policy to requests and STOPs and bind replies to their rows.
  *
+ * Link-local frames (docs/routing.md): a frame whose destination ID is
+ * UB_LINK_LOCAL_ID (twelve 0xFF bytes, never an entity) is addressed to
+ * "whichever entity is at the other end of this link". It is originated on
+ * exactly one link with ub_node_send_link_local() (hop limit 1), handled by
+ * the owner of the link it arrived on, and never forwarded, whatever its hop
+ * limit. Only the routing codes (HELLO, ROUTE_UPDATE) use it; anything else
+ * sent link-local is dropped `bad_payload`, and routing frames reaching a node
+ * without a routing engine are dropped `routing_off`.
+ *
+ * Membership at run time: entities, links and masks can be added and removed
+ * while the node runs. ub_node_remove_entity() clears everything that named
+ * the entity (masks, duplicate windows, routing state) and stops the
+ * publish/subscribe and administration rows naming it through their own API.
+ * Over the bus, MEMBERSHIP requests (ub_member.h) do the same.
+ *
+ * Masks are *manual* (ub_node_set_mask(): a non-zero mask pins the entry) or
+ * *automatic* (ub_node_set_auto_mask(), written by the routing engine of
+ * ub_route.h, never over a pinned entry).
+ *
  * Duplicate window: per (handling entity, source entity) the highest sequence
  * seen and a 64-bit bitmap below it (UB_DEDUP_WINDOW). A sequence more than the
  * window behind is taken as a restarted source: the window resets to it and
@@ -73,6 +92,15 @@ extern "C" {
 
 /** Sequences remembered below the highest one per source (bits of the window). */
 #define UB_DEDUP_WINDOW 64
+
+/** The link-local destination: every byte 0xFF (docs/routing.md). Never a valid entity ID. */
+#define UB_LINK_LOCAL_BYTE 0xFFu
+
+/** @return true if `id` is the link-local destination (UB_ENTITY_ID_LEN bytes of UB_LINK_LOCAL_BYTE). */
+bool ub_entity_id_is_link_local(const uint8_t id[UB_ENTITY_ID_LEN]);
+
+struct ub_route;
+struct ub_member;
 
 /** Direction of a tapped frame. */
 typedef enum ub_tap_dir { UB_TAP_RX = 0, UB_TAP_TX = 1 } ub_tap_dir_t;
@@ -119,6 +147,15 @@ typedef struct ub_node_counters {
     uint64_t leases_clamped;    /**< non-administrator leases shortened to the policy's max_lease_ms */
     uint64_t rows_evicted;      /**< non-administrator rows given up to an administrator's request (full table) */
     uint64_t random_failures;   /**< ub_node_options_t.random failed; the seeded generator stood in */
+    uint64_t entities_added;  /**< entity-table rows added (configuration and run time) */
+    uint64_t entities_removed; /**< entity-table rows removed (ub_node_remove_entity()) */
+    uint64_t links_added;     /**< link slots created */
+    uint64_t links_removed;   /**< link slots removed (ub_node_remove_link()) */
+    uint64_t rows_stopped;    /**< publish/subscribe rows stopped because an entity they named was removed */
+    uint64_t admin_rows_stopped; /**< administration rows deactivated because an entity they named was removed */
+    uint64_t dedup_cleared;   /**< duplicate windows cleared because their source was removed */
+    uint64_t membership_applied; /**< MEMBERSHIP requests served (ACKed) */
+    uint64_t membership_refused; /**< MEMBERSHIP requests NACKed (invalid, full, unsupported, not authorized) */
     uint64_t drops[UB_DROP_REASON_COUNT];
 } ub_node_counters_t;
 
@@ -144,6 +181,7 @@ typedef struct ub_local_entity {
     uint8_t entity;                              /**< its entity-table index */
     int16_t link_ids[UB_MAX_LINKS_PER_ENTITY];   /**< link[i] -> link slot, -1 if none */
     uint8_t masks[UB_MAX_ENTITIES];              /**< per destination entity-table index */
+    uint8_t pinned[UB_MAX_ENTITIES];             /**< 1: the mask was set by hand (routing leaves it alone) */
     ub_dedup_entry_t dedup[UB_DEDUP_SOURCES];
     ub_pubsub_table_t ps;
     ub_admin_t *admin;                           /**< attached administration table, or NULL */
@@ -171,6 +209,8 @@ struct ub_node {
     void *tap_user;
     ub_deliver_fn deliver;
     void *deliver_user;
+    struct ub_route *route;   /**< routing engine (ub_route_attach()), or NULL: manual masks only */
+    struct ub_member *member; /**< membership requester (ub_member_init()), or NULL */
     ub_node_counters_t counters;
 };
 
@@ -189,6 +229,21 @@ UB_CHECK int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_n
  */
 UB_CHECK int ub_node_add_entity(ub_node_t *node, const uint8_t id[UB_ENTITY_ID_LEN], bool local);
 
+/**
+ * Removes remote entity `entity` from the table at run time, and with it
+ * everything that names it: every local entity's mask toward it (pinned or
+ * not), the duplicate windows of it as a source, the routing engine's state
+ * for it, the publish/subscribe rows whose peer or owner it is (stopped with
+ * ub_pubsub_stop(): publications go at once, subscriptions send their PUB_STOP
+ * retries, which now count `no_route`, then go) and the active administration
+ * rows whose source or destination it is (deactivated with
+ * ub_admin_set_active()). Each is counted (ub_node_counters_t). The row may be
+ * reused by a later ub_node_add_entity().
+ * @return UB_OK; UB_ERR_INVAL (bad index, or a local entity: local entities
+ *         live as long as the node).
+ */
+UB_CHECK int ub_node_remove_entity(ub_node_t *node, int entity, uint64_t now_ms);
+
 /** Same as ub_node_add_entity() with the ID made from a name (ub_entity_id()); UB_ERR_RANGE if too long. */
 UB_CHECK int ub_node_add_entity_name(ub_node_t *node, const char *name, bool local);
 
@@ -201,12 +256,25 @@ const uint8_t *ub_node_entity_id(const ub_node_t *node, int entity);
 /**
  * Creates link slot `name` as `link[index]` of local entity `entity`. The slot
  * starts detached (frames sent on it are dropped as `detached`).
- * @return the link id (stable for the node's life); UB_ERR_INVAL (not local,
+ * @return the link id (stable until the link is removed); UB_ERR_INVAL (not local,
  *         index >= UB_MAX_LINKS_PER_ENTITY, empty name or longer than
  *         UB_LINK_NAME_LEN - 1), UB_ERR_EXISTS (index taken, or name used in
  *         this node), UB_ERR_FULL (UB_MAX_NODE_LINKS).
  */
 UB_CHECK int ub_node_add_link(ub_node_t *node, int entity, unsigned index, const char *name);
+
+/**
+ * Removes link slot `link_id` at run time: its bit is cleared from every mask
+ * of its owner (a pinned mask left empty is unpinned), the routing engine
+ * forgets its neighbour and the routes through it, the slot is freed (its
+ * counters go with it; the node-wide counters keep their totals) and its id
+ * may be reused by a later ub_node_add_link().
+ * The transport must be gone first, so that no driver can feed a reused id:
+ * close the port (ub_ports_close()) or ub_memlink_disconnect(), or
+ * ub_node_link_detach().
+ * @return UB_OK; UB_ERR_INVAL (bad id, or a transport is still attached).
+ */
+UB_CHECK int ub_node_remove_link(ub_node_t *node, int link_id);
 
 /** @return the link id named `name`, or UB_ERR_NOTFOUND. */
 UB_CHECK int ub_node_find_link(const ub_node_t *node, const char *name);
@@ -216,11 +284,25 @@ const ub_link_t *ub_node_link(const ub_node_t *node, int link_id);
 
 /**
  * Sets local entity `entity`'s link mask for destination `dest` (bit i = its
- * link[i]). The mask for the entity itself must be 0.
+ * link[i]) by hand, the paper's way. The mask for the entity itself must be 0.
+ * A non-zero mask *pins* the entry: a routing engine (ub_route.h) leaves it
+ * alone. Mask 0 clears the entry and unpins it, so an automatic route may
+ * fill it again.
  * @return UB_OK; UB_ERR_INVAL (bad indexes, not local, non-zero mask to
  *         itself); UB_ERR_NOTFOUND (a bit names a link[i] not created yet).
  */
 UB_CHECK int ub_node_set_mask(ub_node_t *node, int entity, int dest, uint8_t mask);
+
+/**
+ * Sets a mask on behalf of a routing engine: like ub_node_set_mask() but the
+ * entry is not pinned, and a pinned entry is left unchanged.
+ * @return UB_OK; UB_ERR_EXISTS (the entry is pinned, nothing written); the
+ *         errors of ub_node_set_mask().
+ */
+UB_CHECK int ub_node_set_auto_mask(ub_node_t *node, int entity, int dest, uint8_t mask);
+
+/** @return true if local entity `entity`'s mask toward `dest` was set by hand (pinned). */
+bool ub_node_mask_pinned(const ub_node_t *node, int entity, int dest);
 
 /** Reads a mask. @return UB_OK or UB_ERR_INVAL. */
 UB_CHECK int ub_node_get_mask(const ub_node_t *node, int entity, int dest, uint8_t *mask);
@@ -288,9 +370,31 @@ UB_CHECK int ub_node_send_data(ub_node_t *node, int entity, uint32_t instance, c
                                uint64_t now_ms);
 
 /**
+ * Originates one link-local frame (see "Link-local frames" above) with admin
+ * code `code` and `len` payload bytes on link `link_id` only, from the link's
+ * owner, hop limit 1, through the same path as every originated frame
+ * (sequence number, duplicate window, tap, counters).
+ * @return 1 if the transport accepted it, 0 if it refused it (counted as
+ *         tx_error / backpressure / detached); UB_ERR_INVAL (bad link id,
+ *         NULL payload with len > 0); UB_ERR_RANGE (len > UB_MAX_PAYLOAD).
+ */
+UB_CHECK int ub_node_send_link_local(ub_node_t *node, int link_id, ub_admin_code_t code, const uint8_t *payload,
+                                     uint16_t len, uint64_t now_ms);
+
+/**
+ * The one authorization question of the administrative plane: may entity
+ * `src_id` administer local entity `entity` (change its tables: membership
+ * today)? Every membership request received over a link asks it: true
+ * without a policy (the paper's closed lab), else only for the policy's
+ * administrators (ub_policy.h; docs/routing.md, "Membership").
+ */
+bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN]);
+
+/**
  * Advances every local entity's publish/subscribe table (and attached
  * administration table) to `now_ms`: due DATA, requests, renewals, timeouts,
- * lease expiry. Time must not go backwards.
+ * lease expiry; then the routing engine and the membership requester, if
+ * attached. Time must not go backwards.
  */
 void ub_node_tick(ub_node_t *node, uint64_t now_ms);
 

@@ -8,7 +8,8 @@
 
 typedef enum ub_admin_code {
     UB_ADMIN_DATA, UB_ADMIN_PUB_REQUEST, UB_ADMIN_SUB_REQUEST, UB_ADMIN_PUB_STOP,
-    UB_ADMIN_SUB_STOP, UB_ADMIN_ACK, UB_ADMIN_NACK, ...
+    UB_ADMIN_SUB_STOP, UB_ADMIN_ACK, UB_ADMIN_NACK, UB_ADMIN_HELLO, UB_ADMIN_ROUTE_UPDATE,
+    UB_ADMIN_MEMBERSHIP, ...
 } ub_admin_code_t;
 
 typedef struct ub_frame_header {

@@ -1,0 +1,744 @@
+/*
+ * Babel-like routing (ub_route.h, docs/routing.md). Every local entity of the
+ * node is a router over its own links; its state is the row [slot] of
+ * `dests`, the route entries of its links, and the per-link neighbour state.
+ * The node calls the ub_priv_route_* hooks; this file acts on the node only
+ * through its public API and ub_node_send_link_local().
+ */
+#include "ub/ub_route.h"
+
+#include <string.h>
+
+#include "ub/ub_wire.h"
+#include "ub_fleet_private.h"
+#include "ub_router_private.h"
+
+#define INF UB_ROUTE_INFINITY
+#define DEFAULT_HELLO_MS 1000u
+#define HISTORY_BITS 16u
+#define UPDATES_PER_EXPIRY_X2 7u /* routes expire after 3.5 update intervals */
+
+/* Payload offsets (docs/routing.md, "Frame layouts"). */
+#define OFF_VERSION 0u
+#define OFF_FLAGS 1u
+#define OFF_HELLO_SEQ 2u
+#define OFF_HELLO_MS 4u
+#define OFF_UPDATE_MS 6u
+#define OFF_IHU_COST 8u
+#define OFF_N_UPDATES 10u
+#define OFF_N_REQUESTS 11u
+#define OFF_IHU_ID 12u
+#define ENT_ID 0u
+#define ENT_SEQNO 12u
+#define ENT_METRIC 14u /* update entries */
+#define ENT_HOPS 14u   /* request entries */
+
+#define MAX_ENTRIES ((UB_MAX_PAYLOAD - UB_ROUTE_HDR_LEN) / UB_ROUTE_ENTRY_LEN > 255u \
+                         ? 255u                                                    \
+                         : (UB_MAX_PAYLOAD - UB_ROUTE_HDR_LEN) / UB_ROUTE_ENTRY_LEN)
+
+/* ---- small helpers ----------------------------------------------------------------------------------- */
+
+/* Serial-number comparison (RFC 8966 3.2.1): a newer than b. */
+static bool seq_newer(uint16_t a, uint16_t b) { return (int16_t)(uint16_t)(a - b) > 0; }
+
+static uint16_t metric_add(uint16_t a, uint16_t b) {
+    uint32_t s = (uint32_t)a + b;
+    return s >= INF ? (uint16_t)INF : (uint16_t)s;
+}
+
+static unsigned popcount16(uint16_t v) {
+    unsigned n = 0;
+    for (; v != 0; v &= (uint16_t)(v - 1)) n++;
+    return n;
+}
+
+static const ub_link_t *node_link(const ub_route_t *rt, int link_id) { return ub_node_link(rt->node, link_id); }
+
+static const uint8_t *slot_id(const ub_route_t *rt, int slot) {
+    return ub_node_entity_id(rt->node, ub_priv_slot_entity(rt->node, slot));
+}
+
+/* Link id of link[i] of local slot `slot`, or -1. */
+static int slot_link(const ub_route_t *rt, int slot, unsigned i) { return rt->node->locals[slot].link_ids[i]; }
+
+static bool entity_local(const ub_route_t *rt, int e) {
+    return rt->node->entities[e].in_use && rt->node->entities[e].local >= 0;
+}
+
+static uint8_t all_link_bits(const ub_route_t *rt, int slot) {
+    uint8_t bits = 0;
+    for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++)
+        if (slot_link(rt, slot, i) >= 0) bits |= (uint8_t)(1u << i);
+    return bits;
+}
+
+/* ---- link quality (RFC 8966 3.4, A.2.2) ------------------------------------------------------------ */
+
+static uint16_t rxcost_of(const ub_route_t *rt, const ub_route_link_t *l) {
+    if (!l->nb_in_use || l->samples == 0) return INF;
+    uint16_t recent = (uint16_t)((1u << rt->opt.dead_misses) - 1u);
+    if (l->samples >= rt->opt.dead_misses && (l->history & recent) == 0) return INF;
+    uint16_t window = l->samples >= HISTORY_BITS ? 0xFFFFu : (uint16_t)((1u << l->samples) - 1u);
+    unsigned got = popcount16(l->history & window);
+    if (got == 0) return INF;
+    uint32_t c = UB_ROUTE_LINK_COST * l->samples / got; /* 256 / beta */
+    return c >= INF ? (uint16_t)(INF - 1) : (uint16_t)c;
+}
+
+static uint16_t cost_of(const ub_route_t *rt, const ub_route_link_t *l) {
+    uint16_t rx = rxcost_of(rt, l);
+    if (rx == INF || l->txcost == INF) return INF;
+    /* 256 / (alpha * beta), alpha = min(1, 256 / txcost): the loss in both directions. */
+    uint32_t tx = l->txcost < UB_ROUTE_LINK_COST ? UB_ROUTE_LINK_COST : l->txcost;
+    uint32_t c = tx * rx / UB_ROUTE_LINK_COST;
+    return c >= INF ? (uint16_t)(INF - 1) : (uint16_t)c;
+}
+
+static void mark_slot(ub_route_t *rt, int link_id) {
+    const ub_link_t *link = node_link(rt, link_id);
+    if (link != NULL) rt->reselect[link->owner] = 1;
+}
+
+/* Forgets the neighbour of a link and every route through it. */
+static void drop_neighbour(ub_route_t *rt, int link_id) {
+    ub_route_link_t *l = &rt->links[link_id];
+    for (int e = 0; e < UB_MAX_ENTITIES; e++) memset(&rt->routes[e][link_id], 0, sizeof rt->routes[e][link_id]);
+    l->nb_in_use = 0;
+    memset(l->nb_id, 0, sizeof l->nb_id);
+    l->history = 0;
+    l->samples = 0;
+    l->txcost = INF;
+    l->last_cost = INF;
+    mark_slot(rt, link_id);
+}
+
+static ub_route_link_t *activate(ub_route_t *rt, int link_id, uint64_t now_ms) {
+    ub_route_link_t *l = &rt->links[link_id];
+    if (!l->active) {
+        memset(l, 0, sizeof *l);
+        l->active = 1;
+        l->txcost = INF;
+        l->last_cost = INF;
+        l->next_hello_ms = now_ms;
+        l->dump_due_ms = now_ms;
+    }
+    return l;
+}
+
+/* A hello (any routing frame) with sequence `seq` arrived: RFC 8966 3.4.1. */
+static void hello_heard(ub_route_link_t *l, uint16_t seq, uint32_t hello_ms, uint64_t now_ms) {
+    int16_t diff = (int16_t)(uint16_t)(seq - l->expected_seq);
+    if (l->samples == 0 || diff > (int16_t)HISTORY_BITS || diff < -(int16_t)HISTORY_BITS) {
+        l->history = 0; /* new neighbour, or it restarted its hello counter */
+        l->samples = 0;
+    } else if (diff > 0) { /* hellos we missed without the timer noticing */
+        l->history = (uint16_t)(l->history << diff);
+        int n = l->samples + diff;
+        l->samples = (uint8_t)(n > (int)HISTORY_BITS ? (int)HISTORY_BITS : n);
+    } else if (diff < 0) { /* the timer counted misses that were only late: take them back */
+        l->history = (uint16_t)(l->history >> -diff);
+        l->samples = (uint8_t)(l->samples > -diff ? l->samples + diff : 0);
+    }
+    l->history = (uint16_t)((l->history << 1) | 1u);
+    if (l->samples < HISTORY_BITS) l->samples++;
+    l->expected_seq = (uint16_t)(seq + 1u);
+    l->nb_hello_ms = hello_ms;
+    /* Half an interval of slack for scheduling jitter before a hello counts as missed. */
+    l->next_miss_ms = now_ms + hello_ms + hello_ms / 2u;
+}
+
+/* ---- feasibility and selection (RFC 8966 3.5, 3.6) ------------------------------------------------- */
+
+static bool feasible(const ub_route_dest_t *ds, uint16_t seqno, uint16_t metric) {
+    if (metric == INF || !ds->fd_valid) return true;
+    return seq_newer(seqno, ds->fd_seqno) || (seqno == ds->fd_seqno && metric < ds->fd_metric);
+}
+
+static void make_dirty(ub_route_t *rt, int slot, int e) { rt->dests[slot][e].dirty_links = all_link_bits(rt, slot); }
+
+/* Asks the neighbours of `slot` for a newer seqno of `e` (starvation, RFC 8966 3.8.2.1); once per hello. */
+static void request_seqno(ub_route_t *rt, int slot, int e, uint64_t now_ms) {
+    ub_route_dest_t *ds = &rt->dests[slot][e];
+    if (!ds->fd_valid) return; /* without a feasibility distance every update is feasible */
+    if (ds->req_links != 0 || (ds->starve_at_ms != 0 && now_ms < ds->starve_at_ms + rt->opt.hello_ms)) return;
+    ds->req_seqno = (uint16_t)(ds->fd_seqno + 1u);
+    ds->req_hops = UB_ROUTE_REQUEST_HOPS;
+    ds->req_links = all_link_bits(rt, slot);
+    ds->starve_at_ms = now_ms;
+    rt->counters.starvation_requests++;
+}
+
+static uint8_t compute_mask(const ub_route_t *rt, int slot, int e) {
+    const ub_route_dest_t *ds = &rt->dests[slot][e];
+    if (ds->sel_link < 0) return 0;
+    const ub_link_t *sel = node_link(rt, ds->sel_link);
+    if (sel == NULL) return 0;
+    uint8_t mask = (uint8_t)(1u << sel->index);
+    if (rt->opt.parallel == UB_ROUTE_PARALLEL_BEST) return mask;
+    const uint8_t *nb = rt->links[ds->sel_link].nb_id;
+    for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) {
+        int lid = slot_link(rt, slot, i);
+        if (lid < 0) continue;
+        const ub_route_link_t *l = &rt->links[lid];
+        const ub_route_entry_t *r = &rt->routes[e][lid];
+        if (!l->nb_in_use || memcmp(l->nb_id, nb, UB_ENTITY_ID_LEN) != 0 || cost_of(rt, l) == INF) continue;
+        if (!r->in_use || r->metric == INF || !feasible(ds, r->seqno, r->metric)) continue;
+        mask |= (uint8_t)(1u << i);
+    }
+    return mask;
+}
+
+static void install_mask(ub_route_t *rt, int slot, int e) {
+    int self = ub_priv_slot_entity(rt->node, slot);
+    uint8_t want = compute_mask(rt, slot, e);
+    uint8_t before = rt->dests[slot][e].mask;
+    rt->dests[slot][e].mask = want;
+    uint8_t have = 0;
+    if (ub_node_get_mask(rt->node, self, e, &have) != UB_OK || have == want) return;
+    if (ub_node_mask_pinned(rt->node, self, e)) {
+        if (before != want) rt->counters.pinned_skips++;
+        return;
+    }
+    if (ub_node_set_auto_mask(rt->node, self, e, want) != UB_OK) rt->counters.pinned_skips++;
+}
+
+static void select_route(ub_route_t *rt, int slot, int e, uint64_t now_ms) {
+    ub_route_dest_t *ds = &rt->dests[slot][e];
+    int best = -1;
+    uint16_t best_metric = INF, cur_metric = INF;
+    bool unfeasible_left = false;
+    for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) {
+        int lid = slot_link(rt, slot, i);
+        if (lid < 0) continue;
+        const ub_route_entry_t *r = &rt->routes[e][lid];
+        if (!r->in_use || r->metric == INF) continue;
+        uint16_t c = cost_of(rt, &rt->links[lid]);
+        if (c == INF) continue;
+        uint16_t m = metric_add(c, r->metric);
+        if (m == INF) continue;
+        if (!feasible(ds, r->seqno, r->metric)) {
+            unfeasible_left = true;
+            continue;
+        }
+        if (lid == ds->sel_link) cur_metric = m;
+        if (m < best_metric || (m == best_metric && lid == ds->sel_link)) {
+            best = lid;
+            best_metric = m;
+        }
+    }
+    /* Hysteresis: leave a working route only for one clearly better (1/16), so ETX noise does not flap. */
+    if (cur_metric != INF && best != ds->sel_link && (uint32_t)best_metric + cur_metric / 16u >= cur_metric) {
+        best = ds->sel_link;
+        best_metric = cur_metric;
+    }
+    bool had = ds->sel_link >= 0;
+    if (best >= 0) {
+        uint16_t seqno = rt->routes[e][best].seqno;
+        uint16_t old = ds->metric;
+        uint16_t delta = best_metric > old ? (uint16_t)(best_metric - old) : (uint16_t)(old - best_metric);
+        bool significant = !had || ds->retracting || seqno != ds->seqno || delta > UB_ROUTE_LINK_COST / 4u + old / 4u;
+        if (had && best != ds->sel_link &&
+            memcmp(rt->links[best].nb_id, rt->links[ds->sel_link].nb_id, UB_ENTITY_ID_LEN) != 0)
+            rt->counters.route_changes++;
+        if (!had) rt->counters.routes_found++;
+        ds->sel_link = (int8_t)best;
+        ds->metric = best_metric;
+        ds->seqno = seqno;
+        ds->retracting = 0;
+        if (significant) make_dirty(rt, slot, e);
+    } else if (had) {
+        ds->sel_link = -1;
+        ds->metric = INF;
+        ds->retracting = 1;
+        ds->retract_until_ms = now_ms + 2u * rt->opt.update_ms;
+        make_dirty(rt, slot, e);
+        rt->counters.routes_lost++;
+    }
+    if (best < 0 && unfeasible_left) request_seqno(rt, slot, e, now_ms);
+    else ds->starve_at_ms = 0;
+    install_mask(rt, slot, e);
+}
+
+static void reselect_slot(ub_route_t *rt, int slot, uint64_t now_ms) {
+    rt->reselect[slot] = 0;
+    for (int e = 0; e < UB_MAX_ENTITIES; e++) {
+        if (!rt->node->entities[e].in_use || entity_local(rt, e)) continue;
+        select_route(rt, slot, e, now_ms);
+    }
+}
+
+/* ---- receiving --------------------------------------------------------------------------------------- */
+
+static bool tombstoned(ub_route_t *rt, const uint8_t id[UB_ENTITY_ID_LEN], uint64_t now_ms) {
+    for (size_t i = 0; i < UB_ROUTE_TOMBSTONES; i++)
+        if (rt->tomb[i].until_ms > now_ms && memcmp(rt->tomb[i].id, id, UB_ENTITY_ID_LEN) == 0) return true;
+    return false;
+}
+
+/* Entity-table index for an advertised destination, learning it if allowed; -1 to ignore the entry. */
+static int destination(ub_route_t *rt, const uint8_t id[UB_ENTITY_ID_LEN], uint16_t metric, uint64_t now_ms) {
+    if (ub_priv_id_is_zero(id) || ub_entity_id_is_link_local(id)) return -1;
+    int e = ub_node_find_entity(rt->node, id);
+    if (e >= 0) return e;
+    if (metric == INF) return -1; /* a retraction of something we never knew */
+    if (rt->opt.no_learn || tombstoned(rt, id, now_ms)) {
+        rt->counters.learn_refused++;
+        return -1;
+    }
+    e = ub_node_add_entity(rt->node, id, false);
+    if (e < 0) {
+        rt->counters.learn_full++;
+        return -1;
+    }
+    rt->learned[e] = 1;
+    rt->counters.learned++;
+    return e;
+}
+
+static void on_update(ub_route_t *rt, int slot, int link_id, const uint8_t *ent, uint32_t update_ms, uint64_t now_ms) {
+    uint16_t seqno = ub_get_u16le(ent + ENT_SEQNO);
+    uint16_t metric = ub_get_u16le(ent + ENT_METRIC);
+    int e = destination(rt, ent + ENT_ID, metric, now_ms);
+    if (e < 0 || entity_local(rt, e)) return; /* ours: we are the source */
+    ub_route_entry_t *r = &rt->routes[e][link_id];
+    ub_route_dest_t *ds = &rt->dests[slot][e];
+    if (!r->in_use && !feasible(ds, seqno, metric)) {
+        /* RFC 8966 3.5.4: no route to update and an unfeasible one is not taken; if we have
+         * nothing better, the destination should hear that we starve. */
+        rt->counters.unfeasible++;
+        if (ds->sel_link < 0) request_seqno(rt, slot, e, now_ms);
+        return;
+    }
+    r->in_use = 1;
+    r->seqno = seqno;
+    r->metric = metric;
+    r->expires_ms = now_ms + (uint64_t)update_ms * UPDATES_PER_EXPIRY_X2 / 2u;
+    rt->reselect[slot] = 1;
+}
+
+static void on_request(ub_route_t *rt, int slot, int link_id, const uint8_t *from, const uint8_t *ent,
+                       uint64_t now_ms) {
+    uint16_t seqno = ub_get_u16le(ent + ENT_SEQNO);
+    uint8_t hops = ent[ENT_HOPS];
+    int e = ub_node_find_entity(rt->node, ent + ENT_ID);
+    if (e < 0) {
+        rt->counters.requests_dropped++;
+        return;
+    }
+    int here = rt->node->entities[e].local;
+    if (here >= 0) {
+        /* We are the source: raise the seqno (RFC 8966 3.8.1.2) and tell everyone. */
+        if (seq_newer(seqno, rt->seqno[here])) {
+            rt->seqno[here] = seqno;
+            rt->counters.seqno_bumps++;
+        }
+        for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++)
+            if (rt->node->locals[s].in_use) make_dirty(rt, s, e);
+        rt->counters.requests_answered++;
+        return;
+    }
+    ub_route_dest_t *ds = &rt->dests[slot][e];
+    const ub_link_t *in = node_link(rt, link_id);
+    if (ds->sel_link < 0 || ds->metric == INF) {
+        rt->counters.requests_dropped++;
+    } else if (!seq_newer(seqno, ds->seqno)) {
+        ds->dirty_links |= (uint8_t)(1u << in->index); /* we have it: answer with our route */
+        rt->counters.requests_answered++;
+    } else if (hops > 1 && memcmp(rt->links[ds->sel_link].nb_id, from, UB_ENTITY_ID_LEN) != 0) {
+        const ub_link_t *out = node_link(rt, ds->sel_link);
+        bool again = ds->req_links != 0 && !seq_newer(seqno, ds->req_seqno);
+        bool recent = ds->req_at_ms != 0 && now_ms < ds->req_at_ms + rt->opt.hello_ms && !seq_newer(seqno, ds->req_seqno);
+        if (!again && !recent) {
+            ds->req_seqno = seqno;
+            ds->req_hops = (uint8_t)(hops - 1u);
+            ds->req_links |= (uint8_t)(1u << out->index);
+            ds->req_at_ms = now_ms;
+            rt->counters.requests_forwarded++;
+        }
+    } else {
+        rt->counters.requests_dropped++;
+    }
+}
+
+int ub_priv_route_on_frame(ub_route_t *rt, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
+                           uint64_t now_ms) {
+    const ub_link_t *link = node_link(rt, link_id);
+    if (link == NULL) return UB_ERR_INVAL;
+    ub_route_link_t *l = activate(rt, link_id, now_ms);
+    uint16_t len = h->payload_size;
+    if (len < UB_ROUTE_HDR_LEN || payload[OFF_VERSION] != UB_ROUTE_WIRE_VERSION) {
+        l->stats.bad_in++;
+        return len < UB_ROUTE_HDR_LEN ? UB_ERR_TRUNCATED : UB_ERR_INVAL;
+    }
+    unsigned n_upd = payload[OFF_N_UPDATES], n_req = payload[OFF_N_REQUESTS];
+    uint32_t hello_ms = ub_get_u16le(payload + OFF_HELLO_MS);
+    uint32_t update_ms = ub_get_u16le(payload + OFF_UPDATE_MS);
+    if ((size_t)UB_ROUTE_HDR_LEN + (n_upd + n_req) * UB_ROUTE_ENTRY_LEN != len || hello_ms == 0 ||
+        update_ms < hello_ms || (h->admin == UB_ADMIN_HELLO && n_upd + n_req != 0)) {
+        l->stats.bad_in++;
+        return UB_ERR_INVAL;
+    }
+    int slot = link->owner;
+    if (memcmp(h->src_id, slot_id(rt, slot), UB_ENTITY_ID_LEN) == 0) {
+        l->stats.bad_in++; /* our own frame looped back over a link: nothing to learn from it */
+        return UB_OK;
+    }
+    if (l->nb_in_use && memcmp(l->nb_id, h->src_id, UB_ENTITY_ID_LEN) != 0) {
+        drop_neighbour(rt, link_id); /* someone else answers on this link now */
+        l->stats.neighbour_changes++;
+    }
+    if (!l->nb_in_use) {
+        l->nb_in_use = 1;
+        memcpy(l->nb_id, h->src_id, UB_ENTITY_ID_LEN);
+        l->next_hello_ms = now_ms; /* answer at once: it needs our IHU to use the link */
+    }
+    l->stats.frames_in++;
+    hello_heard(l, ub_get_u16le(payload + OFF_HELLO_SEQ), hello_ms, now_ms);
+    l->nb_update_ms = update_ms;
+    bool about_us = memcmp(payload + OFF_IHU_ID, slot_id(rt, slot), UB_ENTITY_ID_LEN) == 0;
+    l->txcost = about_us ? ub_get_u16le(payload + OFF_IHU_COST) : (uint16_t)INF;
+    uint16_t cost = cost_of(rt, l);
+    if (cost != l->last_cost) {
+        l->last_cost = cost;
+        rt->reselect[slot] = 1;
+    }
+    const uint8_t *ent = payload + UB_ROUTE_HDR_LEN;
+    for (unsigned i = 0; i < n_upd; i++, ent += UB_ROUTE_ENTRY_LEN) {
+        l->stats.entries_in++;
+        on_update(rt, slot, link_id, ent, update_ms, now_ms);
+    }
+    for (unsigned i = 0; i < n_req; i++, ent += UB_ROUTE_ENTRY_LEN) {
+        l->stats.requests_in++;
+        on_request(rt, slot, link_id, h->src_id, ent, now_ms);
+    }
+    if (rt->reselect[slot]) reselect_slot(rt, slot, now_ms);
+    return UB_OK;
+}
+
+/* ---- sending ----------------------------------------------------------------------------------------- */
+
+/* Whether local slot `slot` advertises destination `e` now, and with what. */
+static bool advertised(const ub_route_t *rt, int slot, int e, uint16_t *seqno, uint16_t *metric) {
+    const ub_entity_row_t *row = &rt->node->entities[e];
+    if (!row->in_use) return false;
+    if (row->local >= 0) { /* an entity of this node: the source itself */
+        *seqno = rt->seqno[row->local];
+        *metric = 0;
+        return true;
+    }
+    const ub_route_dest_t *ds = &rt->dests[slot][e];
+    if (ds->sel_link >= 0 || ds->retracting) {
+        *seqno = ds->seqno;
+        *metric = ds->sel_link >= 0 ? ds->metric : (uint16_t)INF;
+        return true;
+    }
+    return false;
+}
+
+/* Writes one update entry; advertising a finite metric sets the feasibility distance (RFC 8966 3.7.3). */
+static void put_update(ub_route_t *rt, int slot, int e, uint8_t *ent, uint16_t seqno, uint16_t metric,
+                       uint64_t now_ms) {
+    memcpy(ent + ENT_ID, rt->node->entities[e].id, UB_ENTITY_ID_LEN);
+    ub_put_u16le(ent + ENT_SEQNO, seqno);
+    ub_put_u16le(ent + ENT_METRIC, metric);
+    if (entity_local(rt, e) || metric == INF) return;
+    ub_route_dest_t *ds = &rt->dests[slot][e];
+    if (!ds->fd_valid || seq_newer(seqno, ds->fd_seqno) || (seqno == ds->fd_seqno && metric < ds->fd_metric)) {
+        ds->fd_valid = 1;
+        ds->fd_seqno = seqno;
+        ds->fd_metric = metric;
+    }
+    ds->fd_touched_ms = now_ms;
+}
+
+static void send_frame(ub_route_t *rt, int link_id, bool triggered, uint64_t now_ms) {
+    const ub_link_t *link = node_link(rt, link_id);
+    ub_route_link_t *l = &rt->links[link_id];
+    int slot = link->owner;
+    uint8_t bit = (uint8_t)(1u << link->index);
+    uint8_t buf[UB_ROUTE_HDR_LEN + MAX_ENTRIES * UB_ROUTE_ENTRY_LEN];
+    uint8_t reqs[UB_MAX_ENTITIES][UB_ROUTE_ENTRY_LEN];
+    uint8_t in_frame[UB_MAX_ENTITIES] = {0};
+    unsigned n_upd = 0, n_req = 0;
+    uint16_t seqno, metric;
+
+    /* Seqno requests first (they are what a starving neighbour waits for), then triggered entries, then a
+     * slice of the full table when one is due. */
+    for (int e = 0; e < UB_MAX_ENTITIES && n_req < MAX_ENTRIES; e++) {
+        ub_route_dest_t *ds = &rt->dests[slot][e];
+        if (!(ds->req_links & bit)) continue;
+        ds->req_links &= (uint8_t)~bit;
+        if (!rt->node->entities[e].in_use) continue;
+        memcpy(reqs[n_req] + ENT_ID, rt->node->entities[e].id, UB_ENTITY_ID_LEN);
+        ub_put_u16le(reqs[n_req] + ENT_SEQNO, ds->req_seqno);
+        reqs[n_req][ENT_HOPS] = ds->req_hops;
+        reqs[n_req][ENT_HOPS + 1] = 0;
+        n_req++;
+    }
+    uint8_t *ent = buf + UB_ROUTE_HDR_LEN;
+    for (int e = 0; e < UB_MAX_ENTITIES && n_upd + n_req < MAX_ENTRIES; e++) {
+        ub_route_dest_t *ds = &rt->dests[slot][e];
+        if (!(ds->dirty_links & bit)) continue;
+        ds->dirty_links &= (uint8_t)~bit;
+        if (!advertised(rt, slot, e, &seqno, &metric)) continue;
+        put_update(rt, slot, e, ent + n_upd * UB_ROUTE_ENTRY_LEN, seqno, metric, now_ms);
+        in_frame[e] = 1;
+        n_upd++;
+    }
+    if (l->dumping || now_ms >= l->dump_due_ms) {
+        l->dumping = 1;
+        while (l->dump_cursor < UB_MAX_ENTITIES && n_upd + n_req < MAX_ENTRIES) {
+            int e = l->dump_cursor++;
+            if (in_frame[e] || !advertised(rt, slot, e, &seqno, &metric)) continue;
+            put_update(rt, slot, e, ent + n_upd * UB_ROUTE_ENTRY_LEN, seqno, metric, now_ms);
+            n_upd++;
+        }
+        if (l->dump_cursor >= UB_MAX_ENTITIES) {
+            l->dumping = 0;
+            l->dump_cursor = 0;
+            l->dump_due_ms = now_ms + rt->opt.update_ms;
+        }
+    }
+    memcpy(ent + n_upd * UB_ROUTE_ENTRY_LEN, reqs, n_req * UB_ROUTE_ENTRY_LEN);
+
+    buf[OFF_VERSION] = UB_ROUTE_WIRE_VERSION;
+    buf[OFF_FLAGS] = 0;
+    ub_put_u16le(buf + OFF_HELLO_SEQ, l->hello_seq++);
+    ub_put_u16le(buf + OFF_HELLO_MS, (uint16_t)rt->opt.hello_ms);
+    ub_put_u16le(buf + OFF_UPDATE_MS, (uint16_t)rt->opt.update_ms);
+    ub_put_u16le(buf + OFF_IHU_COST, rxcost_of(rt, l));
+    buf[OFF_N_UPDATES] = (uint8_t)n_upd;
+    buf[OFF_N_REQUESTS] = (uint8_t)n_req;
+    if (l->nb_in_use) memcpy(buf + OFF_IHU_ID, l->nb_id, UB_ENTITY_ID_LEN);
+    else memset(buf + OFF_IHU_ID, 0, UB_ENTITY_ID_LEN);
+    uint16_t len = (uint16_t)(UB_ROUTE_HDR_LEN + (n_upd + n_req) * UB_ROUTE_ENTRY_LEN);
+    ub_admin_code_t code = n_upd + n_req > 0 ? UB_ADMIN_ROUTE_UPDATE : UB_ADMIN_HELLO;
+
+    l->next_hello_ms = now_ms + rt->opt.hello_ms;
+    l->last_tx_ms = now_ms;
+    l->sent_any = 1;
+    if (ub_node_send_link_local(rt->node, link_id, code, buf, len, now_ms) != 1) {
+        l->stats.refused_out++;
+        return;
+    }
+    l->stats.frames_out++;
+    l->stats.bytes_out += len;
+    l->stats.entries_out += n_upd;
+    l->stats.requests_out += n_req;
+    if (code == UB_ADMIN_HELLO) l->stats.hellos_out++;
+    if (triggered) l->stats.triggered_out++;
+}
+
+/* Whether link[bit] of `slot` owes a triggered entry or a request. */
+static bool owes(const ub_route_t *rt, int slot, uint8_t bit) {
+    for (int e = 0; e < UB_MAX_ENTITIES; e++) {
+        const ub_route_dest_t *ds = &rt->dests[slot][e];
+        if ((ds->dirty_links | ds->req_links) & bit) return true;
+    }
+    return false;
+}
+
+/* ---- timers ------------------------------------------------------------------------------------------ */
+
+static void link_timers(ub_route_t *rt, int link_id, uint64_t now_ms) {
+    ub_route_link_t *l = &rt->links[link_id];
+    bool changed = false;
+    while (l->nb_in_use && now_ms >= l->next_miss_ms) {
+        /* An expected hello did not come (RFC 8966 3.4.1: the expected seqno moves on). */
+        l->history = (uint16_t)(l->history << 1);
+        if (l->samples < HISTORY_BITS) l->samples++;
+        l->expected_seq++;
+        l->next_miss_ms += l->nb_hello_ms;
+        changed = true;
+        if (l->samples >= HISTORY_BITS && l->history == 0) {
+            drop_neighbour(rt, link_id); /* silent for 16 intervals: forget it */
+            l->stats.link_downs++;
+            break;
+        }
+    }
+    uint16_t cost = cost_of(rt, l);
+    if (changed || cost != l->last_cost) {
+        l->last_cost = cost;
+        mark_slot(rt, link_id);
+    }
+}
+
+static void route_timers(ub_route_t *rt, uint64_t now_ms) {
+    for (int e = 0; e < UB_MAX_ENTITIES; e++) {
+        for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) {
+            ub_route_entry_t *r = &rt->routes[e][lid];
+            if (!r->in_use || now_ms < r->expires_ms) continue;
+            memset(r, 0, sizeof *r);
+            rt->counters.expired++;
+            mark_slot(rt, lid);
+        }
+    }
+    for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
+        if (!rt->node->locals[slot].in_use) continue;
+        for (int e = 0; e < UB_MAX_ENTITIES; e++) {
+            ub_route_dest_t *ds = &rt->dests[slot][e];
+            if (ds->retracting && now_ms >= ds->retract_until_ms) ds->retracting = 0;
+            if (ds->starve_at_ms != 0 && now_ms >= ds->starve_at_ms + rt->opt.hello_ms)
+                rt->reselect[slot] = 1; /* still starving? selection asks again */
+            if (ds->fd_valid && ds->sel_link < 0 && !ds->retracting && now_ms >= ds->fd_touched_ms + rt->opt.source_gc_ms) {
+                bool any = false;
+                for (int lid = 0; lid < UB_MAX_NODE_LINKS && !any; lid++) any = rt->routes[e][lid].in_use != 0;
+                if (!any) ds->fd_valid = 0;
+            }
+        }
+    }
+}
+
+void ub_priv_route_tick(ub_route_t *rt, uint64_t now_ms) {
+    for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) {
+        const ub_link_t *link = node_link(rt, lid);
+        if (link == NULL) continue;
+        activate(rt, lid, now_ms);
+        link_timers(rt, lid, now_ms);
+    }
+    route_timers(rt, now_ms);
+    for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++)
+        if (rt->node->locals[slot].in_use && rt->reselect[slot]) reselect_slot(rt, slot, now_ms);
+    for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) {
+        const ub_link_t *link = node_link(rt, lid);
+        if (link == NULL || link->ops == NULL) continue; /* detached: the neighbour will time us out */
+        ub_route_link_t *l = &rt->links[lid];
+        bool due = now_ms >= l->next_hello_ms;
+        bool trigger = !due && now_ms >= l->last_tx_ms + rt->opt.trigger_gap_ms &&
+                       owes(rt, link->owner, (uint8_t)(1u << link->index));
+        if (due || trigger) send_frame(rt, lid, trigger, now_ms);
+    }
+}
+
+/* ---- membership hooks -------------------------------------------------------------------------------- */
+
+void ub_priv_route_forget_entity(ub_route_t *rt, int entity, const uint8_t id[UB_ENTITY_ID_LEN], uint64_t now_ms) {
+    if (entity < 0 || entity >= UB_MAX_ENTITIES) return;
+    for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) memset(&rt->routes[entity][lid], 0, sizeof(ub_route_entry_t));
+    for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
+        memset(&rt->dests[slot][entity], 0, sizeof(ub_route_dest_t));
+        rt->dests[slot][entity].sel_link = -1;
+    }
+    rt->learned[entity] = 0;
+    /* Neighbours keep advertising it until their routes expire: do not learn it back meanwhile. */
+    size_t victim = 0;
+    for (size_t i = 0; i < UB_ROUTE_TOMBSTONES; i++)
+        if (rt->tomb[i].until_ms < rt->tomb[victim].until_ms) victim = i;
+    memcpy(rt->tomb[victim].id, id, UB_ENTITY_ID_LEN);
+    rt->tomb[victim].until_ms = now_ms + 4u * (uint64_t)rt->opt.update_ms;
+}
+
+void ub_priv_route_forget_link(ub_route_t *rt, int link_id, uint64_t now_ms) {
+    (void)now_ms;
+    if (link_id < 0 || link_id >= UB_MAX_NODE_LINKS) return;
+    const ub_link_t *link = node_link(rt, link_id);
+    drop_neighbour(rt, link_id);
+    if (link != NULL) {
+        uint8_t bit = (uint8_t)(1u << link->index);
+        for (int e = 0; e < UB_MAX_ENTITIES; e++) {
+            rt->dests[link->owner][e].dirty_links &= (uint8_t)~bit;
+            rt->dests[link->owner][e].req_links &= (uint8_t)~bit;
+        }
+    }
+    memset(&rt->links[link_id], 0, sizeof rt->links[link_id]);
+}
+
+/* ---- API --------------------------------------------------------------------------------------------- */
+
+int ub_route_attach(ub_route_t *rt, ub_node_t *node, const ub_route_options_t *opt, uint64_t now_ms) {
+    (void)now_ms;
+    if (rt == NULL || node == NULL) return UB_ERR_INVAL;
+    ub_route_options_t o = {0};
+    if (opt != NULL) o = *opt;
+    if (o.hello_ms == 0) o.hello_ms = DEFAULT_HELLO_MS;
+    if (o.update_ms == 0) o.update_ms = 4u * o.hello_ms > 0xFFFFu ? 0xFFFFu : 4u * o.hello_ms;
+    if (o.trigger_gap_ms == 0) o.trigger_gap_ms = o.hello_ms / 20u > 0 ? o.hello_ms / 20u : 1u;
+    if (o.source_gc_ms == 0) o.source_gc_ms = 16u * o.update_ms;
+    if (o.dead_misses == 0) o.dead_misses = 2;
+    if (o.hello_ms < 10u || o.hello_ms > 0xFFFFu || o.update_ms < o.hello_ms || o.update_ms > 0xFFFFu ||
+        o.dead_misses > HISTORY_BITS || o.parallel > UB_ROUTE_PARALLEL_BEST)
+        return UB_ERR_INVAL;
+    memset(rt, 0, sizeof *rt);
+    rt->node = node;
+    rt->opt = o;
+    for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) {
+        rt->seqno[s] = o.initial_seqno;
+        for (int e = 0; e < UB_MAX_ENTITIES; e++) rt->dests[s][e].sel_link = -1;
+    }
+    node->route = rt;
+    return UB_OK;
+}
+
+void ub_route_detach(ub_route_t *rt) {
+    if (rt == NULL || rt->node == NULL) return;
+    ub_node_t *node = rt->node;
+    for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
+        int self = ub_priv_slot_entity(node, slot);
+        if (self < 0) continue;
+        for (int e = 0; e < UB_MAX_ENTITIES; e++)
+            if (node->entities[e].in_use && !ub_node_mask_pinned(node, self, e) && e != self &&
+                ub_node_set_auto_mask(node, self, e, 0) != UB_OK) {
+                /* cannot fail: an unpinned entry toward a known entity */
+            }
+    }
+    if (node->route == rt) node->route = NULL;
+    rt->node = NULL;
+}
+
+int ub_route_get(const ub_route_t *rt, int entity, int dest, ub_route_info_t *out) {
+    if (rt == NULL || rt->node == NULL || out == NULL) return UB_ERR_INVAL;
+    int slot = ub_priv_local_slot(rt->node, entity);
+    if (slot < 0 || ub_node_entity_id(rt->node, dest) == NULL) return UB_ERR_INVAL;
+    memset(out, 0, sizeof *out);
+    const ub_route_dest_t *ds = &rt->dests[slot][dest];
+    out->local = entity_local(rt, dest);
+    out->learned = rt->learned[dest] != 0;
+    out->pinned = ub_node_mask_pinned(rt->node, entity, dest);
+    out->link_id = out->local ? -1 : ds->sel_link;
+    out->reachable = !out->local && ds->sel_link >= 0;
+    out->retracting = ds->retracting != 0;
+    out->metric = out->local ? 0 : (out->reachable ? ds->metric : (uint16_t)INF);
+    out->seqno = out->local ? rt->seqno[rt->node->entities[dest].local] : ds->seqno;
+    out->mask = out->local ? 0 : ds->mask;
+    out->fd_valid = ds->fd_valid != 0;
+    out->fd_seqno = ds->fd_seqno;
+    out->fd_metric = ds->fd_metric;
+    if (out->reachable) memcpy(out->next_hop, rt->links[ds->sel_link].nb_id, UB_ENTITY_ID_LEN);
+    bool unfeasible = false;
+    for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) {
+        int lid = slot_link(rt, slot, i);
+        if (lid < 0 || !rt->routes[dest][lid].in_use) continue;
+        const ub_route_entry_t *r = &rt->routes[dest][lid];
+        out->routes++;
+        bool up = r->metric != INF && cost_of(rt, &rt->links[lid]) != INF;
+        if (up && feasible(ds, r->seqno, r->metric)) out->feasible++;
+        else if (up) unfeasible = true;
+    }
+    out->starving = !out->local && !out->reachable && unfeasible;
+    return UB_OK;
+}
+
+int ub_route_link_info(const ub_route_t *rt, int link_id, ub_route_link_info_t *out) {
+    if (rt == NULL || rt->node == NULL || out == NULL || node_link(rt, link_id) == NULL) return UB_ERR_INVAL;
+    const ub_route_link_t *l = &rt->links[link_id];
+    memset(out, 0, sizeof *out);
+    out->neighbour = l->nb_in_use != 0;
+    memcpy(out->neighbour_id, l->nb_id, UB_ENTITY_ID_LEN);
+    out->rxcost = rxcost_of(rt, l);
+    out->txcost = l->active ? l->txcost : (uint16_t)INF;
+    out->cost = cost_of(rt, l);
+    out->history = l->history;
+    out->samples = l->samples;
+    out->neighbour_hello_ms = l->nb_hello_ms;
+    out->stats = l->stats;
+    return UB_OK;
+}
+
+const ub_route_counters_t *ub_route_counters(const ub_route_t *rt) { return rt == NULL ? NULL : &rt->counters; }
+
+uint16_t ub_route_seqno(const ub_route_t *rt, int entity) {
+    if (rt == NULL || rt->node == NULL) return 0;
+    int slot = ub_priv_local_slot(rt->node, entity);
+    return slot < 0 ? 0 : rt->seqno[slot];
+}
