@@ -75,10 +75,14 @@ static uint8_t all_link_bits(const ub_route_t *rt, int slot) {
 
 /* ---- link quality (RFC 8966 3.4, A.2.2) ------------------------------------------------------------ */
 
-static uint16_t rxcost_of(const ub_route_t *rt, const ub_route_link_t *l) {
-    if (!l->nb_in_use || l->samples == 0) return INF;
+/* Whether the last `dead_misses` expected hellos were all missed. */
+static bool link_dead(const ub_route_t *rt, const ub_route_link_t *l) {
     uint16_t recent = (uint16_t)((1u << rt->opt.dead_misses) - 1u);
-    if (l->samples >= rt->opt.dead_misses && (l->history & recent) == 0) return INF;
+    return l->samples >= rt->opt.dead_misses && (l->history & recent) == 0;
+}
+
+static uint16_t rxcost_of(const ub_route_t *rt, const ub_route_link_t *l) {
+    if (!l->nb_in_use || l->samples == 0 || link_dead(rt, l)) return INF;
     uint16_t window = l->samples >= HISTORY_BITS ? 0xFFFFu : (uint16_t)((1u << l->samples) - 1u);
     unsigned got = popcount16(l->history & window);
     if (got == 0) return INF;
@@ -127,9 +131,12 @@ static ub_route_link_t *activate(ub_route_t *rt, int link_id, uint64_t now_ms) {
 }
 
 /* A hello (any routing frame) with sequence `seq` arrived: RFC 8966 3.4.1. */
-static void hello_heard(ub_route_link_t *l, uint16_t seq, uint32_t hello_ms, uint64_t now_ms) {
+static void hello_heard(const ub_route_t *rt, ub_route_link_t *l, uint16_t seq, uint32_t hello_ms, uint64_t now_ms) {
     int16_t diff = (int16_t)(uint16_t)(seq - l->expected_seq);
-    if (l->samples == 0 || diff > (int16_t)HISTORY_BITS || diff < -(int16_t)HISTORY_BITS) {
+    /* A link that was down and hears again starts a fresh history: the misses described the outage (out of
+     * range, cable pulled), not the quality of the link that is back, and counting them would keep it
+     * unusable for up to 16 intervals. */
+    if (l->samples == 0 || link_dead(rt, l) || diff > (int16_t)HISTORY_BITS || diff < -(int16_t)HISTORY_BITS) {
         l->history = 0; /* new neighbour, or it restarted its hello counter */
         l->samples = 0;
     } else if (diff > 0) { /* hellos we missed without the timer noticing */
@@ -394,12 +401,21 @@ int ub_priv_route_on_frame(ub_route_t *rt, int link_id, const ub_frame_header_t 
         l->next_hello_ms = now_ms; /* answer at once: it needs our IHU to use the link */
     }
     l->stats.frames_in++;
-    hello_heard(l, ub_get_u16le(payload + OFF_HELLO_SEQ), hello_ms, now_ms);
+    if (link_dead(rt, l)) l->next_hello_ms = now_ms; /* back from an outage: let it hear us (IHU) at once */
+    hello_heard(rt, l, ub_get_u16le(payload + OFF_HELLO_SEQ), hello_ms, now_ms);
     l->nb_update_ms = update_ms;
     bool about_us = memcmp(payload + OFF_IHU_ID, slot_id(rt, slot), UB_ENTITY_ID_LEN) == 0;
     l->txcost = about_us ? ub_get_u16le(payload + OFF_IHU_COST) : (uint16_t)INF;
     uint16_t cost = cost_of(rt, l);
     if (cost != l->last_cost) {
+        if (l->last_cost == INF) {
+            /* The link came up (first contact, or back from an outage): give the neighbour our whole table
+             * now instead of at the next periodic update, as Babel does for a new neighbour. */
+            l->next_hello_ms = now_ms;
+            l->dump_due_ms = now_ms;
+            l->dumping = 0;
+            l->dump_cursor = 0;
+        }
         l->last_cost = cost;
         rt->reselect[slot] = 1;
     }

@@ -60,8 +60,8 @@ extern const ub_catalogue_t ub_test_cat_changed;
 /* ub_entity_id() that cannot fail for the test names. */
 void test_eid(const char *name, uint8_t out[UB_ENTITY_ID_LEN]);
 
-#define WORLD_MAX_NODES 6
-#define WORLD_MAX_LINKS 8
+#define WORLD_MAX_NODES 10
+#define WORLD_MAX_LINKS 16
 
 typedef struct world {
     ub_node_t nodes[WORLD_MAX_NODES];

@@ -1,0 +1,691 @@
+/*
+ * Automatic routes (ub_route.h) on memlink worlds stepped by a simulated clock:
+ * convergence, the steady-state frame budget, loop freedom while
+ * reconverging (no DATA frame crosses one link twice), parallel links under
+ * both policies, expiry of a silent neighbour, a partition and its repair,
+ * starvation and seqno requests, a restarted node, learning, pinned masks and
+ * the link-local addressing rules.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "support/ub_test_world.h"
+#include "ub/ub_node.h"
+#include "ub/ub_route.h"
+#include "ub/ub_wire.h"
+
+#define HELLO_MS 100u
+#define LOST 1000000u /* loss_ppm of a cut link */
+
+typedef struct edge {
+    int a, b, la, lb;
+} edge_t;
+
+/* A fleet: node i hosts one entity "v<i>" and runs ub_route; links are memlinks ("edges"). */
+typedef struct fleet {
+    world_t *w;
+    size_t n;
+    ub_route_t rt[WORLD_MAX_NODES];
+    ub_route_options_t ro;
+    int self[WORLD_MAX_NODES];
+    unsigned next_index[WORLD_MAX_NODES];
+    edge_t edge[WORLD_MAX_LINKS];
+    struct test_gps gps[WORLD_MAX_NODES];
+    uint64_t last_rx[WORLD_MAX_NODES][WORLD_MAX_NODES]; /* [receiver][source node] */
+    uint64_t rx_count[WORLD_MAX_NODES][WORLD_MAX_NODES];
+} fleet_t;
+
+static void vname(int i, char out[16]) { snprintf(out, 16, "v%d", i); }
+
+static void vid(int i, uint8_t id[UB_ENTITY_ID_LEN]) {
+    char name[16];
+    vname(i, name);
+    test_eid(name, id);
+}
+
+
+typedef struct hook_ctx {
+    fleet_t *f;
+    int node;
+} hook_ctx_t;
+static hook_ctx_t g_hooks[WORLD_MAX_NODES]; /* test-only: user pointers for the delivery hooks */
+
+static void on_deliver(void *user, int entity, uint32_t instance, const ub_frame_header_t *h, uint64_t now_ms) {
+    (void)entity;
+    (void)instance;
+    hook_ctx_t *c = user;
+    int src = atoi((const char *)h->src_id + 1);
+    c->f->last_rx[c->node][src] = now_ms;
+    c->f->rx_count[c->node][src]++;
+}
+
+static fleet_t *fleet_new(size_t n, const ub_route_options_t *ro) {
+    fleet_t *f = calloc(1, sizeof *f);
+    assert_non_null(f);
+    f->w = world_new();
+    f->n = n;
+    if (ro != NULL) f->ro = *ro;
+    if (f->ro.hello_ms == 0) f->ro.hello_ms = HELLO_MS;
+    for (size_t i = 0; i < n; i++) {
+        ub_node_t *node = world_node(f->w, &ub_test_cat, NULL);
+        char name[16];
+        vname((int)i, name);
+        f->self[i] = ub_node_add_entity_name(node, name, true);
+        assert_true(f->self[i] >= 0);
+        assert_int_equal(ub_node_bind(node, TEST_GPS, &f->gps[i]), UB_OK);
+        g_hooks[i] = (hook_ctx_t){f, (int)i};
+        ub_node_set_deliver_hook(node, on_deliver, &g_hooks[i]);
+    }
+    return f;
+}
+
+static void fleet_start(fleet_t *f) {
+    for (size_t i = 0; i < f->n; i++) assert_int_equal(ub_route_attach(&f->rt[i], &f->w->nodes[i], &f->ro, f->w->now_ms), UB_OK);
+}
+
+static void fleet_free(fleet_t *f) {
+    free(f->w);
+    free(f);
+}
+
+static int fleet_link(fleet_t *f, int a, int b) {
+    char na[32], nb[32];
+    snprintf(na, sizeof na, "l%zu_%dto%d", f->w->n_links, a, b);
+    snprintf(nb, sizeof nb, "l%zu_%dto%d", f->w->n_links, b, a);
+    int la = ub_node_add_link(&f->w->nodes[a], f->self[a], f->next_index[a]++, na);
+    int lb = ub_node_add_link(&f->w->nodes[b], f->self[b], f->next_index[b]++, nb);
+    assert_true(la >= 0 && lb >= 0);
+    int e = (int)f->w->n_links;
+    world_connect(f->w, &f->w->nodes[a], la, &f->w->nodes[b], lb, NULL, (uint64_t)e + 1);
+    f->edge[e] = (edge_t){a, b, la, lb};
+    return e;
+}
+
+static void fleet_cut(fleet_t *f, int e) {
+    ub_memlink_faults_t lost = {.loss_ppm = LOST};
+    ub_memlink_set_faults(&f->w->links[e], &lost);
+}
+
+static void fleet_heal(fleet_t *f, int e) { ub_memlink_set_faults(&f->w->links[e], NULL); }
+
+/* Node a's route toward entity v<b>; asserts that a knows v<b>. */
+static ub_route_info_t route(fleet_t *f, int a, int b) {
+    uint8_t id[UB_ENTITY_ID_LEN];
+    vid(b, id);
+    int dest = ub_node_find_entity(&f->w->nodes[a], id);
+    assert_true(dest >= 0);
+    ub_route_info_t ri;
+    assert_int_equal(ub_route_get(&f->rt[a], f->self[a], dest, &ri), UB_OK);
+    return ri;
+}
+
+static bool knows(fleet_t *f, int a, int b) {
+    uint8_t id[UB_ENTITY_ID_LEN];
+    vid(b, id);
+    return ub_node_find_entity(&f->w->nodes[a], id) >= 0;
+}
+
+static bool all_reach(fleet_t *f) {
+    for (size_t a = 0; a < f->n; a++)
+        for (size_t b = 0; b < f->n; b++)
+            if (a != b && (!knows(f, (int)a, (int)b) || !route(f, (int)a, (int)b).reachable)) return false;
+    return true;
+}
+
+/* On a failure: what every node chose, and its links (cmocka shows stderr). */
+static void dump_routes(fleet_t *f) {
+    for (size_t a = 0; a < f->n; a++) {
+        for (size_t b = 0; b < f->n; b++) {
+            if (a == b) continue;
+            if (!knows(f, (int)a, (int)b)) {
+                fprintf(stderr, "v%zu does not know v%zu\n", a, b);
+                continue;
+            }
+            ub_route_info_t ri = route(f, (int)a, (int)b);
+            fprintf(stderr, "v%zu->v%zu reachable=%d link=%d metric=%u seqno=%u fd=%d/%u/%u routes=%u feasible=%u starving=%d\n",
+                    a, b, ri.reachable, ri.link_id, ri.metric, ri.seqno, ri.fd_valid, ri.fd_seqno, ri.fd_metric, ri.routes,
+                    ri.feasible, ri.starving);
+        }
+        for (int l = 0; l < UB_MAX_NODE_LINKS; l++) {
+            ub_route_link_info_t li;
+            if (ub_route_link_info(&f->rt[a], l, &li) != UB_OK) continue;
+            fprintf(stderr, "v%zu link %d neighbour=%d cost=%u rxcost=%u txcost=%u history=%04x/%u\n", a, l, li.neighbour,
+                    li.cost, li.rxcost, li.txcost, li.history, li.samples);
+        }
+    }
+}
+
+/* Runs until every node reaches every other one; returns the time it took. Fails after `limit_ms`. */
+static uint64_t converge(fleet_t *f, uint64_t limit_ms) {
+    uint64_t t0 = f->w->now_ms;
+    while (!all_reach(f)) {
+        if (f->w->now_ms - t0 >= limit_ms) dump_routes(f);
+        assert_true(f->w->now_ms - t0 < limit_ms);
+        world_run(f->w, f->w->now_ms + 1, 1);
+    }
+    return f->w->now_ms - t0;
+}
+
+static uint64_t link_frames(const fleet_t *f, int node, int link_id) {
+    ub_route_link_info_t li;
+    assert_int_equal(ub_route_link_info(&f->rt[node], link_id, &li), UB_OK);
+    return li.stats.frames_out;
+}
+
+/* ---- DATA traffic and the loop check ------------------------------------------------------------------ */
+
+#define TX_MAX 200000
+typedef struct tx_record {
+    uint8_t src;
+    uint32_t seq;
+    uint8_t edge;
+} tx_record_t;
+
+typedef struct tx_log {
+    fleet_t *f;
+    size_t n;
+    tx_record_t r[TX_MAX];
+} tx_log_t;
+
+typedef struct tap_ctx {
+    tx_log_t *log;
+    int node;
+} tap_ctx_t;
+static tap_ctx_t g_taps[WORLD_MAX_NODES];
+
+static int edge_of(const fleet_t *f, int node, int link_id) {
+    for (size_t e = 0; e < f->w->n_links; e++) {
+        if ((f->edge[e].a == node && f->edge[e].la == link_id) || (f->edge[e].b == node && f->edge[e].lb == link_id))
+            return (int)e;
+    }
+    return -1;
+}
+
+static void on_tap(void *user, int link_id, ub_tap_dir_t dir, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    (void)len;
+    (void)now_ms;
+    tap_ctx_t *c = user;
+    if (dir != UB_TAP_TX || frame[UB_FRAME_OFF_ADMIN] != UB_ADMIN_DATA) return;
+    tx_log_t *log = c->log;
+    assert_true(log->n < TX_MAX);
+    tx_record_t *r = &log->r[log->n++];
+    r->src = (uint8_t)atoi((const char *)frame + UB_FRAME_OFF_SRC_ID + 1);
+    r->seq = ub_get_u32le(frame + UB_FRAME_OFF_SEQ);
+    r->edge = (uint8_t)edge_of(log->f, c->node, link_id);
+}
+
+static void taps_on(fleet_t *f, tx_log_t *log) {
+    log->f = f;
+    for (size_t i = 0; i < f->n; i++) {
+        g_taps[i] = (tap_ctx_t){log, (int)i};
+        ub_node_set_tap(&f->w->nodes[i], on_tap, &g_taps[i]);
+    }
+}
+
+static int cmp_tx(const void *x, const void *y) {
+    const tx_record_t *a = x, *b = y;
+    if (a->src != b->src) return a->src < b->src ? -1 : 1;
+    if (a->seq != b->seq) return a->seq < b->seq ? -1 : 1;
+    return a->edge < b->edge ? -1 : a->edge > b->edge;
+}
+
+/* Number of (frame, link) pairs seen more than once: a frame crossing one link twice went round a loop. */
+static size_t link_repeats(tx_log_t *log) {
+    qsort(log->r, log->n, sizeof log->r[0], cmp_tx);
+    size_t rep = 0;
+    for (size_t i = 1; i < log->n; i++)
+        if (cmp_tx(&log->r[i - 1], &log->r[i]) == 0) rep++;
+    return rep;
+}
+
+/* Every node sends DATA to every other node it knows, every `period_ms`, while the world runs. */
+static void run_traffic(fleet_t *f, uint64_t until_ms, uint64_t period_ms) {
+    while (f->w->now_ms < until_ms) {
+        if (f->w->now_ms % period_ms == 0) {
+            for (size_t a = 0; a < f->n; a++) {
+                for (size_t b = 0; b < f->n; b++) {
+                    uint8_t id[UB_ENTITY_ID_LEN];
+                    vid((int)b, id);
+                    if (a == b || ub_node_find_entity(&f->w->nodes[a], id) < 0) continue;
+                    int rc = ub_node_send_data(&f->w->nodes[a], f->self[a], TEST_GPS, id, f->w->now_ms);
+                    assert_true(rc >= 0 || rc == UB_ERR_NOROUTE);
+                }
+            }
+        }
+        world_run(f->w, f->w->now_ms + 1, 1);
+    }
+}
+
+/* ---- tests -------------------------------------------------------------------------------------------- */
+
+/* v0 - v1 - v2 - v3: nobody is told about anybody; routes, masks and the entity tables fill themselves. */
+static void test_line_converges_and_learns(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(4, NULL);
+    int e01 = fleet_link(f, 0, 1);
+    fleet_link(f, 1, 2);
+    fleet_link(f, 2, 3);
+    fleet_start(f);
+    uint64_t t = converge(f, 10 * HELLO_MS);
+    /* One hello to hear, one to be heard (IHU), then triggered updates hop by hop: well under 3 intervals. */
+    assert_true(t <= 3 * HELLO_MS);
+    ub_route_info_t ri = route(f, 0, 3);
+    assert_true(ri.reachable && ri.learned && !ri.local);
+    assert_int_equal(ri.metric, 3 * UB_ROUTE_LINK_COST);
+    assert_int_equal(ri.link_id, f->edge[e01].la);
+    uint8_t v1[UB_ENTITY_ID_LEN];
+    vid(1, v1);
+    assert_memory_equal(ri.next_hop, v1, UB_ENTITY_ID_LEN);
+    /* The node's mask for v3 is the one bit of the link to v1, written by the engine, not pinned. */
+    uint8_t mask = 0, v3[UB_ENTITY_ID_LEN];
+    vid(3, v3);
+    assert_int_equal(ub_node_get_mask(&f->w->nodes[0], f->self[0], ub_node_find_entity(&f->w->nodes[0], v3), &mask), UB_OK);
+    assert_int_equal(mask, 0x01);
+    assert_false(ri.pinned);
+    /* DATA over three hops. */
+    run_traffic(f, f->w->now_ms + 200, 10);
+    assert_true(f->rx_count[3][0] >= 15);
+    assert_true(f->rx_count[0][3] >= 15);
+    assert_int_equal(ub_route_counters(&f->rt[1])->learned, 3); /* v1 learned v0, v2 and v3 */
+    fleet_free(f);
+}
+
+/* In steady state every link carries exactly one routing frame per hello interval (HELLO or an update slice). */
+static void test_steady_state_one_frame_per_link_per_hello(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(5, NULL);
+    fleet_link(f, 0, 1);
+    fleet_link(f, 1, 2);
+    fleet_link(f, 2, 3);
+    fleet_link(f, 3, 4);
+    fleet_link(f, 4, 0);
+    fleet_link(f, 1, 3);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    world_run(f->w, f->w->now_ms + 20 * HELLO_MS, 1); /* let the start-up triggered updates die out */
+    uint64_t before[WORLD_MAX_LINKS][2], trig[WORLD_MAX_LINKS][2];
+    for (size_t e = 0; e < f->w->n_links; e++) {
+        before[e][0] = link_frames(f, f->edge[e].a, f->edge[e].la);
+        before[e][1] = link_frames(f, f->edge[e].b, f->edge[e].lb);
+        ub_route_link_info_t li;
+        assert_int_equal(ub_route_link_info(&f->rt[f->edge[e].a], f->edge[e].la, &li), UB_OK);
+        trig[e][0] = li.stats.triggered_out;
+        assert_int_equal(ub_route_link_info(&f->rt[f->edge[e].b], f->edge[e].lb, &li), UB_OK);
+        trig[e][1] = li.stats.triggered_out;
+    }
+    const uint64_t window = 100 * HELLO_MS;
+    world_run(f->w, f->w->now_ms + window, 1);
+    for (size_t e = 0; e < f->w->n_links; e++) {
+        uint64_t sent_a = link_frames(f, f->edge[e].a, f->edge[e].la) - before[e][0];
+        uint64_t sent_b = link_frames(f, f->edge[e].b, f->edge[e].lb) - before[e][1];
+        assert_true(sent_a >= window / HELLO_MS - 1 && sent_a <= window / HELLO_MS + 1);
+        assert_true(sent_b >= window / HELLO_MS - 1 && sent_b <= window / HELLO_MS + 1);
+        ub_route_link_info_t li;
+        assert_int_equal(ub_route_link_info(&f->rt[f->edge[e].a], f->edge[e].la, &li), UB_OK);
+        assert_int_equal(li.stats.triggered_out, trig[e][0]); /* nothing changed: nothing triggered */
+        assert_int_equal(li.cost, UB_ROUTE_LINK_COST);
+    }
+    fleet_free(f);
+}
+
+/*
+ * Loop freedom while reconverging: a mesh carries DATA between all pairs every 2 ms while links fail and
+ * come back; the tap records every DATA transmission, and no frame may cross the same link twice.
+ */
+static void test_no_frame_crosses_a_link_twice_while_reconverging(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(6, NULL);
+    int ab = fleet_link(f, 0, 1);
+    fleet_link(f, 1, 2);
+    int cd = fleet_link(f, 2, 3);
+    fleet_link(f, 3, 4);
+    fleet_link(f, 4, 5);
+    int fa = fleet_link(f, 5, 0);
+    fleet_link(f, 1, 4);
+    int be = fleet_link(f, 0, 3);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    tx_log_t *log = calloc(1, sizeof *log);
+    assert_non_null(log);
+    taps_on(f, log);
+    run_traffic(f, f->w->now_ms + 5 * HELLO_MS, 2);
+    fleet_cut(f, ab);
+    fleet_cut(f, cd);
+    run_traffic(f, f->w->now_ms + 10 * HELLO_MS, 2);
+    fleet_heal(f, ab);
+    fleet_cut(f, be);
+    run_traffic(f, f->w->now_ms + 10 * HELLO_MS, 2);
+    fleet_cut(f, fa);
+    fleet_heal(f, cd);
+    run_traffic(f, f->w->now_ms + 10 * HELLO_MS, 2);
+    assert_true(log->n > 10000);
+    assert_int_equal(link_repeats(log), 0);
+    /* And the duplicate window never had to cut a loop either. */
+    uint64_t dups = 0;
+    for (size_t i = 0; i < f->n; i++) dups += ub_node_counters(&f->w->nodes[i])->drops[UB_DROP_DUPLICATE];
+    assert_int_equal(dups, 0);
+    /* The mesh is still connected (ab, cd healed; fa, be cut): everyone reaches everyone. */
+    assert_true(all_reach(f));
+    free(log);
+    fleet_free(f);
+}
+
+/* Two links between v0 and v1 (the paper's 0x11): policy ALL uses both, BEST the cheaper one. */
+static void test_parallel_links(void **state) {
+    (void)state;
+    for (int policy = UB_ROUTE_PARALLEL_ALL; policy <= UB_ROUTE_PARALLEL_BEST; policy++) {
+        ub_route_options_t ro = {.hello_ms = HELLO_MS, .parallel = (uint8_t)policy};
+        fleet_t *f = fleet_new(3, &ro);
+        int a = fleet_link(f, 0, 1);
+        int b = fleet_link(f, 0, 1);
+        fleet_link(f, 1, 2);
+        fleet_start(f);
+        converge(f, 10 * HELLO_MS);
+        ub_route_info_t ri = route(f, 0, 2);
+        assert_int_equal(ri.mask, policy == UB_ROUTE_PARALLEL_ALL ? 0x03 : (ri.link_id == f->edge[a].la ? 0x01 : 0x02));
+        /* Frames from v0 to v2: with ALL, two copies reach v1 and one is cut by its duplicate window. */
+        run_traffic(f, f->w->now_ms + 100, 10);
+        uint64_t dups = ub_node_counters(&f->w->nodes[1])->drops[UB_DROP_DUPLICATE];
+        if (policy == UB_ROUTE_PARALLEL_ALL) assert_true(dups >= 10);
+        else assert_int_equal(dups, 0);
+        /* A lossy link (30 %) costs more: BEST moves to the clean one; ALL keeps both while both are up. */
+        ub_memlink_faults_t lossy = {.loss_ppm = 300000};
+        ub_memlink_set_faults(&f->w->links[a], &lossy);
+        world_run(f->w, f->w->now_ms + 40 * HELLO_MS, 1);
+        ri = route(f, 0, 2);
+        assert_true(ri.reachable);
+        ub_route_link_info_t la, lb;
+        assert_int_equal(ub_route_link_info(&f->rt[0], f->edge[a].la, &la), UB_OK);
+        assert_int_equal(ub_route_link_info(&f->rt[0], f->edge[b].la, &lb), UB_OK);
+        assert_true(la.cost > lb.cost);
+        assert_int_equal(ri.link_id, f->edge[b].la);
+        if (policy == UB_ROUTE_PARALLEL_BEST) assert_int_equal(ri.mask, 0x02);
+        /* One link dead: it leaves the mask under either policy. */
+        fleet_cut(f, a);
+        world_run(f->w, f->w->now_ms + 4 * HELLO_MS, 1);
+        ri = route(f, 0, 2);
+        assert_true(ri.reachable);
+        assert_int_equal(ri.mask, 0x02);
+        fleet_free(f);
+    }
+}
+
+/* A neighbour that goes silent: its link is down within 3 hello intervals, its routes go with it, and
+ * after 16 intervals it is forgotten. */
+static void test_silent_neighbour_expires(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(3, NULL);
+    int e = fleet_link(f, 0, 1);
+    fleet_link(f, 1, 2);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    fleet_cut(f, e);
+    uint64_t t0 = f->w->now_ms;
+    while (route(f, 0, 2).reachable || route(f, 0, 1).reachable) {
+        assert_true(f->w->now_ms - t0 <= 3 * HELLO_MS);
+        world_run(f->w, f->w->now_ms + 1, 1);
+    }
+    /* Node masks follow: no link toward v1 or v2 any more. */
+    uint8_t id[UB_ENTITY_ID_LEN], mask = 0xFF;
+    vid(2, id);
+    assert_int_equal(ub_node_get_mask(&f->w->nodes[0], f->self[0], ub_node_find_entity(&f->w->nodes[0], id), &mask), UB_OK);
+    assert_int_equal(mask, 0);
+    assert_true(route(f, 0, 2).retracting);
+    assert_int_equal(ub_node_send_data(&f->w->nodes[0], f->self[0], TEST_GPS, id, f->w->now_ms), UB_ERR_NOROUTE);
+    world_run(f->w, f->w->now_ms + 17 * HELLO_MS, 1);
+    ub_route_link_info_t li;
+    assert_int_equal(ub_route_link_info(&f->rt[0], f->edge[e].la, &li), UB_OK);
+    assert_false(li.neighbour);
+    assert_int_equal(li.stats.link_downs, 1);
+    assert_false(route(f, 0, 2).retracting); /* the retraction was advertised, then dropped */
+    assert_true(route(f, 0, 2).routes == 0);
+    fleet_free(f);
+}
+
+/* A partition and its repair: v0-v1 | v2-v3; each side loses the other, and regains it once healed. */
+static void test_partition_and_repair(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(4, NULL);
+    fleet_link(f, 0, 1);
+    int mid = fleet_link(f, 1, 2);
+    fleet_link(f, 2, 3);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    fleet_cut(f, mid);
+    uint64_t t0 = f->w->now_ms;
+    while (route(f, 0, 3).reachable || route(f, 3, 0).reachable || route(f, 0, 2).reachable) {
+        assert_true(f->w->now_ms - t0 <= 3 * HELLO_MS);
+        world_run(f->w, f->w->now_ms + 1, 1);
+    }
+    assert_true(route(f, 0, 1).reachable && route(f, 2, 3).reachable); /* each side keeps itself */
+    run_traffic(f, f->w->now_ms + 10 * HELLO_MS, 10);
+    fleet_heal(f, mid);
+    t0 = f->w->now_ms;
+    memset(f->last_rx, 0, sizeof f->last_rx);
+    /* Back within two hello intervals: the first hello across answers at once (IHU), then whole tables. */
+    converge(f, 2 * HELLO_MS);
+    run_traffic(f, f->w->now_ms + 100, 10);
+    assert_true(f->last_rx[3][0] > t0 && f->last_rx[0][3] > t0);
+    fleet_free(f);
+}
+
+/*
+ * Starvation: v0 reaches v2 through v1 (metric 512). When v0-v1 fails, the detour v0-v3-v4-v2 advertises
+ * v2 at 512 as well, which is not below v0's feasibility distance (512): unfeasible. v0 must ask for a
+ * newer seqno; the request travels v3 -> v4 -> v2, v2 raises its seqno and the detour becomes feasible.
+ */
+static void test_starvation_is_resolved_by_a_seqno_request(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(5, NULL);
+    int direct = fleet_link(f, 0, 1);
+    fleet_link(f, 1, 2);
+    fleet_link(f, 0, 3);
+    fleet_link(f, 3, 4);
+    fleet_link(f, 4, 2);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    world_run(f->w, f->w->now_ms + 10 * HELLO_MS, 1);
+    ub_route_info_t ri = route(f, 0, 2);
+    assert_int_equal(ri.metric, 2 * UB_ROUTE_LINK_COST);
+    uint16_t seq_before = ub_route_seqno(&f->rt[2], f->self[2]);
+    fleet_cut(f, direct);
+    uint64_t t0 = f->w->now_ms;
+    while (!(route(f, 0, 2).reachable && route(f, 0, 2).metric == 3 * UB_ROUTE_LINK_COST)) {
+        assert_true(f->w->now_ms - t0 <= 4 * HELLO_MS);
+        world_run(f->w, f->w->now_ms + 1, 1);
+    }
+    assert_true(ub_route_counters(&f->rt[0])->starvation_requests >= 1);
+    assert_true(ub_route_counters(&f->rt[2])->seqno_bumps >= 1);
+    assert_true(ub_route_seqno(&f->rt[2], f->self[2]) != seq_before);
+    assert_true(ub_route_counters(&f->rt[3])->requests_forwarded + ub_route_counters(&f->rt[4])->requests_forwarded >= 1);
+    fleet_free(f);
+}
+
+/* A node restarts (all state lost, seqno back to 0): its neighbours hold a newer FD for it, starve, ask,
+ * and the restarted node jumps its seqno past the old one. */
+static void test_restarted_node_is_reachable_again(void **state) {
+    (void)state;
+    ub_route_options_t ro = {.hello_ms = HELLO_MS, .initial_seqno = 0};
+    fleet_t *f = fleet_new(3, &ro);
+    fleet_link(f, 0, 1);
+    fleet_link(f, 1, 2);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    /* Make v2's seqno move on, so that the restarted one (0) is older than what the others hold. */
+    for (int i = 0; i < 3; i++) {
+        f->rt[2].seqno[0] = (uint16_t)(f->rt[2].seqno[0] + 5);
+        world_run(f->w, f->w->now_ms + 5 * HELLO_MS, 1);
+    }
+    assert_true(route(f, 0, 2).seqno >= 15);
+    /* Restart v2 in place: same entity, same link id, fresh node and engine. */
+    ub_node_t *n2 = &f->w->nodes[2];
+    ub_memlink_t *ml = &f->w->links[1];
+    ub_memlink_disconnect(ml);
+    /* A restarted process starts its sequence numbers elsewhere (uavbus_node: from the wall clock), or the
+     * duplicate windows of its neighbours would take its first frames for old ones (ub_node.h). */
+    ub_node_options_t boot = {.first_seq = 1000000};
+    assert_int_equal(ub_node_init(n2, &ub_test_cat, &boot), UB_OK);
+    assert_int_equal(ub_node_add_entity_name(n2, "v2", true), f->self[2]);
+    assert_int_equal(ub_node_add_link(n2, f->self[2], 0, "l1_2to1"), f->edge[1].lb);
+    assert_int_equal(ub_node_bind(n2, TEST_GPS, &f->gps[2]), UB_OK);
+    ub_node_set_deliver_hook(n2, on_deliver, &g_hooks[2]);
+    assert_int_equal(ub_memlink_connect(ml, &f->w->nodes[1], f->edge[1].la, n2, f->edge[1].lb), UB_OK);
+    assert_int_equal(ub_route_attach(&f->rt[2], n2, &ro, f->w->now_ms), UB_OK);
+    uint64_t t0 = f->w->now_ms;
+    memset(f->last_rx, 0, sizeof f->last_rx);
+    converge(f, 6 * HELLO_MS);
+    run_traffic(f, f->w->now_ms + 100, 10);
+    assert_true(f->last_rx[2][0] > t0 && f->last_rx[0][2] > t0);
+    assert_true(ub_route_seqno(&f->rt[2], f->self[2]) >= 15);
+    fleet_free(f);
+}
+
+/* A hand-set mask pins its entry; mask 0 unpins it and the engine fills it again. */
+static void test_manual_mask_pins_a_route(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(3, NULL);
+    int ab = fleet_link(f, 0, 1);
+    int ab2 = fleet_link(f, 0, 1);
+    fleet_link(f, 1, 2);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    uint8_t v2[UB_ENTITY_ID_LEN];
+    vid(2, v2);
+    ub_node_t *n0 = &f->w->nodes[0];
+    int d = ub_node_find_entity(n0, v2);
+    assert_int_equal(ub_node_set_mask(n0, f->self[0], d, 0x02), UB_OK); /* only the second link */
+    assert_true(ub_node_mask_pinned(n0, f->self[0], d));
+    assert_int_equal(ub_node_set_auto_mask(n0, f->self[0], d, 0x01), UB_ERR_EXISTS);
+    fleet_cut(f, ab2); /* the pinned link fails: the engine's route changes, the pin does not */
+    world_run(f->w, f->w->now_ms + 5 * HELLO_MS, 1);
+    uint8_t mask = 0;
+    assert_int_equal(ub_node_get_mask(n0, f->self[0], d, &mask), UB_OK);
+    assert_int_equal(mask, 0x02);
+    ub_route_info_t ri = route(f, 0, 2);
+    assert_true(ri.pinned && ri.reachable);
+    assert_int_equal(ri.mask, 0x01);
+    assert_true(ub_route_counters(&f->rt[0])->pinned_skips >= 1);
+    /* Unpin: the automatic route comes back at the next selection. */
+    assert_int_equal(ub_node_set_mask(n0, f->self[0], d, 0), UB_OK);
+    assert_false(ub_node_mask_pinned(n0, f->self[0], d));
+    world_run(f->w, f->w->now_ms + 2 * HELLO_MS, 1);
+    assert_int_equal(ub_node_get_mask(n0, f->self[0], d, &mask), UB_OK);
+    assert_int_equal(mask, 0x01);
+    (void)ab;
+    /* Detaching the engine clears the automatic masks: manual routing resumes. */
+    ub_route_detach(&f->rt[0]);
+    assert_int_equal(ub_node_get_mask(n0, f->self[0], d, &mask), UB_OK);
+    assert_int_equal(mask, 0);
+    fleet_free(f);
+}
+
+/* Removing an entity forgets its routes, and it is not learned back while neighbours still advertise it. */
+static void test_removed_entity_is_not_relearned_at_once(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(3, NULL);
+    fleet_link(f, 0, 1);
+    fleet_link(f, 1, 2);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    uint8_t v2[UB_ENTITY_ID_LEN];
+    vid(2, v2);
+    ub_node_t *n0 = &f->w->nodes[0];
+    assert_int_equal(ub_node_remove_entity(n0, ub_node_find_entity(n0, v2), f->w->now_ms), UB_OK);
+    world_run(f->w, f->w->now_ms + 10 * HELLO_MS, 1);
+    assert_int_equal(ub_node_find_entity(n0, v2), UB_ERR_NOTFOUND);
+    assert_true(ub_route_counters(&f->rt[0])->learn_refused >= 1);
+    /* After the tombstone (4 update intervals) a still-advertised entity is learned again. */
+    world_run(f->w, f->w->now_ms + 4 * 4 * HELLO_MS, 1);
+    assert_true(ub_node_find_entity(n0, v2) >= 0);
+    fleet_free(f);
+}
+
+/* Link-local frames: never forwarded; routing frames at a node without the engine count routing_off; any
+ * other code sent link-local counts bad_payload. */
+static void test_link_local_addressing(void **state) {
+    (void)state;
+    world_t *w = world_new();
+    ub_node_t *a = world_node(w, &ub_test_cat, NULL);
+    ub_node_t *b = world_node(w, &ub_test_cat, NULL);
+    ub_node_t *c = world_node(w, &ub_test_cat, NULL);
+    int ea = ub_node_add_entity_name(a, "a", true), eb = ub_node_add_entity_name(b, "b", true);
+    int ec = ub_node_add_entity_name(c, "c", true);
+    uint8_t ll[UB_ENTITY_ID_LEN];
+    memset(ll, UB_LINK_LOCAL_BYTE, sizeof ll);
+    assert_int_equal(ub_node_add_entity(a, ll, false), UB_ERR_INVAL); /* never an entity */
+    int la = ub_node_add_link(a, ea, 0, "ab"), lb = ub_node_add_link(b, eb, 0, "ba");
+    int lb2 = ub_node_add_link(b, eb, 1, "bc"), lc = ub_node_add_link(c, ec, 0, "cb");
+    world_connect(w, a, la, b, lb, NULL, 1);
+    world_connect(w, b, lb2, c, lc, NULL, 2);
+    /* Even with a mask toward "everything", b does not forward a link-local frame. */
+    uint8_t payload[UB_ROUTE_HDR_LEN] = {UB_ROUTE_WIRE_VERSION};
+    ub_put_u16le(payload + 4, 100);
+    ub_put_u16le(payload + 6, 400);
+    assert_int_equal(ub_node_send_link_local(a, la, UB_ADMIN_HELLO, payload, sizeof payload, 0), 1);
+    assert_int_equal(ub_node_send_link_local(a, la, UB_ADMIN_DATA, NULL, 0, 0), 1);
+    world_run(w, 5, 1);
+    assert_int_equal(ub_node_counters(b)->drops[UB_DROP_ROUTING_OFF], 1);
+    assert_int_equal(ub_node_counters(b)->drops[UB_DROP_BAD_PAYLOAD], 1);
+    assert_int_equal(ub_node_counters(b)->forwarded, 0);
+    assert_int_equal(ub_node_link(c, lc)->counters.frames_in, 0);
+    /* With an engine at b the hello is consumed there, and still not forwarded. */
+    ub_route_t *rt = calloc(1, sizeof *rt);
+    assert_non_null(rt);
+    ub_route_options_t ro = {.hello_ms = 100};
+    assert_int_equal(ub_route_attach(rt, b, &ro, 5), UB_OK);
+    assert_int_equal(ub_node_send_link_local(a, la, UB_ADMIN_HELLO, payload, sizeof payload, 6), 1);
+    ub_memlink_pump(&w->links[0], 6);
+    ub_route_link_info_t li;
+    assert_int_equal(ub_route_link_info(rt, lb, &li), UB_OK);
+    assert_true(li.neighbour);
+    assert_int_equal(li.stats.frames_in, 1);
+    assert_int_equal(ub_node_counters(b)->forwarded, 0);
+    /* A truncated routing payload is counted bad. */
+    assert_int_equal(ub_node_send_link_local(a, la, UB_ADMIN_ROUTE_UPDATE, payload, 10, 7), 1);
+    ub_memlink_pump(&w->links[0], 7);
+    assert_int_equal(ub_node_counters(b)->drops[UB_DROP_BAD_PAYLOAD], 2);
+    (void)ea;
+    free(rt);
+    free(w);
+}
+
+static void test_options_checked(void **state) {
+    (void)state;
+    world_t *w = world_new();
+    ub_node_t *n = world_node(w, &ub_test_cat, NULL);
+    ub_route_t *rt = calloc(1, sizeof *rt);
+    assert_non_null(rt);
+    ub_route_options_t bad[] = {{.hello_ms = 5}, {.hello_ms = 100, .update_ms = 50}, {.dead_misses = 17}, {.parallel = 2},
+                                {.hello_ms = 70000}};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) assert_int_equal(ub_route_attach(rt, n, &bad[i], 0), UB_ERR_INVAL);
+    assert_null(n->route);
+    assert_int_equal(ub_route_attach(rt, n, NULL, 0), UB_OK);
+    assert_int_equal(rt->opt.hello_ms, 1000);
+    assert_int_equal(rt->opt.update_ms, 4000);
+    free(rt);
+    free(w);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_line_converges_and_learns),
+        cmocka_unit_test(test_steady_state_one_frame_per_link_per_hello),
+        cmocka_unit_test(test_no_frame_crosses_a_link_twice_while_reconverging),
+        cmocka_unit_test(test_parallel_links),
+        cmocka_unit_test(test_silent_neighbour_expires),
+        cmocka_unit_test(test_partition_and_repair),
+        cmocka_unit_test(test_starvation_is_resolved_by_a_seqno_request),
+        cmocka_unit_test(test_restarted_node_is_reachable_again),
+        cmocka_unit_test(test_manual_mask_pins_a_route),
+        cmocka_unit_test(test_removed_entity_is_not_relearned_at_once),
+        cmocka_unit_test(test_link_local_addressing),
+        cmocka_unit_test(test_options_checked),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
