@@ -50,6 +50,7 @@ def make_ffibuilder() -> FFI:
         include_dirs=[_relative_to_root(C_INCLUDE_DIR)],
         define_macros=[("_POSIX_C_SOURCE", "200809L")],
         extra_compile_args=["-std=c11"],
+        libraries=["m"],  # ub_motion
     )
     return builder
 
