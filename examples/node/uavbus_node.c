@@ -43,7 +43,9 @@
 #include "gps.h"
 #include "imu.h"
 #include "navfilter.h"
+#include "node_fleet.h"
 #include "node_motion.h"
+#include "node_out.h"
 #include "onboard.h"
 #include "waypoints.h"
 
@@ -149,10 +151,7 @@ static uint64_t unix_ms(void) {
 
 /* ---- JSON output -------------------------------------------------------------------------------------- */
 
-#if defined(__GNUC__)
-__attribute__((format(printf, 1, 2)))
-#endif
-static void out(const char *fmt, ...) {
+void out(const char *fmt, ...) {
     if (g_out_overflow) return;
     va_list ap;
     va_start(ap, fmt);
@@ -165,7 +164,7 @@ static void out(const char *fmt, ...) {
     g_out_len += (size_t)n;
 }
 
-static void out_str(const char *s, size_t max) {
+void out_str(const char *s, size_t max) {
     out("\"");
     for (size_t i = 0; i < max && s[i] != '\0'; i++) {
         unsigned char c = (unsigned char)s[i];
@@ -176,10 +175,10 @@ static void out_str(const char *s, size_t max) {
     out("\"");
 }
 
-static void out_entity(const uint8_t id[UB_ENTITY_ID_LEN]) { out_str((const char *)id, UB_ENTITY_ID_LEN); }
+void out_entity(const uint8_t id[UB_ENTITY_ID_LEN]) { out_str((const char *)id, UB_ENTITY_ID_LEN); }
 
 /* Writes the line and starts the next; an overlong line becomes an error event instead of a cut one. */
-static void out_flush(void) {
+void out_flush(void) {
     if (g_out_overflow) {
         g_out_len = 0;
         g_out_overflow = false;
@@ -192,7 +191,7 @@ static void out_flush(void) {
     g_out_len = 0;
 }
 
-static void event_error(const char *msg) {
+void event_error(const char *msg) {
     out("{\"event\":\"error\",\"message\":");
     out_str(msg, SIZE_MAX);
     out("}");
@@ -209,14 +208,13 @@ static void usage(FILE *f) {
             "                   [--publish ENTITY:CONTENT>DEST/PERIOD_MS]...\n"
             "SPEC: udp:bind=HOST:PORT,peer=HOST:PORT | tcp:listen=HOST:PORT | tcp:connect=HOST:PORT |\n"
             "      serial:device=PATH[,baud=N]\n"
-            "stdin commands: rebind LINK SPEC | impair SPEC | dump NAME | stats | quit\n");
+            "stdin commands: rebind LINK SPEC | impair SPEC | dump NAME | stats | quit\n"
+            "%s",
+            fleet_usage);
 }
 
 /* Start-up failure: the message on stderr (file:line: ... or argv[i]: ...) and as an error event; exit 2. */
-#if defined(__GNUC__)
-__attribute__((format(printf, 1, 2), noreturn))
-#endif
-static void die(const char *fmt, ...) {
+void die(const char *fmt, ...) {
     char msg[512];
     va_list ap;
     va_start(ap, fmt);
@@ -259,6 +257,7 @@ static void parse_args(int argc, char **argv, options_t *o) {
         else if (strcmp(a, "--node") == 0) o->node = v;
         else if (strcmp(a, "--record") == 0) o->record = v;
         else if (strcmp(a, "--impair") == 0) o->impair = v;
+        else if (fleet_option(a, v, i)) continue;
         else if (strcmp(a, "--stats-ms") == 0) o->stats_ms = parse_ms(v, i);
         else if (strcmp(a, "--duration-ms") == 0) {
             o->duration_ms = parse_ms(v, i);
@@ -301,7 +300,7 @@ static void bind_directories(void) {
             die("uavbus_node: cannot bind '%s' (UB_MAX_BINDINGS too small?)", k_dirs[i].name);
         }
         g_dirs[i].instance = inst;
-        g_dirs[i].produced = local_entity(k_dirs[i].producer) >= 0;
+        g_dirs[i].produced = local_entity(fleet_producer(k_dirs[i].name, k_dirs[i].producer)) >= 0;
     }
 }
 
@@ -583,9 +582,7 @@ static void event_stats(uint64_t now_ms, bool final) {
 /* Latency of received directories: every flightsw directory starts with a timeTag stamped on CLOCK_MONOTONIC. */
 static void on_deliver(void *user, int entity, uint32_t instance, const ub_frame_header_t *h, uint64_t now_ms) {
     (void)user;
-    (void)entity;
-    (void)h;
-    (void)now_ms;
+    fleet_on_deliver(entity, instance, h, now_ms);
     for (size_t i = 0; i < N_DIRS; i++) {
         if (g_dirs[i].instance != (int)instance) continue;
         const timeTag_t *t = (const timeTag_t *)k_dirs[i].storage;
@@ -601,7 +598,8 @@ static void on_deliver(void *user, int entity, uint32_t instance, const ub_frame
 }
 
 static void update_motion(uint64_t now_ms) {
-    double t_s = (double)(now_ms - g_start_ms) / 1000.0;
+    uint64_t epoch = fleet_epoch_ms(g_start_ms);
+    double t_s = now_ms > epoch ? (double)(now_ms - epoch) / 1000.0 : 0.0;
     for (size_t i = 0; i < N_DIRS; i++) {
         dir_state_t *d = &g_dirs[i];
         const directory_t *k = &k_dirs[i];
@@ -684,8 +682,11 @@ static void command(char *line, uint64_t now_ms) {
         out_port(p, name);
         out(",\"rebinds\":%" PRIu32 "}", p->rebinds);
         out_flush();
+    } else if (fleet_command(verb, &save, now_ms)) {
+        /* answered by node_fleet.c */
     } else {
-        snprintf(msg, sizeof msg, "unknown command '%.40s' (expected: rebind LINK SPEC, impair SPEC, dump NAME, stats, quit)", verb);
+        snprintf(msg, sizeof msg, "unknown command '%.40s' (expected: rebind LINK SPEC, impair SPEC, dump NAME, stats, quit, "
+                 "or a fleet command: see --help)", verb);
         event_error(msg);
     }
 }
@@ -756,6 +757,7 @@ int main(int argc, char **argv) {
     if (ub_ports_init(&g_ports, &g_node) != UB_OK) die("uavbus_node: ub_ports_init failed");
     node_motion_init(&g_motion);
     bind_directories();
+    fleet_setup(&g_node, &g_ports, &g_motion, mono_ms());
 
     g_start_ms = mono_ms();
     for (size_t i = 0; i < N_DIRS; i++) g_dirs[i].next_ms = g_start_ms;
@@ -799,6 +801,7 @@ int main(int argc, char **argv) {
         (void)ub_ports_service(&g_ports, now);
         update_motion(now);
         ub_node_tick(&g_node, now);
+        fleet_poll(now);
         if (now >= next_stats) {
             event_stats(now, false);
             next_stats += o.stats_ms;
