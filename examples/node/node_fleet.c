@@ -9,6 +9,7 @@
 
 #include "flightsw.h"
 #include "node_out.h"
+#include "ub/ub_impair.h"
 #include "ub/ub_link.h"
 #include "ub/ub_member.h"
 #include "ub/ub_motion.h"
@@ -23,6 +24,7 @@ const char fleet_usage[] =
     "               [--produce ENTITY] [--motion orbit:...|waypoints:...|static:...] [--epoch-ms MONO_MS]\n"
     "               [--flows-ms MS] [--flow-gap-ms MS]\n"
     "fleet commands: entity add|remove NAME | link add ENTITY INDEX NAME [SPEC] | link remove NAME |\n"
+    "                link impair NAME SPEC|off |\n"
     "                mask ENTITY DEST MASK | member TARGET add_entity|remove_entity SUBJECT |\n"
     "                member TARGET set_mask SUBJECT MASK | member TARGET add_link INDEX NAME [SPEC] |\n"
     "                member TARGET remove_link NAME | announce SUBJECT TARGET... | routes | flows\n";
@@ -205,6 +207,36 @@ static bool parse_mask_arg(const char *text, uint8_t *mask, const char *what) {
     return false;
 }
 
+/* link impair NAME SPEC: one port's own impairment (ub_ports_set_link_impairment()); "off" removes it. */
+static void link_impair(char **save) {
+    const char *name = strtok_r(NULL, SEP, save), *spec = strtok_r(NULL, SEP, save);
+    char err[200], msg[320];
+    ub_impair_params_t params;
+    uint64_t seed = 1;
+    memset(&params, 0, sizeof params);
+    if (name == NULL || spec == NULL) {
+        event_error("link impair: expected 'link impair NAME SPEC' (SPEC as --impair, or off)");
+        return;
+    }
+    if (strcmp(spec, "off") != 0 && ub_impair_parse(spec, &params, &seed, err, sizeof err) != UB_OK) {
+        snprintf(msg, sizeof msg, "link impair: %s", err);
+        event_error(msg);
+        return;
+    }
+    int rc = ub_ports_set_link_impairment(g_ports_p, name, &params, seed);
+    if (rc != UB_OK) {
+        snprintf(msg, sizeof msg, "link impair: '%s' has no open port", name);
+        event_error(msg);
+        return;
+    }
+    out("{\"event\":\"impaired\",\"link\":");
+    out_str(name, SIZE_MAX);
+    out(",\"spec\":");
+    out_str(spec, SIZE_MAX);
+    out("}");
+    out_flush();
+}
+
 /* entity add|remove NAME; link add ENTITY INDEX NAME [SPEC] | link remove NAME; mask ENTITY DEST MASK */
 static void local_change(const char *verb, char **save, uint64_t now_ms) {
     ub_member_spec_t s;
@@ -214,6 +246,10 @@ static void local_change(const char *verb, char **save, uint64_t now_ms) {
     if (sub == NULL) sub = "";
     snprintf(command, sizeof command, "%s%s%s", verb, sub[0] ? " " : "", sub);
     int entity = first_local();
+    if (strcmp(verb, "link") == 0 && strcmp(sub, "impair") == 0) {
+        link_impair(save);
+        return;
+    }
     if (strcmp(verb, "entity") == 0 && (strcmp(sub, "add") == 0 || strcmp(sub, "remove") == 0)) {
         s.op = sub[0] == 'a' ? UB_MEMBER_ADD_ENTITY : UB_MEMBER_REMOVE_ENTITY;
         if (!set_id(strtok_r(NULL, SEP, save), s.subject, command)) return;

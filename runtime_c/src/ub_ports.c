@@ -397,13 +397,25 @@ static uint64_t port_seed(uint64_t seed, int link_id) {
     return seed ^ ((uint64_t)(link_id + 1) * 0xD1B54A32D192ED03ULL);
 }
 
+/* The impairment in force for a port: its own, else the node-wide one, else none (NULL). */
+static const ub_impair_params_t *port_params(const ub_ports_t *ports, const ub_port_t *p, uint64_t *seed) {
+    if (p->own_impair) {
+        *seed = p->own_seed;
+        return &p->own_params;
+    }
+    *seed = ports->impair_seed;
+    return ports->impair_on ? &ports->impair_params : NULL;
+}
+
 /* Puts the impairment in front of the port's current driver (slot transport swapped, stream kept). */
 static void impair_install(ub_ports_t *ports, ub_port_t *p) {
     void *impl = NULL;
     const ub_link_ops_t *ops = driver_ops(&p->drv[p->active], &impl);
-    if (ops == NULL) return;
-    if (!p->impaired) ub_impair_init(&p->impair, &ports->impair_params, port_seed(ports->impair_seed, p->link_id));
-    else ub_impair_set_params(&p->impair, &ports->impair_params);
+    uint64_t seed = 0;
+    const ub_impair_params_t *params = port_params(ports, p, &seed);
+    if (ops == NULL || params == NULL) return;
+    if (!p->impaired) ub_impair_init(&p->impair, params, port_seed(seed, p->link_id));
+    else ub_impair_set_params(&p->impair, params);
     if (ub_impair_wrap(&p->impair, ops, impl) != UB_OK) return;
     if (ub_node_link_set_transport(ports->node, p->link_id, &ub_impair_ops, &p->impair) != UB_OK) return;
     p->impaired = 1;
@@ -484,7 +496,8 @@ int ub_ports_open(ub_ports_t *ports, const char *link_name, const ub_port_spec_t
     p->spec = *spec;
     bool was_impaired = p->impaired;
     p->impaired = 0;
-    if (ports->impair_on) {
+    uint64_t unused_seed;
+    if (port_params(ports, p, &unused_seed) != NULL) {
         p->impaired = was_impaired ? 1 : 0; /* keep its PRNG and queue: queued copies leave via the new transport */
         impair_install(ports, p);
     }
@@ -544,6 +557,7 @@ static void port_close(ub_ports_t *ports, ub_port_t *p) {
     if (ub_node_link_detach(ports->node, p->link_id) != UB_OK) { /* cannot fail: the id was resolved */ }
     p->in_use = 0;
     p->impaired = 0;
+    p->own_impair = 0;
 }
 
 int ub_ports_close(ub_ports_t *ports, const char *link_name) {
@@ -675,13 +689,33 @@ int ub_ports_set_impairment(ub_ports_t *ports, const ub_impair_params_t *params,
     ports->impair_on = on ? 1 : 0;
     for (size_t i = 0; i < UB_PORTS_MAX; i++) {
         ub_port_t *p = &ports->port[i];
-        if (!p->in_use) continue;
+        if (!p->in_use || p->own_impair) continue; /* a port with its own impairment keeps it */
         if (on) {
             if (p->impaired && reseed) ub_impair_reseed(&p->impair, port_seed(seed, p->link_id));
             impair_install(ports, p);
         } else {
             impair_remove(ports, p);
         }
+    }
+    return UB_OK;
+}
+
+int ub_ports_set_link_impairment(ub_ports_t *ports, const char *link_name, const ub_impair_params_t *params,
+                                 uint64_t seed) {
+    if (ports == NULL || ports->node == NULL || link_name == NULL) return UB_ERR_INVAL;
+    const ub_port_t *found = ub_ports_find(ports, link_name);
+    if (found == NULL) return UB_ERR_NOTFOUND;
+    ub_port_t *p = &ports->port[found - ports->port];
+    if (params != NULL && params_active(params)) {
+        if (p->impaired && p->own_impair && p->own_seed != seed) ub_impair_reseed(&p->impair, port_seed(seed, p->link_id));
+        p->own_impair = 1;
+        p->own_params = *params;
+        p->own_seed = seed;
+        impair_install(ports, p);
+    } else {
+        p->own_impair = 0;
+        if (ports->impair_on) impair_install(ports, p);
+        else impair_remove(ports, p);
     }
     return UB_OK;
 }

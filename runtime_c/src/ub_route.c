@@ -310,12 +310,12 @@ static void on_update(ub_route_t *rt, int slot, int link_id, const uint8_t *ent,
     if (e < 0 || entity_local(rt, e)) return; /* ours: we are the source */
     ub_route_entry_t *r = &rt->routes[e][link_id];
     ub_route_dest_t *ds = &rt->dests[slot][e];
-    if (!r->in_use && !feasible(ds, seqno, metric)) {
-        /* RFC 8966 3.5.4: no route to update and an unfeasible one is not taken; if we have
-         * nothing better, the destination should hear that we starve. */
+    if (!feasible(ds, seqno, metric)) {
+        /* Kept, never selected while unfeasible (selection checks every time): so that losing the
+         * selected route finds the alternatives at once and can ask for a newer seqno (starvation)
+         * instead of waiting for the next full table. With no route at all, ask now. */
         rt->counters.unfeasible++;
         if (ds->sel_link < 0) request_seqno(rt, slot, e, now_ms);
-        return;
     }
     r->in_use = 1;
     r->seqno = seqno;

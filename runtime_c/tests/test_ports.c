@@ -286,6 +286,37 @@ static void test_impairment_on_ports(void **state) {
     net_free(&n);
 }
 
+/* One port's own impairment (a radio out of range: loss 1) overrides the node-wide one, and goes away. */
+static void test_link_impairment_overrides(void **state) {
+    (void)state;
+    net_t n = net_new();
+    pair_t *p = n.p;
+    const ub_impair_params_t cut = {.loss_ppm = 1000000};
+    assert_int_equal(ub_ports_set_link_impairment(n.a, "pubPort", &cut, 1), UB_ERR_NOTFOUND); /* not open yet */
+    open_udp_pair(&n, 0);
+    assert_true(ub_pubsub_subscribe(p->sub_node, p->sub, TEST_GPS, p->pub_id, 10, 0) >= 0);
+    run(&n, 0, 300);
+    size_t before = delivery_count(&p->log, p->sub, TEST_GPS, 0, 300);
+    assert_true(before > 20);
+    assert_int_equal(ub_ports_set_link_impairment(n.a, "pubPort", &cut, 1), UB_OK);
+    const ub_impair_params_t mild = {.dup_ppm = 1};
+    assert_int_equal(ub_ports_set_impairment(n.a, &mild, 2), UB_OK); /* node-wide: does not replace the cut */
+    run(&n, 300, 600);
+    assert_int_equal(delivery_count(&p->log, p->sub, TEST_GPS, 310, 600), 0);
+    const ub_port_t *pa = ub_ports_find(n.a, "pubPort");
+    assert_true(pa->own_impair && pa->impaired);
+    assert_true(ub_impair_stats(&pa->impair)->lost > 20);
+    /* Removing the override brings the node-wide setting back, and the data. */
+    assert_int_equal(ub_ports_set_link_impairment(n.a, "pubPort", NULL, 0), UB_OK);
+    assert_false(pa->own_impair);
+    assert_true(pa->impaired);
+    assert_int_equal(ub_ports_set_impairment(n.a, NULL, 0), UB_OK);
+    assert_false(pa->impaired);
+    run(&n, 600, 1500);
+    assert_true(delivery_count(&p->log, p->sub, TEST_GPS, 600, 1500) > 20);
+    net_free(&n);
+}
+
 /* A TCP driver re-attaches itself when its connection comes up; the impairment must come back in front. */
 static void test_impairment_survives_tcp_connects(void **state) {
     (void)state;
@@ -324,6 +355,7 @@ int main(void) {
         cmocka_unit_test(test_rebind_tcp_to_udp_keeps_the_subscription),
         cmocka_unit_test(test_impairment_on_ports),
         cmocka_unit_test(test_impairment_survives_tcp_connects),
+        cmocka_unit_test(test_link_impairment_overrides),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -10,10 +10,11 @@ from uavbus.catalogue import Catalogue, Instance, Type
 
 __version__ = "0.1.0"
 
-__all__ = ["Admin", "Catalogue", "Directory", "Instance", "MemLink", "Message", "Node", "Type", "__version__"]
+__all__ = ["Admin", "Catalogue", "Directory", "Instance", "MemLink", "Membership", "Message", "Node", "Type",
+           "__version__"]
 
 _LAZY = {"Node": "uavbus.node", "MemLink": "uavbus.node", "Admin": "uavbus.node", "Message": "uavbus.node",
-         "Directory": "uavbus.directory"}
+         "Membership": "uavbus.node", "Directory": "uavbus.directory"}
 
 
 def __getattr__(name: str) -> Any:

@@ -19,7 +19,8 @@ from collections import deque
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
-from uavbus._bindings import ub_admin, ub_log, ub_memlink, ub_node, ub_nodecfg, ub_ports, ub_pubsub
+from uavbus._bindings import (ub_admin, ub_log, ub_member, ub_memlink, ub_node, ub_nodecfg, ub_ports, ub_pubsub,
+                              ub_route)
 from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, NotFoundError, UbError, ensure
 from uavbus._ub import ffi, lib
 from uavbus.catalogue import Catalogue, Instance
@@ -123,6 +124,8 @@ class Node:
         self._callback_errors = 0
         self._memlinks: list[MemLink] = []
         self._admins: dict[str, Admin] = {}
+        self._route: Any = None
+        self._membership: Membership | None = None
         self._ports: Any = None
         self._pollfds = ffi.new("struct pollfd[]", ub_ports.POLLFD_CAP)
         self._log: Any = None
@@ -158,6 +161,31 @@ class Node:
             ensure(lib.ub_link_mask_parse(mask.encode("ascii"), out), f"mask {mask!r}")
             mask = int(out[0])
         ub_node.ub_node_set_mask(self._c, self.entity_index(entity), self.entity_index(dest), mask)
+
+    def remove_entity(self, name: str) -> None:
+        """Removes remote entity `name` at run time, with every mask, duplicate window and routing state that
+        named it; publish/subscribe and administration rows naming it are stopped (counted: counters())."""
+        ub_node.ub_node_remove_entity(self._c, self.entity_index(name), self.now())
+        self._dest_ids.pop(name, None)
+
+    def remove_link(self, name: str) -> None:
+        """Removes link slot `name` at run time: its port or memlink is closed first, its bit leaves every
+        mask, the routing engine forgets its neighbour."""
+        link_id = self.link_id(name)
+        if self._ports is not None and ub_ports.ub_ports_describe(self._ports, name) is not None:
+            ub_ports.ub_ports_close(self._ports, name)
+        for m in list(self._memlinks):
+            if m._ends_at(self, link_id):
+                m.disconnect()
+        ub_node.ub_node_remove_link(self._c, link_id)
+
+    def mask(self, entity: str, dest: str) -> int:
+        """Local `entity`'s current mask toward `dest` (bit i = link[i]), set by hand or by routing."""
+        return ub_node.ub_node_get_mask(self._c, self.entity_index(entity), self.entity_index(dest))
+
+    def mask_pinned(self, entity: str, dest: str) -> bool:
+        """True when the mask was set by hand (set_mask() with a non-zero mask): routing leaves it alone."""
+        return ub_node.ub_node_mask_pinned(self._c, self.entity_index(entity), self.entity_index(dest))
 
     def entity_index(self, name: str) -> int:
         return ub_node.ub_node_find_entity(self._c, name)
@@ -234,6 +262,60 @@ class Node:
             r["content"] = self.catalogue.instances[r["instance"]].name
             rows.append(r)
         return rows
+
+    # -- automatic routes and membership -------------------------------------------------------------
+    def enable_routing(self, parallel: str = "all", learn: bool = True, **options: int) -> None:
+        """Runs the routing engine (docs/routing.md): every local entity becomes a router over its links and
+        masks fill themselves; masks set by hand stay pinned. Options: hello_ms (default 1000), update_ms,
+        trigger_gap_ms, source_gc_ms, dead_misses, initial_seqno; parallel "all" | "best"; learn."""
+        if self._route is not None:
+            ub_route.ub_route_detach(self._route)
+        self._route = ub_route.ub_route_new(self._c, self.now(), parallel, learn, **options)
+
+    def disable_routing(self) -> None:
+        """Detaches the engine; the masks it wrote are cleared (pinned ones stay)."""
+        if self._route is not None:
+            ub_route.ub_route_detach(self._route)
+            self._route = None
+
+    @property
+    def routing(self) -> bool:
+        return self._route is not None
+
+    def routes(self, entity: str | None = None) -> dict[str, dict[str, Any]]:
+        """What routing chose for local `entity` (default: the first local one), per known destination:
+        reachable, next_hop, link (name), metric, seqno, mask, pinned, learned, starving, ..."""
+        if self._route is None:
+            raise InvalidArgumentError("routing is not enabled on this node (enable_routing())")
+        entity = entity or self.local_entities[0]
+        me = self.entity_index(entity)
+        out = {}
+        for e in self.entities():
+            if e["index"] == me:
+                continue
+            r = ub_route.ub_route_get(self._route, me, e["index"])
+            r["link"] = ub_node.link_name(self._c, r["link_id"]) if r["link_id"] >= 0 else None
+            out[e["name"]] = r
+        return out
+
+    def route_links(self) -> dict[str, dict[str, Any]]:
+        """Per link: neighbour, costs (rxcost/txcost/cost) and routing frame counters."""
+        if self._route is None:
+            raise InvalidArgumentError("routing is not enabled on this node (enable_routing())")
+        return {ub_node.link_name(self._c, lid): ub_route.ub_route_link_info(self._route, lid)
+                for lid, _ in ub_node.ub_node_links(self._c)}
+
+    def route_counters(self) -> dict[str, int]:
+        if self._route is None:
+            raise InvalidArgumentError("routing is not enabled on this node (enable_routing())")
+        return ub_route.ub_route_counters(self._route)
+
+    def membership(self, entity: str | None = None, **options: int) -> "Membership":
+        """The membership requester (one per node), sending from local `entity` (default: the first local
+        one). Options: retry_ms (default 200), max_retries (default 0: until answered)."""
+        if self._membership is None:
+            self._membership = Membership(self, entity or self.local_entities[0], options)
+        return self._membership
 
     def admin(self, entity: str, **options: int) -> "Admin":
         """The global administration table hosted by local `entity` (created on first use;
@@ -400,6 +482,12 @@ class Node:
         """Seeded impairment in front of every socket/serial port, now and later (Contract 4)."""
         ub_ports.ub_ports_set_impairment(self._ports_obj(), loss, dup, reorder, delay, jitter, hold, seed)
 
+    def set_link_impairment(self, link: str, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0,
+                            delay: int = 0, jitter: int = 0, hold: int = 0, seed: int = 0) -> None:
+        """The open port of `link` gets its own seeded impairment, over set_impairment()'s (e.g. loss=1: a
+        radio out of range); all zero removes it."""
+        ub_ports.ub_ports_set_link_impairment(self._ports_obj(), link, loss, dup, reorder, delay, jitter, hold, seed)
+
     # -- recording -----------------------------------------------------------------------------
     def record(self, path: str | Path, tx: bool = False) -> None:
         """Records received (and with tx=True sent) frames to a binary log with the C writer."""
@@ -462,6 +550,9 @@ class Node:
             ub_ports.ub_ports_close_all(self._ports)
         for adm in self._admins.values():
             adm._detach()
+        if self._membership is not None:
+            ub_member.ub_member_detach(self._membership._c)
+        self.disable_routing()
         ub_node.set_deliver_sink(self._c, None)
 
     def __enter__(self) -> "Node":
@@ -544,6 +635,38 @@ class Admin:
         lib.ub_admin_detach(self._c)
 
 
+class Membership:
+    """Membership changes sent to other entities over the bus (MEMBERSHIP, admin code 11): each request is
+    resent until the target answers; status() says done (changed or already so) or failed (reason)."""
+
+    def __init__(self, node: Node, entity: str, options: dict[str, int] | None = None) -> None:
+        self.node = node
+        self.entity = entity
+        self._c = ub_member.ub_member_new(node._c, node.entity_index(entity), **(options or {}))
+
+    def request(self, op: str, target: str, subject: str = "", *, mask: int | str = 0, link_index: int = 0,
+                link_name: str = "", port_spec: str = "") -> int:
+        """Queues `op` ("add_entity", "remove_entity", "set_mask", "add_link", "remove_link") for entity
+        `target`; returns the request row (it leaves at the next poll)."""
+        if isinstance(mask, str):
+            out = ffi.new("uint8_t *")
+            ensure(lib.ub_link_mask_parse(mask.encode("ascii"), out), f"mask {mask!r}")
+            mask = int(out[0])
+        s = ub_member.spec(op, target, subject, mask, link_index, link_name, port_spec)
+        return ub_member.ub_member_request(self._c, s, self.node.now())
+
+    def announce(self, subject: str, targets: list[str]) -> list[int]:
+        """The paper's announcement: tells each of `targets` that entity `subject` exists."""
+        return [self.request("add_entity", t, subject) for t in targets]
+
+    def status(self, row: int) -> dict[str, Any]:
+        """{"status": "pending" | "done" | "failed", "changed" | "reason", "attempts", ...}."""
+        return ub_member.ub_member_status(self._c, row)
+
+    def forget(self, row: int) -> None:
+        ub_member.ub_member_forget(self._c, row)
+
+
 class MemLink:
     """An in-process link between `link_a` of node `a` and `link_b` of node `b` (the C memlink,
     with seeded faults: loss_ppm, duplicate_ppm, reorder_ppm, corrupt_ppm, delay_ms, jitter_ms).
@@ -553,10 +676,22 @@ class MemLink:
                  seed: int = 0) -> None:
         self.a, self.b = a, b
         self._c = ub_memlink.ub_memlink_new(faults, seed)
-        ub_memlink.ub_memlink_connect(self._c, a._c, a.link_id(link_a), b._c, b.link_id(link_b))
+        self._link_a, self._link_b = a.link_id(link_a), b.link_id(link_b)
+        ub_memlink.ub_memlink_connect(self._c, a._c, self._link_a, b._c, self._link_b)
         a._memlinks.append(self)
         if b is not a:
             b._memlinks.append(self)
+
+    def disconnect(self) -> None:
+        """Takes both ends off their nodes and drops what is queued (counted lost); the link slots can then
+        be removed (Node.remove_link()) or connected again by a new MemLink."""
+        ub_memlink.ub_memlink_disconnect(self._c)
+        for n in (self.a, self.b):
+            if self in n._memlinks:
+                n._memlinks.remove(self)
+
+    def _ends_at(self, node: Node, link_id: int) -> bool:
+        return (self.a is node and self._link_a == link_id) or (self.b is node and self._link_b == link_id)
 
     def set_faults(self, faults: dict[str, int] | None) -> None:
         ub_memlink.ub_memlink_set_faults(self._c, faults)

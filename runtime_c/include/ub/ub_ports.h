@@ -152,6 +152,9 @@ typedef struct ub_port {
     uint64_t service_errors;  /**< driver service calls that failed (e.g. serial device gone) */
     ub_port_driver_t drv[2];
     ub_impair_t impair;
+    uint8_t own_impair;       /**< this port's own impairment overrides the node-wide one */
+    ub_impair_params_t own_params;
+    uint64_t own_seed;
 } ub_port_t;
 
 /** The ports of one node. Caller-owned; large: use static storage. */
@@ -237,6 +240,17 @@ const ub_port_t *ub_ports_find(const ub_ports_t *ports, const char *link_name);
  * @return UB_OK or UB_ERR_INVAL.
  */
 UB_CHECK int ub_ports_set_impairment(ub_ports_t *ports, const ub_impair_params_t *params, uint64_t seed);
+
+/**
+ * Gives the open port of `link_name` its own impairment, which takes
+ * precedence over ub_ports_set_impairment() (e.g. one radio link out of
+ * range: loss 1, while the others keep the node-wide model). `params` NULL
+ * (or all zero) removes the override: the node-wide setting applies again.
+ * The override goes with the port when it is closed.
+ * @return UB_OK; UB_ERR_NOTFOUND (no open port for that link); UB_ERR_INVAL.
+ */
+UB_CHECK int ub_ports_set_link_impairment(ub_ports_t *ports, const char *link_name, const ub_impair_params_t *params,
+                                          uint64_t seed);
 
 #ifdef __cplusplus
 }

@@ -35,6 +35,10 @@ def ub_memlink_connect(ml: Any, a: Any, link_a: int, b: Any, link_b: int) -> Non
     ensure(lib.ub_memlink_connect(ml, a, link_a, b, link_b), "ub_memlink_connect")
 
 
+def ub_memlink_disconnect(ml: Any) -> None:
+    lib.ub_memlink_disconnect(ml)
+
+
 def ub_memlink_pump(ml: Any, now_ms: int) -> int:
     return int(lib.ub_memlink_pump(ml, now_ms))
 

@@ -23,7 +23,9 @@ RX_REASONS: tuple[str, ...] = tuple(
     ffi.string(lib.ub_rx_reason_name(r)).decode("ascii") for r in range(lib.UB_RX_REASON_COUNT))
 _COUNTER_FIELDS = ("originated", "forwarded", "delivered", "admin_handled", "local_direct", "dedup_resets",
                    "dedup_evictions", "leases_expired", "replies_unmatched", "requests_limited", "leases_clamped",
-                   "rows_evicted", "random_failures")
+                   "rows_evicted", "random_failures", "entities_added", "entities_removed", "links_added",
+                   "links_removed", "rows_stopped", "admin_rows_stopped", "dedup_cleared", "membership_applied",
+                   "membership_refused")
 
 
 def entity_id(name: str) -> bytes:
@@ -61,6 +63,24 @@ def ub_node_new(c_catalogue: Any, hop_limit: int = 0, first_seq: int = 0,
 
 def ub_node_add_entity_name(node: Any, name: str, local: bool) -> int:
     return ensure(lib.ub_node_add_entity_name(node, _c_name(name), local), f"entity {name!r}")
+
+
+def ub_node_remove_entity(node: Any, entity: int, now_ms: int) -> None:
+    ensure(lib.ub_node_remove_entity(node, entity, now_ms), f"entity {entity} is local (local entities stay)")
+
+
+def ub_node_remove_link(node: Any, link_id: int) -> None:
+    ensure(lib.ub_node_remove_link(node, link_id), f"link {link_id} still has a transport: close its port first")
+
+
+def ub_node_mask_pinned(node: Any, entity: int, dest: int) -> bool:
+    return bool(lib.ub_node_mask_pinned(node, entity, dest))
+
+
+def ub_node_get_mask(node: Any, entity: int, dest: int) -> int:
+    out = ffi.new("uint8_t *")
+    ensure(lib.ub_node_get_mask(node, entity, dest, out), f"mask of entity {entity} toward {dest}")
+    return int(out[0])
 
 
 def ub_node_find_entity(node: Any, name: str) -> int:

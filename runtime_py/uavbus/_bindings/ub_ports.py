@@ -84,9 +84,7 @@ def ub_ports_describe(ports: Any, link: str) -> dict[str, Any] | None:
     return out
 
 
-def ub_ports_set_impairment(ports: Any, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0,
-                            delay_ms: int = 0, jitter_ms: int = 0, hold_ms: int = 0, seed: int = 0) -> None:
-    """Probabilities in 0..1 (converted to parts per million); all zero removes the impairment."""
+def _impair_params(loss: float, dup: float, reorder: float, delay_ms: int, jitter_ms: int, hold_ms: int) -> Any:
     params = ffi.new("ub_impair_params_t *")
     for name, p in (("loss", loss), ("dup", dup), ("reorder", reorder)):
         if not 0.0 <= p <= 1.0:
@@ -94,4 +92,19 @@ def ub_ports_set_impairment(ports: Any, loss: float = 0.0, dup: float = 0.0, reo
     params.loss_ppm, params.dup_ppm = round(loss * PPM), round(dup * PPM)
     params.reorder_ppm, params.delay_ms, params.jitter_ms = round(reorder * PPM), delay_ms, jitter_ms
     params.reorder_hold_ms = hold_ms
+    return params
+
+
+def ub_ports_set_impairment(ports: Any, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0,
+                            delay_ms: int = 0, jitter_ms: int = 0, hold_ms: int = 0, seed: int = 0) -> None:
+    """Probabilities in 0..1 (converted to parts per million); all zero removes the impairment."""
+    params = _impair_params(loss, dup, reorder, delay_ms, jitter_ms, hold_ms)
     ensure(lib.ub_ports_set_impairment(ports, params, seed), "ub_ports_set_impairment")
+
+
+def ub_ports_set_link_impairment(ports: Any, link: str, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0,
+                                 delay_ms: int = 0, jitter_ms: int = 0, hold_ms: int = 0, seed: int = 0) -> None:
+    """One open port's own impairment, over the node-wide one; all zero removes it."""
+    params = _impair_params(loss, dup, reorder, delay_ms, jitter_ms, hold_ms)
+    ensure(lib.ub_ports_set_link_impairment(ports, link.encode("utf-8"), params, seed),
+           f"port {link!r} is not open")

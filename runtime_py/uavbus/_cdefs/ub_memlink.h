@@ -28,6 +28,7 @@ typedef struct ub_memlink { ...; } ub_memlink_t;
 void ub_memlink_init(ub_memlink_t *ml, const ub_memlink_faults_t *faults, uint64_t seed);
 void ub_memlink_set_faults(ub_memlink_t *ml, const ub_memlink_faults_t *faults);
 int ub_memlink_connect(ub_memlink_t *ml, ub_node_t *a, int link_a, ub_node_t *b, int link_b);
+void ub_memlink_disconnect(ub_memlink_t *ml);
 size_t ub_memlink_pump(ub_memlink_t *ml, uint64_t now_ms);
 size_t ub_memlink_pending(const ub_memlink_t *ml);
 const ub_memlink_stats_t *ub_memlink_stats(const ub_memlink_t *ml, int side);

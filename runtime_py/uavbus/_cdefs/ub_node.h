@@ -48,6 +48,15 @@ typedef struct ub_node_counters {
     uint64_t leases_clamped;
     uint64_t rows_evicted;
     uint64_t random_failures;
+    uint64_t entities_added;
+    uint64_t entities_removed;
+    uint64_t links_added;
+    uint64_t links_removed;
+    uint64_t rows_stopped;
+    uint64_t admin_rows_stopped;
+    uint64_t dedup_cleared;
+    uint64_t membership_applied;
+    uint64_t membership_refused;
     uint64_t drops[...];
     ...;
 } ub_node_counters_t;
@@ -76,6 +85,10 @@ struct ub_node {
 int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt);
 int ub_node_add_entity(ub_node_t *node, const uint8_t id[], bool local);
 int ub_node_add_entity_name(ub_node_t *node, const char *name, bool local);
+int ub_node_remove_entity(ub_node_t *node, int entity, uint64_t now_ms);
+int ub_node_remove_link(ub_node_t *node, int link_id);
+int ub_node_set_auto_mask(ub_node_t *node, int entity, int dest, uint8_t mask);
+bool ub_node_mask_pinned(const ub_node_t *node, int entity, int dest);
 int ub_node_find_entity(const ub_node_t *node, const uint8_t id[]);
 const uint8_t *ub_node_entity_id(const ub_node_t *node, int entity);
 int ub_node_add_link(ub_node_t *node, int entity, unsigned index, const char *name);

@@ -51,3 +51,5 @@ int ub_ports_poll_timeout(const ub_ports_t *ports, uint64_t now_ms, int max_ms);
 int ub_ports_local_port(const ub_ports_t *ports, const char *link_name, uint16_t *port);
 const ub_port_t *ub_ports_find(const ub_ports_t *ports, const char *link_name);
 int ub_ports_set_impairment(ub_ports_t *ports, const ub_impair_params_t *params, uint64_t seed);
+int ub_ports_set_link_impairment(ub_ports_t *ports, const char *link_name, const ub_impair_params_t *params,
+                                 uint64_t seed);

@@ -1,0 +1,152 @@
+"""Membership at run time and automatic routes from Python (the same C router, through cffi): in-process
+nodes over memlinks on an injected clock."""
+
+from __future__ import annotations
+
+import pytest
+
+from binding_testutil import Generated
+from uavbus import MemLink, Node
+from uavbus._bindings.ub_error import InvalidArgumentError, NotFoundError
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.t = 1000
+
+    def __call__(self) -> int:
+        return self.t
+
+
+def run(nodes: list[Node], clock: Clock, ms: int, step: int = 2) -> None:
+    for _ in range(ms // step):
+        clock.t += step
+        for n in nodes:
+            n.service()
+
+
+def vehicle(cat, clock: Clock, name: str, links: int) -> Node:
+    n = Node(cat, node=name, clock=clock)
+    n.add_entity(name, local=True)
+    for i in range(links):
+        n.add_link(name, i, f"{name}L{i}")
+    return n
+
+
+@pytest.fixture()
+def line(flightsw: Generated):
+    """u0 - u1 - u2 - u3, each told only about its own links."""
+    clock = Clock()
+    nodes = [vehicle(flightsw.catalogue, clock, f"u{i}", 2) for i in range(4)]
+    links = [MemLink(nodes[i], f"u{i}L1", nodes[i + 1], f"u{i + 1}L0", seed=i + 1) for i in range(3)]
+    yield nodes, links, clock
+    for n in nodes:
+        n.close()
+
+
+def test_routes_build_themselves_and_carry_data(line) -> None:
+    nodes, links, clock = line
+    for n in nodes:
+        n.enable_routing(hello_ms=100)
+    run(nodes, clock, 400)
+    r = nodes[0].routes()
+    assert r["u3"]["reachable"] and r["u3"]["next_hop"] == "u1" and r["u3"]["link"] == "u0L1"
+    assert r["u3"]["metric"] == 3 * 256 and r["u3"]["learned"] and not r["u3"]["pinned"]
+    assert nodes[0].mask("u0", "u3") == 0b10
+    # A subscription across three hops, set up by name only: nobody was told about anybody.
+    nodes[3].bind("gpsOut").latitudeDeg = 32.5
+    got = []
+    nodes[0].on_data(got.append)
+    nodes[0].subscribe("u0", "gpsOut", source="u3", period_ms=50)
+    run(nodes, clock, 500)
+    assert len(got) >= 6 and got[-1].source == "u3" and got[-1].value["latitudeDeg"] == 32.5
+    links_info = nodes[1].route_links()
+    assert links_info["u1L0"]["neighbour"] == "u0" and links_info["u1L1"]["neighbour"] == "u2"
+    assert links_info["u1L0"]["cost"] == 256 and links_info["u1L0"]["frames_out"] >= 5
+    assert nodes[1].route_counters()["learned"] == 3
+
+
+def test_link_failure_reroutes_and_manual_mask_pins(flightsw: Generated) -> None:
+    clock = Clock()
+    a, b, c = (vehicle(flightsw.catalogue, clock, n, 3) for n in ("ra", "rb", "rc"))
+    ab = MemLink(a, "raL0", b, "rbL0", seed=1)
+    MemLink(b, "rbL1", c, "rcL0", seed=2)
+    MemLink(a, "raL1", c, "rcL1", seed=3)
+    nodes = [a, b, c]
+    for n in nodes:
+        n.enable_routing(hello_ms=100, parallel="best")
+    run(nodes, clock, 400)
+    assert a.routes()["rb"]["next_hop"] == "rb"
+    ab.set_faults({"loss_ppm": 1_000_000})
+    run(nodes, clock, 400)  # down after ~2.5 hellos, then via rc
+    assert a.routes()["rb"]["next_hop"] == "rc" and a.routes()["rb"]["metric"] == 512
+    # A hand-set mask pins the entry: routing leaves it; 0 unpins.
+    a.set_mask("ra", "rb", "0x00000001")
+    assert a.mask_pinned("ra", "rb") and a.routes()["rb"]["pinned"]
+    run(nodes, clock, 200)
+    assert a.mask("ra", "rb") == 0b001
+    a.set_mask("ra", "rb", 0)
+    run(nodes, clock, 200)
+    assert not a.mask_pinned("ra", "rb") and a.mask("ra", "rb") == 0b010
+    a.disable_routing()
+    assert a.mask("ra", "rb") == 0
+    with pytest.raises(InvalidArgumentError):
+        a.routes()
+    for n in nodes:
+        n.close()
+
+
+def test_remove_entity_and_link_at_run_time(line) -> None:
+    nodes, links, clock = line
+    u0, u1 = nodes[0], nodes[1]
+    u0.add_entity("u1")
+    u0.set_mask("u0", "u1", 0b10)
+    u1.add_entity("u0")
+    u1.set_mask("u1", "u0", 0b01)
+    u1.bind("gpsOut")
+    u0.subscribe("u0", "gpsOut", source="u1", period_ms=20)
+    run([u0, u1], clock, 200)
+    assert u0.counters()["delivered"] > 5
+    u0.remove_entity("u1")
+    c = u0.counters()
+    assert c["entities_removed"] == 1 and c["rows_stopped"] == 1 and c["dedup_cleared"] == 1
+    assert "u1" not in [e["name"] for e in u0.entities()]
+    with pytest.raises(NotFoundError):
+        u0.mask("u0", "u1")
+    with pytest.raises(InvalidArgumentError):
+        u0.remove_entity("u0")  # local entities stay
+    # The link: its memlink is disconnected first, then the slot goes; the name is free again.
+    u0.remove_link("u0L1")
+    assert links[0].pending() == 0 and "u0L1" not in u0.entities()[0]["links"]
+    assert u0.counters()["links_removed"] == 1
+    u0.add_link("u0", 1, "u0L1")
+    with pytest.raises(NotFoundError):
+        u0.remove_link("nolink")
+
+
+def test_membership_over_the_bus(line) -> None:
+    nodes, links, clock = line
+    for n in nodes:
+        n.enable_routing(hello_ms=100)
+    run(nodes, clock, 400)
+    m = nodes[0].membership(retry_ms=50, max_retries=10)
+    # The announcement three hops away, then a pinned mask, then the removal.
+    rows = m.announce("ghost9", ["u3", "u2"])
+    run(nodes, clock, 100)
+    assert [m.status(r)["status"] for r in rows] == ["done", "done"]
+    assert m.status(rows[0])["changed"] and "ghost9" in [e["name"] for e in nodes[3].entities()]
+    row = m.request("set_mask", "u3", "ghost9", mask="0x00000001")
+    run(nodes, clock, 100)
+    assert m.status(row)["status"] == "done" and nodes[3].mask_pinned("u3", "ghost9")
+    row = m.request("remove_entity", "u3", "ghost9")
+    run(nodes, clock, 100)
+    assert m.status(row)["changed"] and "ghost9" not in [e["name"] for e in nodes[3].entities()]
+    # Refusals come back with their reason: a node's own entity, a link op without a link handler.
+    row = m.request("remove_entity", "u3", "u3")
+    row2 = m.request("add_link", "u3", link_index=5, link_name="extra", port_spec="udp:bind=127.0.0.1:0,peer=127.0.0.1:9")
+    run(nodes, clock, 100)
+    assert m.status(row)["status"] == "failed" and m.status(row)["reason"] == "invalid"
+    assert m.status(row2)["reason"] == "unsupported"
+    assert nodes[3].counters()["membership_refused"] == 2
+    with pytest.raises(InvalidArgumentError):
+        m.request("teleport", "u3", "u1")
