@@ -41,13 +41,18 @@ class Message:
     of that image at delivery time. Names and `value` (the decoded dict) are computed on first use:
     a receiver that only counts or forwards pays for none of them."""
 
-    __slots__ = ("instance", "entity", "seq", "t_ms", "raw", "catalogue", "_src", "_dest", "_value")
+    __slots__ = ("instance", "entity", "seq", "t_ms", "raw", "catalogue", "hop_limit", "_src", "_dest", "_value")
 
     def __init__(self, instance: Instance, entity: str, src_id: bytes, dest_id: bytes, seq: int, t_ms: int,
-                 raw: bytes, catalogue: Catalogue) -> None:
+                 raw: bytes, catalogue: Catalogue, hop_limit: int = 0) -> None:
         self.instance, self.entity, self.seq, self.t_ms, self.raw = instance, entity, seq, t_ms, raw
-        self.catalogue, self._src, self._dest = catalogue, src_id, dest_id
+        self.catalogue, self._src, self._dest, self.hop_limit = catalogue, src_id, dest_id, hop_limit
         self._value: dict[str, Any] | None = None
+
+    @property
+    def hops(self) -> int:
+        """Links the frame crossed, from its hop limit on arrival (senders write UB_DEFAULT_HOP_LIMIT)."""
+        return lib.UB_DEFAULT_HOP_LIMIT - self.hop_limit + 1 if 0 < self.hop_limit <= lib.UB_DEFAULT_HOP_LIMIT else 0
 
     @property
     def name(self) -> str:
@@ -76,13 +81,15 @@ class _Sink:
 
     def __init__(self, node: "Node") -> None:
         self.node = node
-        self.pending: list[tuple[int, int, bytes, bytes, int, int, bytes]] = []
+        self.pending: list[tuple[int, int, bytes, bytes, int, int, bytes, int]] = []
         self.frames: list[tuple[int, int, bytes, int]] = []
 
-    def on_deliver(self, entity: int, instance: int, src_id: bytes, dest_id: bytes, seq: int, now_ms: int) -> None:
+    def on_deliver(self, entity: int, instance: int, src_id: bytes, dest_id: bytes, seq: int, now_ms: int,
+                   hop_limit: int = 0) -> None:
         # Copy the image now: a later delivery in the same C call overwrites the bound storage.
         d = self.node._dirs.get(instance)  # a top-level Directory's buffer is exactly the wire image
-        self.pending.append((entity, instance, src_id, dest_id, seq, now_ms, d._buf[:] if d is not None else b""))
+        self.pending.append((entity, instance, src_id, dest_id, seq, now_ms, d._buf[:] if d is not None else b"",
+                             hop_limit))
 
     def on_tap(self, link_id: int, direction: int, frame: bytes, now_ms: int) -> None:
         # Installed only while Python frame callbacks exist (Node.on_frame). The node has one tap, so
@@ -354,11 +361,11 @@ class Node:
             self._dispatch_frames()
         pending, self._sink.pending = self._sink.pending, []
         instances, names = self.catalogue.instances, self._local_names
-        for k, (entity, instance, src_id, dest_id, seq, now_ms, raw) in enumerate(pending):
+        for k, (entity, instance, src_id, dest_id, seq, now_ms, raw, hop_limit) in enumerate(pending):
             local = names.get(entity)
             if local is None:
                 local = names[entity] = _entity_at(self, entity)
-            msg = Message(instances[instance], local, src_id, dest_id, seq, now_ms, raw, self.catalogue)
+            msg = Message(instances[instance], local, src_id, dest_id, seq, now_ms, raw, self.catalogue, hop_limit)
             if self._callbacks:
                 for cb in list(self._callbacks):
                     try:

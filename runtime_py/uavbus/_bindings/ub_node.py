@@ -2,7 +2,7 @@
 
 The delivery hook and the frame tap call back into Python through `extern "Python"` functions; the
 `user` pointer is an `ffi.new_handle()` of a Python sink object (kept alive by its owner), whose
-`on_deliver(entity, instance, src_id, dest_id, seq, now_ms)` / `on_tap(link_id, dir, frame, now_ms)` run inside
+`on_deliver(entity, instance, src_id, dest_id, seq, now_ms, hop_limit)` / `on_tap(link_id, dir, frame, now_ms)` run inside
 the C call. Sinks must not raise (cffi would only print the error): they queue and return.
 """
 
@@ -203,7 +203,7 @@ def set_tap_sink(node: Any, handle: Any) -> None:
 def ub_py_deliver(user: Any, entity: int, instance: int, h: Any, now_ms: int) -> None:
     # Only what a delivery reports (source, destination, sequence), copied: `h` lives for this call.
     ffi.from_handle(user).on_deliver(entity, instance, ffi.buffer(h.src_id)[:], ffi.buffer(h.dest_id)[:], h.seq,
-                                     now_ms)
+                                     now_ms, h.hop_limit)
 
 
 @ffi.def_extern()

@@ -1,0 +1,171 @@
+"""What a fleet run measured (uavbus.sim.fleet): summary.json and timeline.png.
+
+- **delivery per flow**: deliveries / what the period promises while both ends run (`delivery_ratio`) and
+  while a path of connected links exists (`delivery_ratio_connected`), from the launcher's own link states;
+- **reconvergence after each event** (kill, restart, add, link failure and repair, out of and back into
+  range): for every flow that has a path after the event, the outage of that flow around the event (silence
+  longer than the flow's gap, 3 periods, at least 300 ms) ends at its first delivery; the event's
+  `reconverged_s` is the latest such end minus the event time (0 when no flow noticed), and flows that never
+  delivered again are listed `unrecovered`;
+- **routing frames per link per second**, per link end from the routing engines' counters (sampled every
+  2 s): over the whole run, and `steady_*` over sampling windows with no event in them or in the 2 s before;
+- **hops** of the last delivery of each flow (from its hop limit).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from uavbus.sim.fleet import FleetRun, FlowTrack
+
+__all__ = ["summarize", "plot_timeline", "flow_gaps"]
+
+SETTLE_S = 2.0
+
+
+def flow_gaps(tr: FlowTrack, end: float) -> list[tuple[float, float, bool]]:
+    """Outages of a flow as (from, to, open): `from` is the last delivery before it (0 when it never
+    started), `to` the first after it, or the end of the run for an outage that never ended (open)."""
+    gap_s = tr.spec.gap_ms / 1000.0
+    out: list[tuple[float, float, bool]] = []
+    if tr.first is not None and tr.first > gap_s:
+        out.append((0.0, tr.first, False))  # silent from the start (a vehicle that joins, a slow start)
+    if tr.times:
+        for a, b in zip(tr.times, tr.times[1:]):
+            if b - a > gap_s:
+                out.append((a, b, False))
+    else:
+        out = [(a, b, False) for a, b in sorted(tr.gaps)]
+    if tr.last is None:
+        out.append((0.0, end, True))
+    elif end - tr.last > gap_s:
+        out.append((tr.last, end, True))
+    return out
+
+
+def _reconvergence(run: FleetRun, end: float) -> list[dict[str, Any]]:
+    """Each outage of a flow is charged to one event: the first, in time, after which the flow had a path
+    and that happened while the outage was going on (a restart, a link back in range) or as it began (a cut
+    or a kill stops the data at once: the last delivery before the outage is at most a period earlier)."""
+    slack = 0.1  # launcher to process command latency
+    gaps = {name: flow_gaps(tr, end) for name, tr in run.flows.items()}
+    charged: set[tuple[str, int]] = set()
+    out = []
+    for ev in run.timeline:
+        t = ev["t"]
+        recovered: dict[str, float] = {}
+        unrecovered = []
+        for name, expected in ev["connectivity"].items():
+            if not expected:
+                continue
+            for k, (a, b, is_open) in enumerate(gaps[name]):
+                if (name, k) in charged or b < t or a > t + slack:
+                    continue
+                charged.add((name, k))
+                if is_open:
+                    unrecovered.append(name)
+                else:
+                    recovered[name] = round(b - t, 3)
+                break
+        out.append({"t": t, "event": ev["event"], "target": ev["target"], "text": ev["text"],
+                    "reconverged_s": (max(recovered.values()) if recovered else 0.0) if not unrecovered else None,
+                    "affected": recovered, "unrecovered": unrecovered})
+    return out
+
+
+def _routing_rates(run: FleetRun) -> dict[str, Any]:
+    marks = [e["t"] for e in run.timeline]
+    total: dict[str, float] = {}
+    steady: dict[str, list[float]] = {}
+    for m in run.members.values():
+        samples = m.routes_seen
+        for link in {name for _, _, frames in samples for name in frames}:
+            key = f"{m.name}:{link}"
+            series = [(t, r, f[link]) for t, r, f in samples if link in f]
+            # Whole run: the longest stretch of one process run.
+            best = 0.0
+            for run_id in {r for _, r, _ in series}:
+                pts = [(t, n) for t, r, n in series if r == run_id]
+                if len(pts) >= 2 and pts[-1][0] - pts[0][0] > best:
+                    best = pts[-1][0] - pts[0][0]
+                    total[key] = (pts[-1][1] - pts[0][1]) / best
+            for (t0, r0, n0), (t1, r1, n1) in zip(series, series[1:]):
+                if r0 != r1 or t1 - t0 < 0.5 or any(t0 - SETTLE_S <= x <= t1 for x in marks):
+                    continue
+                steady.setdefault(key, []).append((n1 - n0) / (t1 - t0))
+    flat = [x for xs in steady.values() for x in xs]
+    hello_s = run.sc.routing.hello_ms / 1000.0
+    return {
+        "mean": round(sum(total.values()) / len(total), 3) if total else None,
+        "max": round(max(total.values()), 3) if total else None,
+        "steady_mean": round(sum(flat) / len(flat), 3) if flat else None,
+        "steady_max": round(max(flat), 3) if flat else None,
+        "steady_per_link_max": {k: round(max(v), 3) for k, v in sorted(steady.items())},
+        "hello_ms": run.sc.routing.hello_ms,
+        "steady_per_hello_max": round(max(flat) * hello_s, 3) if flat else None,
+        "per_link": {k: round(v, 3) for k, v in sorted(total.items())},
+    }
+
+
+def summarize(run: FleetRun) -> dict[str, Any]:
+    end = run.sc.duration_s
+    flows = []
+    for name, tr in run.flows.items():
+        f = tr.spec
+        gaps = flow_gaps(tr, end)
+        flows.append({
+            "name": name, "content": f.content, "source": f.source, "destination": f.destination,
+            "period_ms": f.period_ms, "delivered": tr.count, "expected": round(tr.expected, 1),
+            "delivery_ratio": round(min(1.0, tr.count / tr.expected), 4) if tr.expected > 0 else None,
+            "delivery_ratio_connected": (round(min(1.0, tr.count / tr.expected_connected), 4)
+                                         if tr.expected_connected > 0 else None),
+            "hops": tr.hops,
+            "outages": [[round(a, 3), round(b, 3)] + (["open"] if o else []) for a, b, o in gaps],
+        })
+    return {
+        "scenario": run.sc.name, "file": run.sc.source, "duration_s": end, "seed": run.sc.seed,
+        "routing": {"hello_ms": run.sc.routing.hello_ms, "dead_misses": run.sc.routing.dead_misses,
+                    "parallel": run.sc.routing.parallel},
+        "vehicles": len(run.sc.vehicles), "ground_stations": len(run.sc.ground_stations),
+        "events": _reconvergence(run, end),
+        "flows": flows,
+        "routing_frames_per_link_s": _routing_rates(run),
+        "processes": {m.name: {"starts": m.proc.starts, "running": m.proc.running}
+                      for m in run.members.values() if m.proc is not None},
+        "announcements": [ms.status(row) for ms, row in run.announcements],
+    }
+
+
+def plot_timeline(run: FleetRun, path: str | Path) -> None:
+    """Per flow, deliveries per 0.5 s as a fraction of the flow's rate, against the events."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = list(run.flows)
+    fig, axes = plt.subplots(len(names) or 1, 1, figsize=(10, 1.4 + 1.2 * len(names)), dpi=100, sharex=True,
+                             squeeze=False)
+    for ax, name in zip(axes[:, 0], names):
+        tr = run.flows[name]
+        per_bin = 500.0 / tr.spec.period_ms
+        ks = range(0, int(run.sc.duration_s / 0.5) + 1)
+        ax.step([k * 0.5 for k in ks], [tr.bins.get(k, 0) / per_bin for k in ks], where="post", linewidth=1.0)
+        ax.set_ylim(-0.05, 1.3)
+        ax.set_ylabel(name, rotation=0, ha="right", va="center", fontsize=8)
+        ax.grid(True, alpha=0.3)
+        for ev in run.timeline:
+            ax.axvline(ev["t"], color="tab:red" if ev["event"] in ("kill", "fail_link", "out_of_range") else
+                       "tab:green", linestyle="--", linewidth=0.8, alpha=0.7)
+    top = axes[0, 0]
+    for k, ev in enumerate(run.timeline):  # two rows of labels, so events close in time stay readable
+        top.text(ev["t"], 1.32 + 0.45 * (k % 2), ev["text"].split(" (")[0], rotation=20, fontsize=6, ha="left",
+                 va="bottom")
+    axes[-1, 0].set_xlabel("t (s)")
+    fig.suptitle(f"{run.sc.name}: delivery per flow (fraction of its rate per 0.5 s)", fontsize=9, y=0.995)
+    fig.tight_layout()
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)

@@ -1,0 +1,483 @@
+"""Fleet scenario files (`uavbus sim SCENARIO`, docs/scenarios.md): YAML in, a validated `Scenario` out.
+
+Every error names the file and line and says what to do (`fleet.yaml:14: link [uav1, uav9]: 'uav9' is not
+a vehicle or ground station of this scenario (known: gcs1, uav1, ...)`). The model is plain frozen
+dataclasses; `uavbus.sim.fleet` runs it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+__all__ = ["Scenario", "Station", "LinkSpec", "FlowSpec", "EventSpec", "RoutingSpec", "ScenarioError",
+           "load_scenario", "parse_scenario"]
+
+MAX_LINKS = 8  # the paper's links per entity (UB_MAX_LINKS_PER_ENTITY)
+TRANSPORTS = ("udp", "tcp", "serial", "memory")
+MODELS = ("radio", "wire")
+EVENT_KINDS = ("kill", "restart", "add", "fail_link", "restore_link")
+PRODUCED = ("gpsOut", "imuOut", "navFilterState")
+DATUM = {"lat": 32.3738, "lon": -84.9664, "alt": 120.0}
+
+
+class ScenarioError(ValueError):
+    """A scenario file that cannot run; the message is `file:line: what is wrong, what to do`."""
+
+
+@dataclass(frozen=True)
+class RoutingSpec:
+    hello_ms: int = 200
+    update_ms: int = 0           # 0: 4 * hello_ms
+    dead_misses: int = 2
+    parallel: str = "all"
+
+    def route_arg(self) -> str:
+        """uavbus_node --route text."""
+        parts = [f"hello={self.hello_ms}", f"dead={self.dead_misses}", f"parallel={self.parallel}"]
+        if self.update_ms:
+            parts.append(f"update={self.update_ms}")
+        return ",".join(parts)
+
+    def node_options(self) -> dict[str, Any]:
+        """Node.enable_routing() keyword arguments."""
+        out: dict[str, Any] = {"hello_ms": self.hello_ms, "dead_misses": self.dead_misses, "parallel": self.parallel}
+        if self.update_ms:
+            out["update_ms"] = self.update_ms
+        return out
+
+
+@dataclass(frozen=True)
+class Station:
+    """A vehicle or a ground station: one entity, hosted by a C process or in the launcher's process."""
+
+    name: str
+    kind: str                    # "vehicle" | "gcs"
+    run: str                     # "process" (uavbus_node) | "python" (a Node in the launcher)
+    motion: str                  # ub_motion text ("orbit:...", "waypoints:...", "static:...")
+    line: int
+
+    @property
+    def is_vehicle(self) -> bool:
+        return self.kind == "vehicle"
+
+
+@dataclass(frozen=True)
+class LinkSpec:
+    a: str
+    b: str
+    transport: str
+    model: str                   # "radio" (connected while in range) | "wire" (always)
+    range_m: float
+    loss: float
+    delay_ms: int
+    jitter_ms: int
+    line: int
+
+    @property
+    def pair(self) -> frozenset[str]:
+        return frozenset((self.a, self.b))
+
+
+@dataclass(frozen=True)
+class FlowSpec:
+    name: str
+    content: str
+    source: str
+    destination: str
+    period_ms: int
+    line: int
+
+    @property
+    def gap_ms(self) -> int:
+        """Silence that counts as an outage: three periods, at least 300 ms."""
+        return max(3 * self.period_ms, 300)
+
+
+@dataclass(frozen=True)
+class EventSpec:
+    t: float
+    kind: str                    # EVENT_KINDS
+    target: tuple[str, ...]      # one name, or the two ends of a link
+    line: int
+
+    def describe(self) -> str:
+        return f"{self.kind} {'-'.join(self.target)}"
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    source: str                  # file name, for messages
+    duration_s: float
+    seed: int
+    routing: RoutingSpec
+    stations: tuple[Station, ...]
+    links: tuple[LinkSpec, ...]
+    flows: tuple[FlowSpec, ...]
+    events: tuple[EventSpec, ...]
+    datum: dict[str, float] = field(default_factory=lambda: dict(DATUM))
+
+    def station(self, name: str) -> Station:
+        return next(s for s in self.stations if s.name == name)
+
+    @property
+    def vehicles(self) -> list[Station]:
+        return [s for s in self.stations if s.is_vehicle]
+
+    @property
+    def ground_stations(self) -> list[Station]:
+        return [s for s in self.stations if not s.is_vehicle]
+
+    def joins(self) -> dict[str, float]:
+        """Vehicles that join later: name -> time of their `add` event."""
+        return {e.target[0]: e.t for e in self.events if e.kind == "add"}
+
+
+# ---- YAML with lines ---------------------------------------------------------------------------------
+
+
+class _Src:
+    """Raises file:line errors for one document."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+
+    def fail(self, node: Any, msg: str) -> ScenarioError:
+        line = node.start_mark.line + 1 if node is not None and hasattr(node, "start_mark") else 1
+        return ScenarioError(f"{self.source}:{line}: {msg}")
+
+
+def _line(node: Any) -> int:
+    return node.start_mark.line + 1
+
+
+def _mapping(src: _Src, node: Any, what: str, allowed: dict[str, bool]) -> dict[str, Any]:
+    """A YAML mapping as {key: value node}; unknown keys, repeated keys and missing required keys are errors
+    (`allowed`: key -> required)."""
+    import yaml
+
+    if not isinstance(node, yaml.MappingNode):
+        raise src.fail(node, f"{what} must be a mapping (key: value)")
+    out: dict[str, Any] = {}
+    for k, v in node.value:
+        if not isinstance(k, yaml.ScalarNode):
+            raise src.fail(k, f"{what}: keys must be plain words")
+        if k.value in out:
+            raise src.fail(k, f"{what}: '{k.value}' given twice; keep one")
+        if k.value not in allowed:
+            raise src.fail(k, f"{what}: unknown key '{k.value}' (expected: {', '.join(sorted(allowed))})")
+        out[k.value] = v
+    for k, required in allowed.items():
+        if required and k not in out:
+            raise src.fail(node, f"{what}: '{k}' is required")
+    return out
+
+
+def _seq(src: _Src, node: Any, what: str) -> list[Any]:
+    import yaml
+
+    if not isinstance(node, yaml.SequenceNode):
+        raise src.fail(node, f"{what} must be a list")
+    return list(node.value)
+
+
+def _scalar(src: _Src, node: Any, what: str) -> str:
+    import yaml
+
+    if not isinstance(node, yaml.ScalarNode):
+        raise src.fail(node, f"{what} must be a single value")
+    return str(node.value)
+
+
+def _number(src: _Src, node: Any, what: str, lo: float | None = None, hi: float | None = None,
+            integer: bool = False) -> float:
+    text = _scalar(src, node, what)
+    try:
+        value = float(text)
+    except ValueError:
+        raise src.fail(node, f"{what}: '{text}' is not a number") from None
+    if not math.isfinite(value) or (integer and value != int(value)):
+        raise src.fail(node, f"{what}: '{text}' must be a {'whole ' if integer else ''}number")
+    if (lo is not None and value < lo) or (hi is not None and value > hi):
+        rng = f"{lo if lo is not None else '-inf'} .. {hi if hi is not None else 'inf'}"
+        raise src.fail(node, f"{what}: {text} is out of range ({rng})")
+    return int(value) if integer else value
+
+
+def _name(src: _Src, node: Any, what: str) -> str:
+    text = _scalar(src, node, what)
+    if not 1 <= len(text) <= 12 or not all(c.isalnum() or c in "_.-" for c in text):
+        raise src.fail(node, f"{what}: '{text}' is not an entity name (1 to 12 characters A-Z a-z 0-9 _ . -)")
+    return text
+
+
+def _choice(src: _Src, node: Any, what: str, choices: tuple[str, ...]) -> str:
+    text = _scalar(src, node, what)
+    if text not in choices:
+        raise src.fail(node, f"{what}: '{text}' is not one of {', '.join(choices)}")
+    return text
+
+
+def _motion(src: _Src, node: Any, what: str) -> str:
+    from uavbus._bindings.ub_error import InvalidArgumentError
+    from uavbus.sim.flight import FlightModel
+
+    text = _scalar(src, node, what)
+    try:
+        FlightModel(text)  # the C parser: one grammar for uavbus_node --motion and Python
+    except InvalidArgumentError as e:
+        raise src.fail(node, f"{what}: {e}") from None
+    return text
+
+
+# ---- the document ------------------------------------------------------------------------------------
+
+
+def _routing(src: _Src, node: Any) -> RoutingSpec:
+    m = _mapping(src, node, "routing", {"hello_ms": False, "update_ms": False, "dead_misses": False,
+                                        "parallel": False})
+    hello = int(_number(src, m["hello_ms"], "routing.hello_ms", 10, 65535, True)) if "hello_ms" in m else 200
+    update = int(_number(src, m["update_ms"], "routing.update_ms", hello, 65535, True)) if "update_ms" in m else 0
+    dead = int(_number(src, m["dead_misses"], "routing.dead_misses", 1, 16, True)) if "dead_misses" in m else 2
+    parallel = _choice(src, m["parallel"], "routing.parallel", ("all", "best")) if "parallel" in m else "all"
+    return RoutingSpec(hello, update, dead, parallel)
+
+
+def _radio(src: _Src, node: Any | None) -> dict[str, float]:
+    out = {"range_m": math.inf, "loss": 0.0, "delay_ms": 0, "jitter_ms": 0}
+    if node is None:
+        return out
+    m = _mapping(src, node, "radio", {"range_m": False, "loss": False, "delay_ms": False, "jitter_ms": False,
+                                      "bandwidth_bps": False})
+    _link_model_values(src, m, "radio", out)
+    return out
+
+
+def _link_model_values(src: _Src, m: dict[str, Any], what: str, out: dict[str, float]) -> None:
+    if "bandwidth_bps" in m:
+        raise src.fail(m["bandwidth_bps"], f"{what}.bandwidth_bps: the bandwidth model comes with the wire "
+                                           "issue (#15) and is not implemented yet; remove the key")
+    if "range_m" in m:
+        out["range_m"] = _number(src, m["range_m"], f"{what}.range_m", 1.0)
+    if "loss" in m:
+        out["loss"] = _number(src, m["loss"], f"{what}.loss", 0.0, 0.99)
+    if "delay_ms" in m:
+        out["delay_ms"] = _number(src, m["delay_ms"], f"{what}.delay_ms", 0, 10000, True)
+    if "jitter_ms" in m:
+        out["jitter_ms"] = _number(src, m["jitter_ms"], f"{what}.jitter_ms", 0, 10000, True)
+
+
+def _stations(src: _Src, node: Any, kind: str, seen: dict[str, int]) -> list[Station]:
+    out = []
+    what = "vehicles" if kind == "vehicle" else "ground_stations"
+    for item in _seq(src, node, what):
+        m = _mapping(src, item, what[:-1] if kind == "vehicle" else "ground station",
+                     {"name": True, "run": False, "motion": False, "position": False})
+        name = _name(src, m["name"], "name")
+        if name in seen:
+            raise src.fail(m["name"], f"'{name}' is already used on line {seen[name]}; names are unique")
+        seen[name] = _line(m["name"])
+        run = _choice(src, m["run"], f"{name}.run", ("process", "python")) if "run" in m else (
+            "process" if kind == "vehicle" else "python")
+        if "motion" in m and "position" in m:
+            raise src.fail(m["position"], f"{name}: give motion or position, not both")
+        if "position" in m:
+            p = _mapping(src, m["position"], f"{name}.position", {"n": False, "e": False, "alt": False})
+            coords = {k: _number(src, p[k], f"{name}.position.{k}") if k in p else 0.0 for k in ("n", "e", "alt")}
+            motion = f"static:n={coords['n']:g},e={coords['e']:g},alt={coords['alt']:g}"
+        elif "motion" in m:
+            motion = _motion(src, m["motion"], f"{name}.motion")
+        elif kind == "vehicle":
+            raise src.fail(item, f"vehicle {name}: 'motion' is required (e.g. motion: \"orbit:r=150,v=12\")")
+        else:
+            motion = "static:n=0,e=0"
+        out.append(Station(name, kind, run, motion, _line(m["name"])))
+    return out
+
+
+def _two_names(src: _Src, node: Any, what: str, names: dict[str, int]) -> tuple[str, str]:
+    items = _seq(src, node, what)
+    if len(items) != 2:
+        raise src.fail(node, f"{what}: give the two ends, e.g. [uav1, uav2]")
+    a, b = (_known(src, n, what, names) for n in items)
+    if a == b:
+        raise src.fail(node, f"{what}: both ends are '{a}'")
+    return a, b
+
+
+def _known(src: _Src, node: Any, what: str, names: dict[str, int]) -> str:
+    name = _scalar(src, node, what)
+    if name not in names:
+        raise src.fail(node, f"{what}: '{name}' is not a vehicle or ground station of this scenario "
+                             f"(known: {', '.join(sorted(names))})")
+    return name
+
+
+def _links(src: _Src, node: Any, names: dict[str, int], radio: dict[str, float],
+           stations: dict[str, Station]) -> list[LinkSpec]:
+    out: list[LinkSpec] = []
+    for item in _seq(src, node, "links"):
+        m = _mapping(src, item, "link", {"between": False, "mesh": False, "transport": False, "model": False,
+                                         "range_m": False, "loss": False, "delay_ms": False, "jitter_ms": False,
+                                         "bandwidth_bps": False})
+        if ("between" in m) == ("mesh" in m):
+            raise src.fail(item, "link: give either 'between: [a, b]' or 'mesh: [names...]' (or mesh: all)")
+        values = dict(radio)
+        model = _choice(src, m["model"], "link.model", MODELS) if "model" in m else "radio"
+        if model == "wire":
+            values["range_m"] = math.inf
+        _link_model_values(src, m, "link", values)
+        transport = _choice(src, m["transport"], "link.transport", TRANSPORTS) if "transport" in m else "udp"
+        if "between" in m:
+            pairs = [_two_names(src, m["between"], "link.between", names)]
+        else:
+            import yaml
+
+            if isinstance(m["mesh"], yaml.ScalarNode):
+                if m["mesh"].value != "all":
+                    raise src.fail(m["mesh"], "link.mesh: give a list of names, or all")
+                members = list(names)
+            else:
+                members = [_known(src, n, "link.mesh", names) for n in _seq(src, m["mesh"], "link.mesh")]
+            pairs = [(a, b) for i, a in enumerate(members) for b in members[i + 1:]]
+        for a, b in pairs:
+            if transport == "memory" and (stations[a].run != "python" or stations[b].run != "python"):
+                raise src.fail(item, f"link [{a}, {b}]: transport memory joins two run: python entities "
+                                     "(one process); use udp, tcp or serial for a process")
+            out.append(LinkSpec(a, b, transport, model, values["range_m"], values["loss"], int(values["delay_ms"]),
+                                int(values["jitter_ms"]), _line(item)))
+    counts: dict[str, int] = {}
+    for link in out:
+        for end in (link.a, link.b):
+            counts[end] = counts.get(end, 0) + 1
+            if counts[end] > MAX_LINKS:
+                raise src.fail(node, f"'{end}' has more than {MAX_LINKS} links (the paper's limit per entity); "
+                                     "use fewer links or a smaller mesh")
+    return out
+
+
+def _flows(src: _Src, node: Any, names: dict[str, int], stations: dict[str, Station]) -> list[FlowSpec]:
+    out = []
+    for item in _seq(src, node, "flows"):
+        m = _mapping(src, item, "flow", {"name": False, "content": True, "source": True, "destination": True,
+                                         "period_ms": True})
+        content = _choice(src, m["content"], "flow.content", PRODUCED)
+        source = _known(src, m["source"], "flow.source", names)
+        dest = _known(src, m["destination"], "flow.destination", names)
+        if not stations[source].is_vehicle:
+            raise src.fail(m["source"], f"flow.source: '{source}' is a ground station; simulated vehicles "
+                                        f"produce {', '.join(PRODUCED)}")
+        if source == dest:
+            raise src.fail(item, "flow: source and destination are the same entity")
+        period = int(_number(src, m["period_ms"], "flow.period_ms", 10, 60000, True))
+        name = _scalar(src, m["name"], "flow.name") if "name" in m else f"{content}:{source}>{dest}"
+        if any(f.name == name for f in out):
+            raise src.fail(item, f"flow name '{name}' used twice; give each flow its own name")
+        out.append(FlowSpec(name, content, source, dest, period, _line(item)))
+    return out
+
+
+def _events(src: _Src, node: Any, names: dict[str, int], stations: dict[str, Station], duration: float,
+            links: list[LinkSpec]) -> list[EventSpec]:
+    out = []
+    for item in _seq(src, node, "events"):
+        m = _mapping(src, item, "event", {"t": True, **{k: False for k in EVENT_KINDS}})
+        kinds = [k for k in EVENT_KINDS if k in m]
+        if len(kinds) != 1:
+            raise src.fail(item, f"event: give exactly one of {', '.join(EVENT_KINDS)} with its time t")
+        kind = kinds[0]
+        t = _number(src, m["t"], "event.t", 0.0, duration)
+        if kind in ("fail_link", "restore_link"):
+            target: tuple[str, ...] = _two_names(src, m[kind], kind, names)
+            if not any(link.pair == frozenset(target) for link in links):
+                raise src.fail(m[kind], f"{kind}: no link between {target[0]} and {target[1]} in 'links'")
+        else:
+            target = (_known(src, m[kind], kind, names),)
+            st = stations[target[0]]
+            if kind in ("kill", "restart") and st.run != "process":
+                raise src.fail(m[kind], f"{kind}: '{st.name}' runs in the launcher (run: python); only "
+                                        "processes (run: process) can be killed and restarted")
+            if kind == "add" and not st.is_vehicle:
+                raise src.fail(m[kind], "add: only vehicles join during a run; start ground stations at t=0")
+        out.append(EventSpec(t, kind, target, _line(item)))
+    out.sort(key=lambda e: (e.t, e.line))
+    # Life cycle: restart after kill, no kill before an add, one add per vehicle.
+    alive: dict[str, bool] = {n: True for n in names}
+    added = set()
+    for e in out:
+        if e.kind == "add":
+            if e.target[0] in added:
+                raise src.fail(None, f"add {e.target[0]} twice (line {e.line})")
+            added.add(e.target[0])
+    for n in added:
+        alive[n] = False
+    for e in out:
+        name = e.target[0]
+        if e.kind == "add":
+            alive[name] = True
+        elif e.kind == "kill":
+            if not alive[name]:
+                raise ScenarioError(f"{src.source}:{e.line}: kill {name}: it is not running at t={e.t:g} "
+                                    "(not started yet, or killed already)")
+            alive[name] = False
+        elif e.kind == "restart":
+            if alive[name]:
+                raise ScenarioError(f"{src.source}:{e.line}: restart {name}: it is running at t={e.t:g}; kill it "
+                                    "first")
+            alive[name] = True
+    return out
+
+
+def parse_scenario(text: str, source: str = "<scenario>") -> Scenario:
+    import yaml
+
+    src = _Src(source)
+    try:
+        root = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.MarkedYAMLError as e:
+        mark = e.problem_mark or e.context_mark
+        line = mark.line + 1 if mark is not None else 1
+        raise ScenarioError(f"{source}:{line}: not valid YAML: {e.problem or e}") from None
+    if root is None:
+        raise ScenarioError(f"{source}:1: empty file; a scenario needs at least duration_s and vehicles")
+    m = _mapping(src, root, "scenario", {"name": False, "duration_s": True, "seed": False, "routing": False,
+                                         "datum": False, "radio": False, "ground_stations": False,
+                                         "vehicles": True, "links": False, "flows": False, "events": False})
+    duration = _number(src, m["duration_s"], "duration_s", 1.0, 3600.0)
+    seed = int(_number(src, m["seed"], "seed", 0, 2**31, True)) if "seed" in m else 1
+    routing = _routing(src, m["routing"]) if "routing" in m else RoutingSpec()
+    datum = dict(DATUM)
+    if "datum" in m:
+        d = _mapping(src, m["datum"], "datum", {"lat": False, "lon": False, "alt": False})
+        for k, (lo, hi) in (("lat", (-89.0, 89.0)), ("lon", (-180.0, 180.0)), ("alt", (-500.0, 10000.0))):
+            if k in d:
+                datum[k] = _number(src, d[k], f"datum.{k}", lo, hi)
+    radio = _radio(src, m.get("radio"))
+    seen: dict[str, int] = {}
+    stations = (_stations(src, m["ground_stations"], "gcs", seen) if "ground_stations" in m else [])
+    stations += _stations(src, m["vehicles"], "vehicle", seen)
+    if not any(s.is_vehicle for s in stations):
+        raise src.fail(m["vehicles"], "vehicles: list at least one vehicle")
+    if datum != DATUM:
+        suffix = f",lat0={datum['lat']:g},lon0={datum['lon']:g},alt0={datum['alt']:g}"
+        stations = [Station(s.name, s.kind, s.run, s.motion + (suffix if ":" in s.motion else ":" + suffix[1:]),
+                            s.line) for s in stations]
+    by_name = {s.name: s for s in stations}
+    links = _links(src, m["links"], seen, radio, by_name) if "links" in m else []
+    flows = _flows(src, m["flows"], seen, by_name) if "flows" in m else []
+    events = _events(src, m["events"], seen, by_name, duration, links) if "events" in m else []
+    name = _scalar(src, m["name"], "name") if "name" in m else Path(source).stem
+    return Scenario(name, source, duration, seed, routing, tuple(stations), tuple(links), tuple(flows), tuple(events),
+                    datum)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as e:
+        raise ScenarioError(f"{p}: cannot read the scenario: {e.strerror}") from None
+    return parse_scenario(text, str(p))
