@@ -31,6 +31,10 @@ void ub_priv_route_tick(struct ub_route *rt, uint64_t now_ms);
  * and request about it, and do not learn it again for a while. */
 void ub_priv_route_forget_entity(struct ub_route *rt, int entity, const uint8_t id[UB_ENTITY_ID_LEN], uint64_t now_ms);
 
+/* Local slot `slot` set a mask by hand (pinned or unpinned): choose its routes again at the next tick, so
+ * an unpinned entry is filled at once. */
+void ub_priv_route_mask_set(struct ub_route *rt, int slot);
+
 /* Link slot `link_id` is being removed: forget its neighbour and the routes through it. */
 void ub_priv_route_forget_link(struct ub_route *rt, int link_id, uint64_t now_ms);
 

@@ -216,7 +216,10 @@ static int write_mask(ub_node_t *node, int entity, int dest, uint8_t mask, bool 
     ub_local_entity_t *loc = &node->locals[slot];
     if (!manual && loc->pinned[dest]) return UB_ERR_EXISTS;
     loc->masks[dest] = mask;
-    if (manual) loc->pinned[dest] = mask != 0;
+    if (manual) {
+        loc->pinned[dest] = mask != 0;
+        if (node->route != NULL) ub_priv_route_mask_set(node->route, slot);
+    }
     return UB_OK;
 }
 

@@ -645,6 +645,10 @@ void ub_priv_route_forget_entity(ub_route_t *rt, int entity, const uint8_t id[UB
     rt->tomb[victim].until_ms = now_ms + 4u * (uint64_t)rt->opt.update_ms;
 }
 
+void ub_priv_route_mask_set(ub_route_t *rt, int slot) {
+    if (slot >= 0 && slot < UB_MAX_LOCAL_ENTITIES) rt->reselect[slot] = 1;
+}
+
 void ub_priv_route_forget_link(ub_route_t *rt, int link_id, uint64_t now_ms) {
     (void)now_ms;
     if (link_id < 0 || link_id >= UB_MAX_NODE_LINKS) return;

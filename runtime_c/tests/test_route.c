@@ -571,10 +571,10 @@ static void test_manual_mask_pins_a_route(void **state) {
     assert_true(ri.pinned && ri.reachable);
     assert_int_equal(ri.mask, 0x01);
     assert_true(ub_route_counters(&f->rt[0])->pinned_skips >= 1);
-    /* Unpin: the automatic route comes back at the next selection. */
+    /* Unpin: the automatic route comes back at the next tick. */
     assert_int_equal(ub_node_set_mask(n0, f->self[0], d, 0), UB_OK);
     assert_false(ub_node_mask_pinned(n0, f->self[0], d));
-    world_run(f->w, f->w->now_ms + 2 * HELLO_MS, 1);
+    world_run(f->w, f->w->now_ms + 1, 1);
     assert_int_equal(ub_node_get_mask(n0, f->self[0], d, &mask), UB_OK);
     assert_int_equal(mask, 0x01);
     (void)ab;

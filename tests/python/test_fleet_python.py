@@ -60,6 +60,7 @@ def test_routes_build_themselves_and_carry_data(line) -> None:
     nodes[0].subscribe("u0", "gpsOut", source="u3", period_ms=50)
     run(nodes, clock, 500)
     assert len(got) >= 6 and got[-1].source == "u3" and got[-1].value["latitudeDeg"] == 32.5
+    assert got[-1].hops == 3  # from the hop limit on arrival
     links_info = nodes[1].route_links()
     assert links_info["u1L0"]["neighbour"] == "u0" and links_info["u1L1"]["neighbour"] == "u2"
     assert links_info["u1L0"]["cost"] == 256 and links_info["u1L0"]["frames_out"] >= 5

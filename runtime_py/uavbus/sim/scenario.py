@@ -222,14 +222,14 @@ def _choice(src: _Src, node: Any, what: str, choices: tuple[str, ...]) -> str:
 
 
 def _motion(src: _Src, node: Any, what: str) -> str:
-    from uavbus._bindings.ub_error import InvalidArgumentError
+    from uavbus._bindings.ub_motion import MotionError
     from uavbus.sim.flight import FlightModel
 
     text = _scalar(src, node, what)
     try:
         FlightModel(text)  # the C parser: one grammar for uavbus_node --motion and Python
-    except InvalidArgumentError as e:
-        raise src.fail(node, f"{what}: {e}") from None
+    except MotionError as e:
+        raise src.fail(node, f"{what}: {e.detail}") from None
     return text
 
 
