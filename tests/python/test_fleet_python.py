@@ -3,6 +3,8 @@ nodes over memlinks on an injected clock."""
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from binding_testutil import Generated
@@ -151,3 +153,19 @@ def test_membership_over_the_bus(line) -> None:
     assert nodes[3].counters()["membership_refused"] == 2
     with pytest.raises(InvalidArgumentError):
         m.request("teleport", "u3", "u1")
+
+
+def test_python_vehicle_writes_the_flight_model(flightsw: Generated) -> None:
+    from uavbus.sim.flight import FlightModel, VehicleDirectories
+
+    n = vehicle(flightsw.catalogue, Clock(), "pv", 0)
+    dirs = VehicleDirectories(n, FlightModel("orbit:r=150,v=12,n=300"))
+    s = dirs.update(12.5, 0.02)
+    gps, imu, nav = (n.directory(x).to_dict() for x in ("gpsOut", "imuOut", "navFilterState"))
+    assert gps["latitudeDeg"] == s.lat_deg and gps["longitudeDeg"] == s.lon_deg and gps["solutionCount"] == 1
+    assert gps["velocityNed"]["x"] == pytest.approx(s.vel_ned[0], rel=1e-6)  # float32 on the wire
+    assert (imu["p"], imu["q"], imu["r"]) == s.rates and imu["specificForce"]["y"] == s.specific_force[1]
+    assert imu["deltaAngle"]["z"] == pytest.approx(s.rates[2] * 0.02)
+    assert nav["positionNed"] == {"x": s.north_m, "y": s.east_m, "z": -s.up_m} and nav["aligned"] == 1
+    assert math.hypot(s.north_m - 300, s.east_m) == pytest.approx(150.0)
+    n.close()
