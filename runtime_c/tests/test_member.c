@@ -17,6 +17,7 @@
 #include "ub/ub_admin.h"
 #include "ub/ub_member.h"
 #include "ub/ub_node.h"
+#include "ub/ub_policy.h"
 #include "ub/ub_pubsub.h"
 #include "ub/ub_wire.h"
 
@@ -318,6 +319,44 @@ static void test_membership_timeout_and_validation(void **state) {
     free(p);
 }
 
+/* Under a policy only administrators may change a node's membership over the bus; a local request is not judged. */
+static void test_membership_needs_an_administrator(void **state) {
+    (void)state;
+    pair_t *p = pair_new();
+    ub_policy_t *pol = calloc(1, sizeof *pol);
+    assert_non_null(pol);
+    ub_policy_init(pol);
+    uint8_t boss[UB_ENTITY_ID_LEN];
+    test_eid("boss", boss);
+    assert_int_equal(ub_policy_add_admin(pol, boss), UB_OK);
+    ub_node_set_policy(p->uav, pol);
+    ub_member_spec_t add = spec_for(UB_MEMBER_ADD_ENTITY, "uav1", "uav9");
+    ub_member_info_t info = run_request(p, &add);
+    assert_int_equal(info.status, UB_MEMBER_FAILED);
+    assert_int_equal(info.nack_reason, UB_NACK_NOT_AUTHORIZED);
+    uint8_t v9[UB_ENTITY_ID_LEN];
+    test_eid("uav9", v9);
+    assert_int_equal(ub_node_find_entity(p->uav, v9), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_node_counters(p->uav)->drops[UB_DROP_NOT_AUTHORIZED], 1);
+    assert_int_equal(ub_node_counters(p->uav)->membership_refused, 1);
+    assert_false(ub_node_may_administer(p->uav, p->u, ub_node_entity_id(p->gcs, p->g)));
+    assert_true(ub_node_may_administer(p->uav, p->u, boss));
+    /* gcs1 becomes an administrator: the same request is applied. */
+    assert_int_equal(ub_policy_add_admin(pol, ub_node_entity_id(p->gcs, p->g)), UB_OK);
+    info = run_request(p, &add);
+    assert_int_equal(info.status, UB_MEMBER_DONE);
+    assert_true(ub_node_find_entity(p->uav, v9) >= 0);
+    /* A request between entities of one node is not judged (they share the process). */
+    assert_int_equal(ub_member_init(&p->um, p->uav, p->u, NULL), UB_OK);
+    ub_member_spec_t self = spec_for(UB_MEMBER_REMOVE_ENTITY, "uav1", "uav9");
+    assert_true(ub_member_request(&p->um, &self, p->w->now_ms) >= 0);
+    world_run(p->w, p->w->now_ms + 1, 1);
+    assert_int_equal(ub_node_find_entity(p->uav, v9), UB_ERR_NOTFOUND);
+    free(pol);
+    free(p->w);
+    free(p);
+}
+
 /* Malformed MEMBERSHIP frames are counted bad_payload and not answered; stray replies are counted. */
 static void test_membership_bad_frames(void **state) {
     (void)state;
@@ -352,6 +391,7 @@ int main(void) {
         cmocka_unit_test(test_memlink_disconnect),
         cmocka_unit_test(test_membership_requests),
         cmocka_unit_test(test_membership_timeout_and_validation),
+        cmocka_unit_test(test_membership_needs_an_administrator),
         cmocka_unit_test(test_membership_bad_frames),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
