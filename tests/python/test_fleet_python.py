@@ -7,24 +7,14 @@ import math
 
 import pytest
 
-from binding_testutil import Generated
+from binding_testutil import FakeClock as Clock
+from binding_testutil import Generated, run_nodes
 from uavbus import MemLink, Node
 from uavbus._bindings.ub_error import InvalidArgumentError, NotFoundError
 
 
-class Clock:
-    def __init__(self) -> None:
-        self.t = 1000
-
-    def __call__(self) -> int:
-        return self.t
-
-
-def run(nodes: list[Node], clock: Clock, ms: int, step: int = 2) -> None:
-    for _ in range(ms // step):
-        clock.t += step
-        for n in nodes:
-            n.service()
+def run(nodes: list[Node], clock: Clock, ms: int) -> None:
+    run_nodes(nodes, clock, ms, step=2)
 
 
 def vehicle(cat, clock: Clock, name: str, links: int) -> Node:
