@@ -410,11 +410,11 @@ typedef struct rx_ctx {
     ub_node_t *node;
     int link_id;
     uint64_t now_ms;
-    unsigned fresh; /* frames that passed the policy and the tag and were no duplicate or replay */
+    ub_rx_verdicts_t verdicts;
 } rx_ctx_t;
 
 static void route_received(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
-                           size_t len, uint64_t now_ms, unsigned *fresh) {
+                           size_t len, uint64_t now_ms, ub_rx_verdicts_t *verdicts) {
     ub_link_t *link = &node->links[link_id];
     link->counters.frames_in++;
     /* Security first: nothing below (window, routing, tables, the tap) sees a frame that fails it. */
@@ -427,11 +427,14 @@ static void route_received(ub_node_t *node, int link_id, const ub_frame_header_t
     int handler = dest_slot >= 0 ? dest_slot : link->owner;
     ub_priv_window_t verdict = ub_priv_window_pass(node, handler, link_id, h, &rx, now_ms);
     if (verdict != UB_PRIV_WINDOW_PASS) {
-        if (verdict == UB_PRIV_WINDOW_UNVERIFIED && fresh != NULL) (*fresh)++;
+        if (verdict == UB_PRIV_WINDOW_UNVERIFIED && verdicts != NULL) verdicts->authentic++;
         return;
     }
     link->counters.frames_accepted++;
-    if (fresh != NULL) (*fresh)++;
+    if (verdicts != NULL) {
+        verdicts->authentic++;
+        verdicts->fresh++;
+    }
     if (dest_slot >= 0) {
         dispatch(node, dest_slot, link_id, h, rx.payload, &rx, now_ms);
         return;
@@ -472,17 +475,17 @@ static void route_received(ub_node_t *node, int link_id, const ub_frame_header_t
 
 static void on_stream_frame(void *user, const ub_frame_header_t *h, const uint8_t *frame, size_t frame_len) {
     rx_ctx_t *ctx = user;
-    route_received(ctx->node, ctx->link_id, h, frame, frame_len, ctx->now_ms, &ctx->fresh);
+    route_received(ctx->node, ctx->link_id, h, frame, frame_len, ctx->now_ms, &ctx->verdicts);
 }
 
 int ub_node_rx_stream(ub_node_t *node, int link_id, ub_decoder_t *dec, const uint8_t *data, size_t len,
-                      uint64_t now_ms, unsigned *fresh) {
+                      uint64_t now_ms, ub_rx_verdicts_t *verdicts) {
     if (node == NULL || !link_id_ok(node, link_id) || (data == NULL && len > 0)) return UB_ERR_INVAL;
     node->links[link_id].counters.bytes_in += len;
-    rx_ctx_t ctx = {node, link_id, now_ms, 0};
+    rx_ctx_t ctx = {node, link_id, now_ms, {0, 0}};
     size_t frames = ub_decoder_feed(dec != NULL ? dec : &node->links[link_id].decoder, data, len, on_stream_frame,
                                     &ctx);
-    if (fresh != NULL) *fresh = ctx.fresh;
+    if (verdicts != NULL) *verdicts = ctx.verdicts;
     return frames > (size_t)INT32_MAX ? INT32_MAX : (int)frames;
 }
 

@@ -202,9 +202,10 @@ static void read_candidate(ub_tcp_t *tcp, ub_tcp_candidate_t *c, uint64_t now_ms
         ssize_t n = recv(c->fd, tcp->rx, sizeof tcp->rx, 0);
         if (n > 0) {
             tcp->stats.bytes_in += (uint64_t)n;
-            unsigned fresh = 0;
-            int found = ub_node_rx_stream(tcp->node, tcp->link_id, &c->dec, tcp->rx, (size_t)n, now_ms, &fresh);
-            if (found >= 0 && fresh > 0) c->proven = 1;
+            ub_rx_verdicts_t v = {0, 0};
+            int found = ub_node_rx_stream(tcp->node, tcp->link_id, &c->dec, tcp->rx, (size_t)n, now_ms, &v);
+            if (found >= 0 && v.fresh > 0) c->proven = 2;
+            else if (found >= 0 && v.authentic > 0 && c->proven == 0) c->proven = 1;
             continue;
         }
         if (n < 0 && errno == EINTR) continue;
@@ -228,7 +229,7 @@ static void service_candidates(ub_tcp_t *tcp, uint64_t now_ms) {
             tcp->stats.candidates_expired++;
             continue;
         }
-        if (c->proven && pick == NULL) pick = c;
+        if (c->proven && (pick == NULL || c->proven > pick->proven)) pick = c;
     }
     if (pick == NULL) return;
     bool silent = tcp->state != UB_TCP_UP ||
@@ -291,10 +292,11 @@ static int read_available(ub_tcp_t *tcp, uint64_t now_ms) {
         ssize_t n = recv(tcp->fd, tcp->rx, sizeof tcp->rx, 0);
         if (n > 0) {
             tcp->stats.bytes_in += (uint64_t)n;
-            unsigned fresh = 0;
-            int found = ub_node_rx_stream(tcp->node, tcp->link_id, NULL, tcp->rx, (size_t)n, now_ms, &fresh);
+            ub_rx_verdicts_t v = {0, 0};
+            int found = ub_node_rx_stream(tcp->node, tcp->link_id, NULL, tcp->rx, (size_t)n, now_ms, &v);
             if (found > 0) frames += found;
-            if (fresh > 0) tcp->last_fresh_ms = now_ms; /* the established peer is alive, provably */
+            /* Alive only by frames whose freshness is proven: replays, even authentic ones, keep nothing alive. */
+            if (v.fresh > 0) tcp->last_fresh_ms = now_ms;
             continue;
         }
         if (n < 0 && errno == EINTR) continue;

@@ -308,18 +308,22 @@ void *ub_node_binding(const ub_node_t *node, uint32_t instance);
  */
 UB_CHECK int ub_node_rx(ub_node_t *node, int link_id, const uint8_t *data, size_t len, uint64_t now_ms);
 
+/** What ub_node_rx_stream() made of the frames it found. */
+typedef struct ub_rx_verdicts {
+    unsigned authentic; /**< passed the policy and the tag, and were neither duplicates nor replays (those
+                             dropped `unverified` while their source's challenge runs included) */
+    unsigned fresh;     /**< of those, the ones whose freshness is proven (routed, delivered or forwarded) */
+} ub_rx_verdicts_t;
+
 /**
  * ub_node_rx() with an explicit decoder: for a transport that reads a second
  * byte stream for the same slot (a TCP server's candidate connection) and
  * must know whether it carried authentic frames. `dec` NULL = the slot's own
- * decoder. `fresh` (may be NULL) receives the number of frames that passed
- * the security policy and the tag and were neither duplicates nor replays
- * (frames dropped `unverified` while their source's challenge runs count:
- * they are authentic, only their freshness is not proven yet).
+ * decoder. `verdicts` (may be NULL) receives the counts of this call.
  * @return frames found, or UB_ERR_INVAL.
  */
 UB_CHECK int ub_node_rx_stream(ub_node_t *node, int link_id, ub_decoder_t *dec, const uint8_t *data, size_t len,
-                               uint64_t now_ms, unsigned *fresh);
+                               uint64_t now_ms, ub_rx_verdicts_t *verdicts);
 
 /**
  * Hands one datagram (exactly one frame) received on a link to the router.

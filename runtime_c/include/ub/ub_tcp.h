@@ -32,12 +32,15 @@
  * closed at once, `candidates_refused`) whose bytes go to the node through a
  * decoder of its own (ub_node_rx_stream()), so its frames are checked like
  * any others and nothing of it reaches the established stream. A candidate is
- * **adopted** only once it has sent a frame the node judged authentic and
- * fresh (with signing required: a valid signed frame, verified by the node,
- * not by this driver), and only when the established peer is gone or has
- * sent no such frame for `idle_ms` (the usual cause: the same client
- * reconnecting after a half-open connection); `replaced` counts adoptions
- * that closed an established peer. With no established peer and a link that
+ * **adopted** only when the established peer is gone or has sent no frame of
+ * proven freshness for `idle_ms` (the usual cause: the same client
+ * reconnecting after a half-open connection), and only once the candidate has
+ * itself sent a frame the node judged authentic (with signing required: a
+ * valid signed frame, verified by the node, not by this driver) that was no
+ * duplicate or replay; one whose freshness the node could prove is preferred
+ * (a node without state for the source cannot prove it until the challenge,
+ * which needs the link). `replaced` counts adoptions that closed an
+ * established peer. With no established peer and a link that
  * does not require signing, a new connection is adopted at once, as before.
  * Candidates that prove nothing within `candidate_ms` are closed
  * (`candidates_expired`). Poll ub_tcp_listen_fileno() and ub_tcp_fileno(),
@@ -121,7 +124,7 @@ typedef struct ub_tcp_stats {
 /** A server's candidate connection. Treat as private. */
 typedef struct ub_tcp_candidate {
     int fd;           /**< -1: free slot */
-    uint8_t proven;   /**< sent a frame the node found authentic and fresh */
+    uint8_t proven;   /**< 0 nothing yet; 1 an authentic frame (its freshness not provable yet); 2 a fresh one */
     uint64_t since_ms;
     ub_decoder_t dec; /**< its own stream, apart from the established one */
 } ub_tcp_candidate_t;
