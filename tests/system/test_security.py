@@ -270,3 +270,37 @@ def test_the_same_forgery_succeeds_without_signing(hitl_opts: HitlOptions) -> No
         h.close()
         for t in taps.values():
             t.close()
+
+
+def test_an_encrypting_datalink_shows_the_eavesdropper_only_ciphertext(hitl_opts: HitlOptions,
+                                                                       tmp_path: Path) -> None:
+    """`encrypt` on both ends of the UDP datalink: everything the tap records there is ENCRYPTED (also the
+    imuOut frames rmax1ob1 forwards from fcs20, converted from SIGNED), no delivered payload appears on
+    that link in clear, and the streams keep their rates."""
+    # rmax1ob1: fcs20 has a link of the same name (Table 2), which must stay as it is
+    links = {"gcsPortDatalink1": {"encrypt": True}, "rmax1ob1:onboardPortDatalink1": {"encrypt": True}}
+    hitl_opts.config = signed_config(TABLE2, tmp_path, links=links)
+    hitl_opts.gcs_links = ("gcsPortDatalink1",)        # the tapped link only: every frame crosses the tap
+    h, taps = start(hitl_opts)
+    try:
+        gps = h.add_row("publication", "gpsOut", "rmax1ob1", "gcs1", GPS_MS)
+        imu = h.add_row("subscription", "imuOut", "fcs20", "gcs1", IMU_MS)
+        h.wait_status(gps, "active", 8.0)
+        h.wait_status(imu, "active", 8.0)
+        h.wait_data("imuOut", "fcs20", 3, 5.0)
+        t0 = time.monotonic()
+        h.run_for(1.5)
+        gps_hz, imu_hz, _ = rates(h, t0, time.monotonic())
+        assert gps_hz == pytest.approx(10, rel=0.10) and imu_hz == pytest.approx(50, rel=0.10), (gps_hz, imu_hz)
+        on_air = taps["udp"].frames("b>a") + taps["udp"].frames("a>b")
+        assert len(on_air) > 80
+        assert {f[3] for f in on_air} == {0x21}, "a frame crossed the encrypting link unencrypted"
+        delivered = {raw for *_x, raw in h.messages if len(raw) >= 16}
+        assert delivered and not any(raw in f for raw in delivered for f in on_air)
+        assert h.gcs.security()["decrypted_in"] >= 80
+        backup = h.child_stats("backup")["security"]
+        assert backup["encrypted_out"] == 0 and backup["signed_out"] >= 80   # fcs20's own link is signed only
+    finally:
+        h.close()
+        for t in taps.values():
+            t.close()
