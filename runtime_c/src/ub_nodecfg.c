@@ -715,8 +715,8 @@ static int parse_security(const parser_t *p, const ub_json_value_t *obj) {
     int rc;
     if (obj->kind != UB_JSON_OBJECT)
         return fail(p, obj->line, NULL, "security",
-                    "must be an object with keys, counter_file, ... and/or administrators, read, write, limits "
-                    "(see docs/config-format.md)");
+                    "must be an object with keys, tx_key, require_signed, counter_file, links, administrators, read, "
+                    "write and/or limits (see docs/config-format.md)");
     if ((rc = check_fields(p, obj, SECURITY_FIELDS, N_SECURITY_FIELDS, NULL, "security.", values)) != UB_OK) return rc;
     if ((rc = parse_frame_security(p, obj, values)) != UB_OK) return rc;
     ub_policy_init(&cfg->policy);

@@ -288,10 +288,7 @@ int ub_sec_verify(ub_sec_t *sec, const ub_frame_header_t *h, const uint8_t *fram
 
 void ub_sec_random(ub_sec_t *sec, uint8_t *out, size_t len) {
     if (out == NULL || len == 0) return;
-    if (sec != NULL && sec->opt.random != NULL) {
-        sec->opt.random(sec->opt.random_user, out, len);
-        return;
-    }
+    if (sec != NULL && sec->opt.random != NULL && sec->opt.random(sec->opt.random_user, out, len) == UB_OK) return;
 #if HAVE_SODIUM
     randombytes_buf(out, len);
 #else

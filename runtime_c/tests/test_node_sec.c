@@ -41,8 +41,9 @@ static int store_reserve(void *user, uint64_t mark) {
     return UB_OK;
 }
 
-static void seeded_random(void *user, uint8_t *out, size_t len) {
+static int seeded_random(void *user, uint8_t *out, size_t len) {
     for (size_t i = 0; i < len; i++) out[i] = (uint8_t)(ub_rng_next(user) >> 56);
+    return UB_OK;
 }
 
 typedef struct end {

@@ -188,7 +188,7 @@ static void test_security_section_parse_errors(void **state) {
         const char *security;
         const char *expect; /* after "<dir>/node.json:" */
     } cases[] = {
-        {"[]", "4: field 'security': must be an object {\"keys\": [...], ...} (see docs/config-format.md)"},
+        {"[]", "4: field 'security': must be an object with keys, tx_key, require_signed, counter_file, links, administrators, read, write and/or limits (see docs/config-format.md)"},
         {"{\"counter_file\": \"c\"}",
          "4: field 'security.keys': missing (list the key files, e.g. [\"keys/fleet.key\"]; make one with: uavbus keys "
          "new FILE)"},
@@ -211,7 +211,7 @@ static void test_security_section_parse_errors(void **state) {
          "4: field 'security.links.l0.encrypted': unknown field (expected one of: require_signed, encrypt)"},
         {"{\"keys\": [\"k\"], \"counter_file\": \"c\", \"admins\": []}",
          "4: field 'security.admins': unknown field (expected one of: keys, tx_key, require_signed, counter_file, "
-         "links)"},
+         "links, administrators, read, write, limits)"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         static ub_nodecfg_t cfg;

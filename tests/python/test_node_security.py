@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from binding_testutil import TABLE2, Generated
+from binding_testutil import TABLE2, FakeClock, Generated, run_nodes
 from uavbus import MemLink, Node
 from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, UbError
 from uavbus.sim.secure import new_key, signed_config
@@ -22,19 +22,7 @@ from uavbus.sim.secure import new_key, signed_config
 UAVBUS = [sys.executable, "-m", "uavbus.cli"]
 
 
-class FakeClock:
-    def __init__(self) -> None:
-        self.t = 1000
-
-    def __call__(self) -> int:
-        return self.t
-
-
-def run(nodes: list[Node], clock: FakeClock, ms: int, step: int = 5) -> None:
-    for _ in range(ms // step):
-        clock.t += step
-        for n in nodes:
-            n.poll(0)
+run = run_nodes
 
 
 def test_keys_new_writes_0600_prints_the_id_and_never_overwrites(tmp_path: Path) -> None:

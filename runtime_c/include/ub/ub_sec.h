@@ -55,6 +55,7 @@
 #include "ub_config.h"
 #include "ub_error.h"
 #include "ub_frame.h"
+#include "ub_random.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -84,12 +85,10 @@ extern "C" {
  */
 typedef int (*ub_sec_reserve_fn)(void *user, uint64_t mark);
 
-/** Fills `out` with `len` random bytes (for nonces). Tests inject a seeded one. */
-typedef void (*ub_sec_random_fn)(void *user, uint8_t *out, size_t len);
-
 /** Options; zero fields mean the defaults. */
 typedef struct ub_sec_options {
-    ub_sec_random_fn random;     /**< NULL: libsodium randombytes_buf() */
+    ub_random_fn random;         /**< challenge nonces (ub_random.h); NULL or failing: libsodium randombytes_buf().
+                                      Tests inject a seeded one. */
     void *random_user;
     ub_sec_reserve_fn reserve;   /**< NULL: counters are not persisted (the wall clock alone must be right) */
     void *reserve_user;
@@ -218,7 +217,7 @@ UB_CHECK int ub_sec_protect(ub_sec_t *sec, const ub_frame_header_t *h, const uin
 UB_CHECK int ub_sec_verify(ub_sec_t *sec, const ub_frame_header_t *h, const uint8_t *frame, size_t len,
                            uint8_t *plain, size_t plain_cap);
 
-/** Fills `out` with random bytes from the options' generator (libsodium's by default). */
+/** Fills `out` with random bytes from the options' generator (libsodium's by default, and when it fails). */
 void ub_sec_random(ub_sec_t *sec, uint8_t *out, size_t len);
 
 /** Makes a new random key (libsodium's generator, never the injected one). @return UB_OK or UB_ERR_UNSUPPORTED. */

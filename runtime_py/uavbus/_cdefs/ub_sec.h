@@ -7,10 +7,9 @@
 #define UB_SEC_DEFAULT_RESERVE_BLOCK ...
 
 typedef int (*ub_sec_reserve_fn)(void *user, uint64_t mark);
-typedef void (*ub_sec_random_fn)(void *user, uint8_t *out, size_t len);
 
 struct ub_sec_options {
-    ub_sec_random_fn random;
+    ub_random_fn random;
     void *random_user;
     ub_sec_reserve_fn reserve;
     void *reserve_user;

@@ -52,7 +52,7 @@ def signed_config(source: Path, out_dir: Path, key_ids: tuple[int, ...] = (1,), 
     }
     if links:
         security["links"] = links
-    doc["security"] = security
+    doc["security"] = {**doc.get("security", {}), **security}   # keeps an authorization policy already there
     target = out_dir / (name or f"{Path(source).stem}.signed.json")
     target.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     return target
