@@ -264,47 +264,33 @@ MESSAGE_CASES(2, benchHighresImu_t, benchcat_pack_benchHighresImu, benchcat_unpa
             if (!mavlink_signature_check(&mav_signing_rx, &mav_streams, &mav_signed_msg[M])) abort();        \
         }                                                                                                   \
     }                                                                                                       \
-    static void ub_signed_build_##M(long n) {                                                               \
+    static void protected_build_##M(long n, uint8_t flags) { /* pack + SIGNED or ENCRYPTED frame */        \
         for (long i = 0; i < n; i++) {                                                                      \
             ub_obj_##M.TF++;                                                                                \
             int p = PK(&ub_obj_##M, frame_buf + UB_FRAME_HEADER_LEN, UB_MAX_PAYLOAD);                       \
             shdr.payload_size = (uint16_t)p;                                                                \
-            shdr.flags = UB_FRAME_FLAG_SIGNED;                                                              \
+            shdr.flags = flags;                                                                             \
             shdr.seq++;                                                                                     \
             int len = ub_sec_protect(&sec, &shdr, frame_buf + UB_FRAME_HEADER_LEN, frame_buf, sizeof frame_buf); \
             sink(frame_buf);                                                                                \
             if (len < 0) abort();                                                                           \
         }                                                                                                   \
     }                                                                                                       \
-    static void ub_aead_build_##M(long n) {                                                                 \
-        for (long i = 0; i < n; i++) {                                                                      \
-            ub_obj_##M.TF++;                                                                                \
-            int p = PK(&ub_obj_##M, frame_buf + UB_FRAME_HEADER_LEN, UB_MAX_PAYLOAD);                       \
-            shdr.payload_size = (uint16_t)p;                                                                \
-            shdr.flags = UB_FRAME_FLAG_ENCRYPTED;                                                           \
-            shdr.seq++;                                                                                     \
-            int len = ub_sec_protect(&sec, &shdr, frame_buf + UB_FRAME_HEADER_LEN, frame_buf, sizeof frame_buf); \
-            sink(frame_buf);                                                                                \
-            if (len < 0) abort();                                                                           \
-        }                                                                                                   \
-    }                                                                                                       \
+    static void ub_signed_build_##M(long n) { protected_build_##M(n, UB_FRAME_FLAG_SIGNED); }               \
+    static void ub_aead_build_##M(long n) { protected_build_##M(n, UB_FRAME_FLAG_ENCRYPTED); }              \
     static void on_signed_##M(void *user, const ub_frame_header_t *h, const uint8_t *f, size_t len) {       \
         (void)user;                                                                                         \
         if (UN(&ub_out_##M, verified_payload(h, f, len), h->payload_size) < 0) abort();                     \
         sink(&ub_out_##M);                                                                                  \
     }                                                                                                       \
-    static void ub_signed_parse_##M(long n) {                                                               \
+    static void protected_parse_##M(long n, const uint8_t *bytes, size_t len) { /* feed + verify + unpack */ \
         for (long i = 0; i < n; i++) {                                                                      \
-            sink(ub_signed_bytes[M]);                                                                       \
-            if (ub_decoder_feed(&dec, ub_signed_bytes[M], ub_signed_len[M], on_signed_##M, NULL) != 1) abort(); \
+            sink(bytes);                                                                                    \
+            if (ub_decoder_feed(&dec, bytes, len, on_signed_##M, NULL) != 1) abort();                       \
         }                                                                                                   \
     }                                                                                                       \
-    static void ub_aead_parse_##M(long n) {                                                                 \
-        for (long i = 0; i < n; i++) {                                                                      \
-            sink(ub_aead_bytes[M]);                                                                         \
-            if (ub_decoder_feed(&dec, ub_aead_bytes[M], ub_aead_len[M], on_signed_##M, NULL) != 1) abort(); \
-        }                                                                                                   \
-    }                                                                                                       \
+    static void ub_signed_parse_##M(long n) { protected_parse_##M(n, ub_signed_bytes[M], ub_signed_len[M]); } \
+    static void ub_aead_parse_##M(long n) { protected_parse_##M(n, ub_aead_bytes[M], ub_aead_len[M]); }      \
     static void mav_signed_pack_##M(long n) {                                                               \
         mavlink_message_t msg;                                                                              \
         uint8_t out[MAVLINK_MAX_PACKET_LEN];                                                                \

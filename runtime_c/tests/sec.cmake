@@ -12,6 +12,7 @@ add_custom_command(
   COMMAND ${CMAKE_COMMAND} -DIN=${UB_SIGNED_VECTORS_JSON} -DOUT=${UB_SIGNED_VECTORS_H}
           -P ${CMAKE_CURRENT_SOURCE_DIR}/tools/signed_vectors_to_c.cmake
   DEPENDS ${UB_SIGNED_VECTORS_JSON} ${CMAKE_CURRENT_SOURCE_DIR}/tools/signed_vectors_to_c.cmake
+          ${CMAKE_CURRENT_SOURCE_DIR}/tools/vectors_common.cmake
   COMMENT "Generating ub_signed_vectors.h from tests/vectors/signed_frames.json"
   VERBATIM)
 if(TARGET test_sec_vectors)

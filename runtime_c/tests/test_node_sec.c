@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "support/ub_test_pair.h"
+#include "support/ub_test_store.h"
 #include "ub/ub_pubsub.h"
 #include "ub/ub_sec.h"
 #include "ub_rng_private.h"
@@ -26,20 +27,7 @@ static const uint8_t KEY1[UB_SEC_KEY_LEN] = {1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1,
 static const uint8_t KEY2[UB_SEC_KEY_LEN] = {2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2,
                                              2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 9};
 
-/* A durable store for the counter mark ("the file"), and a seeded nonce source. */
-typedef struct store {
-    uint64_t mark;
-    int fail;
-    int calls;
-} store_t;
-
-static int store_reserve(void *user, uint64_t mark) {
-    store_t *s = user;
-    s->calls++;
-    if (s->fail) return UB_ERR_IO;
-    s->mark = mark;
-    return UB_OK;
-}
+/* A seeded nonce source (the counter mark's store is support/ub_test_store.h). */
 
 static int seeded_random(void *user, uint8_t *out, size_t len) {
     for (size_t i = 0; i < len; i++) out[i] = (uint8_t)(ub_rng_next(user) >> 56);

@@ -13,6 +13,7 @@
 #include "ub/ub_frame.h"
 #include "ub/ub_sec.h"
 #include "ub/ub_wire.h"
+#include "support/ub_test_store.h"
 
 static const uint8_t KEY_A[UB_SEC_KEY_LEN] = {0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77, 0x88, 0x99, 0xaa, 0xbb,
                                               0xcc, 0xdd, 0xee, 0xff, 0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x07,
@@ -197,19 +198,6 @@ static void test_keyring_rules(void **state) {
         }
 }
 
-typedef struct store {
-    uint64_t mark;
-    int fail;
-    int calls;
-} store_t;
-
-static int store_reserve(void *user, uint64_t mark) {
-    store_t *s = user;
-    s->calls++;
-    if (s->fail) return UB_ERR_IO;
-    s->mark = mark;
-    return UB_OK;
-}
 
 static void test_counter_reservation_fails_closed_and_never_reuses(void **state) {
     (void)state;

@@ -16,7 +16,6 @@ The keys below are public test-vector keys, not keys of any deployment.
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import json
 import struct
@@ -212,17 +211,7 @@ def render() -> str:
 
 
 def main(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--check", action="store_true", help="compare with the committed file instead of writing")
-    args = parser.parse_args(argv)
-    text = render()
-    if args.check:
-        if OUTPUT.read_text(encoding="utf-8") != text:
-            print(f"{OUTPUT}:1: stale; regenerate with {Path(__file__).name}", file=sys.stderr)
-            return 1
-        return 0
-    OUTPUT.write_text(text, encoding="utf-8")
-    return 0
+    return frame_ref.write_or_check(argv, render(), OUTPUT, __doc__.splitlines()[0], Path(__file__).name)
 
 
 if __name__ == "__main__":
