@@ -304,3 +304,56 @@ def test_an_encrypting_datalink_shows_the_eavesdropper_only_ciphertext(hitl_opts
         h.close()
         for t in taps.values():
             t.close()
+
+
+def test_key_rotation_across_running_processes_loses_nothing(hitl_opts: HitlOptions, tmp_path: Path) -> None:
+    """Rotation on the live Table 2 network (uavbus_node stdin `key add/use/remove`, Python Node methods):
+    every node accepts key 2, every node signs with it, key 1 is retired everywhere; the streams keep
+    their rates throughout and no frame is refused for its key."""
+    from uavbus.sim.secure import new_key
+
+    hitl_opts.config = signed_config(TABLE2, tmp_path)
+    h, taps = start(hitl_opts)
+    try:
+        gps = h.add_row("publication", "gpsOut", "rmax1ob1", "gcs1", GPS_MS)
+        imu = h.add_row("subscription", "imuOut", "fcs20", "gcs1", IMU_MS)
+        h.wait_status(gps, "active", 8.0)
+        h.wait_status(imu, "active", 8.0)
+        h.wait_data("imuOut", "fcs20", 3, 5.0)
+        key2 = new_key(tmp_path / "keys", 2)
+
+        def everywhere(command: str) -> None:
+            for name in ("primary", "secondary", "backup"):
+                proc = h.group[name]
+                m = proc.mark()
+                proc.send(command)
+                ev = h.child_event(name, lambda e: e.get("event") in ("key", "error"), 3.0, since=m)
+                assert ev["event"] == "key", f"{name}: {command}: {ev}"
+            h.run_for(0.3)
+
+        t0 = h.mark("rotation")
+        h.gcs.add_key(key2)
+        everywhere(f"key add {key2}")
+        h.gcs.use_key(2)
+        everywhere("key use 2")
+        proc = h.group["primary"]
+        m = proc.mark()
+        proc.send("key remove 2")
+        err = h.child_event("primary", lambda e: e.get("event") in ("key", "error"), 3.0, since=m)
+        assert err["event"] == "error" and "'key use' another key first" in err["message"]
+        h.gcs.remove_key(1)
+        everywhere("key remove 1")
+        h.run_for(1.0)
+        t1 = h.mark("rotated")
+        gps_hz, imu_hz, _ = rates(h, t0, t1)
+        assert gps_hz == pytest.approx(10, rel=0.10) and imu_hz == pytest.approx(50, rel=0.10), (gps_hz, imu_hz)
+        for name in ("primary", "secondary", "backup"):
+            st = h.child_stats(name)
+            assert st["security"]["keys"] == [2] and st["security"]["tx_key"] == 2, st["security"]
+            assert st["node"]["drops"]["unknown_key"] == st["node"]["drops"]["bad_tag"] == 0, name
+        assert h.gcs.security()["keys"] == [2]
+        assert h.gcs.counters()["drops"]["unknown_key"] == 0
+    finally:
+        h.close()
+        for t in taps.values():
+            t.close()
