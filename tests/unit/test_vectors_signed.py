@@ -120,3 +120,18 @@ def test_a_context_without_the_key_refuses_every_vector() -> None:
     for v in VECTORS:
         with pytest.raises(AuthError if v["key_id"] == 1 else NotFoundError):
             ub_sec.ub_sec_verify(other, bytes.fromhex(v["frame"]))
+
+
+@pytest.mark.parametrize("v", [v for v in VECTORS if v["payload"]], ids=[v["name"] for v in VECTORS if v["payload"]])
+def test_log_and_live_tools_read_the_payload_before_the_trailer(v: dict[str, Any]) -> None:
+    from uavbus.logfile import LogRecord
+    from uavbus.tools.common import Seen
+
+    frame = bytes.fromhex(v["frame"])
+    header = uf.ub_frame_parse(frame)
+    on_wire = frame[64:64 + len(v["payload"]) // 2].hex()      # plaintext when SIGNED, ciphertext when ENCRYPTED
+    assert Seen(t_ms=0, link="l", dir="rx", header=header, frame=frame).payload.hex() == on_wire
+    rec = LogRecord(offset=0, t_ms=0, link_id=0, link="l", dir="rx", frame=frame, header=header)
+    assert rec.payload.hex() == on_wire
+    if v["mode"] == "signed":
+        assert on_wire == v["payload"]
