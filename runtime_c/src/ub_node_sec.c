@@ -125,7 +125,7 @@ static ub_dedup_entry_t *entry_get(ub_node_t *node, ub_local_entity_t *loc, cons
 
 /* Unsigned sources: the 32-bit sequence with serial-number arithmetic (it may wrap), and the
  * restart rule (a sequence far behind resets the window). Returns true for a duplicate. */
-static bool unsigned_seen(ub_node_t *node, ub_dedup_entry_t *e, bool fresh, uint32_t seq) {
+static inline bool unsigned_seen(ub_node_t *node, ub_dedup_entry_t *e, bool fresh, uint32_t seq) {
     uint32_t highest = (uint32_t)e->win.highest;
     if (fresh) {
         e->win.highest = seq;
