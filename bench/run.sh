@@ -58,18 +58,20 @@ cmake --build "$build" --target ub_frame_bench ub_router_bench ub_far >/dev/null
 mkdir -p "$build/bench-lib"
 rm -f "$build"/bench-lib/*
 for f in runtime_c/src/*.c; do
-  gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -Iruntime_c/include -c "$f" -o "$build/bench-lib/$(basename "$f" .c).o"
+  gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -DUB_SECURITY=1 -Iruntime_c/include -c "$f" \
+    -o "$build/bench-lib/$(basename "$f" .c).o"
 done
 ar rcs "$build/bench-lib/libub.a" "$build"/bench-lib/*.o
+SODIUM=$(pkg-config --libs libsodium)   # frame security (ub_sec.c); the same libsodium the runtime links
 "$root/.venv/bin/uavbus" gen bench/catalogue/bench_msgs.h --name benchcat -o "$gen" >/dev/null
 echo "uavbus gen bench/catalogue/bench_msgs.h --name benchcat -o $gen" >>"$raw/commands.txt"
 CFLAGS=(-O2 -std=gnu11 -Wall -Wextra -Werror -D_POSIX_C_SOURCE=200809L -Iruntime_c/include -Ibench/catalogue -I"$gen")
 LIBUB=$build/bench-lib/libub.a
 gcc "${CFLAGS[@]}" -Wno-address-of-packed-member -I"$peers/mavlink" -I"$peers/lcmgen" -I"$lcm_inc" \
-  bench/src/codec_bench.c "$gen/benchcat.c" "$peers"/lcmgen/*.c "$LIBUB" -L"$lcm_lib" -llcm -Wl,-rpath,"$lcm_lib" \
-  -o "$bin/codec_bench"
-gcc "${CFLAGS[@]}" bench/src/router_hops.c "$gen/benchcat.c" "$LIBUB" -ldl -o "$bin/router_hops"
-gcc "${CFLAGS[@]}" bench/src/loop_bench.c "$gen/benchcat.c" "$LIBUB" -o "$bin/loop_bench"
+  bench/src/codec_bench.c "$gen/benchcat.c" "$peers"/lcmgen/*.c "$LIBUB" $SODIUM -L"$lcm_lib" -llcm \
+  -Wl,-rpath,"$lcm_lib" -o "$bin/codec_bench"
+gcc "${CFLAGS[@]}" bench/src/router_hops.c "$gen/benchcat.c" "$LIBUB" $SODIUM -ldl -o "$bin/router_hops"
+gcc "${CFLAGS[@]}" bench/src/loop_bench.c "$gen/benchcat.c" "$LIBUB" $SODIUM -o "$bin/loop_bench"
 gcc "${CFLAGS[@]}" -I"$lcm_inc" bench/src/lcm_loop.c -L"$lcm_lib" -llcm -Wl,-rpath,"$lcm_lib" -o "$bin/lcm_loop"
 
 # ---- figure 1: C codecs (3 processes x 11 interleaved samples; callgrind once) ----
@@ -130,7 +132,8 @@ REF=(-DUB_MAX_ENTITIES=16 -DUB_MAX_LINKS_PER_ENTITY=8 -DUB_MAX_NODE_LINKS=8 -DUB
 mkdir -p "$build/ref-obj"
 rm -f "$build/ref-obj"/*.o
 for f in runtime_c/src/*.c; do
-  gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L "${REF[@]}" -Iruntime_c/include -c "$f" -o "$build/ref-obj/$(basename "$f" .c).o"
+  gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -DUB_SECURITY=1 "${REF[@]}" -Iruntime_c/include -c "$f" \
+    -o "$build/ref-obj/$(basename "$f" .c).o"
 done
 gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L "${REF[@]}" -Iruntime_c/include bench/src/ram_bench.c -o "$bin/ram_bench"
 { "$bin/ram_bench"; size -t "$build"/ref-obj/*.o | tail -1 | sed 's/^/size /'; } >"$raw/ram.txt"

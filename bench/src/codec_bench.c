@@ -12,6 +12,11 @@
  *
  * Every iteration changes the input (a timestamp field += 1) and sinks the output through an
  * asm barrier, so no work is hoisted or deleted.
+ *
+ * Signing (bench figure 1b): uavbus SIGNED (keyed BLAKE2b, 64-bit tag) and ENCRYPTED (XChaCha20-Poly1305)
+ * frames against MAVLink 2 signing (SHA-256 truncated to 48 bits) from the same mavgen headers:
+ * the tag alone (ub_sec_protect vs mavlink_sign_packet; ub_sec_verify + replay window vs
+ * mavlink_signature_check) and the whole signed frame (pack + sign; parse + verify + unpack).
  */
 #include <stdint.h>
 #include <stdio.h>
@@ -26,6 +31,8 @@
 #include "benchlcm_gps_raw_int_t.h"
 #include "benchlcm_highres_imu_t.h"
 #include "ub/ub_frame.h"
+#include "ub/ub_sec.h"
+#include <sodium.h> /* only for the alternative-MAC row (SipHash-2-4); uavbus itself uses ub_sec */
 
 benchAttitude_t benchAttitude;
 benchGpsRawInt_t benchGpsRawInt;
@@ -54,6 +61,34 @@ static size_t mav_frame_len[3];
 static uint8_t lcm_bytes[3][128];
 static int lcm_len[3];
 static uint8_t payload_src[128], payload_dst[128];
+
+/* ---- signing state ---- */
+static ub_sec_t sec;                      /* key id 1 */
+static ub_frame_header_t shdr;            /* SIGNED header template; the AEAD cases flip the flag */
+static ub_sec_window_t win;
+static uint8_t plain_buf[UB_MAX_PAYLOAD];
+static uint8_t ub_signed_bytes[3][UB_FRAME_MAX], ub_aead_bytes[3][UB_FRAME_MAX];
+static size_t ub_signed_len[3], ub_aead_len[3];
+static ub_frame_header_t ub_signed_hdr[3]; /* parsed from ub_signed_bytes (verify cases) */
+static ub_frame_header_t ub_sign_hdr[3];   /* what the sign cases sign (their seq moves) */
+static mavlink_signing_t mav_signing_tx, mav_signing_rx;
+static mavlink_signing_streams_t mav_streams;
+static uint8_t mav_signed_bytes[3][MAVLINK_MAX_PACKET_LEN];
+static size_t mav_signed_len[3];
+static mavlink_message_t mav_signed_msg[3];
+static uint8_t mav_sig[MAVLINK_SIGNATURE_BLOCK_LEN];
+
+/* One verified SIGNED/ENCRYPTED frame from the decoder: tag, replay window (reset, so every frame is new,
+ * as MAVLink's stream table is below), then the payload unpacked by the caller's function. */
+static const uint8_t *verified_payload(const ub_frame_header_t *h, const uint8_t *f, size_t len) {
+    if (ub_sec_verify(&sec, h, f, len, plain_buf, sizeof plain_buf) != UB_OK) abort();
+    win.highest = 0;
+    win.seen = 0;
+    uint64_t c = ub_frame_counter(h);
+    if (ub_sec_window_check(&win, c) != UB_SEC_WINDOW_NEW) abort();
+    ub_sec_window_accept(&win, c);
+    return h->flags == UB_FRAME_FLAG_ENCRYPTED ? plain_buf : f + UB_FRAME_HEADER_LEN;
+}
 
 /* ---- per-message cases, one macro instance per message ----
  * M: index; UT: uavbus struct; PK/UN: generated pack/unpack; INST: instance; MT: mavlink struct;
@@ -192,10 +227,151 @@ MESSAGE_CASES(1, benchGpsRawInt_t, benchcat_pack_benchGpsRawInt, benchcat_unpack
 MESSAGE_CASES(2, benchHighresImu_t, benchcat_pack_benchHighresImu, benchcat_unpack_benchHighresImu,
               benchcat_INST_benchHighresImu, mavlink_highres_imu_t, highres_imu, benchlcm_highres_imu_t, time_usec)
 
+
+/* ---- signing cases, one instance per message (M, the uavbus/MAVLink types and functions as above) ---- */
+#define SIGN_CASES(M, UT, PK, UN, MT, MN, TF)                                                               \
+    static void ub_sign_##M(long n) { /* tag + trailer + checks over a packed payload already in place */   \
+        for (long i = 0; i < n; i++) {                                                                      \
+            ub_sign_hdr[M].seq++;                                                                           \
+            int len = ub_sec_protect(&sec, &ub_sign_hdr[M], frame_buf + UB_FRAME_HEADER_LEN, frame_buf,     \
+                                     sizeof frame_buf);                                                     \
+            sink(frame_buf);                                                                                \
+            if (len < 0) abort();                                                                           \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void ub_verify_##M(long n) { /* tag check + replay window of a parsed frame */                   \
+        for (long i = 0; i < n; i++) {                                                                      \
+            sink(ub_signed_bytes[M]);                                                                       \
+            sink(verified_payload(&ub_signed_hdr[M], ub_signed_bytes[M], ub_signed_len[M]));                \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void mav_sign_##M(long n) {                                                                      \
+        const uint8_t *b = mav_frame_bytes[M];                                                              \
+        size_t pl = mav_frame_len[M] - MAVLINK_NUM_NON_PAYLOAD_BYTES;                                       \
+        for (long i = 0; i < n; i++) {                                                                      \
+            sink(b);                                                                                        \
+            if (mavlink_sign_packet(&mav_signing_tx, mav_sig, b, MAVLINK_CORE_HEADER_LEN + 1,               \
+                                    b + MAVLINK_CORE_HEADER_LEN + 1, (uint8_t)pl,                           \
+                                    b + MAVLINK_CORE_HEADER_LEN + 1 + pl) == 0)                             \
+                abort();                                                                                    \
+            sink(mav_sig);                                                                                  \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void mav_check_##M(long n) {                                                                     \
+        for (long i = 0; i < n; i++) {                                                                      \
+            sink(&mav_signed_msg[M]);                                                                       \
+            mav_streams.num_signing_streams = 0; /* every check is a new stream: it passes */             \
+            if (!mavlink_signature_check(&mav_signing_rx, &mav_streams, &mav_signed_msg[M])) abort();        \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void protected_build_##M(long n, uint8_t flags) { /* pack + SIGNED or ENCRYPTED frame */        \
+        for (long i = 0; i < n; i++) {                                                                      \
+            ub_obj_##M.TF++;                                                                                \
+            int p = PK(&ub_obj_##M, frame_buf + UB_FRAME_HEADER_LEN, UB_MAX_PAYLOAD);                       \
+            shdr.payload_size = (uint16_t)p;                                                                \
+            shdr.flags = flags;                                                                             \
+            shdr.seq++;                                                                                     \
+            int len = ub_sec_protect(&sec, &shdr, frame_buf + UB_FRAME_HEADER_LEN, frame_buf, sizeof frame_buf); \
+            sink(frame_buf);                                                                                \
+            if (len < 0) abort();                                                                           \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void ub_signed_build_##M(long n) { protected_build_##M(n, UB_FRAME_FLAG_SIGNED); }               \
+    static void ub_aead_build_##M(long n) { protected_build_##M(n, UB_FRAME_FLAG_ENCRYPTED); }              \
+    static void on_signed_##M(void *user, const ub_frame_header_t *h, const uint8_t *f, size_t len) {       \
+        (void)user;                                                                                         \
+        if (UN(&ub_out_##M, verified_payload(h, f, len), h->payload_size) < 0) abort();                     \
+        sink(&ub_out_##M);                                                                                  \
+    }                                                                                                       \
+    static void protected_parse_##M(long n, const uint8_t *bytes, size_t len) { /* feed + verify + unpack */ \
+        for (long i = 0; i < n; i++) {                                                                      \
+            sink(bytes);                                                                                    \
+            if (ub_decoder_feed(&dec, bytes, len, on_signed_##M, NULL) != 1) abort();                       \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void ub_signed_parse_##M(long n) { protected_parse_##M(n, ub_signed_bytes[M], ub_signed_len[M]); } \
+    static void ub_aead_parse_##M(long n) { protected_parse_##M(n, ub_aead_bytes[M], ub_aead_len[M]); }      \
+    static void mav_signed_pack_##M(long n) {                                                               \
+        mavlink_message_t msg;                                                                              \
+        uint8_t out[MAVLINK_MAX_PACKET_LEN];                                                                \
+        for (long i = 0; i < n; i++) {                                                                      \
+            mav_obj_##M.TF++;                                                                               \
+            mavlink_msg_##MN##_encode_chan(1, 1, MAVLINK_COMM_1, &msg, &mav_obj_##M);                       \
+            uint16_t len = mavlink_msg_to_send_buffer(out, &msg);                                           \
+            sink(out);                                                                                      \
+            if (len == 0 || !(msg.incompat_flags & MAVLINK_IFLAG_SIGNED)) abort();                          \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void mav_signed_parse_##M(long n) {                                                              \
+        mavlink_message_t msg;                                                                              \
+        mavlink_status_t st;                                                                                \
+        for (long i = 0; i < n; i++) {                                                                      \
+            sink(mav_signed_bytes[M]);                                                                      \
+            mav_streams.num_signing_streams = 0;                                                            \
+            int got = 0;                                                                                    \
+            for (size_t b = 0; b < mav_signed_len[M]; b++)                                                  \
+                if (mavlink_parse_char(MAVLINK_COMM_2, mav_signed_bytes[M][b], &msg, &st)) got = 1;         \
+            if (!got) abort();                                                                              \
+            mavlink_msg_##MN##_decode(&msg, &mav_out_##M);                                                  \
+            sink(&mav_out_##M);                                                                             \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void alt_siphash_##M(long n) { /* libsodium SipHash-2-4 over the same tag input (not used) */     \
+        uint8_t in[UB_SEC_SIGNING_HEADER_LEN + UB_MAX_PAYLOAD], out[8], k[16] = {1};                        \
+        size_t pl = ub_signed_hdr[M].payload_size;                                                          \
+        for (long i = 0; i < n; i++) {                                                                      \
+            ub_sign_hdr[M].seq++;                                                                           \
+            ub_sec_signing_header(&ub_sign_hdr[M], in);                                                     \
+            memcpy(in + UB_SEC_SIGNING_HEADER_LEN, frame_buf + UB_FRAME_HEADER_LEN, pl);                    \
+            crypto_shorthash_siphash24(out, in, UB_SEC_SIGNING_HEADER_LEN + pl, k);                         \
+            sink(out);                                                                                      \
+        }                                                                                                   \
+    }                                                                                                       \
+    static void setup_sign_##M(void) {                                                                      \
+        ub_frame_header_t h = hdr;                                                                          \
+        int p = PK(&ub_obj_##M, ub_signed_bytes[M] + UB_FRAME_HEADER_LEN, UB_MAX_PAYLOAD);                  \
+        h.payload_size = (uint16_t)p;                                                                       \
+        h.flags = UB_FRAME_FLAG_SIGNED;                                                                     \
+        h.key_id = 1;                                                                                       \
+        h.counter_hi = 0x3A5B;                                                                              \
+        h.seq = 1;                                                                                          \
+        int fl = ub_sec_protect(&sec, &h, ub_signed_bytes[M] + UB_FRAME_HEADER_LEN, ub_signed_bytes[M],     \
+                                UB_FRAME_MAX);                                                              \
+        if (p < 0 || fl < 0 || ub_frame_parse(ub_signed_bytes[M], (size_t)fl, &ub_signed_hdr[M]) != UB_OK) \
+            abort();                                                                                        \
+        ub_signed_len[M] = (size_t)fl;                                                                      \
+        ub_sign_hdr[M] = ub_signed_hdr[M];                                                                  \
+        memcpy(frame_buf + UB_FRAME_HEADER_LEN, ub_signed_bytes[M] + UB_FRAME_HEADER_LEN, (size_t)p);       \
+        h.flags = UB_FRAME_FLAG_ENCRYPTED;                                                                  \
+        if (PK(&ub_obj_##M, ub_aead_bytes[M] + UB_FRAME_HEADER_LEN, UB_MAX_PAYLOAD) != p) abort();          \
+        fl = ub_sec_protect(&sec, &h, ub_aead_bytes[M] + UB_FRAME_HEADER_LEN, ub_aead_bytes[M], UB_FRAME_MAX); \
+        if (fl < 0) abort();                                                                                \
+        ub_aead_len[M] = (size_t)fl;                                                                        \
+        mavlink_message_t msg;                                                                              \
+        mavlink_msg_##MN##_encode_chan(1, 1, MAVLINK_COMM_1, &msg, &mav_obj_##M);                           \
+        mav_signed_len[M] = mavlink_msg_to_send_buffer(mav_signed_bytes[M], &msg);                          \
+        if (!(msg.incompat_flags & MAVLINK_IFLAG_SIGNED)) abort();                                          \
+        /* the check reads what the parser fills (ck, signature): parse it on a channel without signing */  \
+        mavlink_status_t st;                                                                                \
+        int got = 0;                                                                                        \
+        for (size_t b = 0; b < mav_signed_len[M]; b++)                                                      \
+            if (mavlink_parse_char(MAVLINK_COMM_3, mav_signed_bytes[M][b], &mav_signed_msg[M], &st)) got = 1; \
+        mav_streams.num_signing_streams = 0;                                                                \
+        if (!got || !mavlink_signature_check(&mav_signing_rx, &mav_streams, &mav_signed_msg[M])) abort();  \
+    }
+
+SIGN_CASES(0, benchAttitude_t, benchcat_pack_benchAttitude, benchcat_unpack_benchAttitude, mavlink_attitude_t,
+           attitude, time_boot_ms)
+SIGN_CASES(1, benchGpsRawInt_t, benchcat_pack_benchGpsRawInt, benchcat_unpack_benchGpsRawInt, mavlink_gps_raw_int_t,
+           gps_raw_int, time_usec)
+SIGN_CASES(2, benchHighresImu_t, benchcat_pack_benchHighresImu, benchcat_unpack_benchHighresImu,
+           mavlink_highres_imu_t, highres_imu, time_usec)
+
 typedef struct bench_case {
     const char *name;
     int msg;
-    int bytes_kind; /* 0 uavbus frame, 1 mavlink frame, 2 payload, 3 lcm encoding */
+    int bytes_kind; /* 0 uavbus frame, 1 mavlink frame, 2 payload, 3 lcm encoding, 4 signed uavbus frame,
+                       5 signed mavlink frame, 6 encrypted uavbus frame */
     void (*fn)(long);
     long iters;
     double ns[SAMPLES];
@@ -209,7 +385,18 @@ typedef struct bench_case {
         {"lcm_decode", M, 3, lcm_decode_##M, 0, {0}}, {"floor_memcpy", M, 2, floor_memcpy_##M, 0, {0}},     \
         {"floor_crc32c", M, 0, floor_crc32c_##M, 0, {0}}, {"floor_x25", M, 1, floor_x25_##M, 0, {0}}
 
-static bench_case_t cases[] = {CASES_FOR(0), CASES_FOR(1), CASES_FOR(2)};
+#define SIGN_CASES_FOR(M)                                                                                   \
+    {"ub_sign", M, 4, ub_sign_##M, 0, {0}}, {"mav_sign_packet", M, 5, mav_sign_##M, 0, {0}},               \
+        {"ub_verify", M, 4, ub_verify_##M, 0, {0}}, {"mav_signature_check", M, 5, mav_check_##M, 0, {0}},   \
+        {"ub_signed_build", M, 4, ub_signed_build_##M, 0, {0}},                                              \
+        {"mav_signed_pack_tobuf", M, 5, mav_signed_pack_##M, 0, {0}},                                       \
+        {"ub_signed_parse", M, 4, ub_signed_parse_##M, 0, {0}},                                              \
+        {"mav_signed_parse_decode", M, 5, mav_signed_parse_##M, 0, {0}},                                    \
+        {"ub_aead_build", M, 6, ub_aead_build_##M, 0, {0}}, {"ub_aead_parse", M, 6, ub_aead_parse_##M, 0, {0}}, \
+        {"alt_siphash24", M, 4, alt_siphash_##M, 0, {0}}
+
+static bench_case_t cases[] = {CASES_FOR(0),      CASES_FOR(1),      CASES_FOR(2),
+                               SIGN_CASES_FOR(0), SIGN_CASES_FOR(1), SIGN_CASES_FOR(2)};
 #define N_CASES (sizeof cases / sizeof cases[0])
 static const char *msg_names[3] = {"ATTITUDE", "GPS_RAW_INT", "HIGHRES_IMU"};
 
@@ -219,6 +406,9 @@ static size_t case_bytes(const bench_case_t *c) {
     case 0: return ub_frame_len[c->msg];
     case 1: return mav_frame_len[c->msg];
     case 3: return (size_t)lcm_len[c->msg];
+    case 4: return ub_signed_len[c->msg];
+    case 5: return mav_signed_len[c->msg];
+    case 6: return ub_aead_len[c->msg];
     default: return payload[c->msg];
     }
 }
@@ -234,6 +424,24 @@ int main(int argc, char **argv) {
     setup_0();
     setup_1();
     setup_2();
+    /* signing: one 32-byte key on both sides (uavbus key id 1; MAVLink link 0), signing on channels 1 (tx) and 2 (rx) */
+    uint8_t key[UB_SEC_KEY_LEN];
+    memset(key, 0x42, sizeof key);
+    if (ub_sec_init(&sec, NULL) != UB_OK || ub_sec_add_key(&sec, 1, key) != UB_OK) abort();
+    shdr = hdr;
+    shdr.key_id = 1;
+    shdr.counter_hi = 0x3A5B;
+    mav_signing_tx.flags = MAVLINK_SIGNING_FLAG_SIGN_OUTGOING;
+    mav_signing_tx.timestamp = 1000000;
+    memcpy(mav_signing_tx.secret_key, key, sizeof key);
+    mav_signing_rx = mav_signing_tx;
+    mav_signing_rx.flags = 0;
+    mavlink_get_channel_status(MAVLINK_COMM_1)->signing = &mav_signing_tx;
+    mavlink_get_channel_status(MAVLINK_COMM_2)->signing = &mav_signing_rx;
+    mavlink_get_channel_status(MAVLINK_COMM_2)->signing_streams = &mav_streams;
+    setup_sign_0();
+    setup_sign_1();
+    setup_sign_2();
     if (callgrind) {
         for (size_t i = 0; i < N_CASES; i++) {
             char name[64];

@@ -11,7 +11,8 @@
  * It updates the directories its entities produce from a deterministic motion
  * model (node_motion.h), serves publish/subscribe requests, and reports on
  * stdout, one JSON object per line: "ready", "stats", "rebound", "error".
- * stdin takes line commands: `rebind NAME SPEC`, `impair SPEC`, `dump NAME`, `stats`, `quit`.
+ * stdin takes line commands: `rebind NAME SPEC`, `impair SPEC`, `dump NAME`, `stats`, `quit`, and for
+ * key rotation `key add FILE`, `key use ID`, `key remove ID` (docs/security.md).
  * See examples/node/README.md.
  *
  * One poll() loop drives everything; the time is CLOCK_MONOTONIC in ms, the
@@ -38,6 +39,8 @@
 #include "ub/ub_ports.h"
 #include "ub/ub_pubsub.h"
 #include "ub/ub_random.h"
+#include "ub/ub_sec.h"
+#include "ub/ub_secfile.h"
 
 #include "flightsw.h"
 #include "gps.h"
@@ -115,6 +118,8 @@ static volatile sig_atomic_t g_stop;
 static ub_nodecfg_t g_cfg;
 static char g_cfg_text[1 << 16];
 static ub_node_t g_node;
+static ub_sec_t g_sec;                /* used when the config has a "security" section */
+static ub_counter_file_t g_counter;
 static ub_ports_t g_ports;
 static ub_log_t g_log;
 static int g_log_fd = -1;
@@ -147,6 +152,12 @@ static uint64_t unix_ms(void) {
     struct timespec ts;
     clock_gettime(CLOCK_REALTIME, &ts);
     return (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u;
+}
+
+static uint64_t unix_us(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
 }
 
 /* ---- JSON output -------------------------------------------------------------------------------------- */
@@ -208,14 +219,15 @@ static void usage(FILE *f) {
             "                   [--publish ENTITY:CONTENT>DEST/PERIOD_MS]...\n"
             "SPEC: udp:bind=HOST:PORT,peer=HOST:PORT | tcp:listen=HOST:PORT | tcp:connect=HOST:PORT |\n"
             "      serial:device=PATH[,baud=N]\n"
-            "stdin commands: rebind LINK SPEC | impair SPEC | dump NAME | stats | quit\n"
+            "stdin commands: rebind LINK SPEC | impair SPEC | dump NAME | stats | quit |\n"
+            "                key add FILE | key use ID | key remove ID\n"
             "%s",
             fleet_usage);
 }
 
 /* Start-up failure: the message on stderr (file:line: ... or argv[i]: ...) and as an error event; exit 2. */
 void die(const char *fmt, ...) {
-    char msg[512];
+    char msg[1024];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
@@ -465,9 +477,13 @@ static void out_driver(const ub_port_t *p) {
         static const char *const states[] = {"down", "connecting", "up"};
         out(",\"tcp\":{\"state\":\"%s\",\"connects\":%" PRIu64 ",\"reconnects\":%" PRIu64 ",\"disconnects\":%" PRIu64
             ",\"failed_attempts\":%" PRIu64 ",\"backpressure\":%" PRIu64 ",\"send_closed\":%" PRIu64
-            ",\"tx_discarded\":%" PRIu64 "}",
+            ",\"tx_discarded\":%" PRIu64 ",\"candidates\":%" PRIu64 ",\"adopted\":%" PRIu64 ",\"replaced\":%" PRIu64
+            ",\"candidates_refused\":%" PRIu64 ",\"candidates_expired\":%" PRIu64 ",\"candidates_lost\":%" PRIu64
+            ",\"candidate_rejected\":%" PRIu64 ",\"candidates_open\":%d}",
             states[ub_tcp_state(&d->u.tcp) % 3], s->connects, s->reconnects, s->disconnects, s->failed_attempts,
-            s->backpressure, s->send_closed, s->tx_discarded);
+            s->backpressure, s->send_closed, s->tx_discarded, s->candidates, s->adopted, s->replaced,
+            s->candidates_refused, s->candidates_expired, s->candidates_lost, s->candidate_rejected,
+            ub_tcp_candidates(&d->u.tcp));
         break;
     }
     case UB_PORT_SERIAL: {
@@ -479,6 +495,33 @@ static void out_driver(const ub_port_t *p) {
     }
     default: break;
     }
+}
+
+static void out_keys(void) {
+    uint8_t ids[UB_MAX_KEYS];
+    size_t n = ub_sec_key_ids(&g_sec, ids, UB_MAX_KEYS);
+    out("\"tx_key\":%u,\"keys\":[", (unsigned)ub_sec_tx_key(&g_sec));
+    for (size_t i = 0; i < n && i < UB_MAX_KEYS; i++) out("%s%u", i ? "," : "", (unsigned)ids[i]);
+    out("]");
+}
+
+/* The security context's counters ("security":null without a "security" section). */
+static void out_security(void) {
+    if (ub_node_security(&g_node) == NULL) {
+        out(",\"security\":null");
+        return;
+    }
+    const ub_sec_stats_t *s = ub_sec_stats(&g_sec);
+    out(",\"security\":{");
+    out_keys();
+    out(",\"signed_out\":%" PRIu64 ",\"encrypted_out\":%" PRIu64 ",\"verified_in\":%" PRIu64 ",\"decrypted_in\":%" PRIu64
+        ",\"auth_failures\":%" PRIu64 ",\"unknown_keys\":%" PRIu64 ",\"challenges_sent\":%" PRIu64
+        ",\"challenges_completed\":%" PRIu64 ",\"replies_sent\":%" PRIu64 ",\"replies_suppressed\":%" PRIu64
+        ",\"reservations\":%" PRIu64 ",\"reserve_failures\":%" PRIu64 ",\"tx_refused\":%" PRIu64
+        ",\"counter_mark\":%" PRIu64 "}",
+        s->signed_out, s->encrypted_out, s->verified_in, s->decrypted_in, s->auth_failures, s->unknown_keys,
+        s->challenges_sent, s->challenges_completed, s->replies_sent, s->replies_suppressed, s->reservations,
+        s->reserve_failures, s->tx_refused, g_counter.mark);
 }
 
 static const char *k_sub_states[] = {"requesting", "receiving", "stopping"};
@@ -504,8 +547,9 @@ static void event_stats(uint64_t now_ms, bool final) {
         first = false;
         out_str(l->name, SIZE_MAX);
         out(":{\"id\":%d,\"frames_in\":%" PRIu64 ",\"bytes_in\":%" PRIu64 ",\"frames_out\":%" PRIu64
-            ",\"bytes_out\":%" PRIu64 ",",
-            id, c->frames_in, c->bytes_in, c->frames_out, c->bytes_out);
+            ",\"bytes_out\":%" PRIu64 ",\"frames_accepted\":%" PRIu64 ",\"require_signed\":%s,\"encrypt\":%s,",
+            id, c->frames_in, c->bytes_in, c->frames_out, c->bytes_out, c->frames_accepted,
+            ub_node_link_requires_signed(&g_node, id) ? "true" : "false", l->encrypt ? "true" : "false");
         out_drops(c->drops);
         out(",\"bad\":{");
         for (int r = 0; r < UB_RX_REASON_COUNT; r++) {
@@ -573,6 +617,7 @@ static void event_stats(uint64_t now_ms, bool final) {
             "}",
             s->records, s->bytes, s->write_errors, s->skipped_tx);
     }
+    out_security();
     out(",\"stdin_dropped\":%" PRIu64 "}", g_stdin_dropped);
     out_flush();
 }
@@ -630,6 +675,64 @@ static void apply_impair(const char *text, bool at_start) {
     if (ub_ports_set_impairment(&g_ports, &params, seed) != UB_OK) event_error("impair: refused");
 }
 
+/* Key rotation (docs/security.md): `key add FILE` (accept a key), `key use ID` (sign with it),
+ * `key remove ID` (retire one; never the signing key). Answers with a "key" event or an error. */
+static void key_command(char *save) {
+    char msg[UB_SECFILE_ERR_LEN + 64];
+    char *action = strtok_r(NULL, " \t\r", &save);
+    char *arg = strtok_r(NULL, " \t\r", &save);
+    if (action == NULL || arg == NULL) {
+        event_error("key: expected 'key add FILE', 'key use ID' or 'key remove ID'");
+        return;
+    }
+    if (ub_node_security(&g_node) == NULL) {
+        event_error("key: this node runs without security (the config has no \"security\" section)");
+        return;
+    }
+    int rc;
+    unsigned id = 0;
+    if (strcmp(action, "add") == 0) {
+        uint8_t kid = 0, key[UB_SEC_KEY_LEN];
+        char err[UB_SECFILE_ERR_LEN];
+        if (ub_keyfile_load(arg, &kid, key, err, sizeof err) != UB_OK) {
+            snprintf(msg, sizeof msg, "key add: %s", err);
+            event_error(msg);
+            return;
+        }
+        rc = ub_sec_add_key(&g_sec, kid, key);
+        memset(key, 0, sizeof key);
+        id = kid;
+    } else if (strcmp(action, "use") == 0 || strcmp(action, "remove") == 0) {
+        char *end = NULL;
+        unsigned long v = strtoul(arg, &end, 10);
+        if (end == arg || *end != '\0' || v < 1 || v > 255) {
+            snprintf(msg, sizeof msg, "key %s: '%.16s' is not a key id 1..255", action, arg);
+            event_error(msg);
+            return;
+        }
+        id = (unsigned)v;
+        rc = action[0] == 'u' ? ub_sec_set_tx_key(&g_sec, (uint8_t)id) : ub_sec_remove_key(&g_sec, (uint8_t)id);
+    } else {
+        snprintf(msg, sizeof msg, "key: unknown action '%.16s' (expected add, use or remove)", action);
+        event_error(msg);
+        return;
+    }
+    if (rc != UB_OK) {
+        const char *why = rc == UB_ERR_EXISTS ? "a key with this id is already loaded"
+                        : rc == UB_ERR_FULL ? "the keyring is full (remove a retired key first)"
+                        : rc == UB_ERR_NOTFOUND ? "no key with this id is loaded"
+                        : action[0] == 'r' ? "it signs what this node sends: 'key use' another key first"
+                                           : ub_strerror(rc);
+        snprintf(msg, sizeof msg, "key %s %u: %s", action, id, why);
+        event_error(msg);
+        return;
+    }
+    out("{\"event\":\"key\",\"action\":\"%s\",\"id\":%u,", action, id);
+    out_keys();
+    out("}");
+    out_flush();
+}
+
 static void command(char *line, uint64_t now_ms) {
     char *save = NULL;
     char *verb = strtok_r(line, " \t\r", &save);
@@ -682,11 +785,13 @@ static void command(char *line, uint64_t now_ms) {
         out_port(p, name);
         out(",\"rebinds\":%" PRIu32 "}", p->rebinds);
         out_flush();
+    } else if (strcmp(verb, "key") == 0) {
+        key_command(save);
     } else if (fleet_command(verb, &save, now_ms)) {
         /* answered by node_fleet.c */
     } else {
         snprintf(msg, sizeof msg, "unknown command '%.40s' (expected: rebind LINK SPEC, impair SPEC, dump NAME, stats, quit, "
-                 "or a fleet command: see --help)", verb);
+                 "key ..., or a fleet command: see --help)", verb);
         event_error(msg);
     }
 }
@@ -754,6 +859,10 @@ int main(int argc, char **argv) {
     node_opt.random = ub_random_os; /* unguessable request ids (docs/pubsub.md, "Replies bound to their row") */
     if (ub_node_init(&g_node, &flightsw_catalogue, &node_opt) != UB_OK) die("uavbus_node: catalogue refused by the runtime");
     if (ub_nodecfg_apply(&g_cfg, &g_node, err, sizeof err) != UB_OK) die("%s", err);
+    /* Keys, counter file and policy of the "security" section (none: the node stays unsigned). */
+    char sec_err[UB_NODECFG_ERR_LEN + UB_SECFILE_ERR_LEN];
+    if (ub_nodecfg_apply_security(&g_cfg, &g_node, &g_sec, &g_counter, NULL, unix_us(), sec_err, sizeof sec_err) != UB_OK)
+        die("%s", sec_err);
     if (ub_ports_init(&g_ports, &g_node) != UB_OK) die("uavbus_node: ub_ports_init failed");
     node_motion_init(&g_motion);
     bind_directories();

@@ -17,6 +17,8 @@ const char *ub_strerror(int err) {
     case UB_ERR_CONFIG: return "UB_ERR_CONFIG";
     case UB_ERR_CLOSED: return "UB_ERR_CLOSED";
     case UB_ERR_RANGE: return "UB_ERR_RANGE";
+    case UB_ERR_AUTH: return "UB_ERR_AUTH";
+    case UB_ERR_UNSUPPORTED: return "UB_ERR_UNSUPPORTED";
     default: return err >= 0 ? "UB_OK" : "UB_ERR_UNKNOWN";
     }
 }

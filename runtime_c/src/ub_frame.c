@@ -14,6 +14,14 @@
 /* Result of judging a candidate's 64 header bytes: accepted, or a rejection reason. */
 #define HEADER_OK UB_RX_REASON_COUNT
 
+/* 1 + the trailer length for each value of the version byte (wire version | flags); 0 for every value the
+ * codec refuses (unknown version, reserved or combined flags): one load in the decoder's hot path. */
+static const uint8_t k_trailer_plus_one[256] = {
+    [UB_WIRE_VERSION] = 1,
+    [UB_WIRE_VERSION | UB_FRAME_FLAG_SIGNED] = 1 + UB_FRAME_SIG_TRAILER_LEN,
+    [UB_WIRE_VERSION | UB_FRAME_FLAG_ENCRYPTED] = 1 + UB_FRAME_AEAD_TRAILER_LEN,
+};
+
 static uint8_t fold_crc(uint32_t crc) { return (uint8_t)(crc ^ (crc >> 8) ^ (crc >> 16) ^ (crc >> 24)); }
 
 /* The header as eight little-endian words (word k = bytes [8k, 8k+8)), built in
@@ -21,9 +29,9 @@ static uint8_t fold_crc(uint32_t crc) { return (uint8_t)(crc ^ (crc >> 8) ^ (crc
  * bytes it had just stored one field at a time made every 8-byte load of the CRC wait
  * for those small stores to retire (a store-forwarding stall), which measured at half
  * the cost of the whole build. Checks and msg_crc are left zero here. */
-static void header_words(const ub_frame_header_t *h, uint64_t w[8]) {
-    w[0] = UB_SYNC0 | UB_SYNC1 << 8 | (uint64_t)UB_WIRE_VERSION << 24 | (uint64_t)UB_MSG_TYPE_PUBSUB << 32 |
-           (uint64_t)(UB_FRAME_HEADER_LEN + h->payload_size) << 48;
+static void header_words(const ub_frame_header_t *h, size_t trailer_len, uint64_t w[8]) {
+    w[0] = UB_SYNC0 | UB_SYNC1 << 8 | (uint64_t)(UB_WIRE_VERSION | h->flags) << 24 |
+           (uint64_t)UB_MSG_TYPE_PUBSUB << 32 | (uint64_t)(UB_FRAME_HEADER_LEN + h->payload_size + trailer_len) << 48;
     w[1] = ub_get_u64le(h->dir_id);
     w[2] = ub_get_u64le(h->dir_id + 8);
     w[3] = ub_get_u64le(h->dest_id);
@@ -35,6 +43,7 @@ static void header_words(const ub_frame_header_t *h, uint64_t w[8]) {
 
 static void read_header(const uint8_t *f, ub_frame_header_t *h) {
     h->msg_type = ub_get_u16le(f + UB_FRAME_OFF_MSG_TYPE);
+    h->flags = f[UB_FRAME_OFF_VERSION] & UB_FRAME_FLAGS_MASK;
     memcpy(h->dir_id, f + UB_FRAME_OFF_DIR_ID, UB_DIR_ID_LEN);
     memcpy(h->dest_id, f + UB_FRAME_OFF_DEST_ID, UB_ENTITY_ID_LEN);
     memcpy(h->src_id, f + UB_FRAME_OFF_SRC_ID, UB_ENTITY_ID_LEN);
@@ -43,13 +52,21 @@ static void read_header(const uint8_t *f, ub_frame_header_t *h) {
     h->payload_size = ub_get_u16le(f + UB_FRAME_OFF_PAYLOAD_SIZE);
     h->seq = ub_get_u32le(f + UB_FRAME_OFF_SEQ);
     h->fingerprint = ub_get_u32le(f + UB_FRAME_OFF_FINGERPRINT);
+    if (h->flags != 0) { /* a verified frame: its flags are valid, so its trailer is there */
+        const uint8_t *t = f + UB_FRAME_HEADER_LEN + h->payload_size;
+        h->key_id = t[UB_FRAME_TRL_OFF_KEY_ID];
+        h->counter_hi = ub_get_u16le(t + UB_FRAME_TRL_OFF_COUNTER_HI);
+    } else {
+        h->key_id = 0;
+        h->counter_hi = 0;
+    }
 }
 
-/* The one CRC pass: header state first (for hdr_check), then on over the payload. */
-static void write_checks(uint8_t *f, size_t payload_size) {
+/* The one CRC pass: header state first (for hdr_check), then on over the payload and trailer (`body_len`). */
+static void write_checks(uint8_t *f, size_t body_len) {
     uint32_t header_crc = ub_crc32c_update(0, f + UB_FRAME_CHECKED_OFF, UB_FRAME_CHECKED_LEN);
     f[UB_FRAME_OFF_HDR_CHECK] = fold_crc(header_crc);
-    ub_put_u32le(f + UB_FRAME_OFF_MSG_CRC, ub_crc32c_update(header_crc, f + UB_FRAME_HEADER_LEN, payload_size));
+    ub_put_u32le(f + UB_FRAME_OFF_MSG_CRC, ub_crc32c_update(header_crc, f + UB_FRAME_HEADER_LEN, body_len));
 }
 
 /* Judges the 64 header bytes at `f` (sync already matched). The header check comes
@@ -58,11 +75,13 @@ static void write_checks(uint8_t *f, size_t payload_size) {
 static ub_rx_reason_t judge_header(const uint8_t *f, uint32_t *header_crc, size_t *frame_len) {
     *header_crc = ub_crc32c_update(0, f + UB_FRAME_CHECKED_OFF, UB_FRAME_CHECKED_LEN);
     if (fold_crc(*header_crc) != f[UB_FRAME_OFF_HDR_CHECK]) return UB_RX_BAD_HDR_CHECK;
-    if (f[UB_FRAME_OFF_VERSION] != UB_WIRE_VERSION || ub_get_u16le(f + UB_FRAME_OFF_MSG_TYPE) != UB_MSG_TYPE_PUBSUB)
-        return UB_RX_BAD_VERSION;
+    size_t trailer_plus_one = k_trailer_plus_one[f[UB_FRAME_OFF_VERSION]];
+    if (trailer_plus_one == 0 || ub_get_u16le(f + UB_FRAME_OFF_MSG_TYPE) != UB_MSG_TYPE_PUBSUB) return UB_RX_BAD_VERSION;
+    size_t trailer = trailer_plus_one - 1u;
     size_t payload_size = ub_get_u16le(f + UB_FRAME_OFF_PAYLOAD_SIZE);
     size_t msg_size = ub_get_u16le(f + UB_FRAME_OFF_MSG_SIZE);
-    if (payload_size > UB_MAX_PAYLOAD || msg_size != UB_FRAME_HEADER_LEN + payload_size) return UB_RX_BAD_LENGTH;
+    if (payload_size > UB_MAX_PAYLOAD || msg_size != UB_FRAME_HEADER_LEN + payload_size + trailer)
+        return UB_RX_BAD_LENGTH;
     *frame_len = msg_size;
     return HEADER_OK;
 }
@@ -74,14 +93,16 @@ static int body_crc_ok(const uint8_t *f, size_t frame_len, uint32_t header_crc) 
 
 int ub_frame_finish(uint8_t *frame, size_t cap, const ub_frame_header_t *h) {
     if (frame == NULL || h == NULL) return UB_ERR_INVAL;
+    if (!ub_frame_flags_valid(h->flags)) return UB_ERR_INVAL;
     if (h->payload_size > UB_MAX_PAYLOAD || h->hop_limit == 0) return UB_ERR_RANGE;
-    size_t frame_len = UB_FRAME_HEADER_LEN + (size_t)h->payload_size;
+    size_t body_len = (size_t)h->payload_size + ub_frame_trailer_len(h->flags);
+    size_t frame_len = UB_FRAME_HEADER_LEN + body_len;
     if (cap < frame_len) return UB_ERR_NOSPACE;
     uint64_t w[8];
-    header_words(h, w);
+    header_words(h, body_len - h->payload_size, w);
     uint32_t header_crc = ub_crc32c_header_words(w);
     w[0] |= (uint64_t)fold_crc(header_crc) << 16;
-    w[7] |= (uint64_t)ub_crc32c_update(header_crc, frame + UB_FRAME_HEADER_LEN, h->payload_size) << 32;
+    w[7] |= (uint64_t)ub_crc32c_update(header_crc, frame + UB_FRAME_HEADER_LEN, body_len) << 32;
     for (int k = 0; k < 8; k++) ub_put_u64le(frame + 8 * k, w[k]);
     return (int)frame_len;
 }

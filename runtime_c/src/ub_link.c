@@ -16,6 +16,11 @@ static const char *const drop_reason_names[UB_DROP_REASON_COUNT] = {
     [UB_DROP_NOT_ALLOWED] = "not_allowed",
     [UB_DROP_NOT_AUTHORIZED] = "not_authorized",
     [UB_DROP_ROUTING_OFF] = "routing_off",
+    [UB_DROP_UNSIGNED] = "unsigned",
+    [UB_DROP_BAD_TAG] = "bad_tag",
+    [UB_DROP_UNKNOWN_KEY] = "unknown_key",
+    [UB_DROP_REPLAY] = "replay",
+    [UB_DROP_UNVERIFIED] = "unverified",
 };
 
 const char *ub_drop_reason_name(ub_drop_reason_t reason) {

@@ -7,13 +7,6 @@
 #include "ub_fleet_private.h"
 #include "ub_router_private.h"
 
-/* Per-call context of the stream decoder callback. */
-typedef struct rx_ctx {
-    ub_node_t *node;
-    int link_id;
-    uint64_t now_ms;
-} rx_ctx_t;
-
 bool ub_priv_id_is_zero(const uint8_t id[UB_ENTITY_ID_LEN]) {
     for (size_t i = 0; i < UB_ENTITY_ID_LEN; i++)
         if (id[i] != 0) return false;
@@ -44,10 +37,12 @@ static bool link_id_ok(const ub_node_t *node, int link_id) {
     return link_id >= 0 && link_id < UB_MAX_NODE_LINKS && node->links[link_id].in_use;
 }
 
-static void count_drop(ub_node_t *node, int link_id, ub_drop_reason_t reason) {
+void ub_priv_count_drop(ub_node_t *node, int link_id, ub_drop_reason_t reason) {
     node->counters.drops[reason]++;
     if (link_id_ok(node, link_id)) node->links[link_id].counters.drops[reason]++;
 }
+
+static void count_drop(ub_node_t *node, int link_id, ub_drop_reason_t reason) { ub_priv_count_drop(node, link_id, reason); }
 
 /* ---- set-up ------------------------------------------------------------ */
 
@@ -178,6 +173,7 @@ int ub_node_add_link(ub_node_t *node, int entity, unsigned index, const char *na
     link->in_use = 1;
     link->owner = (uint8_t)slot;
     link->index = (uint8_t)index;
+    link->require_signed = -1; /* the node's policy */
     ub_decoder_init(&link->decoder);
     node->locals[slot].link_ids[index] = (int16_t)id;
     node->counters.links_added++;
@@ -330,66 +326,6 @@ uint32_t ub_priv_new_request_id(ub_node_t *node) {
     }
 }
 
-/* ---- duplicate suppression --------------------------------------------- */
-
-static ub_dedup_entry_t *dedup_entry(ub_node_t *node, ub_local_entity_t *loc, const uint8_t src[UB_ENTITY_ID_LEN],
-                                     bool *fresh) {
-    ub_dedup_entry_t *free_entry = NULL;
-    ub_dedup_entry_t *oldest = NULL;
-    for (size_t i = 0; i < UB_DEDUP_SOURCES; i++) {
-        ub_dedup_entry_t *e = &loc->dedup[i];
-        if (!e->in_use) {
-            if (free_entry == NULL) free_entry = e;
-            continue;
-        }
-        if (memcmp(e->src, src, UB_ENTITY_ID_LEN) == 0) {
-            *fresh = false;
-            return e;
-        }
-        if (oldest == NULL || e->last_used < oldest->last_used) oldest = e;
-    }
-    ub_dedup_entry_t *victim = free_entry;
-    if (victim == NULL) {
-        node->counters.dedup_evictions++;
-        victim = oldest;
-    }
-    memset(victim, 0, sizeof *victim);
-    memcpy(victim->src, src, UB_ENTITY_ID_LEN);
-    victim->in_use = 1;
-    *fresh = true;
-    return victim;
-}
-
-/* Records (src, seq) in `loc`'s window. Returns true if it was already there. */
-static bool dedup_seen(ub_node_t *node, ub_local_entity_t *loc, const uint8_t src[UB_ENTITY_ID_LEN], uint32_t seq) {
-    bool fresh;
-    ub_dedup_entry_t *e = dedup_entry(node, loc, src, &fresh);
-    e->last_used = ++node->use_stamp;
-    if (fresh) {
-        e->highest = seq;
-        e->seen = 1;
-        return false;
-    }
-    /* Serial-number arithmetic, so the 32-bit sequence may wrap. */
-    int64_t ahead = (int32_t)(seq - e->highest);
-    if (ahead > 0) {
-        e->seen = ahead >= UB_DEDUP_WINDOW ? 1u : (e->seen << ahead) | 1u;
-        e->highest = seq;
-        return false;
-    }
-    if (-ahead < UB_DEDUP_WINDOW) {
-        uint64_t bit = (uint64_t)1 << (-ahead);
-        if (e->seen & bit) return true;
-        e->seen |= bit;
-        return false;
-    }
-    /* Far behind the window: the source restarted its sequence; do not silence it. */
-    node->counters.dedup_resets++;
-    e->highest = seq;
-    e->seen = 1;
-    return false;
-}
-
 /* ---- transmit and routing ---------------------------------------------- */
 
 static bool transmit(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms) {
@@ -409,12 +345,59 @@ static bool transmit(ub_node_t *node, int link_id, const uint8_t *frame, size_t 
     return true;
 }
 
-static int send_on_mask(ub_node_t *node, const ub_local_entity_t *loc, uint8_t mask, const uint8_t *frame,
-                        size_t len, uint64_t now_ms) {
+/*
+ * The wire forms one frame may leave in: PLAIN, SIGNED or ENCRYPTED. Each outgoing link takes the
+ * form its setting asks for; a form is built the first time a link needs it (so a frame for one
+ * plain link costs one finish, and an encrypting link alone costs one AEAD, never both).
+ */
+enum { FORM_PLAIN = 0, FORM_SIGNED = 1, FORM_ENCRYPTED = 2, N_FORMS };
+
+typedef struct tx_forms {
+    const ub_frame_header_t *h;   /* the frame's header: flags ignored; key id and counter used */
+    uint8_t hop_limit;            /* the hop limit to send */
+    const uint8_t *payload;       /* plaintext payload */
+    bool protect;                 /* the frame is authenticated: its clear form is SIGNED, not PLAIN */
+    ub_drop_reason_t unprotected; /* why an encrypting link cannot take it when it is not */
+    uint8_t *buf[N_FORMS];        /* UB_FRAME_MAX bytes each (may be shared by forms never both needed) */
+    int len[N_FORMS];             /* 0: not built yet; < 0: building failed */
+} tx_forms_t;
+
+static int form_get(ub_node_t *node, tx_forms_t *f, int form) {
+    if (f->len[form] != 0) return f->len[form];
+    ub_frame_header_t h = *f->h;
+    h.hop_limit = f->hop_limit;
+    int n;
+    if (form == FORM_PLAIN) {
+        if (f->buf[form] + UB_FRAME_HEADER_LEN != f->payload)
+            memmove(f->buf[form] + UB_FRAME_HEADER_LEN, f->payload, h.payload_size);
+        h.flags = 0;
+        h.key_id = 0;
+        h.counter_hi = 0;
+        n = ub_frame_finish(f->buf[form], UB_FRAME_MAX, &h);
+    } else {
+        h.flags = form == FORM_SIGNED ? UB_FRAME_FLAG_SIGNED : UB_FRAME_FLAG_ENCRYPTED;
+        n = node->sec == NULL ? UB_ERR_NOTFOUND : ub_sec_protect(node->sec, &h, f->payload, f->buf[form], UB_FRAME_MAX);
+    }
+    f->len[form] = n == 0 ? UB_ERR_INVAL : n;
+    return f->len[form];
+}
+
+static int send_forms(ub_node_t *node, const ub_local_entity_t *loc, uint8_t mask, tx_forms_t *f, uint64_t now_ms) {
     int sent = 0;
     for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) {
         if (!(mask & (1u << i)) || loc->link_ids[i] < 0) continue;
-        if (transmit(node, loc->link_ids[i], frame, len, now_ms)) sent++;
+        int link_id = loc->link_ids[i];
+        int form = node->links[link_id].encrypt ? FORM_ENCRYPTED : f->protect ? FORM_SIGNED : FORM_PLAIN;
+        if (form == FORM_ENCRYPTED && !f->protect) {
+            count_drop(node, link_id, f->unprotected);
+            continue;
+        }
+        int n = form_get(node, f, form);
+        if (n < 0) {
+            count_drop(node, link_id, n == UB_ERR_NOTFOUND ? UB_DROP_UNKNOWN_KEY : UB_DROP_BAD_PAYLOAD);
+            continue;
+        }
+        if (transmit(node, link_id, f->buf[form], (size_t)n, now_ms)) sent++;
     }
     return sent;
 }
@@ -452,15 +435,19 @@ static void deliver_data(ub_node_t *node, int slot, int link_id, const ub_frame_
     if (node->deliver != NULL) node->deliver(node->deliver_user, node->locals[slot].entity, (uint32_t)idx, h, now_ms);
 }
 
-/* A frame reached its destination, local slot `slot`; `link_id` is -1 for a node-local hand-over. */
-static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
-                     uint64_t now_ms) {
-    const uint8_t *payload = frame + UB_FRAME_HEADER_LEN;
+/* A frame reached its destination, local slot `slot`, with its plaintext payload; `link_id` is -1 for
+ * a node-local hand-over (then `rx` is NULL: it never left the process). */
+static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
+                     const ub_priv_rx_t *rx, uint64_t now_ms) {
     if (h->admin == UB_ADMIN_DATA) {
         deliver_data(node, slot, link_id, h, payload, now_ms);
         return;
     }
     node->counters.admin_handled++;
+    if (h->admin == UB_ADMIN_CHALLENGE || h->admin == UB_ADMIN_CHALLENGE_REPLY) {
+        ub_priv_sec_on_admin(node, slot, link_id, h, payload, rx, now_ms);
+        return;
+    }
     bool ok;
     ub_drop_reason_t drop = UB_DROP_BAD_PAYLOAD;
     if (h->admin == UB_ADMIN_MEMBERSHIP) {
@@ -484,81 +471,135 @@ static int local_destination(const ub_node_t *node, const uint8_t dest_id[UB_ENT
     return *dest_row >= 0 ? node->entities[*dest_row].local : -1;
 }
 
-/* Stamps a frame originated by local slot `slot` (source, hop limit, sequence), finishes it and enters it
- * in the slot's duplicate window. Every originated frame, routed or link-local, goes through here. */
-static int stamp(ub_node_t *node, int slot, uint8_t *frame, size_t cap, ub_frame_header_t *h, uint8_t hop_limit) {
+/* The next freshness counter: from the security context when one is attached (it may refuse: fail
+ * closed), else the node's own 32-bit sequence. */
+static int next_counter(ub_node_t *node, uint64_t *counter) {
+    if (node->sec != NULL) return ub_sec_next_counter(node->sec, counter);
+    *counter = node->next_seq++;
+    return UB_OK;
+}
+
+/* Stamps a frame originated by local slot `slot`: source, hop limit, freshness counter (the security
+ * context's when one is attached: it may refuse, and then nothing is sent) and key id; enters it in the
+ * slot's window, so a copy that loops back is cut there. Every originated frame, routed or link-local,
+ * goes through here. */
+static int stamp(ub_node_t *node, int slot, ub_frame_header_t *h, uint8_t hop_limit) {
     ub_local_entity_t *loc = &node->locals[slot];
+    if (h->payload_size > UB_MAX_PAYLOAD) return UB_ERR_RANGE;
+    uint64_t counter;
+    int rc = next_counter(node, &counter);
+    if (rc < 0) return rc;
     h->msg_type = UB_MSG_TYPE_PUBSUB;
     memcpy(h->src_id, node->entities[loc->entity].id, UB_ENTITY_ID_LEN);
     h->hop_limit = hop_limit;
-    h->seq = node->next_seq++;
-    int len = ub_frame_finish(frame, cap, h);
-    if (len < 0) return len;
+    h->flags = 0;
+    h->seq = (uint32_t)counter;
+    h->counter_hi = (uint16_t)(counter >> 32);
+    h->key_id = node->sec != NULL ? ub_sec_tx_key(node->sec) : 0;
     node->counters.originated++;
-    /* Our own frames enter our window, so a copy that loops back is cut here. */
-    (void)dedup_seen(node, loc, h->src_id, h->seq);
-    return len;
+    ub_priv_window_note_own(node, slot, h, h->key_id != 0);
+    return UB_OK;
 }
 
-/* Finishes the header of a frame whose payload is already in place, and routes it from local slot `slot`. */
-static int originate(ub_node_t *node, int slot, uint8_t *frame, size_t cap, ub_frame_header_t *h, uint64_t now_ms) {
+/* Sends a stamped frame, whose plaintext payload is in place in `frame`, on the links of `mask`: each
+ * link gets the form (plain, signed, encrypted) it asks for. */
+static int send_stamped(ub_node_t *node, int slot, uint8_t mask, uint8_t *frame, const ub_frame_header_t *h,
+                        uint64_t now_ms) {
+    uint8_t alt[UB_FRAME_MAX];
+    tx_forms_t f;
+    f.h = h;
+    f.hop_limit = h->hop_limit;
+    f.payload = frame + UB_FRAME_HEADER_LEN;
+    f.protect = h->key_id != 0;
+    f.unprotected = UB_DROP_UNKNOWN_KEY;
+    f.buf[FORM_PLAIN] = f.buf[FORM_SIGNED] = frame;
+    f.buf[FORM_ENCRYPTED] = alt;
+    f.len[FORM_PLAIN] = f.len[FORM_SIGNED] = f.len[FORM_ENCRYPTED] = 0;
+    return send_forms(node, &node->locals[slot], mask, &f, now_ms);
+}
+
+int ub_priv_originate(ub_node_t *node, int slot, uint8_t *frame, size_t cap, ub_frame_header_t *h, int fallback_link,
+                      uint64_t now_ms) {
     ub_local_entity_t *loc = &node->locals[slot];
-    int len = stamp(node, slot, frame, cap, h, node->opt.hop_limit);
-    if (len < 0) return len;
+    if (cap < UB_FRAME_MAX) return UB_ERR_NOSPACE;
+    int rc = stamp(node, slot, h, node->opt.hop_limit);
+    if (rc < 0) return rc;
     int dest_row;
     int dest_slot = local_destination(node, h->dest_id, &dest_row);
     if (dest_slot >= 0) {
         node->counters.local_direct++;
-        dispatch(node, dest_slot, -1, h, frame, now_ms);
+        dispatch(node, dest_slot, -1, h, frame + UB_FRAME_HEADER_LEN, NULL, now_ms);
         return 0;
     }
     uint8_t mask = dest_row >= 0 ? loc->masks[dest_row] : 0;
+    if (mask == 0 && fallback_link >= 0 && link_id_ok(node, fallback_link) && node->links[fallback_link].owner == slot)
+        mask = (uint8_t)(1u << node->links[fallback_link].index);
     if (mask == 0) {
         count_drop(node, -1, UB_DROP_NO_ROUTE);
         return UB_ERR_NOROUTE;
     }
-    return send_on_mask(node, loc, mask, frame, (size_t)len, now_ms);
+    return send_stamped(node, slot, mask, frame, h, now_ms);
 }
 
-/* A link-local frame: for the owner of the ingress link, never forwarded (docs/routing.md). */
-static void route_link_local(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
+/* Per-call context of the stream decoder callback. */
+typedef struct rx_ctx {
+    ub_node_t *node;
+    int link_id;
+    uint64_t now_ms;
+    ub_rx_verdicts_t verdicts;
+} rx_ctx_t;
+
+/* A routing frame that passed the security gate and the window of the ingress link's owner. */
+static void route_link_local(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
                              uint64_t now_ms) {
-    ub_link_t *link = &node->links[link_id];
-    if (dedup_seen(node, &node->locals[link->owner], h->src_id, h->seq)) {
-        count_drop(node, link_id, UB_DROP_DUPLICATE);
-        return;
-    }
-    if (h->admin != UB_ADMIN_HELLO && h->admin != UB_ADMIN_ROUTE_UPDATE) {
-        count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
-        return;
-    }
     if (node->route == NULL) {
         count_drop(node, link_id, UB_DROP_ROUTING_OFF);
         return;
     }
     node->counters.admin_handled++;
-    if (ub_priv_route_on_frame(node->route, link_id, h, frame + UB_FRAME_HEADER_LEN, now_ms) < 0)
-        count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+    if (ub_priv_route_on_frame(node->route, link_id, h, payload, now_ms) < 0) count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
 }
 
 static void route_received(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
-                           size_t len, uint64_t now_ms) {
+                           size_t len, uint64_t now_ms, ub_rx_verdicts_t *verdicts) {
     ub_link_t *link = &node->links[link_id];
     link->counters.frames_in++;
-    if (node->tap != NULL) node->tap(node->tap_user, link_id, UB_TAP_RX, frame, len, now_ms);
-    if (ub_entity_id_is_link_local(h->dest_id)) {
-        route_link_local(node, link_id, h, frame, now_ms);
+    /* Security first: nothing below (window, routing, tables, the tap) sees a frame that fails it. */
+    uint8_t plain[UB_MAX_PAYLOAD];
+    ub_priv_rx_t rx;
+    if (h->flags == 0 && node->sec == NULL && link->require_signed <= 0 && (link->require_signed == 0 || !node->require_signed)) {
+        rx.payload = frame + UB_FRAME_HEADER_LEN; /* unsigned, and nothing here asks otherwise (the paper's lab) */
+        rx.counter = h->seq;
+        rx.secured = false;
+    } else if (!ub_priv_sec_gate(node, link_id, h, frame, len, plain, &rx)) {
         return;
     }
-    int dest_row;
-    int dest_slot = local_destination(node, h->dest_id, &dest_row);
+    if (node->tap != NULL) node->tap(node->tap_user, link_id, UB_TAP_RX, frame, len, now_ms);
+    /* A link-local frame (docs/routing.md) is for the ingress link's owner and is never forwarded. */
+    bool link_local = ub_entity_id_is_link_local(h->dest_id);
+    if (link_local && h->admin != UB_ADMIN_HELLO && h->admin != UB_ADMIN_ROUTE_UPDATE) {
+        count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+        return;
+    }
+    int dest_row = -1;
+    int dest_slot = link_local ? -1 : local_destination(node, h->dest_id, &dest_row);
     int handler = dest_slot >= 0 ? dest_slot : link->owner;
-    if (dedup_seen(node, &node->locals[handler], h->src_id, h->seq)) {
-        count_drop(node, link_id, UB_DROP_DUPLICATE);
+    ub_priv_window_t verdict = ub_priv_window_pass(node, handler, link_id, h, &rx, now_ms);
+    if (verdict != UB_PRIV_WINDOW_PASS) {
+        if (verdict == UB_PRIV_WINDOW_UNVERIFIED && verdicts != NULL) verdicts->authentic++;
+        return;
+    }
+    link->counters.frames_accepted++;
+    if (verdicts != NULL) {
+        verdicts->authentic++;
+        verdicts->fresh++;
+    }
+    if (link_local) {
+        route_link_local(node, link_id, h, rx.payload, now_ms);
         return;
     }
     if (dest_slot >= 0) {
-        dispatch(node, dest_slot, link_id, h, frame, now_ms);
+        dispatch(node, dest_slot, link_id, h, rx.payload, &rx, now_ms);
         return;
     }
     const ub_local_entity_t *owner = &node->locals[link->owner];
@@ -571,7 +612,9 @@ static void route_received(ub_node_t *node, int link_id, const ub_frame_header_t
         count_drop(node, link_id, UB_DROP_HOP_LIMIT);
         return;
     }
-    uint8_t out[UB_FRAME_MAX];
+    /* Forward: the form it came in, with the hop limit lowered (not under the tag); the other
+     * protected form only if an outgoing link asks for it. */
+    uint8_t out[UB_FRAME_MAX], alt[UB_FRAME_MAX];
     if (len > sizeof out) {
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
         return;
@@ -581,21 +624,42 @@ static void route_received(ub_node_t *node, int link_id, const ub_frame_header_t
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
         return;
     }
+    tx_forms_t f;
+    f.h = h;
+    f.hop_limit = (uint8_t)(h->hop_limit - 1);
+    f.payload = rx.payload;
+    f.protect = rx.secured;
+    f.unprotected = UB_DROP_UNSIGNED;
+    int in_form = h->flags == UB_FRAME_FLAG_ENCRYPTED ? FORM_ENCRYPTED
+                : h->flags == UB_FRAME_FLAG_SIGNED  ? FORM_SIGNED : FORM_PLAIN;
+    for (int k = 0; k < N_FORMS; k++) {
+        f.buf[k] = alt;
+        f.len[k] = 0;
+    }
+    f.buf[in_form] = out;
+    f.len[in_form] = (int)len;
     node->counters.forwarded++;
-    (void)send_on_mask(node, owner, mask, out, len, now_ms);
+    (void)send_forms(node, owner, mask, &f, now_ms);
 }
 
 static void on_stream_frame(void *user, const ub_frame_header_t *h, const uint8_t *frame, size_t frame_len) {
     rx_ctx_t *ctx = user;
-    route_received(ctx->node, ctx->link_id, h, frame, frame_len, ctx->now_ms);
+    route_received(ctx->node, ctx->link_id, h, frame, frame_len, ctx->now_ms, &ctx->verdicts);
+}
+
+int ub_node_rx_stream(ub_node_t *node, int link_id, ub_decoder_t *dec, const uint8_t *data, size_t len,
+                      uint64_t now_ms, ub_rx_verdicts_t *verdicts) {
+    if (node == NULL || !link_id_ok(node, link_id) || (data == NULL && len > 0)) return UB_ERR_INVAL;
+    node->links[link_id].counters.bytes_in += len;
+    rx_ctx_t ctx = {node, link_id, now_ms, {0, 0}};
+    size_t frames = ub_decoder_feed(dec != NULL ? dec : &node->links[link_id].decoder, data, len, on_stream_frame,
+                                    &ctx);
+    if (verdicts != NULL) *verdicts = ctx.verdicts;
+    return frames > (size_t)INT32_MAX ? INT32_MAX : (int)frames;
 }
 
 int ub_node_rx(ub_node_t *node, int link_id, const uint8_t *data, size_t len, uint64_t now_ms) {
-    if (node == NULL || !link_id_ok(node, link_id) || (data == NULL && len > 0)) return UB_ERR_INVAL;
-    node->links[link_id].counters.bytes_in += len;
-    rx_ctx_t ctx = {node, link_id, now_ms};
-    size_t frames = ub_decoder_feed(&node->links[link_id].decoder, data, len, on_stream_frame, &ctx);
-    return frames > (size_t)INT32_MAX ? INT32_MAX : (int)frames;
+    return ub_node_rx_stream(node, link_id, NULL, data, len, now_ms, NULL);
 }
 
 int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms) {
@@ -609,7 +673,7 @@ int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t 
         if ((unsigned)reason < UB_RX_REASON_COUNT) link->counters.bad_datagrams[reason]++;
         return rc;
     }
-    route_received(node, link_id, &h, frame, len, now_ms);
+    route_received(node, link_id, &h, frame, len, now_ms, NULL);
     return UB_OK;
 }
 
@@ -637,7 +701,7 @@ int ub_priv_send_data_from_slot(ub_node_t *node, int slot, uint32_t instance, co
     h.admin = UB_ADMIN_DATA;
     h.payload_size = (uint16_t)packed;
     h.fingerprint = inst->type->fingerprint;
-    return originate(node, slot, frame, sizeof frame, &h, now_ms);
+    return ub_priv_originate(node, slot, frame, sizeof frame, &h, -1, now_ms);
 }
 
 int ub_node_send_data(ub_node_t *node, int entity, uint32_t instance, const uint8_t dest_id[UB_ENTITY_ID_LEN],
@@ -661,7 +725,7 @@ int ub_priv_send_admin(ub_node_t *node, int slot, ub_admin_code_t code, const ui
     h.admin = (uint8_t)code;
     h.payload_size = len;
     h.fingerprint = fingerprint;
-    return originate(node, slot, frame, sizeof frame, &h, now_ms);
+    return ub_priv_originate(node, slot, frame, sizeof frame, &h, -1, now_ms);
 }
 
 int ub_priv_send_reply(ub_node_t *node, int slot, bool nack, const uint8_t dir_id[UB_DIR_ID_LEN],
@@ -686,9 +750,11 @@ int ub_node_send_link_local(ub_node_t *node, int link_id, ub_admin_code_t code, 
     memset(h.dest_id, UB_LINK_LOCAL_BYTE, UB_ENTITY_ID_LEN);
     h.admin = (uint8_t)code;
     h.payload_size = len;
-    int n = stamp(node, node->links[link_id].owner, frame, sizeof frame, &h, 1);
-    if (n < 0) return n;
-    return transmit(node, link_id, frame, (size_t)n, now_ms) ? 1 : 0;
+    const ub_link_t *link = &node->links[link_id];
+    int rc = stamp(node, link->owner, &h, 1);
+    if (rc < 0) return rc;
+    /* Signed or encrypted like any frame on that link (docs/routing.md, docs/security.md). */
+    return send_stamped(node, link->owner, (uint8_t)(1u << link->index), frame, &h, now_ms);
 }
 
 bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN]) {
@@ -705,4 +771,5 @@ void ub_node_tick(ub_node_t *node, uint64_t now_ms) {
     }
     if (node->route != NULL) ub_priv_route_tick(node->route, now_ms);
     if (node->member != NULL) ub_priv_member_tick(node->member, now_ms);
+    ub_priv_sec_tick(node, now_ms);
 }

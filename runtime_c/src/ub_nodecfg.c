@@ -9,6 +9,8 @@
 #include <unistd.h>
 
 #include "ub/ub_node.h"
+#include "ub/ub_sec.h"
+#include "ub/ub_secfile.h"
 #include "ub_json.h"
 #include "ub_nodecfg_private.h"
 
@@ -563,11 +565,149 @@ static int parse_ports(const parser_t *p, const ub_json_value_t *obj) {
 }
 
 /* ---- security ----
- * Each key is parsed by the concern it configures: administrators, read, write and limits by ub_policy.c
- * (ub_priv_policy_parse_key). The policy is on as soon as one of those keys is given. */
+ * The "security" section gathers the keys of several concerns, each parsed by its own code:
+ *  - frame protection (docs/security.md): keys, tx_key, require_signed, counter_file, links — here, into
+ *    cfg->security; on as soon as one of them is given, and then keys and counter_file are required.
+ *    Key files and the counter file are read only by ub_nodecfg_apply_security();
+ *  - authorization of the admin plane: administrators, read, write, limits — ub_policy.c
+ *    (ub_priv_policy_parse_key), into cfg->policy; on as soon as one of those is given. */
 
-static const char *const SECURITY_FIELDS[] = {UB_PRIV_POLICY_KEYS};
+#define FRAME_SECURITY_KEYS "keys", "tx_key", "require_signed", "counter_file", "links"
+enum { S_KEYS, S_TX_KEY, S_REQUIRE_SIGNED, S_COUNTER_FILE, S_LINKS, N_FRAME_SECURITY_FIELDS };
+static const char *const SECURITY_FIELDS[] = {FRAME_SECURITY_KEYS, UB_PRIV_POLICY_KEYS};
 #define N_SECURITY_FIELDS (sizeof SECURITY_FIELDS / sizeof SECURITY_FIELDS[0])
+
+static int parse_path(const parser_t *p, const ub_json_value_t *v, const char *field, char *out) {
+    size_t n = v->kind == UB_JSON_STRING ? ub_json_string(&p->doc, v, out, UB_NODECFG_PATH_MAX + 1) : 0;
+    if (n == 0 || n > UB_NODECFG_PATH_MAX || strlen(out) != n)
+        return fail(p, v->line, NULL, field, "must be a file path of 1 to %d characters", UB_NODECFG_PATH_MAX);
+    return UB_OK;
+}
+
+static int parse_bool(const parser_t *p, const ub_json_value_t *v, const char *field, uint8_t *out) {
+    if (v->kind != UB_JSON_TRUE && v->kind != UB_JSON_FALSE) return fail(p, v->line, NULL, field, "must be true or false");
+    *out = v->kind == UB_JSON_TRUE;
+    return UB_OK;
+}
+
+/* A "security.links" key must name a link of some entity ("entity:link" that entity's): a misspelt
+ * link must not leave a link unencrypted without a word. */
+static bool link_exists(const ub_nodecfg_t *cfg, const char *key) {
+    const char *colon = strchr(key, ':');
+    for (int i = 0; i < cfg->entity_count; i++) {
+        const ub_nodecfg_entity_t *e = &cfg->entities[i];
+        const char *link = key;
+        if (colon != NULL) {
+            if (strlen(e->name) != (size_t)(colon - key) || memcmp(e->name, key, (size_t)(colon - key)) != 0) continue;
+            link = colon + 1;
+        }
+        for (int l = 0; l < e->link_count; l++)
+            if (strcmp(e->links[l], link) == 0) return true;
+    }
+    return false;
+}
+
+static int parse_security_links(const parser_t *p, const ub_json_value_t *obj) {
+    static const char *const LINK_FIELDS[] = {"require_signed", "encrypt"};
+    ub_nodecfg_security_t *sec = &p->cfg->security;
+    ub_json_iter_t it;
+    ub_json_value_t key, v, values[2];
+    char path[PATH_LEN + 16], name[KEY_BUF];
+    int rc;
+    if (obj->kind != UB_JSON_OBJECT)
+        return fail(p, obj->line, NULL, "security.links",
+                    "must be an object mapping link names to {\"require_signed\": ..., \"encrypt\": ...}");
+    ub_json_iter_begin(&it, &p->doc, obj);
+    while (ub_json_iter_next(&it, &key, &v)) {
+        size_t n = key_text(p, &key, name);
+        if (n >= KEY_BUF || !is_port_key(name, n))
+            return fail(p, key.line, NULL, "security.links", "keys are link names, optionally qualified as \"entity:link\"");
+        (void)snprintf(path, sizeof path, "security.links.%s", name);
+        if (!link_exists(p->cfg, name))
+            return fail(p, key.line, NULL, path, "no link of that name in any entity's 'links'");
+        for (int i = 0; i < sec->link_count; i++)
+            if (strcmp(sec->links[i].name, name) == 0)
+                return fail(p, key.line, NULL, path, "duplicate field (first given on line %lu)",
+                            (unsigned long)sec->links[i].line);
+        if (sec->link_count == UB_NODECFG_MAX_PORTS)
+            return fail(p, key.line, NULL, path, "too many links: this build holds %d (UB_NODECFG_MAX_PORTS)",
+                        UB_NODECFG_MAX_PORTS);
+        if (v.kind != UB_JSON_OBJECT)
+            return fail(p, v.line, NULL, path, "must be an object such as {\"encrypt\": true}");
+        (void)snprintf(path, sizeof path, "security.links.%s.", name);
+        if ((rc = check_fields(p, &v, LINK_FIELDS, 2, NULL, path, values)) != UB_OK) return rc;
+        ub_nodecfg_link_security_t *ls = &sec->links[sec->link_count];
+        memcpy(ls->name, name, n + 1);
+        ls->line = key.line;
+        ls->require_signed = -1;
+        if (values[0].kind != 0) {
+            uint8_t b = 0;
+            (void)snprintf(path, sizeof path, "security.links.%s.require_signed", name);
+            if ((rc = parse_bool(p, &values[0], path, &b)) != UB_OK) return rc;
+            ls->require_signed = (int8_t)b;
+        }
+        if (values[1].kind != 0) {
+            (void)snprintf(path, sizeof path, "security.links.%s.encrypt", name);
+            if ((rc = parse_bool(p, &values[1], path, &ls->encrypt)) != UB_OK) return rc;
+        }
+        sec->link_count++;
+    }
+    return UB_OK;
+}
+
+/* The frame-protection keys (values[0, N_FRAME_SECURITY_FIELDS) of the section), when any is given. */
+static int parse_frame_security(const parser_t *p, const ub_json_value_t *obj, const ub_json_value_t *values) {
+    ub_nodecfg_security_t *sec = &p->cfg->security;
+    ub_json_iter_t it;
+    ub_json_value_t v;
+    char path[PATH_LEN];
+    int rc;
+    bool any = false;
+    for (int k = 0; k < N_FRAME_SECURITY_FIELDS; k++) any = any || values[k].kind != 0;
+    if (!any) return UB_OK;
+    sec->present = 1;
+    sec->line = obj->line;
+    sec->require_signed = 1; /* a node given keys refuses unsigned frames unless told otherwise */
+    const ub_json_value_t *keys = &values[S_KEYS];
+    if (keys->kind == 0)
+        return fail(p, obj->line, NULL, "security.keys",
+                    "missing (list the key files, e.g. [\"keys/fleet.key\"]; make one with: uavbus keys new FILE)");
+    if (keys->kind != UB_JSON_ARRAY) return fail(p, keys->line, NULL, "security.keys", "must be a list of key file paths");
+    ub_json_iter_begin(&it, &p->doc, keys);
+    for (int k = 0; ub_json_iter_next(&it, NULL, &v); k++) {
+        (void)snprintf(path, sizeof path, "security.keys[%d]", k);
+        if (k == UB_MAX_KEYS)
+            return fail(p, v.line, NULL, path, "too many keys: this build holds %d (UB_MAX_KEYS in ub_config.h)",
+                        UB_MAX_KEYS);
+        if ((rc = parse_path(p, &v, path, sec->keys[k])) != UB_OK) return rc;
+        sec->key_lines[k] = v.line;
+        sec->key_count = (uint8_t)(k + 1);
+    }
+    if (sec->key_count == 0)
+        return fail(p, keys->line, NULL, "security.keys", "must list at least one key file (make one with: uavbus keys new FILE)");
+    const ub_json_value_t *tx = &values[S_TX_KEY];
+    if (tx->kind != 0) {
+        char num[32];
+        number_text(p, tx, num, sizeof num);
+        unsigned long id = 0;
+        bool ok = tx->kind == UB_JSON_NUMBER && is_integer_literal(p, tx) && num[0] != '-' && strlen(num) <= 3;
+        for (size_t i = 0; ok && num[i] != '\0'; i++) id = id * 10u + (unsigned long)(num[i] - '0');
+        if (!ok || id < 1 || id > 255)
+            return fail(p, tx->line, NULL, "security.tx_key", "must be a key id 1..255 (the id=N of one of the key files)");
+        sec->tx_key = (uint8_t)id;
+        sec->tx_key_line = tx->line;
+    }
+    if (values[S_REQUIRE_SIGNED].kind != 0 &&
+        (rc = parse_bool(p, &values[S_REQUIRE_SIGNED], "security.require_signed", &sec->require_signed)) != UB_OK)
+        return rc;
+    if (values[S_COUNTER_FILE].kind == 0)
+        return fail(p, obj->line, NULL, "security.counter_file",
+                    "missing: a node that signs needs a durable counter, e.g. \"state/{entity}.counter\" (docs/security.md)");
+    if ((rc = parse_path(p, &values[S_COUNTER_FILE], "security.counter_file", sec->counter_file)) != UB_OK) return rc;
+    sec->counter_file_line = values[S_COUNTER_FILE].line;
+    if (values[S_LINKS].kind != 0 && (rc = parse_security_links(p, &values[S_LINKS])) != UB_OK) return rc;
+    return UB_OK;
+}
 
 static int parse_security(const parser_t *p, const ub_json_value_t *obj) {
     ub_nodecfg_t *cfg = p->cfg;
@@ -575,10 +715,12 @@ static int parse_security(const parser_t *p, const ub_json_value_t *obj) {
     int rc;
     if (obj->kind != UB_JSON_OBJECT)
         return fail(p, obj->line, NULL, "security",
-                    "must be an object with administrators, read, write and/or limits (see docs/config-format.md)");
+                    "must be an object with keys, tx_key, require_signed, counter_file, links, administrators, read, "
+                    "write and/or limits (see docs/config-format.md)");
     if ((rc = check_fields(p, obj, SECURITY_FIELDS, N_SECURITY_FIELDS, NULL, "security.", values)) != UB_OK) return rc;
+    if ((rc = parse_frame_security(p, obj, values)) != UB_OK) return rc;
     ub_policy_init(&cfg->policy);
-    for (size_t k = 0; k < N_SECURITY_FIELDS; k++) {
+    for (size_t k = N_FRAME_SECURITY_FIELDS; k < N_SECURITY_FIELDS; k++) {
         if (values[k].kind == 0) continue;
         ub_cfg_error_t e;
         memset(&e, 0, sizeof e);
@@ -832,5 +974,122 @@ int ub_nodecfg_apply(const ub_nodecfg_t *cfg, struct ub_node *node, char *err, s
         }
     }
     if (cfg->has_policy) ub_node_set_policy(node, &cfg->policy);
+    return UB_OK;
+}
+
+/* ---- applying the security section ---- */
+
+/* `path` as written in the file, relative to the config file's directory; "{entity}" expanded. */
+static int resolve_path(const ub_nodecfg_t *cfg, const char *path, const char *entity, char *out, size_t cap) {
+    size_t used = 0;
+    const char *slash = strrchr(cfg->source, '/');
+    if (path[0] != '/' && slash != NULL) appendf(out, cap, &used, "%.*s/", (int)(slash - cfg->source), cfg->source);
+    else out[0] = '\0';
+    for (const char *c = path; *c != '\0'; c++) {
+        if (entity != NULL && strncmp(c, "{entity}", 8) == 0) {
+            appendf(out, cap, &used, "%s", entity);
+            c += 7;
+        } else {
+            appendf(out, cap, &used, "%c", *c);
+        }
+    }
+    return used < cap ? UB_OK : UB_ERR_RANGE;
+}
+
+#if defined(__GNUC__)
+__attribute__((format(printf, 6, 7)))
+#endif
+static int sec_failed(const ub_nodecfg_t *cfg, char *err, size_t err_cap, uint32_t line, const char *field,
+                      const char *fmt, ...) {
+    if (err_cap == 0) return UB_ERR_CONFIG;
+    size_t used = 0;
+    appendf(err, err_cap, &used, "%s:%lu: field '%s': ", cfg->source, (unsigned long)line, field);
+    va_list ap;
+    va_start(ap, fmt);
+    append(err, err_cap, &used, fmt, ap);
+    va_end(ap);
+    return UB_ERR_CONFIG;
+}
+
+int ub_nodecfg_apply_security(const ub_nodecfg_t *cfg, struct ub_node *node, struct ub_sec *sec,
+                              struct ub_counter_file *counter, const struct ub_sec_options *opt, uint64_t unix_us,
+                              char *err, size_t err_cap) {
+    if (cfg == NULL || node == NULL || sec == NULL || counter == NULL || (err == NULL && err_cap > 0))
+        return UB_ERR_INVAL;
+    const ub_nodecfg_security_t *s = &cfg->security;
+    if (!s->present) return UB_OK;
+    char path[UB_SECFILE_PATH_MAX], why[UB_SECFILE_ERR_LEN], field[48];
+    if (cfg->host_count == 0)
+        return sec_failed(cfg, err, err_cap, s->line, "security", "this process hosts no entity (apply the table first)");
+    ub_sec_options_t o = {0};
+    if (opt != NULL) o = *opt;
+    o.reserve = ub_counter_file_reserve;
+    o.reserve_user = counter;
+    int rc = ub_sec_init(sec, &o);
+    if (rc == UB_ERR_UNSUPPORTED)
+        return sec_failed(cfg, err, err_cap, s->line, "security",
+                          "this build has no security (UAVBUS_SECURITY=OFF): rebuild with libsodium or remove the section");
+    if (rc != UB_OK) return sec_failed(cfg, err, err_cap, s->line, "security", "libsodium failed to initialise");
+    uint8_t first_id = 0;
+    for (int k = 0; k < s->key_count; k++) {
+        (void)snprintf(field, sizeof field, "security.keys[%d]", k);
+        if (resolve_path(cfg, s->keys[k], NULL, path, sizeof path) != UB_OK)
+            return sec_failed(cfg, err, err_cap, s->key_lines[k], field, "path too long");
+        uint8_t id = 0, key[UB_SEC_KEY_LEN];
+        rc = ub_keyfile_load(path, &id, key, why, sizeof why);
+        if (rc != UB_OK) return sec_failed(cfg, err, err_cap, s->key_lines[k], field, "%s", why);
+        rc = ub_sec_add_key(sec, id, key);
+        memset(key, 0, sizeof key);
+        if (rc == UB_ERR_EXISTS)
+            return sec_failed(cfg, err, err_cap, s->key_lines[k], field,
+                              "%s: key id %u is already used by another key file here (give each key its own id)", path,
+                              (unsigned)id);
+        if (rc != UB_OK)
+            return sec_failed(cfg, err, err_cap, s->key_lines[k], field, "%s: refused: %s", path, ub_strerror(rc));
+        if (k == 0) first_id = id;
+    }
+    uint8_t tx = s->tx_key != 0 ? s->tx_key : first_id;
+    if (ub_sec_set_tx_key(sec, tx) != UB_OK)
+        return sec_failed(cfg, err, err_cap, s->tx_key_line, "security.tx_key",
+                          "no key file given has id %u (tx_key names the id=N of one of 'keys')", (unsigned)tx);
+    const char *entity = cfg->entities[cfg->hosts[0]].name;
+    if (resolve_path(cfg, s->counter_file, entity, path, sizeof path) != UB_OK)
+        return sec_failed(cfg, err, err_cap, s->counter_file_line, "security.counter_file", "path too long");
+    uint64_t mark = 0;
+    rc = ub_counter_file_open(counter, path, &mark, why, sizeof why);
+    if (rc != UB_OK) return sec_failed(cfg, err, err_cap, s->counter_file_line, "security.counter_file", "%s", why);
+    if (ub_sec_start(sec, mark, ub_sec_wall_counter(unix_us)) != UB_OK)
+        return sec_failed(cfg, err, err_cap, s->counter_file_line, "security.counter_file",
+                          "%s: the counter is exhausted (48 bits): use a new key", path);
+    /* Reserve now, so a counter file that cannot be written stops the start rather than the first frame. */
+    uint64_t probe;
+    if (ub_sec_next_counter(sec, &probe) != UB_OK)
+        return sec_failed(cfg, err, err_cap, s->counter_file_line, "security.counter_file",
+                          "%s: cannot store the counter reservation (%s): the directory must exist and be writable",
+                          path, strerror(counter->last_errno));
+    if (ub_node_set_require_signed(node, s->require_signed != 0) != UB_OK) return UB_ERR_INVAL;
+    for (int i = 0; i < s->link_count; i++) {
+        const ub_nodecfg_link_security_t *ls = &s->links[i];
+        const char *colon = strchr(ls->name, ':');
+        int link = ub_node_find_link(node, colon != NULL ? colon + 1 : ls->name);
+        if (link < 0) continue; /* a link of another process */
+        if (colon != NULL) {
+            uint8_t id[UB_ENTITY_ID_LEN];
+            char ename[UB_ENTITY_ID_LEN + 1];
+            size_t n = (size_t)(colon - ls->name);
+            memcpy(ename, ls->name, n);
+            ename[n] = '\0';
+            const ub_link_t *l = ub_node_link(node, link);
+            if (ub_entity_id(ename, id) != UB_OK || l == NULL ||
+                memcmp(ub_node_entity_id(node, node->locals[l->owner].entity), id, UB_ENTITY_ID_LEN) != 0)
+                continue; /* same link name, but another entity's */
+        }
+        (void)snprintf(field, sizeof field, "security.links.%.24s", ls->name);
+        if (ub_node_link_set_security(node, link, ls->require_signed, ls->encrypt != 0) != UB_OK)
+            return sec_failed(cfg, err, err_cap, ls->line, field, "the node refused the setting");
+    }
+    rc = ub_node_set_security(node, sec);
+    if (rc != UB_OK)
+        return sec_failed(cfg, err, err_cap, s->line, "security", "the node refused the context: %s", ub_strerror(rc));
     return UB_OK;
 }

@@ -103,4 +103,53 @@ void ub_priv_admin_tick(ub_admin_t *adm, uint64_t now_ms);
 /* Whether an entity ID is all zero (the "no owner" marker). */
 bool ub_priv_id_is_zero(const uint8_t id[UB_ENTITY_ID_LEN]);
 
+/* Counts a drop on the node and, for a valid `link_id`, on that link. */
+void ub_priv_count_drop(ub_node_t *node, int link_id, ub_drop_reason_t reason);
+
+/*
+ * Originates the frame whose payload is at `frame + UB_FRAME_HEADER_LEN` (`cap` >= UB_FRAME_MAX)
+ * from local slot `slot`: counter, source, hop limit, then local delivery or the links of the
+ * slot's mask for h->dest_id in the form each link asks for. When no mask leads to the
+ * destination, `fallback_link` (if >= 0 and owned by `slot`) is used: a challenge goes back where
+ * the unverified frame came from. Returns links used (>= 0) or a negative error.
+ */
+int ub_priv_originate(ub_node_t *node, int slot, uint8_t *frame, size_t cap, ub_frame_header_t *h, int fallback_link,
+                      uint64_t now_ms);
+
+/* ---- security glue (ub_node_sec.c) ---- */
+
+/* What the security gate established about a received frame. */
+typedef struct ub_priv_rx {
+    const uint8_t *payload; /* plaintext payload: in the frame, or the caller's buffer for ENCRYPTED */
+    uint64_t counter;       /* 48-bit counter (secured) or the 32-bit sequence (unsigned) */
+    bool secured;           /* the tag verified */
+} ub_priv_rx_t;
+
+/*
+ * Policy, key and tag of a CRC-valid frame received on `link_id`. ENCRYPTED payloads are decrypted
+ * into `plain` (UB_MAX_PAYLOAD bytes). Returns false when the frame is dropped (counted).
+ */
+bool ub_priv_sec_gate(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *frame, size_t len,
+                      uint8_t *plain, ub_priv_rx_t *rx);
+
+typedef enum ub_priv_window {
+    UB_PRIV_WINDOW_PASS = 0,   /* new: route it */
+    UB_PRIV_WINDOW_DROPPED,    /* duplicate, replay or unsigned-after-signed: counted */
+    UB_PRIV_WINDOW_UNVERIFIED  /* authentic, source without freshness state: counted, challenge sent */
+} ub_priv_window_t;
+
+/* The duplicate / replay window of handling slot `slot` for the frame's source. */
+ub_priv_window_t ub_priv_window_pass(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h,
+                                     const ub_priv_rx_t *rx, uint64_t now_ms);
+
+/* Enters an originated frame (seq / counter in `h`) in the originator's own window. */
+void ub_priv_window_note_own(ub_node_t *node, int slot, const ub_frame_header_t *h, bool secured);
+
+/* CHALLENGE / CHALLENGE_REPLY reached local slot `slot` (`rx` NULL: from an entity of this node). */
+void ub_priv_sec_on_admin(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
+                          const ub_priv_rx_t *rx, uint64_t now_ms);
+
+/* Resends unanswered challenges (at most UB_SEC_CHALLENGE_TRIES per frame of their source). */
+void ub_priv_sec_tick(ub_node_t *node, uint64_t now_ms);
+
 #endif /* UB_ROUTER_PRIVATE_H */

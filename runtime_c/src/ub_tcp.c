@@ -4,6 +4,7 @@
 #include <errno.h>
 #include <netinet/tcp.h>
 #include <poll.h>
+#include <stdbool.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -14,6 +15,8 @@
 
 #define DEFAULT_BACKOFF_INITIAL_MS 100u
 #define DEFAULT_BACKOFF_MAX_MS 5000u
+#define DEFAULT_IDLE_MS 3000u
+#define DEFAULT_CANDIDATE_MS 10000u
 
 /* Frames are small and latency matters more than packet count. */
 static void set_nodelay(int fd) {
@@ -33,7 +36,10 @@ static void reset(ub_tcp_t *tcp, ub_tcp_role_t role, const ub_tcp_options_t *opt
     if (tcp->opt.backoff_initial_ms == 0) tcp->opt.backoff_initial_ms = DEFAULT_BACKOFF_INITIAL_MS;
     if (tcp->opt.backoff_max_ms == 0) tcp->opt.backoff_max_ms = DEFAULT_BACKOFF_MAX_MS;
     if (tcp->opt.backoff_max_ms < tcp->opt.backoff_initial_ms) tcp->opt.backoff_max_ms = tcp->opt.backoff_initial_ms;
+    if (tcp->opt.idle_ms == 0) tcp->opt.idle_ms = DEFAULT_IDLE_MS;
+    if (tcp->opt.candidate_ms == 0) tcp->opt.candidate_ms = DEFAULT_CANDIDATE_MS;
     tcp->backoff_ms = tcp->opt.backoff_initial_ms;
+    for (int i = 0; i < UB_TCP_MAX_CANDIDATES; i++) tcp->cand[i].fd = -1;
 }
 
 int ub_tcp_client_init(ub_tcp_t *tcp, const char *addr, uint16_t port, const ub_tcp_options_t *opt) {
@@ -129,9 +135,10 @@ int ub_tcp_attach(ub_tcp_t *tcp, ub_node_t *node, int link_id) {
 }
 
 /* A new stream starts: re-attaching resets the slot's decoder (no half frame from the old stream survives). */
-static void connection_up(ub_tcp_t *tcp, int fd) {
+static void connection_up(ub_tcp_t *tcp, int fd, uint64_t now_ms) {
     tcp->fd = fd;
     tcp->state = UB_TCP_UP;
+    tcp->last_fresh_ms = now_ms;
     tcp->tx_len = 0;
     tcp->backoff_ms = tcp->opt.backoff_initial_ms;
     tcp->stats.connects++;
@@ -143,6 +150,23 @@ static void connection_up(ub_tcp_t *tcp, int fd) {
     (void)attached;
 }
 
+/* A candidate ends (closed or adopted): what its decoder refused goes into the driver's counters. */
+static void account_candidate(ub_tcp_t *tcp, ub_tcp_candidate_t *c) {
+    for (int r = 0; r < UB_RX_REASON_COUNT; r++) tcp->stats.candidate_rejected += c->dec.stats.rejected[r];
+    tcp->stats.candidate_garbage += c->dec.stats.garbage_bytes + ub_decoder_pending(&c->dec);
+    ub_decoder_init(&c->dec);
+}
+
+static void close_candidate(ub_tcp_t *tcp, ub_tcp_candidate_t *c) {
+    if (c->fd >= 0) {
+        close(c->fd);
+        account_candidate(tcp, c);
+    }
+    c->fd = -1;
+    c->proven = 0;
+}
+
+/* New connections never displace the established peer here: they become candidates (see ub_tcp.h). */
 static void server_accept(ub_tcp_t *tcp, uint64_t now_ms) {
     for (;;) {
         int fd = accept(tcp->listen_fd, NULL, NULL);
@@ -151,12 +175,76 @@ static void server_accept(ub_tcp_t *tcp, uint64_t now_ms) {
             close(fd);
             continue;
         }
-        if (tcp->state == UB_TCP_UP) {
-            tcp->stats.replaced++;
-            connection_lost(tcp, now_ms, 1);
+        if (tcp->state != UB_TCP_UP && !ub_node_link_requires_signed(tcp->node, tcp->link_id)) {
+            connection_up(tcp, fd, now_ms); /* nobody to displace and nothing to prove */
+            continue;
         }
-        connection_up(tcp, fd);
+        ub_tcp_candidate_t *c = NULL;
+        for (int i = 0; i < UB_TCP_MAX_CANDIDATES && c == NULL; i++)
+            if (tcp->cand[i].fd < 0) c = &tcp->cand[i];
+        if (c == NULL) {
+            close(fd);
+            tcp->stats.candidates_refused++;
+            continue;
+        }
+        c->fd = fd;
+        c->proven = 0;
+        c->since_ms = now_ms;
+        ub_decoder_init(&c->dec);
+        set_nodelay(fd);
+        tcp->stats.candidates++;
     }
+}
+
+/* Reads what a candidate sent into the node, through its own decoder. */
+static void read_candidate(ub_tcp_t *tcp, ub_tcp_candidate_t *c, uint64_t now_ms) {
+    for (int i = 0; i < UB_TCP_RX_BUDGET && c->fd >= 0; i++) {
+        ssize_t n = recv(c->fd, tcp->rx, sizeof tcp->rx, 0);
+        if (n > 0) {
+            tcp->stats.bytes_in += (uint64_t)n;
+            ub_rx_verdicts_t v = {0, 0};
+            int found = ub_node_rx_stream(tcp->node, tcp->link_id, &c->dec, tcp->rx, (size_t)n, now_ms, &v);
+            if (found >= 0 && v.fresh > 0) c->proven = 2;
+            else if (found >= 0 && v.authentic > 0 && c->proven == 0) c->proven = 1;
+            continue;
+        }
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
+        close_candidate(tcp, c);
+        tcp->stats.candidates_lost++;
+    }
+}
+
+/* Candidates: read them, expire the ones that prove nothing, adopt a proven one when the established
+ * peer is gone or silent. */
+static void service_candidates(ub_tcp_t *tcp, uint64_t now_ms) {
+    ub_tcp_candidate_t *pick = NULL;
+    for (int i = 0; i < UB_TCP_MAX_CANDIDATES; i++) {
+        ub_tcp_candidate_t *c = &tcp->cand[i];
+        if (c->fd < 0) continue;
+        read_candidate(tcp, c, now_ms);
+        if (c->fd < 0) continue;
+        if (!c->proven && now_ms >= c->since_ms && now_ms - c->since_ms >= tcp->opt.candidate_ms) {
+            close_candidate(tcp, c);
+            tcp->stats.candidates_expired++;
+            continue;
+        }
+        if (c->proven && (pick == NULL || c->proven > pick->proven)) pick = c;
+    }
+    if (pick == NULL) return;
+    bool silent = tcp->state != UB_TCP_UP ||
+                  (now_ms >= tcp->last_fresh_ms && now_ms - tcp->last_fresh_ms >= tcp->opt.idle_ms);
+    if (!silent) return;
+    if (tcp->state == UB_TCP_UP) {
+        tcp->stats.replaced++;
+        connection_lost(tcp, now_ms, 1);
+    }
+    int fd = pick->fd;
+    account_candidate(tcp, pick);
+    pick->fd = -1;
+    pick->proven = 0;
+    tcp->stats.adopted++;
+    connection_up(tcp, fd, now_ms);
 }
 
 static void client_start_attempt(ub_tcp_t *tcp, uint64_t now_ms) {
@@ -169,7 +257,7 @@ static void client_start_attempt(ub_tcp_t *tcp, uint64_t now_ms) {
         return;
     }
     if (connect(fd, (const struct sockaddr *)&tcp->addr, sizeof tcp->addr) == 0) {
-        connection_up(tcp, fd);
+        connection_up(tcp, fd, now_ms);
         return;
     }
     if (errno == EINPROGRESS || errno == EINTR) {
@@ -194,7 +282,7 @@ static void client_check_attempt(ub_tcp_t *tcp, uint64_t now_ms) {
         return;
     }
     int fd = tcp->fd;
-    connection_up(tcp, fd);
+    connection_up(tcp, fd, now_ms);
 }
 
 /* @return frames found, or -1 when the connection was lost. */
@@ -204,8 +292,11 @@ static int read_available(ub_tcp_t *tcp, uint64_t now_ms) {
         ssize_t n = recv(tcp->fd, tcp->rx, sizeof tcp->rx, 0);
         if (n > 0) {
             tcp->stats.bytes_in += (uint64_t)n;
-            int found = ub_node_rx(tcp->node, tcp->link_id, tcp->rx, (size_t)n, now_ms);
+            ub_rx_verdicts_t v = {0, 0};
+            int found = ub_node_rx_stream(tcp->node, tcp->link_id, NULL, tcp->rx, (size_t)n, now_ms, &v);
             if (found > 0) frames += found;
+            /* Alive only by frames whose freshness is proven: replays, even authentic ones, keep nothing alive. */
+            if (v.fresh > 0) tcp->last_fresh_ms = now_ms;
             continue;
         }
         if (n < 0 && errno == EINTR) continue;
@@ -218,7 +309,10 @@ static int read_available(ub_tcp_t *tcp, uint64_t now_ms) {
 
 int ub_tcp_service(ub_tcp_t *tcp, ub_node_t *node, uint64_t now_ms) {
     if (tcp == NULL || node == NULL || node != tcp->node) return UB_ERR_INVAL;
-    if (tcp->role == UB_TCP_SERVER && tcp->listen_fd >= 0) server_accept(tcp, now_ms);
+    if (tcp->role == UB_TCP_SERVER && tcp->listen_fd >= 0) {
+        server_accept(tcp, now_ms);
+        service_candidates(tcp, now_ms);
+    }
     if (tcp->role == UB_TCP_CLIENT && tcp->state == UB_TCP_DOWN && now_ms >= tcp->next_attempt_ms)
         client_start_attempt(tcp, now_ms);
     if (tcp->state == UB_TCP_CONNECTING) client_check_attempt(tcp, now_ms);
@@ -257,8 +351,15 @@ size_t ub_tcp_tx_pending(const ub_tcp_t *tcp) { return tcp == NULL ? 0 : tcp->tx
 
 const ub_tcp_stats_t *ub_tcp_stats(const ub_tcp_t *tcp) { return tcp == NULL ? NULL : &tcp->stats; }
 
+int ub_tcp_candidates(const ub_tcp_t *tcp) {
+    int n = 0;
+    for (int i = 0; tcp != NULL && i < UB_TCP_MAX_CANDIDATES; i++) n += tcp->cand[i].fd >= 0;
+    return n;
+}
+
 void ub_tcp_close(ub_tcp_t *tcp) {
     if (tcp == NULL) return;
+    for (int i = 0; i < UB_TCP_MAX_CANDIDATES; i++) close_candidate(tcp, &tcp->cand[i]);
     if (tcp->fd >= 0) close(tcp->fd);
     if (tcp->listen_fd >= 0) close(tcp->listen_fd);
     tcp->fd = -1;

@@ -10,6 +10,7 @@ add_custom_command(
   COMMAND ${CMAKE_COMMAND} -DIN=${UB_FRAME_VECTORS_JSON} -DOUT=${UB_FRAME_VECTORS_H}
           -P ${CMAKE_CURRENT_SOURCE_DIR}/tools/frame_vectors_to_c.cmake
   DEPENDS ${UB_FRAME_VECTORS_JSON} ${CMAKE_CURRENT_SOURCE_DIR}/tools/frame_vectors_to_c.cmake
+          ${CMAKE_CURRENT_SOURCE_DIR}/tools/vectors_common.cmake
   COMMENT "Generating ub_frame_vectors.h from tests/vectors/frames.json"
   VERBATIM)
 if(TARGET test_frame_vectors)

@@ -31,6 +31,7 @@ add_executable(ub_router_bench ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/router_
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_node.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_pubsub.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_admin.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_link.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_route.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_member.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_node_sec.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_sec.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_memlink.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_frame.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_crc32c.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_catalogue.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_error.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_policy.c
@@ -40,3 +41,7 @@ target_include_directories(ub_router_bench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/i
 target_compile_definitions(ub_router_bench PRIVATE _POSIX_C_SOURCE=200809L)
 target_compile_options(ub_router_bench PRIVATE -O2)
 target_link_libraries(ub_router_bench PRIVATE PkgConfig::CMOCKA)
+if(UAVBUS_SECURITY)
+  target_compile_definitions(ub_router_bench PRIVATE UB_SECURITY=1)
+  target_link_libraries(ub_router_bench PRIVATE PkgConfig::SODIUM)
+endif()

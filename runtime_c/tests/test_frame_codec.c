@@ -40,7 +40,11 @@ static void test_finish_argument_errors(void **state) {
     h.payload_size = UB_MAX_PAYLOAD + 1;
     assert_int_equal(ub_frame_finish(f, sizeof f + 1, &h), UB_ERR_RANGE);
     h.payload_size = UB_MAX_PAYLOAD;
-    assert_int_equal(ub_frame_finish(f, sizeof f, &h), (int)UB_FRAME_MAX);
+    /* The largest unsigned frame; UB_FRAME_MAX also leaves room for the largest trailer. */
+    assert_int_equal(ub_frame_finish(f, sizeof f, &h), (int)(UB_FRAME_HEADER_LEN + UB_MAX_PAYLOAD));
+    assert_int_equal(UB_FRAME_MAX, UB_FRAME_HEADER_LEN + UB_MAX_PAYLOAD + UB_FRAME_TRAILER_MAX);
+    h.flags = 0x30; /* SIGNED and ENCRYPTED together are not a valid combination */
+    assert_int_equal(ub_frame_finish(f, sizeof f, &h), UB_ERR_INVAL);
 }
 
 static void test_finish_writes_only_the_header(void **state) {

@@ -194,11 +194,11 @@ static void test_config_security_section(void **state) {
 static void test_config_security_errors(void **state) {
     fixture_t *f = *state;
     expect_error(f, "\"security\": []",
-                 "inline.json:2: field 'security': must be an object with administrators, read, write and/or limits "
-                 "(see docs/config-format.md)");
+                 "inline.json:2: field 'security': must be an object with keys, tx_key, require_signed, counter_file, "
+                 "links, administrators, read, write and/or limits (see docs/config-format.md)");
     expect_error(f, "\"security\": {\"admins\": [\"gcs1\"]}",
-                 "inline.json:2: field 'security.admins': unknown field (expected one of: administrators, read, "
-                 "write, limits)");
+                 "inline.json:2: field 'security.admins': unknown field (expected one of: keys, tx_key, "
+                 "require_signed, counter_file, links, administrators, read, write, limits)");
     expect_error(f, "\"security\": {\"administrators\": [\"gcs1\"], \"administrators\": []}",
                  "inline.json:2: field 'security.administrators': duplicate field (first given on line 2)");
     expect_error(f, "\"security\": {\"administrators\": \"gcs1\"}",

@@ -48,9 +48,10 @@ def make_ffibuilder() -> FFI:
         includes,
         sources=[_relative_to_root(src) for src in sorted(C_SOURCE_DIR.glob("*.c"))],
         include_dirs=[_relative_to_root(C_INCLUDE_DIR)],
-        define_macros=[("_POSIX_C_SOURCE", "200809L")],
+        # Frame security (ub_sec.c) is libsodium's: the same build as CMake's UAVBUS_SECURITY=ON.
+        define_macros=[("_POSIX_C_SOURCE", "200809L"), ("UB_SECURITY", "1")],
+        libraries=["sodium", "m"],  # libsodium for ub_sec, libm for ub_motion
         extra_compile_args=["-std=c11"],
-        libraries=["m"],  # ub_motion
     )
     return builder
 

@@ -14,13 +14,14 @@ TOOLS = {
     "tables": ("uavbus.tools.tables", "main"),
     "tui": ("uavbus.tui.app", "main"),
     "sim": ("uavbus.sim.run_scenario", "main"),
+    "keys": ("uavbus.keys", "main"),
 }
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help"):
-        print("usage: uavbus {gen,check,selftest,log,spy,echo,hz,tables,tui,sim} ...\n\n"
+        print("usage: uavbus {gen,check,selftest,log,spy,echo,hz,tables,tui,sim,keys} ...\n\n"
               "  gen       C headers -> catalogue + C and Python codecs\n"
               "  check     the same inputs; checks ID uniqueness, writes nothing\n"
               "  selftest  generate, build and round-trip every type in C and Python\n"
@@ -30,7 +31,8 @@ def main(argv: list[str] | None = None) -> int:
               "  hz        the rate of one directory\n"
               "  tables    entity, publish/subscribe and administration tables\n"
               "  tui       terminal variable browser (Textual)\n"
-              "  sim       run a fleet scenario file (vehicles, links, events; docs/scenarios.md)\n")
+              "  sim       run a fleet scenario file (vehicles, links, events; docs/scenarios.md)\n"
+              "  keys      new FILE [--id N]: a key for signed frames (docs/security.md)\n")
         return 0 if argv else 2
     cmd, rest = argv[0], argv[1:]
     if cmd in ("gen", "check", "selftest"):

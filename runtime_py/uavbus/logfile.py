@@ -72,7 +72,8 @@ class LogRecord:
 
     @property
     def payload(self) -> bytes:
-        return self.frame[len(self.frame) - self.header.payload_size:]
+        # after the 64-byte header; a signed or encrypted frame's trailer follows it (docs/wire-format.md)
+        return self.frame[64:64 + self.header.payload_size]
 
 
 @dataclass

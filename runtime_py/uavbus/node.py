@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterator
 
 from uavbus._bindings import (ub_admin, ub_log, ub_member, ub_memlink, ub_node, ub_nodecfg, ub_ports, ub_pubsub,
-                              ub_route)
+                              ub_route, ub_sec)
 from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, NotFoundError, UbError, ensure
 from uavbus._ub import ffi, lib
 from uavbus.catalogue import Catalogue, Instance
@@ -139,14 +139,20 @@ class Node:
         self._log_fd = -1
         self._closed = False
         self.config: Config | None = None
+        self._sec: Any = None        # ub_sec_t of the config's "security" section (kept alive with the node)
+        self._counter: Any = None
         if config is not None:
             cfg = config if isinstance(config, Config) else load_config(config)
             if node is not None:
                 cfg = cfg.select_node(node)
             try:
                 ub_nodecfg.ub_nodecfg_apply(cfg.c_config, self._c)
+                # keys, counter file and frame policy of the "security" section (C: ub_nodecfg_apply_security)
+                applied = ub_nodecfg.ub_nodecfg_apply_security(cfg.c_config, self._c)
             except UbError as exc:
                 raise ConfigError(exc.detail, cfg.path) from None
+            if applied is not None:
+                self._sec, self._counter = applied
             self.config = cfg
 
     # -- time ----------------------------------------------------------------------------------
@@ -520,10 +526,41 @@ class Node:
         self._log, self._log_fd = None, -1
         return stats
 
+    # -- security (docs/security.md) --------------------------------------------------------------
+    def _need_security(self) -> Any:
+        if self._sec is None:
+            raise InvalidArgumentError("this node runs without security (its config has no \"security\" section)")
+        return self._sec
+
+    def add_key(self, path: str | Path) -> int:
+        """Key rotation, step 1: accept the key in `path` (a key file); returns its id."""
+        key_id, key = ub_sec.ub_keyfile_load(str(path))
+        ub_sec.ub_sec_add_key(self._need_security(), key_id, key)
+        return key_id
+
+    def use_key(self, key_id: int) -> None:
+        """Key rotation, step 2: sign with key `key_id` (already accepted by every receiver)."""
+        ub_sec.ub_sec_set_tx_key(self._need_security(), key_id)
+
+    def remove_key(self, key_id: int) -> None:
+        """Key rotation, step 3: retire key `key_id` (not the one that signs)."""
+        ub_sec.ub_sec_remove_key(self._need_security(), key_id)
+
+    def security(self) -> dict[str, Any] | None:
+        """Signing key, accepted keys and the security counters; None without a security section."""
+        if self._sec is None:
+            return None
+        out: dict[str, Any] = {"tx_key": ub_sec.ub_sec_tx_key(self._sec), "keys": ub_sec.ub_sec_key_ids(self._sec)}
+        out.update(ub_sec.ub_sec_stats(self._sec))
+        out["counter_mark"] = int(self._counter.mark)
+        return out
+
     # -- counters ------------------------------------------------------------------------------
     def counters(self) -> dict[str, Any]:
         """The C node counters (drops by reason) plus what the Python layer itself dropped."""
         out = ub_node.ub_node_counters(self._c)
+        if self._sec is not None:
+            out["security"] = self.security()
         out["python"] = {"inbox_dropped": self._inbox_dropped, "callback_errors": self._callback_errors,
                          "frames_dropped": self._frames_dropped}
         if self._log is not None:

@@ -90,7 +90,7 @@ def header(**changes: int) -> uf.FrameHeader:
 def test_finish_refuses_hop_limit_zero_and_oversized_payload_in_c() -> None:
     with pytest.raises(ue.RangeError):
         uf.ub_frame_finish(header(hop_limit=0), b"")
-    assert len(uf.ub_frame_finish(header(), bytes(uf.MAX_PAYLOAD))) == uf.FRAME_MAX
+    assert len(uf.ub_frame_finish(header(), bytes(uf.MAX_PAYLOAD))) == uf.FRAME_HEADER_LEN + uf.MAX_PAYLOAD
     with pytest.raises(ue.RangeError):
         uf.ub_frame_finish(header(), bytes(uf.MAX_PAYLOAD + 1))
 

@@ -170,18 +170,22 @@ def render() -> str:
     return json.dumps(document(), indent=2) + "\n"
 
 
-def main(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def write_or_check(argv: list[str], text: str, output: Path, description: str, script: str) -> int:
+    """The command line of the vector scripts: write `text` to `output`, or with --check compare."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--check", action="store_true", help="compare with the committed file instead of writing")
     args = parser.parse_args(argv)
-    text = render()
     if args.check:
-        if OUTPUT.read_text(encoding="utf-8") != text:
-            print(f"{OUTPUT}:1: stale; regenerate with {Path(__file__).name}", file=sys.stderr)
+        if output.read_text(encoding="utf-8") != text:
+            print(f"{output}:1: stale; regenerate with {script}", file=sys.stderr)
             return 1
         return 0
-    OUTPUT.write_text(text, encoding="utf-8")
+    output.write_text(text, encoding="utf-8")
     return 0
+
+
+def main(argv: list[str]) -> int:
+    return write_or_check(argv, render(), OUTPUT, __doc__.splitlines()[0], Path(__file__).name)
 
 
 if __name__ == "__main__":

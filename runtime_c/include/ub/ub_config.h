@@ -62,6 +62,10 @@
 #ifndef UB_POLICY_PATTERN_MAX
 #define UB_POLICY_PATTERN_MAX 63
 #endif
+/** Keys one security context holds (ub_sec.h): all are accepted, one signs; two suffice for a rollover. */
+#ifndef UB_MAX_KEYS
+#define UB_MAX_KEYS 4
+#endif
 /** Hop limit written into frames this node originates. */
 #ifndef UB_DEFAULT_HOP_LIMIT
 #define UB_DEFAULT_HOP_LIMIT 8
@@ -84,6 +88,9 @@
 #endif
 #if UB_MAX_ENTITIES < 2
 #error "UB_MAX_ENTITIES must be at least 2"
+#endif
+#if UB_MAX_KEYS < 1 || UB_MAX_KEYS > 255
+#error "UB_MAX_KEYS must be 1..255 (key ids are one byte)"
 #endif
 #if UB_DEFAULT_HOP_LIMIT < 1 || UB_DEFAULT_HOP_LIMIT > 255
 #error "UB_DEFAULT_HOP_LIMIT must be 1..255"

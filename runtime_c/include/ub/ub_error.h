@@ -35,6 +35,8 @@ extern "C" {
 #define UB_ERR_CONFIG -12    /**< configuration is invalid (see the error text) */
 #define UB_ERR_CLOSED -13    /**< the link or peer is closed */
 #define UB_ERR_RANGE -14     /**< a value does not fit its wire field */
+#define UB_ERR_AUTH -15      /**< authentication failed: a frame's tag does not verify (ub_sec.h) */
+#define UB_ERR_UNSUPPORTED -16 /**< not in this build (e.g. security with UAVBUS_SECURITY=OFF) */
 
 /** @return a static, human-readable name for an error code ("UB_ERR_INVAL"...). */
 const char *ub_strerror(int err);

@@ -7,9 +7,9 @@
  *   off len field
  *    0   2  sync            0xA5 0x5B
  *    2   1  hdr_check       CRC-32C of bytes [4,60), folded to 8 bits (XOR of its 4 bytes)
- *    3   1  version         UB_WIRE_VERSION
+ *    3   1  version         low nibble UB_WIRE_VERSION, high nibble flags (UB_FRAME_FLAG_*)
  *    4   2  msg_type        UB_MSG_TYPE_PUBSUB (the datalink's message type)
- *    6   2  msg_size        whole frame: 64 + payload_size
+ *    6   2  msg_size        whole frame: 64 + payload_size + trailer length (from the flags)
  *    8  16  dir_id          content ("uniqueDirID")
  *   24  12  dest_id         destination entity ("uniqueDestID")
  *   36  12  src_id          source entity ("uniqueSrcID")
@@ -18,12 +18,17 @@
  *   50   2  payload_size
  *   52   4  seq             per-source sequence number
  *   56   4  fingerprint     layout fingerprint of the content type (0 if none)
- *   60   4  msg_crc         CRC-32C (Castagnoli) of bytes [4,60) then the payload
- *   64   n  payload
+ *   60   4  msg_crc         CRC-32C (Castagnoli) of bytes [4,60), then the payload and the trailer
+ *   64   n  payload         (ciphertext when ENCRYPTED)
+ * 64+n   t  trailer         only when flagged: key_id u8 | counter_hi u16 | tag (8 B SIGNED, 16 B ENCRYPTED)
+ *
+ * Frames without flags are exactly the frames of wire version 1 (no trailer).
+ * This codec checks the flags and sizes only; the trailer's tag is made and
+ * verified by ub_sec.h, which calls ub_frame_finish() after writing the trailer.
  *
  * Both checks come from one CRC pass: the CRC-32C of bytes [4,60) (a finished
  * CRC, i.e. after the final XOR) folds to `hdr_check`; continuing that CRC
- * over the payload with ub_crc32c_update() gives `msg_crc`. The version byte
+ * over the payload (and trailer) with ub_crc32c_update() gives `msg_crc`. The version byte
  * and the sync bytes are not under a check: they are compared with constants.
  *
  * Building a frame (the payload is packed in place, so nothing is copied):
@@ -66,7 +71,24 @@ extern "C" {
 #define UB_WIRE_VERSION 1u
 #define UB_MSG_TYPE_PUBSUB 0x5053u /* "PS" */
 #define UB_FRAME_HEADER_LEN 64u
-#define UB_FRAME_MAX (UB_FRAME_HEADER_LEN + UB_MAX_PAYLOAD)
+
+/* Flags: the high nibble of the version byte (docs/wire-format.md, "Flags and trailer"). */
+#define UB_FRAME_FLAG_SIGNED 0x10u    /**< a SIGNED trailer follows the payload */
+#define UB_FRAME_FLAG_ENCRYPTED 0x20u /**< payload is AEAD ciphertext; an ENCRYPTED trailer follows */
+#define UB_FRAME_FLAGS_MASK 0xF0u     /**< 0x40 and 0x80 are reserved: a frame with them is BAD_VERSION */
+#define UB_FRAME_VERSION_MASK 0x0Fu
+/* Trailer: key_id u8 | counter_hi u16 LE | tag. */
+#define UB_FRAME_SIG_TAG_LEN 8u
+#define UB_FRAME_AEAD_TAG_LEN 16u
+#define UB_FRAME_SIG_TRAILER_LEN (3u + UB_FRAME_SIG_TAG_LEN)   /* 11 */
+#define UB_FRAME_AEAD_TRAILER_LEN (3u + UB_FRAME_AEAD_TAG_LEN) /* 19 */
+#define UB_FRAME_TRAILER_MAX UB_FRAME_AEAD_TRAILER_LEN
+#define UB_FRAME_TRL_OFF_KEY_ID 0u
+#define UB_FRAME_TRL_OFF_COUNTER_HI 1u
+#define UB_FRAME_TRL_OFF_TAG 3u
+
+/** Largest frame: header, largest payload, largest trailer. */
+#define UB_FRAME_MAX (UB_FRAME_HEADER_LEN + UB_MAX_PAYLOAD + UB_FRAME_TRAILER_MAX)
 
 /* Field offsets, for code that reads one field of a verified frame in place. */
 #define UB_FRAME_OFF_HDR_CHECK 2u
@@ -95,7 +117,8 @@ typedef enum ub_admin_code {
     UB_ADMIN_SUB_STOP = 4,    /**< remove a subscription at the destination entity */
     UB_ADMIN_ACK = 5,         /**< a table-change request was applied */
     UB_ADMIN_NACK = 6,        /**< a table-change request was refused (reason in payload) */
-    /* 7, 8: allocated to the trust work (CHALLENGE, CHALLENGE_REPLY). */
+    UB_ADMIN_CHALLENGE = 7,   /**< freshness challenge: payload = 16-byte nonce (docs/security.md) */
+    UB_ADMIN_CHALLENGE_REPLY = 8, /**< answer to a challenge: payload = the nonce echoed; its counter is fresh */
     UB_ADMIN_HELLO = 9,        /**< routing: link-local hello + IHU (docs/routing.md); never forwarded */
     UB_ADMIN_ROUTE_UPDATE = 10, /**< routing: link-local hello + route entries + seqno requests; never forwarded */
     UB_ADMIN_MEMBERSHIP = 11    /**< an administrator's membership change (ub_member.h); answered by ACK/NACK */
@@ -108,24 +131,47 @@ typedef enum ub_admin_code {
  */
 typedef struct ub_frame_header {
     uint16_t msg_type; /**< filled by parse; ignored by finish, which always writes UB_MSG_TYPE_PUBSUB */
+    uint8_t flags;     /**< 0, UB_FRAME_FLAG_SIGNED or UB_FRAME_FLAG_ENCRYPTED */
     uint8_t dir_id[UB_DIR_ID_LEN];
     uint8_t dest_id[UB_ENTITY_ID_LEN];
     uint8_t src_id[UB_ENTITY_ID_LEN];
     uint8_t admin;
     uint8_t hop_limit; /**< 1..255 on the wire; finish refuses 0 */
     uint16_t payload_size;
-    uint32_t seq;
+    uint32_t seq;        /**< low 32 bits of the sender's counter */
     uint32_t fingerprint;
+    /* From the trailer (parse fills them; 0 without flags). finish ignores them: ub_sec writes the trailer. */
+    uint8_t key_id;
+    uint16_t counter_hi; /**< high 16 bits of the 48-bit counter */
 } ub_frame_header_t;
+
+/** @return the trailer length that `flags` imply: 0, UB_FRAME_SIG_TRAILER_LEN or UB_FRAME_AEAD_TRAILER_LEN; 0 also for an invalid combination. */
+static inline size_t ub_frame_trailer_len(uint8_t flags) {
+    return flags == UB_FRAME_FLAG_SIGNED ? UB_FRAME_SIG_TRAILER_LEN
+         : flags == UB_FRAME_FLAG_ENCRYPTED ? UB_FRAME_AEAD_TRAILER_LEN : 0u;
+}
+
+/** @return whether `flags` (high nibble of the version byte) is one this codec accepts: none, SIGNED or ENCRYPTED. */
+static inline int ub_frame_flags_valid(uint8_t flags) {
+    return flags == 0u || flags == UB_FRAME_FLAG_SIGNED || flags == UB_FRAME_FLAG_ENCRYPTED;
+}
+
+/** @return the 48-bit freshness counter of a parsed header: counter_hi << 32 | seq. */
+static inline uint64_t ub_frame_counter(const ub_frame_header_t *h) {
+    return (uint64_t)h->counter_hi << 32 | h->seq;
+}
 
 /**
  * Completes a frame whose payload the caller has already written at
  * `frame + UB_FRAME_HEADER_LEN` (so pack writes straight into the frame, with
- * no copy): writes the header from `h`, then both checks. Reads exactly
- * `h->payload_size` payload bytes and writes only bytes [0, 64) of `frame`.
- * @return total frame length (64 + payload_size), UB_ERR_INVAL if `frame` or
- *         `h` is NULL, UB_ERR_NOSPACE if `cap` is too small, or UB_ERR_RANGE
- *         if h->payload_size > UB_MAX_PAYLOAD or h->hop_limit == 0.
+ * no copy): writes the header from `h`, then both checks. With h->flags set,
+ * the trailer must already follow the payload (ub_sec_protect() writes it and
+ * calls this). Reads exactly `h->payload_size` + trailer bytes after the header
+ * and writes only bytes [0, 64) of `frame`.
+ * @return total frame length (64 + payload_size + trailer), UB_ERR_INVAL if
+ *         `frame` or `h` is NULL or h->flags is not 0, SIGNED or ENCRYPTED,
+ *         UB_ERR_NOSPACE if `cap` is too small, or UB_ERR_RANGE if
+ *         h->payload_size > UB_MAX_PAYLOAD or h->hop_limit == 0.
  */
 UB_CHECK int ub_frame_finish(uint8_t *frame, size_t cap, const ub_frame_header_t *h);
 
@@ -133,11 +179,13 @@ UB_CHECK int ub_frame_finish(uint8_t *frame, size_t cap, const ub_frame_header_t
  * Verifies one complete frame of exactly `len` bytes and decodes its header
  * into `h` (which may be NULL to verify only; `h` is written only on UB_OK).
  * Never reads outside [frame, frame + len).
+ * A flagged frame's trailer fields (key_id, counter_hi) are read into `h`;
+ * its tag is NOT checked here (ub_sec_verify() does that).
  * @return UB_OK; UB_ERR_TRUNCATED (`len` shorter than the header or than
  *         msg_size); UB_ERR_CHECKSUM (header check or message CRC mismatch);
- *         UB_ERR_INVAL (NULL `frame`, bad sync, version or message type,
- *         msg_size/payload_size inconsistent or above UB_FRAME_MAX, or `len`
- *         longer than msg_size).
+ *         UB_ERR_INVAL (NULL `frame`, bad sync, version, flags or message type,
+ *         msg_size inconsistent with payload_size and the flags' trailer, or
+ *         above UB_FRAME_MAX, or `len` longer than msg_size).
  */
 UB_CHECK int ub_frame_parse(const uint8_t *frame, size_t len, ub_frame_header_t *h);
 
@@ -145,8 +193,8 @@ UB_CHECK int ub_frame_parse(const uint8_t *frame, size_t len, ub_frame_header_t 
 typedef enum ub_rx_reason {
     UB_RX_BAD_HDR_CHECK = 0, /**< header check byte mismatch */
     UB_RX_BAD_CRC,           /**< message CRC mismatch (corrupt payload, truncation, lying length) */
-    UB_RX_BAD_LENGTH,        /**< msg_size/payload_size inconsistent or above UB_MAX_PAYLOAD; datagram size != msg_size */
-    UB_RX_BAD_VERSION,       /**< unknown wire version or message type */
+    UB_RX_BAD_LENGTH,        /**< msg_size != 64 + payload_size + trailer, or payload above UB_MAX_PAYLOAD; datagram size != msg_size */
+    UB_RX_BAD_VERSION,       /**< unknown wire version, reserved or unknown flags, or unknown message type */
     UB_RX_BAD_SYNC,          /**< datagram not starting with the sync bytes (the stream decoder counts these as garbage_bytes) */
     UB_RX_REASON_COUNT
 } ub_rx_reason_t;
@@ -165,7 +213,8 @@ UB_CHECK int ub_frame_parse_reason(const uint8_t *frame, size_t len, ub_frame_he
 
 /**
  * Rewrites the hop limit of a verified frame in place and recomputes both
- * checks (they cover the hop limit), for forwarders. The caller must have
+ * checks (they cover the hop limit), for forwarders. A flagged frame's tag
+ * does not cover the hop limit, so no key is needed. The caller must have
  * verified the frame (decoder or ub_frame_parse()): this function recomputes
  * the checks and does not re-verify the old ones.
  * @return UB_OK; UB_ERR_RANGE if `hop_limit` is 0; UB_ERR_INVAL if `frame` is
@@ -213,9 +262,9 @@ void ub_decoder_init(ub_decoder_t *d);
  * stream is chunked. After a rejection the search resumes one byte past the
  * rejected sync, including bytes already buffered, so a valid frame after
  * garbage, a truncated frame or a lying length is still found. A candidate
- * is checked in this order: header check (UB_RX_BAD_HDR_CHECK), version and
- * message type (UB_RX_BAD_VERSION), msg_size/payload_size (UB_RX_BAD_LENGTH),
- * message CRC (UB_RX_BAD_CRC). Never reads or writes outside `data[0..len)`
+ * is checked in this order: header check (UB_RX_BAD_HDR_CHECK), version, flags
+ * and message type (UB_RX_BAD_VERSION), msg_size/payload_size/trailer
+ * (UB_RX_BAD_LENGTH), message CRC (UB_RX_BAD_CRC). Never reads or writes outside `data[0..len)`
  * and `*d`.
  * @return the number of frames delivered by this call (never negative).
  */

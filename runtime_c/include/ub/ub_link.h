@@ -55,6 +55,14 @@ typedef enum ub_drop_reason {
     UB_DROP_NOT_ALLOWED,     /**< DATA the destination's write policy refuses (ub_policy.h), storage untouched */
     UB_DROP_NOT_AUTHORIZED,  /**< admin request or STOP the policy refuses to its source (NACK NOT_AUTHORIZED sent) */
     UB_DROP_ROUTING_OFF,     /**< a routing frame (HELLO, ROUTE_UPDATE) reached a node not running ub_route */
+    /* Security (docs/security.md). Received frames are checked in this order, before any state is touched. */
+    UB_DROP_UNSIGNED,        /**< not protected as the node/link requires (no trailer where signing is required,
+                                  SIGNED where ENCRYPTED is required, unsigned from a source already seen signed),
+                                  or an unsigned frame for an encrypting link */
+    UB_DROP_BAD_TAG,         /**< CRC-valid flagged frame whose tag does not verify: a forgery or a wrong key */
+    UB_DROP_UNKNOWN_KEY,     /**< key id not in the keyring (or no security here); or no key to sign for an encrypting link */
+    UB_DROP_REPLAY,          /**< counter behind the replay window, or a challenge reply bound to no outstanding challenge */
+    UB_DROP_UNVERIFIED,      /**< authentic, but no freshness state for its source yet: dropped while a challenge runs */
     UB_DROP_REASON_COUNT
 } ub_drop_reason_t;
 
@@ -63,7 +71,8 @@ const char *ub_drop_reason_name(ub_drop_reason_t reason);
 
 /** Counters of one link slot. They survive ub_node_link_attach(). */
 typedef struct ub_link_counters {
-    uint64_t frames_in;  /**< verified frames received */
+    uint64_t frames_in;  /**< CRC-verified frames received (before the security checks) */
+    uint64_t frames_accepted; /**< received frames that passed the security checks and were not duplicates or replays */
     uint64_t bytes_in;   /**< bytes handed to ub_node_rx()/ub_node_rx_frame() */
     uint64_t frames_out; /**< frames the transport accepted */
     uint64_t bytes_out;  /**< bytes the transport accepted */
@@ -103,6 +112,8 @@ typedef struct ub_link {
     const ub_link_ops_t *ops; /**< NULL while detached */
     void *impl;
     ub_decoder_t decoder; /**< stream reassembly for ub_node_rx(); reset on attach */
+    int8_t require_signed; /**< receive policy: 1 require protected frames, 0 accept unsigned, -1 the node's policy */
+    uint8_t encrypt;       /**< send only ENCRYPTED frames; when signing is required, accept only those */
     ub_link_counters_t counters;
 } ub_link_t;
 

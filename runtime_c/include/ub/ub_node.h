@@ -68,7 +68,33 @@
  * the frame is accepted (`dedup_resets`). A source restarting within 64 frames
  * of its old sequence loses at most 64 frames; ub_node_options_t.first_seq
  * lets a node start elsewhere (e.g. from a boot counter). Full source tables
- * evict the least recently seen source (`dedup_evictions`).
+ * evict the least recently seen source (`dedup_evictions`). That reset is for
+ * unsigned traffic only: see "Security" below.
+ *
+ * Security (optional; docs/security.md): with a context attached
+ * (ub_node_set_security(), ub_sec.h) the node
+ *  - **originates** with counters from the context (48-bit: the header's seq
+ *    is the low half) and, when it has a signing key, sends SIGNED frames,
+ *    or ENCRYPTED ones on links set to encrypt (ub_node_link_set_security());
+ *  - **receives** in this order, before any state is touched (duplicate or
+ *    replay windows, routing, tables): the policy (require_signed per node
+ *    and per link: `unsigned`), the key (`unknown_key`) and the tag
+ *    (`bad_tag`); then the source's replay window, per handling entity:
+ *    a counter above the highest or unseen inside the 64-bit window passes,
+ *    a seen one is a `duplicate`, an older one a `replay` (never a restart).
+ *    A source without freshness state is not trusted: its frames are dropped
+ *    `unverified` and the handling entity sends it a CHALLENGE (random
+ *    16-byte nonce); the CHALLENGE_REPLY, signed with the source's current
+ *    counter, starts the window there with everything older barred.
+ *    CHALLENGE / CHALLENGE_REPLY are verified but exempt from the window when
+ *    there is no state (idempotent; the reply is bound to the nonce; replies
+ *    to one requester are rate-limited). Once a source was accepted signed,
+ *    unsigned frames claiming it are dropped (`unsigned`);
+ *  - **forwards** a verified frame as it came, with the hop limit lowered
+ *    (not under the tag), converting SIGNED to ENCRYPTED for an encrypting
+ *    link and back for the others (same key, same counter): authenticity is
+ *    end to end, confidentiality per link. Forwarders hold the group key:
+ *    an unverifiable frame must not touch their windows.
  */
 #ifndef UB_NODE_H
 #define UB_NODE_H
@@ -85,6 +111,7 @@
 #include "ub_policy.h"
 #include "ub_pubsub.h"
 #include "ub_random.h"
+#include "ub_sec.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -166,13 +193,25 @@ typedef struct ub_entity_row {
     int8_t local;            /**< local-entity slot, or -1 for a remote entity */
 } ub_entity_row_t;
 
-/** Duplicate window of one source, as seen by one handling entity. */
+/**
+ * Duplicate / replay window of one source, as seen by one handling entity,
+ * and its freshness handshake. Unsigned sources use the low 32 bits of
+ * `win.highest` with serial-number arithmetic (and may reset); secured ones
+ * the 48-bit counter (never reset).
+ */
 typedef struct ub_dedup_entry {
     uint8_t src[UB_ENTITY_ID_LEN];
     uint8_t in_use;
-    uint32_t highest;
-    uint64_t seen;           /**< bit k: highest - k was seen */
+    uint8_t secured;         /**< freshness established by a verified frame: the window is the 48-bit one */
+    uint8_t challenging;     /**< a CHALLENGE with `nonce` is outstanding */
+    uint8_t challenge_tries; /**< sends of it since the last frame from the source */
+    int16_t challenge_link;  /**< ingress link of the frame that started it (route when no mask leads back) */
+    ub_sec_window_t win;     /**< highest and bitmap: bit k = highest - k seen */
     uint64_t last_used;      /**< node-wide use stamp, for LRU eviction */
+    uint64_t challenge_ms;   /**< last send of the outstanding challenge */
+    uint64_t reply_ms;       /**< last CHALLENGE_REPLY sent to this source (as requester) */
+    uint8_t nonce[UB_SEC_NONCE_LEN];       /**< outstanding challenge */
+    uint8_t reply_nonce[UB_SEC_NONCE_LEN]; /**< nonce of the last reply sent to this source */
 } ub_dedup_entry_t;
 
 /** A local entity: its links, masks, duplicate windows and tables. */
@@ -201,9 +240,11 @@ struct ub_node {
     ub_link_t links[UB_MAX_NODE_LINKS];
     ub_binding_t bindings[UB_MAX_BINDINGS];
     size_t n_bindings;
-    uint32_t next_seq;
-    uint64_t rng_state;        /**< seeded fallback generator of request ids (ub_random.h) */
-    const ub_policy_t *policy; /**< NULL: no authorization (the paper's closed lab) */
+    uint32_t next_seq;          /**< without a security context; with one, counters come from it */
+    uint64_t rng_state;         /**< seeded fallback generator of request ids (ub_random.h) */
+    const ub_policy_t *policy;  /**< NULL: no authorization (the paper's closed lab) */
+    ub_sec_t *sec;              /**< attached security context, or NULL */
+    uint8_t require_signed;     /**< node-wide receive policy (links may override) */
     uint64_t use_stamp;
     ub_tap_fn tap;
     void *tap_user;
@@ -349,6 +390,23 @@ void *ub_node_binding(const ub_node_t *node, uint32_t instance);
  */
 UB_CHECK int ub_node_rx(ub_node_t *node, int link_id, const uint8_t *data, size_t len, uint64_t now_ms);
 
+/** What ub_node_rx_stream() made of the frames it found. */
+typedef struct ub_rx_verdicts {
+    unsigned authentic; /**< passed the policy and the tag, and were neither duplicates nor replays (those
+                             dropped `unverified` while their source's challenge runs included) */
+    unsigned fresh;     /**< of those, the ones whose freshness is proven (routed, delivered or forwarded) */
+} ub_rx_verdicts_t;
+
+/**
+ * ub_node_rx() with an explicit decoder: for a transport that reads a second
+ * byte stream for the same slot (a TCP server's candidate connection) and
+ * must know whether it carried authentic frames. `dec` NULL = the slot's own
+ * decoder. `verdicts` (may be NULL) receives the counts of this call.
+ * @return frames found, or UB_ERR_INVAL.
+ */
+UB_CHECK int ub_node_rx_stream(ub_node_t *node, int link_id, ub_decoder_t *dec, const uint8_t *data, size_t len,
+                               uint64_t now_ms, ub_rx_verdicts_t *verdicts);
+
 /**
  * Hands one datagram (exactly one frame) received on a link to the router.
  * @return UB_OK (routed, delivered or dropped-and-counted); the error of
@@ -415,6 +473,32 @@ void ub_node_set_policy(ub_node_t *node, const ub_policy_t *policy);
 
 /** @return the node-wide counters. */
 const ub_node_counters_t *ub_node_counters(const ub_node_t *node);
+
+/**
+ * Attaches a security context (NULL detaches). The context must outlive the
+ * node and have been started (ub_sec_start()): from now on counters come
+ * from it. Replay state already held is kept.
+ * @return UB_OK; UB_ERR_INVAL (NULL node, context not started);
+ *         UB_ERR_UNSUPPORTED (built without security).
+ */
+UB_CHECK int ub_node_set_security(ub_node_t *node, ub_sec_t *sec);
+
+/** @return the attached security context, or NULL. */
+ub_sec_t *ub_node_security(const ub_node_t *node);
+
+/** Node-wide receive policy: `on` drops every frame without a valid trailer (`unsigned`). @return UB_OK or UB_ERR_INVAL. */
+UB_CHECK int ub_node_set_require_signed(ub_node_t *node, bool on);
+
+/**
+ * Per-link security: `require_signed` 1 / 0 overrides the node's policy for
+ * frames received on the link, -1 follows it; `encrypt` sends only ENCRYPTED
+ * frames on it and, where signing is required, accepts only ENCRYPTED ones.
+ * @return UB_OK or UB_ERR_INVAL (bad link id or value).
+ */
+UB_CHECK int ub_node_link_set_security(ub_node_t *node, int link_id, int require_signed, bool encrypt);
+
+/** @return whether frames received on the link must be signed (its own setting, else the node's). */
+bool ub_node_link_requires_signed(const ub_node_t *node, int link_id);
 
 #ifdef __cplusplus
 }

@@ -132,6 +132,39 @@ typedef struct ub_nodecfg_port {
 /** Longest source name kept for ub_nodecfg_apply()'s messages (longer ones are cut). */
 #define UB_NODECFG_SOURCE_MAX 128
 
+/** Longest path in the "security" section (key files, counter file), as written in the file. */
+#ifndef UB_NODECFG_PATH_MAX
+#define UB_NODECFG_PATH_MAX 160
+#endif
+
+/** Per-link security settings ("security.links"): receive policy and encryption. */
+typedef struct ub_nodecfg_link_security {
+    char name[UB_NODECFG_PORT_KEY_MAX + 1]; /**< link name, or "entity:link" as in "ports" */
+    int8_t require_signed;                  /**< 1 / 0, or -1 when not given (the node's policy) */
+    uint8_t encrypt;                        /**< send ENCRYPTED only (and accept only that where signing is required) */
+    uint32_t line;
+} ub_nodecfg_link_security_t;
+
+/**
+ * The frame-security part of the "security" section (docs/config-format.md#security,
+ * docs/security.md). Key files are read, and the counter file opened, only by
+ * ub_nodecfg_apply_security().
+ */
+typedef struct ub_nodecfg_security {
+    uint8_t present;                                 /**< the file has a "security" section */
+    uint32_t line;
+    uint8_t key_count;
+    char keys[UB_MAX_KEYS][UB_NODECFG_PATH_MAX + 1]; /**< key files; relative to the config file's directory */
+    uint32_t key_lines[UB_MAX_KEYS];
+    uint8_t tx_key;                                  /**< id of the key that signs; 0 = the first key file's */
+    uint32_t tx_key_line;
+    uint8_t require_signed;                          /**< node-wide receive policy; default true */
+    char counter_file[UB_NODECFG_PATH_MAX + 1];      /**< "{entity}" = the first hosted entity's name */
+    uint32_t counter_file_line;
+    uint8_t link_count;
+    ub_nodecfg_link_security_t links[UB_NODECFG_MAX_PORTS];
+} ub_nodecfg_security_t;
+
 /** A parsed, validated configuration. Caller-owned; no pointers into the source text. */
 typedef struct ub_nodecfg {
     char source[UB_NODECFG_SOURCE_MAX]; /**< the source name given to the parser, for messages */
@@ -148,6 +181,7 @@ typedef struct ub_nodecfg {
      *  holds them (ub_policy.h) and ub_nodecfg_apply() attaches it to the node. */
     uint8_t has_policy;
     ub_policy_t policy;
+    ub_nodecfg_security_t security;
 } ub_nodecfg_t;
 
 /**
@@ -245,6 +279,31 @@ struct ub_node; /* ub_node.h; only a pointer is needed here */
  * @retval UB_ERR_INVAL NULL argument.
  */
 UB_CHECK int ub_nodecfg_apply(const ub_nodecfg_t *cfg, struct ub_node *node, char *err, size_t err_cap);
+
+struct ub_sec;
+struct ub_sec_options;
+struct ub_counter_file;
+
+/**
+ * Applies the "security" section to a node that ub_nodecfg_apply() set up:
+ *  1. initialises `sec` (with `opt`, may be NULL) and loads every key file
+ *     (ub_secfile.h: refused when group/other-accessible; ids unique);
+ *  2. makes `tx_key` (default: the first file's key) sign;
+ *  3. opens the counter file into `counter` and starts the counter at
+ *     max(its mark, the wall clock `unix_us`), reserving through the file;
+ *  4. sets require_signed and the per-link settings of the hosted links,
+ *     and attaches `sec` to the node.
+ * Without a "security" section nothing happens (the node stays unsigned).
+ * `sec` and `counter` must outlive the node.
+ * @retval UB_OK
+ * @retval UB_ERR_CONFIG / UB_ERR_IO a key file, the counter file or a setting
+ *         was refused: "<source>:<line>: field 'security.<...>': <why, what to do>".
+ * @retval UB_ERR_UNSUPPORTED the file asks for security and this build has none.
+ * @retval UB_ERR_INVAL NULL argument.
+ */
+UB_CHECK int ub_nodecfg_apply_security(const ub_nodecfg_t *cfg, struct ub_node *node, struct ub_sec *sec,
+                                       struct ub_counter_file *counter, const struct ub_sec_options *opt,
+                                       uint64_t unix_us, char *err, size_t err_cap);
 
 #ifdef __cplusplus
 }

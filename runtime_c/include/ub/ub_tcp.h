@@ -27,10 +27,24 @@
  * ub_tcp_service() on readiness *and* periodically (e.g. with ub_node_tick()),
  * since a client waiting to retry has no descriptor to wait on.
  *
- * Server: while a peer is connected a newer incoming connection replaces it
- * (the usual cause is the same client reconnecting after a half-open
- * connection); `replaced` counts this. Poll both ub_tcp_listen_fileno() and
- * ub_tcp_fileno().
+ * Server: a new connection never displaces an established peer on its own.
+ * It is held as a **candidate** (at most UB_TCP_MAX_CANDIDATES; more are
+ * closed at once, `candidates_refused`) whose bytes go to the node through a
+ * decoder of its own (ub_node_rx_stream()), so its frames are checked like
+ * any others and nothing of it reaches the established stream. A candidate is
+ * **adopted** only when the established peer is gone or has sent no frame of
+ * proven freshness for `idle_ms` (the usual cause: the same client
+ * reconnecting after a half-open connection), and only once the candidate has
+ * itself sent a frame the node judged authentic (with signing required: a
+ * valid signed frame, verified by the node, not by this driver) that was no
+ * duplicate or replay; one whose freshness the node could prove is preferred
+ * (a node without state for the source cannot prove it until the challenge,
+ * which needs the link). `replaced` counts adoptions that closed an
+ * established peer. With no established peer and a link that
+ * does not require signing, a new connection is adopted at once, as before.
+ * Candidates that prove nothing within `candidate_ms` are closed
+ * (`candidates_expired`). Poll ub_tcp_listen_fileno() and ub_tcp_fileno(),
+ * and call ub_tcp_service() periodically (candidates are read there).
  */
 #ifndef UB_TCP_H
 #define UB_TCP_H
@@ -58,6 +72,11 @@ extern "C" {
 #define UB_TCP_RX_BUDGET 16
 #endif
 
+/** Connections a server holds beside its established peer until they prove themselves. */
+#ifndef UB_TCP_MAX_CANDIDATES
+#define UB_TCP_MAX_CANDIDATES 2
+#endif
+
 #if UB_TCP_TX_BUFFER < UB_FRAME_MAX
 #error "UB_TCP_TX_BUFFER must hold at least one whole frame (UB_FRAME_MAX)"
 #endif
@@ -76,6 +95,8 @@ typedef enum ub_tcp_state {
 typedef struct ub_tcp_options {
     uint32_t backoff_initial_ms; /**< default 100 */
     uint32_t backoff_max_ms;     /**< default 5000 */
+    uint32_t idle_ms;            /**< server: an established peer without a fresh frame this long may be replaced; default 3000 */
+    uint32_t candidate_ms;       /**< server: a candidate that proved nothing this long is closed; default 10000 */
 } ub_tcp_options_t;
 
 typedef struct ub_tcp_stats {
@@ -84,7 +105,14 @@ typedef struct ub_tcp_stats {
     uint64_t disconnects;      /**< connections lost (peer closed, reset, I/O error) */
     uint64_t attempts;         /**< client connect() attempts */
     uint64_t failed_attempts;  /**< client attempts that failed */
-    uint64_t replaced;         /**< server: connections replaced by a newer one */
+    uint64_t replaced;         /**< server: established peers closed because a proven candidate was adopted */
+    uint64_t candidates;       /**< server: connections held as candidates */
+    uint64_t adopted;          /**< server: candidates adopted (after a fresh authentic frame) */
+    uint64_t candidates_refused; /**< server: connections closed at once: every candidate slot taken */
+    uint64_t candidates_expired; /**< server: candidates closed for proving nothing within candidate_ms */
+    uint64_t candidates_lost;  /**< server: candidates that closed or failed before adoption */
+    uint64_t candidate_rejected; /**< server: frames the candidates' decoders rejected (any reason), counted when a candidate ends */
+    uint64_t candidate_garbage;  /**< server: bytes of candidates' streams that were no frame, counted when a candidate ends */
     uint64_t bytes_in;
     uint64_t bytes_out;        /**< bytes the kernel accepted */
     uint64_t frames_out;       /**< frames accepted into the transmit path */
@@ -92,6 +120,14 @@ typedef struct ub_tcp_stats {
     uint64_t send_closed;      /**< frames refused with UB_ERR_CLOSED: no connection */
     uint64_t tx_discarded;     /**< queued bytes thrown away with a lost connection */
 } ub_tcp_stats_t;
+
+/** A server's candidate connection. Treat as private. */
+typedef struct ub_tcp_candidate {
+    int fd;           /**< -1: free slot */
+    uint8_t proven;   /**< 0 nothing yet; 1 an authentic frame (its freshness not provable yet); 2 a fresh one */
+    uint64_t since_ms;
+    ub_decoder_t dec; /**< its own stream, apart from the established one */
+} ub_tcp_candidate_t;
 
 /** A TCP link. Caller-owned; treat the fields as private. */
 typedef struct ub_tcp {
@@ -109,6 +145,8 @@ typedef struct ub_tcp {
     ub_tcp_stats_t stats;
     size_t tx_len;
     uint8_t batching;
+    uint64_t last_fresh_ms;  /* established peer: when it came up or last sent a fresh frame */
+    ub_tcp_candidate_t cand[UB_TCP_MAX_CANDIDATES];
     uint8_t tx[UB_TCP_TX_BUFFER];
     uint8_t rx[UB_TCP_RX_CHUNK];
 } ub_tcp_t;
@@ -180,7 +218,10 @@ size_t ub_tcp_tx_pending(const ub_tcp_t *tcp);
 /** @return the driver counters. */
 const ub_tcp_stats_t *ub_tcp_stats(const ub_tcp_t *tcp);
 
-/** Closes the connection and the listening socket. Safe to call twice. */
+/** @return server candidates currently held (not adopted yet). */
+int ub_tcp_candidates(const ub_tcp_t *tcp);
+
+/** Closes the connection, the candidates and the listening socket. Safe to call twice. */
 void ub_tcp_close(ub_tcp_t *tcp);
 
 #ifdef __cplusplus

@@ -90,12 +90,22 @@ class RangeError(UbError, builtins.OverflowError):
     code = lib.UB_ERR_RANGE
 
 
+class AuthError(UbError, builtins.ValueError):
+    """A frame's tag does not verify (forged, damaged after its CRC was made, or a wrong key)."""
+    code = lib.UB_ERR_AUTH
+
+
+class UnsupportedError(UbError, builtins.NotImplementedError):
+    """Not in this build (e.g. security in a build without libsodium)."""
+    code = lib.UB_ERR_UNSUPPORTED
+
+
 ERRORS_BY_CODE: dict[int, type[UbError]] = {
     cls.code: cls
     for cls in (
         InvalidArgumentError, NoSpaceError, TruncatedError, FullError, NotFoundError, ExistsError,
         ChecksumError, LayoutError, NoRouteError, IoError, WouldBlockError, ConfigError, ClosedError,
-        RangeError,
+        RangeError, AuthError, UnsupportedError,
     )
 }
 

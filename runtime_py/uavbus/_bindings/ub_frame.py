@@ -17,6 +17,9 @@ FRAME_MAX: int = lib.UB_FRAME_MAX
 MAX_PAYLOAD: int = lib.UB_MAX_PAYLOAD
 DEFAULT_HOP_LIMIT: int = lib.UB_DEFAULT_HOP_LIMIT
 RX_REASON_COUNT: int = lib.UB_RX_REASON_COUNT
+FLAG_SIGNED: int = lib.UB_FRAME_FLAG_SIGNED
+FLAG_ENCRYPTED: int = lib.UB_FRAME_FLAG_ENCRYPTED
+TRAILER_MAX: int = lib.UB_FRAME_TRAILER_MAX
 _U16_MAX = 0xFFFF
 
 
@@ -33,6 +36,14 @@ class FrameHeader:
     seq: int = 0
     fingerprint: int = 0
     msg_type: int = lib.UB_MSG_TYPE_PUBSUB
+    flags: int = 0          # 0, FLAG_SIGNED or FLAG_ENCRYPTED (the version byte's high nibble)
+    key_id: int = 0         # from the trailer of a flagged frame
+    counter_hi: int = 0     # high 16 bits of the 48-bit counter (seq is the low 32)
+
+    @property
+    def counter(self) -> int:
+        """The 48-bit freshness counter: counter_hi << 32 | seq."""
+        return self.counter_hi << 32 | self.seq
 
 
 @dataclass(frozen=True)
@@ -68,6 +79,7 @@ def _header_to_c(h: FrameHeader) -> Any:
     try:
         c.msg_type, c.admin, c.hop_limit = h.msg_type, h.admin, h.hop_limit
         c.payload_size, c.seq, c.fingerprint = h.payload_size, h.seq, h.fingerprint
+        c.flags, c.key_id, c.counter_hi = h.flags, h.key_id, h.counter_hi
     except OverflowError as exc:
         raise RangeError(f"header field out of range: {exc}") from exc
     return c
@@ -77,7 +89,7 @@ def _header_from_c(c: Any) -> FrameHeader:
     return FrameHeader(
         dir_id=bytes(c.dir_id), dest_id=bytes(c.dest_id), src_id=bytes(c.src_id),
         admin=c.admin, hop_limit=c.hop_limit, payload_size=c.payload_size, seq=c.seq,
-        fingerprint=c.fingerprint, msg_type=c.msg_type,
+        fingerprint=c.fingerprint, msg_type=c.msg_type, flags=c.flags, key_id=c.key_id, counter_hi=c.counter_hi,
     )
 
 

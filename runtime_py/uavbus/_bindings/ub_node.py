@@ -154,6 +154,8 @@ def link_counters(node: Any, link_id: int, link: Any) -> dict[str, Any]:
         "transport": ffi.string(link.ops.kind).decode("ascii") if link.ops != ffi.NULL else None,
         "frames_in": int(c.frames_in), "bytes_in": int(c.bytes_in),
         "frames_out": int(c.frames_out), "bytes_out": int(c.bytes_out),
+        "frames_accepted": int(c.frames_accepted),
+        "require_signed": bool(lib.ub_node_link_requires_signed(node, link_id)), "encrypt": bool(link.encrypt),
         "drops": {DROP_REASONS[r]: int(c.drops[r]) for r in range(len(DROP_REASONS))},
         "bad_frames": {RX_REASONS[r]: int(lib.ub_node_link_bad_frames(node, link_id, r))
                        for r in range(len(RX_REASONS))},

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import time
 from typing import Any
 
 from uavbus._bindings.ub_catalogue import _c_name
@@ -111,3 +112,18 @@ def mask_format(mask: int) -> str:
     out = ffi.new("char[11]")
     lib.ub_link_mask_format(mask, out)
     return ffi.string(out).decode("ascii")
+
+
+def ub_nodecfg_apply_security(cfg: Any, node: Any) -> tuple[Any, Any] | None:
+    """Applies the config's "security" section to `node` through the C loader (keys, counter file,
+    policy); returns the (ub_sec_t, ub_counter_file_t) cdata the node now uses, which must live as
+    long as the node, or None when the config has no such section."""
+    if not cfg.security.present:
+        return None
+    sec = ffi.new("ub_sec_t *")
+    counter = ffi.new("ub_counter_file_t *")
+    cap = 2 * ERR_LEN + lib.UB_SECFILE_ERR_LEN
+    err = ffi.new("char[]", cap)
+    rc = lib.ub_nodecfg_apply_security(cfg, node, sec, counter, ffi.NULL, time.time_ns() // 1000, err, cap)
+    ensure(rc, text(err) or "ub_nodecfg_apply_security")
+    return sec, counter

@@ -6,13 +6,16 @@
 typedef enum ub_drop_reason {
     UB_DROP_NO_ROUTE, UB_DROP_HOP_LIMIT, UB_DROP_DUPLICATE, UB_DROP_LAYOUT_MISMATCH, UB_DROP_UNKNOWN_CONTENT,
     UB_DROP_UNBOUND, UB_DROP_BAD_PAYLOAD, UB_DROP_TX_ERROR, UB_DROP_BACKPRESSURE, UB_DROP_DETACHED,
-    UB_DROP_NOT_ALLOWED, UB_DROP_NOT_AUTHORIZED, UB_DROP_ROUTING_OFF, UB_DROP_REASON_COUNT, ...
+    UB_DROP_NOT_ALLOWED, UB_DROP_NOT_AUTHORIZED, UB_DROP_ROUTING_OFF,
+    UB_DROP_UNSIGNED, UB_DROP_BAD_TAG, UB_DROP_UNKNOWN_KEY, UB_DROP_REPLAY, UB_DROP_UNVERIFIED,
+    UB_DROP_REASON_COUNT, ...
 } ub_drop_reason_t;
 
 const char *ub_drop_reason_name(ub_drop_reason_t reason);
 
 typedef struct ub_link_counters {
     uint64_t frames_in;
+    uint64_t frames_accepted;
     uint64_t bytes_in;
     uint64_t frames_out;
     uint64_t bytes_out;
@@ -32,6 +35,8 @@ typedef struct ub_link {
     uint8_t owner;
     uint8_t index;
     const ub_link_ops_t *ops;
+    int8_t require_signed;
+    uint8_t encrypt;
     ub_link_counters_t counters;
     ...;
 } ub_link_t;

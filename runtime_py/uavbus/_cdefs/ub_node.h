@@ -82,6 +82,9 @@ struct ub_node {
     ...;
 };
 
+/* ub_sec.h's context (its fields are declared in _cdefs/ub_sec.h, which loads later). */
+typedef struct ub_sec ub_sec_t;
+
 int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt);
 int ub_node_add_entity(ub_node_t *node, const uint8_t id[], bool local);
 int ub_node_add_entity_name(ub_node_t *node, const char *name, bool local);
@@ -107,6 +110,11 @@ void ub_node_tick(ub_node_t *node, uint64_t now_ms);
 void ub_node_set_tap(ub_node_t *node, ub_tap_fn fn, void *user);
 void ub_node_set_deliver_hook(ub_node_t *node, ub_deliver_fn fn, void *user);
 const ub_node_counters_t *ub_node_counters(const ub_node_t *node);
+int ub_node_set_security(ub_node_t *node, ub_sec_t *sec);
+ub_sec_t *ub_node_security(const ub_node_t *node);
+int ub_node_set_require_signed(ub_node_t *node, bool on);
+int ub_node_link_set_security(ub_node_t *node, int link_id, int require_signed, bool encrypt);
+bool ub_node_link_requires_signed(const ub_node_t *node, int link_id);
 
 extern "Python" void ub_py_deliver(void *user, int entity, uint32_t instance, const ub_frame_header_t *h,
                                    uint64_t now_ms);

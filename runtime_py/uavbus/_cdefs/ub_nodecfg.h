@@ -33,6 +33,15 @@ typedef struct ub_nodecfg_node {
     ...;
 } ub_nodecfg_node_t;
 
+typedef struct ub_nodecfg_security {
+    uint8_t present;
+    uint8_t key_count;
+    uint8_t tx_key;
+    uint8_t require_signed;
+    uint8_t link_count;
+    ...;
+} ub_nodecfg_security_t;
+
 typedef struct ub_nodecfg {
     char source[...];
     char system[...];
@@ -45,6 +54,7 @@ typedef struct ub_nodecfg {
     uint8_t port_count;
     ub_nodecfg_port_t ports[...];
     uint8_t has_policy;
+    ub_nodecfg_security_t security;
     ...;
 } ub_nodecfg_t;
 
@@ -66,3 +76,9 @@ int ub_nodecfg_select_node(ub_nodecfg_t *cfg, const char *node, char *err, size_
 int ub_nodecfg_find_entity(const ub_nodecfg_t *cfg, const char *name);
 int ub_nodecfg_mask(const ub_nodecfg_t *cfg, const char *from, const char *to);
 int ub_nodecfg_apply(const ub_nodecfg_t *cfg, ub_node_t *node, char *err, size_t err_cap);
+
+/* ub_sec.h / ub_secfile.h types (declared in full in _cdefs/ub_sec.h and ub_secfile.h, which load later). */
+typedef struct ub_sec_options ub_sec_options_t;
+typedef struct ub_counter_file ub_counter_file_t;
+int ub_nodecfg_apply_security(const ub_nodecfg_t *cfg, ub_node_t *node, ub_sec_t *sec, ub_counter_file_t *counter,
+                              const ub_sec_options_t *opt, uint64_t unix_us, char *err, size_t err_cap);

@@ -97,6 +97,8 @@ class Hitl:
         self.t0 = time.monotonic()
         self.marks: list[tuple[float, str]] = []
         self.on_message: Callable[[Any], None] | None = None
+        # called with the topology before any process starts (e.g. to put an attacker's tap on a link)
+        self.on_topology: Callable[[Topology], None] | None = None
 
     # -- set-up -------------------------------------------------------------------------------------------
     def __enter__(self) -> Hitl:
@@ -123,6 +125,8 @@ class Hitl:
 
     def _start_once(self) -> None:
         self.topo = table2(self.opts.config, self.alloc, serial_faults=self.opts.serial_faults)
+        if self.on_topology is not None:
+            self.on_topology(self.topo)
         for name in C_NODES:
             self.group.spawn(self.node_argv(name), name, ready_timeout=self.opts.ready_timeout, cwd=REPO)
         if self.opts.start_gcs:
@@ -154,6 +158,14 @@ class Hitl:
                 self.gcs.open_port(link, spec)
         self.gcs.on_data(self._on_data)
         self.admin = self.gcs.admin(TABLE2_NODES["gcs"])
+
+    def restart_gcs(self) -> None:
+        """A new GCS process, in effect: the Python node is closed (tables and replay state lost) and
+        made again from the same config (a signing GCS continues its persisted counter)."""
+        if self.gcs is not None:
+            self.gcs.close()
+            self.gcs = None
+        self._start_gcs()
 
     def _on_data(self, msg: Any) -> None:
         now = time.monotonic()

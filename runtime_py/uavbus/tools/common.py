@@ -42,7 +42,8 @@ class Seen:
 
     @property
     def payload(self) -> bytes:
-        return self.frame[len(self.frame) - self.header.payload_size:]
+        # after the 64-byte header; a signed or encrypted frame's trailer follows it (docs/wire-format.md)
+        return self.frame[64:64 + self.header.payload_size]
 
     @property
     def source(self) -> str:
@@ -67,6 +68,7 @@ class Contents:
         self.catalogue = catalogue
         self.unknown = 0
         self.layout_mismatch = 0
+        self.encrypted = 0  # ENCRYPTED frames: their payload is ciphertext to anyone without the key
 
     def name(self, h: FrameHeader) -> str:
         inst = self.catalogue.find(bytes(h.dir_id))
@@ -78,6 +80,9 @@ class Contents:
     def decode(self, seen: Seen) -> dict[str, Any] | None:
         """The decoded value of a DATA frame, or None (counted) when the catalogue cannot decode it."""
         if not seen.is_data:
+            return None
+        if seen.header.flags & 0x20:
+            self.encrypted += 1
             return None
         inst = self.catalogue.find(bytes(seen.header.dir_id))
         if inst is None:
