@@ -400,7 +400,11 @@ static bool transmit(ub_node_t *node, int link_id, const uint8_t *frame, size_t 
     }
     int rc = link->ops->send(link->impl, frame, len, now_ms);
     if (rc < 0) {
-        count_drop(node, link_id, rc == UB_ERR_AGAIN ? UB_DROP_BACKPRESSURE : UB_DROP_TX_ERROR);
+        /* UB_ERR_NOROUTE: the transport has nowhere to send yet (a UDP link that has not learned a peer). */
+        count_drop(node, link_id,
+                   rc == UB_ERR_AGAIN     ? UB_DROP_BACKPRESSURE
+                   : rc == UB_ERR_NOROUTE ? UB_DROP_NO_ROUTE
+                                          : UB_DROP_TX_ERROR);
         return false;
     }
     link->counters.frames_out++;
@@ -520,74 +524,77 @@ static int originate(ub_node_t *node, int slot, uint8_t *frame, size_t cap, ub_f
     return send_on_mask(node, loc, mask, frame, (size_t)len, now_ms);
 }
 
-/* A link-local frame: for the owner of the ingress link, never forwarded (docs/routing.md). */
-static void route_link_local(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
-                             uint64_t now_ms) {
+/* A link-local frame: for the owner of the ingress link, never forwarded (docs/routing.md). Its verdict
+ * is that of any frame: a neighbour's genuine, new HELLO is accepted whether routing uses it or not. */
+static ub_rx_verdict_t route_link_local(ub_node_t *node, int link_id, const ub_frame_header_t *h,
+                                        const uint8_t *frame, uint64_t now_ms) {
     ub_link_t *link = &node->links[link_id];
     if (dedup_seen(node, &node->locals[link->owner], h->src_id, h->seq)) {
         count_drop(node, link_id, UB_DROP_DUPLICATE);
-        return;
+        return UB_VERDICT_DUPLICATE;
     }
     if (h->admin != UB_ADMIN_HELLO && h->admin != UB_ADMIN_ROUTE_UPDATE) {
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
-        return;
+        return UB_VERDICT_ACCEPTED;
     }
     if (node->route == NULL) {
         count_drop(node, link_id, UB_DROP_ROUTING_OFF);
-        return;
+        return UB_VERDICT_ACCEPTED;
     }
     node->counters.admin_handled++;
     if (ub_priv_route_on_frame(node->route, link_id, h, frame + UB_FRAME_HEADER_LEN, now_ms) < 0)
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+    return UB_VERDICT_ACCEPTED;
 }
 
-static void route_received(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
-                           size_t len, uint64_t now_ms) {
+
+/* Returns the verdict (ub_rx_verdict_t): a check that refuses a frame for its origin returns
+ * UB_VERDICT_REFUSED; once past the duplicate window the frame is accepted, whatever happens next. */
+static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_frame_header_t *h,
+                                      const uint8_t *frame, size_t len, uint64_t now_ms) {
     ub_link_t *link = &node->links[link_id];
     link->counters.frames_in++;
     if (node->tap != NULL) node->tap(node->tap_user, link_id, UB_TAP_RX, frame, len, now_ms);
-    if (ub_entity_id_is_link_local(h->dest_id)) {
-        route_link_local(node, link_id, h, frame, now_ms);
-        return;
-    }
+    if (ub_entity_id_is_link_local(h->dest_id)) return route_link_local(node, link_id, h, frame, now_ms);
     int dest_row;
     int dest_slot = local_destination(node, h->dest_id, &dest_row);
     int handler = dest_slot >= 0 ? dest_slot : link->owner;
     if (dedup_seen(node, &node->locals[handler], h->src_id, h->seq)) {
         count_drop(node, link_id, UB_DROP_DUPLICATE);
-        return;
+        return UB_VERDICT_DUPLICATE;
     }
     if (dest_slot >= 0) {
         dispatch(node, dest_slot, link_id, h, frame, now_ms);
-        return;
+        return UB_VERDICT_ACCEPTED;
     }
     const ub_local_entity_t *owner = &node->locals[link->owner];
     uint8_t mask = dest_row >= 0 ? (uint8_t)(owner->masks[dest_row] & ~(1u << link->index)) : 0;
     if (mask == 0) {
         count_drop(node, link_id, UB_DROP_NO_ROUTE);
-        return;
+        return UB_VERDICT_ACCEPTED;
     }
     if (h->hop_limit <= 1) {
         count_drop(node, link_id, UB_DROP_HOP_LIMIT);
-        return;
+        return UB_VERDICT_ACCEPTED;
     }
     uint8_t out[UB_FRAME_MAX];
     if (len > sizeof out) {
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
-        return;
+        return UB_VERDICT_ACCEPTED;
     }
     memcpy(out, frame, len);
     if (ub_frame_set_hop_limit(out, len, (uint8_t)(h->hop_limit - 1)) < 0) {
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
-        return;
+        return UB_VERDICT_ACCEPTED;
     }
     node->counters.forwarded++;
     (void)send_on_mask(node, owner, mask, out, len, now_ms);
+    return UB_VERDICT_ACCEPTED;
 }
 
 static void on_stream_frame(void *user, const ub_frame_header_t *h, const uint8_t *frame, size_t frame_len) {
     rx_ctx_t *ctx = user;
-    route_received(ctx->node, ctx->link_id, h, frame, frame_len, ctx->now_ms);
+    (void)route_received(ctx->node, ctx->link_id, h, frame, frame_len, ctx->now_ms);
 }
 
 int ub_node_rx(ub_node_t *node, int link_id, const uint8_t *data, size_t len, uint64_t now_ms) {
@@ -598,7 +605,11 @@ int ub_node_rx(ub_node_t *node, int link_id, const uint8_t *data, size_t len, ui
     return frames > (size_t)INT32_MAX ? INT32_MAX : (int)frames;
 }
 
-int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms) {
+int ub_node_rx_frame_verdict(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms,
+                             ub_rx_verdict_t *verdict) {
+    ub_rx_verdict_t ignored;
+    if (verdict == NULL) verdict = &ignored;
+    *verdict = UB_VERDICT_REFUSED;
     if (node == NULL || !link_id_ok(node, link_id) || frame == NULL) return UB_ERR_INVAL;
     ub_link_t *link = &node->links[link_id];
     link->counters.bytes_in += len;
@@ -609,8 +620,12 @@ int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t 
         if ((unsigned)reason < UB_RX_REASON_COUNT) link->counters.bad_datagrams[reason]++;
         return rc;
     }
-    route_received(node, link_id, &h, frame, len, now_ms);
+    *verdict = route_received(node, link_id, &h, frame, len, now_ms);
     return UB_OK;
+}
+
+int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    return ub_node_rx_frame_verdict(node, link_id, frame, len, now_ms, NULL);
 }
 
 /* ---- originating ------------------------------------------------------- */

@@ -12,6 +12,7 @@ drives the loop (poll/select on the ports' descriptors, then service + tick) and
 
 from __future__ import annotations
 
+import logging
 import os
 import select
 import time
@@ -28,6 +29,7 @@ from uavbus.config import Config, load_config
 from uavbus.directory import Directory
 
 Clock = Callable[[], float]
+log = logging.getLogger("uavbus")
 INBOX_MAX = 10000  # messages kept for messages() when no on_data callback consumes them
 
 
@@ -138,6 +140,7 @@ class Node:
         self._log: Any = None
         self._log_fd = -1
         self._closed = False
+        self.notices: list[str] = []  # one-time notices of the ports (also logged to the "uavbus" logger)
         self.config: Config | None = None
         if config is not None:
             cfg = config if isinstance(config, Config) else load_config(config)
@@ -415,6 +418,9 @@ class Node:
         now = self.now() if now_ms is None else now_ms
         if self._ports is not None:
             ub_ports.ub_ports_service(self._ports, now)
+            for text in ub_ports.ub_ports_notices(self._ports):  # each reported once, e.g. a refused sender
+                self.notices.append(text)
+                log.warning("%s: %s", self.name, text)
         for m in self._memlinks:
             ub_memlink.ub_memlink_pump(m._c, now)
         ub_node.ub_node_tick(self._c, now)

@@ -185,7 +185,10 @@ def build_parser() -> argparse.ArgumentParser:
     play = sub.add_parser("play", help="send the recorded frames, as they are, into a node")
     play.add_argument("file")
     play.add_argument("--into", required=True, metavar="SPEC",
-                      help="udp:peer=HOST:PORT | tcp:connect=HOST:PORT | serial:device=PATH[,baud=N]")
+                      help="udp:peer=HOST:PORT[,bind=HOST:PORT] | tcp:connect=HOST:PORT | serial:device=PATH[,baud=N]. "
+                           "Over UDP the frames come from an ephemeral port (or bind=): the receiving port must "
+                           "accept them, i.e. have no fixed peer (udp:bind=HOST:PORT, it learns its peers) or "
+                           "accept=any; a fixed-peer port refuses them and says so once")
     play.add_argument("--only", nargs="+", metavar="NAME", help="only frames of these contents")
     pace = play.add_mutually_exclusive_group()
     pace.add_argument("--speed", type=float, default=1.0, help="time scale (2 = twice as fast; default 1)")

@@ -28,7 +28,8 @@ def add_node_args(p: argparse.ArgumentParser, required: bool = False) -> None:
     p.add_argument("--catalogue", default=os.environ.get("UAVBUS_CATALOGUE"),
                    help="<name>.catalogue.json (default: $UAVBUS_CATALOGUE)")
     p.add_argument("--port", action="append", default=[], metavar="NAME=SPEC",
-                   help="bind a link to a transport, e.g. gcsPortDatalink1=udp:bind=127.0.0.1:0,peer=127.0.0.1:5001")
+                   help="bind a link to a transport, e.g. gcsPortDatalink1=udp:bind=127.0.0.1:0,peer=127.0.0.1:5001 "
+                        "(docs/config-format.md#ports)")
     p.add_argument("--subscribe", action="append", default=[], metavar="CONTENT@SOURCE/MS",
                    help="subscribe the first hosted entity, e.g. imuOut@fcs20/20")
     p.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
