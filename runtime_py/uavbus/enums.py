@@ -24,26 +24,36 @@ from typing import Any
 __all__ = ["CatalogueEnums", "catalogue_enums"]
 
 _IDENT = re.compile(r"[^0-9A-Za-z_]")
+_IDENT_FULL = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 
 class CatalogueEnums:
     """The enum constants of one catalogue (empty for a catalogue written before enums were recorded)."""
 
-    def __init__(self, doc: dict[str, Any]) -> None:
+    def __init__(self, doc: dict[str, Any], origin: str = "<catalogue>") -> None:
         raw = doc.get("enums") or {}
-        self.constants: dict[str, dict[str, int]] = {
-            str(name): {str(c): int(v) for c, v in dict(consts).items()} for name, consts in dict(raw).items()}
+        if not isinstance(raw, dict) or not all(
+                isinstance(consts, dict) and all(isinstance(c, str) and _IDENT_FULL.fullmatch(c) and type(v) is int
+                                                 for c, v in consts.items()) for consts in raw.values()):
+            from uavbus.catalogue import CatalogueError
+
+            raise CatalogueError(f"{origin}: 'enums' must map enum type names to {{CONSTANT: integer}} "
+                                 "(regenerate the catalogue with `uavbus gen`)")
+        self.constants: dict[str, dict[str, int]] = {str(name): dict(consts) for name, consts in raw.items()}
         # type name -> member name -> enum type name, for members of an enum type only
         self.members: dict[str, dict[str, str]] = {}
-        for t in doc.get("types", []):
-            fields = {f["name"]: f["enum"] for f in t.get("fields", []) if f.get("enum") in self.constants}
-            if fields:
-                self.members[t["name"]] = fields
+        self._nested: dict[str, dict[str, str]] = {}
+        for t in doc.get("types", []) if isinstance(doc.get("types"), list) else []:
+            if not isinstance(t, dict) or not isinstance(t.get("fields"), list):
+                continue
+            fields = [f for f in t["fields"] if isinstance(f, dict) and isinstance(f.get("name"), str)]
+            enums = {f["name"]: f["enum"] for f in fields if isinstance(f.get("enum"), str)
+                     and f["enum"] in self.constants}
+            if enums:
+                self.members[str(t.get("name"))] = enums
+            self._nested[str(t.get("name"))] = {f["name"]: f["struct"] for f in fields if isinstance(f.get("struct"), str)}
         self._classes: dict[str, type[enum.IntEnum]] = {}
         self._types_with_enums: dict[str, bool] = {}
-        self._nested: dict[str, dict[str, str]] = {
-            t["name"]: {f["name"]: f["struct"] for f in t.get("fields", []) if f.get("struct")}
-            for t in doc.get("types", [])}
 
     def __bool__(self) -> bool:
         return bool(self.constants)
@@ -129,7 +139,7 @@ def catalogue_enums(catalogue: Any) -> CatalogueEnums:
     """The CatalogueEnums of a uavbus.Catalogue (computed once from its JSON and kept on it)."""
     cached = getattr(catalogue, "_uavbus_enums", None)
     if cached is None:
-        cached = CatalogueEnums(json.loads(catalogue.json_text))
+        cached = CatalogueEnums(json.loads(catalogue.json_text), getattr(catalogue, "origin", "<catalogue>"))
         try:
             catalogue._uavbus_enums = cached
         except AttributeError:  # a catalogue-like object that refuses attributes: recompute next time

@@ -24,7 +24,7 @@ from uavbus._bindings import (ub_admin, ub_log, ub_member, ub_memlink, ub_node, 
                               ub_route)
 from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, NotFoundError, UbError, ensure
 from uavbus._ub import ffi, lib
-from uavbus.catalogue import Catalogue, Instance
+from uavbus.catalogue import Catalogue, CatalogueError, Instance
 from uavbus.config import Config, load_config
 from uavbus.directory import Directory
 from uavbus.enums import catalogue_enums
@@ -125,8 +125,13 @@ class Node:
         self.name = node or "python"
         self._clock: Clock = clock or monotonic_ms
         self._real_clock = clock is None
+        try:
+            c_catalogue = self.catalogue.c_catalogue
+        except (TypeError, ValueError, AttributeError, OverflowError, KeyError) as exc:
+            raise CatalogueError(f"{self.catalogue.origin}: the C router cannot use this catalogue "
+                                 f"({type(exc).__name__}: {exc}); regenerate it with `uavbus gen`") from None
         # Request ids come from the OS (ub_random_os); random_seed: the seeded, guessable ids of tests.
-        self._c = ub_node.ub_node_new(self.catalogue.c_catalogue, hop_limit, first_seq, timing, random_seed)
+        self._c = ub_node.ub_node_new(c_catalogue, hop_limit, first_seq, timing, random_seed)
         self._sink = _Sink(self)
         self._handle = ffi.new_handle(self._sink)
         ub_node.set_deliver_sink(self._c, self._handle)
