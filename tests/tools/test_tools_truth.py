@@ -17,9 +17,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import gps_value, make_frame
 from logwriter import write_log
-from tools_testutil import ROOT, UAVBUS
+from tools_testutil import ROOT, UAVBUS, gps_value, make_frame
 
 from uavbus.catalogue import Catalogue
 from uavbus.tools import live, logcmd
