@@ -105,7 +105,8 @@ def sent_times(logs: list[Path]) -> dict[tuple[str, int], float]:
             for rec in log.records():   # a log cut by kill -9 reads up to its last whole record
                 if rec.dir == "tx":
                     key = (rec.header.src_id.rstrip(b"\0").decode("ascii", "replace"), rec.header.seq)
-                    out.setdefault(key, float(rec.t_ms))
+                    # The log's clock has 1 ms steps: the send happened somewhere in [t_ms, t_ms + 1).
+                    out.setdefault(key, rec.t_ms + 0.5)
         except (OSError, ValueError):
             continue
     return out

@@ -29,7 +29,8 @@ def test_demo_short_mode_passes_and_writes_its_outputs(program: Path, tmp_path: 
         # Transport latency (send -> arrival of the same frame) is measured apart from data age (which adds
         # the value's staleness), and on the 0x11 pair every second copy is an expected duplicate, not a loss.
         assert row["transport_p50_ms"] is not None and row["age_p50_ms"] is not None
-        assert 0.0 <= row["transport_p50_ms"] <= row["age_p50_ms"]
+        # (transport is timed from the sender's log, whose clock has 1 ms steps: +-0.5 ms)
+        assert -0.5 <= row["transport_p50_ms"] <= row["age_p50_ms"] + 0.5
         assert sum(row["duplicates"].values()) > 0
         assert all("duplicate" not in reasons for link, reasons in row["dropped"].items()
                    if link.startswith("gcs1:")), row["dropped"]
