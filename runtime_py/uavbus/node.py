@@ -117,7 +117,7 @@ class Node:
 
     def __init__(self, catalogue: Catalogue | str | Path, config: str | Path | Config | None = None,
                  node: str | None = None,
-                 clock: Clock | None = None, *, hop_limit: int = 0, first_seq: int = 0,
+                 clock: Clock | None = None, *, hop_limit: int = 0, first_seq: int | None = None,
                  timing: dict[str, int] | None = None, random_seed: int | None = None) -> None:
         self.catalogue = catalogue if isinstance(catalogue, Catalogue) else Catalogue.load(catalogue)
         enums = catalogue_enums(self.catalogue)
@@ -130,6 +130,11 @@ class Node:
         except (TypeError, ValueError, AttributeError, OverflowError, KeyError) as exc:
             raise CatalogueError(f"{self.catalogue.origin}: the C router cannot use this catalogue "
                                  f"({type(exc).__name__}: {exc}); regenerate it with `uavbus gen`") from None
+        if first_seq is None:
+            # From the wall clock, not 1, as uavbus_node does: receivers keep a 64-frame duplicate window per
+            # source, and a restarted GCS (or a second tool hosting the same entity) whose numbers landed
+            # inside the previous one's window would have its first frames dropped as duplicates.
+            first_seq = (time.time_ns() // 1_000_000) & 0x7FFFFFFF or 1
         # Request ids come from the OS (ub_random_os); random_seed: the seeded, guessable ids of tests.
         self._c = ub_node.ub_node_new(c_catalogue, hop_limit, first_seq, timing, random_seed)
         self._sink = _Sink(self)
