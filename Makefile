@@ -66,4 +66,4 @@ bench: setup
 	bench/run.sh
 
 clean:
-	rm -rf $(BUILD) $(BUILD_ASAN) build-bench demo-out
+	rm -rf $(BUILD) $(BUILD_ASAN) build-bench build-mcu demo-out

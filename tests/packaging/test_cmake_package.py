@@ -42,7 +42,7 @@ def ninja_targets(build: Path) -> str:
     return run(["ninja", "-C", build, "-t", "targets", "all"])
 
 
-def test_consumer_with_find_package_and_with_add_subdirectory(tmp_path: Path) -> None:
+def test_consumer_with_find_package_add_subdirectory_and_fetchcontent(tmp_path: Path) -> None:
     env = no_cmocka_env()
     # 1. uavbus built and installed on its own, as a packager would (no tests: no cmocka needed).
     run(["cmake", "-S", REPO, "-B", tmp_path / "uavbus-build", "-G", "Ninja", "-DUAVBUS_BUILD_TESTS=OFF",
@@ -78,6 +78,14 @@ def test_consumer_with_find_package_and_with_add_subdirectory(tmp_path: Path) ->
     for absent in ("test_node", "uavbus_node", "test_struct_vectors", "flightsw_codecs"):
         assert absent not in targets, f"{absent}: uavbus's own tests/examples leak into a consumer's build"
     assert not (b2 / "CTestTestfile.cmake").exists() or "test_" not in (b2 / "CTestTestfile.cmake").read_text()
+
+    # 4. The same through FetchContent (declared with SOURCE_DIR here; a Git mirror in real use).
+    b3 = tmp_path / "consumer-fetch"
+    run(["cmake", "-S", consumer, "-B", b3, "-G", "Ninja", f"-DUAVBUS_FETCH_DIR={REPO}",
+         f"-DUAVBUS_PYTHON={PYTHON}"], env)
+    run(["cmake", "--build", b3], env)
+    assert run([b3 / "consumer"]).strip() == EXPECTED
+    assert "test_node" not in ninja_targets(b3)
 
 
 def test_version_file_refuses_another_minor_version(tmp_path: Path) -> None:
