@@ -366,14 +366,17 @@ def main() -> None:
               f"{int(fw.group(3)):,} |")
         w("")
         if big:
-            w("Largest RAM objects: " + ", ".join(f"`{name}` {size:,} B" for size, name in big) +
-              " (the node and the parsed configuration are static storage of the application; a board that")
-            w("applies its table once can reuse the `ub_nodecfg_t` storage afterwards).")
+            w("Largest RAM objects: " + ", ".join(f"`{name}` {size:,} B" for size, name in big) + ".")
+            w("The node and the parsed configuration are the application's static storage; a board that applies")
+            w("its table once can reuse the `ub_nodecfg_t` storage afterwards, and smaller `ub_config.h` capacities")
+            w("shrink both.")
             w("")
         if fw:
             flash, ram = int(fw.group(1)) + int(fw.group(2)), int(fw.group(2)) + int(fw.group(3))
-            goals.append(("MCU", "core builds for Cortex-M4 (arm-none-eabi)",
-                          f"firmware {flash / 1024:.1f} KiB flash, {ram / 1024:.1f} KiB RAM", True, ""))
+            # A common Cortex-M4 part has 128-256 KiB of flash and 64 KiB of RAM or more.
+            goals.append(("MCU", "the core and a node fit a Cortex-M4: <= 128 KiB flash, <= 64 KiB RAM",
+                          f"firmware {flash / 1024:.1f} KiB flash, {ram / 1024:.1f} KiB RAM",
+                          flash <= 128 * 1024 and ram <= 64 * 1024, "default ub_config.h capacities"))
 
     # ---- goals ----
     w("## Goals")

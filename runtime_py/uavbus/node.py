@@ -119,6 +119,13 @@ class Node:
                  node: str | None = None,
                  clock: Clock | None = None, *, hop_limit: int = 0, first_seq: int | None = None,
                  timing: dict[str, int] | None = None, random_seed: int | None = None) -> None:
+        """`catalogue`: a Catalogue or the path of a `.catalogue.json`. `config` (a path or a Config from
+        load_config) is applied through the C loader, hosting the entities of `node` (from its "nodes")
+        or of its "hosts"; a refused file raises ConfigError. `clock()` returns ms (default
+        CLOCK_MONOTONIC; an injected clock makes the node never sleep, for tests and simulations).
+        `first_seq`: the first sequence number this node sends (default: from the wall clock, so a
+        restarted process is not taken for duplicates of the one before); `hop_limit`, `timing`
+        (ub_pubsub timing, ms) and `random_seed` (seeded request ids, tests only) as in ub_node.h."""
         self.catalogue = catalogue if isinstance(catalogue, Catalogue) else Catalogue.load(catalogue)
         enums = catalogue_enums(self.catalogue)
         self._enums = enums if enums else None  # enum members read as IntEnum (catalogues that record them)

@@ -16,8 +16,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
-
 REPO = Path(__file__).resolve().parents[2]
 CONSUMER = REPO / "tests" / "packaging" / "consumer"
 PYTHON = sys.executable

@@ -14,7 +14,6 @@ The renderers are pure (rows in, lines out) so the TUI shows the very same table
 
 from __future__ import annotations
 
-import argparse
 import sys
 from collections.abc import Sequence
 from typing import IO, Any
