@@ -26,8 +26,8 @@ TOOLS = {
     "sim": ("uavbus.sim.run_scenario", "main"),
 }
 
-# Exit statuses of the runtime tools (the generator commands keep theirs: 0 ok, 1 ID collisions or a
-# failed round trip, 2 bad arguments or headers that do not parse).
+# Exit statuses of the runtime tools (the generator commands, gen/check/selftest, keep their own, documented
+# by the generator; any exception they let escape still ends as one line here).
 EXIT_OK = 0
 EXIT_USAGE = 2        # bad command line: unknown command or option, a malformed or missing argument
 EXIT_INPUT = 3        # a file that cannot be read or is not what it should be (config, catalogue, log, spec)
@@ -39,7 +39,7 @@ EXIT_BROKEN_PIPE = 141  # the reader went away (`| head`): nothing more is print
 EXIT_CODES = {
     EXIT_OK: "success",
     1: "the command ran and the answer is no (gen/check: ID collisions; selftest: a round trip failed)",
-    EXIT_USAGE: "bad command line (and, for gen/check/selftest, headers that do not parse)",
+    EXIT_USAGE: "bad command line: unknown command or option, a missing or malformed argument",
     EXIT_INPUT: "bad input: a file that cannot be read or is not valid (config, catalogue, log, port spec)",
     EXIT_ENVIRONMENT: "the system refused: a port, socket or device cannot be opened, or output cannot be written",
     EXIT_INTERNAL: "internal error (a bug): one line; UAVBUS_DEBUG=1 prints the traceback",
