@@ -323,6 +323,7 @@ class Node:
 
     @property
     def routing(self) -> bool:
+        """True while the routing engine runs (enable_routing())."""
         return self._route is not None
 
     def routes(self, entity: str | None = None) -> dict[str, dict[str, Any]]:
@@ -349,6 +350,7 @@ class Node:
                 for lid, _ in ub_node.ub_node_links(self._c)}
 
     def route_counters(self) -> dict[str, int]:
+        """The routing engine's counters (frames, updates, route changes...)."""
         if self._route is None:
             raise InvalidArgumentError("routing is not enabled on this node (enable_routing())")
         return ub_route.ub_route_counters(self._route)
