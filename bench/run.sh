@@ -139,6 +139,17 @@ gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L "${REF[@]}" -Iruntime_c/include bench
 { "$bin/ram_bench"; size -t "$build"/ref-obj/*.o | tail -1 | sed 's/^/size /'; } >"$raw/ram.txt"
 echo "gcc -O2 ${REF[*]} runtime_c/src/*.c; size -t; bench/src/ram_bench.c" >>"$raw/commands.txt"
 
+# ---- figure 6b: the core on a microcontroller (examples/mcu, Cortex-M4F, arm-none-eabi-gcc -Os) ----
+say "figure 6b: the core cross-compiled for a Cortex-M4F"
+cmake -S examples/mcu -B "$build/mcu" -G Ninja -DCMAKE_BUILD_TYPE=MinSizeRel -DUAVBUS_PYTHON="$VPY" \
+  -DCMAKE_TOOLCHAIN_FILE="$root/cmake/toolchains/arm-none-eabi-cortex-m4.cmake" >/dev/null
+cmake --build "$build/mcu" >/dev/null
+{ arm-none-eabi-size "$build/mcu/firmware.elf" | tail -1 | sed 's/^/firmware /'
+  arm-none-eabi-size -t "$build/mcu/uavbus/runtime_c/libub.a" | tail -1 | sed 's/^/libub /'
+  arm-none-eabi-nm -S --size-sort "$build/mcu/firmware.elf" | sed 's/^/sym /'; } >"$raw/mcu.txt"
+echo "cmake -S examples/mcu -DCMAKE_BUILD_TYPE=MinSizeRel -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/arm-none-eabi-cortex-m4.cmake;" \
+  "arm-none-eabi-size firmware.elf, libub.a" >>"$raw/commands.txt"
+
 # ---- internals kept from the first bench (frame codec, router costs, false-accept rate) ----
 "$build/runtime_c/ub_frame_bench" >"$raw/frame_bench.txt"
 "$build/runtime_c/ub_router_bench" >"$raw/router_bench.txt"

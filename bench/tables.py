@@ -407,6 +407,41 @@ def main() -> None:
     goals.append(("RAM", "<= 64 KiB static", f"{static / 1024:.1f} KiB (node + admin + .data/.bss), 0 allocations after init",
                   static <= 64 * 1024, "transports extra, per link"))
 
+    # ---- figure 6b: the core on a microcontroller ----
+    if (raw / "mcu.txt").exists():
+        mcu = (raw / "mcu.txt").read_text()
+        fw = re.search(r"^firmware\s+(\d+)\s+(\d+)\s+(\d+)", mcu, re.M)
+        lib = re.search(r"^libub\s+(\d+)\s+(\d+)\s+(\d+)", mcu, re.M)
+        ram_syms = [(int(m.group(1), 16), m.group(2)) for m in
+                    re.finditer(r"^sym [0-9a-f]+ ([0-9a-f]+) [bBdD] (\S+)$", mcu, re.M)]
+        big = sorted(ram_syms, reverse=True)[:3]
+        w("## 6b. The core on a microcontroller")
+        w("")
+        w("`examples/mcu/firmware.c` (one node, one UART link, the entity table parsed from JSON at start, a generated")
+        w("two-directory catalogue) cross-compiled with Debian's arm-none-eabi-gcc for a Cortex-M4F, `-Os`,")
+        w("newlib-nano, `--gc-sections`, POSIX parts and security off. Default capacities (`ub_config.h`).")
+        w("")
+        w("| item | code (.text) | .data | .bss |")
+        w("|---|---:|---:|---:|")
+        if lib:
+            w(f"| libub.a, core only (`size -t`) | {int(lib.group(1)):,} | {int(lib.group(2)):,} | {int(lib.group(3)):,} |")
+        if fw:
+            w(f"| firmware.elf (what the board flashes / needs in RAM) | {int(fw.group(1)):,} | {int(fw.group(2)):,} | "
+              f"{int(fw.group(3)):,} |")
+        w("")
+        if big:
+            w("Largest RAM objects: " + ", ".join(f"`{name}` {size:,} B" for size, name in big) + ".")
+            w("The node and the parsed configuration are the application's static storage; a board that applies")
+            w("its table once can reuse the `ub_nodecfg_t` storage afterwards, and smaller `ub_config.h` capacities")
+            w("shrink both.")
+            w("")
+        if fw:
+            flash, ram = int(fw.group(1)) + int(fw.group(2)), int(fw.group(2)) + int(fw.group(3))
+            # A common Cortex-M4 part has 128-256 KiB of flash and 64 KiB of RAM or more.
+            goals.append(("MCU", "the core and a node fit a Cortex-M4: <= 128 KiB flash, <= 64 KiB RAM",
+                          f"firmware {flash / 1024:.1f} KiB flash, {ram / 1024:.1f} KiB RAM",
+                          flash <= 128 * 1024 and ram <= 64 * 1024, "default ub_config.h capacities"))
+
     # ---- goals ----
     w("## Goals")
     w("")

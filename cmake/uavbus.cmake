@@ -1,7 +1,7 @@
 # uavbus.cmake: build-time code generation for flight software.
 #
-#   list(APPEND CMAKE_MODULE_PATH <uavbus>/cmake)
-#   include(uavbus)
+#   find_package(uavbus CONFIG REQUIRED)        # installed package: includes this file
+#   # or: add_subdirectory(<uavbus>) / FetchContent_MakeAvailable(uavbus)
 #   uavbus_generate(TARGET <lib> NAME <name> HEADERS <header>...
 #                   [INCLUDE_DIRS <dir>...] [DEFINES <NAME[=VAL]>...]
 #                   [ID_SCHEME paper|hashed] [OUTPUT_DIR <dir>]
@@ -13,10 +13,15 @@
 #   <name>.catalogue.json       the checked catalogue (schemas/catalogue.schema.json)
 #   <name>.py                   the same catalogue and per-type bindings for Python
 # Then defines the static library <lib> of the generated C, linked to the runtime
-# library `ub` (so `ub` must exist: add runtime_c first). Users of <lib> get
+# library `uavbus::ub` (so the runtime must be there: find_package(uavbus) or
+# add_subdirectory(<uavbus>) first). Users of <lib> get
 # OUTPUT_DIR, the INCLUDE_DIRS and every header's own directory as include
 # directories and DEFINES as compile definitions, so they see the headers the
 # way the generator did.
+#
+# UAVBUS_PYTHON is the Python that has the uavbus package (`pip install uavbus`);
+# default: the repository's .venv when there is one, else the python3 on PATH. It is
+# checked once, at configure time, with a message saying what to do.
 #
 # The generator reruns when a listed header, a generator source or a template
 # changes. Headers that the listed ones include from elsewhere are not tracked:
@@ -29,8 +34,30 @@ include_guard(GLOBAL)
 
 get_filename_component(UAVBUS_ROOT "${CMAKE_CURRENT_LIST_DIR}/.." ABSOLUTE)
 if(NOT DEFINED UAVBUS_PYTHON)
-  set(UAVBUS_PYTHON "${UAVBUS_ROOT}/.venv/bin/python" CACHE FILEPATH "Python with the uavbus package installed")
+  if(EXISTS "${UAVBUS_ROOT}/.venv/bin/python")
+    set(_uavbus_python "${UAVBUS_ROOT}/.venv/bin/python")
+  else()
+    find_program(_uavbus_python NAMES python3 python)
+  endif()
+  set(UAVBUS_PYTHON "${_uavbus_python}" CACHE FILEPATH "Python with the uavbus package installed")
 endif()
+
+# Checks once that UAVBUS_PYTHON can run the generator, so a missing package is one clear
+# configure-time message rather than a failure deep in the build.
+function(_uavbus_check_python)
+  get_property(checked GLOBAL PROPERTY _UAVBUS_PYTHON_CHECKED)
+  if(checked STREQUAL "${UAVBUS_PYTHON}")
+    return()
+  endif()
+  execute_process(COMMAND "${UAVBUS_PYTHON}" -c "import uavbus_gen.cli"
+                  RESULT_VARIABLE rc OUTPUT_QUIET ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "uavbus_generate: '${UAVBUS_PYTHON}' cannot run the uavbus generator "
+                        "(import uavbus_gen failed). Install it (`python3 -m pip install uavbus`, or "
+                        "`make setup` in a uavbus checkout) and pass -DUAVBUS_PYTHON=<that python>.")
+  endif()
+  set_property(GLOBAL PROPERTY _UAVBUS_PYTHON_CHECKED "${UAVBUS_PYTHON}")
+endfunction()
 
 function(uavbus_generate)
   cmake_parse_arguments(PARSE_ARGV 0 ARG
@@ -55,10 +82,11 @@ function(uavbus_generate)
   if(NOT ARG_ID_SCHEME MATCHES "^(paper|hashed)$")
     message(FATAL_ERROR "uavbus_generate: ID_SCHEME must be paper or hashed, not '${ARG_ID_SCHEME}'")
   endif()
-  if(NOT TARGET ub)
-    message(FATAL_ERROR "uavbus_generate: the runtime library target `ub` does not exist yet; "
-                        "add_subdirectory(<uavbus>/runtime_c) before calling uavbus_generate()")
+  if(NOT TARGET uavbus::ub)
+    message(FATAL_ERROR "uavbus_generate: the runtime library uavbus::ub does not exist yet; "
+                        "call find_package(uavbus CONFIG REQUIRED) or add_subdirectory(<uavbus>) first")
   endif()
+  _uavbus_check_python()
   if(NOT ARG_OUTPUT_DIR)
     set(ARG_OUTPUT_DIR "${CMAKE_CURRENT_BINARY_DIR}/uavbus/${ARG_NAME}")
   endif()
@@ -133,7 +161,7 @@ function(uavbus_generate)
   if(ARG_DEFINES)
     target_compile_definitions(${ARG_TARGET} PUBLIC ${ARG_DEFINES})
   endif()
-  target_link_libraries(${ARG_TARGET} PUBLIC ub)
+  target_link_libraries(${ARG_TARGET} PUBLIC uavbus::ub)
   set_target_properties(${ARG_TARGET} PROPERTIES
     UAVBUS_OUTPUT_DIR "${out_dir}"
     UAVBUS_CATALOGUE_JSON "${out_dir}/${ARG_NAME}.catalogue.json")

@@ -36,8 +36,10 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("command", choices=("gen", "check", "selftest"))
     p.add_argument("files", nargs="+", metavar="FILE", help="headers or .c files; each is its own translation unit")
-    p.add_argument("-I", dest="include_dirs", action="append", default=[], metavar="DIR")
-    p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME[=VAL]")
+    p.add_argument("-I", dest="include_dirs", action="append", default=[], metavar="DIR",
+                   help="add DIR to the include path (as for the C compiler; repeatable)")
+    p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME[=VAL]",
+                   help="define a macro for parsing, as the flight software is compiled (repeatable)")
     p.add_argument("--std", default="c11", help="C standard for clang (and gcc in selftest); default c11")
     p.add_argument("--name", default="catalogue", help="output base name and C/Python prefix; default 'catalogue'")
     p.add_argument("--id-scheme", choices=model.ids.ID_SCHEMES, default="paper",

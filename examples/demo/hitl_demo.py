@@ -30,7 +30,9 @@ REPO = Path(__file__).resolve().parents[2]
 
 from uavbus.sim.build import node_program  # noqa: E402
 from uavbus.sim.hitl import Hitl, HitlOptions, timetag_latency_ms  # noqa: E402
-from uavbus.sim.metrics import StreamMeter, SummaryRow, largest_gap, render_table, write_summary  # noqa: E402
+from uavbus.sim.metrics import (  # noqa: E402
+    StreamMeter, SummaryRow, largest_gap, render_table, transport_latencies, write_summary,
+)
 
 GPS_MS, IMU_MS = 100, 20            # 10 Hz publication, 50 Hz subscription
 RENEW_S = 1.0                       # ub_pubsub/ub_admin default renew period
@@ -79,14 +81,69 @@ def drops_of(counters: dict[str, Any]) -> dict[str, int]:
     return out
 
 
+TABLE2_ENTITY = {"gcs": "gcs1", "primary": "rmax1ob1", "secondary": "rmax1ob2", "backup": "fcs20"}
+
+
 def link_drops(h: Hitl, stats: dict[str, dict[str, Any]], path: list[tuple[str, str]]) -> dict[str, dict[str, int]]:
     """{"entity:link": {reason: frames}} for the links a stream crosses."""
     out: dict[str, dict[str, int]] = {}
     gcs_links = h.gcs.link_counters() if h.gcs is not None else {}
-    entity = {"gcs": "gcs1", "primary": "rmax1ob1", "secondary": "rmax1ob2", "backup": "fcs20"}
     for node, link in path:
         counters = gcs_links.get(link, {}) if node == "gcs" else stats.get(node, {}).get("links", {}).get(link, {})
-        out[f"{entity[node]}:{link}"] = drops_of(counters or {})
+        out[f"{TABLE2_ENTITY[node]}:{link}"] = drops_of(counters or {})
+    return out
+
+
+def sent_times(logs: list[Path]) -> dict[tuple[str, int], float]:
+    """(source, seq) -> when the node first sent that frame (ms, CLOCK_MONOTONIC), from its transmit logs."""
+    from uavbus.logfile import LogReader
+
+    out: dict[tuple[str, int], float] = {}
+    for path in logs:
+        try:
+            log = LogReader(path)
+            for rec in log.records():   # a log cut by kill -9 reads up to its last whole record
+                if rec.dir == "tx":
+                    key = (rec.header.src_id.rstrip(b"\0").decode("ascii", "replace"), rec.header.seq)
+                    # The log's clock has 1 ms steps: the send happened somewhere in [t_ms, t_ms + 1).
+                    out.setdefault(key, rec.t_ms + 0.5)
+        except (OSError, ValueError):
+            continue
+    return out
+
+
+def copies_per_link(log: Path) -> dict[tuple[str, str, str], int]:
+    """(content, source, link) -> frames that repeated a (source, seq) already received: the second copies,
+    per stream and link, from the GCS's log (it records every verified frame, before duplicate suppression)."""
+    from uavbus.logfile import LogReader
+
+    reader = LogReader(log)
+    cat = reader.catalogue()
+    seen: set[tuple[bytes, int]] = set()
+    out: dict[tuple[str, str, str], int] = {}
+    for rec in reader.records():
+        if rec.dir != "rx" or rec.header.admin != 0:
+            continue
+        key = (bytes(rec.header.src_id), rec.header.seq)
+        if key in seen:
+            inst = cat.find(bytes(rec.header.dir_id))
+            k = (inst.name if inst else "?", rec.header.src_id.rstrip(b"\0").decode(), rec.link)
+            out[k] = out.get(k, 0) + 1
+        seen.add(key)
+    return out
+
+
+def redundant_links(config: Path) -> set[str]:
+    """"entity:link" of the links that carry every frame twice: those of a mask with more than one link
+    (Table 2's 0x00000011 between rmax1ob1 and gcs1), so their `duplicate` drops are expected, not losses."""
+    from uavbus.config import load_config
+
+    cfg = load_config(config)
+    out: set[str] = set()
+    for e in cfg.entities:
+        for mask in e.masks:
+            if bin(mask).count("1") > 1:
+                out |= {f"{e.name}:{e.links[i]}" for i in range(len(e.links)) if mask >> i & 1}
     return out
 
 
@@ -96,7 +153,7 @@ def hitl_part(args: argparse.Namespace, check: Checks, rows: list[SummaryRow]) -
     if log.exists():
         log.unlink()
     say("\n== HITL configuration (paper Table 2, figure 11): 3 C processes + the Python GCS on 127.0.0.1")
-    opts = HitlOptions(program=args.program, record=log, stats_ms=500)
+    opts = HitlOptions(program=args.program, record=log, stats_ms=500, node_logs=args.out / "nodes")
     with Hitl(opts) as h:
         assert h.topo is not None
         for node in ("gcs", "primary", "secondary", "backup"):
@@ -147,10 +204,24 @@ def hitl_part(args: argparse.Namespace, check: Checks, rows: list[SummaryRow]) -
         gps_path = [("primary", "onboardPortDatalink1"), ("primary", "onboardPortDatalink2"),
                     ("gcs", "gcsPortDatalink1"), ("gcs", "gcsPortDatalink2")]
         imu_path = [("backup", "onboardPortDatalink1"), ("primary", "onboardPortRelay"), *gps_path]
-        rows.append(SummaryRow.from_meter(gps_m, hops=h.topo.hops("primary", "gcs"), requested_hz=1000 / GPS_MS,
-                                          t0=t0, t1=t1, dropped=link_drops(h, stats, gps_path)))
-        rows.append(SummaryRow.from_meter(imu_m, hops=h.topo.hops("backup", "gcs"), requested_hz=1000 / IMU_MS,
-                                          t0=t0, t1=t1, dropped=link_drops(h, stats, imu_path)))
+        # Transport latency: the GCS's arrival of each message against the source's own transmit log.
+        sent = sent_times(h.node_logs("primary") + h.node_logs("backup"))
+        arrivals = {(name, source): [(source, seq, t * 1000.0) for t, n, source2, seq, _ in h.messages
+                                     if n == name and source2 == source and t0 <= t <= t1]
+                    for name, source in (("gpsOut", "rmax1ob1"), ("imuOut", "fcs20"))}
+        pair = redundant_links(h.opts.config)
+        for meter, path, src_node, hz in ((gps_m, gps_path, "primary", 1000 / GPS_MS),
+                                          (imu_m, imu_path, "backup", 1000 / IMU_MS)):
+            transport = transport_latencies(arrivals[(meter.name, meter.source)], sent)
+            rows.append(SummaryRow.from_meter(meter, hops=h.topo.hops(src_node, "gcs"), requested_hz=hz, t0=t0, t1=t1,
+                                              dropped=link_drops(h, stats, path), transport_ms=transport,
+                                              redundant=pair))
+            check(f"transport latency measured: {meter.name}", len(transport) >= 0.9 * meter.count(t0, t1),
+                  f"{len(transport)} of {meter.count(t0, t1)} messages matched to the source's transmit log")
+        copies = copies_per_link(log)  # recorded by the GCS before its duplicate window: every copy
+        for r in rows[-2:]:
+            r.duplicates = {f"gcs1:{link}": n for (name, source, link), n in copies.items()
+                            if (name, source) == (r.name, r.source) and f"gcs1:{link}" in pair}
         for r in rows[-2:]:
             check(f"rate: {r.name} {r.source} -> {r.destination}", r.rate_ok(RATE_TOLERANCE),
                   f"{r.achieved_hz:.2f} Hz for {r.requested_hz:g} Hz requested (tolerance {RATE_TOLERANCE:.0%})")
@@ -192,6 +263,25 @@ def table1_part(args: argparse.Namespace, check: Checks, rows: list[SummaryRow])
                 m.add(now_s, timetag_latency_ms(value, now_s))
 
         e3.on_data(on_data)
+        # Copies per stream and link at entity3 (every verified frame passes its tap before duplicate
+        # suppression): the expected duplicates of the two parallel links, per stream.
+        from uavbus._bindings.ub_frame import ub_frame_parse
+
+        first_seen: set[tuple[bytes, int]] = set()
+        copies: dict[tuple[str, str, str], int] = {}
+
+        def on_frame(link: str, direction: str, frame: bytes, t_ms: int) -> None:
+            h = ub_frame_parse(frame)
+            if direction != "rx" or h.admin != 0:
+                return
+            key = (bytes(h.src_id), h.seq)
+            if key in first_seen:
+                inst = cat.find(bytes(h.dir_id))
+                k = (inst.name if inst else "?", h.src_id.rstrip(b"\0").decode(), link)
+                copies[k] = copies.get(k, 0) + 1
+            first_seen.add(key)
+
+        e3.on_frame(on_frame)
         adm = e3.admin("entity3")
         sub = adm.add(content="imuOut", source="entity2", destination="entity3", period_ms=IMU_MS,
                       kind="subscription")
@@ -214,10 +304,15 @@ def table1_part(args: argparse.Namespace, check: Checks, rows: list[SummaryRow])
         hops = {"imuOut": 3, "gpsOut": 1}   # entity3 - entity0 - entity1 - entity2; entity0 - entity3 (2 links)
         for (name, _src), m in meters.items():
             req = 1000 / (IMU_MS if name == "imuOut" else GPS_MS)
+            pair_links = {e_link.split(":", 1)[1] for e_link in redundant_links(REPO / "examples/configs/table1.json")}
             r = SummaryRow.from_meter(m, hops=hops[name], requested_hz=req, t0=t0, t1=t1,
                                       dropped={f"{n}:{link}": drops_of(c) for n, node in net.nodes.items()
-                                               for link, c in node.link_counters().items()})
+                                               for link, c in node.link_counters().items()},
+                                      redundant={f"{n}:{link}" for n, node in net.nodes.items()
+                                                 for link in node.link_counters() if link in pair_links})
             r.dropped = {k: v for k, v in r.dropped.items() if v}
+            r.duplicates = {f"C:{link}": n for (cname, source, link), n in copies.items()
+                            if (cname, source) == (name, m.source)}
             rows.append(r)
             check(f"Table 1 rate: {name} {m.source} -> {m.destination}", r.rate_ok(RATE_TOLERANCE),
                   f"{r.achieved_hz:.2f} Hz for {req:g} Hz requested ({r.hops} hops, simulated time)")

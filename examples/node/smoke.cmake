@@ -17,8 +17,8 @@ foreach(want "\"event\":\"ready\",\"node\":\"primary\"" "\"local_port\":[1-9]" "
   endif()
 endforeach()
 execute_process(
-  COMMAND ${NODE} --config ${CONFIG} --node primary --port onboardPortRelay=udp:bind=127.0.0.1:0
+  COMMAND ${NODE} --config ${CONFIG} --node primary --port onboardPortRelay=udp:peer=127.0.0.1:9
   INPUT_FILE /dev/null OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 20)
-if(NOT rc EQUAL 2 OR NOT err MATCHES "^uavbus_node:argv\\[6\\]: port 'onboardPortRelay': udp needs both")
+if(NOT rc EQUAL 2 OR NOT err MATCHES "^uavbus_node:argv\\[6\\]: port 'onboardPortRelay': udp needs bind=")
   message(FATAL_ERROR "bad spec: exit ${rc} (expected 2), stderr: ${err}")
 endif()

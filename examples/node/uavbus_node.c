@@ -209,6 +209,15 @@ void event_error(const char *msg) {
     out_flush();
 }
 
+/* Something the operator should know once (e.g. a UDP port refusing datagrams from a stranger). */
+static void event_warning(const char *msg) {
+    out("{\"event\":\"warning\",\"message\":");
+    out_str(msg, SIZE_MAX);
+    out("}");
+    out_flush();
+    fprintf(stderr, "uavbus_node: %s\n", msg);
+}
+
 /* ---- usage and start-up errors ------------------------------------------------------------------------ */
 
 static void usage(FILE *f) {
@@ -217,7 +226,8 @@ static void usage(FILE *f) {
             "                   [--impair loss=P,dup=P,reorder=P,delay=MS,jitter=MS,seed=N] [--stats-ms MS]\n"
             "                   [--duration-ms MS] [--subscribe ENTITY:CONTENT@SOURCE/PERIOD_MS]...\n"
             "                   [--publish ENTITY:CONTENT>DEST/PERIOD_MS]...\n"
-            "SPEC: udp:bind=HOST:PORT,peer=HOST:PORT | tcp:listen=HOST:PORT | tcp:connect=HOST:PORT |\n"
+            "SPEC: udp:bind=HOST:PORT[,peer=HOST:PORT][,accept=peer|learn|any] | tcp:listen=HOST:PORT |\n"
+            "      tcp:connect=HOST:PORT |"
             "      serial:device=PATH[,baud=N]\n"
             "stdin commands: rebind LINK SPEC | impair SPEC | dump NAME | stats | quit |\n"
             "                key add FILE | key use ID | key remove ID\n"
@@ -467,8 +477,14 @@ static void out_driver(const ub_port_t *p) {
     case UB_PORT_UDP: {
         const ub_udp_stats_t *s = &d->u.udp.stats;
         out(",\"udp\":{\"datagrams_in\":%" PRIu64 ",\"rejected\":%" PRIu64 ",\"foreign\":%" PRIu64
-            ",\"datagrams_out\":%" PRIu64 ",\"again\":%" PRIu64 ",\"send_errors\":%" PRIu64 "}",
-            s->datagrams_in, s->rejected, s->foreign, s->datagrams_out, s->again, s->send_errors);
+            ",\"datagrams_out\":%" PRIu64 ",\"again\":%" PRIu64 ",\"send_errors\":%" PRIu64
+            ",\"no_peer\":%" PRIu64 ",\"peers_learned\":%" PRIu64 ",\"peers\":[",
+            s->datagrams_in, s->rejected, s->foreign, s->datagrams_out, s->again, s->send_errors, s->no_peer,
+            s->peers_learned);
+        char host[16];
+        uint16_t port;
+        for (int i = 0; ub_udp_peer_at(&d->u.udp, i, host, &port) == UB_OK; i++) out("%s\"%s:%u\"", i ? "," : "", host, port);
+        out("]}");
         break;
     }
     case UB_PORT_TCP_LISTEN:
@@ -908,6 +924,8 @@ int main(int argc, char **argv) {
             stdin_open = read_stdin(now);
         }
         (void)ub_ports_service(&g_ports, now);
+        char notice[512];
+        while (ub_ports_notice(&g_ports, notice, sizeof notice) > 0) event_warning(notice);
         update_motion(now);
         ub_node_tick(&g_node, now);
         fleet_poll(now);

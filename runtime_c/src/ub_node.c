@@ -336,7 +336,11 @@ static bool transmit(ub_node_t *node, int link_id, const uint8_t *frame, size_t 
     }
     int rc = link->ops->send(link->impl, frame, len, now_ms);
     if (rc < 0) {
-        count_drop(node, link_id, rc == UB_ERR_AGAIN ? UB_DROP_BACKPRESSURE : UB_DROP_TX_ERROR);
+        /* UB_ERR_NOROUTE: the transport has nowhere to send yet (a UDP link that has not learned a peer). */
+        count_drop(node, link_id,
+                   rc == UB_ERR_AGAIN     ? UB_DROP_BACKPRESSURE
+                   : rc == UB_ERR_NOROUTE ? UB_DROP_NO_ROUTE
+                                          : UB_DROP_TX_ERROR);
         return false;
     }
     link->counters.frames_out++;
@@ -560,8 +564,12 @@ static void route_link_local(ub_node_t *node, int link_id, const ub_frame_header
     if (ub_priv_route_on_frame(node->route, link_id, h, payload, now_ms) < 0) count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
 }
 
-static void route_received(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
-                           size_t len, uint64_t now_ms, ub_rx_verdicts_t *verdicts) {
+/* Routes one verified frame received on `link_id`. Returns the verdict (ub_rx_verdict_t, ub_node.h): a
+ * check that refuses a frame for its origin (security, window) returns UB_VERDICT_REFUSED; a genuine copy
+ * already handled UB_VERDICT_DUPLICATE; once past the window the frame is accepted, whatever happens next.
+ * `verdicts` (may be NULL) counts authentic and fresh frames for TCP adoption (ub_tcp.c). */
+static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
+                                      size_t len, uint64_t now_ms, ub_rx_verdicts_t *verdicts) {
     ub_link_t *link = &node->links[link_id];
     link->counters.frames_in++;
     /* Security first: nothing below (window, routing, tables, the tap) sees a frame that fails it. */
@@ -572,14 +580,14 @@ static void route_received(ub_node_t *node, int link_id, const ub_frame_header_t
         rx.counter = h->seq;
         rx.secured = false;
     } else if (!ub_priv_sec_gate(node, link_id, h, frame, len, plain, &rx)) {
-        return;
+        return UB_VERDICT_REFUSED;
     }
     if (node->tap != NULL) node->tap(node->tap_user, link_id, UB_TAP_RX, frame, len, now_ms);
     /* A link-local frame (docs/routing.md) is for the ingress link's owner and is never forwarded. */
     bool link_local = ub_entity_id_is_link_local(h->dest_id);
     if (link_local && h->admin != UB_ADMIN_HELLO && h->admin != UB_ADMIN_ROUTE_UPDATE) {
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
-        return;
+        return UB_VERDICT_REFUSED;
     }
     int dest_row = -1;
     int dest_slot = link_local ? -1 : local_destination(node, h->dest_id, &dest_row);
@@ -587,7 +595,7 @@ static void route_received(ub_node_t *node, int link_id, const ub_frame_header_t
     ub_priv_window_t verdict = ub_priv_window_pass(node, handler, link_id, h, &rx, now_ms);
     if (verdict != UB_PRIV_WINDOW_PASS) {
         if (verdict == UB_PRIV_WINDOW_UNVERIFIED && verdicts != NULL) verdicts->authentic++;
-        return;
+        return verdict == UB_PRIV_WINDOW_DUPLICATE ? UB_VERDICT_DUPLICATE : UB_VERDICT_REFUSED;
     }
     link->counters.frames_accepted++;
     if (verdicts != NULL) {
@@ -596,33 +604,33 @@ static void route_received(ub_node_t *node, int link_id, const ub_frame_header_t
     }
     if (link_local) {
         route_link_local(node, link_id, h, rx.payload, now_ms);
-        return;
+        return UB_VERDICT_ACCEPTED;
     }
     if (dest_slot >= 0) {
         dispatch(node, dest_slot, link_id, h, rx.payload, &rx, now_ms);
-        return;
+        return UB_VERDICT_ACCEPTED;
     }
     const ub_local_entity_t *owner = &node->locals[link->owner];
     uint8_t mask = dest_row >= 0 ? (uint8_t)(owner->masks[dest_row] & ~(1u << link->index)) : 0;
     if (mask == 0) {
         count_drop(node, link_id, UB_DROP_NO_ROUTE);
-        return;
+        return UB_VERDICT_ACCEPTED;
     }
     if (h->hop_limit <= 1) {
         count_drop(node, link_id, UB_DROP_HOP_LIMIT);
-        return;
+        return UB_VERDICT_ACCEPTED;
     }
     /* Forward: the form it came in, with the hop limit lowered (not under the tag); the other
      * protected form only if an outgoing link asks for it. */
     uint8_t out[UB_FRAME_MAX], alt[UB_FRAME_MAX];
     if (len > sizeof out) {
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
-        return;
+        return UB_VERDICT_ACCEPTED;
     }
     memcpy(out, frame, len);
     if (ub_frame_set_hop_limit(out, len, (uint8_t)(h->hop_limit - 1)) < 0) {
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
-        return;
+        return UB_VERDICT_ACCEPTED;
     }
     tx_forms_t f;
     f.h = h;
@@ -640,11 +648,12 @@ static void route_received(ub_node_t *node, int link_id, const ub_frame_header_t
     f.len[in_form] = (int)len;
     node->counters.forwarded++;
     (void)send_forms(node, owner, mask, &f, now_ms);
+    return UB_VERDICT_ACCEPTED;
 }
 
 static void on_stream_frame(void *user, const ub_frame_header_t *h, const uint8_t *frame, size_t frame_len) {
     rx_ctx_t *ctx = user;
-    route_received(ctx->node, ctx->link_id, h, frame, frame_len, ctx->now_ms, &ctx->verdicts);
+    (void)route_received(ctx->node, ctx->link_id, h, frame, frame_len, ctx->now_ms, &ctx->verdicts);
 }
 
 int ub_node_rx_stream(ub_node_t *node, int link_id, ub_decoder_t *dec, const uint8_t *data, size_t len,
@@ -662,7 +671,11 @@ int ub_node_rx(ub_node_t *node, int link_id, const uint8_t *data, size_t len, ui
     return ub_node_rx_stream(node, link_id, NULL, data, len, now_ms, NULL);
 }
 
-int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms) {
+int ub_node_rx_frame_verdict(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms,
+                             ub_rx_verdict_t *verdict) {
+    ub_rx_verdict_t ignored;
+    if (verdict == NULL) verdict = &ignored;
+    *verdict = UB_VERDICT_REFUSED;
     if (node == NULL || !link_id_ok(node, link_id) || frame == NULL) return UB_ERR_INVAL;
     ub_link_t *link = &node->links[link_id];
     link->counters.bytes_in += len;
@@ -673,8 +686,12 @@ int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t 
         if ((unsigned)reason < UB_RX_REASON_COUNT) link->counters.bad_datagrams[reason]++;
         return rc;
     }
-    route_received(node, link_id, &h, frame, len, now_ms, NULL);
+    *verdict = route_received(node, link_id, &h, frame, len, now_ms, NULL);
     return UB_OK;
+}
+
+int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    return ub_node_rx_frame_verdict(node, link_id, frame, len, now_ms, NULL);
 }
 
 /* ---- originating ------------------------------------------------------- */

@@ -226,7 +226,7 @@ ub_priv_window_t ub_priv_window_pass(ub_node_t *node, int slot, int link_id, con
         e->last_used = ++node->use_stamp;
         if (unsigned_seen(node, e, fresh, h->seq)) {
             ub_priv_count_drop(node, link_id, UB_DROP_DUPLICATE);
-            return UB_PRIV_WINDOW_DROPPED;
+            return UB_PRIV_WINDOW_DUPLICATE;
         }
         return UB_PRIV_WINDOW_PASS;
     }
@@ -238,7 +238,7 @@ ub_priv_window_t ub_priv_window_pass(ub_node_t *node, int slot, int link_id, con
             return UB_PRIV_WINDOW_PASS;
         case UB_SEC_WINDOW_DUPLICATE:
             ub_priv_count_drop(node, link_id, UB_DROP_DUPLICATE);
-            return UB_PRIV_WINDOW_DROPPED;
+            return UB_PRIV_WINDOW_DUPLICATE;
         case UB_SEC_WINDOW_OLD:
             ub_priv_count_drop(node, link_id, UB_DROP_REPLAY);
             return UB_PRIV_WINDOW_DROPPED;

@@ -34,8 +34,8 @@ const char *ub_port_kind_transport(ub_port_kind_t kind) {
 /* ---- spec parsing (shared by the command-line and config forms) -------------------------------------- */
 
 #define EXAMPLES                                                                                            \
-    "udp:bind=127.0.0.1:0,peer=127.0.0.1:5001 | tcp:listen=127.0.0.1:5001 | tcp:connect=127.0.0.1:5001 | " \
-    "serial:device=/dev/ttyUSB0,baud=115200 | mem"
+    "udp:bind=127.0.0.1:0,peer=127.0.0.1:5001 | udp:bind=0.0.0.0:5001 (peers learned) | "                 \
+    "tcp:listen=127.0.0.1:5001 | tcp:connect=127.0.0.1:5001 | serial:device=/dev/ttyUSB0,baud=115200 | mem"
 
 static const uint32_t k_bauds[] = {1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400, 460800, 921600};
 
@@ -72,7 +72,7 @@ static bool parse_hostport(const char *value, char host[UB_PORT_HOST_LEN], uint1
 typedef struct spec_builder {
     ub_port_spec_t spec;
     bool is_tcp;
-    bool has_bind, has_peer, has_listen, has_connect, has_device;
+    bool has_bind, has_peer, has_listen, has_connect, has_device, has_accept;
 } spec_builder_t;
 
 static int builder_start(spec_builder_t *b, const char *transport, char *err, size_t cap) {
@@ -113,6 +113,21 @@ static int builder_param(spec_builder_t *b, const char *key, const char *value, 
         }
         if (bind) b->has_bind = true;
         else b->has_peer = true;
+        return UB_OK;
+    }
+    if (s->kind == UB_PORT_UDP && strcmp(key, "accept") == 0) {
+        static const char *const modes[] = {"peer", "learn", "any"};
+        size_t m = 0;
+        while (m < 3 && strcmp(value, modes[m]) != 0) m++;
+        if (m == 3 || b->has_accept) {
+            fail(err, cap, "'accept=%.20s': %s", value,
+                 b->has_accept ? "given twice: give it once"
+                               : "use peer (the peer only), learn (one peer: the last sender the node accepted) or "
+                                 "any (every sender of a genuine frame, up to UB_UDP_MAX_PEERS)");
+            return UB_ERR_INVAL;
+        }
+        s->accept = (uint8_t)m;
+        b->has_accept = true;
         return UB_OK;
     }
     if (b->is_tcp && (strcmp(key, "listen") == 0 || strcmp(key, "connect") == 0)) {
@@ -163,7 +178,7 @@ static int builder_param(spec_builder_t *b, const char *key, const char *value, 
         s->baud = v;
         return UB_OK;
     }
-    const char *expected = s->kind == UB_PORT_UDP      ? "bind, peer"
+    const char *expected = s->kind == UB_PORT_UDP      ? "bind, peer, accept"
                            : b->is_tcp                 ? "listen or connect"
                            : s->kind == UB_PORT_SERIAL ? "device, baud"
                                                        : "none";
@@ -173,8 +188,14 @@ static int builder_param(spec_builder_t *b, const char *key, const char *value, 
 }
 
 static int builder_finish(spec_builder_t *b, ub_port_spec_t *out, char *err, size_t cap) {
-    if (b->spec.kind == UB_PORT_UDP && (!b->has_bind || !b->has_peer)) {
-        fail(err, cap, "udp needs both bind=HOST:PORT and peer=HOST:PORT, e.g. udp:bind=127.0.0.1:0,peer=127.0.0.1:5001");
+    if (b->spec.kind == UB_PORT_UDP && !b->has_bind) {
+        fail(err, cap, "udp needs bind=HOST:PORT, e.g. udp:bind=127.0.0.1:0,peer=127.0.0.1:5001 (or, to learn its "
+                       "peers, udp:bind=0.0.0.0:5001)");
+        return UB_ERR_INVAL;
+    }
+    if (b->spec.kind == UB_PORT_UDP && !b->has_accept) b->spec.accept = b->has_peer ? UB_UDP_ACCEPT_PEER : UB_UDP_ACCEPT_ANY;
+    if (b->spec.kind == UB_PORT_UDP && b->spec.accept == UB_UDP_ACCEPT_PEER && !b->has_peer) {
+        fail(err, cap, "udp with accept=peer needs peer=HOST:PORT, e.g. udp:bind=127.0.0.1:0,peer=127.0.0.1:5001");
         return UB_ERR_INVAL;
     }
     if (b->is_tcp && b->spec.kind == UB_PORT_NONE) {
@@ -283,10 +304,17 @@ void ub_port_spec_format(const ub_port_spec_t *spec, char *out, size_t cap) {
     }
     int n;
     switch (spec->kind) {
-    case UB_PORT_UDP:
-        n = snprintf(out, cap, "udp:bind=%s:%u,peer=%s:%u", spec->host, (unsigned)spec->port, spec->peer_host,
-                     (unsigned)spec->peer_port);
+    case UB_PORT_UDP: {
+        /* accept= only when it is not what the other parameters imply (peer given: peer; none: any). */
+        bool peer = spec->peer_port != 0;
+        unsigned implied = peer ? UB_UDP_ACCEPT_PEER : UB_UDP_ACCEPT_ANY;
+        static const char *const modes[] = {"peer", "learn", "any"};
+        char peer_text[UB_PORT_HOST_LEN + 16] = "";
+        if (peer) snprintf(peer_text, sizeof peer_text, ",peer=%s:%u", spec->peer_host, (unsigned)spec->peer_port);
+        n = snprintf(out, cap, "udp:bind=%s:%u%s%s%s", spec->host, (unsigned)spec->port, peer_text,
+                     spec->accept != implied ? ",accept=" : "", spec->accept != implied ? modes[spec->accept % 3] : "");
         break;
+    }
     case UB_PORT_TCP_LISTEN: n = snprintf(out, cap, "tcp:listen=%s:%u", spec->host, (unsigned)spec->port); break;
     case UB_PORT_TCP_CONNECT: n = snprintf(out, cap, "tcp:connect=%s:%u", spec->host, (unsigned)spec->port); break;
     case UB_PORT_SERIAL: n = snprintf(out, cap, "serial:device=%s,baud=%u", spec->device, (unsigned)spec->baud); break;
@@ -325,7 +353,12 @@ static int driver_open(ub_port_driver_t *d, const ub_port_spec_t *spec) {
     int rc;
     memset(d, 0, sizeof *d);
     switch (spec->kind) {
-    case UB_PORT_UDP: rc = ub_udp_open(&d->u.udp, spec->host, spec->port, spec->peer_host, spec->peer_port); break;
+    case UB_PORT_UDP:
+        rc = ub_udp_open(&d->u.udp, spec->host, spec->port, spec->peer_port != 0 ? spec->peer_host : NULL,
+                         spec->peer_port);
+        if (rc == UB_OK) rc = ub_udp_set_accept(&d->u.udp, (ub_udp_accept_t)spec->accept);
+        if (rc != UB_OK) ub_udp_close(&d->u.udp);
+        break;
     case UB_PORT_TCP_LISTEN: rc = ub_tcp_server_open(&d->u.tcp, spec->host, spec->port, NULL); break;
     case UB_PORT_TCP_CONNECT: rc = ub_tcp_client_init(&d->u.tcp, spec->host, spec->port, NULL); break;
     case UB_PORT_SERIAL: rc = ub_serial_open(&d->u.serial, spec->device, spec->baud); break;
@@ -664,6 +697,12 @@ const ub_port_t *ub_ports_find(const ub_ports_t *ports, const char *link_name) {
     return id >= 0 ? port_of_link((ub_ports_t *)ports, id) : NULL;
 }
 
+const ub_udp_t *ub_ports_udp(const ub_ports_t *ports, const char *link_name) {
+    const ub_port_t *p = ub_ports_find(ports, link_name);
+    if (p == NULL || p->drv[p->active].kind != UB_PORT_UDP) return NULL;
+    return &p->drv[p->active].u.udp;
+}
+
 int ub_ports_local_port(const ub_ports_t *ports, const char *link_name, uint16_t *port) {
     if (ports == NULL || port == NULL) return UB_ERR_INVAL;
     const ub_port_t *p = ub_ports_find(ports, link_name);
@@ -718,4 +757,29 @@ int ub_ports_set_link_impairment(ub_ports_t *ports, const char *link_name, const
         else impair_remove(ports, p);
     }
     return UB_OK;
+}
+
+int ub_ports_notice(ub_ports_t *ports, char *out, size_t cap) {
+    if (ports == NULL || ports->node == NULL || out == NULL || cap == 0) return UB_ERR_INVAL;
+    for (size_t i = 0; i < UB_PORTS_MAX; i++) {
+        ub_port_t *p = &ports->port[i];
+        if (!p->in_use || p->refusal_reported) continue;
+        const ub_port_driver_t *d = &p->drv[p->active];
+        if (d->kind != UB_PORT_UDP || d->u.udp.stats.foreign == 0) continue;
+        p->refusal_reported = 1;
+        const ub_link_t *link = ub_node_link(ports->node, p->link_id);
+        char from[INET_ADDRSTRLEN] = "?", peer[INET_ADDRSTRLEN + 8] = "?";
+        const struct sockaddr_in *r = &d->u.udp.refused_from;
+        if (r->sin_port != 0) (void)inet_ntop(AF_INET, &r->sin_addr, from, sizeof from);
+        char host[16];
+        uint16_t port = 0;
+        if (ub_udp_peer_at(&d->u.udp, 0, host, &port) == UB_OK) snprintf(peer, sizeof peer, "%s:%u", host, port);
+        fail(out, cap,
+             "port '%s': refused a datagram from %s:%u: not this link's peer (%s); it is counted as 'foreign' and "
+             "not reported again. To accept other senders too, open the port with accept=any (several peers, e.g. "
+             "a GCS on an ephemeral port and a monitor) or accept=learn (docs/config-format.md#ports)",
+             link != NULL ? link->name : "?", from, (unsigned)ntohs(r->sin_port), peer);
+        return 1;
+    }
+    return 0;
 }

@@ -134,7 +134,8 @@ bool ub_priv_sec_gate(ub_node_t *node, int link_id, const ub_frame_header_t *h, 
 
 typedef enum ub_priv_window {
     UB_PRIV_WINDOW_PASS = 0,   /* new: route it */
-    UB_PRIV_WINDOW_DROPPED,    /* duplicate, replay or unsigned-after-signed: counted */
+    UB_PRIV_WINDOW_DROPPED,    /* replay or unsigned-after-signed: counted */
+    UB_PRIV_WINDOW_DUPLICATE,  /* a genuine frame already handled: counted */
     UB_PRIV_WINDOW_UNVERIFIED  /* authentic, source without freshness state: counted, challenge sent */
 } ub_priv_window_t;
 

@@ -19,8 +19,15 @@ int ub_udp_open(ub_udp_t *udp, const char *bind_addr, uint16_t bind_port, const 
     udp->fd = -1;
     udp->link_id = -1;
     struct sockaddr_in local;
-    if (ub_sock_address(bind_addr, bind_port, &local) < 0 || ub_sock_address(peer_addr, peer_port, &udp->peer) < 0)
-        return UB_ERR_INVAL;
+    if (ub_sock_address(bind_addr, bind_port, &local) < 0) return UB_ERR_INVAL;
+    if (peer_addr != NULL) {
+        if (peer_port == 0 || ub_sock_address(peer_addr, peer_port, &udp->peers[0].addr) < 0) return UB_ERR_INVAL;
+        udp->peers[0].in_use = 1;
+        udp->peers[0].configured = 1;
+        udp->accept = UB_UDP_ACCEPT_PEER;
+    } else {
+        udp->accept = UB_UDP_ACCEPT_ANY;
+    }
     int fd = socket(AF_INET, SOCK_DGRAM, 0);
     if (fd < 0) return UB_ERR_IO;
     if (ub_sock_set_nonblocking(fd) < 0 || bind(fd, (const struct sockaddr *)&local, sizeof local) < 0) {
@@ -32,11 +39,40 @@ int ub_udp_open(ub_udp_t *udp, const char *bind_addr, uint16_t bind_port, const 
 }
 
 int ub_udp_set_peer(ub_udp_t *udp, const char *peer_addr, uint16_t peer_port) {
-    if (udp == NULL) return UB_ERR_INVAL;
+    if (udp == NULL || peer_port == 0) return UB_ERR_INVAL;
     struct sockaddr_in peer;
     if (ub_sock_address(peer_addr, peer_port, &peer) < 0) return UB_ERR_INVAL;
-    udp->peer = peer;
+    /* The configured peer is always peers[0]: move a learned one out of the way if it sits there. */
+    if (udp->peers[0].in_use && !udp->peers[0].configured) {
+        for (int i = 1; i < UB_UDP_MAX_PEERS; i++) {
+            if (udp->peers[i].in_use) continue;
+            udp->peers[i] = udp->peers[0];
+            break;
+        }
+    }
+    udp->peers[0].addr = peer;
+    udp->peers[0].in_use = 1;
+    udp->peers[0].configured = 1;
+    udp->peers[0].last_heard_ms = 0;
     return UB_OK;
+}
+
+int ub_udp_set_accept(ub_udp_t *udp, ub_udp_accept_t accept) {
+    if (udp == NULL || (unsigned)accept > UB_UDP_ACCEPT_ANY) return UB_ERR_INVAL;
+    if (accept == UB_UDP_ACCEPT_PEER && !(udp->peers[0].in_use && udp->peers[0].configured)) return UB_ERR_INVAL;
+    udp->accept = (uint8_t)accept;
+    return UB_OK;
+}
+
+int ub_udp_peer_at(const ub_udp_t *udp, int i, char host[16], uint16_t *port) {
+    if (udp == NULL || host == NULL || port == NULL || i < 0) return UB_ERR_INVAL;
+    for (int k = 0; k < UB_UDP_MAX_PEERS; k++) {
+        if (!udp->peers[k].in_use || i-- > 0) continue;
+        if (inet_ntop(AF_INET, &udp->peers[k].addr.sin_addr, host, 16) == NULL) return UB_ERR_INVAL;
+        *port = ntohs(udp->peers[k].addr.sin_port);
+        return UB_OK;
+    }
+    return UB_ERR_NOTFOUND;
 }
 
 int ub_udp_local_port(const ub_udp_t *udp, uint16_t *port) {
@@ -44,23 +80,43 @@ int ub_udp_local_port(const ub_udp_t *udp, uint16_t *port) {
     return ub_sock_local_port(udp->fd, port);
 }
 
-static int send_now(ub_udp_t *udp, const uint8_t *frame, size_t len) {
+/* The peer whose send result is the frame's (the first in the table); the others get copies. */
+static int first_peer(const ub_udp_t *udp) {
+    for (int k = 0; k < UB_UDP_MAX_PEERS; k++)
+        if (udp->peers[k].in_use) return k;
+    return -1;
+}
+
+static int send_to(ub_udp_t *udp, const struct sockaddr_in *to, const uint8_t *frame, size_t len) {
     for (;;) {
-        ssize_t n = sendto(udp->fd, frame, len, 0, (const struct sockaddr *)&udp->peer, sizeof udp->peer);
-        if (n == (ssize_t)len) {
-            udp->stats.datagrams_out++;
-            udp->stats.frames_out++;
-            udp->stats.tx_calls++;
-            return UB_OK;
-        }
+        ssize_t n = sendto(udp->fd, frame, len, 0, (const struct sockaddr *)to, sizeof *to);
+        if (n == (ssize_t)len) return UB_OK;
         if (n < 0 && errno == EINTR) continue;
-        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == ENOBUFS)) {
-            udp->stats.again++;
-            return UB_ERR_AGAIN;
-        }
-        udp->stats.send_errors++;
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == ENOBUFS)) return UB_ERR_AGAIN;
         return UB_ERR_IO;
     }
+}
+
+static int send_now(ub_udp_t *udp, const uint8_t *frame, size_t len) {
+    int first = first_peer(udp);
+    int rc = send_to(udp, &udp->peers[first].addr, frame, len);
+    if (rc == UB_ERR_AGAIN) {
+        udp->stats.again++;
+        return rc;
+    }
+    if (rc != UB_OK) {
+        udp->stats.send_errors++;
+        return rc;
+    }
+    udp->stats.datagrams_out++;
+    udp->stats.frames_out++;
+    udp->stats.tx_calls++;
+    for (int k = first + 1; k < UB_UDP_MAX_PEERS; k++) {
+        if (!udp->peers[k].in_use) continue;
+        if (send_to(udp, &udp->peers[k].addr, frame, len) == UB_OK) udp->stats.datagrams_out++;
+        else udp->stats.copy_errors++;
+    }
+    return UB_OK;
 }
 
 static size_t queued_frames(const ub_udp_t *udp) {
@@ -80,30 +136,46 @@ static void dequeue(ub_udp_t *udp, unsigned sent) {
     udp->tx_count = (uint16_t)left;
 }
 
+/* One sendmmsg() of the first `count` queued datagrams to `to`: the number sent, or -errno. */
+static int send_queue_to(ub_udp_t *udp, struct sockaddr_in *to, unsigned count) {
+    struct mmsghdr msgs[UB_UDP_TX_SLOTS];
+    struct iovec iov[UB_UDP_TX_SLOTS];
+    memset(msgs, 0, sizeof msgs);
+    for (unsigned i = 0; i < count; i++) {
+        iov[i].iov_base = udp->tx[i];
+        iov[i].iov_len = udp->tx_len[i];
+        msgs[i].msg_hdr.msg_name = to;
+        msgs[i].msg_hdr.msg_namelen = sizeof *to;
+        msgs[i].msg_hdr.msg_iov = &iov[i];
+        msgs[i].msg_hdr.msg_iovlen = 1;
+    }
+    for (;;) {
+        int n = sendmmsg(udp->fd, msgs, count, MSG_DONTWAIT);
+        if (n < 0 && errno == EINTR) continue;
+        return n < 0 ? -errno : n;
+    }
+}
+
 int ub_udp_flush(ub_udp_t *udp) {
     if (udp == NULL) return UB_ERR_INVAL;
     if (udp->fd < 0) return (int)queued_frames(udp);
-    while (udp->tx_count > 0) {
-        struct mmsghdr msgs[UB_UDP_TX_SLOTS];
-        struct iovec iov[UB_UDP_TX_SLOTS];
-        memset(msgs, 0, sizeof msgs);
-        for (unsigned i = 0; i < udp->tx_count; i++) {
-            iov[i].iov_base = udp->tx[i];
-            iov[i].iov_len = udp->tx_len[i];
-            msgs[i].msg_hdr.msg_name = &udp->peer;
-            msgs[i].msg_hdr.msg_namelen = sizeof udp->peer;
-            msgs[i].msg_hdr.msg_iov = &iov[i];
-            msgs[i].msg_hdr.msg_iovlen = 1;
-        }
-        int n = sendmmsg(udp->fd, msgs, udp->tx_count, MSG_DONTWAIT);
+    int first = first_peer(udp);
+    while (udp->tx_count > 0 && first >= 0) {
+        int n = send_queue_to(udp, &udp->peers[first].addr, udp->tx_count);
         if (n > 0) {
             udp->stats.tx_calls++;
             udp->stats.datagrams_out += (uint64_t)n;
+            /* Copies of what the first peer got, to every other peer: best effort, counted. */
+            for (int k = first + 1; k < UB_UDP_MAX_PEERS; k++) {
+                if (!udp->peers[k].in_use) continue;
+                int c = send_queue_to(udp, &udp->peers[k].addr, (unsigned)n);
+                if (c > 0) udp->stats.datagrams_out += (uint64_t)c;
+                udp->stats.copy_errors += (uint64_t)(n - (c > 0 ? c : 0));
+            }
             dequeue(udp, (unsigned)n);
             continue;
         }
-        if (n < 0 && errno == EINTR) continue;
-        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == ENOBUFS)) break;
+        if (n == -EAGAIN || n == -EWOULDBLOCK || n == -ENOBUFS) break;
         /* A hard error belongs to the first datagram: drop it (counted) so one bad send cannot wedge the queue. */
         udp->stats.send_errors++;
         udp->stats.tx_discarded += udp->tx_frames[0];
@@ -144,6 +216,10 @@ static int udp_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_m
     ub_udp_t *udp = impl;
     if (udp->fd < 0) return UB_ERR_CLOSED;
     if (len > UB_UDP_DATAGRAM_MAX) return UB_ERR_INVAL;
+    if (first_peer(udp) < 0) {
+        udp->stats.no_peer++;
+        return UB_ERR_NOROUTE; /* nobody to send to yet: the node counts it as no_route */
+    }
     return udp->batching ? send_batched(udp, frame, len) : send_now(udp, frame, len);
 }
 
@@ -173,10 +249,18 @@ static int same_address(const struct sockaddr_in *a, const struct sockaddr_in *b
     return a->sin_port == b->sin_port && a->sin_addr.s_addr == b->sin_addr.s_addr;
 }
 
-/* Hands the frames of one datagram to the node. Each frame's msg_size says where the next one starts;
- * a single-frame datagram (the common case) is handed whole, so a bad one is still rejected with the
- * decoder's reason, and so is any tail that does not parse as a frame. */
-static void hand_datagram(ub_udp_t *udp, ub_node_t *node, const uint8_t *data, size_t len, uint64_t now_ms) {
+static int find_peer(const ub_udp_t *udp, const struct sockaddr_in *from) {
+    for (int k = 0; k < UB_UDP_MAX_PEERS; k++)
+        if (udp->peers[k].in_use && same_address(&udp->peers[k].addr, from)) return k;
+    return -1;
+}
+
+/* Hands the frames of one datagram to the node and returns the best verdict among them. Each frame's
+ * msg_size says where the next one starts; a single-frame datagram (the common case) is handed whole,
+ * so a bad one is still rejected with the decoder's reason, and so is any tail that does not parse. */
+static ub_rx_verdict_t hand_datagram(ub_udp_t *udp, ub_node_t *node, const uint8_t *data, size_t len,
+                                     uint64_t now_ms) {
+    ub_rx_verdict_t best = UB_VERDICT_REFUSED;
     size_t off = 0;
     while (off < len) {
         size_t rest = len - off, take = rest;
@@ -185,8 +269,56 @@ static void hand_datagram(ub_udp_t *udp, ub_node_t *node, const uint8_t *data, s
             if (size >= UB_FRAME_HEADER_LEN && size < rest) take = size;
         }
         udp->stats.frames_in++;
-        if (ub_node_rx_frame(node, udp->link_id, data + off, take, now_ms) < 0) udp->stats.rejected++;
+        ub_rx_verdict_t v = UB_VERDICT_REFUSED;
+        if (ub_node_rx_frame_verdict(node, udp->link_id, data + off, take, now_ms, &v) < 0) udp->stats.rejected++;
+        if (v > best) best = v;
         off += take;
+    }
+    return best;
+}
+
+/* A learned peer in slot k (configured peers are never replaced by learning). */
+static void put_learned(ub_udp_t *udp, int k, const struct sockaddr_in *from, uint64_t now_ms) {
+    if (udp->peers[k].in_use) udp->stats.peers_forgotten++;
+    udp->peers[k].addr = *from;
+    udp->peers[k].in_use = 1;
+    udp->peers[k].configured = 0;
+    udp->peers[k].last_heard_ms = now_ms;
+    udp->stats.peers_learned++;
+}
+
+/* The node's verdict on a datagram from an address that is not a peer yet: learn it or not. */
+static void learn(ub_udp_t *udp, const struct sockaddr_in *from, ub_rx_verdict_t verdict, uint64_t now_ms) {
+    if (verdict == UB_VERDICT_REFUSED) return;
+    if (udp->accept == UB_UDP_ACCEPT_LEARN) {
+        /* One peer. A duplicate (a redundant link's copy, or a replay) may teach the first one, but only a
+         * frame the node accepted as new moves the link away from a peer it has. */
+        int k = first_peer(udp);
+        if (k >= 0 && verdict != UB_VERDICT_ACCEPTED) return;
+        put_learned(udp, k >= 0 ? k : 0, from, now_ms);
+        return;
+    }
+    /* ANY: a free slot, else the learned peer heard least recently. */
+    int slot = -1;
+    for (int k = 0; k < UB_UDP_MAX_PEERS && slot < 0; k++)
+        if (!udp->peers[k].in_use) slot = k;
+    for (int k = 0; k < UB_UDP_MAX_PEERS && slot < 0; k++) {
+        if (udp->peers[k].configured) continue;
+        int oldest = k;
+        for (int j = k + 1; j < UB_UDP_MAX_PEERS; j++)
+            if (!udp->peers[j].configured && udp->peers[j].last_heard_ms < udp->peers[oldest].last_heard_ms) oldest = j;
+        slot = oldest;
+    }
+    if (slot >= 0) put_learned(udp, slot, from, now_ms);
+}
+
+static void forget_idle(ub_udp_t *udp, uint64_t now_ms) {
+    if (udp->accept != UB_UDP_ACCEPT_ANY) return;
+    for (int k = 0; k < UB_UDP_MAX_PEERS; k++) {
+        ub_udp_peer_t *p = &udp->peers[k];
+        if (!p->in_use || p->configured || now_ms < p->last_heard_ms + UB_UDP_PEER_IDLE_MS) continue;
+        p->in_use = 0;
+        udp->stats.peers_forgotten++;
     }
 }
 
@@ -196,6 +328,7 @@ int ub_udp_service(ub_udp_t *udp, ub_node_t *node, uint64_t now_ms) {
         int left = ub_udp_flush(udp); /* what the socket refuses stays queued for the next call */
         (void)left;
     }
+    forget_idle(udp, now_ms);
     int handed = 0;
     int budget = UB_UDP_RX_BUDGET;
     while (budget > 0) {
@@ -227,22 +360,32 @@ int ub_udp_service(ub_udp_t *udp, ub_node_t *node, uint64_t now_ms) {
         udp->stats.rx_calls++;
         budget -= n;
         for (int i = 0; i < n; i++) {
-            if (msgs[i].msg_hdr.msg_namelen != sizeof from[i] || from[i].sin_family != AF_INET ||
-                !same_address(&from[i], &udp->peer)) {
-                udp->stats.foreign++;
+            int known = msgs[i].msg_hdr.msg_namelen == sizeof from[i] && from[i].sin_family == AF_INET
+                            ? find_peer(udp, &from[i])
+                            : -2;
+            if (known == -2 || (known < 0 && udp->accept == UB_UDP_ACCEPT_PEER)) {
+                if (udp->stats.foreign++ == 0 && known != -2) udp->refused_from = from[i];
                 continue;
             }
             udp->stats.datagrams_in++;
             handed++;
             size_t len = msgs[i].msg_len;
+            ub_rx_verdict_t verdict;
             /* A truncated datagram is handed as one piece: its length cannot match a frame, so the node
              * rejects and counts it. */
             if (msgs[i].msg_hdr.msg_flags & MSG_TRUNC) {
                 udp->stats.frames_in++;
-                if (ub_node_rx_frame(node, udp->link_id, udp->rx[i], len, now_ms) < 0) udp->stats.rejected++;
-                continue;
+                verdict = UB_VERDICT_REFUSED;
+                if (ub_node_rx_frame_verdict(node, udp->link_id, udp->rx[i], len, now_ms, &verdict) < 0)
+                    udp->stats.rejected++;
+            } else {
+                verdict = hand_datagram(udp, node, udp->rx[i], len, now_ms);
             }
-            hand_datagram(udp, node, udp->rx[i], len, now_ms);
+            if (known >= 0) {
+                if (verdict != UB_VERDICT_REFUSED) udp->peers[known].last_heard_ms = now_ms;
+            } else {
+                learn(udp, &from[i], verdict, now_ms);
+            }
         }
         if ((unsigned)n < want) break;
     }

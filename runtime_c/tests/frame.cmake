@@ -2,7 +2,7 @@
 #  - tests/vectors/frames.json -> a C header for test_frame_vectors, regenerated when the JSON changes;
 #  - the measurement programs in tools/ (not tests): ub_frame_bench and ub_far.
 
-set(UB_FRAME_VECTORS_JSON ${CMAKE_SOURCE_DIR}/tests/vectors/frames.json)
+set(UB_FRAME_VECTORS_JSON ${UAVBUS_SOURCE_DIR}/tests/vectors/frames.json)
 set(UB_FRAME_GEN_DIR ${CMAKE_CURRENT_BINARY_DIR}/generated)
 set(UB_FRAME_VECTORS_H ${UB_FRAME_GEN_DIR}/ub_frame_vectors.h)
 add_custom_command(

@@ -30,6 +30,22 @@ static void test_spec_parse_forms(void **state) {
     assert_int_equal(s.peer_port, 5001);
     ub_port_spec_format(&s, text, sizeof text);
     assert_string_equal(text, "udp:bind=127.0.0.1:0,peer=127.0.0.1:5001");
+    assert_int_equal(s.accept, UB_UDP_ACCEPT_PEER);
+    /* Peers learned: no peer means accept=any; accept= is written back only when it differs from that. */
+    assert_int_equal(ub_port_spec_parse("udp:bind=0.0.0.0:5001", &s, err, sizeof err), UB_OK);
+    assert_int_equal(s.accept, UB_UDP_ACCEPT_ANY);
+    assert_int_equal(s.peer_port, 0);
+    ub_port_spec_format(&s, text, sizeof text);
+    assert_string_equal(text, "udp:bind=0.0.0.0:5001");
+    assert_int_equal(ub_port_spec_parse("udp:bind=0.0.0.0:5001,accept=learn,peer=127.0.0.1:6", &s, err, sizeof err),
+                     UB_OK);
+    assert_int_equal(s.accept, UB_UDP_ACCEPT_LEARN);
+    ub_port_spec_format(&s, text, sizeof text);
+    assert_string_equal(text, "udp:bind=0.0.0.0:5001,peer=127.0.0.1:6,accept=learn");
+    assert_int_equal(ub_port_spec_parse("udp:bind=0.0.0.0:5001,peer=127.0.0.1:6,accept=any", &s, err, sizeof err),
+                     UB_OK);
+    ub_port_spec_format(&s, text, sizeof text);
+    assert_string_equal(text, "udp:bind=0.0.0.0:5001,peer=127.0.0.1:6,accept=any");
     assert_int_equal(ub_port_spec_parse("tcp:connect=127.0.0.1:5001", &s, err, sizeof err), UB_OK);
     assert_int_equal(s.kind, UB_PORT_TCP_CONNECT);
     assert_int_equal(ub_port_spec_parse("tcp:listen=0.0.0.0:0", &s, err, sizeof err), UB_OK);
@@ -58,13 +74,15 @@ static void test_spec_parse_errors(void **state) {
     } cases[] = {
         {"", "TRANSPORT[:KEY=VALUE"},
         {"xmpp:host=a", "unknown transport 'xmpp' (expected udp, tcp, serial or mem"},
-        {"udp:bind=127.0.0.1:0", "udp needs both bind=HOST:PORT and peer=HOST:PORT"},
+        {"udp:peer=127.0.0.1:1", "udp needs bind=HOST:PORT"},
+        {"udp:bind=127.0.0.1:0,accept=peer", "udp with accept=peer needs peer=HOST:PORT"},
+        {"udp:bind=127.0.0.1:0,accept=all", "'accept=all': use peer (the peer only), learn"},
         {"udp:bind=127.0.0.1,peer=127.0.0.1:1", "'bind=127.0.0.1': expected HOST:PORT"},
         {"udp:bind=127.0.0.1:70000,peer=127.0.0.1:1", "port 0..65535"},
         {"udp:bind=example.com:1,peer=127.0.0.1:1", "dotted IPv4"},
         {"udp:bind=127.0.0.1:0,peer=127.0.0.1:0", "peer port must not be 0"},
         {"udp:bind=127.0.0.1:0,bind=127.0.0.1:0,peer=127.0.0.1:1", "'bind' given twice"},
-        {"udp:listen=127.0.0.1:1", "unknown parameter 'listen' for udp (expected: bind, peer)"},
+        {"udp:listen=127.0.0.1:1", "unknown parameter 'listen' for udp (expected: bind, peer, accept)"},
         {"tcp", "tcp needs listen=HOST:PORT (server) or connect=HOST:PORT (client)"},
         {"tcp:listen=127.0.0.1:1,connect=127.0.0.1:2", "either listens or connects"},
         {"tcp:connect=127.0.0.1:0", "must not be 0"},
@@ -84,9 +102,9 @@ static void test_spec_parse_errors(void **state) {
     ub_port_spec_t s;
     assert_int_equal(ub_port_arg_parse("tcp:connect=1.2.3.4:5", name, sizeof name, &s, err, sizeof err), UB_ERR_INVAL);
     assert_non_null(strstr(err, "expected LINK=SPEC"));
-    assert_int_equal(ub_port_arg_parse("linkA=udp:bind=1.2.3.4:5", name, sizeof name, &s, err, sizeof err),
+    assert_int_equal(ub_port_arg_parse("linkA=udp:peer=1.2.3.4:5", name, sizeof name, &s, err, sizeof err),
                      UB_ERR_INVAL);
-    assert_non_null(strstr(err, "port 'linkA': udp needs both"));
+    assert_non_null(strstr(err, "port 'linkA': udp needs bind="));
 }
 
 static const char k_config[] = "{\n"

@@ -1,7 +1,8 @@
 /*
  * The UDP driver over 127.0.0.1: two nodes run a subscription over real
  * sockets (request one way, DATA the other), bad datagrams are counted by
- * reason, datagrams from a stranger are ignored and counted.
+ * reason, datagrams from a stranger are ignored and counted; links that learn
+ * their peers from the node's verdict (accept=learn, accept=any).
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -170,12 +171,139 @@ static void test_multi_frame_datagram_with_a_bad_frame(void **state) {
     udp_pair_free(u);
 }
 
+/* A third socket, not attached to any node, that sends raw frames and counts what it receives. */
+static int count_received(ub_udp_t *s) {
+    uint8_t buf[2048];
+    int n = 0;
+    while (recv(ub_udp_fileno(s), buf, sizeof buf, MSG_DONTWAIT) > 0) n++;
+    return n;
+}
+
+static size_t frame_from_pub(uint8_t *buf, uint32_t seq) {
+    const uint8_t dir_id[UB_DIR_ID_LEN] = {0}; /* unknown content: accepted, then dropped unknown_content */
+    return make_frame(buf, UB_ADMIN_DATA, dir_id, "pub", "sub", seq, 8, 0, NULL, 0);
+}
+
+/* accept=learn: no peer -> sends are no_route; garbage teaches nothing; the first accepted frame's sender
+ * becomes the peer; a duplicate from elsewhere does not move it; a new accepted frame from elsewhere does. */
+static void test_learn_takes_the_sender_of_accepted_frames(void **state) {
+    (void)state;
+    udp_pair_t *u = udp_pair_new();
+    pair_t *p = u->p;
+    ub_udp_close(&u->b);
+    assert_int_equal(ub_udp_open(&u->b, "127.0.0.1", u->port_b, NULL, 0), UB_OK);
+    assert_int_equal(ub_udp_set_accept(&u->b, UB_UDP_ACCEPT_LEARN), UB_OK);
+    assert_int_equal(ub_udp_attach(&u->b, p->sub_node, p->sub_link), UB_OK);
+    /* Nobody to send to yet: refused, counted by the driver and by the node as no_route. */
+    assert_int_equal(ub_node_send_data(p->sub_node, p->sub, TEST_GPS, p->pub_id, 0), 0);
+    assert_int_equal(u->b.stats.no_peer, 1);
+    assert_int_equal(ub_node_link(p->sub_node, p->sub_link)->counters.drops[UB_DROP_NO_ROUTE], 1);
+
+    ub_udp_t c;
+    uint16_t port_c;
+    assert_int_equal(ub_udp_open(&c, "127.0.0.1", 0, "127.0.0.1", u->port_b), UB_OK);
+    assert_int_equal(ub_udp_local_port(&c, &port_c), UB_OK);
+    send_raw(ub_udp_fileno(&c), u->port_b, (const uint8_t *)"not a frame", 11);
+    run(u, 1, 3);
+    char host[16];
+    uint16_t port = 0;
+    assert_int_equal(ub_udp_peer_at(&u->b, 0, host, &port), UB_ERR_NOTFOUND); /* refused: not learned */
+
+    uint8_t f1[UB_FRAME_MAX], f2[UB_FRAME_MAX];
+    size_t n1 = frame_from_pub(f1, 1000), n2 = frame_from_pub(f2, 1001);
+    send_raw(ub_udp_fileno(&u->a), u->port_b, f1, n1); /* from a: accepted */
+    run(u, 3, 5);
+    assert_int_equal(ub_udp_peer_at(&u->b, 0, host, &port), UB_OK);
+    assert_int_equal(port, u->port_a);
+    assert_int_equal(u->b.stats.peers_learned, 1);
+    send_raw(ub_udp_fileno(&c), u->port_b, f1, n1); /* the same frame from c: a duplicate */
+    run(u, 5, 7);
+    assert_int_equal(ub_udp_peer_at(&u->b, 0, host, &port), UB_OK);
+    assert_int_equal(port, u->port_a);
+    send_raw(ub_udp_fileno(&c), u->port_b, f2, n2); /* a new frame from c: the peer moves */
+    run(u, 7, 9);
+    assert_int_equal(ub_udp_peer_at(&u->b, 0, host, &port), UB_OK);
+    assert_int_equal(port, port_c);
+    assert_int_equal(ub_udp_peer_at(&u->b, 1, host, &port), UB_ERR_NOTFOUND); /* one peer only */
+    assert_int_equal(ub_node_send_data(p->sub_node, p->sub, TEST_GPS, p->pub_id, 9), 1);
+    assert_int_equal(count_received(&c), 1);
+    assert_int_equal(u->b.stats.foreign, 0);
+    ub_udp_close(&c);
+    udp_pair_free(u);
+}
+
+/* accept=any: every sender of a genuine frame is a peer and gets every frame; an idle one is forgotten. */
+static void test_any_serves_several_peers(void **state) {
+    (void)state;
+    udp_pair_t *u = udp_pair_new();
+    pair_t *p = u->p;
+    ub_udp_close(&u->b);
+    assert_int_equal(ub_udp_open(&u->b, "127.0.0.1", u->port_b, NULL, 0), UB_OK); /* any, by default */
+    assert_int_equal(ub_udp_attach(&u->b, p->sub_node, p->sub_link), UB_OK);
+    ub_udp_t c;
+    assert_int_equal(ub_udp_open(&c, "127.0.0.1", 0, "127.0.0.1", u->port_b), UB_OK);
+    uint8_t f1[UB_FRAME_MAX];
+    size_t n1 = frame_from_pub(f1, 2000);
+    send_raw(ub_udp_fileno(&u->a), u->port_b, f1, n1);
+    send_raw(ub_udp_fileno(&c), u->port_b, f1, n1); /* a copy (duplicate): genuine, so c is a peer too */
+    run(u, 1, 3);
+    assert_int_equal(u->b.stats.peers_learned, 2);
+    uint64_t out_before = u->b.stats.datagrams_out;
+    assert_int_equal(ub_node_send_data(p->sub_node, p->sub, TEST_GPS, p->pub_id, 3), 1);
+    assert_int_equal(u->b.stats.datagrams_out, out_before + 2);
+    assert_int_equal(count_received(&c), 1);
+    /* a keeps talking (the pair's subscription would); c falls silent and is forgotten. */
+    uint8_t f2[UB_FRAME_MAX];
+    size_t n2 = frame_from_pub(f2, 2001);
+    run(u, 3, 4);
+    send_raw(ub_udp_fileno(&u->a), u->port_b, f2, n2);
+    assert_true(ub_udp_service(&u->b, p->sub_node, UB_UDP_PEER_IDLE_MS - 1) >= 0);
+    assert_true(ub_udp_service(&u->b, p->sub_node, UB_UDP_PEER_IDLE_MS + 2) >= 0);
+    char host[16];
+    uint16_t port = 0;
+    assert_int_equal(ub_udp_peer_at(&u->b, 0, host, &port), UB_OK);
+    assert_int_equal(port, u->port_a);
+    assert_int_equal(ub_udp_peer_at(&u->b, 1, host, &port), UB_ERR_NOTFOUND);
+    assert_int_equal(u->b.stats.peers_forgotten, 1);
+    ub_udp_close(&c);
+    udp_pair_free(u);
+}
+
+/* accept=peer (the default with a peer): a stranger's valid frame is refused, counted, and its address
+ * kept for the one-time report. */
+static void test_refused_sender_is_remembered(void **state) {
+    (void)state;
+    udp_pair_t *u = udp_pair_new();
+    ub_udp_t stranger;
+    uint16_t port_s;
+    assert_int_equal(ub_udp_open(&stranger, "127.0.0.1", 0, "127.0.0.1", u->port_b), UB_OK);
+    assert_int_equal(ub_udp_local_port(&stranger, &port_s), UB_OK);
+    uint8_t f[UB_FRAME_MAX];
+    size_t n = frame_from_pub(f, 3000);
+    send_raw(ub_udp_fileno(&stranger), u->port_b, f, n);
+    send_raw(ub_udp_fileno(&stranger), u->port_b, f, n);
+    run(u, 0, 3);
+    assert_int_equal(u->b.stats.foreign, 2);
+    assert_int_equal(ntohs(u->b.refused_from.sin_port), port_s);
+    assert_int_equal(u->b.stats.peers_learned, 0);
+    ub_udp_close(&stranger);
+    udp_pair_free(u);
+}
+
 static void test_argument_errors(void **state) {
     (void)state;
     ub_udp_t u;
     assert_int_equal(ub_udp_open(&u, "not an address", 0, "127.0.0.1", 1), UB_ERR_INVAL);
-    assert_int_equal(ub_udp_open(&u, "127.0.0.1", 0, NULL, 1), UB_ERR_INVAL);
+    assert_int_equal(ub_udp_open(&u, "127.0.0.1", 0, "127.0.0.1", 0), UB_ERR_INVAL); /* peer port 0 */
     assert_int_equal(ub_udp_fileno(&u), -1);
+    assert_int_equal(ub_udp_open(&u, "127.0.0.1", 0, NULL, 0), UB_OK); /* no peer: learns them */
+    assert_int_equal(u.accept, UB_UDP_ACCEPT_ANY);
+    assert_int_equal(ub_udp_set_accept(&u, UB_UDP_ACCEPT_PEER), UB_ERR_INVAL); /* no peer to keep to */
+    assert_int_equal(ub_udp_set_accept(&u, (ub_udp_accept_t)7), UB_ERR_INVAL);
+    char host[16];
+    uint16_t port;
+    assert_int_equal(ub_udp_peer_at(&u, 0, host, &port), UB_ERR_NOTFOUND);
+    ub_udp_close(&u);
     assert_int_equal(ub_udp_open(&u, "127.0.0.1", 0, "127.0.0.1", 1), UB_OK);
     assert_int_equal(ub_udp_service(&u, NULL, 0), UB_ERR_INVAL); /* not attached */
     ub_udp_close(&u);
@@ -189,6 +317,9 @@ int main(void) {
         cmocka_unit_test(test_bad_and_foreign_datagrams_are_counted),
         cmocka_unit_test(test_batching_coalesces_frames_into_few_datagrams),
         cmocka_unit_test(test_multi_frame_datagram_with_a_bad_frame),
+        cmocka_unit_test(test_learn_takes_the_sender_of_accepted_frames),
+        cmocka_unit_test(test_any_serves_several_peers),
+        cmocka_unit_test(test_refused_sender_is_remembered),
         cmocka_unit_test(test_argument_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

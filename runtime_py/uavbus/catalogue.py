@@ -207,6 +207,7 @@ class Catalogue:
     # -- lookup --------------------------------------------------------------------------------
     @property
     def types(self) -> tuple[Type, ...]:
+        """Every type, sorted by name."""
         return tuple(self._types[k] for k in sorted(self._types))
 
     def type(self, name: str) -> Type:
@@ -224,12 +225,14 @@ class Catalogue:
             raise KeyError(f"catalogue {self.name} has no instance {name!r}") from None
 
     def instance_by_id(self, dir_id: bytes) -> Instance:
+        """An instance by its 16-byte content ID (KeyError if unknown)."""
         try:
             return self._by_id[bytes(dir_id)]
         except KeyError:
             raise KeyError(f"catalogue {self.name} has no instance with ID {bytes(dir_id).hex()}") from None
 
     def find(self, name_or_id: str | bytes) -> Instance | None:
+        """An instance by name or 16-byte ID, or None."""
         if isinstance(name_or_id, (bytes, bytearray, memoryview)):
             return self._by_id.get(bytes(name_or_id))
         return self._by_name.get(name_or_id)
@@ -258,6 +261,7 @@ class Catalogue:
 
     @property
     def max_packed_size(self) -> int:
+        """The largest packed image of any type (bytes)."""
         return max((t.packed_size for t in self._types.values()), default=0)
 
     @property

@@ -12,6 +12,7 @@ drives the loop (poll/select on the ports' descriptors, then service + tick) and
 
 from __future__ import annotations
 
+import logging
 import os
 import select
 import time
@@ -23,11 +24,13 @@ from uavbus._bindings import (ub_admin, ub_log, ub_member, ub_memlink, ub_node, 
                               ub_route, ub_sec)
 from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, NotFoundError, UbError, ensure
 from uavbus._ub import ffi, lib
-from uavbus.catalogue import Catalogue, Instance
+from uavbus.catalogue import Catalogue, CatalogueError, Instance
 from uavbus.config import Config, load_config
 from uavbus.directory import Directory
+from uavbus.enums import catalogue_enums
 
 Clock = Callable[[], float]
+log = logging.getLogger("uavbus")
 INBOX_MAX = 10000  # messages kept for messages() when no on_data callback consumes them
 
 
@@ -56,20 +59,25 @@ class Message:
 
     @property
     def name(self) -> str:
+        """The content (instance) name, e.g. "gpsOut"."""
         return self.instance.name
 
     @property
     def source(self) -> str:
+        """The entity that sent it."""
         return ub_node.entity_name(self._src)
 
     @property
     def dest(self) -> str:
+        """The entity it was addressed to."""
         return ub_node.entity_name(self._dest)
 
     @property
     def value(self) -> dict[str, Any]:
+        """The delivered value as a nested dict (decoded from `raw` on first use; enum members as IntEnum)."""
         if self._value is None:
-            self._value = self.catalogue.decode(self.instance.type, self.raw)
+            t = self.instance.type
+            self._value = catalogue_enums(self.catalogue).apply(t, self.catalogue.decode(t, self.raw))
         return self._value
 
     def __repr__(self) -> str:
@@ -109,14 +117,33 @@ class Node:
 
     def __init__(self, catalogue: Catalogue | str | Path, config: str | Path | Config | None = None,
                  node: str | None = None,
-                 clock: Clock | None = None, *, hop_limit: int = 0, first_seq: int = 0,
+                 clock: Clock | None = None, *, hop_limit: int = 0, first_seq: int | None = None,
                  timing: dict[str, int] | None = None, random_seed: int | None = None) -> None:
+        """`catalogue`: a Catalogue or the path of a `.catalogue.json`. `config` (a path or a Config from
+        load_config) is applied through the C loader, hosting the entities of `node` (from its "nodes")
+        or of its "hosts"; a refused file raises ConfigError. `clock()` returns ms (default
+        CLOCK_MONOTONIC; an injected clock makes the node never sleep, for tests and simulations).
+        `first_seq`: the first sequence number this node sends (default: from the wall clock, so a
+        restarted process is not taken for duplicates of the one before); `hop_limit`, `timing`
+        (ub_pubsub timing, ms) and `random_seed` (seeded request ids, tests only) as in ub_node.h."""
         self.catalogue = catalogue if isinstance(catalogue, Catalogue) else Catalogue.load(catalogue)
+        enums = catalogue_enums(self.catalogue)
+        self._enums = enums if enums else None  # enum members read as IntEnum (catalogues that record them)
         self.name = node or "python"
         self._clock: Clock = clock or monotonic_ms
         self._real_clock = clock is None
+        try:
+            c_catalogue = self.catalogue.c_catalogue
+        except (TypeError, ValueError, AttributeError, OverflowError, KeyError) as exc:
+            raise CatalogueError(f"{self.catalogue.origin}: the C router cannot use this catalogue "
+                                 f"({type(exc).__name__}: {exc}); regenerate it with `uavbus gen`") from None
+        if first_seq is None:
+            # From the wall clock, not 1, as uavbus_node does: receivers keep a 64-frame duplicate window per
+            # source, and a restarted GCS (or a second tool hosting the same entity) whose numbers landed
+            # inside the previous one's window would have its first frames dropped as duplicates.
+            first_seq = (time.time_ns() // 1_000_000) & 0x7FFFFFFF or 1
         # Request ids come from the OS (ub_random_os); random_seed: the seeded, guessable ids of tests.
-        self._c = ub_node.ub_node_new(self.catalogue.c_catalogue, hop_limit, first_seq, timing, random_seed)
+        self._c = ub_node.ub_node_new(c_catalogue, hop_limit, first_seq, timing, random_seed)
         self._sink = _Sink(self)
         self._handle = ffi.new_handle(self._sink)
         ub_node.set_deliver_sink(self._c, self._handle)
@@ -138,6 +165,7 @@ class Node:
         self._log: Any = None
         self._log_fd = -1
         self._closed = False
+        self.notices: list[str] = []  # one-time notices of the ports (also logged to the "uavbus" logger)
         self.config: Config | None = None
         self._sec: Any = None        # ub_sec_t of the config's "security" section (kept alive with the node)
         self._counter: Any = None
@@ -157,6 +185,7 @@ class Node:
 
     # -- time ----------------------------------------------------------------------------------
     def now(self) -> int:
+        """The node's clock in ms (the injected clock, or CLOCK_MONOTONIC)."""
         return int(self._clock())
 
     # -- tables --------------------------------------------------------------------------------
@@ -165,6 +194,7 @@ class Node:
         return ub_node.ub_node_add_entity_name(self._c, name, local)
 
     def add_link(self, entity: str, index: int, name: str) -> int:
+        """Creates link[`index`] of local `entity`, named `name` (detached); returns its link id."""
         return ub_node.ub_node_add_link(self._c, self.entity_index(entity), index, name)
 
     def set_mask(self, entity: str, dest: str, mask: int | str) -> None:
@@ -201,9 +231,11 @@ class Node:
         return ub_node.ub_node_mask_pinned(self._c, self.entity_index(entity), self.entity_index(dest))
 
     def entity_index(self, name: str) -> int:
+        """The entity-table index of `name` (NotFoundError if unknown)."""
         return ub_node.ub_node_find_entity(self._c, name)
 
     def link_id(self, name: str) -> int:
+        """The link id of link `name` (NotFoundError if unknown)."""
         return ub_node.ub_node_find_link(self._c, name)
 
     def entities(self) -> list[dict[str, Any]]:
@@ -212,6 +244,7 @@ class Node:
 
     @property
     def local_entities(self) -> list[str]:
+        """Names of the entities this node hosts."""
         return [e["name"] for e in self.entities() if e["local"]]
 
     # -- directories ---------------------------------------------------------------------------
@@ -222,11 +255,12 @@ class Node:
         if d is None:
             storage = ffi.new("uint8_t[]", max(inst.type.packed_size, 1))
             ub_node.ub_node_bind(self._c, inst.index, storage)
-            d = Directory(inst.type, storage, 0, inst)
+            d = Directory(inst.type, storage, 0, inst, self._enums)
             self._dirs[inst.index] = d
         return d
 
     def directory(self, content: str) -> Directory | None:
+        """The bound Directory of `content`, or None if it is not bound."""
         return self._dirs.get(self.catalogue.instance(content).index)
 
     # -- publish / subscribe -------------------------------------------------------------------
@@ -244,6 +278,7 @@ class Node:
                                              self.now())
 
     def stop(self, entity: str, row: int) -> None:
+        """Stops row `row` of local `entity`'s publish/subscribe table (sends the STOP)."""
         ub_pubsub.ub_pubsub_stop(self._c, self.entity_index(entity), row, self.now())
 
     def send(self, entity: str, content: str, to: str) -> int:
@@ -269,6 +304,7 @@ class Node:
         return Publisher(self, directory, self.entity_index(entity), inst.index, dest, local)
 
     def pubsub_rows(self, entity: str) -> list[dict[str, Any]]:
+        """The publish/subscribe table of local `entity` (paper Figure 4), one dict per row."""
         rows = []
         for k, r in ub_pubsub.ub_pubsub_rows(self._c, self.entity_index(entity)):
             r["row"] = k
@@ -293,6 +329,7 @@ class Node:
 
     @property
     def routing(self) -> bool:
+        """True while the routing engine runs (enable_routing())."""
         return self._route is not None
 
     def routes(self, entity: str | None = None) -> dict[str, dict[str, Any]]:
@@ -319,6 +356,7 @@ class Node:
                 for lid, _ in ub_node.ub_node_links(self._c)}
 
     def route_counters(self) -> dict[str, int]:
+        """The routing engine's counters (frames, updates, route changes...)."""
         if self._route is None:
             raise InvalidArgumentError("routing is not enabled on this node (enable_routing())")
         return ub_route.ub_route_counters(self._route)
@@ -421,6 +459,9 @@ class Node:
         now = self.now() if now_ms is None else now_ms
         if self._ports is not None:
             ub_ports.ub_ports_service(self._ports, now)
+            for text in ub_ports.ub_ports_notices(self._ports):  # each reported once, e.g. a refused sender
+                self.notices.append(text)
+                log.warning("%s: %s", self.name, text)
         for m in self._memlinks:
             ub_memlink.ub_memlink_pump(m._c, now)
         ub_node.ub_node_tick(self._c, now)
@@ -482,12 +523,15 @@ class Node:
         return ub_ports.ub_ports_open_config(self._ports_obj(), self.config.c_config, self.now())
 
     def close_port(self, link: str) -> None:
+        """Closes the transport of `link` (the link stays, detached)."""
         ub_ports.ub_ports_close(self._ports_obj(), link)
 
     def local_port(self, link: str) -> int:
+        """The local UDP/TCP port number `link`'s transport is bound to (e.g. after bind=...:0)."""
         return ub_ports.ub_ports_local_port(self._ports_obj(), link)
 
     def port_info(self, link: str) -> dict[str, Any] | None:
+        """The spec, counters (UDP: peers, foreign, no_peer...) and impairment of `link`'s port, or None."""
         return None if self._ports is None else ub_ports.ub_ports_describe(self._ports, link)
 
     def set_impairment(self, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0, delay: int = 0,
@@ -516,6 +560,7 @@ class Node:
             ub_log.ub_log_install(self._c, self._log)
 
     def stop_recording(self) -> dict[str, int] | None:
+        """Ends record(); returns the writer's counters (None if not recording)."""
         if self._log is None:
             return None
         if not self._frame_callbacks:
@@ -651,12 +696,15 @@ class Admin:
         return ub_admin.ub_admin_add_row(self._c, inst.index, source, destination, period_ms, kind)
 
     def activate(self, row: int) -> None:
+        """Activates `row`: the request goes out (then pending -> acknowledged -> active)."""
         ub_admin.ub_admin_set_active(self._c, row, True, self.node.now())
 
     def deactivate(self, row: int) -> None:
+        """Deactivates `row`: the STOP goes out; the row stays, inactive."""
         ub_admin.ub_admin_set_active(self._c, row, False, self.node.now())
 
     def remove(self, row: int) -> None:
+        """Removes an inactive `row` from the table."""
         ub_admin.ub_admin_remove_row(self._c, row)
 
     def status(self, row: int) -> dict[str, Any]:
@@ -667,6 +715,7 @@ class Admin:
         return s
 
     def rows(self) -> list[dict[str, Any]]:
+        """Every row's status (see status())."""
         out = []
         for k in range(ub_admin.MAX_ADMIN_ROWS):
             try:
@@ -738,9 +787,11 @@ class MemLink:
         return (self.a is node and self._link_a == link_id) or (self.b is node and self._link_b == link_id)
 
     def set_faults(self, faults: dict[str, int] | None) -> None:
+        """Changes the seeded faults (None: none) for the frames sent from now on."""
         ub_memlink.ub_memlink_set_faults(self._c, faults)
 
     def pending(self) -> int:
+        """Frames queued in the link, not delivered yet."""
         return ub_memlink.ub_memlink_pending(self._c)
 
     def pump(self, now_ms: int) -> int:

@@ -27,15 +27,9 @@ cmake_minimum_required(VERSION 3.20)
 project(regen_probe C)
 set(CMAKE_C_STANDARD 11)
 add_compile_options(-Wall -Wextra -Werror)
-list(APPEND CMAKE_MODULE_PATH "{repo}/cmake")
 
-# The runtime library without its tests: uavbus_generate() links generated code to `ub`.
-file(GLOB UB_SOURCES "{repo}/runtime_c/src/*.c")
-add_library(ub STATIC ${{UB_SOURCES}})
-target_include_directories(ub PUBLIC "{repo}/runtime_c/include")
-target_compile_definitions(ub PUBLIC _POSIX_C_SOURCE=200809L)
-
-include(uavbus)
+# uavbus as a subproject: the runtime library uavbus::ub and uavbus_generate(), no tests (docs/cmake.md).
+add_subdirectory("{repo}" uavbus)
 uavbus_generate(TARGET probe_codecs NAME probe HEADERS include/rotor.h INCLUDE_DIRS include)
 add_executable(probe main.c)
 target_link_libraries(probe PRIVATE probe_codecs)

@@ -154,10 +154,14 @@ def test_metrics_rate_percentiles_gap_and_table() -> None:
     assert start == pytest.approx(1.0) and length == pytest.approx(1.02)
     assert percentile([1, 2, 3, 4], 50) == 2.5 and percentile([], 50) is None
     row = SummaryRow.from_meter(m, hops=2, requested_hz=50, t0=0.0, t1=1.0,
-                                dropped={"gcsPortDatalink1": {"crc": 3}})
-    assert row.rate_ok() and row.delivered == 101 and row.latency_p50_ms == 4.0
+                                dropped={"gcsPortDatalink1": {"crc": 3, "duplicate": 40}, "relay": {"duplicate": 2}},
+                                transport_ms=[0.5, 1.5, 2.5], redundant=["gcsPortDatalink1"])
+    assert row.rate_ok() and row.delivered == 101 and row.age_p50_ms == 4.0 and row.transport_p50_ms == 1.5
+    # Copies on the redundant pair are expected; a duplicate anywhere else is reported with the losses.
+    assert row.duplicates == {"gcsPortDatalink1": 40}
+    assert row.dropped == {"gcsPortDatalink1": {"crc": 3}, "relay": {"duplicate": 2}}
     text = render_table([row])
-    assert "fcs20 -> gcs1" in text and "gcsPortDatalink1:crc=3" in text
+    assert "fcs20 -> gcs1" in text and "gcsPortDatalink1:crc=3" in text and "1.5 / 2.5" in text
 
 
 def test_table2_hops() -> None:

@@ -13,10 +13,8 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from logwriter import write_log  # noqa: E402
-from tools_testutil import ROOT  # noqa: E402
+from tools_testutil import ROOT, gps_value, imu_value, make_frame  # noqa: E402,F401 (fixtures use them)
 
-from uavbus._bindings.ub_catalogue import ub_entity_id  # noqa: E402
-from uavbus._bindings.ub_frame import FrameHeader, ub_frame_finish  # noqa: E402
 from uavbus.catalogue import Catalogue  # noqa: E402
 
 
@@ -33,32 +31,6 @@ def catalogue_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="session")
 def cat(catalogue_path: Path) -> Catalogue:
     return Catalogue.load(catalogue_path)
-
-
-def gps_value(cat: Catalogue, k: int) -> dict[str, Any]:
-    v = cat.default("gpsOut")
-    v["latitudeDeg"] = 33.7 + k * 1e-5
-    v["longitudeDeg"] = -84.4 - k * 0.25
-    v["satellitesUsed"] = k % 12
-    v["solutionCount"] = k
-    return v
-
-
-def imu_value(cat: Catalogue, k: int) -> dict[str, Any]:
-    v = cat.default("imuOut")
-    v["p"] = 0.01 * k
-    v["sampleCount"] = k
-    v["temperatureC"] = 20.0 + k * 0.5
-    return v
-
-
-def make_frame(cat: Catalogue, name: str, value: dict[str, Any], src: str, dest: str, seq: int,
-               admin: int = 0) -> bytes:
-    inst = cat.instance(name)
-    payload = cat.encode(inst, value) if admin == 0 else bytes(8)
-    return ub_frame_finish(FrameHeader(dir_id=inst.id, dest_id=ub_entity_id(dest), src_id=ub_entity_id(src),
-                                       admin=admin, seq=seq, fingerprint=inst.type.fingerprint if admin == 0 else 0),
-                           payload)
 
 
 @pytest.fixture

@@ -24,9 +24,9 @@ def test_spy_on_log(sample_log) -> None:
     assert lines[0] == "-- 2 directories seen --"
     gps = next(x for x in lines if x.startswith("gpsOut"))
     imu = next(x for x in lines if x.startswith("imuOut"))
-    assert gps.split()[:5] == ["gpsOut", "rmax1ob1", "20", "10.00", "20"]
+    assert gps.split()[:6] == ["gpsOut", "rmax1ob1", "20", "0", "10.00", "20"]  # msgs, dups, Hz, seq
     assert "latitudeDeg=33.7002 longitudeDeg=-89.15" in gps
-    assert imu.split()[:4] == ["imuOut", "fcs20", "100", "50.00"]
+    assert imu.split()[:5] == ["imuOut", "fcs20", "100", "0", "50.00"]
 
 
 def test_echo_on_log_gives_decoded_values(sample_log) -> None:
@@ -49,7 +49,8 @@ def test_hz_on_log(sample_log) -> None:
     path, _, _ = sample_log()
     out = io.StringIO()
     assert live.hz_main(["imuOut", "--log", str(path), "--window", "10"], out=out) == 0
-    assert out.getvalue().strip() == "imuOut from fcs20: 50.00 Hz over 10 frames, gap min 20 ms max 20 ms (100 in all)"
+    assert out.getvalue().strip() == ("imuOut from fcs20: 50.00 Hz over 10 messages, gap min 20 ms max 20 ms "
+                                      "(100 messages in all; no duplicates)")
 
 
 def test_echo_follows_a_growing_log(sample_log, tmp_path: Path) -> None:

@@ -31,7 +31,8 @@ def test_info_console_script(sample_log) -> None:
     assert "catalogue:  flightsw" in text
     assert "0=gcsPortDatalink1, 1=gcsPortDatalink2" in text
     assert "records:    121" in text
-    assert "time span:  1000 .. 5000 ms (4.000 s)" in text
+    assert ("time span:  1000 .. 5000 ms (4.000 s): 2023-11-14 22:13:20.000 UTC .. 2023-11-14 22:13:24.000 UTC"
+            ) in text
     assert "gcsPortDatalink1         rx  20" in text and "gcsPortDatalink2         rx  100" in text
     assert "gcsPortDatalink1         tx  1" in text
     # gpsOut: 20 frames at 100 ms = 10 Hz; imuOut: 100 frames, 50 Hz on average.

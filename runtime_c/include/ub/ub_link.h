@@ -95,7 +95,9 @@ typedef struct ub_link_ops {
      * Sends one whole frame (`len` bytes, already verified and finished).
      * Must not call back into the node synchronously (queue instead).
      * @return UB_OK; UB_ERR_AGAIN when the transport cannot take it now
-     *         (counted as backpressure); any other negative code on failure
+     *         (counted as backpressure); UB_ERR_NOROUTE when it has nowhere to
+     *         send yet, e.g. a UDP link still waiting to learn its peer
+     *         (counted as no_route); any other negative code on failure
      *         (counted as tx_error).
      */
     int (*send)(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms);

@@ -416,6 +416,32 @@ UB_CHECK int ub_node_rx_stream(ub_node_t *node, int link_id, ub_decoder_t *dec, 
 UB_CHECK int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms);
 
 /**
+ * What the router made of one received frame: the node's verdict, for transports that act on who
+ * sent it (a UDP link learning its peer from the first frame the node accepted, ub_udp.h). It says
+ * whether the frame passed the checks that establish that it is genuine and new; what happens after
+ * (delivered, forwarded, or dropped for routing or content: no_route, unbound, ...) does not change it.
+ */
+typedef enum ub_rx_verdict {
+    /** Not a frame (bad sync, CRC, length...), or refused by a check on its origin: with security on,
+     *  unsigned where signing is required, bad tag, unknown key, replay, unverified. */
+    UB_VERDICT_REFUSED = 0,
+    /** A genuine frame the node had handled already: the copy over a redundant link (a 0x11 mask),
+     *  or a replay of an earlier frame. */
+    UB_VERDICT_DUPLICATE = 1,
+    /** Genuine and new: passed verification, every security check and the duplicate window. */
+    UB_VERDICT_ACCEPTED = 2
+} ub_rx_verdict_t;
+
+/**
+ * ub_node_rx_frame() that also reports the verdict on the frame (always set, also on error).
+ * The node-level hook for peer learning: a transport that can tell senders apart (UDP) learns a
+ * sender only from frames the node accepted, so security decides who becomes a peer, not the transport.
+ * @return as ub_node_rx_frame().
+ */
+UB_CHECK int ub_node_rx_frame_verdict(ub_node_t *node, int link_id, const uint8_t *frame, size_t len,
+                                      uint64_t now_ms, ub_rx_verdict_t *verdict);
+
+/**
  * Originates DATA: packs the storage bound to `instance` and sends it from
  * local entity `entity` to `dest_id`.
  * @return the number of links whose transport accepted the frame (0 when

@@ -11,7 +11,7 @@
  *
  * | transport | parameters |
  * |---|---|
- * | `udp`    | `bind=HOST:PORT` (PORT 0 = any free port), `peer=HOST:PORT` (both required) |
+ * | `udp`    | `bind=HOST:PORT` (PORT 0 = any free port); `peer=HOST:PORT`; `accept=peer|learn|any` (ub_udp.h; default `peer` with a peer, else `any`) |
  * | `tcp`    | `listen=HOST:PORT` (server; PORT 0 = any) or `connect=HOST:PORT` (client) |
  * | `serial` | `device=PATH`, optional `baud=` one of ub_serial's rates (default 115200) |
  * | `mem`    | none: the program attaches a ub_memlink itself; ub_ports skips it |
@@ -94,7 +94,8 @@ typedef struct ub_port_spec {
     char host[UB_PORT_HOST_LEN];      /**< udp bind / tcp listen / tcp connect address (dotted) */
     uint16_t port;                    /**< its port */
     char peer_host[UB_PORT_HOST_LEN]; /**< udp peer address (dotted) */
-    uint16_t peer_port;
+    uint16_t peer_port;               /**< 0: no configured peer (udp learns its peers) */
+    uint8_t accept;                   /**< udp: ub_udp_accept_t */
     char device[UB_PORT_DEVICE_LEN];  /**< serial device */
     uint32_t baud;                    /**< serial rate */
 } ub_port_spec_t;
@@ -150,6 +151,7 @@ typedef struct ub_port {
     ub_port_spec_t spec;      /**< the spec now in force */
     uint32_t rebinds;         /**< successful software switches */
     uint64_t service_errors;  /**< driver service calls that failed (e.g. serial device gone) */
+    uint8_t refusal_reported; /**< ub_ports_notice() has reported this port's refused datagrams */
     ub_port_driver_t drv[2];
     ub_impair_t impair;
     uint8_t own_impair;       /**< this port's own impairment overrides the node-wide one */
@@ -229,6 +231,18 @@ int ub_ports_poll_timeout(const ub_ports_t *ports, uint64_t now_ms, int max_ms);
  *         TCP client or serial port has no local port); UB_ERR_IO.
  */
 UB_CHECK int ub_ports_local_port(const ub_ports_t *ports, const char *link_name, uint16_t *port);
+
+/**
+ * The next one-time notice a program should show its user (log or stderr), e.g. the first datagram a
+ * UDP port refused because it came from an address that is not its peer. Each such condition is
+ * reported once per port (counters keep counting).
+ * @return 1 with the message in `out`; 0 when there is nothing (left) to report; UB_ERR_INVAL.
+ */
+int ub_ports_notice(ub_ports_t *ports, char *out, size_t cap);
+
+/** @return the UDP driver now behind `link_name` (its stats and peers, ub_udp.h), or NULL if that
+ *  link has no open UDP port. */
+const ub_udp_t *ub_ports_udp(const ub_ports_t *ports, const char *link_name);
 
 /** @return the open port of `link_name`, or NULL. */
 const ub_port_t *ub_ports_find(const ub_ports_t *ports, const char *link_name);

@@ -8,10 +8,29 @@
  * frame's msg_size says where the next one starts. ub_udp_service() reads
  * every datagram waiting (recvmmsg(), UB_UDP_RX_SLOTS per system call, up to
  * UB_UDP_RX_BUDGET per call, so one busy link cannot starve an event loop)
- * and hands each frame to the node with ub_node_rx_frame(); a frame that fails
- * verification is counted there by reason (ub_link_counters_t.bad_datagrams).
- * Datagrams from any address other than the peer are not handed on; they are
- * counted as `foreign`.
+ * and hands each frame to the node with ub_node_rx_frame_verdict(); a frame that
+ * fails verification is counted there by reason (ub_link_counters_t.bad_datagrams).
+ *
+ * Peers: who the link sends to and accepts from (ub_udp_set_accept()):
+ *  - UB_UDP_ACCEPT_PEER (the default with a peer address): the configured peer
+ *    only. Datagrams from any other address are not handed on; they are
+ *    counted as `foreign`, and the first sender is kept (`refused_from`) so the
+ *    program can report it once (ub_ports_notice()).
+ *  - UB_UDP_ACCEPT_LEARN: one peer, learned: the sender of the last frame the
+ *    node *accepted* (UB_VERDICT_ACCEPTED: genuine, new, and with security on,
+ *    verified), starting from the configured peer if any. A duplicate may teach
+ *    the first peer but never replaces one. For a vehicle that does not know
+ *    where its ground station will be (an ephemeral port, DHCP).
+ *  - UB_UDP_ACCEPT_ANY (the default without a peer address): up to
+ *    UB_UDP_MAX_PEERS peers, the configured one (never forgotten) plus every
+ *    sender of a genuine frame (accepted or duplicate); every frame is sent to
+ *    each of them. A learned peer silent for UB_UDP_PEER_IDLE_MS is forgotten,
+ *    and when the table is full the one heard least recently makes room. For a
+ *    GCS plus a second monitor, or `uavbus log play` into a running node.
+ * Learning rests on the node's verdict, not on the transport: a datagram the
+ * node refuses (not a frame, or unsigned/forged/replayed with security on)
+ * never makes its sender a peer. With no peer yet, a send is refused with
+ * UB_ERR_NOROUTE (counted `no_peer` here, `no_route` by the node).
  *
  * Batching (off by default, so every send is one datagram at once): sends are
  * packed into up to UB_UDP_TX_SLOTS datagrams and written with one sendmmsg()
@@ -71,6 +90,32 @@ extern "C" {
 #if UB_UDP_RX_SLOTS < 1 || UB_UDP_TX_SLOTS < 1
 #error "UB_UDP_RX_SLOTS and UB_UDP_TX_SLOTS must be at least 1"
 #endif
+/** Peers one link sends to at most (UB_UDP_ACCEPT_ANY). */
+#ifndef UB_UDP_MAX_PEERS
+#define UB_UDP_MAX_PEERS 4
+#endif
+/** A learned peer silent this long is forgotten (UB_UDP_ACCEPT_ANY); a subscriber renews every second. */
+#ifndef UB_UDP_PEER_IDLE_MS
+#define UB_UDP_PEER_IDLE_MS 10000
+#endif
+#if UB_UDP_MAX_PEERS < 1 || UB_UDP_MAX_PEERS > 255
+#error "UB_UDP_MAX_PEERS must be 1..255"
+#endif
+
+/** Whom a UDP link accepts datagrams from and sends to (see the file comment). */
+typedef enum ub_udp_accept {
+    UB_UDP_ACCEPT_PEER = 0, /**< the configured peer only */
+    UB_UDP_ACCEPT_LEARN,    /**< one peer: the sender of the last accepted frame */
+    UB_UDP_ACCEPT_ANY       /**< up to UB_UDP_MAX_PEERS: every sender of a genuine frame */
+} ub_udp_accept_t;
+
+/** One peer of a link. */
+typedef struct ub_udp_peer {
+    struct sockaddr_in addr;
+    uint64_t last_heard_ms; /**< last genuine frame from it (0: configured, never heard) */
+    uint8_t in_use;
+    uint8_t configured;     /**< given by the spec (ub_udp_open()/ub_udp_set_peer()), not learned */
+} ub_udp_peer_t;
 
 typedef struct ub_node ub_node_t;
 
@@ -87,12 +132,18 @@ typedef struct ub_udp_stats {
     uint64_t rx_calls;      /**< receive system calls that returned data */
     uint64_t tx_calls;      /**< send system calls that sent something */
     uint64_t tx_discarded;  /**< queued frames thrown away because their datagram's send failed (send_errors) */
+    uint64_t peers_learned; /**< senders that became a peer (or replaced one) */
+    uint64_t peers_forgotten; /**< learned peers dropped: idle, or making room in a full table */
+    uint64_t no_peer;       /**< frames not sent because no peer is known yet (UB_ERR_NOROUTE) */
+    uint64_t copy_errors;   /**< copies to the second and further peers that the socket refused */
 } ub_udp_stats_t;
 
 /** A UDP link. Caller-owned; treat the fields as private. */
 typedef struct ub_udp {
     int fd;
-    struct sockaddr_in peer;
+    uint8_t accept;                          /* ub_udp_accept_t */
+    ub_udp_peer_t peers[UB_UDP_MAX_PEERS];   /* sends go to each, in this order; [0] first when configured */
+    struct sockaddr_in refused_from;         /* the first sender refused as foreign (refused_from.sin_port != 0) */
     ub_node_t *node;
     int link_id;
     ub_udp_stats_t stats;
@@ -110,14 +161,26 @@ extern const ub_link_ops_t ub_udp_ops;
 /**
  * Opens a non-blocking UDP socket bound to `bind_addr`:`bind_port` (dotted
  * IPv4; port 0 = any free port, see ub_udp_local_port()) that sends to
- * `peer_addr`:`peer_port`.
- * @return UB_OK; UB_ERR_INVAL (NULL, unparsable address); UB_ERR_IO (socket or bind failed, errno set).
+ * `peer_addr`:`peer_port` and accepts only that peer (UB_UDP_ACCEPT_PEER);
+ * with `peer_addr` NULL, it starts with no peer and accepts any sender of a
+ * genuine frame (UB_UDP_ACCEPT_ANY).
+ * @return UB_OK; UB_ERR_INVAL (NULL, unparsable address, peer port 0); UB_ERR_IO (socket or bind failed, errno set).
  */
 UB_CHECK int ub_udp_open(ub_udp_t *udp, const char *bind_addr, uint16_t bind_port, const char *peer_addr,
                          uint16_t peer_port);
 
-/** Changes the peer (e.g. once the other side's ephemeral port is known). @return UB_OK or UB_ERR_INVAL. */
+/** Replaces the configured peer (e.g. once the other side's ephemeral port is known); learned peers
+ *  stay. @return UB_OK or UB_ERR_INVAL. */
 UB_CHECK int ub_udp_set_peer(ub_udp_t *udp, const char *peer_addr, uint16_t peer_port);
+
+/** Sets whom the link accepts and sends to (see the file comment). @return UB_OK or UB_ERR_INVAL. */
+UB_CHECK int ub_udp_set_accept(ub_udp_t *udp, ub_udp_accept_t accept);
+
+/**
+ * Peer `i` (0-based, in sending order) as a dotted host and port.
+ * @return UB_OK; UB_ERR_NOTFOUND when there is no peer `i`; UB_ERR_INVAL.
+ */
+UB_CHECK int ub_udp_peer_at(const ub_udp_t *udp, int i, char host[16], uint16_t *port);
 
 /** Reads the locally bound port into `port`. @return UB_OK, UB_ERR_INVAL or UB_ERR_IO. */
 UB_CHECK int ub_udp_local_port(const ub_udp_t *udp, uint16_t *port);
@@ -130,9 +193,10 @@ UB_CHECK int ub_udp_local_port(const ub_udp_t *udp, uint16_t *port);
 UB_CHECK int ub_udp_attach(ub_udp_t *udp, ub_node_t *node, int link_id);
 
 /**
- * Flushes queued datagrams (batching), then reads the waiting datagrams (at
- * most UB_UDP_RX_BUDGET) and hands the frames of those from the peer to `node`
- * on the attached slot.
+ * Flushes queued datagrams (batching), forgets idle learned peers, then reads
+ * the waiting datagrams (at most UB_UDP_RX_BUDGET), hands the frames of those
+ * it accepts (see Peers above) to `node` on the attached slot, and learns
+ * peers from the node's verdicts.
  * @return the number of datagrams handed to the node (valid or not);
  *         UB_ERR_INVAL (not open, or not attached to `node`); UB_ERR_IO (read error).
  */

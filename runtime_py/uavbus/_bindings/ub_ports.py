@@ -77,10 +77,37 @@ def ub_ports_describe(ports: Any, link: str) -> dict[str, Any] | None:
                            "transport": ffi.string(lib.ub_port_kind_transport(p.spec.kind)).decode("ascii"),
                            "rebinds": int(p.rebinds), "service_errors": int(p.service_errors),
                            "impaired": bool(p.impaired)}
+    udp = lib.ub_ports_udp(ports, _c_name(link))
+    if udp != ffi.NULL:
+        out["udp"] = udp_info(udp)
     if p.impaired:
         s = lib.ub_impair_stats(ffi.addressof(p.impair))
         out["impair"] = {k: int(getattr(s, k)) for k in ("offered", "lost", "duplicated", "reordered", "delayed",
                                                         "queue_full", "passed", "inner_again", "inner_errors")}
+    return out
+
+
+UDP_STATS = ("datagrams_in", "rejected", "foreign", "datagrams_out", "again", "send_errors", "frames_in",
+             "frames_out", "peers_learned", "peers_forgotten", "no_peer", "copy_errors")
+ACCEPT_NAMES = ("peer", "learn", "any")
+
+
+def udp_info(udp: Any) -> dict[str, Any]:
+    """A UDP driver's counters, its accept mode and its peers ("HOST:PORT", in sending order)."""
+    out: dict[str, Any] = {k: int(getattr(udp.stats, k)) for k in UDP_STATS}
+    out["accept"] = ACCEPT_NAMES[udp.accept] if udp.accept < len(ACCEPT_NAMES) else str(udp.accept)
+    host, port, peers = ffi.new("char[16]"), ffi.new("uint16_t *"), []
+    while lib.ub_udp_peer_at(udp, len(peers), host, port) == 0:
+        peers.append(f"{ffi.string(host).decode('ascii')}:{port[0]}")
+    out["peers"] = peers
+    return out
+
+
+def ub_ports_notices(ports: Any) -> list[str]:
+    """The one-time notices the ports have for the user (e.g. the first refused UDP sender)."""
+    out, text = [], ffi.new("char[]", 512)
+    while lib.ub_ports_notice(ports, text, 512) > 0:
+        out.append(ffi.string(text).decode("utf-8", "replace"))
     return out
 
 

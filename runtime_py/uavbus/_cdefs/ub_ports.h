@@ -14,6 +14,7 @@ typedef struct ub_port_spec {
     uint16_t port;
     char peer_host[...];
     uint16_t peer_port;
+    uint8_t accept;
     char device[...];
     uint32_t baud;
     ...;
@@ -53,3 +54,4 @@ const ub_port_t *ub_ports_find(const ub_ports_t *ports, const char *link_name);
 int ub_ports_set_impairment(ub_ports_t *ports, const ub_impair_params_t *params, uint64_t seed);
 int ub_ports_set_link_impairment(ub_ports_t *ports, const char *link_name, const ub_impair_params_t *params,
                                  uint64_t seed);
+int ub_ports_notice(ub_ports_t *ports, char *out, size_t cap);

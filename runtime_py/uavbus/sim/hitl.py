@@ -67,6 +67,8 @@ class HitlOptions:
     record: Path | None = None                # GCS binary log (received frames)
     stats_ms: int = 500
     node_args: dict[str, list[str]] = field(default_factory=dict)   # extra args per C node
+    node_logs: Path | None = None             # each C node records what it receives and sends: <dir>/<node>.ublog
+                                              # (a restart keeps the earlier run's as <node>.run<N>.ublog)
     gcs_links: tuple[str, ...] | None = None  # open only these GCS links (None = both)
     gcs_binds: tuple[str, ...] = ("gpsOut", "imuOut", "navFilterState")   # storage for what gcs1 receives
     start_gcs: bool = True
@@ -138,7 +140,18 @@ class Hitl:
                 "--stats-ms", str(self.opts.stats_ms), *self.topo.port_args(name)]
         if self.opts.impair:
             argv += ["--impair", self.opts.impair]
+        if self.opts.node_logs is not None:
+            Path(self.opts.node_logs).mkdir(parents=True, exist_ok=True)
+            argv += ["--record", str(Path(self.opts.node_logs) / f"{name}.ublog"), "--record-tx"]
         return argv + list(self.opts.node_args.get(name, []))
+
+    def node_logs(self, name: str) -> list[Path]:
+        """The logs C node `name` wrote, oldest run first (with HitlOptions.node_logs)."""
+        if self.opts.node_logs is None:
+            return []
+        d = Path(self.opts.node_logs)
+        runs = sorted(d.glob(f"{name}.run*.ublog"), key=lambda p: int(p.stem.rsplit(".run", 1)[1]))
+        return [*runs, *([d / f"{name}.ublog"] if (d / f"{name}.ublog").exists() else [])]
 
     def _start_gcs(self) -> None:
         from uavbus import Catalogue, Node   # room B's binding; imported late so the harness works without it
@@ -258,6 +271,10 @@ class Hitl:
         for c in self.topo.connections:   # a rebooted computer's UART holds nothing from before
             if c.modem is not None:
                 c.modem.flush("".join(side for side, end in (("a", c.a), ("b", c.b)) if end[0] == name))
+        if self.opts.node_logs is not None:  # the new run must not overwrite the log of the one before
+            current = Path(self.opts.node_logs) / f"{name}.ublog"
+            if current.exists():
+                current.rename(current.with_name(f"{name}.run{proc.starts}.ublog"))
         proc.start()
         run = proc.starts
         return self.child_event(name, lambda e: e.get("event") == "ready" and e.get("_run") == run,

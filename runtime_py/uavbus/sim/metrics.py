@@ -1,9 +1,15 @@
 """Rates, latencies and the demo's summary table (demo-out/summary.json).
 
 A `StreamMeter` collects, for one data stream (content, source -> destination), the receive time and the
-latency of every DATA that arrived. Latency is `now - stamp` on one clock: the C node writes
-CLOCK_MONOTONIC (ms) into the directory's timeTag `time` when it updates it, and the receiver compares with
-`time.monotonic()` -- the same clock on one machine (Linux: both are CLOCK_MONOTONIC).
+**data age** of every DATA that arrived: `now - stamp` on one clock, where the C node writes
+CLOCK_MONOTONIC into the directory's timeTag `time` when it updates the value, and the receiver compares
+with `time.monotonic()` -- the same clock on one machine (Linux: both are CLOCK_MONOTONIC). Data age is
+transport latency plus how stale the value already was when it was sent (up to one update period).
+**Transport latency** -- from the source node's send of that very frame to its arrival -- comes from
+matching (source, sequence) between the source's transmit log and the receiver (`transport_latencies`).
+
+Drops are split in two: **duplicates** on the links of a redundant pair (a 0x11 mask sends every frame on
+both links, so every second copy is dropped as `duplicate`: expected) and everything else (losses).
 
 The achieved rate and the latency percentiles are measured over a window in which the stream is expected to flow (e.g. after the
 subscription became active and before a planned outage), as (messages - 1) / (last - first): it does
@@ -19,7 +25,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-__all__ = ["StreamMeter", "SummaryRow", "percentile", "render_table", "write_summary", "largest_gap"]
+__all__ = ["StreamMeter", "SummaryRow", "percentile", "render_table", "write_summary", "largest_gap",
+           "split_duplicates", "transport_latencies"]
 
 
 def percentile(values: Iterable[float], q: float) -> float | None:
@@ -78,6 +85,33 @@ class StreamMeter:
                 if (t0 is None or t >= t0) and (t1 is None or t <= t1)]
 
 
+def transport_latencies(received: Iterable[tuple[str, int, float]], sent: dict[tuple[str, int], float],
+                        ) -> list[float]:
+    """Transport latency (ms) of each received (source, seq, receive time in ms) whose send time the
+    source's transmit log holds (`sent`: (source, seq) -> first transmit time in ms)."""
+    out = []
+    for source, seq, t_rx in received:
+        t_tx = sent.get((source, seq))
+        if t_tx is not None:
+            out.append(t_rx - t_tx)
+    return out
+
+
+def split_duplicates(dropped: dict[str, dict[str, int]], redundant: Iterable[str],
+                     ) -> tuple[dict[str, int], dict[str, dict[str, int]]]:
+    """(expected duplicates per link of a redundant pair, every other drop per link and reason)."""
+    pair = set(redundant)
+    dups: dict[str, int] = {}
+    rest: dict[str, dict[str, int]] = {}
+    for link, reasons in dropped.items():
+        for reason, n in reasons.items():
+            if reason == "duplicate" and link in pair:
+                dups[link] = dups.get(link, 0) + n
+            elif n:
+                rest.setdefault(link, {})[reason] = n
+    return dups, rest
+
+
 @dataclass
 class SummaryRow:
     name: str
@@ -86,17 +120,24 @@ class SummaryRow:
     hops: int
     requested_hz: float
     achieved_hz: float
-    latency_p50_ms: float | None
-    latency_p99_ms: float | None
+    transport_p50_ms: float | None   # send -> receive of the same frame
+    transport_p99_ms: float | None
+    age_p50_ms: float | None         # receive - the value's timeTag: transport + staleness
+    age_p99_ms: float | None
     delivered: int
-    dropped: dict[str, dict[str, int]]   # link -> reason -> frames
+    duplicates: dict[str, int]           # link of a redundant pair -> copies dropped there (expected)
+    dropped: dict[str, dict[str, int]]   # link -> reason -> frames (losses: everything but those copies)
 
     @classmethod
     def from_meter(cls, m: StreamMeter, *, hops: int, requested_hz: float, t0: float | None = None,
-                   t1: float | None = None, dropped: dict[str, dict[str, int]] | None = None) -> SummaryRow:
-        lat = m.latencies(t0, t1)
+                   t1: float | None = None, dropped: dict[str, dict[str, int]] | None = None,
+                   transport_ms: list[float] | None = None, redundant: Iterable[str] = ()) -> SummaryRow:
+        age = m.latencies(t0, t1)
+        tr = transport_ms or []
+        dups, rest = split_duplicates(dropped or {}, redundant)
         return cls(m.name, m.source, m.destination, hops, requested_hz, round(m.rate_hz(t0, t1), 2),
-                   _r(percentile(lat, 50)), _r(percentile(lat, 99)), len(m.times), dropped or {})
+                   _r(percentile(tr, 50)), _r(percentile(tr, 99)), _r(percentile(age, 50)), _r(percentile(age, 99)),
+                   len(m.times), dups, rest)
 
     def rate_ok(self, tolerance: float = 0.10) -> bool:
         return abs(self.achieved_hz - self.requested_hz) <= tolerance * self.requested_hz
@@ -115,14 +156,18 @@ def _fmt_drops(d: dict[str, dict[str, int]]) -> str:
     return ", ".join(parts) if parts else "none"
 
 
+def _ms(x: float | None) -> str:
+    return "-" if x is None else f"{x:.1f}"
+
+
 def render_table(rows: list[SummaryRow]) -> str:
-    """The summary as aligned text, one line per row (drops by link and reason on the line)."""
-    head = ["content", "source -> destination", "hops", "req Hz", "got Hz", "p50 ms", "p99 ms", "delivered",
-            "dropped (link:reason=frames)"]
+    """The summary as aligned text, one line per row: transport latency and data age apart, expected
+    duplicates (redundant links) apart from losses."""
+    head = ["content", "source -> destination", "hops", "req Hz", "got Hz", "transport p50/p99 ms",
+            "data age p50/p99 ms", "delivered", "dups (redundant links)", "lost/dropped (link:reason=frames)"]
     body = [[r.name, f"{r.source} -> {r.destination}", str(r.hops), f"{r.requested_hz:g}", f"{r.achieved_hz:.1f}",
-             "-" if r.latency_p50_ms is None else f"{r.latency_p50_ms:.2f}",
-             "-" if r.latency_p99_ms is None else f"{r.latency_p99_ms:.2f}", str(r.delivered),
-             _fmt_drops(r.dropped)] for r in rows]
+             f"{_ms(r.transport_p50_ms)} / {_ms(r.transport_p99_ms)}", f"{_ms(r.age_p50_ms)} / {_ms(r.age_p99_ms)}",
+             str(r.delivered), str(sum(r.duplicates.values())), _fmt_drops(r.dropped)] for r in rows]
     widths = [max(len(x) for x in col) for col in zip(head, *body)]
     lines = ["  ".join(c.ljust(w) for c, w in zip(line, widths)).rstrip() for line in [head, *body]]
     lines.insert(1, "  ".join("-" * w for w in widths))

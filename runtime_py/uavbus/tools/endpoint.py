@@ -104,10 +104,16 @@ def open_sink(text: str) -> FrameSink:
         if baud not in BAUDS:
             raise SpecError(f"endpoint '{text}': baud must be one of {', '.join(map(str, BAUDS))}")
         fd = os.open(params["device"], os.O_RDWR | os.O_NOCTTY)
-        tty.setraw(fd)
-        attrs = termios.tcgetattr(fd)
-        attrs[4] = attrs[5] = BAUDS[baud]
-        termios.tcsetattr(fd, termios.TCSANOW, attrs)
+        try:
+            tty.setraw(fd)
+            attrs = termios.tcgetattr(fd)
+            attrs[4] = attrs[5] = BAUDS[baud]
+            termios.tcsetattr(fd, termios.TCSANOW, attrs)
+        except termios.error as exc:
+            os.close(fd)
+            code = exc.args[0] if exc.args and isinstance(exc.args[0], int) else 0
+            raise OSError(code, f"{params['device']} is not a serial device ({os.strerror(code) if code else exc})"
+                          ) from None
         return StreamSink(fd)
     except OSError as exc:
         raise OSError(exc.errno, f"cannot open endpoint '{text}': {exc.strerror}") from exc

@@ -1,12 +1,17 @@
-"""`uavbus spy`, `uavbus echo NAME`, `uavbus hz NAME`: live views decoded from the catalogue.
+"""`uavbus spy`, `echo NAME`, `hz NAME`, `bw [NAME]`: live views decoded from the catalogue.
 
 Sources (see uavbus.tools.source): `--log FILE [--follow]` or a live node
 `--config X --node N --catalogue C [--port NAME=SPEC]... [--subscribe CONTENT@SOURCE/MS]...`.
 Rates use the frames' own times: the log's t_ms, or the node clock when live.
 
-    spy   every directory seen: name, source, count, rate, last values (table, every --interval s)
-    echo  one JSON line per DATA frame of NAME: t_ms, source, seq, link, value
-    hz    rate of NAME per source over the last --window frames (every --interval s, and at the end)
+A message is one (source, sequence number). A frame that arrives again with the same pair -- the
+copy a 0x11 link mask sends over the second link, or a retransmission -- is a duplicate: counted and
+shown apart, never in a rate or a message count.
+
+    spy   every directory seen: name, source, messages, duplicates, rate, last values
+    echo  one JSON line per message of NAME (duplicates left out unless --all); --field picks members
+    hz    rate of NAME per source over the last --window messages
+    bw    bytes per second on the links, per content and source and per link (copies included)
 """
 
 from __future__ import annotations
@@ -17,43 +22,15 @@ import sys
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import IO, Any
 
-from uavbus.tools.common import Contents, Seen, jsonable, short_value
-from uavbus.tools.source import add_source_args, open_source
+from uavbus.tools.common import (
+    ArgumentParser, Contents, FieldPathError, positive, Seen, Stream, human_duration, iso_time, jsonable, select_field, short_value,
+)
+from uavbus.tools.source import Source, add_source_args, open_source
 from uavbus.tools.tables import render_grid
 
-
-@dataclass
-class Stream:
-    """What spy/hz keep per (content, source)."""
-
-    name: str
-    source: str
-    count: int = 0
-    times: deque[int] = field(default_factory=lambda: deque(maxlen=100))
-    last: dict[str, Any] | None = None
-    last_seq: int = 0
-
-    def add(self, t_ms: int, seq: int, value: dict[str, Any] | None) -> None:
-        self.count += 1
-        self.times.append(t_ms)
-        self.last_seq = seq
-        if value is not None:
-            self.last = value
-
-    def rate(self) -> float | None:
-        """Frames per second over the kept window (None with fewer than 2 frames or no time span)."""
-        if len(self.times) < 2 or self.times[-1] == self.times[0]:
-            return None
-        return (len(self.times) - 1) * 1000.0 / (self.times[-1] - self.times[0])
-
-    def gaps(self) -> tuple[int, int] | None:
-        if len(self.times) < 2:
-            return None
-        d = [b - a for a, b in zip(self.times, list(self.times)[1:])]
-        return min(d), max(d)
+__all__ = ["Stream", "bw_main", "echo_main", "hz_main", "spy_main"]
 
 
 class Tool:
@@ -62,7 +39,10 @@ class Tool:
     def __init__(self, args: argparse.Namespace, out: IO[str], clock: Callable[[], float] = time.monotonic) -> None:
         self.args, self.out, self.clock = args, out, clock
         self.matched = 0
+        self.frames = 0       # every frame seen, DATA or not
+        self.admin_frames = 0
         self.deadline = clock() + args.duration if args.duration else None
+        self.source: Source | None = None
 
     def stopped(self) -> bool:
         if self.args.count is not None and self.matched >= self.args.count:
@@ -70,7 +50,7 @@ class Tool:
         return self.deadline is not None and self.clock() >= self.deadline
 
     def run(self) -> int:
-        src = open_source(self.args, self.stopped)
+        src = self.source = open_source(self.args, self.stopped)
         name = getattr(self.args, "name", None)
         if name and not src.contents.known(name):
             src.close()
@@ -79,8 +59,11 @@ class Tool:
         next_print = self.clock() + self.args.interval
         try:
             for seen in src.frames:
+                self.frames += 1
                 if seen.is_data:
                     self.on_frame(src.contents, seen)
+                else:
+                    self.admin_frames += 1
                 if src.live and self.clock() >= next_print:
                     self.report(src.contents, final=False)
                     next_print = self.clock() + self.args.interval
@@ -88,9 +71,10 @@ class Tool:
                     break
         except KeyboardInterrupt:
             pass
+        try:
+            self.report(src.contents, final=True)  # before closing: a hint may describe the open ports
         finally:
             src.close()
-        self.report(src.contents, final=True)
         if src.log is not None and src.log.stats.ignored_bytes:
             print(f"{src.log.path}: ignored the last {src.log.stats.ignored_bytes} bytes: "
                   f"{src.log.stats.ignored_reason}", file=sys.stderr)
@@ -102,6 +86,40 @@ class Tool:
     def report(self, contents: Contents, final: bool) -> None:
         pass
 
+    def nothing_seen_hint(self, what: str) -> str:
+        """What to do when no DATA arrived: depends on where the frames come from."""
+        src = self.source
+        if src is not None and src.log is not None or getattr(self.args, "log", None):
+            return (f"{what}: the log holds {self.frames} frames, none of them DATA "
+                    f"({self.admin_frames} administration frames); it recorded nothing to show")
+        session = src.session if src is not None else None
+        lines = [f"{what}: no DATA received yet ({self.frames} frames in all, {self.admin_frames} of them "
+                 "administration). A node receives only what is addressed to the entities it hosts:"]
+        if not getattr(self.args, "subscribe", None):
+            lines.append("  - subscribe to something, e.g. --subscribe gpsOut@rmax1ob1/100 (CONTENT@SOURCE/PERIOD_MS),"
+                         " or have a GCS publish to this node")
+        if session is not None:
+            for link, c in session.node.link_counters().items():
+                port = c.get("port")
+                if port is None:
+                    continue
+                udp = port.get("udp") or {}
+                note = f"  - port {link} ({port.get('spec')}): {c.get('frames_in', 0)} frames received"
+                if udp.get("foreign"):
+                    note += (f", {udp['foreign']} datagrams refused from other addresses (not its peer; "
+                             "open it with accept=any to take them)")
+                if udp and not udp.get("peers"):
+                    note += ", no peer known yet: nothing can be sent (a subscription cannot go out)"
+                lines.append(note)
+            if not any(c.get("port") for c in session.node.link_counters().values()):
+                lines.append("  - no port is open: give --port LINK=SPEC (or a \"ports\" section in the config)")
+        lines.append("  (docs/python.md, docs/config-format.md#ports)")
+        return "\n".join(lines)
+
+
+def _streams_key(contents: Contents, seen: Seen) -> tuple[str, str]:
+    return contents.name(seen.header), seen.source
+
 
 class Spy(Tool):
     def __init__(self, *a: Any, **kw: Any) -> None:
@@ -109,37 +127,73 @@ class Spy(Tool):
         self.streams: dict[tuple[str, str], Stream] = {}
 
     def on_frame(self, contents: Contents, seen: Seen) -> None:
-        name = contents.name(seen.header)
-        key = (name, seen.source)
+        key = _streams_key(contents, seen)
         st = self.streams.get(key)
         if st is None:
-            st = self.streams[key] = Stream(name, seen.source)
-        st.add(seen.t_ms, seen.header.seq, contents.decode(seen))
+            st = self.streams[key] = Stream(*key)
+        new = st.add(seen.t_ms, seen.header.seq, None, len(seen.frame), seen.unix_ms)
+        if new:
+            value = contents.decode(seen)
+            if value is not None:
+                st.last = value if self.args.numeric else contents.labelled(seen, value)
         self.matched += 1
 
     def report(self, contents: Contents, final: bool) -> None:
         rows = []
         for (name, source), st in sorted(self.streams.items()):
             rate = st.rate()
-            rows.append([name, source, st.count, f"{rate:.2f}" if rate is not None else "-", st.last_seq,
-                         short_value(st.last, self.args.width) if st.last is not None else "(not decodable)"])
+            rows.append([name, source, st.unique, st.duplicates, f"{rate:.2f}" if rate is not None else "-",
+                         st.last_seq, short_value(st.last, self.args.width) if st.last is not None else
+                         "(not decodable)"])
         print(f"-- {len(rows)} directories seen --", file=self.out)
-        print("\n".join(render_grid(["name", "source", "count", "Hz", "seq", "last value"], rows)), file=self.out)
+        if rows:
+            print("\n".join(render_grid(["name", "source", "msgs", "dups", "Hz", "seq", "last value"], rows)),
+                  file=self.out)
+        else:
+            print(self.nothing_seen_hint("spy"), file=self.out)
         self.out.flush()
 
 
 class Echo(Tool):
+    def __init__(self, *a: Any, **kw: Any) -> None:
+        super().__init__(*a, **kw)
+        self.seen_seqs: dict[str, Stream] = {}
+        self.duplicates = 0
+
     def on_frame(self, contents: Contents, seen: Seen) -> None:
         if contents.name(seen.header) != self.args.name:
             return
         if self.args.source and seen.source != self.args.source:
             return
+        st = self.seen_seqs.setdefault(seen.source, Stream(self.args.name, seen.source))
+        new = st.add(seen.t_ms, seen.header.seq, None)
+        if not new:
+            self.duplicates += 1
+            if not self.args.all:
+                return
         value = contents.decode(seen)
-        line = {"t_ms": seen.t_ms, "name": self.args.name, "source": seen.source, "seq": seen.header.seq,
-                "link": seen.link, "value": jsonable(value) if value is not None else None}
+        if value is not None and not self.args.numeric:
+            value = contents.labelled(seen, value)
+        if value is not None and self.args.field:
+            try:
+                picked = {f: select_field(value, f) for f in self.args.field}
+            except FieldPathError as exc:
+                raise SystemExit(f"uavbus echo: {exc}") from None
+            value = picked[self.args.field[0]] if len(picked) == 1 else picked
+        line: dict[str, Any] = {"t_ms": seen.t_ms, "time": iso_time(seen.unix_ms), "name": self.args.name,
+                                "source": seen.source, "seq": seen.header.seq, "link": seen.link,
+                                "value": jsonable(value) if value is not None else None}
+        if not new:
+            line["duplicate"] = True
         print(json.dumps(line, separators=(",", ":")), file=self.out)
         self.out.flush()
-        self.matched += 1
+        if new:
+            self.matched += 1
+
+    def report(self, contents: Contents, final: bool) -> None:
+        if final and self.matched == 0:
+            print(self.nothing_seen_hint(f"echo {self.args.name}") if self.frames == 0 or not self.seen_seqs
+                  else f"echo {self.args.name}: no message passed the filters", file=sys.stderr)
 
 
 class Hz(Tool):
@@ -154,43 +208,138 @@ class Hz(Tool):
         if st is None:
             st = self.streams[seen.source] = Stream(self.args.name, seen.source,
                                                     times=deque(maxlen=self.args.window))
-        st.add(seen.t_ms, seen.header.seq, None)
-        self.matched += 1
+        if st.add(seen.t_ms, seen.header.seq, None, len(seen.frame)):
+            self.matched += 1
 
     def report(self, contents: Contents, final: bool) -> None:
         if not self.streams:
-            print(f"{self.args.name}: no frames seen", file=self.out)
+            print(f"{self.args.name}: no messages seen", file=self.out)
+            if final:
+                print(self.nothing_seen_hint(f"hz {self.args.name}"), file=self.out)
         for source, st in sorted(self.streams.items()):
             rate, gaps = st.rate(), st.gaps()
             text = f"{rate:.2f} Hz" if rate is not None else "- Hz"
             gap = f", gap min {gaps[0]} ms max {gaps[1]} ms" if gaps else ""
-            print(f"{self.args.name} from {source}: {text} over {len(st.times)} frames{gap} "
-                  f"({st.count} in all)", file=self.out)
+            dups = (f"; {st.duplicates} duplicates (copies of a message, e.g. over redundant links: not in the "
+                    "rate)" if st.duplicates else "; no duplicates")
+            print(f"{self.args.name} from {source}: {text} over {len(st.times)} messages{gap} "
+                  f"({st.unique} messages in all{dups})", file=self.out)
         self.out.flush()
 
 
-def _parser(prog: str, doc: str, named: bool) -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog=prog, description=doc)
-    if named:
+class Bw(Tool):
+    """Bytes per second: what the links carry (every frame, copies included), per content and source,
+    and per link. Live: over the last --window seconds; a log: over its whole span."""
+
+    def __init__(self, *a: Any, **kw: Any) -> None:
+        super().__init__(*a, **kw)
+        self.by_content: dict[tuple[str, str], deque[tuple[int, int, bool]]] = {}
+        self.by_link: dict[str, deque[tuple[int, int, bool]]] = {}
+        self.streams: dict[tuple[str, str], Stream] = {}
+        self.first_ms: int | None = None
+        self.last_ms = 0
+
+    def on_frame(self, contents: Contents, seen: Seen) -> None:
+        name = contents.name(seen.header)
+        if self.args.name and name != self.args.name:
+            return
+        key = (name, seen.source)
+        st = self.streams.setdefault(key, Stream(*key))
+        new = st.add(seen.t_ms, seen.header.seq, None, len(seen.frame))
+        sample = (seen.t_ms, len(seen.frame), new)
+        self.by_content.setdefault(key, deque()).append(sample)
+        self.by_link.setdefault(seen.link, deque()).append(sample)
+        self.first_ms = seen.t_ms if self.first_ms is None else self.first_ms
+        self.last_ms = max(self.last_ms, seen.t_ms)
+        self.matched += 1
+
+    def _span_ms(self) -> float:
+        if self.source is not None and self.source.live:
+            return self.args.window * 1000.0
+        return float(self.last_ms - (self.first_ms or 0)) or 1.0
+
+    def _trim(self) -> None:
+        if self.source is None or not self.source.live:
+            return
+        horizon = self.last_ms - self.args.window * 1000.0
+        for q in (*self.by_content.values(), *self.by_link.values()):
+            while q and q[0][0] < horizon:
+                q.popleft()
+
+    def report(self, contents: Contents, final: bool) -> None:
+        self._trim()
+        span = self._span_ms() / 1000.0
+        if not self.by_content:
+            print(self.nothing_seen_hint("bw"), file=self.out)
+            self.out.flush()
+            return
+
+        def row(label: list[Any], q: deque[tuple[int, int, bool]]) -> list[Any]:
+            total = sum(size for _, size, _ in q)
+            unique = sum(1 for _, _, new in q if new)
+            return [*label, f"{unique / span:.1f}", f"{(len(q) - unique) / span:.1f}", _rate_text(total / span),
+                    f"{total / len(q):.0f}" if q else "-"]
+
+        print(f"-- bandwidth over {human_duration(span * 1000)} (DATA frames received, copies included) --",
+              file=self.out)
+        rows = [row([n, s], q) for (n, s), q in sorted(self.by_content.items()) if q]
+        print("\n".join(render_grid(["name", "source", "msgs/s", "dups/s", "bytes/s", "mean B"], rows)), file=self.out)
+        links = [row([link], q) for link, q in sorted(self.by_link.items()) if q]
+        print("\n".join(render_grid(["link", "msgs/s", "dups/s", "bytes/s", "mean B"], links)), file=self.out)
+        total = sum(size for q in self.by_link.values() for _, size, _ in q)
+        print(f"total: {_rate_text(total / span)}", file=self.out)
+        self.out.flush()
+
+
+def _rate_text(bytes_per_s: float) -> str:
+    for unit, scale in (("MB/s", 1e6), ("kB/s", 1e3)):
+        if bytes_per_s >= scale:
+            return f"{bytes_per_s / scale:.2f} {unit}"
+    return f"{bytes_per_s:.0f} B/s"
+
+
+def _parser(prog: str, doc: str, named: bool | None) -> argparse.ArgumentParser:
+    p = ArgumentParser(prog=prog, description=doc)
+    if named is True:
         p.add_argument("name", help="content (directory instance) name, e.g. gpsOut")
-        p.add_argument("--source", help="only frames from this entity")
+    elif named is None:
+        p.add_argument("name", nargs="?", help="only this content (directory instance), e.g. gpsOut")
+    if named:
+        p.add_argument("--source", help="only messages from this entity")
     add_source_args(p)
-    p.add_argument("--interval", type=float, default=1.0, help="seconds between reports when live (default 1)")
+    p.add_argument("--interval", type=positive(float), default=1.0, help="seconds between reports when live (default 1)")
     return p
 
 
+def _numeric(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--numeric", action="store_true",
+                   help="enum members as numbers (default: their constants' names, from the catalogue)")
+
+
 def spy_main(argv: list[str] | None = None, out: IO[str] | None = None) -> int:
-    p = _parser("uavbus spy", "every directory seen, with name, source, rate and last values", named=False)
-    p.add_argument("--width", type=int, default=100, help="cut last values at this many characters")
+    p = _parser("uavbus spy", "every directory seen, with name, source, messages, duplicates, rate and last values",
+                named=False)
+    p.add_argument("--width", type=positive(int), default=100, help="cut last values at this many characters")
+    _numeric(p)
     return Spy(p.parse_args(argv), out or sys.stdout).run()
 
 
 def echo_main(argv: list[str] | None = None, out: IO[str] | None = None) -> int:
-    p = _parser("uavbus echo", "the decoded values of one directory, one JSON line per frame", named=True)
+    p = _parser("uavbus echo", "the decoded values of one directory, one JSON line per message", named=True)
+    p.add_argument("--field", action="append", metavar="PATH",
+                   help="print only this member, e.g. velocityNed.x or motors[2].rpm (repeat for several)")
+    p.add_argument("--all", action="store_true", help="also print duplicates (marked \"duplicate\": true)")
+    _numeric(p)
     return Echo(p.parse_args(argv), out or sys.stdout).run()
 
 
 def hz_main(argv: list[str] | None = None, out: IO[str] | None = None) -> int:
-    p = _parser("uavbus hz", "the rate of one directory, per source", named=True)
-    p.add_argument("--window", type=int, default=100, help="frames in the rate window (default 100)")
+    p = _parser("uavbus hz", "the rate of one directory, per source (unique messages; duplicates apart)", named=True)
+    p.add_argument("--window", type=positive(int), default=100, help="messages in the rate window (default 100)")
     return Hz(p.parse_args(argv), out or sys.stdout).run()
+
+
+def bw_main(argv: list[str] | None = None, out: IO[str] | None = None) -> int:
+    p = _parser("uavbus bw", "bytes per second on the links: per content and source, and per link", named=None)
+    p.add_argument("--window", type=positive(float), default=5.0, help="live: seconds the rates are averaged over (default 5)")
+    return Bw(p.parse_args(argv), out or sys.stdout).run()

@@ -1,8 +1,8 @@
 """`uavbus log info|export|play FILE`: read, export and replay binary logs (docs/log-format.md).
 
     uavbus log info FILE
-    uavbus log export FILE (--csv | --jsonl) [--only NAME...] [--admin] [-o OUT]
-    uavbus log play FILE --into SPEC [--only NAME...] [--speed X | --fast] [--dir rx|tx|all]
+    uavbus log export FILE (--csv | --jsonl) [--only NAME[,NAME...]]... [--admin] [--numeric] [-o OUT]
+    uavbus log play FILE --into SPEC [--only NAME[,NAME...]]... [--speed X | --fast] [--dir rx|tx|all]
 """
 
 from __future__ import annotations
@@ -16,24 +16,42 @@ from collections import Counter, defaultdict
 from collections.abc import Callable, Iterable
 from typing import IO, Any
 
-from uavbus.logfile import LogFormatError, LogReader, LogRecord
-from uavbus.tools.common import Contents, Seen, admin_name, flatten, jsonable
+from uavbus.logfile import LogReader, LogRecord
+from uavbus.tools.common import (
+    ArgumentParser, Contents, Seen, Stream, admin_name, flatten, human_time, iso_time, jsonable, load_catalogue,
+    positive,
+)
 from uavbus.tools.endpoint import SpecError, open_sink
+from uavbus.tools.source import log_unix_ms
 
 
-def _seen(rec: LogRecord) -> Seen:
-    return Seen(t_ms=rec.t_ms, link=rec.link, dir=rec.dir, header=rec.header, frame=rec.frame)
+def _seen(log: LogReader, rec: LogRecord) -> Seen:
+    return Seen(t_ms=rec.t_ms, link=rec.link, dir=rec.dir, header=rec.header, frame=rec.frame,
+                unix_ms=log_unix_ms(log.header, rec.t_ms))
+
+
+class _Copies:
+    """Tells the first frame of a (direction, source, sequence) from its copies (redundant links)."""
+
+    def __init__(self) -> None:
+        self.streams: dict[tuple[str, str], Stream] = {}
+
+    def first(self, rec: LogRecord) -> bool:
+        key = (rec.dir, rec.header.src_id.rstrip(b"\0").decode("ascii", "replace"))
+        st = self.streams.setdefault(key, Stream("", key[1]))
+        return st.add(rec.t_ms, rec.header.seq, None)
 
 
 def _open(path: str) -> tuple[LogReader, Contents]:
     log = LogReader(path)
     log.records()
-    return log, Contents(log.catalogue())
+    return log, Contents(load_catalogue(log.header.catalogue_json, f"{path}: embedded catalogue"))
 
 
 def _check_only(contents: Contents, only: list[str] | None, path: str) -> set[str] | None:
     if not only:
         return None
+    only = [name for item in only for name in item.split(",") if name]
     missing = [n for n in only if not contents.known(n)]
     if missing:
         raise SystemExit(f"{path}: --only {' '.join(missing)}: not in the log's catalogue "
@@ -53,28 +71,40 @@ def cmd_info(args: argparse.Namespace, out: IO[str]) -> int:
     h, cat, recs = log.header, contents.catalogue, log.records()
     print(f"log:        {log.path}", file=out)
     print(f"node:       {h.node}", file=out)
-    print(f"started:    unix ms {h.start_unix_ms} at node clock {h.start_t_ms} ms; "
-          f"{'received and sent' if h.record_tx else 'received'} frames recorded", file=out)
+    print(f"started:    {human_time(h.start_unix_ms or None)} (unix ms {h.start_unix_ms}, node clock "
+          f"{h.start_t_ms} ms); {'received and sent' if h.record_tx else 'received'} frames recorded", file=out)
     print(f"catalogue:  {cat.name} (id scheme {cat.id_scheme}, {len(cat.types)} types, "
           f"{len(cat.instances)} instances)", file=out)
     print("links:      " + (", ".join(f"{k}={v}" for k, v in sorted(h.links.items())) or "none"), file=out)
     print(f"records:    {len(recs)} ({log.stats.record_bytes} bytes)", file=out)
     if recs:
         t0, t1 = recs[0].t_ms, recs[-1].t_ms
-        print(f"time span:  {t0} .. {t1} ms ({(t1 - t0) / 1000:.3f} s)", file=out)
+        print(f"time span:  {t0} .. {t1} ms ({(t1 - t0) / 1000:.3f} s): "
+              f"{human_time(log_unix_ms(h, t0))} .. {human_time(log_unix_ms(h, t1))}", file=out)
     by_link: Counter[tuple[str, str]] = Counter((r.link, r.dir) for r in recs)
     for (link, d), n in sorted(by_link.items()):
         print(f"  {link:<24} {d}  {n}", file=out)
+    # A message is one (source, sequence); the same frame again (the copy a 0x11 mask sends over the
+    # second link) is a duplicate, counted apart and left out of the rate.
+    copies = _Copies()
     groups: dict[tuple[str, str, str], list[int]] = defaultdict(list)
+    dups: Counter[tuple[str, str, str]] = Counter()
     for r in recs:
-        groups[(contents.name(r.header), admin_name(r.header.admin), r.dir)].append(r.t_ms)
+        key = (contents.name(r.header), admin_name(r.header.admin), r.dir)
+        if copies.first(r):
+            groups[key].append(r.t_ms)
+        else:
+            dups[key] += 1
+            groups.setdefault(key, [])
     if groups:
-        print("contents:", file=out)
-        print(f"  {'name':<28} {'kind':<12} {'dir':<4} {'count':>7} {'rate Hz':>9}", file=out)
-        for (name, kind, d), times in sorted(groups.items()):
-            span = (times[-1] - times[0]) / 1000.0
+        print("contents (msgs: unique (source, sequence); dups: copies of them, e.g. over redundant links):",
+              file=out)
+        print(f"  {'name':<28} {'kind':<12} {'dir':<4} {'msgs':>7} {'rate Hz':>9} {'dups':>7}", file=out)
+        for key, times in sorted(groups.items()):
+            name, kind, d = key
+            span = (times[-1] - times[0]) / 1000.0 if times else 0.0
             rate = f"{(len(times) - 1) / span:9.2f}" if len(times) > 1 and span > 0 else f"{'-':>9}"
-            print(f"  {name:<28} {kind:<12} {d:<4} {len(times):>7} {rate}", file=out)
+            print(f"  {name:<28} {kind:<12} {d:<4} {len(times):>7} {rate} {dups[key]:>7}", file=out)
     if log.stats.bad_frames:
         print(f"bad frames: {log.stats.bad_frames} (record CRC held, frame check failed: {log.stats.by_reason})",
               file=out)
@@ -84,47 +114,50 @@ def cmd_info(args: argparse.Namespace, out: IO[str]) -> int:
 
 
 def _export_rows(log: LogReader, contents: Contents, only: set[str] | None,
-                 admin: bool) -> Iterable[tuple[LogRecord, str, dict[str, Any] | None]]:
+                 admin: bool, numeric: bool) -> Iterable[tuple[LogRecord, str, dict[str, Any] | None, bool]]:
+    copies = _Copies()
     for rec in log.records():
+        first = copies.first(rec)
         name = contents.name(rec.header)
         if only is not None and name not in only:
             continue
-        seen = _seen(rec)
+        seen = _seen(log, rec)
         if not seen.is_data and not admin:
             continue
-        yield rec, name, contents.decode(seen)
+        value = contents.decode(seen)
+        yield rec, name, value if numeric else contents.labelled(seen, value), not first
 
 
-def _meta(rec: LogRecord, name: str) -> dict[str, Any]:
+def _meta(log: LogReader, rec: LogRecord, name: str, dup: bool) -> dict[str, Any]:
     h = rec.header
-    return {"t_ms": rec.t_ms, "link": rec.link, "dir": rec.dir, "name": name,
-            "source": h.src_id.rstrip(b"\0").decode("ascii", "replace"),
+    return {"t_ms": rec.t_ms, "time": iso_time(log_unix_ms(log.header, rec.t_ms)), "link": rec.link, "dir": rec.dir,
+            "name": name, "source": h.src_id.rstrip(b"\0").decode("ascii", "replace"),
             "dest": h.dest_id.rstrip(b"\0").decode("ascii", "replace"),
-            "seq": h.seq, "kind": admin_name(h.admin)}
+            "seq": h.seq, "kind": admin_name(h.admin), "dup": int(dup)}
 
 
 def cmd_export(args: argparse.Namespace, out: IO[str]) -> int:
     log, contents = _open(args.file)
     only = _check_only(contents, args.only, args.file)
-    rows = list(_export_rows(log, contents, only, args.admin))
+    rows = list(_export_rows(log, contents, only, args.admin, args.numeric))
     if args.jsonl:
-        for rec, name, value in rows:
-            line = _meta(rec, name)
+        for rec, name, value, dup in rows:
+            line = _meta(log, rec, name, dup)
             if value is not None:
                 line["value"] = jsonable(value)
             out.write(json.dumps(line, separators=(",", ":"), allow_nan=False) + "\n")
     else:
         # One table for every content: the union of the leaf columns, in order of first appearance,
         # empty where a row's content has no such field. Floats are written with repr (exact).
-        flat = [dict(flatten(v)) if v is not None else {} for _, _, v in rows]
+        flat = [dict(flatten(v)) if v is not None else {} for _, _, v, _ in rows]
         columns: dict[str, None] = {}
         for f in flat:
             columns.update(dict.fromkeys(f))
         writer = csv.writer(out, lineterminator="\n")
-        base = ["t_ms", "link", "dir", "name", "source", "dest", "seq", "kind"]
+        base = ["t_ms", "time", "link", "dir", "name", "source", "dest", "seq", "kind", "dup"]
         writer.writerow(base + list(columns))
-        for (rec, name, _), f in zip(rows, flat):
-            m = _meta(rec, name)
+        for (rec, name, _, dup), f in zip(rows, flat):
+            m = _meta(log, rec, name, dup)
             writer.writerow([m[k] for k in base] + [_cell(f.get(c, "")) for c in columns])
     note = _truncation_note(log)
     if note:
@@ -170,7 +203,7 @@ def cmd_play(args: argparse.Namespace, out: IO[str], sleep: Callable[[float], No
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="uavbus log", description="read, export and replay uavbus binary logs")
+    p = ArgumentParser(prog="uavbus log", description="read, export and replay uavbus binary logs")
     sub = p.add_subparsers(dest="cmd", required=True)
     info = sub.add_parser("info", help="node, catalogue, links, records by link and content, truncated tail")
     info.add_argument("file")
@@ -179,16 +212,23 @@ def build_parser() -> argparse.ArgumentParser:
     fmt = exp.add_mutually_exclusive_group(required=True)
     fmt.add_argument("--csv", action="store_true")
     fmt.add_argument("--jsonl", action="store_true")
-    exp.add_argument("--only", nargs="+", metavar="NAME", help="only these contents (instance names)")
+    exp.add_argument("--only", action="append", metavar="NAME[,NAME...]",
+                     help="only these contents (instance names); repeat it or separate names with commas")
     exp.add_argument("--admin", action="store_true", help="also export administrative frames (no values)")
     exp.add_argument("-o", "--output", help="write here instead of stdout")
+    exp.add_argument("--numeric", action="store_true",
+                     help="enum members as numbers (default: their constants' names, from the catalogue)")
     play = sub.add_parser("play", help="send the recorded frames, as they are, into a node")
     play.add_argument("file")
     play.add_argument("--into", required=True, metavar="SPEC",
-                      help="udp:peer=HOST:PORT | tcp:connect=HOST:PORT | serial:device=PATH[,baud=N]")
-    play.add_argument("--only", nargs="+", metavar="NAME", help="only frames of these contents")
+                      help="udp:peer=HOST:PORT[,bind=HOST:PORT] | tcp:connect=HOST:PORT | serial:device=PATH[,baud=N]. "
+                           "Over UDP the frames come from an ephemeral port (or bind=): the receiving port must "
+                           "accept them, i.e. have no fixed peer (udp:bind=HOST:PORT, it learns its peers) or "
+                           "accept=any; a fixed-peer port refuses them and says so once")
+    play.add_argument("--only", action="append", metavar="NAME[,NAME...]",
+                      help="only frames of these contents; repeat it or separate names with commas")
     pace = play.add_mutually_exclusive_group()
-    pace.add_argument("--speed", type=float, default=1.0, help="time scale (2 = twice as fast; default 1)")
+    pace.add_argument("--speed", type=positive(float), default=1.0, help="time scale (2 = twice as fast; default 1)")
     pace.add_argument("--fast", action="store_true", help="as fast as possible, no pacing")
     play.add_argument("--dir", choices=("rx", "tx", "all"), default="rx",
                       help="which recorded direction to send (default rx: what the node received)")
@@ -200,15 +240,13 @@ def main(argv: list[str] | None = None, out: IO[str] | None = None) -> int:
     if getattr(args, "speed", 1.0) <= 0:
         raise SystemExit("uavbus log play: --speed must be > 0 (use --fast for no pacing)")
     out = out or sys.stdout
-    try:
-        if args.cmd == "info":
-            return cmd_info(args, out)
-        if args.cmd == "export":
-            if args.output:
-                with open(args.output, "w", encoding="utf-8", newline="") as f:
-                    return cmd_export(args, f)
-            return cmd_export(args, out)
-        return cmd_play(args, out)
-    except (LogFormatError, OSError) as exc:
-        print(f"uavbus log {args.cmd}: {exc}", file=sys.stderr)
-        return 1
+    # A damaged or missing log raises LogFormatError / OSError: `uavbus` (cli.run_tool) turns it into
+    # one line and its exit status (3 bad input, 4 cannot write the output).
+    if args.cmd == "info":
+        return cmd_info(args, out)
+    if args.cmd == "export":
+        if args.output:
+            with open(args.output, "w", encoding="utf-8", newline="") as f:
+                return cmd_export(args, f)
+        return cmd_export(args, out)
+    return cmd_play(args, out)

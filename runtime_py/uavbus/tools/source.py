@@ -18,8 +18,8 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
-from uavbus.logfile import LogReader, follow, load_catalogue
-from uavbus.tools.common import Contents, Seen
+from uavbus.logfile import LogReader, follow
+from uavbus.tools.common import Contents, Seen, load_catalogue, positive
 
 
 def add_node_args(p: argparse.ArgumentParser, required: bool = False) -> None:
@@ -28,17 +28,18 @@ def add_node_args(p: argparse.ArgumentParser, required: bool = False) -> None:
     p.add_argument("--catalogue", default=os.environ.get("UAVBUS_CATALOGUE"),
                    help="<name>.catalogue.json (default: $UAVBUS_CATALOGUE)")
     p.add_argument("--port", action="append", default=[], metavar="NAME=SPEC",
-                   help="bind a link to a transport, e.g. gcsPortDatalink1=udp:bind=127.0.0.1:0,peer=127.0.0.1:5001")
+                   help="bind a link to a transport, e.g. gcsPortDatalink1=udp:bind=127.0.0.1:0,peer=127.0.0.1:5001 "
+                        "(docs/config-format.md#ports)")
     p.add_argument("--subscribe", action="append", default=[], metavar="CONTENT@SOURCE/MS",
                    help="subscribe the first hosted entity, e.g. imuOut@fcs20/20")
-    p.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
+    p.add_argument("--duration", type=positive(float), default=None, help="stop after this many seconds")
 
 
 def add_source_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--log", help="read frames from this log")
     p.add_argument("--follow", action="store_true", help="with --log: keep reading as the log grows")
     add_node_args(p)
-    p.add_argument("--count", type=int, default=None, help="stop after this many matching messages")
+    p.add_argument("--count", type=positive(int), default=None, help="stop after this many matching messages")
 
 
 def parse_subscribe(text: str) -> tuple[str, str, int]:
@@ -57,9 +58,18 @@ class NodeSession:
     config: Any
     contents: Contents
     seen: collections.deque[Seen] = field(default_factory=collections.deque)
+    frames_seen: int = 0  # every frame the tap saw (received and sent), for "nothing seen" hints
 
     def close(self) -> None:
         self.node.close()
+
+
+def log_unix_ms(header: Any, t_ms: int) -> float | None:
+    """Wall-clock time of a log record: the header ties the writer's clock to unix time at the start."""
+    start_unix = getattr(header, "start_unix_ms", 0)
+    if not start_unix:
+        return None
+    return float(start_unix + t_ms - getattr(header, "start_t_ms", 0))
 
 
 def monotonic_ms() -> int:
@@ -69,18 +79,15 @@ def monotonic_ms() -> int:
 def open_node(args: argparse.Namespace, clock: Callable[[], int] | None = None) -> NodeSession:
     """Starts the tool's node from --config/--node/--catalogue/--port/--subscribe (SystemExit with a
     message saying what to do on a bad argument)."""
-    from uavbus import Catalogue, Node
-    from uavbus.config import ConfigError, load_config
+    from uavbus import Node
+    from uavbus.config import load_config
 
     if not (args.config and args.node):
         raise SystemExit("a live source needs --config FILE --node NAME (or read a log with --log FILE)")
     if not args.catalogue:
         raise SystemExit("a live source needs --catalogue NAME.catalogue.json (or set UAVBUS_CATALOGUE)")
-    try:
-        config = load_config(args.config, args.node)
-    except ConfigError as exc:
-        raise SystemExit(str(exc)) from None
-    cat = Catalogue.load(args.catalogue)
+    config = load_config(args.config, args.node)  # ConfigError: one line, status 3 (uavbus cli)
+    cat = load_catalogue(path=args.catalogue)
     node = Node(cat, config=config, node=args.node, clock=clock or monotonic_ms)
     session = NodeSession(node=node, config=config, contents=Contents(cat))
     try:
@@ -106,9 +113,14 @@ def install_tap(session: NodeSession) -> None:
     ones included."""
     from uavbus._bindings.ub_frame import ub_frame_parse
 
+    # The node clock is CLOCK_MONOTONIC ms (or an injected one): wall-clock time = t_ms + this offset.
+    offset = time.time() * 1000.0 - session.node.now()
+
     def on_frame(link: str, direction: str, frame: bytes, t_ms: int) -> None:
+        session.frames_seen += 1
         if direction == "rx":
-            session.seen.append(Seen(t_ms=t_ms, link=link, dir=direction, header=ub_frame_parse(frame), frame=frame))
+            session.seen.append(Seen(t_ms=t_ms, link=link, dir=direction, header=ub_frame_parse(frame), frame=frame,
+                                     unix_ms=t_ms + offset))
 
     session.node.on_frame(on_frame)
 
@@ -143,15 +155,23 @@ def open_source(args: argparse.Namespace, stop: Callable[[], bool]) -> Source:
             header_box: list[Contents] = []
 
             def frames() -> Iterator[Seen]:
-                for rec in follow(args.log, stop=stop,
-                                  on_header=lambda h: header_box.append(Contents(load_catalogue(h.catalogue_json)))):
-                    yield Seen(t_ms=rec.t_ms, link=rec.link, dir=rec.dir, header=rec.header, frame=rec.frame)
+                headers: list[Any] = []
+
+                def on_header(h: Any) -> None:
+                    headers.append(h)
+                    header_box.append(Contents(load_catalogue(h.catalogue_json, f"{args.log}: embedded catalogue")))
+
+                for rec in follow(args.log, stop=stop, on_header=on_header):
+                    yield Seen(t_ms=rec.t_ms, link=rec.link, dir=rec.dir, header=rec.header, frame=rec.frame,
+                               unix_ms=log_unix_ms(headers[0], rec.t_ms))
 
             # The catalogue is in the header, which may not exist yet: read lazily through a proxy.
             return Source(contents=_LazyContents(header_box), frames=frames(), live=True)
         log = LogReader(args.log)
-        seen = (Seen(t_ms=r.t_ms, link=r.link, dir=r.dir, header=r.header, frame=r.frame) for r in log.records())
-        return Source(contents=Contents(log.catalogue()), frames=seen, live=False, log=log)
+        seen = (Seen(t_ms=r.t_ms, link=r.link, dir=r.dir, header=r.header, frame=r.frame,
+                     unix_ms=log_unix_ms(log.header, r.t_ms)) for r in log.records())
+        contents = Contents(load_catalogue(log.header.catalogue_json, f"{args.log}: embedded catalogue"))
+        return Source(contents=contents, frames=seen, live=False, log=log)
     session = open_node(args)
 
     def node_frames() -> Iterator[Seen]:

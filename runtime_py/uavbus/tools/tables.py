@@ -14,7 +14,6 @@ The renderers are pure (rows in, lines out) so the TUI shows the very same table
 
 from __future__ import annotations
 
-import argparse
 import sys
 from collections.abc import Sequence
 from typing import IO, Any
@@ -101,22 +100,19 @@ def render_all(node: Any, config: Config) -> list[str]:
 
 
 def main(argv: list[str] | None = None, out: IO[str] | None = None) -> int:
+    from uavbus.tools.common import ArgumentParser
     from uavbus.tools.source import add_node_args, open_node, run_node_for
 
-    p = argparse.ArgumentParser(prog="uavbus tables", description="entity, publish/subscribe and administration "
+    p = ArgumentParser(prog="uavbus tables", description="entity, publish/subscribe and administration "
                                 "tables of a node (the paper's variable browser)")
     add_node_args(p, required=True)
     p.add_argument("--static", action="store_true", help="entity table of the config only; no node is started")
     args = p.parse_args(argv)
     out = out or sys.stdout
     if args.static:
-        from uavbus.config import ConfigError, load_config
+        from uavbus.config import load_config
 
-        try:
-            config = load_config(args.config, args.node)
-        except ConfigError as exc:
-            print(exc, file=sys.stderr)
-            return 2
+        config = load_config(args.config, args.node)  # a ConfigError is one line, status 3 (uavbus cli)
         print("\n".join(render_entity_table(config)), file=out)
         return 0
     session = open_node(args)

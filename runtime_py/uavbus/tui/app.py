@@ -18,8 +18,7 @@ from textual.app import App, ComposeResult
 from textual.containers import Horizontal, Vertical
 from textual.widgets import Button, DataTable, Footer, Header, Input, Label, Select, TabbedContent, TabPane
 
-from uavbus.tools.live import Stream
-from uavbus.tools.common import short_value
+from uavbus.tools.common import ArgumentParser, Stream, short_value
 from uavbus.tools.source import NodeSession, add_node_args, open_node
 from uavbus.tools.tables import ADMIN_COLUMNS, entity_rows
 
@@ -97,7 +96,7 @@ class BrowserApp(App[None]):
             masks.add_row(r["entity"], *(r["linktoentity"][n] for n in names))
         self.query_one("#pubsub", DataTable).add_columns("entity", *PUBSUB_COLUMNS)
         self.query_one("#admin", DataTable).add_columns(*ADMIN_COLUMNS)
-        self.query_one("#values", DataTable).add_columns("name", "source", "count", "Hz", "seq", "last value")
+        self.query_one("#values", DataTable).add_columns("name", "source", "msgs", "dups", "Hz", "seq", "last value")
         self.set_interval(self.poll_s, self.turn)
         self.set_interval(self.refresh_s, self.action_refresh)
         self.action_refresh()
@@ -116,7 +115,8 @@ class BrowserApp(App[None]):
             st = self.streams.get(key)
             if st is None:
                 st = self.streams[key] = Stream(*key)
-            st.add(seen.t_ms, seen.header.seq, contents.decode(seen))
+            if st.add(seen.t_ms, seen.header.seq, None, len(seen.frame)):  # copies counted apart
+                st.last = contents.labelled(seen, contents.decode(seen)) or st.last
 
     # -- tables ---------------------------------------------------------------------------------
     def admin(self) -> Any:
@@ -151,7 +151,8 @@ class BrowserApp(App[None]):
         values = []
         for (name, source), st in sorted(self.streams.items()):
             rate = st.rate()
-            values.append((name, source, str(st.count), f"{rate:.2f}" if rate is not None else "-", str(st.last_seq),
+            values.append((name, source, str(st.unique), str(st.duplicates), f"{rate:.2f}" if rate is not None else "-",
+                           str(st.last_seq),
                            short_value(st.last, 120) if st.last is not None else "(not decodable)"))
         self._fill("values", values)
 
@@ -211,7 +212,7 @@ class BrowserApp(App[None]):
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="uavbus tui", description="terminal variable browser: entity, "
+    p = ArgumentParser(prog="uavbus tui", description="terminal variable browser: entity, "
                                 "publish/subscribe and administration tables, live values")
     add_node_args(p, required=True)
     p.add_argument("--admin-entity", help="hosted entity whose administration table to use (default: the first)")
