@@ -285,6 +285,7 @@ int ub_node_bind(ub_node_t *node, uint32_t instance, void *storage) {
     if (node->n_bindings >= UB_MAX_BINDINGS) return UB_ERR_FULL;
     node->bindings[node->n_bindings].instance = instance;
     node->bindings[node->n_bindings].storage = storage;
+    node->bindings[node->n_bindings].on_update = 0;
     node->n_bindings++;
     return UB_OK;
 }

@@ -494,10 +494,67 @@ static void send_pub_stop(ub_node_t *node, int slot, const ub_ps_row_t *row, uin
                              UB_PL_STOP_LEN, now_ms);
 }
 
+/* ---- publication on update (ub_pubsub_set_on_update) --------------------- */
+
+static const ub_binding_t *binding_of(const ub_node_t *node, uint32_t instance) {
+    for (size_t b = 0; b < node->n_bindings; b++)
+        if (node->bindings[b].instance == instance) return &node->bindings[b];
+    return NULL;
+}
+
+static bool on_update(const ub_node_t *node, uint32_t instance) {
+    const ub_binding_t *b = binding_of(node, instance);
+    return b != NULL && b->on_update;
+}
+
+int ub_pubsub_set_on_update(ub_node_t *node, uint32_t instance, bool on) {
+    if (node == NULL) return UB_ERR_INVAL;
+    ub_binding_t *b = (ub_binding_t *)binding_of(node, instance);
+    if (b == NULL) return UB_ERR_NOTFOUND;
+    b->on_update = on ? 1u : 0u;
+    return UB_OK;
+}
+
+/* Sends a waiting update if the row's turn has come: half a period early at most (jitter), and the
+ * turn advances by one period from the previous one (no drift) but never lags now by more than half a
+ * period (no catch-up burst after a pause of the source). */
+static bool send_update(ub_node_t *node, int slot, ub_ps_row_t *row, uint64_t now_ms) {
+    uint64_t half = row->period_ms / 2u;
+    if (!row->update_pending || now_ms + half < row->next_due_ms) return false;
+    row->update_pending = 0;
+    bool sent = ub_priv_send_data_from_slot(node, slot, row->instance, row->peer, now_ms) >= 0;
+    if (sent) {
+        row->frames++;
+        report_flowing(node, slot, row, UB_ADMIN_PUB_REQUEST, now_ms);
+    }
+    row->next_due_ms += row->period_ms;
+    if (row->next_due_ms + half < now_ms + row->period_ms) row->next_due_ms = now_ms + row->period_ms - half;
+    return sent;
+}
+
+int ub_pubsub_updated(ub_node_t *node, int entity, uint32_t instance, uint64_t now_ms) {
+    if (node == NULL) return UB_ERR_INVAL;
+    int slot = ub_priv_local_slot(node, entity);
+    if (slot < 0 || !on_update(node, instance)) return UB_ERR_INVAL;
+    ub_pubsub_table_t *t = table_of(node, slot);
+    int sent = 0;
+    for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
+        ub_ps_row_t *row = &t->rows[r];
+        if (row->kind != UB_PS_PUBLICATION || row->instance != instance) continue;
+        row->update_pending = 1;
+        sent += send_update(node, slot, row, now_ms);
+    }
+    return sent;
+}
+
 static void tick_publication(ub_node_t *node, int slot, ub_ps_row_t *row, uint64_t now_ms) {
     if (row->lease_until_ms != 0 && now_ms >= row->lease_until_ms) {
         row->kind = UB_PS_FREE;
         node->counters.leases_expired++;
+        return;
+    }
+    if (on_update(node, row->instance)) {
+        (void)send_update(node, slot, row, now_ms);
         return;
     }
     if (now_ms < row->next_due_ms) return;

@@ -229,6 +229,7 @@ typedef struct ub_local_entity {
 typedef struct ub_binding {
     uint32_t instance;
     void *storage;
+    uint8_t on_update; /**< published on update, not on a timer (ub_pubsub_set_on_update()) */
 } ub_binding_t;
 
 /** The node. Caller-owned; treat the fields as private (use the functions). */

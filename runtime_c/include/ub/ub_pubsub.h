@@ -39,6 +39,7 @@
 #ifndef UB_PUBSUB_H
 #define UB_PUBSUB_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 #include "ub_catalogue.h"
@@ -96,6 +97,7 @@ typedef struct ub_ps_row {
     uint64_t next_due_ms;                /**< publication: next DATA; subscription: next request */
     uint64_t last_data_ms;               /**< subscription: last DATA received */
     uint64_t frames;                     /**< publication: DATA sent; subscription: DATA received */
+    uint8_t update_pending;              /**< publication on update: a new value waits for its turn */
 } ub_ps_row_t;
 
 /** The table of one local entity (part of ub_node_t). */
@@ -143,6 +145,36 @@ const ub_ps_row_t *ub_pubsub_row(const ub_node_t *node, int entity, int row);
 
 /** @return the number of rows of `kind` (UB_PS_FREE counts free rows), or UB_ERR_INVAL. */
 UB_CHECK int ub_pubsub_count(const ub_node_t *node, int entity, ub_ps_kind_t kind);
+
+/**
+ * Publishes bound instance `instance` **on update** instead of on a timer: for
+ * directories refreshed from outside the node at their own pace (a bridge's
+ * telemetry, e.g. the MAVLink bridge, docs/bridges.md). A publication row of
+ * such an instance sends the bound value once after each ub_pubsub_updated(),
+ * as soon as its period allows, and never sends a value twice:
+ *
+ *  - the period is the row's spacing: the row may send when `now + period/2`
+ *    reaches its next due time, which then advances by one period (and never
+ *    lags `now` by more than half a period). A source at the row's rate with
+ *    up to half a period of jitter has every update sent at once; a faster
+ *    source is thinned to the period, without drift; an update that comes
+ *    too early waits (only the latest value) for its turn at the next tick;
+ *  - a source that stops updating stops the data: subscribers see their data
+ *    time out (ub_pubsub.h) instead of copies of a stale value.
+ *
+ * Applies to the rows of every local entity, existing and future.
+ * @return UB_OK; UB_ERR_INVAL (NULL node); UB_ERR_NOTFOUND (`instance` not bound).
+ */
+UB_CHECK int ub_pubsub_set_on_update(ub_node_t *node, uint32_t instance, bool on_update);
+
+/**
+ * The bound value of on-update instance `instance` (ub_pubsub_set_on_update())
+ * was just refreshed: every publication row of it at local entity `entity`
+ * whose turn has come sends it now; the others send it at their turn.
+ * @return the number of rows that sent now (>= 0); UB_ERR_INVAL (not a local
+ *         entity, or the instance is not published on update).
+ */
+UB_CHECK int ub_pubsub_updated(ub_node_t *node, int entity, uint32_t instance, uint64_t now_ms);
 
 /** @return the data timeout of a subscription with `period_ms` under `timing`: max(3 * period, timeout_min_ms). */
 uint64_t ub_pubsub_data_timeout_ms(const ub_pubsub_timing_t *timing, uint32_t period_ms);
