@@ -157,6 +157,7 @@ class Node:
         self._inbox_dropped = 0
         self._callback_errors = 0
         self._memlinks: list[MemLink] = []
+        self._kept: list[Any] = []  # Python transports (uavbus.pylink) C holds pointers to
         self._admins: dict[str, Admin] = {}
         self._route: Any = None
         self._membership: Membership | None = None
@@ -545,6 +546,10 @@ class Node:
         radio out of range); all zero removes it."""
         ub_ports.ub_ports_set_link_impairment(self._ports_obj(), link, loss, dup, reorder, delay, jitter, hold, seed)
 
+    def _keep_alive(self, transport: Any) -> None:
+        """Keeps a Python transport (uavbus.pylink.PyLink) alive as long as the node: C points at it."""
+        self._kept.append(transport)
+
     # -- recording -----------------------------------------------------------------------------
     def record(self, path: str | Path, tx: bool = False) -> None:
         """Records received (and with tx=True sent) frames to a binary log with the C writer."""
@@ -642,6 +647,8 @@ class Node:
         if self._membership is not None:
             ub_member.ub_member_detach(self._membership._c)
         self.disable_routing()
+        for transport in self._kept:
+            transport.detach()
         ub_node.set_deliver_sink(self._c, None)
 
     def __enter__(self) -> "Node":

@@ -99,6 +99,7 @@ int ub_node_find_link(const ub_node_t *node, const char *name);
 const ub_link_t *ub_node_link(const ub_node_t *node, int link_id);
 int ub_node_set_mask(ub_node_t *node, int entity, int dest, uint8_t mask);
 int ub_node_get_mask(const ub_node_t *node, int entity, int dest, uint8_t *mask);
+int ub_node_link_attach(ub_node_t *node, int link_id, const ub_link_ops_t *ops, void *impl);
 int ub_node_link_detach(ub_node_t *node, int link_id);
 uint64_t ub_node_link_bad_frames(const ub_node_t *node, int link_id, ub_rx_reason_t reason);
 int ub_node_bind(ub_node_t *node, uint32_t instance, void *storage);
