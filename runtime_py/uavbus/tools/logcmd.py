@@ -2,6 +2,7 @@
 
     uavbus log info FILE
     uavbus log export FILE (--csv | --jsonl) [--only NAME[,NAME...]]... [--admin] [--numeric] [-o OUT]
+    uavbus log export FILE --mcap OUT [--only NAME[,NAME...]]...
     uavbus log play FILE --into SPEC [--only NAME[,NAME...]]... [--speed X | --fast] [--dir rx|tx|all]
 """
 
@@ -212,6 +213,7 @@ def build_parser() -> argparse.ArgumentParser:
     fmt = exp.add_mutually_exclusive_group(required=True)
     fmt.add_argument("--csv", action="store_true")
     fmt.add_argument("--jsonl", action="store_true")
+    fmt.add_argument("--mcap", metavar="OUT", help="an MCAP file for Foxglove and PlotJuggler (tools/mcap_export.py)")
     exp.add_argument("--only", action="append", metavar="NAME[,NAME...]",
                      help="only these contents (instance names); repeat it or separate names with commas")
     exp.add_argument("--admin", action="store_true", help="also export administrative frames (no values)")
@@ -245,6 +247,10 @@ def main(argv: list[str] | None = None, out: IO[str] | None = None) -> int:
     if args.cmd == "info":
         return cmd_info(args, out)
     if args.cmd == "export":
+        if args.mcap:
+            from uavbus.tools.mcap_export import cmd_export_mcap
+
+            return cmd_export_mcap(args, out)
         if args.output:
             with open(args.output, "w", encoding="utf-8", newline="") as f:
                 return cmd_export(args, f)
