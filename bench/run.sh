@@ -150,6 +150,11 @@ cmake --build "$build/mcu" >/dev/null
 echo "cmake -S examples/mcu -DCMAKE_BUILD_TYPE=MinSizeRel -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/arm-none-eabi-cortex-m4.cmake;" \
   "arm-none-eabi-size firmware.elf, libub.a" >>"$raw/commands.txt"
 
+# ---- figure 7: the bridges (MAVLink, Zenoh) beside the same paths without them ----
+say "figure 7: bridges"
+cmake --build "$build" --target uavbus_mavbridge_prog uavbus_node >/dev/null
+timed bridges "$VPY" bench/bridges_bench.py --build "$build" --out "$raw/bridges.json" --runs "${BRIDGE_RUNS:-3}"
+
 # ---- internals kept from the first bench (frame codec, router costs, false-accept rate) ----
 "$build/runtime_c/ub_frame_bench" >"$raw/frame_bench.txt"
 "$build/runtime_c/ub_router_bench" >"$raw/router_bench.txt"

@@ -442,6 +442,11 @@ def main() -> None:
                           f"firmware {flash / 1024:.1f} KiB flash, {ram / 1024:.1f} KiB RAM",
                           flash <= 128 * 1024 and ram <= 64 * 1024, "default ub_config.h capacities"))
 
+    # ---- figure 7: bridges (bench/bridges_tables.py) ----
+    from bridges_tables import bridges_section  # bench/ is the script's own directory
+
+    bridges_section(raw, w)
+
     # ---- goals ----
     w("## Goals")
     w("")

@@ -30,6 +30,11 @@ extern "C" {
 #ifndef UB_MAVIO_TX_BUFFER
 #define UB_MAVIO_TX_BUFFER 4096
 #endif
+/** Receive buffer asked for the UDP socket: room for a burst of an autopilot's telemetry while the
+ *  loop is busy (the kernel default holds ~256 datagrams). The kernel may grant less (rmem_max). */
+#ifndef UB_MAVIO_RCVBUF
+#define UB_MAVIO_RCVBUF (1 << 20)
+#endif
 /** Datagrams or reads per ub_mavio_service() at most (the poll loop comes back for the rest). */
 #ifndef UB_MAVIO_RX_BUDGET
 #define UB_MAVIO_RX_BUDGET 64

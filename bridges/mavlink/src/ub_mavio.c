@@ -28,6 +28,8 @@ static int open_udp(ub_mavio_t *io, const ub_port_spec_t *spec, char *err, size_
         return fail(err, cap, UB_ERR_INVAL, "udp", "bind and peer must be dotted IPv4 addresses");
     int fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
     if (fd < 0) return fail(err, cap, UB_ERR_IO, "udp socket", strerror(errno));
+    int rcvbuf = UB_MAVIO_RCVBUF;
+    (void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf); /* best effort: a smaller one still works */
     if (bind(fd, (const struct sockaddr *)&local, sizeof local) < 0) {
         int e = errno;
         close(fd);
