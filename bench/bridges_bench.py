@@ -316,7 +316,12 @@ class UbPair:
                 break
         got = {k for _, k in self.got}
         t_last = max((t for t, _ in self.got), default=t0)
-        return {"sent": BLAST_UB, "received": len(got), "rate": len(got) / (t_last - t0) if t_last > t0 else 0.0}
+        out = {"sent": BLAST_UB, "received": len(got), "rate": len(got) / (t_last - t0) if t_last > t0 else 0.0}
+        if self.procs:  # where frames went: into gwA, over Zenoh, out of gwB (the rest: UDP socket buffers)
+            a, b = (p.request_stats() for p in self.procs)
+            out.update(gw_in=a["links"]["site"]["frames_in"], zenoh_published=a["zenoh"]["published"],
+                       zenoh_received=b["zenoh"]["received"], gw_out=b["links"]["site"]["frames_out"])
+        return out
 
     def close(self) -> None:
         self.a.close()

