@@ -1,6 +1,6 @@
 """`uavbus bridge zenoh`: joins uavbus networks (sites) through Zenoh sessions (docs/bridges.md).
 
-    uavbus bridge zenoh --config FILE --node NAME --catalogue CAT.json
+    uavbus bridge zenoh --config FILE [--node NAME] --catalogue CAT.json
                         [--link zenoh] [--mode peer|router|client]
                         [--listen ENDPOINT]... [--connect ENDPOINT]...
                         [--prefix KEY] [--flow DEST[/SOURCE[/DIRECTORY]]]... [--batch]
@@ -93,8 +93,8 @@ class ZenohBridge:
 
         self.node, self.link, self.session, self.prefix = node, link, session, prefix
         self.express = express
-        self.pylink = PyLink(node, link, kind="zenoh")
         self.entity, self.local_site, self.remote_site = self._sites()
+        self.pylink = PyLink(node, link, kind="zenoh")
         self.flows = [flow_keyexpr(prefix, f) for f in flows] if flows else \
             [f"{prefix}/{e}/**" for e in self.local_site]
         self._inbox: deque[bytes] = deque()
@@ -322,7 +322,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="uavbus bridge zenoh",
                                 description="carry uavbus frames between sites through Zenoh (docs/bridges.md)")
     p.add_argument("--config", required=True, help="node configuration: entities, ports, security")
-    p.add_argument("--node", required=True, help="the node of the configuration this bridge runs")
+    p.add_argument("--node", help="the node of the configuration this bridge runs (default: its \"hosts\")")
     p.add_argument("--catalogue", required=True, help="catalogue JSON (names the directories in the keys)")
     p.add_argument("--link", default="zenoh", help="the bridge entity's link carried by Zenoh (default zenoh)")
     p.add_argument("--mode", choices=("peer", "router", "client"), default="peer", help="Zenoh session mode")
