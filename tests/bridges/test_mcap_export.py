@@ -4,7 +4,8 @@ The log is written by the C log writer (Node.record) from real traffic: one inst
 the example flight software's catalogue (nested structs, 2-D arrays, bitfields, bools, every integer
 width) with seeded random values, published between two nodes over a memlink, received and sent
 frames both recorded. Checked, each able to fail:
-  - every channel's JSON Schema (jsonschema, draft 2020-12) validates every one of its messages;
+  - every channel's JSON Schema (jsonschema, draft 2020-12) validates every one of its messages, and
+    stays within what Foxglove's JSON Schema reader takes (one type per field, one array dimension);
   - each message equals the log's value of that frame (decoded from the log by the catalogue,
     arrays of 2+ dimensions row-major), its log time is the record's time in Unix ns, its
     sequence the frame's; one channel per (source, directory), topic /<source>/<directory>;
@@ -63,6 +64,25 @@ def random_value(t: Type, cat: Catalogue, rng: random.Random) -> dict:
         return [shaped(f, dims[1:]) for _ in range(dims[0])]
 
     return {f.name: shaped(f, f.dims) for f in t.packed_fields}
+
+
+FOXGLOVE_FIELD_TYPES = {"boolean", "string", "number", "integer", "object", "array"}
+
+
+def foxglove_readable(schema: dict, where: str = "") -> None:
+    """The constraints of Foxglove's JSON Schema reader (parseJsonSchema in its mcap-support package):
+    an object root, one type name per field, arrays of scalars or objects (no array of arrays)."""
+    assert schema.get("type") == "object", f"{where}: root is not an object"
+    for name, field in schema["properties"].items():
+        kind = field.get("type")
+        assert isinstance(kind, str) and kind in FOXGLOVE_FIELD_TYPES, f"{where}.{name}: type {kind!r}"
+        if kind == "object":
+            foxglove_readable(field, f"{where}.{name}")
+        if kind == "array":
+            item = field["items"].get("type")
+            assert item in FOXGLOVE_FIELD_TYPES - {"array"}, f"{where}.{name}: items of type {item!r}"
+            if item == "object":
+                foxglove_readable(field["items"], f"{where}.{name}[]")
 
 
 def flat_value(t: Type, cat: Catalogue, v: dict) -> dict:
@@ -141,6 +161,7 @@ def test_every_message_validates_and_equals_the_log(recorded, tmp_path):
         for sid, s in summary.schemas.items():
             assert s.encoding == "jsonschema"
             jsonschema.Draft202012Validator.check_schema(json.loads(s.data))
+            foxglove_readable(json.loads(s.data), s.name)
         n = 0
         for schema, channel, message in reader.iter_messages():
             value = json.loads(message.data)

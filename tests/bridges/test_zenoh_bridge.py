@@ -6,6 +6,8 @@
                                                  |  Zenoh session (peer, connects)
     site B: Python GCS [gcs2]      <-udp-> uavbus bridge zenoh [gwB]
 
+in both of Zenoh's topologies here: two peers, and a router with a client.
+
 Checked, each able to fail:
   - gcs2's subscription to rmax1ob1's navFilterState (20 ms) crosses both bridges (the PUB_REQUEST one
     way, the DATA back) and the data arrives at the rate asked, 50 Hz ±10 %, every frame once;
@@ -70,7 +72,8 @@ def bridge_argv(cfg: Path, catalogue: Path, node: str, *zenoh_args: str) -> list
             "--catalogue", str(catalogue), *zenoh_args]
 
 
-def test_subscription_crosses_two_zenoh_sessions_at_its_rate(tmp_path, uavbus_node):
+@pytest.mark.parametrize("mode_a,mode_b", [("peer", "peer"), ("router", "client")])
+def test_subscription_crosses_two_zenoh_sessions_at_its_rate(tmp_path, uavbus_node, mode_a, mode_b):
     ports = PortAllocator()
     cfg = tmp_path / "zentest.json"
     write_config(cfg, ports)
@@ -79,15 +82,15 @@ def test_subscription_crosses_two_zenoh_sessions_at_its_rate(tmp_path, uavbus_no
     endpoint = f"tcp/127.0.0.1:{zport}"
     with ProcessGroup() as group:
         uav = group.spawn([str(uavbus_node), "--config", str(cfg), "--node", "primary", "--stats-ms", "0"], "uav")
-        gw_a = group.spawn(bridge_argv(cfg, catalogue, "gwA", "--mode", "peer", "--listen", endpoint), "gwA",
+        gw_a = group.spawn(bridge_argv(cfg, catalogue, "gwA", "--mode", mode_a, "--listen", endpoint), "gwA",
                            ready_timeout=15)
-        gw_b = group.spawn(bridge_argv(cfg, catalogue, "gwB", "--mode", "peer", "--connect", endpoint), "gwB",
+        gw_b = group.spawn(bridge_argv(cfg, catalogue, "gwB", "--mode", mode_b, "--connect", endpoint), "gwB",
                            ready_timeout=15)
         assert gw_a.wait_ready()["remote_site"] == ["gwB", "gcs2"]
         assert gw_b.wait_ready()["flows"] == ["uavbus/zentest/gwB/**", "uavbus/zentest/gcs2/**"]
         # A third, plain Zenoh session on the same network: what travels, under which keys.
         spy_conf = zenoh.Config()
-        spy_conf.insert_json5("mode", '"peer"')
+        spy_conf.insert_json5("mode", '"peer"' if mode_a == "peer" else '"client"')
         spy_conf.insert_json5("connect/endpoints", json.dumps([endpoint]))
         spy_conf.insert_json5("scouting/multicast/enabled", "false")
         seen: list[tuple[str, bytes]] = []
