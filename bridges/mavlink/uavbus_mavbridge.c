@@ -31,6 +31,8 @@
 #include "ub/ub_nodecfg.h"
 #include "ub/ub_ports.h"
 #include "ub/ub_random.h"
+#include "ub/ub_sec.h"
+#include "ub/ub_secfile.h"
 #include "ub_mavbridge.h"
 #include "ub_mavio.h"
 
@@ -52,6 +54,8 @@ static volatile sig_atomic_t g_stop;
 static ub_nodecfg_t g_cfg;
 static char g_cfg_text[1 << 16];
 static ub_node_t g_node;
+static ub_sec_t g_sec;                /* used when the config has a "security" section with keys */
+static ub_counter_file_t g_counter;
 static ub_ports_t g_ports;
 static ub_mavio_t g_io;
 static ub_mavbridge_t g_br;
@@ -248,9 +252,10 @@ static void event_ready(const options_t *o) {
     out(",\"mavlink\":");
     out_str(o->mavlink, SIZE_MAX);
     if (ub_mavio_local_port(&g_io, &port) == UB_OK) out(",\"mavlink_port\":%u", (unsigned)port);
-    out(",\"sysid\":%u,\"compid\":%u,\"signing\":%s,\"commands\":%s,\"directories\":%zu,\"ports\":{",
-        g_br.opt.sysid, g_br.opt.compid, g_br.opt.sign ? "true" : "false", g_br.opt.commands ? "true" : "false",
-        g_br.n_dirs);
+    out(",\"sysid\":%u,\"compid\":%u,\"signing\":%s,\"uavbus_signed\":%s,\"commands\":%s,\"directories\":%zu,"
+        "\"ports\":{",
+        g_br.opt.sysid, g_br.opt.compid, g_br.opt.sign ? "true" : "false",
+        ub_node_security(&g_node) != NULL ? "true" : "false", g_br.opt.commands ? "true" : "false", g_br.n_dirs);
     bool first = true;
     for (int id = 0; id < UB_MAX_NODE_LINKS; id++) {
         const ub_link_t *l = ub_node_link(&g_node, id);
@@ -296,7 +301,16 @@ static void event_stats(uint64_t now_ms, bool final) {
     const ub_mavbridge_counters_t *c = ub_mavbridge_counters(&g_br);
     uint8_t sys = 0, comp = 0;
     bool up = ub_mavbridge_connected(&g_br, &sys, &comp);
-    out("},\"mavlink\":{\"connected\":%s,\"sysid\":%u,\"compid\":%u", up ? "true" : "false", sys, comp);
+    out("}");
+    if (ub_node_security(&g_node) != NULL) {
+        const ub_sec_stats_t *ss = ub_sec_stats(&g_sec);
+        out(",\"security\":{\"signed_out\":%" PRIu64 ",\"verified_in\":%" PRIu64 ",\"auth_failures\":%" PRIu64
+            ",\"unknown_keys\":%" PRIu64 ",\"challenges_sent\":%" PRIu64 ",\"challenges_completed\":%" PRIu64
+            ",\"reserve_failures\":%" PRIu64 ",\"tx_refused\":%" PRIu64 "}",
+            ss->signed_out, ss->verified_in, ss->auth_failures, ss->unknown_keys, ss->challenges_sent,
+            ss->challenges_completed, ss->reserve_failures, ss->tx_refused);
+    }
+    out(",\"mavlink\":{\"connected\":%s,\"sysid\":%u,\"compid\":%u", up ? "true" : "false", sys, comp);
     C(bytes_in); C(messages_in); C(updates_sent); C(lost); C(bad_crc); C(parse_errors); C(unsigned_refused);
     C(bad_signature); C(replayed); C(too_many_streams); C(other_source); C(unidentified); C(no_directory); C(messages_out);
     C(bytes_out); C(send_errors); C(backpressure); C(heartbeats_out); C(autopilot_heartbeats); C(link_up);
@@ -380,6 +394,11 @@ int main(int argc, char **argv) {
     node_opt.random = ub_random_os;
     if (ub_node_init(&g_node, &mavcat_catalogue, &node_opt) != UB_OK) die("uavbus_mavbridge: catalogue refused by the runtime");
     if (ub_nodecfg_apply(&g_cfg, &g_node, err, sizeof err) != UB_OK) die("%s", err);
+    /* The uavbus side signs (and requires signed frames) as the "security" section says, as uavbus_node. */
+    char sec_err[UB_NODECFG_ERR_LEN + UB_SECFILE_ERR_LEN];
+    if (ub_nodecfg_apply_security(&g_cfg, &g_node, &g_sec, &g_counter, NULL, clock_ms(CLOCK_REALTIME) * 1000u, sec_err,
+                                  sizeof sec_err) != UB_OK)
+        die("%s", sec_err);
     if (ub_ports_init(&g_ports, &g_node) != UB_OK) die("uavbus_mavbridge: ub_ports_init failed");
 
     ub_port_spec_t mspec;

@@ -16,7 +16,9 @@ Checked, each able to fail:
     counted (not_allowed) and never reaches the autopilot;
   - with a key on both ends, everything flows signed (pymavlink verifies the bridge's signatures),
     and an unsigned or wrongly signed ATTITUDE injected by the autopilot side is refused, counted
-    by cause, and never reaches the GCS; a lost autopilot link is seen and counted.
+    by cause, and never reaches the GCS; a lost autopilot link is seen and counted. In that test the
+    uavbus side is signed too (the configuration's "security" section, one fleet key): the bridge signs
+    what it publishes and the GCS, which requires signed frames, verifies it two hops away.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ import pytest
 from uavbus import Node
 from uavbus.sim.portalloc import PortAllocator
 from uavbus.sim.process import ProcessGroup
+from uavbus.sim.secure import signed_config
 
 from bridge_testutil import autopilot_argv
 
@@ -80,10 +83,12 @@ class World:
     """Autopilot + bridge + relay as processes; the GCS and the rogue as Python nodes here."""
 
     def __init__(self, tmp: Path, group: ProcessGroup, mavbridge: dict[str, str], uavbus_node: Path,
-                 key: Path | None = None) -> None:
+                 key: Path | None = None, uavbus_signed: bool = False) -> None:
         ports = PortAllocator()
         self.cfg = tmp / "mavtest.json"
         write_config(self.cfg, ports)
+        if uavbus_signed:
+            self.cfg = signed_config(self.cfg, tmp / "signed")
         ap_port, mav_port = ports.port(), ports.port()
         self.autopilot = group.spawn(autopilot_argv(ap_port, key), "autopilot", ready_timeout=10)
         argv = [mavbridge["program"], "--config", str(self.cfg), "--node", "bridge", "--stats-ms", "0",
@@ -185,7 +190,8 @@ def test_signed_link_refuses_unsigned_and_forged(tmp_path, group, mavbridge, uav
     key = tmp_path / "mav.key"
     key.write_text("# MAVLink signing key of the test vehicle\n" + os.urandom(32).hex() + "\n")
     key.chmod(0o600)
-    w = World(tmp_path, group, mavbridge, uavbus_node, key=key)
+    w = World(tmp_path, group, mavbridge, uavbus_node, key=key, uavbus_signed=True)
+    assert w.bridge.wait_ready()["uavbus_signed"] and w.bridge.wait_ready()["signing"]
     w.gcs.subscribe("gcs1", ATTITUDE, source="mavbridge", period_ms=20)
     att = w.samples(ATTITUDE, 2.0)
     assert distinct_rate(att, 2.0) == pytest.approx(50.0, rel=RATE_TOLERANCE)
@@ -207,4 +213,8 @@ def test_signed_link_refuses_unsigned_and_forged(tmp_path, group, mavbridge, uav
     w.bridge.wait_event(lambda e: e.get("event") == "autopilot" and e.get("state") == "lost", 8, what="link lost")
     w.bridge.wait_event(lambda e: e.get("event") == "autopilot" and e.get("state") == "connected"
                         and e is not w.bridge.all("autopilot")[0], 8, what="link back")
-    assert w.bridge.request_stats()["mavlink"]["link_lost"] == 1
+    stats = w.bridge.request_stats()
+    assert stats["mavlink"]["link_lost"] == 1
+    assert stats["security"]["signed_out"] > 0 and stats["security"]["auth_failures"] == 0, stats["security"]
+    gsec = w.gcs.security()
+    assert gsec["verified_in"] >= len(att) and gsec["auth_failures"] == 0, gsec

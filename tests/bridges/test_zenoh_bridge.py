@@ -6,7 +6,9 @@
                                                  |  Zenoh session (peer, connects)
     site B: Python GCS [gcs2]      <-udp-> uavbus bridge zenoh [gwB]
 
-in both of Zenoh's topologies here: two peers, and a router with a client.
+in both of Zenoh's topologies here: two peers, and a router with a client; the second with every node
+signing (trust-design.md, one fleet key): frames cross Zenoh unchanged and the GCS, which requires
+signed frames, verifies rmax1ob1's tags end to end.
 
 Checked, each able to fail:
   - gcs2's subscription to rmax1ob1's navFilterState (20 ms) crosses both bridges (the PUB_REQUEST one
@@ -14,7 +16,9 @@ Checked, each able to fail:
   - the frames travel under the documented key expressions (a plain Zenoh subscriber on the same
     network sees `uavbus/zentest/gcs2/rmax1ob1/navFilterState/data`), as the bytes the router sent;
   - each bridge sees the other site's entities alive (liveliness), and its counters balance: what one
-    bridge published, the other received, none rejected.
+    bridge published, the other received, none rejected;
+  - signed: what travels on Zenoh carries the SIGNED flag and its trailer, and gcs2 verified every frame
+    it took in (no tag failure, nothing unsigned).
 """
 
 from __future__ import annotations
@@ -28,10 +32,11 @@ from pathlib import Path
 import pytest
 
 from uavbus import Node
-from uavbus._bindings.ub_frame import ub_frame_parse
+from uavbus._bindings.ub_frame import FLAG_SIGNED, ub_frame_parse
 from uavbus.sim.hitl import catalogue_for
 from uavbus.sim.portalloc import PortAllocator
 from uavbus.sim.process import ProcessGroup
+from uavbus.sim.secure import signed_config
 
 zenoh = pytest.importorskip("zenoh", reason="eclipse-zenoh is in the `test` extras (make setup installs it)")
 
@@ -72,11 +77,13 @@ def bridge_argv(cfg: Path, catalogue: Path, node: str, *zenoh_args: str) -> list
             "--catalogue", str(catalogue), *zenoh_args]
 
 
-@pytest.mark.parametrize("mode_a,mode_b", [("peer", "peer"), ("router", "client")])
-def test_subscription_crosses_two_zenoh_sessions_at_its_rate(tmp_path, uavbus_node, mode_a, mode_b):
+@pytest.mark.parametrize("mode_a,mode_b,signed", [("peer", "peer", False), ("router", "client", True)])
+def test_subscription_crosses_two_zenoh_sessions_at_its_rate(tmp_path, uavbus_node, mode_a, mode_b, signed):
     ports = PortAllocator()
     cfg = tmp_path / "zentest.json"
     write_config(cfg, ports)
+    if signed:
+        cfg = signed_config(cfg, tmp_path / "signed")
     catalogue = catalogue_for(uavbus_node)
     zport = ports.port()
     endpoint = f"tcp/127.0.0.1:{zport}"
@@ -132,6 +139,12 @@ def test_subscription_crosses_two_zenoh_sessions_at_its_rate(tmp_path, uavbus_no
         assert data, sorted(keys)[:10]
         h = ub_frame_parse(data[-1])  # the C codec verifies the frame as carried
         assert h.src_id.rstrip(b"\0") == b"rmax1ob1" and h.dest_id.rstrip(b"\0") == b"gcs2"
+        assert h.flags == (FLAG_SIGNED if signed else 0)
+        if signed:
+            sec = gcs.security()
+            assert sec["verified_in"] >= len(seqs) and sec["auth_failures"] == 0, sec
+            drops = gcs.counters()["drops"]
+            assert drops["unsigned"] == 0 and drops["bad_tag"] == 0, drops
 
         remote = gw_b.wait_event(lambda e: e.get("event") == "remote" and e.get("entity") == "rmax1ob1", 5,
                                  what="rmax1ob1 alive at gwB")

@@ -15,8 +15,9 @@ hop limit, forwarding, counters).
 
 **Frames are carried unchanged**: each frame the router sends on the Zenoh link is one Zenoh sample,
 payload = the frame's bytes as they left the router (hop limit already decremented), so a signed or
-encrypted frame's trailer arrives intact and is verified end to end by its destination; the bridges
-need no key.
+encrypted frame's trailer arrives intact and is verified end to end by its destination. On a signed
+network the bridges verify like any forwarder (they hold the fleet key, docs/security.md) but never
+re-sign: the tag the destination checks is the source's.
 
 **Key expressions**, one chunk per part, so Zenoh tools and ACLs can select flows:
 
