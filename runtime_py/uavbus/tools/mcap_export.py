@@ -7,7 +7,9 @@ catalogue; channel metadata names the source, the directory, its type and the ca
 Each DATA frame of the log is one message: log and publish time = the record's time as Unix ns
 (`start_unix_ms + t_ms - start_t_ms`, docs/log-format.md), sequence = the frame's sequence number.
 A frame recorded twice (received on two links, or received then forwarded: same source and
-sequence) is written once. Administrative frames carry no directory value and are not exported.
+sequence) is written once. Administrative frames carry no directory value and are not exported, nor
+are ENCRYPTED frames (their payload is ciphertext to a log reader; counted). Signed frames are exported
+(their payload is in clear; the log holds only frames the node verified).
 
 Values are the catalogue's decoding (uavbus.catalogue), shaped for the tools' JSON Schema readers
 (Foxglove's takes one type per field and one array dimension):
@@ -88,6 +90,7 @@ class McapStats:
     unknown_content: int = 0     # DATA of a content the log's catalogue does not have
     layout_mismatch: int = 0     # DATA packed from another definition (fingerprint differs)
     non_finite: int = 0          # floats written as null
+    encrypted: int = 0           # ENCRYPTED frames: their payload is ciphertext to a log reader without the key
     by_topic: dict[str, int] = field(default_factory=dict)
 
 
@@ -121,6 +124,7 @@ def export_mcap(log: Any, out_path: str, only: set[str] | None = None) -> McapSt
     from mcap.writer import Writer
 
     from uavbus import __version__ as version
+    from uavbus._bindings.ub_frame import FLAG_ENCRYPTED
     from uavbus._ub import lib
 
     catalogue: Catalogue = log.catalogue()
@@ -142,6 +146,9 @@ def export_mcap(log: Any, out_path: str, only: set[str] | None = None) -> McapSt
             hd = rec.header
             if hd.admin != lib.UB_ADMIN_DATA:
                 stats.not_data += 1
+                continue
+            if hd.flags & FLAG_ENCRYPTED:
+                stats.encrypted += 1
                 continue
             inst = catalogue.find(bytes(hd.dir_id))
             if inst is None:
@@ -199,10 +206,13 @@ def cmd_export_mcap(args: Any, out: Any) -> int:
     print(json.dumps({"event": "exported", "file": args.file, "mcap": args.mcap, "messages": stats.messages,
                       "channels": stats.channels, "duplicates": stats.duplicates, "not_data": stats.not_data,
                       "unknown_content": stats.unknown_content, "layout_mismatch": stats.layout_mismatch,
-                      "non_finite": stats.non_finite, "ignored_bytes": log.stats.ignored_bytes}), file=out)
+                      "non_finite": stats.non_finite, "encrypted": stats.encrypted, "ignored_bytes": log.stats.ignored_bytes}), file=out)
     if stats.non_finite:
         print(f"{args.mcap}: {stats.non_finite} NaN or infinite floats written as null (JSON has no such number): "
               "those messages do not match their schema's number type", file=sys.stderr)
+    if stats.encrypted:
+        print(f"{args.file}: {stats.encrypted} ENCRYPTED frames were not exported (their payload is ciphertext here)",
+              file=sys.stderr)
     if stats.unknown_content or stats.layout_mismatch:
         print(f"{args.file}: {stats.unknown_content} frames of unknown content and {stats.layout_mismatch} with "
               "another layout were not exported (no schema for them)", file=sys.stderr)
