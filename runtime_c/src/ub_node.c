@@ -48,7 +48,10 @@ static void count_drop(ub_node_t *node, int link_id, ub_drop_reason_t reason) { 
 
 int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt) {
     if (node == NULL || cat == NULL) return UB_ERR_INVAL;
-    if (cat->abi_version != UB_CATALOGUE_ABI_VERSION || cat->max_packed_size > UB_MAX_PAYLOAD) return UB_ERR_INVAL;
+    /* ub_catalogue_oversize() names the type a caller reports when this refuses. */
+    if (cat->abi_version != UB_CATALOGUE_ABI_VERSION || cat->max_packed_size > UB_MAX_PAYLOAD ||
+        ub_catalogue_oversize(cat, UB_MAX_PAYLOAD) != NULL)
+        return UB_ERR_INVAL;
     memset(node, 0, sizeof *node);
     node->cat = cat;
     if (opt != NULL) node->opt = *opt;

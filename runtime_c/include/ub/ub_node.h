@@ -259,7 +259,8 @@ struct ub_node {
 /**
  * Initialises an empty node over `cat` (which must outlive the node).
  * @return UB_OK, or UB_ERR_INVAL (NULL node/catalogue, catalogue ABI version
- *         mismatch, or a catalogue type larger than UB_MAX_PAYLOAD).
+ *         mismatch, or a catalogue type larger than UB_MAX_PAYLOAD: which one,
+ *         ub_catalogue_oversize(cat, ub_catalogue_payload_limit()) says).
  */
 UB_CHECK int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt);
 

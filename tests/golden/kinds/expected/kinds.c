@@ -12,50 +12,58 @@
 
 #include "ub/ub_wire.h"
 
+/* Layout checks against clang's measurements: _Static_assert in C11, a negative array size in C99
+ * (the typedef's name says which check failed). */
+#if defined(__STDC_VERSION__) && __STDC_VERSION__ >= 201112L
+#define kinds_LAYOUT_ASSERT(cond, id, msg) _Static_assert(cond, msg)
+#else
+#define kinds_LAYOUT_ASSERT(cond, id, msg) typedef char kinds_layout_##id[(cond) ? 1 : -1]
+#endif
+
 /* ---- struct all_kinds (all_kinds.h:33) ---- */
 /* A compiler or ABI that lays struct all_kinds out differently from clang at generation time fails here. */
-_Static_assert(sizeof(struct all_kinds) == 416u, "struct all_kinds: sizeof differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, c) == 0u, "struct all_kinds.c: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, sc) == 1u, "struct all_kinds.sc: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, uc) == 2u, "struct all_kinds.uc: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, s) == 4u, "struct all_kinds.s: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, us) == 6u, "struct all_kinds.us: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, i) == 8u, "struct all_kinds.i: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, ui) == 12u, "struct all_kinds.ui: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, l) == 16u, "struct all_kinds.l: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, ul) == 24u, "struct all_kinds.ul: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, ll) == 32u, "struct all_kinds.ll: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, ull) == 40u, "struct all_kinds.ull: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, i8) == 48u, "struct all_kinds.i8: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, u16) == 50u, "struct all_kinds.u16: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, i32) == 52u, "struct all_kinds.i32: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, u64) == 56u, "struct all_kinds.u64: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, flag) == 64u, "struct all_kinds.flag: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, f) == 68u, "struct all_kinds.f: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, d) == 72u, "struct all_kinds.d: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, ld) == 80u, "struct all_kinds.ld: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, mode) == 96u, "struct all_kinds.mode: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, wide) == 104u, "struct all_kinds.wide: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, tiny) == 112u, "struct all_kinds.tiny: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, vel) == 136u, "struct all_kinds.vel: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, roll) == 148u, "struct all_kinds.roll: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, pitch) == 150u, "struct all_kinds.pitch: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, unnamed_member) == 152u, "struct all_kinds.unnamed_member: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, matrix) == 168u, "struct all_kinds.matrix: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, route) == 204u, "struct all_kinds.route: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, grid) == 268u, "struct all_kinds.grid: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, bytes) == 316u, "struct all_kinds.bytes: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, raw) == 322u, "struct all_kinds.raw: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, flags) == 328u, "struct all_kinds.flags: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, hdr) == 331u, "struct all_kinds.hdr: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, name) == 338u, "struct all_kinds.name: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, text) == 360u, "struct all_kinds.text: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, ptr) == 368u, "struct all_kinds.ptr: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, handler) == 376u, "struct all_kinds.handler: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, either) == 384u, "struct all_kinds.either: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, vp) == 392u, "struct all_kinds.vp: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, count) == 400u, "struct all_kinds.count: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, tail) == 402u, "struct all_kinds.tail: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(sizeof(struct all_kinds) == 416u, all_kinds_size, "struct all_kinds: sizeof differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, c) == 0u, all_kinds_c, "struct all_kinds.c: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, sc) == 1u, all_kinds_sc, "struct all_kinds.sc: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, uc) == 2u, all_kinds_uc, "struct all_kinds.uc: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, s) == 4u, all_kinds_s, "struct all_kinds.s: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, us) == 6u, all_kinds_us, "struct all_kinds.us: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, i) == 8u, all_kinds_i, "struct all_kinds.i: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, ui) == 12u, all_kinds_ui, "struct all_kinds.ui: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, l) == 16u, all_kinds_l, "struct all_kinds.l: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, ul) == 24u, all_kinds_ul, "struct all_kinds.ul: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, ll) == 32u, all_kinds_ll, "struct all_kinds.ll: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, ull) == 40u, all_kinds_ull, "struct all_kinds.ull: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, i8) == 48u, all_kinds_i8, "struct all_kinds.i8: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, u16) == 50u, all_kinds_u16, "struct all_kinds.u16: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, i32) == 52u, all_kinds_i32, "struct all_kinds.i32: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, u64) == 56u, all_kinds_u64, "struct all_kinds.u64: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, flag) == 64u, all_kinds_flag, "struct all_kinds.flag: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, f) == 68u, all_kinds_f, "struct all_kinds.f: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, d) == 72u, all_kinds_d, "struct all_kinds.d: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, ld) == 80u, all_kinds_ld, "struct all_kinds.ld: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, mode) == 96u, all_kinds_mode, "struct all_kinds.mode: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, wide) == 104u, all_kinds_wide, "struct all_kinds.wide: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, tiny) == 112u, all_kinds_tiny, "struct all_kinds.tiny: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, vel) == 136u, all_kinds_vel, "struct all_kinds.vel: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, roll) == 148u, all_kinds_roll, "struct all_kinds.roll: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, pitch) == 150u, all_kinds_pitch, "struct all_kinds.pitch: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, unnamed_member) == 152u, all_kinds_unnamed_member, "struct all_kinds.unnamed_member: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, matrix) == 168u, all_kinds_matrix, "struct all_kinds.matrix: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, route) == 204u, all_kinds_route, "struct all_kinds.route: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, grid) == 268u, all_kinds_grid, "struct all_kinds.grid: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, bytes) == 316u, all_kinds_bytes, "struct all_kinds.bytes: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, raw) == 322u, all_kinds_raw, "struct all_kinds.raw: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, flags) == 328u, all_kinds_flags, "struct all_kinds.flags: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, hdr) == 331u, all_kinds_hdr, "struct all_kinds.hdr: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, name) == 338u, all_kinds_name, "struct all_kinds.name: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, text) == 360u, all_kinds_text, "struct all_kinds.text: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, ptr) == 368u, all_kinds_ptr, "struct all_kinds.ptr: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, handler) == 376u, all_kinds_handler, "struct all_kinds.handler: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, either) == 384u, all_kinds_either, "struct all_kinds.either: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, vp) == 392u, all_kinds_vp, "struct all_kinds.vp: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, count) == 400u, all_kinds_count, "struct all_kinds.count: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, tail) == 402u, all_kinds_tail, "struct all_kinds.tail: offset differs from the catalogue; regenerate");
 /* name: skipped (string) */
 /* text: skipped (pointer) */
 /* ptr: skipped (pointer) */
@@ -183,8 +191,26 @@ int kinds_pack_all_kinds(const struct all_kinds *obj, uint8_t *buf, size_t cap) 
     return (int)kinds_all_kinds_PACKED_SIZE;
 }
 
+/* Every wire value unpack would take for struct all_kinds is one pack gives back bit for bit: bools are 0 or
+ * 1, bitfields fit their width. Checked before anything is written, so a refusal leaves *obj alone. */
+static int kinds_valid_all_kinds(const uint8_t *buf) {
+    if (!(ub_get_u8(buf + 62) <= 1u)) return 0;
+    if (!(ub_get_u8(buf + 96) <= 7u)) return 0;
+    if (!((int8_t)ub_get_u8(buf + 97) >= -16 && (int8_t)ub_get_u8(buf + 97) <= 15)) return 0;
+    if (!(ub_get_u16le(buf + 98) <= 4095u)) return 0;
+    if (!(ub_get_u64le(buf + 100) <= UINT64_C(1099511627775))) return 0;
+    if (!((int64_t)ub_get_u64le(buf + 108) >= INT64_C(-4294967296) && (int64_t)ub_get_u64le(buf + 108) <= INT64_C(4294967295))) return 0;
+    if (!(ub_get_u8(buf + 116) <= 1u)) return 0;
+    for (size_t k = 0; k < 3u; k++) {
+        const uint8_t *q = buf + 290 + k * 1u;
+        if (!(ub_get_u8(q) <= 1u)) return 0;
+    }
+    return 1;
+}
+
 int kinds_unpack_all_kinds(struct all_kinds *obj, const uint8_t *buf, size_t len) {
     if (len < kinds_all_kinds_PACKED_SIZE) return UB_ERR_TRUNCATED;
+    if (!kinds_valid_all_kinds(buf)) return UB_ERR_RANGE;
     const uint8_t *p = buf;
     obj->c = (int8_t)ub_get_u8(p);
     p += 1;
@@ -311,9 +337,9 @@ static int kinds_unpack_all_kinds_any(void *obj, const uint8_t *buf, size_t len)
 
 /* ---- struct empty_set (all_kinds.h:28) ---- */
 /* A compiler or ABI that lays struct empty_set out differently from clang at generation time fails here. */
-_Static_assert(sizeof(struct empty_set) == 16u, "struct empty_set: sizeof differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct empty_set, label) == 0u, "struct empty_set.label: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct empty_set, callback) == 8u, "struct empty_set.callback: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(sizeof(struct empty_set) == 16u, empty_set_size, "struct empty_set: sizeof differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct empty_set, label) == 0u, empty_set_label, "struct empty_set.label: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct empty_set, callback) == 8u, empty_set_callback, "struct empty_set.callback: offset differs from the catalogue; regenerate");
 /* label: skipped (pointer) */
 /* callback: skipped (pointer) */
 
@@ -341,10 +367,10 @@ static int kinds_unpack_empty_set_any(void *obj, const uint8_t *buf, size_t len)
 
 /* ---- struct packed_hdr (all_kinds.h:22) ---- */
 /* A compiler or ABI that lays struct packed_hdr out differently from clang at generation time fails here. */
-_Static_assert(sizeof(struct packed_hdr) == 7u, "struct packed_hdr: sizeof differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct packed_hdr, tag) == 0u, "struct packed_hdr.tag: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct packed_hdr, len) == 1u, "struct packed_hdr.len: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct packed_hdr, crc) == 5u, "struct packed_hdr.crc: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(sizeof(struct packed_hdr) == 7u, packed_hdr_size, "struct packed_hdr: sizeof differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct packed_hdr, tag) == 0u, packed_hdr_tag, "struct packed_hdr.tag: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct packed_hdr, len) == 1u, packed_hdr_len, "struct packed_hdr.len: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct packed_hdr, crc) == 5u, packed_hdr_crc, "struct packed_hdr.crc: offset differs from the catalogue; regenerate");
 
 int kinds_pack_packed_hdr(const struct packed_hdr *obj, uint8_t *buf, size_t cap) {
     if (cap < kinds_packed_hdr_PACKED_SIZE) return UB_ERR_NOSPACE;
@@ -380,10 +406,10 @@ static int kinds_unpack_packed_hdr_any(void *obj, const uint8_t *buf, size_t len
 
 /* ---- struct vec3 (all_kinds.h:13) ---- */
 /* A compiler or ABI that lays struct vec3 out differently from clang at generation time fails here. */
-_Static_assert(sizeof(struct vec3) == 12u, "struct vec3: sizeof differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct vec3, x) == 0u, "struct vec3.x: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct vec3, y) == 4u, "struct vec3.y: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct vec3, z) == 8u, "struct vec3.z: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(sizeof(struct vec3) == 12u, vec3_size, "struct vec3: sizeof differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct vec3, x) == 0u, vec3_x, "struct vec3.x: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct vec3, y) == 4u, vec3_y, "struct vec3.y: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct vec3, z) == 8u, vec3_z, "struct vec3.z: offset differs from the catalogue; regenerate");
 
 int kinds_pack_vec3(const struct vec3 *obj, uint8_t *buf, size_t cap) {
     if (cap < kinds_vec3_PACKED_SIZE) return UB_ERR_NOSPACE;
@@ -419,9 +445,9 @@ static int kinds_unpack_vec3_any(void *obj, const uint8_t *buf, size_t len) {
 
 /* ---- waypoint_t (all_kinds.h:17) ---- */
 /* A compiler or ABI that lays waypoint_t out differently from clang at generation time fails here. */
-_Static_assert(sizeof(waypoint_t) == 16u, "waypoint_t: sizeof differs from the catalogue; regenerate");
-_Static_assert(offsetof(waypoint_t, id) == 0u, "waypoint_t.id: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(waypoint_t, pos) == 4u, "waypoint_t.pos: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(sizeof(waypoint_t) == 16u, waypoint_t_size, "waypoint_t: sizeof differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(waypoint_t, id) == 0u, waypoint_t_id, "waypoint_t.id: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(waypoint_t, pos) == 4u, waypoint_t_pos, "waypoint_t.pos: offset differs from the catalogue; regenerate");
 
 int kinds_pack_waypoint_t(const waypoint_t *obj, uint8_t *buf, size_t cap) {
     if (cap < kinds_waypoint_t_PACKED_SIZE) return UB_ERR_NOSPACE;
@@ -481,132 +507,577 @@ static const ub_instance_desc_t kinds_instances[11] = {
     { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x69, 0x6e, 0x74, 0x73, 0x5b, 0x32, 0x5d, 0x1e, 0x77 }, "waypoints[2]", &kinds_types[kinds_TYPE_waypoint_t] },
 };
 
-/* The catalogue's self-description (the compact form of kinds.catalogue.json): binary logs copy it
- * into their header so they stay decodable without this build. */
-static const char kinds_catalogue_json[] =
-    "{\"catalogue\":\"kinds\",\"abi_version\":2,\"id_scheme\":\"hashed\",\"types\":[{\"name\":\"struct all_kinds\",\"c"
-    "_name\":\"struct all_kinds\",\"size\":416,\"align\":16,\"packed_attr\":false,\"packed_size\":302,\"fingerpri"
-    "nt\":\"c9215705\",\"file\":\"all_kinds.h\",\"line\":33,\"fields\":[{\"name\":\"c\",\"wire\":\"i8\",\"struct\":null,\"c"
-    "ount\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"char\",\"long_double\":false,\"skipped\":nul"
-    "l},{\"name\":\"sc\",\"wire\":\"i8\",\"struct\":null,\"count\":[],\"offset\":1,\"bit_offset\":8,\"bits\":null,\"c_ty"
-    "pe\":\"signed char\",\"long_double\":false,\"skipped\":null},{\"name\":\"uc\",\"wire\":\"u8\",\"struct\":null,\"co"
-    "unt\":[],\"offset\":2,\"bit_offset\":16,\"bits\":null,\"c_type\":\"unsigned char\",\"long_double\":false,\"ski"
-    "pped\":null},{\"name\":\"s\",\"wire\":\"i16\",\"struct\":null,\"count\":[],\"offset\":4,\"bit_offset\":32,\"bits\":"
-    "null,\"c_type\":\"short\",\"long_double\":false,\"skipped\":null},{\"name\":\"us\",\"wire\":\"u16\",\"struct\":nul"
-    "l,\"count\":[],\"offset\":6,\"bit_offset\":48,\"bits\":null,\"c_type\":\"unsigned short\",\"long_double\":fals"
-    "e,\"skipped\":null},{\"name\":\"i\",\"wire\":\"i32\",\"struct\":null,\"count\":[],\"offset\":8,\"bit_offset\":64,\""
-    "bits\":null,\"c_type\":\"int\",\"long_double\":false,\"skipped\":null},{\"name\":\"ui\",\"wire\":\"u32\",\"struct\""
-    ":null,\"count\":[],\"offset\":12,\"bit_offset\":96,\"bits\":null,\"c_type\":\"unsigned int\",\"long_double\":f"
-    "alse,\"skipped\":null},{\"name\":\"l\",\"wire\":\"i64\",\"struct\":null,\"count\":[],\"offset\":16,\"bit_offset\":"
-    "128,\"bits\":null,\"c_type\":\"long\",\"long_double\":false,\"skipped\":null},{\"name\":\"ul\",\"wire\":\"u64\",\"s"
-    "truct\":null,\"count\":[],\"offset\":24,\"bit_offset\":192,\"bits\":null,\"c_type\":\"unsigned long\",\"long_d"
-    "ouble\":false,\"skipped\":null},{\"name\":\"ll\",\"wire\":\"i64\",\"struct\":null,\"count\":[],\"offset\":32,\"bit"
-    "_offset\":256,\"bits\":null,\"c_type\":\"long long\",\"long_double\":false,\"skipped\":null},{\"name\":\"ull\","
-    "\"wire\":\"u64\",\"struct\":null,\"count\":[],\"offset\":40,\"bit_offset\":320,\"bits\":null,\"c_type\":\"unsigne"
-    "d long long\",\"long_double\":false,\"skipped\":null},{\"name\":\"i8\",\"wire\":\"i8\",\"struct\":null,\"count\":"
-    "[],\"offset\":48,\"bit_offset\":384,\"bits\":null,\"c_type\":\"signed char\",\"long_double\":false,\"skipped\""
-    ":null},{\"name\":\"u16\",\"wire\":\"u16\",\"struct\":null,\"count\":[],\"offset\":50,\"bit_offset\":400,\"bits\":n"
-    "ull,\"c_type\":\"unsigned short\",\"long_double\":false,\"skipped\":null},{\"name\":\"i32\",\"wire\":\"i32\",\"st"
-    "ruct\":null,\"count\":[],\"offset\":52,\"bit_offset\":416,\"bits\":null,\"c_type\":\"int\",\"long_double\":fals"
-    "e,\"skipped\":null},{\"name\":\"u64\",\"wire\":\"u64\",\"struct\":null,\"count\":[],\"offset\":56,\"bit_offset\":4"
-    "48,\"bits\":null,\"c_type\":\"unsigned long\",\"long_double\":false,\"skipped\":null},{\"name\":\"flag\",\"wire"
-    "\":\"bool\",\"struct\":null,\"count\":[],\"offset\":64,\"bit_offset\":512,\"bits\":null,\"c_type\":\"_Bool\",\"lon"
-    "g_double\":false,\"skipped\":null},{\"name\":\"f\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":68,\"b"
-    "it_offset\":544,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null},{\"name\":\"d\",\"wir"
-    "e\":\"f64\",\"struct\":null,\"count\":[],\"offset\":72,\"bit_offset\":576,\"bits\":null,\"c_type\":\"double\",\"lo"
-    "ng_double\":false,\"skipped\":null},{\"name\":\"ld\",\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":80,"
-    "\"bit_offset\":640,\"bits\":null,\"c_type\":\"long double\",\"long_double\":true,\"skipped\":null},{\"name\":\""
-    "mode\",\"wire\":\"u32\",\"struct\":null,\"count\":[],\"offset\":96,\"bit_offset\":768,\"bits\":null,\"c_type\":\"m"
-    "ode_e\",\"long_double\":false,\"skipped\":null},{\"name\":\"wide\",\"wire\":\"i64\",\"struct\":null,\"count\":[],"
-    "\"offset\":104,\"bit_offset\":832,\"bits\":null,\"c_type\":\"enum wide_e\",\"long_double\":false,\"skipped\":n"
-    "ull},{\"name\":\"tiny\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":112,\"bit_offset\":896,\"bits\":nu"
-    "ll,\"c_type\":\"tiny_e\",\"long_double\":false,\"skipped\":null},{\"name\":\"bf_u3\",\"wire\":\"u8\",\"struct\":nu"
-    "ll,\"count\":[],\"offset\":113,\"bit_offset\":904,\"bits\":3,\"c_type\":\"unsigned int\",\"long_double\":false"
-    ",\"skipped\":null},{\"name\":\"bf_s5\",\"wire\":\"i8\",\"struct\":null,\"count\":[],\"offset\":113,\"bit_offset\":"
-    "907,\"bits\":5,\"c_type\":\"int\",\"long_double\":false,\"skipped\":null},{\"name\":\"bf_u12\",\"wire\":\"u16\",\"s"
-    "truct\":null,\"count\":[],\"offset\":114,\"bit_offset\":912,\"bits\":12,\"c_type\":\"unsigned int\",\"long_dou"
-    "ble\":false,\"skipped\":null},{\"name\":\"bf_u40\",\"wire\":\"u64\",\"struct\":null,\"count\":[],\"offset\":120,\""
-    "bit_offset\":960,\"bits\":40,\"c_type\":\"unsigned long\",\"long_double\":false,\"skipped\":null},{\"name\":\""
-    "bf_s33\",\"wire\":\"i64\",\"struct\":null,\"count\":[],\"offset\":128,\"bit_offset\":1024,\"bits\":33,\"c_type\":"
-    "\"long\",\"long_double\":false,\"skipped\":null},{\"name\":\"bf_b\",\"wire\":\"bool\",\"struct\":null,\"count\":[]"
-    ",\"offset\":132,\"bit_offset\":1057,\"bits\":1,\"c_type\":\"_Bool\",\"long_double\":false,\"skipped\":null},{\""
-    "name\":\"vel\",\"wire\":\"struct\",\"struct\":\"struct vec3\",\"count\":[],\"offset\":136,\"bit_offset\":1088,\"bi"
-    "ts\":null,\"c_type\":\"struct vec3\",\"long_double\":false,\"skipped\":null},{\"name\":\"roll\",\"wire\":\"i16\","
-    "\"struct\":null,\"count\":[],\"offset\":148,\"bit_offset\":1184,\"bits\":null,\"c_type\":\"short\",\"long_doubl"
-    "e\":false,\"skipped\":null},{\"name\":\"pitch\",\"wire\":\"i16\",\"struct\":null,\"count\":[],\"offset\":150,\"bit"
-    "_offset\":1200,\"bits\":null,\"c_type\":\"short\",\"long_double\":false,\"skipped\":null},{\"name\":\"unnamed_"
-    "member\",\"wire\":\"struct\",\"struct\":\"struct all_kinds::unnamed_member\",\"count\":[],\"offset\":152,\"bit"
-    "_offset\":1216,\"bits\":null,\"c_type\":\"struct all_kinds::unnamed_member\",\"long_double\":false,\"skipp"
-    "ed\":null},{\"name\":\"matrix\",\"wire\":\"f32\",\"struct\":null,\"count\":[3,3],\"offset\":168,\"bit_offset\":13"
-    "44,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null},{\"name\":\"route\",\"wire\":\"stru"
-    "ct\",\"struct\":\"waypoint_t\",\"count\":[4],\"offset\":204,\"bit_offset\":1632,\"bits\":null,\"c_type\":\"waypo"
-    "int_t\",\"long_double\":false,\"skipped\":null},{\"name\":\"grid\",\"wire\":\"struct\",\"struct\":\"struct vec3\""
-    ",\"count\":[2,2],\"offset\":268,\"bit_offset\":2144,\"bits\":null,\"c_type\":\"struct vec3\",\"long_double\":f"
-    "alse,\"skipped\":null},{\"name\":\"bytes\",\"wire\":\"i8\",\"struct\":null,\"count\":[6],\"offset\":316,\"bit_off"
-    "set\":2528,\"bits\":null,\"c_type\":\"signed char\",\"long_double\":false,\"skipped\":null},{\"name\":\"raw\",\""
-    "wire\":\"u8\",\"struct\":null,\"count\":[2,3],\"offset\":322,\"bit_offset\":2576,\"bits\":null,\"c_type\":\"unsi"
-    "gned char\",\"long_double\":false,\"skipped\":null},{\"name\":\"flags\",\"wire\":\"bool\",\"struct\":null,\"coun"
-    "t\":[3],\"offset\":328,\"bit_offset\":2624,\"bits\":null,\"c_type\":\"_Bool\",\"long_double\":false,\"skipped\""
-    ":null},{\"name\":\"hdr\",\"wire\":\"struct\",\"struct\":\"struct packed_hdr\",\"count\":[],\"offset\":331,\"bit_o"
-    "ffset\":2648,\"bits\":null,\"c_type\":\"struct packed_hdr\",\"long_double\":false,\"skipped\":null},{\"name\""
-    ":\"name\",\"wire\":null,\"struct\":null,\"count\":[16],\"offset\":338,\"bit_offset\":2704,\"bits\":null,\"c_typ"
-    "e\":\"char\",\"long_double\":false,\"skipped\":\"string\"},{\"name\":\"text\",\"wire\":null,\"struct\":null,\"coun"
-    "t\":[],\"offset\":360,\"bit_offset\":2880,\"bits\":null,\"c_type\":\"char *\",\"long_double\":false,\"skipped\""
-    ":\"pointer\"},{\"name\":\"ptr\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":368,\"bit_offset\":2944,\"b"
-    "its\":null,\"c_type\":\"int *\",\"long_double\":false,\"skipped\":\"pointer\"},{\"name\":\"handler\",\"wire\":nul"
-    "l,\"struct\":null,\"count\":[],\"offset\":376,\"bit_offset\":3008,\"bits\":null,\"c_type\":\"void (*)(void)\","
-    "\"long_double\":false,\"skipped\":\"pointer\"},{\"name\":\"either\",\"wire\":null,\"struct\":null,\"count\":[],\""
-    "offset\":384,\"bit_offset\":3072,\"bits\":null,\"c_type\":\"union all_kinds::(unnamed at all_kinds.h:88:"
-    "5)\",\"long_double\":false,\"skipped\":\"union\"},{\"name\":\"\",\"wire\":null,\"struct\":null,\"count\":[],\"offs"
-    "et\":388,\"bit_offset\":3104,\"bits\":null,\"c_type\":\"anonymous union\",\"long_double\":false,\"skipped\":\""
-    "union\"},{\"name\":\"vp\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":392,\"bit_offset\":3136,\"bits\":"
-    "null,\"c_type\":\"struct vec3 *\",\"long_double\":false,\"skipped\":\"pointer\"},{\"name\":\"count\",\"wire\":\"u"
-    "16\",\"struct\":null,\"count\":[],\"offset\":400,\"bit_offset\":3200,\"bits\":null,\"c_type\":\"unsigned short"
-    "\",\"long_double\":false,\"skipped\":null},{\"name\":\"tail\",\"wire\":null,\"struct\":null,\"count\":[],\"offse"
-    "t\":402,\"bit_offset\":3216,\"bits\":null,\"c_type\":\"uint8_t[]\",\"long_double\":false,\"skipped\":\"flexibl"
-    "e array member\"}]},{\"name\":\"struct all_kinds::unnamed_member\",\"c_name\":null,\"size\":16,\"align\":8,"
-    "\"packed_attr\":false,\"packed_size\":9,\"fingerprint\":\"da0eece7\",\"file\":\"all_kinds.h\",\"line\":72,\"fie"
-    "lds\":[{\"name\":\"a\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_"
-    "type\":\"unsigned char\",\"long_double\":false,\"skipped\":null},{\"name\":\"b\",\"wire\":\"f64\",\"struct\":null"
-    ",\"count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"double\",\"long_double\":false,\"skippe"
-    "d\":null}]},{\"name\":\"struct empty_set\",\"c_name\":\"struct empty_set\",\"size\":16,\"align\":8,\"packed_at"
-    "tr\":false,\"packed_size\":0,\"fingerprint\":\"42c4b0e3\",\"file\":\"all_kinds.h\",\"line\":28,\"fields\":[{\"na"
-    "me\":\"label\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":"
-    "\"char *\",\"long_double\":false,\"skipped\":\"pointer\"},{\"name\":\"callback\",\"wire\":null,\"struct\":null,\""
-    "count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"void (*)(int)\",\"long_double\":false,\"s"
-    "kipped\":\"pointer\"}]},{\"name\":\"struct packed_hdr\",\"c_name\":\"struct packed_hdr\",\"size\":7,\"align\":1"
-    ",\"packed_attr\":true,\"packed_size\":7,\"fingerprint\":\"efc8c2ff\",\"file\":\"all_kinds.h\",\"line\":22,\"fie"
-    "lds\":[{\"name\":\"tag\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\""
-    "c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null},{\"name\":\"len\",\"wire\":\"u32\",\"struct\":"
-    "null,\"count\":[],\"offset\":1,\"bit_offset\":8,\"bits\":null,\"c_type\":\"unsigned int\",\"long_double\":fals"
-    "e,\"skipped\":null},{\"name\":\"crc\",\"wire\":\"u16\",\"struct\":null,\"count\":[],\"offset\":5,\"bit_offset\":40"
-    ",\"bits\":null,\"c_type\":\"unsigned short\",\"long_double\":false,\"skipped\":null}]},{\"name\":\"struct vec"
-    "3\",\"c_name\":\"struct vec3\",\"size\":12,\"align\":4,\"packed_attr\":false,\"packed_size\":12,\"fingerprint\""
-    ":\"7a76ed67\",\"file\":\"all_kinds.h\",\"line\":13,\"fields\":[{\"name\":\"x\",\"wire\":\"f32\",\"struct\":null,\"cou"
-    "nt\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null"
-    "},{\"name\":\"y\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":4,\"bit_offset\":32,\"bits\":null,\"c_ty"
-    "pe\":\"float\",\"long_double\":false,\"skipped\":null},{\"name\":\"z\",\"wire\":\"f32\",\"struct\":null,\"count\":["
-    "],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null}]},"
-    "{\"name\":\"waypoint_t\",\"c_name\":\"waypoint_t\",\"size\":16,\"align\":4,\"packed_attr\":false,\"packed_size\""
-    ":13,\"fingerprint\":\"79ce9804\",\"file\":\"all_kinds.h\",\"line\":17,\"fields\":[{\"name\":\"id\",\"wire\":\"u8\",\""
-    "struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"unsigned char\",\"long_dou"
-    "ble\":false,\"skipped\":null},{\"name\":\"pos\",\"wire\":\"struct\",\"struct\":\"struct vec3\",\"count\":[],\"offs"
-    "et\":4,\"bit_offset\":32,\"bits\":null,\"c_type\":\"struct vec3\",\"long_double\":false,\"skipped\":null}]}],"
-    "\"instances\":[{\"name\":\"hdr1\",\"type\":\"struct packed_hdr\",\"id\":\"68647231000000686472310000003357\",\""
-    "file\":\"all_kinds.h\",\"line\":104},{\"name\":\"kinds\",\"type\":\"struct all_kinds\",\"id\":\"6b696e647300006b"
-    "696e64730000fa47\",\"file\":\"all_kinds.h\",\"line\":101},{\"name\":\"lattice[0][0]\",\"type\":\"struct vec3\","
-    "\"id\":\"6c617474696365655b305d5b305da91f\",\"file\":\"all_kinds.h\",\"line\":103},{\"name\":\"lattice[0][1]\""
-    ",\"type\":\"struct vec3\",\"id\":\"6c617474696365655b305d5b315d982c\",\"file\":\"all_kinds.h\",\"line\":103},{"
-    "\"name\":\"lattice[1][0]\",\"type\":\"struct vec3\",\"id\":\"6c617474696365655b315d5b305df8b5\",\"file\":\"all_"
-    "kinds.h\",\"line\":103},{\"name\":\"lattice[1][1]\",\"type\":\"struct vec3\",\"id\":\"6c617474696365655b315d5b"
-    "315dc986\",\"file\":\"all_kinds.h\",\"line\":103},{\"name\":\"macro_set\",\"type\":\"struct vec3\",\"id\":\"6d6163"
-    "726f5f7363726f5f7365742f47\",\"file\":\"all_kinds.h\",\"line\":109},{\"name\":\"nothing\",\"type\":\"struct em"
-    "pty_set\",\"id\":\"6e6f7468696e676e6f7468696e674893\",\"file\":\"all_kinds.h\",\"line\":105},{\"name\":\"waypo"
-    "ints[0]\",\"type\":\"waypoint_t\",\"id\":\"776179706f696e696e74735b305d7c11\",\"file\":\"all_kinds.h\",\"line\""
-    ":102},{\"name\":\"waypoints[1]\",\"type\":\"waypoint_t\",\"id\":\"776179706f696e696e74735b315d4d22\",\"file\":"
-    "\"all_kinds.h\",\"line\":102},{\"name\":\"waypoints[2]\",\"type\":\"waypoint_t\",\"id\":\"776179706f696e696e747"
-    "35b325d1e77\",\"file\":\"all_kinds.h\",\"line\":102}],\"skipped_instances\":[{\"name\":\"not_a_struct\",\"file"
-    "\":\"all_kinds.h\",\"line\":106,\"reason\":\"union\"}]}";
+/* The catalogue's self-description (the compact form of kinds.catalogue.json, NUL-terminated):
+ * binary logs copy it into their header so they stay decodable without this build. Written as
+ * character codes because C99 bounds a string literal to 4095 characters. */
+static const char kinds_catalogue_json[] = {
+    123, 34, 99, 97, 116, 97, 108, 111, 103, 117, 101, 34, 58, 34, 107, 105, 110, 100, 115, 34, 44, 34, 97, 98,
+    105, 95, 118, 101, 114, 115, 105, 111, 110, 34, 58, 50, 44, 34, 105, 100, 95, 115, 99, 104, 101, 109, 101, 34,
+    58, 34, 104, 97, 115, 104, 101, 100, 34, 44, 34, 116, 121, 112, 101, 115, 34, 58, 91, 123, 34, 110, 97, 109,
+    101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 97, 108, 108, 95, 107, 105, 110, 100, 115, 34, 44, 34, 99,
+    95, 110, 97, 109, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 97, 108, 108, 95, 107, 105, 110, 100, 115,
+    34, 44, 34, 115, 105, 122, 101, 34, 58, 52, 49, 54, 44, 34, 97, 108, 105, 103, 110, 34, 58, 49, 54, 44,
+    34, 112, 97, 99, 107, 101, 100, 95, 97, 116, 116, 114, 34, 58, 102, 97, 108, 115, 101, 44, 34, 112, 97, 99,
+    107, 101, 100, 95, 115, 105, 122, 101, 34, 58, 51, 48, 50, 44, 34, 102, 105, 110, 103, 101, 114, 112, 114, 105,
+    110, 116, 34, 58, 34, 99, 57, 50, 49, 53, 55, 48, 53, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97,
+    108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 51, 51, 44, 34, 102,
+    105, 101, 108, 100, 115, 34, 58, 91, 123, 34, 110, 97, 109, 101, 34, 58, 34, 99, 34, 44, 34, 119, 105, 114,
+    101, 34, 58, 34, 105, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99,
+    111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116,
+    95, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34,
+    99, 95, 116, 121, 112, 101, 34, 58, 34, 99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117,
+    98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108,
+    108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108,
+    115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 115, 99, 34, 44, 34, 119, 105, 114, 101, 34, 58,
+    34, 105, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
+    116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 44, 34, 98, 105, 116, 95, 111, 102,
+    102, 115, 101, 116, 34, 58, 56, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116,
+    121, 112, 101, 34, 58, 34, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103,
+    95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34,
+    58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34,
+    58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 117, 99, 34, 44, 34, 119, 105,
+    114, 101, 34, 58, 34, 117, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34,
+    99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 50, 44, 34, 98, 105,
+    116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 49, 54, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108,
+    44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114,
+    34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115,
+    107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108,
+    44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34,
+    115, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 49, 54, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34,
+    58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116,
+    34, 58, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 50, 44, 34, 98, 105, 116,
+    115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115, 104, 111, 114, 116, 34,
+    44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107,
+    105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44,
+    34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 117,
+    115, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 49, 54, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34,
+    58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116,
+    34, 58, 54, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 52, 56, 44, 34, 98, 105, 116,
+    115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110,
+    101, 100, 32, 115, 104, 111, 114, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58,
+    102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110,
+    117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123,
+    34, 110, 97, 109, 101, 34, 58, 34, 105, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 51, 50, 34, 44,
+    34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93,
+    44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34,
+    58, 54, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34,
+    58, 34, 105, 110, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108,
+    115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34,
+    58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97,
+    109, 101, 34, 58, 34, 117, 105, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 51, 50, 34, 44, 34, 115,
+    116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34,
+    111, 102, 102, 115, 101, 116, 34, 58, 49, 50, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58,
+    57, 54, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58,
+    34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 105, 110, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117,
+    98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108,
+    108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108,
+    115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34,
+    105, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
+    116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 54, 44, 34, 98, 105, 116, 95, 111,
+    102, 102, 115, 101, 116, 34, 58, 49, 50, 56, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34,
+    99, 95, 116, 121, 112, 101, 34, 58, 34, 108, 111, 110, 103, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117,
+    98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108,
+    108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108,
+    115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 117, 108, 34, 44, 34, 119, 105, 114, 101, 34, 58,
+    34, 117, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117,
+    110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 50, 52, 44, 34, 98, 105, 116, 95,
+    111, 102, 102, 115, 101, 116, 34, 58, 49, 57, 50, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44,
+    34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 108, 111, 110, 103, 34,
+    44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107,
+    105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44,
+    34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108,
+    108, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34,
+    58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116,
+    34, 58, 51, 50, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 53, 54, 44, 34, 98,
+    105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 108, 111, 110, 103,
+    32, 108, 111, 110, 103, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108,
+    115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34,
+    58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97,
+    109, 101, 34, 58, 34, 117, 108, 108, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 54, 52, 34, 44, 34,
+    115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44,
+    34, 111, 102, 102, 115, 101, 116, 34, 58, 52, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34,
+    58, 51, 50, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101,
+    34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 108, 111, 110, 103, 32, 108, 111, 110, 103, 34, 44, 34,
+    108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112,
+    112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116,
+    101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 105, 56, 34,
+    44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117,
+    108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 52,
+    56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 56, 52, 44, 34, 98, 105, 116, 115,
+    34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115, 105, 103, 110, 101, 100, 32,
+    99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115,
+    101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58,
+    110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109,
+    101, 34, 58, 34, 117, 49, 54, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 49, 54, 34, 44, 34, 115,
+    116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34,
+    111, 102, 102, 115, 101, 116, 34, 58, 53, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58,
+    52, 48, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34,
+    58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 115, 104, 111, 114, 116, 34, 44, 34, 108, 111, 110, 103, 95,
+    100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58,
+    110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58,
+    102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 105, 51, 50, 34, 44, 34, 119, 105,
+    114, 101, 34, 58, 34, 105, 51, 50, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44,
+    34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 53, 50, 44, 34,
+    98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 52, 49, 54, 44, 34, 98, 105, 116, 115, 34, 58, 110,
+    117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 105, 110, 116, 34, 44, 34, 108, 111, 110, 103,
+    95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34,
+    58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34,
+    58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 117, 54, 52, 34, 44, 34, 119,
+    105, 114, 101, 34, 58, 34, 117, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108,
+    44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 53, 54, 44,
+    34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 52, 52, 56, 44, 34, 98, 105, 116, 115, 34, 58,
+    110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32,
+    108, 111, 110, 103, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115,
+    101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58,
+    110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109,
+    101, 34, 58, 34, 102, 108, 97, 103, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 98, 111, 111, 108, 34, 44,
+    34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93,
+    44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 54, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116,
+    34, 58, 53, 49, 50, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112,
+    101, 34, 58, 34, 95, 66, 111, 111, 108, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34,
+    58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101,
+    110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44,
+    123, 34, 110, 97, 109, 101, 34, 58, 34, 102, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 102, 51, 50, 34,
+    44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91,
+    93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 54, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101,
+    116, 34, 58, 53, 52, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121,
+    112, 101, 34, 58, 34, 102, 108, 111, 97, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101,
+    34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34,
+    101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125,
+    44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 100, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 102, 54, 52,
+    34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58,
+    91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 55, 50, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115,
+    101, 116, 34, 58, 53, 55, 54, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116,
+    121, 112, 101, 34, 58, 34, 100, 111, 117, 98, 108, 101, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98,
+    108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108,
+    44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115,
+    101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 100, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34,
+    102, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
+    116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 56, 48, 44, 34, 98, 105, 116, 95, 111,
+    102, 102, 115, 101, 116, 34, 58, 54, 52, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34,
+    99, 95, 116, 121, 112, 101, 34, 58, 34, 108, 111, 110, 103, 32, 100, 111, 117, 98, 108, 101, 34, 44, 34, 108,
+    111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 116, 114, 117, 101, 44, 34, 115, 107, 105, 112, 112, 101,
+    100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120,
+    116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 109, 111, 100, 101, 34,
+    44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 51, 50, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110,
+    117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58,
+    57, 54, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 55, 54, 56, 44, 34, 98, 105, 116,
+    115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 109, 111, 100, 101, 95, 101,
+    34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115,
+    107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 34, 109, 111, 100,
+    101, 95, 101, 34, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109,
+    101, 34, 58, 34, 119, 105, 100, 101, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 54, 52, 34, 44, 34,
+    115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44,
+    34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 48, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116,
+    34, 58, 56, 51, 50, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112,
+    101, 34, 58, 34, 101, 110, 117, 109, 32, 119, 105, 100, 101, 95, 101, 34, 44, 34, 108, 111, 110, 103, 95, 100,
+    111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110,
+    117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 34, 101, 110, 117, 109, 32, 119, 105, 100, 101, 95, 101, 34,
+    44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34,
+    116, 105, 110, 121, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 56, 34, 44, 34, 115, 116, 114, 117, 99,
+    116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115,
+    101, 116, 34, 58, 49, 49, 50, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 56, 57, 54,
+    44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 116,
+    105, 110, 121, 95, 101, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108,
+    115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34,
+    58, 34, 116, 105, 110, 121, 95, 101, 34, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44,
+    123, 34, 110, 97, 109, 101, 34, 58, 34, 98, 102, 95, 117, 51, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34,
+    117, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116,
+    34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 49, 51, 44, 34, 98, 105, 116, 95, 111,
+    102, 102, 115, 101, 116, 34, 58, 57, 48, 52, 44, 34, 98, 105, 116, 115, 34, 58, 51, 44, 34, 99, 95, 116,
+    121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 105, 110, 116, 34, 44, 34, 108, 111, 110,
+    103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100,
+    34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116,
+    34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 98, 102, 95, 115, 53, 34,
+    44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117,
+    108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49,
+    49, 51, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 57, 48, 55, 44, 34, 98, 105, 116,
+    115, 34, 58, 53, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 105, 110, 116, 34, 44, 34, 108, 111, 110,
+    103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100,
+    34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116,
+    34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 98, 102, 95, 117, 49, 50,
+    34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 49, 54, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58,
+    110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34,
+    58, 49, 49, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 57, 49, 50, 44, 34, 98,
+    105, 116, 115, 34, 58, 49, 50, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110,
+    101, 100, 32, 105, 110, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97,
+    108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109,
+    34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110,
+    97, 109, 101, 34, 58, 34, 98, 102, 95, 117, 52, 48, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 54,
+    52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34,
+    58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 50, 48, 44, 34, 98, 105, 116, 95, 111, 102,
+    102, 115, 101, 116, 34, 58, 57, 54, 48, 44, 34, 98, 105, 116, 115, 34, 58, 52, 48, 44, 34, 99, 95, 116,
+    121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 108, 111, 110, 103, 34, 44, 34, 108, 111,
+    110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101,
+    100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120,
+    116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 98, 102, 95, 115, 51,
+    51, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34,
+    58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116,
+    34, 58, 49, 50, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 49, 48, 50, 52, 44,
+    34, 98, 105, 116, 115, 34, 58, 51, 51, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 108, 111, 110, 103,
+    34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115,
+    107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108,
+    44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34,
+    98, 102, 95, 98, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 98, 111, 111, 108, 34, 44, 34, 115, 116, 114,
+    117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102,
+    102, 115, 101, 116, 34, 58, 49, 51, 50, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 49,
+    48, 53, 55, 44, 34, 98, 105, 116, 115, 34, 58, 49, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 95,
+    66, 111, 111, 108, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115,
+    101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58,
+    110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109,
+    101, 34, 58, 34, 118, 101, 108, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 34,
+    44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 34, 44,
+    34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 51, 54, 44,
+    34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 49, 48, 56, 56, 44, 34, 98, 105, 116, 115, 34,
+    58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118,
+    101, 99, 51, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101,
+    44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110,
+    117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101,
+    34, 58, 34, 114, 111, 108, 108, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 49, 54, 34, 44, 34, 115,
+    116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34,
+    111, 102, 102, 115, 101, 116, 34, 58, 49, 52, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34,
+    58, 49, 49, 56, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112,
+    101, 34, 58, 34, 115, 104, 111, 114, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34,
+    58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101,
+    110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44,
+    123, 34, 110, 97, 109, 101, 34, 58, 34, 112, 105, 116, 99, 104, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34,
+    105, 49, 54, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
+    116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 53, 48, 44, 34, 98, 105, 116, 95,
+    111, 102, 102, 115, 101, 116, 34, 58, 49, 50, 48, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108,
+    44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115, 104, 111, 114, 116, 34, 44, 34, 108, 111, 110, 103, 95,
+    100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58,
+    110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58,
+    102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 117, 110, 110, 97, 109, 101, 100, 95,
+    109, 101, 109, 98, 101, 114, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 34, 44,
+    34, 115, 116, 114, 117, 99, 116, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 97, 108, 108, 95, 107, 105, 110,
+    100, 115, 58, 58, 117, 110, 110, 97, 109, 101, 100, 95, 109, 101, 109, 98, 101, 114, 34, 44, 34, 99, 111, 117,
+    110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 53, 50, 44, 34, 98, 105, 116,
+    95, 111, 102, 102, 115, 101, 116, 34, 58, 49, 50, 49, 54, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108,
+    108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 97, 108, 108, 95, 107,
+    105, 110, 100, 115, 58, 58, 117, 110, 110, 97, 109, 101, 100, 95, 109, 101, 109, 98, 101, 114, 34, 44, 34, 108,
+    111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112,
+    101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101,
+    120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 109, 97, 116, 114,
+    105, 120, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 102, 51, 50, 34, 44, 34, 115, 116, 114, 117, 99, 116,
+    34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 51, 44, 51, 93, 44, 34, 111, 102,
+    102, 115, 101, 116, 34, 58, 49, 54, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 49,
+    51, 52, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34,
+    58, 34, 102, 108, 111, 97, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102,
+    97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117,
+    109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34,
+    110, 97, 109, 101, 34, 58, 34, 114, 111, 117, 116, 101, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 115, 116,
+    114, 117, 99, 116, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 34, 119, 97, 121, 112, 111, 105, 110, 116,
+    95, 116, 34, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 52, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34,
+    58, 50, 48, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 49, 54, 51, 50, 44, 34,
+    98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 119, 97, 121,
+    112, 111, 105, 110, 116, 95, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102,
+    97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117,
+    109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34,
+    110, 97, 109, 101, 34, 58, 34, 103, 114, 105, 100, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 115, 116, 114,
+    117, 99, 116, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101,
+    99, 51, 34, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 50, 44, 50, 93, 44, 34, 111, 102, 102, 115, 101,
+    116, 34, 58, 50, 54, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 49, 52, 52,
+    44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115,
+    116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101,
+    34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34,
+    101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125,
+    44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 98, 121, 116, 101, 115, 34, 44, 34, 119, 105, 114, 101, 34, 58,
+    34, 105, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
+    116, 34, 58, 91, 54, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 49, 54, 44, 34, 98, 105, 116,
+    95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 53, 50, 56, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108,
+    108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114, 34,
+    44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107,
+    105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44,
+    34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 114,
+    97, 119, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34,
+    58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 50, 44, 51, 93, 44, 34, 111, 102, 102,
+    115, 101, 116, 34, 58, 51, 50, 50, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 53,
+    55, 54, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58,
+    34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111,
+    117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117,
+    108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97,
+    108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 102, 108, 97, 103, 115, 34, 44, 34, 119, 105,
+    114, 101, 34, 58, 34, 98, 111, 111, 108, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108,
+    44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 51, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 50,
+    56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 54, 50, 52, 44, 34, 98, 105, 116,
+    115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 95, 66, 111, 111, 108, 34,
+    44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107,
+    105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44,
+    34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 104,
+    100, 114, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 34, 44, 34, 115, 116, 114,
+    117, 99, 116, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 112, 97, 99, 107, 101, 100, 95, 104, 100, 114, 34,
+    44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 51, 49,
+    44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 54, 52, 56, 44, 34, 98, 105, 116, 115,
+    34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32,
+    112, 97, 99, 107, 101, 100, 95, 104, 100, 114, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101,
+    34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34,
+    101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125,
+    44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 110, 97, 109, 101, 34, 44, 34, 119, 105, 114, 101, 34, 58, 110,
+    117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116,
+    34, 58, 91, 49, 54, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 51, 56, 44, 34, 98, 105, 116,
+    95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 55, 48, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108,
+    108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103, 95,
+    100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58,
+    34, 115, 116, 114, 105, 110, 103, 34, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101,
+    120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 116, 101, 120, 116,
+    34, 44, 34, 119, 105, 114, 101, 34, 58, 110, 117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110,
+    117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58,
+    51, 54, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 56, 56, 48, 44, 34, 98,
+    105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 99, 104, 97, 114,
+    32, 42, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44,
+    34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 34, 112, 111, 105, 110, 116, 101, 114, 34, 44, 34, 101, 110, 117,
+    109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34,
+    110, 97, 109, 101, 34, 58, 34, 112, 116, 114, 34, 44, 34, 119, 105, 114, 101, 34, 58, 110, 117, 108, 108, 44,
+    34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93,
+    44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 54, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101,
+    116, 34, 58, 50, 57, 52, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116,
+    121, 112, 101, 34, 58, 34, 105, 110, 116, 32, 42, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108,
+    101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 34, 112, 111, 105, 110,
+    116, 101, 114, 34, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58,
+    102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 104, 97, 110, 100, 108, 101, 114, 34,
+    44, 34, 119, 105, 114, 101, 34, 58, 110, 117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117,
+    108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51,
+    55, 54, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 48, 48, 56, 44, 34, 98, 105,
+    116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 118, 111, 105, 100, 32,
+    40, 42, 41, 40, 118, 111, 105, 100, 41, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34,
+    58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 34, 112, 111, 105, 110, 116, 101,
+    114, 34, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97,
+    108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 101, 105, 116, 104, 101, 114, 34, 44, 34, 119,
+    105, 114, 101, 34, 58, 110, 117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44,
+    34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 56, 52, 44,
+    34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 48, 55, 50, 44, 34, 98, 105, 116, 115, 34,
+    58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110, 105, 111, 110, 32, 97, 108,
+    108, 95, 107, 105, 110, 100, 115, 58, 58, 40, 117, 110, 110, 97, 109, 101, 100, 32, 97, 116, 32, 97, 108, 108,
+    95, 107, 105, 110, 100, 115, 46, 104, 58, 56, 56, 58, 53, 41, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111,
+    117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 34, 117,
+    110, 105, 111, 110, 34, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34,
+    58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 34, 44, 34, 119, 105, 114, 101,
+    34, 58, 110, 117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111,
+    117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 56, 56, 44, 34, 98, 105,
+    116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 49, 48, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117,
+    108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 97, 110, 111, 110, 121, 109, 111, 117, 115, 32, 117,
+    110, 105, 111, 110, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115,
+    101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 34, 117, 110, 105, 111, 110, 34, 44, 34, 101, 110, 117,
+    109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34,
+    110, 97, 109, 101, 34, 58, 34, 118, 112, 34, 44, 34, 119, 105, 114, 101, 34, 58, 110, 117, 108, 108, 44, 34,
+    115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44,
+    34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 57, 50, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116,
+    34, 58, 51, 49, 51, 54, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121,
+    112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 32, 42, 34, 44, 34, 108, 111, 110,
+    103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100,
+    34, 58, 34, 112, 111, 105, 110, 116, 101, 114, 34, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44,
+    34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 99,
+    111, 117, 110, 116, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 49, 54, 34, 44, 34, 115, 116, 114, 117,
+    99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102,
+    115, 101, 116, 34, 58, 52, 48, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 50,
+    48, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58,
+    34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 115, 104, 111, 114, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100,
+    111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110,
+    117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102,
+    97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 116, 97, 105, 108, 34, 44, 34, 119, 105,
+    114, 101, 34, 58, 110, 117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34,
+    99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 52, 48, 50, 44, 34,
+    98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 50, 49, 54, 44, 34, 98, 105, 116, 115, 34, 58,
+    110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 105, 110, 116, 56, 95, 116, 91, 93,
+    34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115,
+    107, 105, 112, 112, 101, 100, 34, 58, 34, 102, 108, 101, 120, 105, 98, 108, 101, 32, 97, 114, 114, 97, 121, 32,
+    109, 101, 109, 98, 101, 114, 34, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120,
+    116, 34, 58, 102, 97, 108, 115, 101, 125, 93, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 115, 116, 114,
+    117, 99, 116, 32, 97, 108, 108, 95, 107, 105, 110, 100, 115, 58, 58, 117, 110, 110, 97, 109, 101, 100, 95, 109,
+    101, 109, 98, 101, 114, 34, 44, 34, 99, 95, 110, 97, 109, 101, 34, 58, 110, 117, 108, 108, 44, 34, 115, 105,
+    122, 101, 34, 58, 49, 54, 44, 34, 97, 108, 105, 103, 110, 34, 58, 56, 44, 34, 112, 97, 99, 107, 101, 100,
+    95, 97, 116, 116, 114, 34, 58, 102, 97, 108, 115, 101, 44, 34, 112, 97, 99, 107, 101, 100, 95, 115, 105, 122,
+    101, 34, 58, 57, 44, 34, 102, 105, 110, 103, 101, 114, 112, 114, 105, 110, 116, 34, 58, 34, 100, 97, 48, 101,
+    101, 99, 101, 55, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46,
+    104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 55, 50, 44, 34, 102, 105, 101, 108, 100, 115, 34, 58, 91, 123,
+    34, 110, 97, 109, 101, 34, 58, 34, 97, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 56, 34, 44, 34,
+    115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44,
+    34, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58,
+    48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34,
+    117, 110, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117,
+    98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108,
+    108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108,
+    115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 98, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34,
+    102, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
+    116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 56, 44, 34, 98, 105, 116, 95, 111, 102,
+    102, 115, 101, 116, 34, 58, 54, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95,
+    116, 121, 112, 101, 34, 58, 34, 100, 111, 117, 98, 108, 101, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117,
+    98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108,
+    108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108,
+    115, 101, 125, 93, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 101, 109,
+    112, 116, 121, 95, 115, 101, 116, 34, 44, 34, 99, 95, 110, 97, 109, 101, 34, 58, 34, 115, 116, 114, 117, 99,
+    116, 32, 101, 109, 112, 116, 121, 95, 115, 101, 116, 34, 44, 34, 115, 105, 122, 101, 34, 58, 49, 54, 44, 34,
+    97, 108, 105, 103, 110, 34, 58, 56, 44, 34, 112, 97, 99, 107, 101, 100, 95, 97, 116, 116, 114, 34, 58, 102,
+    97, 108, 115, 101, 44, 34, 112, 97, 99, 107, 101, 100, 95, 115, 105, 122, 101, 34, 58, 48, 44, 34, 102, 105,
+    110, 103, 101, 114, 112, 114, 105, 110, 116, 34, 58, 34, 52, 50, 99, 52, 98, 48, 101, 51, 34, 44, 34, 102,
+    105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101,
+    34, 58, 50, 56, 44, 34, 102, 105, 101, 108, 100, 115, 34, 58, 91, 123, 34, 110, 97, 109, 101, 34, 58, 34,
+    108, 97, 98, 101, 108, 34, 44, 34, 119, 105, 114, 101, 34, 58, 110, 117, 108, 108, 44, 34, 115, 116, 114, 117,
+    99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102,
+    115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98,
+    105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 99, 104, 97, 114,
+    32, 42, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44,
+    34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 34, 112, 111, 105, 110, 116, 101, 114, 34, 44, 34, 101, 110, 117,
+    109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34,
+    110, 97, 109, 101, 34, 58, 34, 99, 97, 108, 108, 98, 97, 99, 107, 34, 44, 34, 119, 105, 114, 101, 34, 58,
+    110, 117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
+    116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 56, 44, 34, 98, 105, 116, 95, 111, 102,
+    102, 115, 101, 116, 34, 58, 54, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95,
+    116, 121, 112, 101, 34, 58, 34, 118, 111, 105, 100, 32, 40, 42, 41, 40, 105, 110, 116, 41, 34, 44, 34, 108,
+    111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112,
+    101, 100, 34, 58, 34, 112, 111, 105, 110, 116, 101, 114, 34, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108,
+    108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 93, 125, 44, 123, 34, 110, 97, 109, 101,
+    34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 112, 97, 99, 107, 101, 100, 95, 104, 100, 114, 34, 44, 34, 99,
+    95, 110, 97, 109, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 112, 97, 99, 107, 101, 100, 95, 104, 100,
+    114, 34, 44, 34, 115, 105, 122, 101, 34, 58, 55, 44, 34, 97, 108, 105, 103, 110, 34, 58, 49, 44, 34, 112,
+    97, 99, 107, 101, 100, 95, 97, 116, 116, 114, 34, 58, 116, 114, 117, 101, 44, 34, 112, 97, 99, 107, 101, 100,
+    95, 115, 105, 122, 101, 34, 58, 55, 44, 34, 102, 105, 110, 103, 101, 114, 112, 114, 105, 110, 116, 34, 58, 34,
+    101, 102, 99, 56, 99, 50, 102, 102, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105,
+    110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 50, 50, 44, 34, 102, 105, 101, 108, 100, 115,
+    34, 58, 91, 123, 34, 110, 97, 109, 101, 34, 58, 34, 116, 97, 103, 34, 44, 34, 119, 105, 114, 101, 34, 58,
+    34, 117, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
+    116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 95, 111, 102,
+    102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116,
+    121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114, 34, 44, 34, 108, 111,
+    110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101,
+    100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120,
+    116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 101, 110, 34, 44,
+    34, 119, 105, 114, 101, 34, 58, 34, 117, 51, 50, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117,
+    108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49,
+    44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 56, 44, 34, 98, 105, 116, 115, 34, 58, 110,
+    117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 105,
+    110, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44,
+    34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117,
+    108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34,
+    58, 34, 99, 114, 99, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 49, 54, 34, 44, 34, 115, 116, 114,
+    117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102,
+    102, 115, 101, 116, 34, 58, 53, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 52, 48, 44,
+    34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110,
+    115, 105, 103, 110, 101, 100, 32, 115, 104, 111, 114, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98,
+    108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108,
+    44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115,
+    101, 125, 93, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99,
+    51, 34, 44, 34, 99, 95, 110, 97, 109, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99, 51,
+    34, 44, 34, 115, 105, 122, 101, 34, 58, 49, 50, 44, 34, 97, 108, 105, 103, 110, 34, 58, 52, 44, 34, 112,
+    97, 99, 107, 101, 100, 95, 97, 116, 116, 114, 34, 58, 102, 97, 108, 115, 101, 44, 34, 112, 97, 99, 107, 101,
+    100, 95, 115, 105, 122, 101, 34, 58, 49, 50, 44, 34, 102, 105, 110, 103, 101, 114, 112, 114, 105, 110, 116, 34,
+    58, 34, 55, 97, 55, 54, 101, 100, 54, 55, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95,
+    107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 51, 44, 34, 102, 105, 101, 108,
+    100, 115, 34, 58, 91, 123, 34, 110, 97, 109, 101, 34, 58, 34, 120, 34, 44, 34, 119, 105, 114, 101, 34, 58,
+    34, 102, 51, 50, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117,
+    110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 95, 111,
+    102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95,
+    116, 121, 112, 101, 34, 58, 34, 102, 108, 111, 97, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98,
+    108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108,
+    44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115,
+    101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 121, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 102,
+    51, 50, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116,
+    34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102,
+    115, 101, 116, 34, 58, 51, 50, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116,
+    121, 112, 101, 34, 58, 34, 102, 108, 111, 97, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108,
+    101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44,
+    34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101,
+    125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 122, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 102, 51,
+    50, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34,
+    58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115,
+    101, 116, 34, 58, 54, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121,
+    112, 101, 34, 58, 34, 102, 108, 111, 97, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101,
+    34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34,
+    101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125,
+    93, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 119, 97, 121, 112, 111, 105, 110, 116, 95, 116, 34, 44,
+    34, 99, 95, 110, 97, 109, 101, 34, 58, 34, 119, 97, 121, 112, 111, 105, 110, 116, 95, 116, 34, 44, 34, 115,
+    105, 122, 101, 34, 58, 49, 54, 44, 34, 97, 108, 105, 103, 110, 34, 58, 52, 44, 34, 112, 97, 99, 107, 101,
+    100, 95, 97, 116, 116, 114, 34, 58, 102, 97, 108, 115, 101, 44, 34, 112, 97, 99, 107, 101, 100, 95, 115, 105,
+    122, 101, 34, 58, 49, 51, 44, 34, 102, 105, 110, 103, 101, 114, 112, 114, 105, 110, 116, 34, 58, 34, 55, 57,
+    99, 101, 57, 56, 48, 52, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100,
+    115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 55, 44, 34, 102, 105, 101, 108, 100, 115, 34, 58,
+    91, 123, 34, 110, 97, 109, 101, 34, 58, 34, 105, 100, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 56,
+    34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58,
+    91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101,
+    116, 34, 58, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101,
+    34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103, 95,
+    100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58,
+    110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58,
+    102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 112, 111, 115, 34, 44, 34, 119, 105,
+    114, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 34, 115,
+    116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 34, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34,
+    111, 102, 102, 115, 101, 116, 34, 58, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51,
+    50, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34,
+    115, 116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108,
+    101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44,
+    34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101,
+    125, 93, 125, 93, 44, 34, 105, 110, 115, 116, 97, 110, 99, 101, 115, 34, 58, 91, 123, 34, 110, 97, 109, 101,
+    34, 58, 34, 104, 100, 114, 49, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32,
+    112, 97, 99, 107, 101, 100, 95, 104, 100, 114, 34, 44, 34, 105, 100, 34, 58, 34, 54, 56, 54, 52, 55, 50,
+    51, 49, 48, 48, 48, 48, 48, 48, 54, 56, 54, 52, 55, 50, 51, 49, 48, 48, 48, 48, 48, 48, 51, 51,
+    53, 55, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34,
+    44, 34, 108, 105, 110, 101, 34, 58, 49, 48, 52, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 107, 105,
+    110, 100, 115, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 97, 108, 108, 95,
+    107, 105, 110, 100, 115, 34, 44, 34, 105, 100, 34, 58, 34, 54, 98, 54, 57, 54, 101, 54, 52, 55, 51, 48,
+    48, 48, 48, 54, 98, 54, 57, 54, 101, 54, 52, 55, 51, 48, 48, 48, 48, 102, 97, 52, 55, 34, 44, 34,
+    102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110,
+    101, 34, 58, 49, 48, 49, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 97, 116, 116, 105, 99, 101,
+    91, 48, 93, 91, 48, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118,
+    101, 99, 51, 34, 44, 34, 105, 100, 34, 58, 34, 54, 99, 54, 49, 55, 52, 55, 52, 54, 57, 54, 51, 54,
+    53, 54, 53, 53, 98, 51, 48, 53, 100, 53, 98, 51, 48, 53, 100, 97, 57, 49, 102, 34, 44, 34, 102, 105,
+    108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34,
+    58, 49, 48, 51, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 97, 116, 116, 105, 99, 101, 91, 48,
+    93, 91, 49, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99,
+    51, 34, 44, 34, 105, 100, 34, 58, 34, 54, 99, 54, 49, 55, 52, 55, 52, 54, 57, 54, 51, 54, 53, 54,
+    53, 53, 98, 51, 48, 53, 100, 53, 98, 51, 49, 53, 100, 57, 56, 50, 99, 34, 44, 34, 102, 105, 108, 101,
+    34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49,
+    48, 51, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 97, 116, 116, 105, 99, 101, 91, 49, 93, 91,
+    48, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 34,
+    44, 34, 105, 100, 34, 58, 34, 54, 99, 54, 49, 55, 52, 55, 52, 54, 57, 54, 51, 54, 53, 54, 53, 53,
+    98, 51, 49, 53, 100, 53, 98, 51, 48, 53, 100, 102, 56, 98, 53, 34, 44, 34, 102, 105, 108, 101, 34, 58,
+    34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 48, 51,
+    125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 97, 116, 116, 105, 99, 101, 91, 49, 93, 91, 49, 93,
+    34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 34, 44, 34,
+    105, 100, 34, 58, 34, 54, 99, 54, 49, 55, 52, 55, 52, 54, 57, 54, 51, 54, 53, 54, 53, 53, 98, 51,
+    49, 53, 100, 53, 98, 51, 49, 53, 100, 99, 57, 56, 54, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97,
+    108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 48, 51, 125, 44,
+    123, 34, 110, 97, 109, 101, 34, 58, 34, 109, 97, 99, 114, 111, 95, 115, 101, 116, 34, 44, 34, 116, 121, 112,
+    101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 34, 44, 34, 105, 100, 34, 58, 34, 54,
+    100, 54, 49, 54, 51, 55, 50, 54, 102, 53, 102, 55, 51, 54, 51, 55, 50, 54, 102, 53, 102, 55, 51, 54,
+    53, 55, 52, 50, 102, 52, 55, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110,
+    100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 48, 57, 125, 44, 123, 34, 110, 97, 109, 101,
+    34, 58, 34, 110, 111, 116, 104, 105, 110, 103, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117,
+    99, 116, 32, 101, 109, 112, 116, 121, 95, 115, 101, 116, 34, 44, 34, 105, 100, 34, 58, 34, 54, 101, 54, 102,
+    55, 52, 54, 56, 54, 57, 54, 101, 54, 55, 54, 101, 54, 102, 55, 52, 54, 56, 54, 57, 54, 101, 54, 55,
+    52, 56, 57, 51, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46,
+    104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 48, 53, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34,
+    119, 97, 121, 112, 111, 105, 110, 116, 115, 91, 48, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 119, 97,
+    121, 112, 111, 105, 110, 116, 95, 116, 34, 44, 34, 105, 100, 34, 58, 34, 55, 55, 54, 49, 55, 57, 55, 48,
+    54, 102, 54, 57, 54, 101, 54, 57, 54, 101, 55, 52, 55, 51, 53, 98, 51, 48, 53, 100, 55, 99, 49, 49,
+    34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34,
+    108, 105, 110, 101, 34, 58, 49, 48, 50, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 119, 97, 121, 112,
+    111, 105, 110, 116, 115, 91, 49, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 119, 97, 121, 112, 111, 105,
+    110, 116, 95, 116, 34, 44, 34, 105, 100, 34, 58, 34, 55, 55, 54, 49, 55, 57, 55, 48, 54, 102, 54, 57,
+    54, 101, 54, 57, 54, 101, 55, 52, 55, 51, 53, 98, 51, 49, 53, 100, 52, 100, 50, 50, 34, 44, 34, 102,
+    105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101,
+    34, 58, 49, 48, 50, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 119, 97, 121, 112, 111, 105, 110, 116,
+    115, 91, 50, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 119, 97, 121, 112, 111, 105, 110, 116, 95, 116,
+    34, 44, 34, 105, 100, 34, 58, 34, 55, 55, 54, 49, 55, 57, 55, 48, 54, 102, 54, 57, 54, 101, 54, 57,
+    54, 101, 55, 52, 55, 51, 53, 98, 51, 50, 53, 100, 49, 101, 55, 55, 34, 44, 34, 102, 105, 108, 101, 34,
+    58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 48,
+    50, 125, 93, 44, 34, 115, 107, 105, 112, 112, 101, 100, 95, 105, 110, 115, 116, 97, 110, 99, 101, 115, 34, 58,
+    91, 123, 34, 110, 97, 109, 101, 34, 58, 34, 110, 111, 116, 95, 97, 95, 115, 116, 114, 117, 99, 116, 34, 44,
+    34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105,
+    110, 101, 34, 58, 49, 48, 54, 44, 34, 114, 101, 97, 115, 111, 110, 34, 58, 34, 117, 110, 105, 111, 110, 34,
+    125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 110, 111, 116, 95, 118, 105, 115, 105, 98, 108, 101, 34, 44,
+    34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105,
+    110, 101, 34, 58, 49, 48, 55, 44, 34, 114, 101, 97, 115, 111, 110, 34, 58, 34, 115, 116, 97, 116, 105, 99,
+    58, 32, 105, 110, 116, 101, 114, 110, 97, 108, 32, 108, 105, 110, 107, 97, 103, 101, 44, 32, 110, 111, 116, 32,
+    118, 105, 115, 105, 98, 108, 101, 32, 116, 111, 32, 111, 116, 104, 101, 114, 32, 116, 114, 97, 110, 115, 108, 97,
+    116, 105, 111, 110, 32, 117, 110, 105, 116, 115, 32, 40, 114, 101, 109, 111, 118, 101, 32, 96, 115, 116, 97, 116,
+    105, 99, 96, 32, 116, 111, 32, 112, 117, 98, 108, 105, 115, 104, 32, 105, 116, 41, 34, 125, 93, 44, 34, 101,
+    110, 117, 109, 115, 34, 58, 123, 34, 101, 110, 117, 109, 32, 119, 105, 100, 101, 95, 101, 34, 58, 123, 34, 87,
+    73, 68, 69, 95, 78, 69, 71, 34, 58, 45, 49, 44, 34, 87, 73, 68, 69, 95, 66, 73, 71, 34, 58, 53,
+    52, 57, 55, 53, 53, 56, 49, 51, 56, 56, 55, 125, 44, 34, 109, 111, 100, 101, 95, 101, 34, 58, 123, 34,
+    77, 79, 68, 69, 95, 73, 68, 76, 69, 34, 58, 48, 44, 34, 77, 79, 68, 69, 95, 65, 85, 84, 79, 34,
+    58, 51, 125, 44, 34, 116, 105, 110, 121, 95, 101, 34, 58, 123, 34, 84, 73, 78, 89, 95, 65, 34, 58, 49,
+    125, 125, 125, 0
+};
 
 const ub_catalogue_t kinds_catalogue = {
     "kinds",
