@@ -120,6 +120,8 @@ def main(argv: list[str] | None = None) -> int:
     except frontend.FrontendError as exc:
         return _fail(str(exc), 2)
     except model.ModelError as exc:
+        for note in getattr(exc, "notes", ()):
+            _say(str(note))
         return _fail(str(exc), exc.exit_code)
     except ValueError as exc:  # a model constructor refused the input
         return _fail(f"error: {exc}", 2)

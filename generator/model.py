@@ -41,6 +41,12 @@ class PayloadLimitError(ModelError):
     exit_code = 1
 
 
+class CatalogueRefusedError(ModelError):
+    """Several of the problems above at once."""
+
+    exit_code = 1
+
+
 # ---------------------------------------------------------------------------------------------
 # Wire types
 
@@ -375,9 +381,19 @@ def _dupes(items: Iterable[str]) -> set[str]:
 
 def build_catalogue(units: list[FeUnit], id_scheme: str = "paper", relpath: Callable[[str], str] = str,
                     options: BuildOptions | None = None) -> Catalogue:
-    """The union of all translation units: checks duplicates, IDs, sizes and uniqueness."""
-    opts = dataclasses.replace(options or BuildOptions(), id_scheme=id_scheme)
+    """The union of all translation units: checks duplicates, IDs, sizes and uniqueness. Every
+    problem of one run is reported at once (a ModelError carries the notes gathered so far)."""
     notes: list[Note] = []
+    try:
+        return _build(units, id_scheme, relpath, options, notes)
+    except ModelError as exc:
+        exc.notes = tuple(notes)  # type: ignore[attr-defined]
+        raise
+
+
+def _build(units: list[FeUnit], id_scheme: str, relpath: Callable[[str], str], options: BuildOptions | None,
+           notes: list[Note]) -> Catalogue:
+    opts = dataclasses.replace(options or BuildOptions(), id_scheme=id_scheme)
     records = _merge_records(units, relpath)
     fe_enums = _merge_enums(units, relpath)
     fe_instances, skipped = _merge_instances(units, relpath, notes)
@@ -391,14 +407,22 @@ def build_catalogue(units: list[FeUnit], id_scheme: str = "paper", relpath: Call
         for inst, _ in fe_instances:
             if inst.type_key == key:
                 skipped[inst.name] = SkippedInstance(inst.name, SourceLoc(relpath(inst.loc.file), inst.loc.line),
-                                                     f"type '{key}' is defined in a .c file (move it to a header)")
+                                                     f"type defined in a .c file: '{key}' (move it to a header)")
     fe_instances = [(i, q) for i, q in fe_instances if i.type_key not in unreachable]
     needed = _reachable(records, {i.type_key for i, _ in fe_instances})
     types = _make_types(records, needed, relpath, opts)
-    fe_instances = _apply_payload_limit(types, fe_instances, skipped, opts, notes, relpath)
+    problems: list[str] = []
+    fe_instances = _apply_payload_limit(types, fe_instances, skipped, opts, notes, relpath, problems)
     types = {k: t for k, t in types.items() if k in _reachable(records, {i.type_key for i, _ in fe_instances})}
     instances = _expand_instances(fe_instances, id_scheme, relpath)
-    _check_unique(instances, id_scheme)
+    try:
+        _check_unique(instances, id_scheme)
+    except CollisionError as exc:
+        if not problems:
+            raise
+        problems.append(str(exc))
+    if problems:
+        raise (PayloadLimitError if len(problems) == 1 else CatalogueRefusedError)("\n".join(problems))
     used_enums = {f.enum for t in types.values() for f in t.fields if f.enum}
     enums = tuple(EnumType(e.key, e.constants, SourceLoc(relpath(e.loc.file), e.loc.line))
                   for k, e in sorted(fe_enums.items()) if k in used_enums)
@@ -567,9 +591,9 @@ def _include_plan(units: list[FeUnit], type_keys: set[str]) -> tuple[tuple[str, 
 
 def _apply_payload_limit(types: dict[str, StructType], fe_instances: list[tuple[FeInstance, str | None]],
                          skipped: dict[str, SkippedInstance], opts: BuildOptions, notes: list[Note],
-                         relpath: Callable[[str], str]) -> list[tuple[FeInstance, str | None]]:
-    """Every type packing to more than the payload limit, named; refused, or with keep_going its
-    instances are left out (a node refuses a catalogue holding such a type)."""
+                         relpath: Callable[[str], str], problems: list[str]) -> list[tuple[FeInstance, str | None]]:
+    """Every type packing to more than the payload limit, named; a problem (the catalogue is
+    refused), or with keep_going its instances are left out (a node refuses such a catalogue)."""
     big = sorted((t for t in types.values() if t.packed_size > opts.max_payload), key=lambda t: (str(t.loc), t.name))
     if not big:
         return fe_instances
@@ -577,9 +601,9 @@ def _apply_payload_limit(types: dict[str, StructType], fe_instances: list[tuple[
     fix = (f"fix: split the type, skip members, or build the runtime with a larger UB_MAX_PAYLOAD and pass the "
            f"same value as --max-payload")
     if not opts.keep_going:
-        raise PayloadLimitError(f"error: {len(big)} type(s) pack to more than the payload limit of "
-                                f"{opts.max_payload} bytes (--max-payload; the runtime's UB_MAX_PAYLOAD):\n"
-                                + "\n".join(lines) + "\n" + fix)
+        problems.append(f"error: {len(big)} type(s) pack to more than the payload limit of {opts.max_payload} "
+                        "bytes (--max-payload; the runtime's UB_MAX_PAYLOAD):\n" + "\n".join(lines) + "\n" + fix)
+        return fe_instances
     too_big = {t.name for t in big}
     notes.append(Note("warning", f"{len(big)} type(s) pack to more than the payload limit of {opts.max_payload} "
                                  "bytes; their instances are not catalogued:\n" + "\n".join(lines) + "\n" + fix))
