@@ -513,8 +513,9 @@ class _Walker:
 
     def _note_type(self, cur: ci.Cursor) -> None:
         if cur.kind == ci.CursorKind.STRUCT_DECL:
-            if cur.is_definition() and not _is_unnamed(cur):
-                self.defined.append((f"struct {cur.spelling}", _loc(cur)))
+            spelling = cur.type.spelling  # "struct tag"; a typedef name for `typedef struct {...} t`
+            if cur.is_definition() and spelling.startswith("struct ") and not _is_unnamed(cur):
+                self.defined.append((spelling, _loc(cur)))
             return
         under = cur.underlying_typedef_type.get_canonical()
         if under.kind == ci.TypeKind.RECORD and under.get_declaration().kind == ci.CursorKind.STRUCT_DECL:

@@ -421,7 +421,7 @@ def _merge_runs(runs: list[tuple[int, str]]) -> list[tuple[int, str]]:
     """Adjacent runs of one format code merged: [(1,'f'), (2,'f'), (1,'B')] -> [(3,'f'), (1,'B')]."""
     merged: list[tuple[int, str]] = []
     for n, code in runs:
-        if merged and merged[-1][1] == code:
+        if merged and merged[-1][1] == code and not code.endswith("s"):  # "6s" twice is "6s6s", not "26s"
             merged[-1] = (merged[-1][0] + n, code)
         else:
             merged.append((n, code))
