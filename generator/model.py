@@ -413,7 +413,8 @@ def _build(units: list[FeUnit], id_scheme: str, relpath: Callable[[str], str], o
     types = _make_types(records, needed, relpath, opts)
     problems: list[str] = []
     fe_instances = _apply_payload_limit(types, fe_instances, skipped, opts, notes, relpath, problems)
-    types = {k: t for k, t in types.items() if k in _reachable(records, {i.type_key for i, _ in fe_instances})}
+    kept = _reachable(records, {i.type_key for i, _ in fe_instances})
+    types = {k: t for k, t in types.items() if k in kept}
     instances = _expand_instances(fe_instances, id_scheme, relpath)
     try:
         _check_unique(instances, id_scheme)
@@ -559,18 +560,20 @@ def _include_plan(units: list[FeUnit], type_keys: set[str]) -> tuple[tuple[str, 
     needs. A type defined inside a `.c` file cannot be reached."""
     chosen: dict[str, tuple[int, int]] = {}  # key -> (unit, index into top_includes; -1 = self_include)
     defined_in_c: dict[str, SourceLoc] = {}
+    seen = [{r.key: r.loc for r in unit.records} for unit in units]
+    vias = [dict(unit.record_via) for unit in units]
     for key in sorted(type_keys):
         for k, unit in enumerate(units):
-            if not any(r.key == key for r in unit.records):
+            if key not in seen[k]:
                 continue
             if not unit.is_source:
                 chosen[key] = (k, -1)
                 break
-            via = dict(unit.record_via).get(key, -1)
+            via = vias[k].get(key, -1)
             if via >= 0:
                 chosen[key] = (k, via)
                 break
-            defined_in_c.setdefault(key, next(r.loc for r in unit.records if r.key == key))
+            defined_in_c.setdefault(key, seen[k][key])
     unreachable = {k: loc for k, loc in defined_in_c.items() if k not in chosen}
     wanted: dict[int, int] = {}
     for k, via in chosen.values():

@@ -77,7 +77,7 @@ class Renderer:
         )
         self.env.filters.update(
             c_put=c_put, c_get=c_get, c_literal=c_literal, c_bytes=c_bytes, c_string=c_string,
-            c_char_array=c_char_array, c_valid=c_valid, c_value_type=c_value_type,
+            c_valid=c_valid, c_value_type=c_value_type,
             py_attr=lambda n: self.props.mangle(n, "py"), py_class=self.py_class,
             py_format=self.py_format, py_literal=py_literal, hex8=lambda v: f"0x{v:08x}",
         )
@@ -85,7 +85,7 @@ class Renderer:
             cat=cat, NAME=inputs.name, abi_version=ABI_VERSION, model=model,
             type_of=cat.type, leaves_of=self.leaves_count, C_PATH=c_path, render_node=self.render_node,
             id_scheme_c="UB_ID_SCHEME_" + cat.id_scheme.upper(), catalogue_json=inputs.catalogue_json,
-            check_runs=check_runs, wire_checks=lambda t: model.wire_checks(cat, t),
+            check_runs=check_runs, json_rows=c_json_rows, wire_checks=lambda t: model.wire_checks(cat, t),
             py_checks=self.py_checks, py_property_checks=self.py_property_checks, indexes=lambda dims: list(product(*(range(d) for d in dims))), concrete=_concrete, LOOP_MIN=LOOP_MIN,
             rounds=PROPERTY_ROUNDS,
         )
@@ -357,16 +357,25 @@ def c_string(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def c_char_array(text: str, per_line: int = 24) -> str:
-    """ASCII text as the body of a `char` array initializer, NUL included: C99 bounds a string
-    literal to 4095 characters (gcc -pedantic: -Woverlength-strings), an initializer list is not.
+JSON_ROW = 4000  # characters per row of the embedded catalogue (C99: a string literal holds at most 4095)
+JSON_PIECE = 1000  # characters per source line of a row (C99: a logical source line holds at most 4095)
 
-    >>> c_char_array('{"a":1}')
-    '    123, 34, 97, 34, 58, 49, 125, 0'
+
+def c_json_rows(text: str, row: int = JSON_ROW) -> list[tuple[int, list[str]]]:
+    """ASCII text cut into rows of `row` characters, each as (array size, [C string literals, one
+    per source line]); the last row holds the rest and the NUL (an empty literal if nothing is left).
+
+    >>> c_json_rows("abcdefg", row=4)
+    [(4, ['"abcd"']), (4, ['"efg"'])]
     """
-    data = text.encode("ascii") + b"\0"
-    rows = [data[i:i + per_line] for i in range(0, len(data), per_line)]
-    return ",\n".join("    " + ", ".join(str(b) for b in row) for row in rows)
+    rows = [text[i:i + row] for i in range(0, len(text), row)]
+    if not rows or len(rows[-1]) == row:
+        rows.append("")
+    out = []
+    for k, chunk in enumerate(rows):
+        pieces = [chunk[i:i + JSON_PIECE] for i in range(0, len(chunk), JSON_PIECE)] or [""]
+        out.append((len(chunk) + (1 if k == len(rows) - 1 else 0), [c_string(p) for p in pieces]))
+    return out
 
 
 def c_value_type(f: Field) -> str:

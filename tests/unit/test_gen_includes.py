@@ -70,10 +70,14 @@ def test_header_inputs_are_included_by_their_search_path_spelling(tmp_path: Path
     assert includes_of(tmp_path / "out2") == ['"nav.h"']  # compile with -I of the input's directory
 
 
-def test_embedded_catalogue_is_an_initializer_list() -> None:
-    assert render.c_char_array('{"a":"\\\\"}') == "    123, 34, 97, 34, 58, 34, 92, 92, 34, 125, 0"
-    body = render.c_char_array("x" * 100, per_line=24)
-    assert body.count("\n") == 4 and body.endswith(", 0")
+def test_embedded_catalogue_rows_stay_within_c99_limits() -> None:
+    assert render.c_json_rows("abcdefg", row=4) == [(4, ['"abcd"']), (4, ['"efg"'])]
+    assert render.c_json_rows("abcd", row=4) == [(4, ['"abcd"']), (1, ['""'])]  # the NUL needs a row
+    text = '{"k":"' + "x" * 9000 + '"}'
+    rows = render.c_json_rows(text)
+    assert sum(size for size, _ in rows) == len(text) + 1 and all(size <= 4095 for size, _ in rows)
+    assert all(len(piece) <= 4095 for _, pieces in rows for piece in pieces)  # source lines too
+    assert "".join(eval(p) for _, pieces in rows for p in pieces) == text  # noqa: S307 (our own literals)
 
 
 @needs_gcc

@@ -41,36 +41,50 @@ enum bigHealth { BIG_HEALTH_OK, BIG_HEALTH_WARN, BIG_HEALTH_FAIL = -1 };
 """
 
 
+SIZES = {"uint8_t": 1, "int8_t": 1, "uint16_t": 2, "int16_t": 2, "uint32_t": 4, "int32_t": 4, "uint64_t": 8,
+         "int64_t": 8, "float": 4, "double": 8, "bool": 1}
+BUDGET = 900  # packed bytes per type, strings included: every type fits the 1024-byte payload limit
+
+
 def field_lines(sub: str, t: int) -> list[str]:
-    """The members of type t: 6 to 40 of them, a deterministic mix."""
+    """The members of type t: 6 to 40 of them, a deterministic mix, within BUDGET packed bytes."""
     lines = ["    bigTime_t time;"]
+    used = 8
     n = 6 + (t * 7) % 35
     for k in range(n):
         kind = (t * 13 + k * 5) % 16
         scalar = SCALARS[(t + k) % len(SCALARS)]
         name = f"m{k:02d}"
         if kind < 8:
-            lines.append(f"    {scalar} {name};")
+            more, size = [f"    {scalar} {name};"], SIZES[scalar]
         elif kind == 8:
-            lines.append(f"    {scalar} {name}[{2 + (t + k) % 7}];")
+            count = 2 + (t + k) % 7
+            more, size = [f"    {scalar} {name}[{count}];"], SIZES[scalar] * count
         elif kind == 9:
-            lines.append(f"    int16_t {name}[{2 + k % 3}][{1 + t % 4}];")
+            rows, cols = 2 + k % 3, 1 + t % 4
+            more, size = [f"    int16_t {name}[{rows}][{cols}];"], 2 * rows * cols
         elif kind == 10:
-            lines.append(f"    bigVec3_t {name};")
+            more, size = [f"    bigVec3_t {name};"], 12
         elif kind == 11:
-            lines.append(f"    bigQuat_t {name};" if t % 2 else f"    bigVec3_t {name}[{1 + k % 4}];")
+            more, size = ([f"    bigQuat_t {name};"], 32) if t % 2 else ([f"    bigVec3_t {name}[{1 + k % 4}];"], 12 * (1 + k % 4))
         elif kind == 12:
-            lines.append(f"    bigMode_t {name};" if k % 2 else f"    enum bigHealth {name};")
+            more, size = [f"    bigMode_t {name};" if k % 2 else f"    enum bigHealth {name};"], 4
         elif kind == 13:
-            lines += [f"    uint16_t {name}a : {1 + k % 7};", f"    uint16_t {name}b : {1 + t % 9};",
-                      f"    int32_t {name}c : {2 + (t + k) % 20};", f"    bool {name}d : 1;"]
+            more = [f"    uint16_t {name}a : {1 + k % 7};", f"    uint16_t {name}b : {1 + t % 9};",
+                    f"    int32_t {name}c : {2 + (t + k) % 20};", f"    bool {name}d : 1;"]
+            size = 9
         elif kind == 14:
-            lines.append(f"    uint8_t {name}[{8 << (t % 4)}];")
+            more, size = [f"    uint8_t {name}[{8 << (t % 4)}];"], 8 << (t % 4)
         else:
-            lines.append(f"    char {name}[{8 + (t + k) % 24}];")
-    if t % 7 == 3:
+            more, size = [f"    char {name}[{8 + (t + k) % 24}];"], 8 + (t + k) % 24
+        if used + size > BUDGET:
+            break
+        lines += more
+        used += size
+    if t % 7 == 3 and used + 12 * 24 <= BUDGET:
         lines.append(f"    bigVec3_t track[{16 + t % 9}];")  # arrays of structs: tables, histories
-    if t % 11 == 5:
+        used += 12 * 24
+    if t % 11 == 5 and used + 2 * 200 <= BUDGET:
         lines.append(f"    uint16_t words[{120 + t % 80}];")  # a command buffer / memory dump
     if t % 3 == 0:
         lines.append(f"    const struct {sub}Type{t:04d} *next;")

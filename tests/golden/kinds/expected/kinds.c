@@ -12,16 +12,22 @@
 
 #include "ub/ub_wire.h"
 
-/* Layout checks against clang's measurements: _Static_assert in C11, a negative array size in C99
+/* Layout checks against clang's measurements: _Static_assert in C11; in C99, gcc and clang still
+ * know it (__extension__ keeps -pedantic quiet), other C99 compilers get a negative array size
  * (the typedef's name says which check failed). */
 #if defined(__STDC_VERSION__) && __STDC_VERSION__ >= 201112L
 #define kinds_LAYOUT_ASSERT(cond, id, msg) _Static_assert(cond, msg)
+#elif defined(__GNUC__)
+#define kinds_LAYOUT_ASSERT(cond, id, msg) __extension__ _Static_assert(cond, msg)
 #else
 #define kinds_LAYOUT_ASSERT(cond, id, msg) typedef char kinds_layout_##id[(cond) ? 1 : -1]
 #endif
 
-/* ---- struct all_kinds (all_kinds.h:33) ---- */
-/* A compiler or ABI that lays struct all_kinds out differently from clang at generation time fails here. */
+/* Every file-scope declaration comes before the functions: gcc -std=c99 -pedantic spends time
+ * linear in the functions already defined on each declaration that follows them.
+ *
+ * A compiler or ABI that lays a type out differently from clang at generation time fails here. */
+/* struct all_kinds (all_kinds.h:33) */
 kinds_LAYOUT_ASSERT(sizeof(struct all_kinds) == 416u, all_kinds_size, "struct all_kinds: sizeof differs from the catalogue; regenerate");
 kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, c) == 0u, all_kinds_c, "struct all_kinds.c: offset differs from the catalogue; regenerate");
 kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, sc) == 1u, all_kinds_sc, "struct all_kinds.sc: offset differs from the catalogue; regenerate");
@@ -64,6 +70,113 @@ kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, either) == 384u, all_kinds_either
 kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, vp) == 392u, all_kinds_vp, "struct all_kinds.vp: offset differs from the catalogue; regenerate");
 kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, count) == 400u, all_kinds_count, "struct all_kinds.count: offset differs from the catalogue; regenerate");
 kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, tail) == 402u, all_kinds_tail, "struct all_kinds.tail: offset differs from the catalogue; regenerate");
+
+/* struct empty_set (all_kinds.h:28) */
+kinds_LAYOUT_ASSERT(sizeof(struct empty_set) == 16u, empty_set_size, "struct empty_set: sizeof differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct empty_set, label) == 0u, empty_set_label, "struct empty_set.label: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct empty_set, callback) == 8u, empty_set_callback, "struct empty_set.callback: offset differs from the catalogue; regenerate");
+
+/* struct packed_hdr (all_kinds.h:22) */
+kinds_LAYOUT_ASSERT(sizeof(struct packed_hdr) == 7u, packed_hdr_size, "struct packed_hdr: sizeof differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct packed_hdr, tag) == 0u, packed_hdr_tag, "struct packed_hdr.tag: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct packed_hdr, len) == 1u, packed_hdr_len, "struct packed_hdr.len: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct packed_hdr, crc) == 5u, packed_hdr_crc, "struct packed_hdr.crc: offset differs from the catalogue; regenerate");
+
+/* struct vec3 (all_kinds.h:13) */
+kinds_LAYOUT_ASSERT(sizeof(struct vec3) == 12u, vec3_size, "struct vec3: sizeof differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct vec3, x) == 0u, vec3_x, "struct vec3.x: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct vec3, y) == 4u, vec3_y, "struct vec3.y: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct vec3, z) == 8u, vec3_z, "struct vec3.z: offset differs from the catalogue; regenerate");
+
+/* waypoint_t (all_kinds.h:17) */
+kinds_LAYOUT_ASSERT(sizeof(waypoint_t) == 16u, waypoint_t_size, "waypoint_t: sizeof differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(waypoint_t, id) == 0u, waypoint_t_id, "waypoint_t.id: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(waypoint_t, pos) == 4u, waypoint_t_pos, "waypoint_t.pos: offset differs from the catalogue; regenerate");
+
+/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
+static int kinds_pack_all_kinds_any(const void *obj, uint8_t *buf, size_t cap);
+static int kinds_unpack_all_kinds_any(void *obj, const uint8_t *buf, size_t len);
+static int kinds_pack_empty_set_any(const void *obj, uint8_t *buf, size_t cap);
+static int kinds_unpack_empty_set_any(void *obj, const uint8_t *buf, size_t len);
+static int kinds_pack_packed_hdr_any(const void *obj, uint8_t *buf, size_t cap);
+static int kinds_unpack_packed_hdr_any(void *obj, const uint8_t *buf, size_t len);
+static int kinds_pack_vec3_any(const void *obj, uint8_t *buf, size_t cap);
+static int kinds_unpack_vec3_any(void *obj, const uint8_t *buf, size_t len);
+static int kinds_pack_waypoint_t_any(const void *obj, uint8_t *buf, size_t cap);
+static int kinds_unpack_waypoint_t_any(void *obj, const uint8_t *buf, size_t len);
+
+static const ub_type_desc_t kinds_types[5] = {
+    { "struct all_kinds", 0xc9215705u, 302u, 416u, kinds_pack_all_kinds_any, kinds_unpack_all_kinds_any },
+    { "struct empty_set", 0x42c4b0e3u, 0u, 16u, kinds_pack_empty_set_any, kinds_unpack_empty_set_any },
+    { "struct packed_hdr", 0xefc8c2ffu, 7u, 7u, kinds_pack_packed_hdr_any, kinds_unpack_packed_hdr_any },
+    { "struct vec3", 0x7a76ed67u, 12u, 12u, kinds_pack_vec3_any, kinds_unpack_vec3_any },
+    { "waypoint_t", 0x79ce9804u, 13u, 16u, kinds_pack_waypoint_t_any, kinds_unpack_waypoint_t_any },
+};
+
+static const ub_instance_desc_t kinds_instances[11] = {
+    { { 0x68, 0x64, 0x72, 0x31, 0x00, 0x00, 0x00, 0x68, 0x64, 0x72, 0x31, 0x00, 0x00, 0x00, 0x33, 0x57 }, "hdr1", &kinds_types[kinds_TYPE_packed_hdr] },
+    { { 0x6b, 0x69, 0x6e, 0x64, 0x73, 0x00, 0x00, 0x6b, 0x69, 0x6e, 0x64, 0x73, 0x00, 0x00, 0xfa, 0x47 }, "kinds", &kinds_types[kinds_TYPE_all_kinds] },
+    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x30, 0x5d, 0x5b, 0x30, 0x5d, 0xa9, 0x1f }, "lattice[0][0]", &kinds_types[kinds_TYPE_vec3] },
+    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x30, 0x5d, 0x5b, 0x31, 0x5d, 0x98, 0x2c }, "lattice[0][1]", &kinds_types[kinds_TYPE_vec3] },
+    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x31, 0x5d, 0x5b, 0x30, 0x5d, 0xf8, 0xb5 }, "lattice[1][0]", &kinds_types[kinds_TYPE_vec3] },
+    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x31, 0x5d, 0x5b, 0x31, 0x5d, 0xc9, 0x86 }, "lattice[1][1]", &kinds_types[kinds_TYPE_vec3] },
+    { { 0x6d, 0x61, 0x63, 0x72, 0x6f, 0x5f, 0x73, 0x63, 0x72, 0x6f, 0x5f, 0x73, 0x65, 0x74, 0x2f, 0x47 }, "macro_set", &kinds_types[kinds_TYPE_vec3] },
+    { { 0x6e, 0x6f, 0x74, 0x68, 0x69, 0x6e, 0x67, 0x6e, 0x6f, 0x74, 0x68, 0x69, 0x6e, 0x67, 0x48, 0x93 }, "nothing", &kinds_types[kinds_TYPE_empty_set] },
+    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x69, 0x6e, 0x74, 0x73, 0x5b, 0x30, 0x5d, 0x7c, 0x11 }, "waypoints[0]", &kinds_types[kinds_TYPE_waypoint_t] },
+    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x69, 0x6e, 0x74, 0x73, 0x5b, 0x31, 0x5d, 0x4d, 0x22 }, "waypoints[1]", &kinds_types[kinds_TYPE_waypoint_t] },
+    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x69, 0x6e, 0x74, 0x73, 0x5b, 0x32, 0x5d, 0x1e, 0x77 }, "waypoints[2]", &kinds_types[kinds_TYPE_waypoint_t] },
+};
+
+/* The catalogue's self-description (the compact form of kinds.catalogue.json, NUL-terminated):
+ * binary logs copy it into their header so they stay decodable without this build. C99 bounds a
+ * string literal to 4095 characters, so the text is cut into rows held back to back in one struct
+ * of char arrays (char arrays have no padding between them: checked below). The rows are pieces,
+ * not strings: only the last has a NUL, hence `nonstring` where the compiler knows it. */
+#if defined(__has_attribute)
+#if __has_attribute(nonstring)
+#define kinds_NONSTRING __attribute__((nonstring))
+#endif
+#endif
+#ifndef kinds_NONSTRING
+#define kinds_NONSTRING
+#endif
+static const struct {
+    char row0[4000] kinds_NONSTRING;
+    char row1[4000] kinds_NONSTRING;
+    char row2[4000] kinds_NONSTRING;
+    char row3[1564];
+} kinds_catalogue_json = {
+    "{\"catalogue\":\"kinds\",\"abi_version\":2,\"id_scheme\":\"hashed\",\"types\":[{\"name\":\"struct all_kinds\",\"c_name\":\"struct all_kinds\",\"size\":416,\"align\":16,\"packed_attr\":false,\"packed_size\":302,\"fingerprint\":\"c9215705\",\"file\":\"all_kinds.h\",\"line\":33,\"fields\":[{\"name\":\"c\",\"wire\":\"i8\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"sc\",\"wire\":\"i8\",\"struct\":null,\"count\":[],\"offset\":1,\"bit_offset\":8,\"bits\":null,\"c_type\":\"signed char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"uc\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":2,\"bit_offset\":16,\"bits\":null,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"s\",\"wire\":\"i16\",\"struct\":null,\"count\":[],\"offset\":4,\"bit_offset\":32,\"bits\":null,\"c_type\":\"short\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"us\",\"wire\":\"u16\",\"struct\":null,\"count\":[],\"offset\":6,\"bit_offset\""
+    ":48,\"bits\":null,\"c_type\":\"unsigned short\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"i\",\"wire\":\"i32\",\"struct\":null,\"count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"int\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"ui\",\"wire\":\"u32\",\"struct\":null,\"count\":[],\"offset\":12,\"bit_offset\":96,\"bits\":null,\"c_type\":\"unsigned int\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"l\",\"wire\":\"i64\",\"struct\":null,\"count\":[],\"offset\":16,\"bit_offset\":128,\"bits\":null,\"c_type\":\"long\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"ul\",\"wire\":\"u64\",\"struct\":null,\"count\":[],\"offset\":24,\"bit_offset\":192,\"bits\":null,\"c_type\":\"unsigned long\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"ll\",\"wire\":\"i64\",\"struct\":null,\"count\":[],\"offset\":32,\"bit_offset\":256,\"bits\":null,\"c_type\":\"long long\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"ull\",\"wire\":\"u64\",\"struct\":"
+    "null,\"count\":[],\"offset\":40,\"bit_offset\":320,\"bits\":null,\"c_type\":\"unsigned long long\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"i8\",\"wire\":\"i8\",\"struct\":null,\"count\":[],\"offset\":48,\"bit_offset\":384,\"bits\":null,\"c_type\":\"signed char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"u16\",\"wire\":\"u16\",\"struct\":null,\"count\":[],\"offset\":50,\"bit_offset\":400,\"bits\":null,\"c_type\":\"unsigned short\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"i32\",\"wire\":\"i32\",\"struct\":null,\"count\":[],\"offset\":52,\"bit_offset\":416,\"bits\":null,\"c_type\":\"int\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"u64\",\"wire\":\"u64\",\"struct\":null,\"count\":[],\"offset\":56,\"bit_offset\":448,\"bits\":null,\"c_type\":\"unsigned long\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"flag\",\"wire\":\"bool\",\"struct\":null,\"count\":[],\"offset\":64,\"bit_offset\":512,\"bits\":null,\"c_type\":\"_Bool\",\"long_double\":false,\"skipped\":null,\"e"
+    "num\":null,\"text\":false},{\"name\":\"f\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":68,\"bit_offset\":544,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"d\",\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":72,\"bit_offset\":576,\"bits\":null,\"c_type\":\"double\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"ld\",\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":80,\"bit_offset\":640,\"bits\":null,\"c_type\":\"long double\",\"long_double\":true,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"mode\",\"wire\":\"u32\",\"struct\":null,\"count\":[],\"offset\":96,\"bit_offset\":768,\"bits\":null,\"c_type\":\"mode_e\",\"long_double\":false,\"skipped\":null,\"enum\":\"mode_e\",\"text\":false},{\"name\":\"wide\",\"wire\":\"i64\",\"struct\":null,\"count\":[],\"offset\":104,\"bit_offset\":832,\"bits\":null,\"c_type\":\"enum wide_e\",\"long_double\":false,\"skipped\":null,\"enum\":\"enum wide_e\",\"text\":false},{\"name\":\"tiny\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":112,\"bit_offset\":896,\"bits\":null,\"c_",
+    "type\":\"tiny_e\",\"long_double\":false,\"skipped\":null,\"enum\":\"tiny_e\",\"text\":false},{\"name\":\"bf_u3\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":113,\"bit_offset\":904,\"bits\":3,\"c_type\":\"unsigned int\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"bf_s5\",\"wire\":\"i8\",\"struct\":null,\"count\":[],\"offset\":113,\"bit_offset\":907,\"bits\":5,\"c_type\":\"int\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"bf_u12\",\"wire\":\"u16\",\"struct\":null,\"count\":[],\"offset\":114,\"bit_offset\":912,\"bits\":12,\"c_type\":\"unsigned int\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"bf_u40\",\"wire\":\"u64\",\"struct\":null,\"count\":[],\"offset\":120,\"bit_offset\":960,\"bits\":40,\"c_type\":\"unsigned long\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"bf_s33\",\"wire\":\"i64\",\"struct\":null,\"count\":[],\"offset\":128,\"bit_offset\":1024,\"bits\":33,\"c_type\":\"long\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"bf_b\",\"wire\":\"bool\",\"struct\":nul"
+    "l,\"count\":[],\"offset\":132,\"bit_offset\":1057,\"bits\":1,\"c_type\":\"_Bool\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"vel\",\"wire\":\"struct\",\"struct\":\"struct vec3\",\"count\":[],\"offset\":136,\"bit_offset\":1088,\"bits\":null,\"c_type\":\"struct vec3\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"roll\",\"wire\":\"i16\",\"struct\":null,\"count\":[],\"offset\":148,\"bit_offset\":1184,\"bits\":null,\"c_type\":\"short\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"pitch\",\"wire\":\"i16\",\"struct\":null,\"count\":[],\"offset\":150,\"bit_offset\":1200,\"bits\":null,\"c_type\":\"short\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"unnamed_member\",\"wire\":\"struct\",\"struct\":\"struct all_kinds::unnamed_member\",\"count\":[],\"offset\":152,\"bit_offset\":1216,\"bits\":null,\"c_type\":\"struct all_kinds::unnamed_member\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"matrix\",\"wire\":\"f32\",\"struct\":null,\"count\":[3,3],\"offset\":168,\"bit_offset\":1"
+    "344,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"route\",\"wire\":\"struct\",\"struct\":\"waypoint_t\",\"count\":[4],\"offset\":204,\"bit_offset\":1632,\"bits\":null,\"c_type\":\"waypoint_t\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"grid\",\"wire\":\"struct\",\"struct\":\"struct vec3\",\"count\":[2,2],\"offset\":268,\"bit_offset\":2144,\"bits\":null,\"c_type\":\"struct vec3\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"bytes\",\"wire\":\"i8\",\"struct\":null,\"count\":[6],\"offset\":316,\"bit_offset\":2528,\"bits\":null,\"c_type\":\"signed char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"raw\",\"wire\":\"u8\",\"struct\":null,\"count\":[2,3],\"offset\":322,\"bit_offset\":2576,\"bits\":null,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"flags\",\"wire\":\"bool\",\"struct\":null,\"count\":[3],\"offset\":328,\"bit_offset\":2624,\"bits\":null,\"c_type\":\"_Bool\",\"long_double\":false,\"skipped\":null,\"enu"
+    "m\":null,\"text\":false},{\"name\":\"hdr\",\"wire\":\"struct\",\"struct\":\"struct packed_hdr\",\"count\":[],\"offset\":331,\"bit_offset\":2648,\"bits\":null,\"c_type\":\"struct packed_hdr\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"name\",\"wire\":null,\"struct\":null,\"count\":[16],\"offset\":338,\"bit_offset\":2704,\"bits\":null,\"c_type\":\"char\",\"long_double\":false,\"skipped\":\"string\",\"enum\":null,\"text\":false},{\"name\":\"text\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":360,\"bit_offset\":2880,\"bits\":null,\"c_type\":\"char *\",\"long_double\":false,\"skipped\":\"pointer\",\"enum\":null,\"text\":false},{\"name\":\"ptr\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":368,\"bit_offset\":2944,\"bits\":null,\"c_type\":\"int *\",\"long_double\":false,\"skipped\":\"pointer\",\"enum\":null,\"text\":false},{\"name\":\"handler\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":376,\"bit_offset\":3008,\"bits\":null,\"c_type\":\"void (*)(void)\",\"long_double\":false,\"skipped\":\"pointer\",\"enum\":null,\"text\":false},{\"name\":\"either\",\"wire\":null,\"struct\":null,\"count\":",
+    "[],\"offset\":384,\"bit_offset\":3072,\"bits\":null,\"c_type\":\"union all_kinds::(unnamed at all_kinds.h:88:5)\",\"long_double\":false,\"skipped\":\"union\",\"enum\":null,\"text\":false},{\"name\":\"\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":388,\"bit_offset\":3104,\"bits\":null,\"c_type\":\"anonymous union\",\"long_double\":false,\"skipped\":\"union\",\"enum\":null,\"text\":false},{\"name\":\"vp\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":392,\"bit_offset\":3136,\"bits\":null,\"c_type\":\"struct vec3 *\",\"long_double\":false,\"skipped\":\"pointer\",\"enum\":null,\"text\":false},{\"name\":\"count\",\"wire\":\"u16\",\"struct\":null,\"count\":[],\"offset\":400,\"bit_offset\":3200,\"bits\":null,\"c_type\":\"unsigned short\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"tail\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":402,\"bit_offset\":3216,\"bits\":null,\"c_type\":\"uint8_t[]\",\"long_double\":false,\"skipped\":\"flexible array member\",\"enum\":null,\"text\":false}]},{\"name\":\"struct all_kinds::unnamed_member\",\"c_name\":null,\"size\":16,\"align\":8,\"packed"
+    "_attr\":false,\"packed_size\":9,\"fingerprint\":\"da0eece7\",\"file\":\"all_kinds.h\",\"line\":72,\"fields\":[{\"name\":\"a\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"b\",\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"double\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false}]},{\"name\":\"struct empty_set\",\"c_name\":\"struct empty_set\",\"size\":16,\"align\":8,\"packed_attr\":false,\"packed_size\":0,\"fingerprint\":\"42c4b0e3\",\"file\":\"all_kinds.h\",\"line\":28,\"fields\":[{\"name\":\"label\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"char *\",\"long_double\":false,\"skipped\":\"pointer\",\"enum\":null,\"text\":false},{\"name\":\"callback\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"void (*)(int)\",\"long_double\":false,\"skipped\":\"pointer\",\"enum\":null,\"text\":false}]},{\"name\":\"struct packed"
+    "_hdr\",\"c_name\":\"struct packed_hdr\",\"size\":7,\"align\":1,\"packed_attr\":true,\"packed_size\":7,\"fingerprint\":\"efc8c2ff\",\"file\":\"all_kinds.h\",\"line\":22,\"fields\":[{\"name\":\"tag\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"len\",\"wire\":\"u32\",\"struct\":null,\"count\":[],\"offset\":1,\"bit_offset\":8,\"bits\":null,\"c_type\":\"unsigned int\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"crc\",\"wire\":\"u16\",\"struct\":null,\"count\":[],\"offset\":5,\"bit_offset\":40,\"bits\":null,\"c_type\":\"unsigned short\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false}]},{\"name\":\"struct vec3\",\"c_name\":\"struct vec3\",\"size\":12,\"align\":4,\"packed_attr\":false,\"packed_size\":12,\"fingerprint\":\"7a76ed67\",\"file\":\"all_kinds.h\",\"line\":13,\"fields\":[{\"name\":\"x\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null,\"enum\":"
+    "null,\"text\":false},{\"name\":\"y\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":4,\"bit_offset\":32,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"z\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false}]},{\"name\":\"waypoint_t\",\"c_name\":\"waypoint_t\",\"size\":16,\"align\":4,\"packed_attr\":false,\"packed_size\":13,\"fingerprint\":\"79ce9804\",\"file\":\"all_kinds.h\",\"line\":17,\"fields\":[{\"name\":\"id\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"pos\",\"wire\":\"struct\",\"struct\":\"struct vec3\",\"count\":[],\"offset\":4,\"bit_offset\":32,\"bits\":null,\"c_type\":\"struct vec3\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false}]}],\"instances\":[{\"name\":\"hdr1\",\"type\":\"struct packed_hdr\",\"id\":\"68647231000000686472310000003357\",\"file\":\"all_kinds.h\"",
+    ",\"line\":104},{\"name\":\"kinds\",\"type\":\"struct all_kinds\",\"id\":\"6b696e647300006b696e64730000fa47\",\"file\":\"all_kinds.h\",\"line\":101},{\"name\":\"lattice[0][0]\",\"type\":\"struct vec3\",\"id\":\"6c617474696365655b305d5b305da91f\",\"file\":\"all_kinds.h\",\"line\":103},{\"name\":\"lattice[0][1]\",\"type\":\"struct vec3\",\"id\":\"6c617474696365655b305d5b315d982c\",\"file\":\"all_kinds.h\",\"line\":103},{\"name\":\"lattice[1][0]\",\"type\":\"struct vec3\",\"id\":\"6c617474696365655b315d5b305df8b5\",\"file\":\"all_kinds.h\",\"line\":103},{\"name\":\"lattice[1][1]\",\"type\":\"struct vec3\",\"id\":\"6c617474696365655b315d5b315dc986\",\"file\":\"all_kinds.h\",\"line\":103},{\"name\":\"macro_set\",\"type\":\"struct vec3\",\"id\":\"6d6163726f5f7363726f5f7365742f47\",\"file\":\"all_kinds.h\",\"line\":109},{\"name\":\"nothing\",\"type\":\"struct empty_set\",\"id\":\"6e6f7468696e676e6f7468696e674893\",\"file\":\"all_kinds.h\",\"line\":105},{\"name\":\"waypoints[0]\",\"type\":\"waypoint_t\",\"id\":\"776179706f696e696e74735b305d7c11\",\"file\":\"all_kinds.h\",\"line\":102},{\"name\":\"waypoints[1]\",\"type\":\"waypoint_t\",\"id\":\"7761"
+    "79706f696e696e74735b315d4d22\",\"file\":\"all_kinds.h\",\"line\":102},{\"name\":\"waypoints[2]\",\"type\":\"waypoint_t\",\"id\":\"776179706f696e696e74735b325d1e77\",\"file\":\"all_kinds.h\",\"line\":102}],\"skipped_instances\":[{\"name\":\"not_a_struct\",\"file\":\"all_kinds.h\",\"line\":106,\"reason\":\"union\"},{\"name\":\"not_visible\",\"file\":\"all_kinds.h\",\"line\":107,\"reason\":\"static: internal linkage, not visible to other translation units (remove `static` to publish it)\"}],\"enums\":{\"enum wide_e\":{\"WIDE_NEG\":-1,\"WIDE_BIG\":549755813887},\"mode_e\":{\"MODE_IDLE\":0,\"MODE_AUTO\":3},\"tiny_e\":{\"TINY_A\":1}}}",
+};
+kinds_LAYOUT_ASSERT(sizeof kinds_catalogue_json == 13564u, catalogue_json, "the catalogue text must be contiguous");
+
+const ub_catalogue_t kinds_catalogue = {
+    "kinds",
+    UB_ID_SCHEME_HASHED,
+    UB_CATALOGUE_ABI_VERSION,
+    kinds_types,
+    kinds_N_TYPES,
+    kinds_instances,
+    kinds_N_INSTANCES,
+    kinds_MAX_PACKED_SIZE,
+    (const char *)&kinds_catalogue_json,
+    13563u,
+};
+
+/* ---- struct all_kinds (all_kinds.h:33) ---- */
 /* name: skipped (string) */
 /* text: skipped (pointer) */
 /* ptr: skipped (pointer) */
@@ -74,7 +187,7 @@ kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, tail) == 402u, all_kinds_tail, "s
 /* tail: skipped (flexible array member) */
 
 int kinds_pack_all_kinds(const struct all_kinds *obj, uint8_t *buf, size_t cap) {
-    if (cap < kinds_all_kinds_PACKED_SIZE) return UB_ERR_NOSPACE;
+    if (cap < kinds_all_kinds_PACKED_SIZE) { return UB_ERR_NOSPACE; }
     uint8_t *p = buf;
     ub_put_u8(p, (uint8_t)obj->c);
     p += 1;
@@ -194,23 +307,23 @@ int kinds_pack_all_kinds(const struct all_kinds *obj, uint8_t *buf, size_t cap) 
 /* Every wire value unpack would take for struct all_kinds is one pack gives back bit for bit: bools are 0 or
  * 1, bitfields fit their width. Checked before anything is written, so a refusal leaves *obj alone. */
 static int kinds_valid_all_kinds(const uint8_t *buf) {
-    if (!(ub_get_u8(buf + 62) <= 1u)) return 0;
-    if (!(ub_get_u8(buf + 96) <= 7u)) return 0;
-    if (!((int8_t)ub_get_u8(buf + 97) >= -16 && (int8_t)ub_get_u8(buf + 97) <= 15)) return 0;
-    if (!(ub_get_u16le(buf + 98) <= 4095u)) return 0;
-    if (!(ub_get_u64le(buf + 100) <= UINT64_C(1099511627775))) return 0;
-    if (!((int64_t)ub_get_u64le(buf + 108) >= INT64_C(-4294967296) && (int64_t)ub_get_u64le(buf + 108) <= INT64_C(4294967295))) return 0;
-    if (!(ub_get_u8(buf + 116) <= 1u)) return 0;
+    if (!(ub_get_u8(buf + 62) <= 1u)) { return 0; }
+    if (!(ub_get_u8(buf + 96) <= 7u)) { return 0; }
+    if (!((int8_t)ub_get_u8(buf + 97) >= -16 && (int8_t)ub_get_u8(buf + 97) <= 15)) { return 0; }
+    if (!(ub_get_u16le(buf + 98) <= 4095u)) { return 0; }
+    if (!(ub_get_u64le(buf + 100) <= UINT64_C(1099511627775))) { return 0; }
+    if (!((int64_t)ub_get_u64le(buf + 108) >= INT64_C(-4294967296) && (int64_t)ub_get_u64le(buf + 108) <= INT64_C(4294967295))) { return 0; }
+    if (!(ub_get_u8(buf + 116) <= 1u)) { return 0; }
     for (size_t k = 0; k < 3u; k++) {
         const uint8_t *q = buf + 290 + k * 1u;
-        if (!(ub_get_u8(q) <= 1u)) return 0;
+        if (!(ub_get_u8(q) <= 1u)) { return 0; }
     }
     return 1;
 }
 
 int kinds_unpack_all_kinds(struct all_kinds *obj, const uint8_t *buf, size_t len) {
-    if (len < kinds_all_kinds_PACKED_SIZE) return UB_ERR_TRUNCATED;
-    if (!kinds_valid_all_kinds(buf)) return UB_ERR_RANGE;
+    if (len < kinds_all_kinds_PACKED_SIZE) { return UB_ERR_TRUNCATED; }
+    if (!kinds_valid_all_kinds(buf)) { return UB_ERR_RANGE; }
     const uint8_t *p = buf;
     obj->c = (int8_t)ub_get_u8(p);
     p += 1;
@@ -327,7 +440,6 @@ int kinds_unpack_all_kinds(struct all_kinds *obj, const uint8_t *buf, size_t len
     return (int)kinds_all_kinds_PACKED_SIZE;
 }
 
-/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int kinds_pack_all_kinds_any(const void *obj, uint8_t *buf, size_t cap) {
     return kinds_pack_all_kinds((const struct all_kinds *)obj, buf, cap);
 }
@@ -336,10 +448,6 @@ static int kinds_unpack_all_kinds_any(void *obj, const uint8_t *buf, size_t len)
 }
 
 /* ---- struct empty_set (all_kinds.h:28) ---- */
-/* A compiler or ABI that lays struct empty_set out differently from clang at generation time fails here. */
-kinds_LAYOUT_ASSERT(sizeof(struct empty_set) == 16u, empty_set_size, "struct empty_set: sizeof differs from the catalogue; regenerate");
-kinds_LAYOUT_ASSERT(offsetof(struct empty_set, label) == 0u, empty_set_label, "struct empty_set.label: offset differs from the catalogue; regenerate");
-kinds_LAYOUT_ASSERT(offsetof(struct empty_set, callback) == 8u, empty_set_callback, "struct empty_set.callback: offset differs from the catalogue; regenerate");
 /* label: skipped (pointer) */
 /* callback: skipped (pointer) */
 
@@ -357,7 +465,6 @@ int kinds_unpack_empty_set(struct empty_set *obj, const uint8_t *buf, size_t len
     return (int)kinds_empty_set_PACKED_SIZE;
 }
 
-/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int kinds_pack_empty_set_any(const void *obj, uint8_t *buf, size_t cap) {
     return kinds_pack_empty_set((const struct empty_set *)obj, buf, cap);
 }
@@ -366,14 +473,9 @@ static int kinds_unpack_empty_set_any(void *obj, const uint8_t *buf, size_t len)
 }
 
 /* ---- struct packed_hdr (all_kinds.h:22) ---- */
-/* A compiler or ABI that lays struct packed_hdr out differently from clang at generation time fails here. */
-kinds_LAYOUT_ASSERT(sizeof(struct packed_hdr) == 7u, packed_hdr_size, "struct packed_hdr: sizeof differs from the catalogue; regenerate");
-kinds_LAYOUT_ASSERT(offsetof(struct packed_hdr, tag) == 0u, packed_hdr_tag, "struct packed_hdr.tag: offset differs from the catalogue; regenerate");
-kinds_LAYOUT_ASSERT(offsetof(struct packed_hdr, len) == 1u, packed_hdr_len, "struct packed_hdr.len: offset differs from the catalogue; regenerate");
-kinds_LAYOUT_ASSERT(offsetof(struct packed_hdr, crc) == 5u, packed_hdr_crc, "struct packed_hdr.crc: offset differs from the catalogue; regenerate");
 
 int kinds_pack_packed_hdr(const struct packed_hdr *obj, uint8_t *buf, size_t cap) {
-    if (cap < kinds_packed_hdr_PACKED_SIZE) return UB_ERR_NOSPACE;
+    if (cap < kinds_packed_hdr_PACKED_SIZE) { return UB_ERR_NOSPACE; }
     uint8_t *p = buf;
     ub_put_u8(p, (uint8_t)obj->tag);
     p += 1;
@@ -385,7 +487,7 @@ int kinds_pack_packed_hdr(const struct packed_hdr *obj, uint8_t *buf, size_t cap
 }
 
 int kinds_unpack_packed_hdr(struct packed_hdr *obj, const uint8_t *buf, size_t len) {
-    if (len < kinds_packed_hdr_PACKED_SIZE) return UB_ERR_TRUNCATED;
+    if (len < kinds_packed_hdr_PACKED_SIZE) { return UB_ERR_TRUNCATED; }
     const uint8_t *p = buf;
     obj->tag = ub_get_u8(p);
     p += 1;
@@ -396,7 +498,6 @@ int kinds_unpack_packed_hdr(struct packed_hdr *obj, const uint8_t *buf, size_t l
     return (int)kinds_packed_hdr_PACKED_SIZE;
 }
 
-/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int kinds_pack_packed_hdr_any(const void *obj, uint8_t *buf, size_t cap) {
     return kinds_pack_packed_hdr((const struct packed_hdr *)obj, buf, cap);
 }
@@ -405,14 +506,9 @@ static int kinds_unpack_packed_hdr_any(void *obj, const uint8_t *buf, size_t len
 }
 
 /* ---- struct vec3 (all_kinds.h:13) ---- */
-/* A compiler or ABI that lays struct vec3 out differently from clang at generation time fails here. */
-kinds_LAYOUT_ASSERT(sizeof(struct vec3) == 12u, vec3_size, "struct vec3: sizeof differs from the catalogue; regenerate");
-kinds_LAYOUT_ASSERT(offsetof(struct vec3, x) == 0u, vec3_x, "struct vec3.x: offset differs from the catalogue; regenerate");
-kinds_LAYOUT_ASSERT(offsetof(struct vec3, y) == 4u, vec3_y, "struct vec3.y: offset differs from the catalogue; regenerate");
-kinds_LAYOUT_ASSERT(offsetof(struct vec3, z) == 8u, vec3_z, "struct vec3.z: offset differs from the catalogue; regenerate");
 
 int kinds_pack_vec3(const struct vec3 *obj, uint8_t *buf, size_t cap) {
-    if (cap < kinds_vec3_PACKED_SIZE) return UB_ERR_NOSPACE;
+    if (cap < kinds_vec3_PACKED_SIZE) { return UB_ERR_NOSPACE; }
     uint8_t *p = buf;
     ub_put_f32le(p, obj->x);
     p += 4;
@@ -424,7 +520,7 @@ int kinds_pack_vec3(const struct vec3 *obj, uint8_t *buf, size_t cap) {
 }
 
 int kinds_unpack_vec3(struct vec3 *obj, const uint8_t *buf, size_t len) {
-    if (len < kinds_vec3_PACKED_SIZE) return UB_ERR_TRUNCATED;
+    if (len < kinds_vec3_PACKED_SIZE) { return UB_ERR_TRUNCATED; }
     const uint8_t *p = buf;
     obj->x = ub_get_f32le(p);
     p += 4;
@@ -435,7 +531,6 @@ int kinds_unpack_vec3(struct vec3 *obj, const uint8_t *buf, size_t len) {
     return (int)kinds_vec3_PACKED_SIZE;
 }
 
-/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int kinds_pack_vec3_any(const void *obj, uint8_t *buf, size_t cap) {
     return kinds_pack_vec3((const struct vec3 *)obj, buf, cap);
 }
@@ -444,13 +539,9 @@ static int kinds_unpack_vec3_any(void *obj, const uint8_t *buf, size_t len) {
 }
 
 /* ---- waypoint_t (all_kinds.h:17) ---- */
-/* A compiler or ABI that lays waypoint_t out differently from clang at generation time fails here. */
-kinds_LAYOUT_ASSERT(sizeof(waypoint_t) == 16u, waypoint_t_size, "waypoint_t: sizeof differs from the catalogue; regenerate");
-kinds_LAYOUT_ASSERT(offsetof(waypoint_t, id) == 0u, waypoint_t_id, "waypoint_t.id: offset differs from the catalogue; regenerate");
-kinds_LAYOUT_ASSERT(offsetof(waypoint_t, pos) == 4u, waypoint_t_pos, "waypoint_t.pos: offset differs from the catalogue; regenerate");
 
 int kinds_pack_waypoint_t(const waypoint_t *obj, uint8_t *buf, size_t cap) {
-    if (cap < kinds_waypoint_t_PACKED_SIZE) return UB_ERR_NOSPACE;
+    if (cap < kinds_waypoint_t_PACKED_SIZE) { return UB_ERR_NOSPACE; }
     uint8_t *p = buf;
     ub_put_u8(p, (uint8_t)obj->id);
     p += 1;
@@ -464,7 +555,7 @@ int kinds_pack_waypoint_t(const waypoint_t *obj, uint8_t *buf, size_t cap) {
 }
 
 int kinds_unpack_waypoint_t(waypoint_t *obj, const uint8_t *buf, size_t len) {
-    if (len < kinds_waypoint_t_PACKED_SIZE) return UB_ERR_TRUNCATED;
+    if (len < kinds_waypoint_t_PACKED_SIZE) { return UB_ERR_TRUNCATED; }
     const uint8_t *p = buf;
     obj->id = ub_get_u8(p);
     p += 1;
@@ -477,617 +568,9 @@ int kinds_unpack_waypoint_t(waypoint_t *obj, const uint8_t *buf, size_t len) {
     return (int)kinds_waypoint_t_PACKED_SIZE;
 }
 
-/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int kinds_pack_waypoint_t_any(const void *obj, uint8_t *buf, size_t cap) {
     return kinds_pack_waypoint_t((const waypoint_t *)obj, buf, cap);
 }
 static int kinds_unpack_waypoint_t_any(void *obj, const uint8_t *buf, size_t len) {
     return kinds_unpack_waypoint_t((waypoint_t *)obj, buf, len);
 }
-
-static const ub_type_desc_t kinds_types[5] = {
-    { "struct all_kinds", 0xc9215705u, 302u, 416u, kinds_pack_all_kinds_any, kinds_unpack_all_kinds_any },
-    { "struct empty_set", 0x42c4b0e3u, 0u, 16u, kinds_pack_empty_set_any, kinds_unpack_empty_set_any },
-    { "struct packed_hdr", 0xefc8c2ffu, 7u, 7u, kinds_pack_packed_hdr_any, kinds_unpack_packed_hdr_any },
-    { "struct vec3", 0x7a76ed67u, 12u, 12u, kinds_pack_vec3_any, kinds_unpack_vec3_any },
-    { "waypoint_t", 0x79ce9804u, 13u, 16u, kinds_pack_waypoint_t_any, kinds_unpack_waypoint_t_any },
-};
-
-static const ub_instance_desc_t kinds_instances[11] = {
-    { { 0x68, 0x64, 0x72, 0x31, 0x00, 0x00, 0x00, 0x68, 0x64, 0x72, 0x31, 0x00, 0x00, 0x00, 0x33, 0x57 }, "hdr1", &kinds_types[kinds_TYPE_packed_hdr] },
-    { { 0x6b, 0x69, 0x6e, 0x64, 0x73, 0x00, 0x00, 0x6b, 0x69, 0x6e, 0x64, 0x73, 0x00, 0x00, 0xfa, 0x47 }, "kinds", &kinds_types[kinds_TYPE_all_kinds] },
-    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x30, 0x5d, 0x5b, 0x30, 0x5d, 0xa9, 0x1f }, "lattice[0][0]", &kinds_types[kinds_TYPE_vec3] },
-    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x30, 0x5d, 0x5b, 0x31, 0x5d, 0x98, 0x2c }, "lattice[0][1]", &kinds_types[kinds_TYPE_vec3] },
-    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x31, 0x5d, 0x5b, 0x30, 0x5d, 0xf8, 0xb5 }, "lattice[1][0]", &kinds_types[kinds_TYPE_vec3] },
-    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x31, 0x5d, 0x5b, 0x31, 0x5d, 0xc9, 0x86 }, "lattice[1][1]", &kinds_types[kinds_TYPE_vec3] },
-    { { 0x6d, 0x61, 0x63, 0x72, 0x6f, 0x5f, 0x73, 0x63, 0x72, 0x6f, 0x5f, 0x73, 0x65, 0x74, 0x2f, 0x47 }, "macro_set", &kinds_types[kinds_TYPE_vec3] },
-    { { 0x6e, 0x6f, 0x74, 0x68, 0x69, 0x6e, 0x67, 0x6e, 0x6f, 0x74, 0x68, 0x69, 0x6e, 0x67, 0x48, 0x93 }, "nothing", &kinds_types[kinds_TYPE_empty_set] },
-    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x69, 0x6e, 0x74, 0x73, 0x5b, 0x30, 0x5d, 0x7c, 0x11 }, "waypoints[0]", &kinds_types[kinds_TYPE_waypoint_t] },
-    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x69, 0x6e, 0x74, 0x73, 0x5b, 0x31, 0x5d, 0x4d, 0x22 }, "waypoints[1]", &kinds_types[kinds_TYPE_waypoint_t] },
-    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x69, 0x6e, 0x74, 0x73, 0x5b, 0x32, 0x5d, 0x1e, 0x77 }, "waypoints[2]", &kinds_types[kinds_TYPE_waypoint_t] },
-};
-
-/* The catalogue's self-description (the compact form of kinds.catalogue.json, NUL-terminated):
- * binary logs copy it into their header so they stay decodable without this build. Written as
- * character codes because C99 bounds a string literal to 4095 characters. */
-static const char kinds_catalogue_json[] = {
-    123, 34, 99, 97, 116, 97, 108, 111, 103, 117, 101, 34, 58, 34, 107, 105, 110, 100, 115, 34, 44, 34, 97, 98,
-    105, 95, 118, 101, 114, 115, 105, 111, 110, 34, 58, 50, 44, 34, 105, 100, 95, 115, 99, 104, 101, 109, 101, 34,
-    58, 34, 104, 97, 115, 104, 101, 100, 34, 44, 34, 116, 121, 112, 101, 115, 34, 58, 91, 123, 34, 110, 97, 109,
-    101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 97, 108, 108, 95, 107, 105, 110, 100, 115, 34, 44, 34, 99,
-    95, 110, 97, 109, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 97, 108, 108, 95, 107, 105, 110, 100, 115,
-    34, 44, 34, 115, 105, 122, 101, 34, 58, 52, 49, 54, 44, 34, 97, 108, 105, 103, 110, 34, 58, 49, 54, 44,
-    34, 112, 97, 99, 107, 101, 100, 95, 97, 116, 116, 114, 34, 58, 102, 97, 108, 115, 101, 44, 34, 112, 97, 99,
-    107, 101, 100, 95, 115, 105, 122, 101, 34, 58, 51, 48, 50, 44, 34, 102, 105, 110, 103, 101, 114, 112, 114, 105,
-    110, 116, 34, 58, 34, 99, 57, 50, 49, 53, 55, 48, 53, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97,
-    108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 51, 51, 44, 34, 102,
-    105, 101, 108, 100, 115, 34, 58, 91, 123, 34, 110, 97, 109, 101, 34, 58, 34, 99, 34, 44, 34, 119, 105, 114,
-    101, 34, 58, 34, 105, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99,
-    111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116,
-    95, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34,
-    99, 95, 116, 121, 112, 101, 34, 58, 34, 99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117,
-    98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108,
-    108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108,
-    115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 115, 99, 34, 44, 34, 119, 105, 114, 101, 34, 58,
-    34, 105, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
-    116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 44, 34, 98, 105, 116, 95, 111, 102,
-    102, 115, 101, 116, 34, 58, 56, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116,
-    121, 112, 101, 34, 58, 34, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103,
-    95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34,
-    58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34,
-    58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 117, 99, 34, 44, 34, 119, 105,
-    114, 101, 34, 58, 34, 117, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34,
-    99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 50, 44, 34, 98, 105,
-    116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 49, 54, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108,
-    44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114,
-    34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115,
-    107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108,
-    44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34,
-    115, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 49, 54, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34,
-    58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116,
-    34, 58, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 50, 44, 34, 98, 105, 116,
-    115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115, 104, 111, 114, 116, 34,
-    44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107,
-    105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44,
-    34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 117,
-    115, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 49, 54, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34,
-    58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116,
-    34, 58, 54, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 52, 56, 44, 34, 98, 105, 116,
-    115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110,
-    101, 100, 32, 115, 104, 111, 114, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58,
-    102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110,
-    117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123,
-    34, 110, 97, 109, 101, 34, 58, 34, 105, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 51, 50, 34, 44,
-    34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93,
-    44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34,
-    58, 54, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34,
-    58, 34, 105, 110, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108,
-    115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34,
-    58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97,
-    109, 101, 34, 58, 34, 117, 105, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 51, 50, 34, 44, 34, 115,
-    116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34,
-    111, 102, 102, 115, 101, 116, 34, 58, 49, 50, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58,
-    57, 54, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58,
-    34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 105, 110, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117,
-    98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108,
-    108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108,
-    115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34,
-    105, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
-    116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 54, 44, 34, 98, 105, 116, 95, 111,
-    102, 102, 115, 101, 116, 34, 58, 49, 50, 56, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34,
-    99, 95, 116, 121, 112, 101, 34, 58, 34, 108, 111, 110, 103, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117,
-    98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108,
-    108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108,
-    115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 117, 108, 34, 44, 34, 119, 105, 114, 101, 34, 58,
-    34, 117, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117,
-    110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 50, 52, 44, 34, 98, 105, 116, 95,
-    111, 102, 102, 115, 101, 116, 34, 58, 49, 57, 50, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44,
-    34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 108, 111, 110, 103, 34,
-    44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107,
-    105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44,
-    34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108,
-    108, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34,
-    58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116,
-    34, 58, 51, 50, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 53, 54, 44, 34, 98,
-    105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 108, 111, 110, 103,
-    32, 108, 111, 110, 103, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108,
-    115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34,
-    58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97,
-    109, 101, 34, 58, 34, 117, 108, 108, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 54, 52, 34, 44, 34,
-    115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44,
-    34, 111, 102, 102, 115, 101, 116, 34, 58, 52, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34,
-    58, 51, 50, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101,
-    34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 108, 111, 110, 103, 32, 108, 111, 110, 103, 34, 44, 34,
-    108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112,
-    112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116,
-    101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 105, 56, 34,
-    44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117,
-    108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 52,
-    56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 56, 52, 44, 34, 98, 105, 116, 115,
-    34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115, 105, 103, 110, 101, 100, 32,
-    99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115,
-    101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58,
-    110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109,
-    101, 34, 58, 34, 117, 49, 54, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 49, 54, 34, 44, 34, 115,
-    116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34,
-    111, 102, 102, 115, 101, 116, 34, 58, 53, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58,
-    52, 48, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34,
-    58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 115, 104, 111, 114, 116, 34, 44, 34, 108, 111, 110, 103, 95,
-    100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58,
-    110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58,
-    102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 105, 51, 50, 34, 44, 34, 119, 105,
-    114, 101, 34, 58, 34, 105, 51, 50, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44,
-    34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 53, 50, 44, 34,
-    98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 52, 49, 54, 44, 34, 98, 105, 116, 115, 34, 58, 110,
-    117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 105, 110, 116, 34, 44, 34, 108, 111, 110, 103,
-    95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34,
-    58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34,
-    58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 117, 54, 52, 34, 44, 34, 119,
-    105, 114, 101, 34, 58, 34, 117, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108,
-    44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 53, 54, 44,
-    34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 52, 52, 56, 44, 34, 98, 105, 116, 115, 34, 58,
-    110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32,
-    108, 111, 110, 103, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115,
-    101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58,
-    110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109,
-    101, 34, 58, 34, 102, 108, 97, 103, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 98, 111, 111, 108, 34, 44,
-    34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93,
-    44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 54, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116,
-    34, 58, 53, 49, 50, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112,
-    101, 34, 58, 34, 95, 66, 111, 111, 108, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34,
-    58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101,
-    110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44,
-    123, 34, 110, 97, 109, 101, 34, 58, 34, 102, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 102, 51, 50, 34,
-    44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91,
-    93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 54, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101,
-    116, 34, 58, 53, 52, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121,
-    112, 101, 34, 58, 34, 102, 108, 111, 97, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101,
-    34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34,
-    101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125,
-    44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 100, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 102, 54, 52,
-    34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58,
-    91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 55, 50, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115,
-    101, 116, 34, 58, 53, 55, 54, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116,
-    121, 112, 101, 34, 58, 34, 100, 111, 117, 98, 108, 101, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98,
-    108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108,
-    44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115,
-    101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 100, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34,
-    102, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
-    116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 56, 48, 44, 34, 98, 105, 116, 95, 111,
-    102, 102, 115, 101, 116, 34, 58, 54, 52, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34,
-    99, 95, 116, 121, 112, 101, 34, 58, 34, 108, 111, 110, 103, 32, 100, 111, 117, 98, 108, 101, 34, 44, 34, 108,
-    111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 116, 114, 117, 101, 44, 34, 115, 107, 105, 112, 112, 101,
-    100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120,
-    116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 109, 111, 100, 101, 34,
-    44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 51, 50, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110,
-    117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58,
-    57, 54, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 55, 54, 56, 44, 34, 98, 105, 116,
-    115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 109, 111, 100, 101, 95, 101,
-    34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115,
-    107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 34, 109, 111, 100,
-    101, 95, 101, 34, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109,
-    101, 34, 58, 34, 119, 105, 100, 101, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 54, 52, 34, 44, 34,
-    115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44,
-    34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 48, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116,
-    34, 58, 56, 51, 50, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112,
-    101, 34, 58, 34, 101, 110, 117, 109, 32, 119, 105, 100, 101, 95, 101, 34, 44, 34, 108, 111, 110, 103, 95, 100,
-    111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110,
-    117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 34, 101, 110, 117, 109, 32, 119, 105, 100, 101, 95, 101, 34,
-    44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34,
-    116, 105, 110, 121, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 56, 34, 44, 34, 115, 116, 114, 117, 99,
-    116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115,
-    101, 116, 34, 58, 49, 49, 50, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 56, 57, 54,
-    44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 116,
-    105, 110, 121, 95, 101, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108,
-    115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34,
-    58, 34, 116, 105, 110, 121, 95, 101, 34, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44,
-    123, 34, 110, 97, 109, 101, 34, 58, 34, 98, 102, 95, 117, 51, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34,
-    117, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116,
-    34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 49, 51, 44, 34, 98, 105, 116, 95, 111,
-    102, 102, 115, 101, 116, 34, 58, 57, 48, 52, 44, 34, 98, 105, 116, 115, 34, 58, 51, 44, 34, 99, 95, 116,
-    121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 105, 110, 116, 34, 44, 34, 108, 111, 110,
-    103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100,
-    34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116,
-    34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 98, 102, 95, 115, 53, 34,
-    44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117,
-    108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49,
-    49, 51, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 57, 48, 55, 44, 34, 98, 105, 116,
-    115, 34, 58, 53, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 105, 110, 116, 34, 44, 34, 108, 111, 110,
-    103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100,
-    34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116,
-    34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 98, 102, 95, 117, 49, 50,
-    34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 49, 54, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58,
-    110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34,
-    58, 49, 49, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 57, 49, 50, 44, 34, 98,
-    105, 116, 115, 34, 58, 49, 50, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110,
-    101, 100, 32, 105, 110, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97,
-    108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109,
-    34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110,
-    97, 109, 101, 34, 58, 34, 98, 102, 95, 117, 52, 48, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 54,
-    52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34,
-    58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 50, 48, 44, 34, 98, 105, 116, 95, 111, 102,
-    102, 115, 101, 116, 34, 58, 57, 54, 48, 44, 34, 98, 105, 116, 115, 34, 58, 52, 48, 44, 34, 99, 95, 116,
-    121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 108, 111, 110, 103, 34, 44, 34, 108, 111,
-    110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101,
-    100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120,
-    116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 98, 102, 95, 115, 51,
-    51, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34,
-    58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116,
-    34, 58, 49, 50, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 49, 48, 50, 52, 44,
-    34, 98, 105, 116, 115, 34, 58, 51, 51, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 108, 111, 110, 103,
-    34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115,
-    107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108,
-    44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34,
-    98, 102, 95, 98, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 98, 111, 111, 108, 34, 44, 34, 115, 116, 114,
-    117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102,
-    102, 115, 101, 116, 34, 58, 49, 51, 50, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 49,
-    48, 53, 55, 44, 34, 98, 105, 116, 115, 34, 58, 49, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 95,
-    66, 111, 111, 108, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115,
-    101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58,
-    110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109,
-    101, 34, 58, 34, 118, 101, 108, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 34,
-    44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 34, 44,
-    34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 51, 54, 44,
-    34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 49, 48, 56, 56, 44, 34, 98, 105, 116, 115, 34,
-    58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118,
-    101, 99, 51, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101,
-    44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110,
-    117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101,
-    34, 58, 34, 114, 111, 108, 108, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 105, 49, 54, 34, 44, 34, 115,
-    116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34,
-    111, 102, 102, 115, 101, 116, 34, 58, 49, 52, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34,
-    58, 49, 49, 56, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112,
-    101, 34, 58, 34, 115, 104, 111, 114, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34,
-    58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101,
-    110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44,
-    123, 34, 110, 97, 109, 101, 34, 58, 34, 112, 105, 116, 99, 104, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34,
-    105, 49, 54, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
-    116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 53, 48, 44, 34, 98, 105, 116, 95,
-    111, 102, 102, 115, 101, 116, 34, 58, 49, 50, 48, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108,
-    44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115, 104, 111, 114, 116, 34, 44, 34, 108, 111, 110, 103, 95,
-    100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58,
-    110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58,
-    102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 117, 110, 110, 97, 109, 101, 100, 95,
-    109, 101, 109, 98, 101, 114, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 34, 44,
-    34, 115, 116, 114, 117, 99, 116, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 97, 108, 108, 95, 107, 105, 110,
-    100, 115, 58, 58, 117, 110, 110, 97, 109, 101, 100, 95, 109, 101, 109, 98, 101, 114, 34, 44, 34, 99, 111, 117,
-    110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49, 53, 50, 44, 34, 98, 105, 116,
-    95, 111, 102, 102, 115, 101, 116, 34, 58, 49, 50, 49, 54, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108,
-    108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 97, 108, 108, 95, 107,
-    105, 110, 100, 115, 58, 58, 117, 110, 110, 97, 109, 101, 100, 95, 109, 101, 109, 98, 101, 114, 34, 44, 34, 108,
-    111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112,
-    101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101,
-    120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 109, 97, 116, 114,
-    105, 120, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 102, 51, 50, 34, 44, 34, 115, 116, 114, 117, 99, 116,
-    34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 51, 44, 51, 93, 44, 34, 111, 102,
-    102, 115, 101, 116, 34, 58, 49, 54, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 49,
-    51, 52, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34,
-    58, 34, 102, 108, 111, 97, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102,
-    97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117,
-    109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34,
-    110, 97, 109, 101, 34, 58, 34, 114, 111, 117, 116, 101, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 115, 116,
-    114, 117, 99, 116, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 34, 119, 97, 121, 112, 111, 105, 110, 116,
-    95, 116, 34, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 52, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34,
-    58, 50, 48, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 49, 54, 51, 50, 44, 34,
-    98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 119, 97, 121,
-    112, 111, 105, 110, 116, 95, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102,
-    97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117,
-    109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34,
-    110, 97, 109, 101, 34, 58, 34, 103, 114, 105, 100, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 115, 116, 114,
-    117, 99, 116, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101,
-    99, 51, 34, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 50, 44, 50, 93, 44, 34, 111, 102, 102, 115, 101,
-    116, 34, 58, 50, 54, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 49, 52, 52,
-    44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115,
-    116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101,
-    34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34,
-    101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125,
-    44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 98, 121, 116, 101, 115, 34, 44, 34, 119, 105, 114, 101, 34, 58,
-    34, 105, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
-    116, 34, 58, 91, 54, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 49, 54, 44, 34, 98, 105, 116,
-    95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 53, 50, 56, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108,
-    108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114, 34,
-    44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107,
-    105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44,
-    34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 114,
-    97, 119, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34,
-    58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 50, 44, 51, 93, 44, 34, 111, 102, 102,
-    115, 101, 116, 34, 58, 51, 50, 50, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 53,
-    55, 54, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58,
-    34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111,
-    117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117,
-    108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97,
-    108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 102, 108, 97, 103, 115, 34, 44, 34, 119, 105,
-    114, 101, 34, 58, 34, 98, 111, 111, 108, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108,
-    44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 51, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 50,
-    56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 54, 50, 52, 44, 34, 98, 105, 116,
-    115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 95, 66, 111, 111, 108, 34,
-    44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107,
-    105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44,
-    34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 104,
-    100, 114, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 34, 44, 34, 115, 116, 114,
-    117, 99, 116, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 112, 97, 99, 107, 101, 100, 95, 104, 100, 114, 34,
-    44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 51, 49,
-    44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 54, 52, 56, 44, 34, 98, 105, 116, 115,
-    34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32,
-    112, 97, 99, 107, 101, 100, 95, 104, 100, 114, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101,
-    34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34,
-    101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125,
-    44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 110, 97, 109, 101, 34, 44, 34, 119, 105, 114, 101, 34, 58, 110,
-    117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116,
-    34, 58, 91, 49, 54, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 51, 56, 44, 34, 98, 105, 116,
-    95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 55, 48, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108,
-    108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103, 95,
-    100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58,
-    34, 115, 116, 114, 105, 110, 103, 34, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101,
-    120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 116, 101, 120, 116,
-    34, 44, 34, 119, 105, 114, 101, 34, 58, 110, 117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110,
-    117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58,
-    51, 54, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 50, 56, 56, 48, 44, 34, 98,
-    105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 99, 104, 97, 114,
-    32, 42, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44,
-    34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 34, 112, 111, 105, 110, 116, 101, 114, 34, 44, 34, 101, 110, 117,
-    109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34,
-    110, 97, 109, 101, 34, 58, 34, 112, 116, 114, 34, 44, 34, 119, 105, 114, 101, 34, 58, 110, 117, 108, 108, 44,
-    34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93,
-    44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 54, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101,
-    116, 34, 58, 50, 57, 52, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116,
-    121, 112, 101, 34, 58, 34, 105, 110, 116, 32, 42, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108,
-    101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 34, 112, 111, 105, 110,
-    116, 101, 114, 34, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58,
-    102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 104, 97, 110, 100, 108, 101, 114, 34,
-    44, 34, 119, 105, 114, 101, 34, 58, 110, 117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117,
-    108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51,
-    55, 54, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 48, 48, 56, 44, 34, 98, 105,
-    116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 118, 111, 105, 100, 32,
-    40, 42, 41, 40, 118, 111, 105, 100, 41, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34,
-    58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 34, 112, 111, 105, 110, 116, 101,
-    114, 34, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97,
-    108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 101, 105, 116, 104, 101, 114, 34, 44, 34, 119,
-    105, 114, 101, 34, 58, 110, 117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44,
-    34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 56, 52, 44,
-    34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 48, 55, 50, 44, 34, 98, 105, 116, 115, 34,
-    58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110, 105, 111, 110, 32, 97, 108,
-    108, 95, 107, 105, 110, 100, 115, 58, 58, 40, 117, 110, 110, 97, 109, 101, 100, 32, 97, 116, 32, 97, 108, 108,
-    95, 107, 105, 110, 100, 115, 46, 104, 58, 56, 56, 58, 53, 41, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111,
-    117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 34, 117,
-    110, 105, 111, 110, 34, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34,
-    58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 34, 44, 34, 119, 105, 114, 101,
-    34, 58, 110, 117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111,
-    117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 56, 56, 44, 34, 98, 105,
-    116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 49, 48, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117,
-    108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 97, 110, 111, 110, 121, 109, 111, 117, 115, 32, 117,
-    110, 105, 111, 110, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115,
-    101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 34, 117, 110, 105, 111, 110, 34, 44, 34, 101, 110, 117,
-    109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34,
-    110, 97, 109, 101, 34, 58, 34, 118, 112, 34, 44, 34, 119, 105, 114, 101, 34, 58, 110, 117, 108, 108, 44, 34,
-    115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44,
-    34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 57, 50, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116,
-    34, 58, 51, 49, 51, 54, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121,
-    112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 32, 42, 34, 44, 34, 108, 111, 110,
-    103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100,
-    34, 58, 34, 112, 111, 105, 110, 116, 101, 114, 34, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44,
-    34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 99,
-    111, 117, 110, 116, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 49, 54, 34, 44, 34, 115, 116, 114, 117,
-    99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102,
-    115, 101, 116, 34, 58, 52, 48, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 50,
-    48, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58,
-    34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 115, 104, 111, 114, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100,
-    111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110,
-    117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102,
-    97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 116, 97, 105, 108, 34, 44, 34, 119, 105,
-    114, 101, 34, 58, 110, 117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34,
-    99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 52, 48, 50, 44, 34,
-    98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 50, 49, 54, 44, 34, 98, 105, 116, 115, 34, 58,
-    110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 105, 110, 116, 56, 95, 116, 91, 93,
-    34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115,
-    107, 105, 112, 112, 101, 100, 34, 58, 34, 102, 108, 101, 120, 105, 98, 108, 101, 32, 97, 114, 114, 97, 121, 32,
-    109, 101, 109, 98, 101, 114, 34, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120,
-    116, 34, 58, 102, 97, 108, 115, 101, 125, 93, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 115, 116, 114,
-    117, 99, 116, 32, 97, 108, 108, 95, 107, 105, 110, 100, 115, 58, 58, 117, 110, 110, 97, 109, 101, 100, 95, 109,
-    101, 109, 98, 101, 114, 34, 44, 34, 99, 95, 110, 97, 109, 101, 34, 58, 110, 117, 108, 108, 44, 34, 115, 105,
-    122, 101, 34, 58, 49, 54, 44, 34, 97, 108, 105, 103, 110, 34, 58, 56, 44, 34, 112, 97, 99, 107, 101, 100,
-    95, 97, 116, 116, 114, 34, 58, 102, 97, 108, 115, 101, 44, 34, 112, 97, 99, 107, 101, 100, 95, 115, 105, 122,
-    101, 34, 58, 57, 44, 34, 102, 105, 110, 103, 101, 114, 112, 114, 105, 110, 116, 34, 58, 34, 100, 97, 48, 101,
-    101, 99, 101, 55, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46,
-    104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 55, 50, 44, 34, 102, 105, 101, 108, 100, 115, 34, 58, 91, 123,
-    34, 110, 97, 109, 101, 34, 58, 34, 97, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 56, 34, 44, 34,
-    115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44,
-    34, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58,
-    48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34,
-    117, 110, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117,
-    98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108,
-    108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108,
-    115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 98, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34,
-    102, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
-    116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 56, 44, 34, 98, 105, 116, 95, 111, 102,
-    102, 115, 101, 116, 34, 58, 54, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95,
-    116, 121, 112, 101, 34, 58, 34, 100, 111, 117, 98, 108, 101, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117,
-    98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108,
-    108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108,
-    115, 101, 125, 93, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 101, 109,
-    112, 116, 121, 95, 115, 101, 116, 34, 44, 34, 99, 95, 110, 97, 109, 101, 34, 58, 34, 115, 116, 114, 117, 99,
-    116, 32, 101, 109, 112, 116, 121, 95, 115, 101, 116, 34, 44, 34, 115, 105, 122, 101, 34, 58, 49, 54, 44, 34,
-    97, 108, 105, 103, 110, 34, 58, 56, 44, 34, 112, 97, 99, 107, 101, 100, 95, 97, 116, 116, 114, 34, 58, 102,
-    97, 108, 115, 101, 44, 34, 112, 97, 99, 107, 101, 100, 95, 115, 105, 122, 101, 34, 58, 48, 44, 34, 102, 105,
-    110, 103, 101, 114, 112, 114, 105, 110, 116, 34, 58, 34, 52, 50, 99, 52, 98, 48, 101, 51, 34, 44, 34, 102,
-    105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101,
-    34, 58, 50, 56, 44, 34, 102, 105, 101, 108, 100, 115, 34, 58, 91, 123, 34, 110, 97, 109, 101, 34, 58, 34,
-    108, 97, 98, 101, 108, 34, 44, 34, 119, 105, 114, 101, 34, 58, 110, 117, 108, 108, 44, 34, 115, 116, 114, 117,
-    99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102,
-    115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98,
-    105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 99, 104, 97, 114,
-    32, 42, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44,
-    34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 34, 112, 111, 105, 110, 116, 101, 114, 34, 44, 34, 101, 110, 117,
-    109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34,
-    110, 97, 109, 101, 34, 58, 34, 99, 97, 108, 108, 98, 97, 99, 107, 34, 44, 34, 119, 105, 114, 101, 34, 58,
-    110, 117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
-    116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 56, 44, 34, 98, 105, 116, 95, 111, 102,
-    102, 115, 101, 116, 34, 58, 54, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95,
-    116, 121, 112, 101, 34, 58, 34, 118, 111, 105, 100, 32, 40, 42, 41, 40, 105, 110, 116, 41, 34, 44, 34, 108,
-    111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112,
-    101, 100, 34, 58, 34, 112, 111, 105, 110, 116, 101, 114, 34, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108,
-    108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 93, 125, 44, 123, 34, 110, 97, 109, 101,
-    34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 112, 97, 99, 107, 101, 100, 95, 104, 100, 114, 34, 44, 34, 99,
-    95, 110, 97, 109, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 112, 97, 99, 107, 101, 100, 95, 104, 100,
-    114, 34, 44, 34, 115, 105, 122, 101, 34, 58, 55, 44, 34, 97, 108, 105, 103, 110, 34, 58, 49, 44, 34, 112,
-    97, 99, 107, 101, 100, 95, 97, 116, 116, 114, 34, 58, 116, 114, 117, 101, 44, 34, 112, 97, 99, 107, 101, 100,
-    95, 115, 105, 122, 101, 34, 58, 55, 44, 34, 102, 105, 110, 103, 101, 114, 112, 114, 105, 110, 116, 34, 58, 34,
-    101, 102, 99, 56, 99, 50, 102, 102, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105,
-    110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 50, 50, 44, 34, 102, 105, 101, 108, 100, 115,
-    34, 58, 91, 123, 34, 110, 97, 109, 101, 34, 58, 34, 116, 97, 103, 34, 44, 34, 119, 105, 114, 101, 34, 58,
-    34, 117, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110,
-    116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 95, 111, 102,
-    102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116,
-    121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114, 34, 44, 34, 108, 111,
-    110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101,
-    100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120,
-    116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 101, 110, 34, 44,
-    34, 119, 105, 114, 101, 34, 58, 34, 117, 51, 50, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117,
-    108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 49,
-    44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 56, 44, 34, 98, 105, 116, 115, 34, 58, 110,
-    117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 105,
-    110, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44,
-    34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117,
-    108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34,
-    58, 34, 99, 114, 99, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 49, 54, 34, 44, 34, 115, 116, 114,
-    117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102,
-    102, 115, 101, 116, 34, 58, 53, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 52, 48, 44,
-    34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110,
-    115, 105, 103, 110, 101, 100, 32, 115, 104, 111, 114, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98,
-    108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108,
-    44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115,
-    101, 125, 93, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99,
-    51, 34, 44, 34, 99, 95, 110, 97, 109, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99, 51,
-    34, 44, 34, 115, 105, 122, 101, 34, 58, 49, 50, 44, 34, 97, 108, 105, 103, 110, 34, 58, 52, 44, 34, 112,
-    97, 99, 107, 101, 100, 95, 97, 116, 116, 114, 34, 58, 102, 97, 108, 115, 101, 44, 34, 112, 97, 99, 107, 101,
-    100, 95, 115, 105, 122, 101, 34, 58, 49, 50, 44, 34, 102, 105, 110, 103, 101, 114, 112, 114, 105, 110, 116, 34,
-    58, 34, 55, 97, 55, 54, 101, 100, 54, 55, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95,
-    107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 51, 44, 34, 102, 105, 101, 108,
-    100, 115, 34, 58, 91, 123, 34, 110, 97, 109, 101, 34, 58, 34, 120, 34, 44, 34, 119, 105, 114, 101, 34, 58,
-    34, 102, 51, 50, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117,
-    110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 95, 111,
-    102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95,
-    116, 121, 112, 101, 34, 58, 34, 102, 108, 111, 97, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98,
-    108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108,
-    44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115,
-    101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 121, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 102,
-    51, 50, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116,
-    34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102,
-    115, 101, 116, 34, 58, 51, 50, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116,
-    121, 112, 101, 34, 58, 34, 102, 108, 111, 97, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108,
-    101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44,
-    34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101,
-    125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 122, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 102, 51,
-    50, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34,
-    58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115,
-    101, 116, 34, 58, 54, 52, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121,
-    112, 101, 34, 58, 34, 102, 108, 111, 97, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101,
-    34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34,
-    101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125,
-    93, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 119, 97, 121, 112, 111, 105, 110, 116, 95, 116, 34, 44,
-    34, 99, 95, 110, 97, 109, 101, 34, 58, 34, 119, 97, 121, 112, 111, 105, 110, 116, 95, 116, 34, 44, 34, 115,
-    105, 122, 101, 34, 58, 49, 54, 44, 34, 97, 108, 105, 103, 110, 34, 58, 52, 44, 34, 112, 97, 99, 107, 101,
-    100, 95, 97, 116, 116, 114, 34, 58, 102, 97, 108, 115, 101, 44, 34, 112, 97, 99, 107, 101, 100, 95, 115, 105,
-    122, 101, 34, 58, 49, 51, 44, 34, 102, 105, 110, 103, 101, 114, 112, 114, 105, 110, 116, 34, 58, 34, 55, 57,
-    99, 101, 57, 56, 48, 52, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100,
-    115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 55, 44, 34, 102, 105, 101, 108, 100, 115, 34, 58,
-    91, 123, 34, 110, 97, 109, 101, 34, 58, 34, 105, 100, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 56,
-    34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58,
-    91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101,
-    116, 34, 58, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101,
-    34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103, 95,
-    100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58,
-    110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58,
-    102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 112, 111, 115, 34, 44, 34, 119, 105,
-    114, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 34, 115,
-    116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 34, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34,
-    111, 102, 102, 115, 101, 116, 34, 58, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51,
-    50, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34,
-    115, 116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108,
-    101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44,
-    34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101,
-    125, 93, 125, 93, 44, 34, 105, 110, 115, 116, 97, 110, 99, 101, 115, 34, 58, 91, 123, 34, 110, 97, 109, 101,
-    34, 58, 34, 104, 100, 114, 49, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32,
-    112, 97, 99, 107, 101, 100, 95, 104, 100, 114, 34, 44, 34, 105, 100, 34, 58, 34, 54, 56, 54, 52, 55, 50,
-    51, 49, 48, 48, 48, 48, 48, 48, 54, 56, 54, 52, 55, 50, 51, 49, 48, 48, 48, 48, 48, 48, 51, 51,
-    53, 55, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34,
-    44, 34, 108, 105, 110, 101, 34, 58, 49, 48, 52, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 107, 105,
-    110, 100, 115, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 97, 108, 108, 95,
-    107, 105, 110, 100, 115, 34, 44, 34, 105, 100, 34, 58, 34, 54, 98, 54, 57, 54, 101, 54, 52, 55, 51, 48,
-    48, 48, 48, 54, 98, 54, 57, 54, 101, 54, 52, 55, 51, 48, 48, 48, 48, 102, 97, 52, 55, 34, 44, 34,
-    102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110,
-    101, 34, 58, 49, 48, 49, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 97, 116, 116, 105, 99, 101,
-    91, 48, 93, 91, 48, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118,
-    101, 99, 51, 34, 44, 34, 105, 100, 34, 58, 34, 54, 99, 54, 49, 55, 52, 55, 52, 54, 57, 54, 51, 54,
-    53, 54, 53, 53, 98, 51, 48, 53, 100, 53, 98, 51, 48, 53, 100, 97, 57, 49, 102, 34, 44, 34, 102, 105,
-    108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34,
-    58, 49, 48, 51, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 97, 116, 116, 105, 99, 101, 91, 48,
-    93, 91, 49, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99,
-    51, 34, 44, 34, 105, 100, 34, 58, 34, 54, 99, 54, 49, 55, 52, 55, 52, 54, 57, 54, 51, 54, 53, 54,
-    53, 53, 98, 51, 48, 53, 100, 53, 98, 51, 49, 53, 100, 57, 56, 50, 99, 34, 44, 34, 102, 105, 108, 101,
-    34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49,
-    48, 51, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 97, 116, 116, 105, 99, 101, 91, 49, 93, 91,
-    48, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 34,
-    44, 34, 105, 100, 34, 58, 34, 54, 99, 54, 49, 55, 52, 55, 52, 54, 57, 54, 51, 54, 53, 54, 53, 53,
-    98, 51, 49, 53, 100, 53, 98, 51, 48, 53, 100, 102, 56, 98, 53, 34, 44, 34, 102, 105, 108, 101, 34, 58,
-    34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 48, 51,
-    125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 97, 116, 116, 105, 99, 101, 91, 49, 93, 91, 49, 93,
-    34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 34, 44, 34,
-    105, 100, 34, 58, 34, 54, 99, 54, 49, 55, 52, 55, 52, 54, 57, 54, 51, 54, 53, 54, 53, 53, 98, 51,
-    49, 53, 100, 53, 98, 51, 49, 53, 100, 99, 57, 56, 54, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97,
-    108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 48, 51, 125, 44,
-    123, 34, 110, 97, 109, 101, 34, 58, 34, 109, 97, 99, 114, 111, 95, 115, 101, 116, 34, 44, 34, 116, 121, 112,
-    101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 118, 101, 99, 51, 34, 44, 34, 105, 100, 34, 58, 34, 54,
-    100, 54, 49, 54, 51, 55, 50, 54, 102, 53, 102, 55, 51, 54, 51, 55, 50, 54, 102, 53, 102, 55, 51, 54,
-    53, 55, 52, 50, 102, 52, 55, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110,
-    100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 48, 57, 125, 44, 123, 34, 110, 97, 109, 101,
-    34, 58, 34, 110, 111, 116, 104, 105, 110, 103, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117,
-    99, 116, 32, 101, 109, 112, 116, 121, 95, 115, 101, 116, 34, 44, 34, 105, 100, 34, 58, 34, 54, 101, 54, 102,
-    55, 52, 54, 56, 54, 57, 54, 101, 54, 55, 54, 101, 54, 102, 55, 52, 54, 56, 54, 57, 54, 101, 54, 55,
-    52, 56, 57, 51, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46,
-    104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 48, 53, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34,
-    119, 97, 121, 112, 111, 105, 110, 116, 115, 91, 48, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 119, 97,
-    121, 112, 111, 105, 110, 116, 95, 116, 34, 44, 34, 105, 100, 34, 58, 34, 55, 55, 54, 49, 55, 57, 55, 48,
-    54, 102, 54, 57, 54, 101, 54, 57, 54, 101, 55, 52, 55, 51, 53, 98, 51, 48, 53, 100, 55, 99, 49, 49,
-    34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34,
-    108, 105, 110, 101, 34, 58, 49, 48, 50, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 119, 97, 121, 112,
-    111, 105, 110, 116, 115, 91, 49, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 119, 97, 121, 112, 111, 105,
-    110, 116, 95, 116, 34, 44, 34, 105, 100, 34, 58, 34, 55, 55, 54, 49, 55, 57, 55, 48, 54, 102, 54, 57,
-    54, 101, 54, 57, 54, 101, 55, 52, 55, 51, 53, 98, 51, 49, 53, 100, 52, 100, 50, 50, 34, 44, 34, 102,
-    105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101,
-    34, 58, 49, 48, 50, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 119, 97, 121, 112, 111, 105, 110, 116,
-    115, 91, 50, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 119, 97, 121, 112, 111, 105, 110, 116, 95, 116,
-    34, 44, 34, 105, 100, 34, 58, 34, 55, 55, 54, 49, 55, 57, 55, 48, 54, 102, 54, 57, 54, 101, 54, 57,
-    54, 101, 55, 52, 55, 51, 53, 98, 51, 50, 53, 100, 49, 101, 55, 55, 34, 44, 34, 102, 105, 108, 101, 34,
-    58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 48,
-    50, 125, 93, 44, 34, 115, 107, 105, 112, 112, 101, 100, 95, 105, 110, 115, 116, 97, 110, 99, 101, 115, 34, 58,
-    91, 123, 34, 110, 97, 109, 101, 34, 58, 34, 110, 111, 116, 95, 97, 95, 115, 116, 114, 117, 99, 116, 34, 44,
-    34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105,
-    110, 101, 34, 58, 49, 48, 54, 44, 34, 114, 101, 97, 115, 111, 110, 34, 58, 34, 117, 110, 105, 111, 110, 34,
-    125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 110, 111, 116, 95, 118, 105, 115, 105, 98, 108, 101, 34, 44,
-    34, 102, 105, 108, 101, 34, 58, 34, 97, 108, 108, 95, 107, 105, 110, 100, 115, 46, 104, 34, 44, 34, 108, 105,
-    110, 101, 34, 58, 49, 48, 55, 44, 34, 114, 101, 97, 115, 111, 110, 34, 58, 34, 115, 116, 97, 116, 105, 99,
-    58, 32, 105, 110, 116, 101, 114, 110, 97, 108, 32, 108, 105, 110, 107, 97, 103, 101, 44, 32, 110, 111, 116, 32,
-    118, 105, 115, 105, 98, 108, 101, 32, 116, 111, 32, 111, 116, 104, 101, 114, 32, 116, 114, 97, 110, 115, 108, 97,
-    116, 105, 111, 110, 32, 117, 110, 105, 116, 115, 32, 40, 114, 101, 109, 111, 118, 101, 32, 96, 115, 116, 97, 116,
-    105, 99, 96, 32, 116, 111, 32, 112, 117, 98, 108, 105, 115, 104, 32, 105, 116, 41, 34, 125, 93, 44, 34, 101,
-    110, 117, 109, 115, 34, 58, 123, 34, 101, 110, 117, 109, 32, 119, 105, 100, 101, 95, 101, 34, 58, 123, 34, 87,
-    73, 68, 69, 95, 78, 69, 71, 34, 58, 45, 49, 44, 34, 87, 73, 68, 69, 95, 66, 73, 71, 34, 58, 53,
-    52, 57, 55, 53, 53, 56, 49, 51, 56, 56, 55, 125, 44, 34, 109, 111, 100, 101, 95, 101, 34, 58, 123, 34,
-    77, 79, 68, 69, 95, 73, 68, 76, 69, 34, 58, 48, 44, 34, 77, 79, 68, 69, 95, 65, 85, 84, 79, 34,
-    58, 51, 125, 44, 34, 116, 105, 110, 121, 95, 101, 34, 58, 123, 34, 84, 73, 78, 89, 95, 65, 34, 58, 49,
-    125, 125, 125, 0
-};
-
-const ub_catalogue_t kinds_catalogue = {
-    "kinds",
-    UB_ID_SCHEME_HASHED,
-    UB_CATALOGUE_ABI_VERSION,
-    kinds_types,
-    kinds_N_TYPES,
-    kinds_instances,
-    kinds_N_INSTANCES,
-    kinds_MAX_PACKED_SIZE,
-    kinds_catalogue_json,
-    sizeof kinds_catalogue_json - 1,
-};

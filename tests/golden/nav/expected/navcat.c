@@ -12,23 +12,91 @@
 
 #include "ub/ub_wire.h"
 
-/* Layout checks against clang's measurements: _Static_assert in C11, a negative array size in C99
+/* Layout checks against clang's measurements: _Static_assert in C11; in C99, gcc and clang still
+ * know it (__extension__ keeps -pedantic quiet), other C99 compilers get a negative array size
  * (the typedef's name says which check failed). */
 #if defined(__STDC_VERSION__) && __STDC_VERSION__ >= 201112L
 #define navcat_LAYOUT_ASSERT(cond, id, msg) _Static_assert(cond, msg)
+#elif defined(__GNUC__)
+#define navcat_LAYOUT_ASSERT(cond, id, msg) __extension__ _Static_assert(cond, msg)
 #else
 #define navcat_LAYOUT_ASSERT(cond, id, msg) typedef char navcat_layout_##id[(cond) ? 1 : -1]
 #endif
 
-/* ---- position_t (nav.h:7) ---- */
-/* A compiler or ABI that lays position_t out differently from clang at generation time fails here. */
+/* Every file-scope declaration comes before the functions: gcc -std=c99 -pedantic spends time
+ * linear in the functions already defined on each declaration that follows them.
+ *
+ * A compiler or ABI that lays a type out differently from clang at generation time fails here. */
+/* position_t (nav.h:7) */
 navcat_LAYOUT_ASSERT(sizeof(position_t) == 24u, position_t_size, "position_t: sizeof differs from the catalogue; regenerate");
 navcat_LAYOUT_ASSERT(offsetof(position_t, lat) == 0u, position_t_lat, "position_t.lat: offset differs from the catalogue; regenerate");
 navcat_LAYOUT_ASSERT(offsetof(position_t, lon) == 8u, position_t_lon, "position_t.lon: offset differs from the catalogue; regenerate");
 navcat_LAYOUT_ASSERT(offsetof(position_t, alt) == 16u, position_t_alt, "position_t.alt: offset differs from the catalogue; regenerate");
 
+/* struct nav_state (nav.h:12) */
+navcat_LAYOUT_ASSERT(sizeof(struct nav_state) == 48u, nav_state_size, "struct nav_state: sizeof differs from the catalogue; regenerate");
+navcat_LAYOUT_ASSERT(offsetof(struct nav_state, pos) == 0u, nav_state_pos, "struct nav_state.pos: offset differs from the catalogue; regenerate");
+navcat_LAYOUT_ASSERT(offsetof(struct nav_state, vel) == 24u, nav_state_vel, "struct nav_state.vel: offset differs from the catalogue; regenerate");
+navcat_LAYOUT_ASSERT(offsetof(struct nav_state, label) == 40u, nav_state_label, "struct nav_state.label: offset differs from the catalogue; regenerate");
+
+/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
+static int navcat_pack_position_t_any(const void *obj, uint8_t *buf, size_t cap);
+static int navcat_unpack_position_t_any(void *obj, const uint8_t *buf, size_t len);
+static int navcat_pack_nav_state_any(const void *obj, uint8_t *buf, size_t cap);
+static int navcat_unpack_nav_state_any(void *obj, const uint8_t *buf, size_t len);
+
+static const ub_type_desc_t navcat_types[2] = {
+    { "position_t", 0x1de000c6u, 20u, 24u, navcat_pack_position_t_any, navcat_unpack_position_t_any },
+    { "struct nav_state", 0x65445540u, 34u, 48u, navcat_pack_nav_state_any, navcat_unpack_nav_state_any },
+};
+
+static const ub_instance_desc_t navcat_instances[5] = {
+    { { 0x6f, 0x6e, 0x62, 0x6f, 0x61, 0x72, 0x64, 0x53, 0x62, 0x6f, 0x61, 0x72, 0x64, 0x53, 0x65, 0x74 }, "onboardSet", &navcat_types[navcat_TYPE_nav_state] },
+    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x30, 0x5d, 0x5b, 0x30, 0x5d }, "waypoint[0][0]", &navcat_types[navcat_TYPE_position_t] },
+    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x30, 0x5d, 0x5b, 0x31, 0x5d }, "waypoint[0][1]", &navcat_types[navcat_TYPE_position_t] },
+    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x31, 0x5d, 0x5b, 0x30, 0x5d }, "waypoint[1][0]", &navcat_types[navcat_TYPE_position_t] },
+    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x31, 0x5d, 0x5b, 0x31, 0x5d }, "waypoint[1][1]", &navcat_types[navcat_TYPE_position_t] },
+};
+
+/* The catalogue's self-description (the compact form of navcat.catalogue.json, NUL-terminated):
+ * binary logs copy it into their header so they stay decodable without this build. C99 bounds a
+ * string literal to 4095 characters, so the text is cut into rows held back to back in one struct
+ * of char arrays (char arrays have no padding between them: checked below). The rows are pieces,
+ * not strings: only the last has a NUL, hence `nonstring` where the compiler knows it. */
+#if defined(__has_attribute)
+#if __has_attribute(nonstring)
+#define navcat_NONSTRING __attribute__((nonstring))
+#endif
+#endif
+#ifndef navcat_NONSTRING
+#define navcat_NONSTRING
+#endif
+static const struct {
+    char row0[2406];
+} navcat_catalogue_json = {
+    "{\"catalogue\":\"navcat\",\"abi_version\":2,\"id_scheme\":\"paper\",\"types\":[{\"name\":\"position_t\",\"c_name\":\"position_t\",\"size\":24,\"align\":8,\"packed_attr\":false,\"packed_size\":20,\"fingerprint\":\"1de000c6\",\"file\":\"nav.h\",\"line\":7,\"fields\":[{\"name\":\"lat\",\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"double\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"lon\",\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"double\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"alt\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":16,\"bit_offset\":128,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false}]},{\"name\":\"struct nav_state\",\"c_name\":\"struct nav_state\",\"size\":48,\"align\":8,\"packed_attr\":false,\"packed_size\":34,\"fingerprint\":\"65445540\",\"file\":\"nav.h\",\"line\":12,\"fields\":[{\"name\":\"pos\",\"wire\":\"struct\",\"struct\":\"position_t\",\"count\":[],\"offset\":0,\"bit_offset\":0,\""
+    "bits\":null,\"c_type\":\"position_t\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"vel\",\"wire\":\"f32\",\"struct\":null,\"count\":[3],\"offset\":24,\"bit_offset\":192,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"mode\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":36,\"bit_offset\":288,\"bits\":4,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"valid\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":36,\"bit_offset\":292,\"bits\":1,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"label\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":40,\"bit_offset\":320,\"bits\":null,\"c_type\":\"char *\",\"long_double\":false,\"skipped\":\"pointer\",\"enum\":null,\"text\":false}]}],\"instances\":[{\"name\":\"onboardSet\",\"type\":\"struct nav_state\",\"id\":\"6f6e626f61726453626f617264536574\",\"file\":\"nav.h\",\"line\":20},{\"name\":\"waypoint[0][0]\",\"type\":\"position_t\",\"id\":\"776179706f696e746e745b3"
+    "05d5b305d\",\"file\":\"nav.h\",\"line\":21},{\"name\":\"waypoint[0][1]\",\"type\":\"position_t\",\"id\":\"776179706f696e746e745b305d5b315d\",\"file\":\"nav.h\",\"line\":21},{\"name\":\"waypoint[1][0]\",\"type\":\"position_t\",\"id\":\"776179706f696e746e745b315d5b305d\",\"file\":\"nav.h\",\"line\":21},{\"name\":\"waypoint[1][1]\",\"type\":\"position_t\",\"id\":\"776179706f696e746e745b315d5b315d\",\"file\":\"nav.h\",\"line\":21}],\"skipped_instances\":[],\"enums\":{}}",
+};
+navcat_LAYOUT_ASSERT(sizeof navcat_catalogue_json == 2406u, catalogue_json, "the catalogue text must be contiguous");
+
+const ub_catalogue_t navcat_catalogue = {
+    "navcat",
+    UB_ID_SCHEME_PAPER,
+    UB_CATALOGUE_ABI_VERSION,
+    navcat_types,
+    navcat_N_TYPES,
+    navcat_instances,
+    navcat_N_INSTANCES,
+    navcat_MAX_PACKED_SIZE,
+    (const char *)&navcat_catalogue_json,
+    2405u,
+};
+
+/* ---- position_t (nav.h:7) ---- */
+
 int navcat_pack_position_t(const position_t *obj, uint8_t *buf, size_t cap) {
-    if (cap < navcat_position_t_PACKED_SIZE) return UB_ERR_NOSPACE;
+    if (cap < navcat_position_t_PACKED_SIZE) { return UB_ERR_NOSPACE; }
     uint8_t *p = buf;
     ub_put_f64le(p, (double)obj->lat);
     p += 8;
@@ -40,7 +108,7 @@ int navcat_pack_position_t(const position_t *obj, uint8_t *buf, size_t cap) {
 }
 
 int navcat_unpack_position_t(position_t *obj, const uint8_t *buf, size_t len) {
-    if (len < navcat_position_t_PACKED_SIZE) return UB_ERR_TRUNCATED;
+    if (len < navcat_position_t_PACKED_SIZE) { return UB_ERR_TRUNCATED; }
     const uint8_t *p = buf;
     obj->lat = ub_get_f64le(p);
     p += 8;
@@ -51,7 +119,6 @@ int navcat_unpack_position_t(position_t *obj, const uint8_t *buf, size_t len) {
     return (int)navcat_position_t_PACKED_SIZE;
 }
 
-/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int navcat_pack_position_t_any(const void *obj, uint8_t *buf, size_t cap) {
     return navcat_pack_position_t((const position_t *)obj, buf, cap);
 }
@@ -60,15 +127,10 @@ static int navcat_unpack_position_t_any(void *obj, const uint8_t *buf, size_t le
 }
 
 /* ---- struct nav_state (nav.h:12) ---- */
-/* A compiler or ABI that lays struct nav_state out differently from clang at generation time fails here. */
-navcat_LAYOUT_ASSERT(sizeof(struct nav_state) == 48u, nav_state_size, "struct nav_state: sizeof differs from the catalogue; regenerate");
-navcat_LAYOUT_ASSERT(offsetof(struct nav_state, pos) == 0u, nav_state_pos, "struct nav_state.pos: offset differs from the catalogue; regenerate");
-navcat_LAYOUT_ASSERT(offsetof(struct nav_state, vel) == 24u, nav_state_vel, "struct nav_state.vel: offset differs from the catalogue; regenerate");
-navcat_LAYOUT_ASSERT(offsetof(struct nav_state, label) == 40u, nav_state_label, "struct nav_state.label: offset differs from the catalogue; regenerate");
 /* label: skipped (pointer) */
 
 int navcat_pack_nav_state(const struct nav_state *obj, uint8_t *buf, size_t cap) {
-    if (cap < navcat_nav_state_PACKED_SIZE) return UB_ERR_NOSPACE;
+    if (cap < navcat_nav_state_PACKED_SIZE) { return UB_ERR_NOSPACE; }
     uint8_t *p = buf;
     ub_put_f64le(p, (double)obj->pos.lat);
     p += 8;
@@ -90,14 +152,14 @@ int navcat_pack_nav_state(const struct nav_state *obj, uint8_t *buf, size_t cap)
 /* Every wire value unpack would take for struct nav_state is one pack gives back bit for bit: bools are 0 or
  * 1, bitfields fit their width. Checked before anything is written, so a refusal leaves *obj alone. */
 static int navcat_valid_nav_state(const uint8_t *buf) {
-    if (!(ub_get_u8(buf + 32) <= 15u)) return 0;
-    if (!(ub_get_u8(buf + 33) <= 1u)) return 0;
+    if (!(ub_get_u8(buf + 32) <= 15u)) { return 0; }
+    if (!(ub_get_u8(buf + 33) <= 1u)) { return 0; }
     return 1;
 }
 
 int navcat_unpack_nav_state(struct nav_state *obj, const uint8_t *buf, size_t len) {
-    if (len < navcat_nav_state_PACKED_SIZE) return UB_ERR_TRUNCATED;
-    if (!navcat_valid_nav_state(buf)) return UB_ERR_RANGE;
+    if (len < navcat_nav_state_PACKED_SIZE) { return UB_ERR_TRUNCATED; }
+    if (!navcat_valid_nav_state(buf)) { return UB_ERR_RANGE; }
     const uint8_t *p = buf;
     obj->pos.lat = ub_get_f64le(p);
     p += 8;
@@ -116,143 +178,9 @@ int navcat_unpack_nav_state(struct nav_state *obj, const uint8_t *buf, size_t le
     return (int)navcat_nav_state_PACKED_SIZE;
 }
 
-/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int navcat_pack_nav_state_any(const void *obj, uint8_t *buf, size_t cap) {
     return navcat_pack_nav_state((const struct nav_state *)obj, buf, cap);
 }
 static int navcat_unpack_nav_state_any(void *obj, const uint8_t *buf, size_t len) {
     return navcat_unpack_nav_state((struct nav_state *)obj, buf, len);
 }
-
-static const ub_type_desc_t navcat_types[2] = {
-    { "position_t", 0x1de000c6u, 20u, 24u, navcat_pack_position_t_any, navcat_unpack_position_t_any },
-    { "struct nav_state", 0x65445540u, 34u, 48u, navcat_pack_nav_state_any, navcat_unpack_nav_state_any },
-};
-
-static const ub_instance_desc_t navcat_instances[5] = {
-    { { 0x6f, 0x6e, 0x62, 0x6f, 0x61, 0x72, 0x64, 0x53, 0x62, 0x6f, 0x61, 0x72, 0x64, 0x53, 0x65, 0x74 }, "onboardSet", &navcat_types[navcat_TYPE_nav_state] },
-    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x30, 0x5d, 0x5b, 0x30, 0x5d }, "waypoint[0][0]", &navcat_types[navcat_TYPE_position_t] },
-    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x30, 0x5d, 0x5b, 0x31, 0x5d }, "waypoint[0][1]", &navcat_types[navcat_TYPE_position_t] },
-    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x31, 0x5d, 0x5b, 0x30, 0x5d }, "waypoint[1][0]", &navcat_types[navcat_TYPE_position_t] },
-    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x31, 0x5d, 0x5b, 0x31, 0x5d }, "waypoint[1][1]", &navcat_types[navcat_TYPE_position_t] },
-};
-
-/* The catalogue's self-description (the compact form of navcat.catalogue.json, NUL-terminated):
- * binary logs copy it into their header so they stay decodable without this build. Written as
- * character codes because C99 bounds a string literal to 4095 characters. */
-static const char navcat_catalogue_json[] = {
-    123, 34, 99, 97, 116, 97, 108, 111, 103, 117, 101, 34, 58, 34, 110, 97, 118, 99, 97, 116, 34, 44, 34, 97,
-    98, 105, 95, 118, 101, 114, 115, 105, 111, 110, 34, 58, 50, 44, 34, 105, 100, 95, 115, 99, 104, 101, 109, 101,
-    34, 58, 34, 112, 97, 112, 101, 114, 34, 44, 34, 116, 121, 112, 101, 115, 34, 58, 91, 123, 34, 110, 97, 109,
-    101, 34, 58, 34, 112, 111, 115, 105, 116, 105, 111, 110, 95, 116, 34, 44, 34, 99, 95, 110, 97, 109, 101, 34,
-    58, 34, 112, 111, 115, 105, 116, 105, 111, 110, 95, 116, 34, 44, 34, 115, 105, 122, 101, 34, 58, 50, 52, 44,
-    34, 97, 108, 105, 103, 110, 34, 58, 56, 44, 34, 112, 97, 99, 107, 101, 100, 95, 97, 116, 116, 114, 34, 58,
-    102, 97, 108, 115, 101, 44, 34, 112, 97, 99, 107, 101, 100, 95, 115, 105, 122, 101, 34, 58, 50, 48, 44, 34,
-    102, 105, 110, 103, 101, 114, 112, 114, 105, 110, 116, 34, 58, 34, 49, 100, 101, 48, 48, 48, 99, 54, 34, 44,
-    34, 102, 105, 108, 101, 34, 58, 34, 110, 97, 118, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 55, 44,
-    34, 102, 105, 101, 108, 100, 115, 34, 58, 91, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 97, 116, 34, 44,
-    34, 119, 105, 114, 101, 34, 58, 34, 102, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117,
-    108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 48,
-    44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110,
-    117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 100, 111, 117, 98, 108, 101, 34, 44, 34, 108,
-    111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112,
-    101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101,
-    120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 111, 110, 34,
-    44, 34, 119, 105, 114, 101, 34, 58, 34, 102, 54, 52, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110,
-    117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58,
-    56, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 54, 52, 44, 34, 98, 105, 116, 115, 34,
-    58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 100, 111, 117, 98, 108, 101, 34, 44,
-    34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105,
-    112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34,
-    116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 97, 108,
-    116, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 102, 51, 50, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34,
-    58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116,
-    34, 58, 49, 54, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 49, 50, 56, 44, 34, 98,
-    105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 102, 108, 111, 97,
-    116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34,
-    115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108,
-    108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 93, 125, 44, 123, 34, 110, 97, 109, 101,
-    34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 110, 97, 118, 95, 115, 116, 97, 116, 101, 34, 44, 34, 99, 95,
-    110, 97, 109, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116, 32, 110, 97, 118, 95, 115, 116, 97, 116, 101, 34,
-    44, 34, 115, 105, 122, 101, 34, 58, 52, 56, 44, 34, 97, 108, 105, 103, 110, 34, 58, 56, 44, 34, 112, 97,
-    99, 107, 101, 100, 95, 97, 116, 116, 114, 34, 58, 102, 97, 108, 115, 101, 44, 34, 112, 97, 99, 107, 101, 100,
-    95, 115, 105, 122, 101, 34, 58, 51, 52, 44, 34, 102, 105, 110, 103, 101, 114, 112, 114, 105, 110, 116, 34, 58,
-    34, 54, 53, 52, 52, 53, 53, 52, 48, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 110, 97, 118, 46, 104,
-    34, 44, 34, 108, 105, 110, 101, 34, 58, 49, 50, 44, 34, 102, 105, 101, 108, 100, 115, 34, 58, 91, 123, 34,
-    110, 97, 109, 101, 34, 58, 34, 112, 111, 115, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 115, 116, 114, 117,
-    99, 116, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 34, 112, 111, 115, 105, 116, 105, 111, 110, 95, 116,
-    34, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44,
-    34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 48, 44, 34, 98, 105, 116, 115, 34, 58, 110, 117,
-    108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 112, 111, 115, 105, 116, 105, 111, 110, 95, 116, 34,
-    44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107,
-    105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44,
-    34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 118,
-    101, 108, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 102, 51, 50, 34, 44, 34, 115, 116, 114, 117, 99, 116,
-    34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 51, 93, 44, 34, 111, 102, 102, 115,
-    101, 116, 34, 58, 50, 52, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 49, 57, 50, 44,
-    34, 98, 105, 116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 102, 108,
-    111, 97, 116, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101,
-    44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110,
-    117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101,
-    34, 58, 34, 109, 111, 100, 101, 34, 44, 34, 119, 105, 114, 101, 34, 58, 34, 117, 56, 34, 44, 34, 115, 116,
-    114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111,
-    102, 102, 115, 101, 116, 34, 58, 51, 54, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 50,
-    56, 56, 44, 34, 98, 105, 116, 115, 34, 58, 52, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 117, 110,
-    115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108,
-    101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112, 101, 100, 34, 58, 110, 117, 108, 108, 44,
-    34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101,
-    125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 118, 97, 108, 105, 100, 34, 44, 34, 119, 105, 114, 101, 34,
-    58, 34, 117, 56, 34, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58, 110, 117, 108, 108, 44, 34, 99, 111, 117,
-    110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34, 58, 51, 54, 44, 34, 98, 105, 116, 95,
-    111, 102, 102, 115, 101, 116, 34, 58, 50, 57, 50, 44, 34, 98, 105, 116, 115, 34, 58, 49, 44, 34, 99, 95,
-    116, 121, 112, 101, 34, 58, 34, 117, 110, 115, 105, 103, 110, 101, 100, 32, 99, 104, 97, 114, 34, 44, 34, 108,
-    111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34, 115, 107, 105, 112, 112,
-    101, 100, 34, 58, 110, 117, 108, 108, 44, 34, 101, 110, 117, 109, 34, 58, 110, 117, 108, 108, 44, 34, 116, 101,
-    120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 108, 97, 98, 101,
-    108, 34, 44, 34, 119, 105, 114, 101, 34, 58, 110, 117, 108, 108, 44, 34, 115, 116, 114, 117, 99, 116, 34, 58,
-    110, 117, 108, 108, 44, 34, 99, 111, 117, 110, 116, 34, 58, 91, 93, 44, 34, 111, 102, 102, 115, 101, 116, 34,
-    58, 52, 48, 44, 34, 98, 105, 116, 95, 111, 102, 102, 115, 101, 116, 34, 58, 51, 50, 48, 44, 34, 98, 105,
-    116, 115, 34, 58, 110, 117, 108, 108, 44, 34, 99, 95, 116, 121, 112, 101, 34, 58, 34, 99, 104, 97, 114, 32,
-    42, 34, 44, 34, 108, 111, 110, 103, 95, 100, 111, 117, 98, 108, 101, 34, 58, 102, 97, 108, 115, 101, 44, 34,
-    115, 107, 105, 112, 112, 101, 100, 34, 58, 34, 112, 111, 105, 110, 116, 101, 114, 34, 44, 34, 101, 110, 117, 109,
-    34, 58, 110, 117, 108, 108, 44, 34, 116, 101, 120, 116, 34, 58, 102, 97, 108, 115, 101, 125, 93, 125, 93, 44,
-    34, 105, 110, 115, 116, 97, 110, 99, 101, 115, 34, 58, 91, 123, 34, 110, 97, 109, 101, 34, 58, 34, 111, 110,
-    98, 111, 97, 114, 100, 83, 101, 116, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 115, 116, 114, 117, 99, 116,
-    32, 110, 97, 118, 95, 115, 116, 97, 116, 101, 34, 44, 34, 105, 100, 34, 58, 34, 54, 102, 54, 101, 54, 50,
-    54, 102, 54, 49, 55, 50, 54, 52, 53, 51, 54, 50, 54, 102, 54, 49, 55, 50, 54, 52, 53, 51, 54, 53,
-    55, 52, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 110, 97, 118, 46, 104, 34, 44, 34, 108, 105, 110, 101,
-    34, 58, 50, 48, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 119, 97, 121, 112, 111, 105, 110, 116, 91,
-    48, 93, 91, 48, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 112, 111, 115, 105, 116, 105, 111, 110, 95,
-    116, 34, 44, 34, 105, 100, 34, 58, 34, 55, 55, 54, 49, 55, 57, 55, 48, 54, 102, 54, 57, 54, 101, 55,
-    52, 54, 101, 55, 52, 53, 98, 51, 48, 53, 100, 53, 98, 51, 48, 53, 100, 34, 44, 34, 102, 105, 108, 101,
-    34, 58, 34, 110, 97, 118, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 50, 49, 125, 44, 123, 34, 110,
-    97, 109, 101, 34, 58, 34, 119, 97, 121, 112, 111, 105, 110, 116, 91, 48, 93, 91, 49, 93, 34, 44, 34, 116,
-    121, 112, 101, 34, 58, 34, 112, 111, 115, 105, 116, 105, 111, 110, 95, 116, 34, 44, 34, 105, 100, 34, 58, 34,
-    55, 55, 54, 49, 55, 57, 55, 48, 54, 102, 54, 57, 54, 101, 55, 52, 54, 101, 55, 52, 53, 98, 51, 48,
-    53, 100, 53, 98, 51, 49, 53, 100, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34, 110, 97, 118, 46, 104, 34,
-    44, 34, 108, 105, 110, 101, 34, 58, 50, 49, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 119, 97, 121,
-    112, 111, 105, 110, 116, 91, 49, 93, 91, 48, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 112, 111, 115,
-    105, 116, 105, 111, 110, 95, 116, 34, 44, 34, 105, 100, 34, 58, 34, 55, 55, 54, 49, 55, 57, 55, 48, 54,
-    102, 54, 57, 54, 101, 55, 52, 54, 101, 55, 52, 53, 98, 51, 49, 53, 100, 53, 98, 51, 48, 53, 100, 34,
-    44, 34, 102, 105, 108, 101, 34, 58, 34, 110, 97, 118, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 50,
-    49, 125, 44, 123, 34, 110, 97, 109, 101, 34, 58, 34, 119, 97, 121, 112, 111, 105, 110, 116, 91, 49, 93, 91,
-    49, 93, 34, 44, 34, 116, 121, 112, 101, 34, 58, 34, 112, 111, 115, 105, 116, 105, 111, 110, 95, 116, 34, 44,
-    34, 105, 100, 34, 58, 34, 55, 55, 54, 49, 55, 57, 55, 48, 54, 102, 54, 57, 54, 101, 55, 52, 54, 101,
-    55, 52, 53, 98, 51, 49, 53, 100, 53, 98, 51, 49, 53, 100, 34, 44, 34, 102, 105, 108, 101, 34, 58, 34,
-    110, 97, 118, 46, 104, 34, 44, 34, 108, 105, 110, 101, 34, 58, 50, 49, 125, 93, 44, 34, 115, 107, 105, 112,
-    112, 101, 100, 95, 105, 110, 115, 116, 97, 110, 99, 101, 115, 34, 58, 91, 93, 44, 34, 101, 110, 117, 109, 115,
-    34, 58, 123, 125, 125, 0
-};
-
-const ub_catalogue_t navcat_catalogue = {
-    "navcat",
-    UB_ID_SCHEME_PAPER,
-    UB_CATALOGUE_ABI_VERSION,
-    navcat_types,
-    navcat_N_TYPES,
-    navcat_instances,
-    navcat_N_INSTANCES,
-    navcat_MAX_PACKED_SIZE,
-    navcat_catalogue_json,
-    sizeof navcat_catalogue_json - 1,
-};
