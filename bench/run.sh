@@ -126,6 +126,20 @@ for n in 100 700 3000 10000; do
 done
 echo "uavbus gen build-bench/bench-gen/synthN.h --name synth -o ... (N = 100, 700, 3000, 10000; 3 runs each)" >>"$raw/commands.txt"
 
+# ---- figure 5b: generator and selftest at scale (issue #13): tests/corpus/big/make_big.py, N/4 types ----
+say "figure 5b: gen and selftest at 1,000 and 10,000 instances"
+for n in 1000 10000; do
+  "$VPY" tests/corpus/big/make_big.py "$gen/big$n" --instances "$n"
+  t0=$(date +%s%N)
+  "$root/.venv/bin/uavbus" gen "$gen/big$n/big_all.h" -I "$gen/big$n/include" --name big -o "$gen/big$n/out" >/dev/null 2>&1
+  t1=$(date +%s%N)
+  "$root/.venv/bin/uavbus" selftest "$gen/big$n/big_all.h" -I "$gen/big$n/include" --name big --timeout 1200 >/dev/null 2>&1 \
+    && ok=1 || ok=0
+  t2=$(date +%s%N)
+  echo "scale n=$n gen_ns=$((t1 - t0)) selftest_ns=$((t2 - t1)) ok=$ok" >>"$raw/scale.txt"
+done
+echo "make_big.py N; uavbus gen|selftest big_all.h -I include --name big (N = 1000, 10000; jobs = all CPUs)" >>"$raw/commands.txt"
+
 # ---- figure 6: RAM for the reference configuration, and allocations after init ----
 say "figure 6: RAM"
 REF=(-DUB_MAX_ENTITIES=16 -DUB_MAX_LINKS_PER_ENTITY=8 -DUB_MAX_NODE_LINKS=8 -DUB_MAX_LOCAL_ENTITIES=4 -DUB_MAX_PUBSUB_ROWS=64)

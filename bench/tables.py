@@ -379,6 +379,24 @@ def main() -> None:
     goals.append(("generator", "<= 5 s at 700 instances, linear growth",
                   f"{t700:.2f} s at 700; {', '.join(f'{s:.3f}' for s in slopes)} ms/instance", t700 <= 5 and linear, ""))
 
+    scale = [dict(x.split("=") for x in line.split()[1:]) for line in
+             (raw / "scale.txt").read_text().splitlines()] if (raw / "scale.txt").exists() else []
+    if scale:
+        w("### 5b. Generator and selftest at scale (tests/corpus/big/make_big.py: N instances of N/4 types)")
+        w("")
+        w("`uavbus gen` and `uavbus selftest` (generate, build the split C test at -O0 on every CPU, run C and")
+        w("Python) as whole processes, one run each.")
+        w("")
+        w("| instances | gen s | selftest s | selftest ok |")
+        w("|---:|---:|---:|---|")
+        for kv in scale:
+            w(f"| {int(kv['n']):,} | {int(kv['gen_ns']) / 1e9:.1f} | {int(kv['selftest_ns']) / 1e9:.1f} | "
+              f"{'yes' if kv['ok'] == '1' else 'NO'} |")
+        w("")
+        s1k = next((int(kv["selftest_ns"]) / 1e9 for kv in scale if kv["n"] == "1000"), float("nan"))
+        goals.append(("selftest at scale", "1,000 instances / 250 types <= 60 s (issue #13)", f"{s1k:.1f} s",
+                      s1k <= 60 and all(kv["ok"] == "1" for kv in scale), ""))
+
     # ---- figure 6 ----
     ram = (raw / "ram.txt").read_text()
     sizes = {m.group(1): int(m.group(2)) for m in re.finditer(r"sizeof (\w+) (\d+)", ram)}
