@@ -103,6 +103,8 @@ class Type:
     _bool_at: tuple[int, ...] = field(repr=False, compare=False, default=())
     _ranges: tuple[tuple[int, int, int, str], ...] = field(repr=False, compare=False, default=())
     _nleaves: int = field(repr=False, compare=False, default=0)  # values in the flat tuple of _struct
+    # (byte offset, size) of every bool and narrow-bitfield container, nested members included.
+    refusable: tuple[tuple[int, int], ...] = field(repr=False, compare=False, default=())
 
     @property
     def packed_fields(self) -> tuple[Field, ...]:
@@ -197,6 +199,7 @@ class Catalogue:
         fmt: list[str] = []
         bool_at: list[int] = []
         ranges: list[tuple[int, int, int, str]] = []
+        spans: list[tuple[int, int]] = []  # Type.refusable
         leaves = 0
         for rf in raw["fields"]:
             dims = tuple(int(d) for d in rf.get("count") or ())
@@ -211,6 +214,7 @@ class Catalogue:
                     size = sub.packed_size * count
                     fmt.append(sub._struct.format.lstrip("<") * count)
                     for k in range(count):
+                        spans += [(at + k * sub.packed_size + o, n) for o, n in sub.refusable]
                         bool_at += [at + k * sub.packed_size + o for o in sub._bool_at]
                         ranges += [(leaves + k * sub._nleaves + i, lo, hi, m) for i, lo, hi, m in sub._ranges]
                     leaves += count * sub._nleaves
@@ -224,9 +228,11 @@ class Catalogue:
                     fmt.append(f"{count}{code}" if count > 1 else code)
                     if f.wire == "bool":
                         bool_at += [at + k for k in range(count)]
+                        spans += [(at + k, 1) for k in range(count)]
                     limits = _range_of(f)
                     if limits is not None:
                         ranges.append((leaves, limits[0], limits[1], f.name))
+                        spans.append((at, one))
                     leaves += count
                 else:
                     raise CatalogueError(f"{self.origin}: {name}.{f.name}: unknown wire type {f.wire!r}")
@@ -238,7 +244,7 @@ class Catalogue:
             raise CatalogueError(f"{self.origin}: {name}: fields pack to {at} bytes but packed_size says "
                                  f"{raw['packed_size']} (regenerate the catalogue with this uavbus version)")
         t = Type(name, raw.get("c_name"), int(raw.get("size", 0)), at, int(raw["fingerprint"], 16), tuple(fields),
-                 struct.Struct("<" + "".join(fmt)), _bool_at=tuple(bool_at), _ranges=tuple(ranges), _nleaves=leaves)
+                 struct.Struct("<" + "".join(fmt)), _bool_at=tuple(bool_at), _ranges=tuple(ranges), _nleaves=leaves, refusable=tuple(spans))
         t = _with_codec(t, self._types)
         self._types[name] = t
         return t
@@ -378,6 +384,18 @@ def decode_type(t: Type, payload: bytes) -> dict[str, Any]:
         _check_wire(t, payload, values)
     out, _ = t._build(values, 0)
     return out
+
+
+def refused(t: Type, payload: bytes) -> str | None:
+    """Why every codec refuses this packed image of `t` (a bool byte other than 0/1, a bitfield
+    value outside its width), or None when it decodes; cheap for types without such members."""
+    if not (t._bool_at or t._ranges) or len(payload) < t.packed_size:
+        return None
+    try:
+        _check_wire(t, payload, t._struct.unpack_from(payload))
+    except DecodeError as exc:
+        return str(exc)
+    return None
 
 
 def _check_wire(t: Type, payload: Any, values: tuple) -> None:

@@ -24,7 +24,7 @@ from uavbus._bindings import (ub_admin, ub_log, ub_member, ub_memlink, ub_node, 
                               ub_route, ub_sec)
 from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, NotFoundError, UbError, ensure
 from uavbus._ub import ffi, lib
-from uavbus.catalogue import Catalogue, CatalogueError, Instance
+from uavbus.catalogue import Catalogue, CatalogueError, Instance, refused
 from uavbus.config import Config, load_config
 from uavbus.directory import Directory
 from uavbus.enums import catalogue_enums
@@ -156,6 +156,7 @@ class Node:
         self._inbox: deque[Message] = deque()
         self._inbox_dropped = 0
         self._callback_errors = 0
+        self._refused_payloads = 0
         self._memlinks: list[MemLink] = []
         self._kept: list[Any] = []  # Python transports (uavbus.pylink) C holds pointers to
         self._admins: dict[str, Admin] = {}
@@ -407,6 +408,11 @@ class Node:
         pending, self._sink.pending = self._sink.pending, []
         instances, names = self.catalogue.instances, self._local_names
         for k, (entity, instance, src_id, dest_id, seq, now_ms, raw, hop_limit) in enumerate(pending):
+            if refused(instances[instance].type, raw) is not None:
+                # What a C node's generated unpack refuses (UB_ERR_RANGE, counted as bad_payload); this
+                # node's wire-image storage took it as is, so the delivery is dropped and counted here.
+                self._refused_payloads += 1
+                continue
             local = names.get(entity)
             if local is None:
                 local = names[entity] = _entity_at(self, entity)
@@ -612,7 +618,7 @@ class Node:
         if self._sec is not None:
             out["security"] = self.security()
         out["python"] = {"inbox_dropped": self._inbox_dropped, "callback_errors": self._callback_errors,
-                         "frames_dropped": self._frames_dropped}
+                         "frames_dropped": self._frames_dropped, "refused_payloads": self._refused_payloads}
         if self._log is not None:
             out["log"] = ub_log.ub_log_stats(self._log)
         return out

@@ -101,6 +101,16 @@ def no_forged_value(h: Hitl) -> None:
     assert not any(MAGIC in raw for *_x, raw in h.messages), "a forged payload reached gcs1's directory"
 
 
+def acceptable(cat, content: str, pattern: bytes) -> bytes:
+    """`pattern` as a packed image of `content` that a receiver's codec accepts, as an attacker would
+    craft it: unpack refuses bool bytes other than 0/1 and bitfields out of width (docs/catalogue.md)."""
+    t = cat.instance(content).type
+    image = bytearray(pattern[:t.packed_size])
+    for offset, size in t.refusable:
+        image[offset:offset + size] = bytes(size)
+    return bytes(image)
+
+
 def dump(h: Hitl, node: str, content: str = "onboardSet") -> bytes:
     """The C process's storage of `content`, packed again (uavbus_node's `dump`)."""
     proc = h.group[node]
@@ -125,8 +135,9 @@ def test_attacks_on_a_signed_table2_fail_are_counted_and_leave_the_streams_at_ra
         assert len(old_down) > 50 and len(old_up) >= 3
         onboard_len = cat.instance("onboardSet").type.packed_size
         gps_len = cat.instance("gpsOut").type.packed_size
-        evil_set = (MAGIC * 64)[:onboard_len]
-        evil_gps = (MAGIC * 64)[:gps_len]
+        evil_set = acceptable(cat, "onboardSet", MAGIC * 64)  # images a codec takes: only signing refuses them
+        evil_gps = acceptable(cat, "gpsOut", MAGIC * 64)
+        assert (len(evil_set), len(evil_gps)) == (onboard_len, gps_len)
         last_imu = max((f for f in old_down if src_of(f) == "fcs20"), key=counter_of)
         onboard_before = dump(h, "primary")
         before = {"gcs": h.gcs.counters()["drops"], "primary": drops(h.child_stats("primary")),
@@ -256,8 +267,8 @@ def test_the_same_forgery_succeeds_without_signing(hitl_opts: HitlOptions) -> No
         gps = h.add_row("publication", "gpsOut", "rmax1ob1", "gcs1", GPS_MS)
         h.wait_status(gps, "active", 8.0)
         h.wait_data("gpsOut", "rmax1ob1", 2, 3.0)
-        evil_gps = (MAGIC * 64)[:cat.instance("gpsOut").type.packed_size]
-        evil_set = (MAGIC * 64)[:cat.instance("onboardSet").type.packed_size]
+        evil_gps = acceptable(cat, "gpsOut", MAGIC * 64)
+        evil_set = acceptable(cat, "onboardSet", MAGIC * 64)
         tap = taps["udp"]
         onboard_before = dump(h, "primary")
         tap.inject("b>a", forge(cat, "gpsOut", "rmax1ob1", "gcs1", evil_gps, counter=2**31 - 1))

@@ -54,7 +54,7 @@ def test_export_jsonl_matches_encoded_values(sample_log) -> None:
     lines = [json.loads(x) for x in run("export", str(path), "--jsonl", "--only", "gpsOut").splitlines()]
     assert [(x["name"], x["t_ms"], x["seq"], x["source"], x["dest"], x["link"]) for x in lines] == \
         [("gpsOut", e["t_ms"], e["seq"], "rmax1ob1", "gcs1", "gcsPortDatalink1") for e in expected]
-    assert [x["value"] for x in lines] == [e["value"] for e in expected]
+    assert [x["value"] for x in lines] == [e["shown"] for e in expected]
     every = run("export", str(path), "--jsonl").splitlines()
     assert len(every) == 120  # DATA only by default
     with_admin = [json.loads(x) for x in run("export", str(path), "--jsonl", "--admin").splitlines()]
