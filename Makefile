@@ -12,7 +12,7 @@ VENV        := .venv
 VPY         := $(VENV)/bin/python
 BUILD       := build
 BUILD_ASAN  := build-asan
-APT_PKGS    := libcmocka-dev cmake ninja-build pkg-config libsodium-dev gcc-arm-none-eabi libnewlib-arm-none-eabi
+APT_PKGS    := libcmocka-dev cmake ninja-build pkg-config libsodium-dev gcc-arm-none-eabi libnewlib-arm-none-eabi g++
 SETUP_STAMP := $(VENV)/.uavbus-setup-stamp
 
 .PHONY: setup test test-c test-py demo bench clean apt-deps

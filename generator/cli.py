@@ -233,7 +233,7 @@ def _summarise(job: Job, cat: model.Catalogue) -> None:
                 _say(f"{s.loc}: note: instance '{s.name}' not catalogued: {s.reason}")
 
 
-def generate(job: Job, cat: model.Catalogue, files: tuple[str, ...] = (), with_selftest: bool = False) -> dict[str, str]:
+def generate(job: Job, cat: model.Catalogue, with_selftest: bool = False) -> dict[str, str]:
     if any(inc.strip('"<>').split("/")[-1] == f"{job.name}.h" for inc in cat.includes):
         raise UsageError(f"--name {job.name} would make {job.name}.h include itself instead of the input "
                          f"header of that name; choose another --name")
@@ -263,7 +263,7 @@ def run(job: Job) -> int:
         _timing(job, "check", started)
         return done
     if job.command == "gen":
-        files = generate(job, cat, loaded.files)
+        files = generate(job, cat)
         _timing(job, "generation", started)
         write_files(job.outdir or ".", files)
         print(f"gen: {len(cat.instances)} instances of {len(cat.named_types)} types -> "
@@ -288,7 +288,7 @@ class SelftestError(Exception):
 
 def selftest(job: Job, loaded: Loaded, started: float) -> int:
     cat = loaded.cat
-    files = generate(job, cat, loaded.files, with_selftest=True)
+    files = generate(job, cat, with_selftest=True)
     _timing(job, "generation", started)
     expected = f"{model.expected_digest(cat):08x}"
     n = len(cat.named_types)

@@ -311,6 +311,7 @@ class Catalogue:
     notes: tuple[Note, ...] = ()
     max_payload: int = DEFAULT_MAX_PAYLOAD
     _by_name: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
+    _checks: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)  # has_checks() memo
 
     def __post_init__(self) -> None:
         if self.id_scheme not in ids.ID_SCHEMES:
@@ -358,7 +359,12 @@ class Catalogue:
 
     def has_checks(self, t: StructType) -> bool:
         """Unpack of `t` refuses some byte strings (a checked scalar somewhere inside)."""
-        return any(f.checked or (f.struct is not None and self.has_checks(self.type(f.struct))) for f in t.packed_fields)
+        known = self._checks.get(t.name)
+        if known is None:
+            known = any(f.checked or (f.struct is not None and self.has_checks(self.type(f.struct)))
+                        for f in t.packed_fields)
+            self._checks[t.name] = known
+        return known
 
     def skipped_fields(self) -> dict[str, list[tuple[StructType, Field]]]:
         """Skipped members by reason (the reason's first word: 'unsupported type (x)' -> 'unsupported type')."""
@@ -601,8 +607,8 @@ def _apply_payload_limit(types: dict[str, StructType], fe_instances: list[tuple[
     if not big:
         return fe_instances
     lines = [f"  {t.loc}: {t.name}: {t.packed_size} bytes on the wire" for t in big]
-    fix = (f"fix: split the type, skip members, or build the runtime with a larger UB_MAX_PAYLOAD and pass the "
-           f"same value as --max-payload")
+    fix = ("fix: split the type, skip members, or build the runtime with a larger UB_MAX_PAYLOAD and pass the "
+           "same value as --max-payload")
     if not opts.keep_going:
         problems.append(f"error: {len(big)} type(s) pack to more than the payload limit of {opts.max_payload} "
                         "bytes (--max-payload; the runtime's UB_MAX_PAYLOAD):\n" + "\n".join(lines) + "\n" + fix)
