@@ -121,7 +121,9 @@ typedef enum ub_admin_code {
     UB_ADMIN_CHALLENGE_REPLY = 8, /**< answer to a challenge: payload = the nonce echoed; its counter is fresh */
     UB_ADMIN_HELLO = 9,        /**< routing: link-local hello + IHU (docs/routing.md); never forwarded */
     UB_ADMIN_ROUTE_UPDATE = 10, /**< routing: link-local hello + route entries + seqno requests; never forwarded */
-    UB_ADMIN_MEMBERSHIP = 11    /**< an administrator's membership change (ub_member.h); answered by ACK/NACK */
+    UB_ADMIN_MEMBERSHIP = 11,   /**< an administrator's membership change (ub_member.h); answered by ACK/NACK */
+    UB_ADMIN_INSPECT = 12,      /**< remote inspection request (ub_inspect.h); answered by INSPECT_VALUE, ACK or NACK */
+    UB_ADMIN_INSPECT_VALUE = 13 /**< the value or table page answering an INSPECT read or list (docs/inspect.md) */
 } ub_admin_code_t;
 
 /**

@@ -57,6 +57,8 @@ typedef struct ub_node_counters {
     uint64_t dedup_cleared;
     uint64_t membership_applied;
     uint64_t membership_refused;
+    uint64_t inspect_served;
+    uint64_t inspect_refused;
     uint64_t drops[...];
     ...;
 } ub_node_counters_t;
