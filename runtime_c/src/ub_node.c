@@ -456,7 +456,7 @@ static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_head
     bool ok;
     ub_drop_reason_t drop = UB_DROP_BAD_PAYLOAD;
     if (h->admin == UB_ADMIN_MEMBERSHIP) {
-        ok = ub_priv_member_on_request(node, slot, h, payload, link_id >= 0, now_ms, &drop);
+        ok = ub_priv_member_on_request(node, slot, h, payload, link_id >= 0 ? rx : NULL, now_ms, &drop);
     } else if ((h->admin == UB_ADMIN_ACK || h->admin == UB_ADMIN_NACK) && h->payload_size >= UB_PL_REPLY_LEN &&
                payload[UB_PL_REPLY_CODE] == UB_ADMIN_MEMBERSHIP) {
         /* Replies to membership requests belong to the requester, not to the publish/subscribe tables. */
@@ -466,7 +466,7 @@ static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_head
     } else if (h->admin == UB_ADMIN_HELLO || h->admin == UB_ADMIN_ROUTE_UPDATE) {
         ok = false; /* routing frames are link-local only */
     } else {
-        ok = ub_priv_pubsub_on_admin(node, slot, h, payload, link_id >= 0, now_ms, &drop);
+        ok = ub_priv_pubsub_on_admin(node, slot, h, payload, link_id >= 0 ? rx : NULL, now_ms, &drop);
     }
     if (!ok) count_drop(node, link_id, drop);
 }
@@ -775,9 +775,11 @@ int ub_node_send_link_local(ub_node_t *node, int link_id, ub_admin_code_t code, 
     return send_stamped(node, link->owner, (uint8_t)(1u << link->index), frame, &h, now_ms);
 }
 
-bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN]) {
-    /* The paper's exclusive rights (ub_policy.h): without a policy every entity has them. */
+bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN], bool verified) {
     (void)entity;
+    /* With a keyring, who the requester is rests on its tag: an unsigned frame can claim any source. */
+    if (node->sec != NULL && !verified) return false;
+    /* The paper's exclusive rights (ub_policy.h): without a policy every entity has them. */
     return node->policy == NULL || ub_policy_is_admin(node->policy, src_id);
 }
 

@@ -468,12 +468,18 @@ UB_CHECK int ub_node_send_link_local(ub_node_t *node, int link_id, ub_admin_code
 
 /**
  * The one authorization question of the administrative plane: may entity
- * `src_id` administer local entity `entity` (change its tables: membership
- * today)? Every membership request received over a link asks it: true
- * without a policy (the paper's closed lab), else only for the policy's
- * administrators (ub_policy.h; docs/routing.md, "Membership").
+ * `src_id` administer local entity `entity` (use the exclusive rights:
+ * change its tables, membership)? Every admin request received over a link
+ * asks it (membership here, publish/subscribe requests in ub_pubsub.c).
+ * `verified`: the request arrived SIGNED or ENCRYPTED and its tag verified
+ * (the receive gate; docs/security.md). When the node has a keyring
+ * (ub_node_set_security()), an unverified request never administers, since
+ * only the tag proves who sent it (a link with "require_signed": false still
+ * carries unsigned data, never administration). Otherwise: true without a
+ * policy (the paper's closed lab), else only for the policy's administrators
+ * (ub_policy.h; docs/routing.md, "Membership"; docs/pubsub.md).
  */
-bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN]);
+bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN], bool verified);
 
 /**
  * Advances every local entity's publish/subscribe table (and attached
