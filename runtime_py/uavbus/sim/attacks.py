@@ -436,8 +436,8 @@ class Campaign:
 
     def _replay(self, name: str) -> AttackResult:
         now = time.monotonic()
-        down = self.tap.frames("b>a", until=now - 4.0)    # old enough that their sources moved 64+ counters on
-        up = self.tap.frames("a>b", until=now - 4.0)
+        down = self.tap.frames("b>a", until=now - 1.0)    # all received (and so seen) by their receivers
+        up = self.tap.frames("a>b", until=now - 1.0)
         where = [("gcs", UDP_LINK["gcs"]), ("primary", UDP_LINK["primary"])]
         before = self._snap("gcs", "primary")
         mark = len(self.h.messages)
@@ -503,6 +503,7 @@ class Campaign:
             h.run_for(0.02)
         self._settle(0.6)
         after = self._snap("gcs", "primary")
+        h.run_for(1.5)                              # the rates after the restarts, over a window long enough
         self.phases.append(("after the restarts", t0, time.monotonic()))
         twice = self._delivered_twice(mark)
         return self._result(name, len(down) + len(up), self._dropped(before, after, where), twice,
