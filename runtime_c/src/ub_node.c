@@ -567,8 +567,9 @@ static void route_link_local(ub_node_t *node, int link_id, const ub_frame_header
 
 /* Routes one verified frame received on `link_id`. Returns the verdict (ub_rx_verdict_t, ub_node.h): a
  * check that refuses a frame for its origin (security, window) returns UB_VERDICT_REFUSED; a genuine copy
- * already handled UB_VERDICT_DUPLICATE; once past the window the frame is accepted, whatever happens next.
- * `verdicts` (may be NULL) counts authentic and fresh frames for TCP adoption (ub_tcp.c). */
+ * already handled UB_VERDICT_DUPLICATE; an authentic frame from a source whose freshness is not established
+ * yet (a challenge runs) UB_VERDICT_UNVERIFIED; once past the window the frame is accepted, whatever happens
+ * next. `verdicts` (may be NULL) counts authentic and fresh frames for TCP adoption (ub_tcp.c). */
 static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
                                       size_t len, uint64_t now_ms, ub_rx_verdicts_t *verdicts) {
     ub_link_t *link = &node->links[link_id];
@@ -596,7 +597,9 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
     ub_priv_window_t verdict = ub_priv_window_pass(node, handler, link_id, h, &rx, now_ms);
     if (verdict != UB_PRIV_WINDOW_PASS) {
         if (verdict == UB_PRIV_WINDOW_UNVERIFIED && verdicts != NULL) verdicts->authentic++;
-        return verdict == UB_PRIV_WINDOW_DUPLICATE ? UB_VERDICT_DUPLICATE : UB_VERDICT_REFUSED;
+        return verdict == UB_PRIV_WINDOW_DUPLICATE    ? UB_VERDICT_DUPLICATE
+               : verdict == UB_PRIV_WINDOW_UNVERIFIED ? UB_VERDICT_UNVERIFIED
+                                                      : UB_VERDICT_REFUSED;
     }
     link->counters.frames_accepted++;
     if (verdicts != NULL) {

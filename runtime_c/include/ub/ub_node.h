@@ -424,13 +424,19 @@ UB_CHECK int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame
  */
 typedef enum ub_rx_verdict {
     /** Not a frame (bad sync, CRC, length...), or refused by a check on its origin: with security on,
-     *  unsigned where signing is required, bad tag, unknown key, replay, unverified. */
+     *  unsigned where signing is required, bad tag, unknown key, replay. */
     UB_VERDICT_REFUSED = 0,
     /** A genuine frame the node had handled already: the copy over a redundant link (a 0x11 mask),
-     *  or a replay of an earlier frame. */
+     *  or a replay of an earlier frame (with security on: anyone may send such a copy). */
     UB_VERDICT_DUPLICATE = 1,
     /** Genuine and new: passed verification, every security check and the duplicate window. */
-    UB_VERDICT_ACCEPTED = 2
+    UB_VERDICT_ACCEPTED = 2,
+    /** Authentic (its tag verified) but not accepted: its source has no freshness state here yet, so it
+     *  was dropped `unverified` and a CHALLENGE went to the source (docs/security.md). It may be the
+     *  first frame of a genuine new peer -- or a captured one replayed: a transport may reach its sender
+     *  provisionally, so the challenge can get there, and must not trust it more until a frame from it is
+     *  ACCEPTED (ub_udp.h). */
+    UB_VERDICT_UNVERIFIED = 3
 } ub_rx_verdict_t;
 
 /**
