@@ -454,14 +454,6 @@ static void test_without_policy_behaviour_unchanged(void **state) {
 static const uint8_t FLEET_KEY[UB_SEC_KEY_LEN] = {0x5a, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15,
                                                   16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31};
 
-static void keyring_on(ub_sec_t *sec, ub_node_t *node, uint64_t wall) {
-    assert_int_equal(ub_sec_init(sec, NULL), UB_OK);
-    assert_int_equal(ub_sec_add_key(sec, 1, FLEET_KEY), UB_OK);
-    assert_int_equal(ub_sec_set_tx_key(sec, 1), UB_OK);
-    assert_int_equal(ub_sec_start(sec, 0, wall), UB_OK);
-    assert_int_equal(ub_node_set_security(node, sec), UB_OK);
-}
-
 static void membership_request(authz_t *a, const char *src, uint32_t id) {
     uint8_t p[UB_MEMBER_ENTITY_LEN] = {0};
     ub_put_u32le(p + UB_MEMBER_OFF_ID, id);
@@ -493,9 +485,9 @@ static void test_with_a_keyring_only_verified_requests_administer(void **state) 
     assert_true(ub_node_may_administer(a->veh, a->e_veh, gcs1, false));
 
     static ub_sec_t sec[3];
-    keyring_on(&sec[0], a->gcs, 1000);
-    keyring_on(&sec[1], a->veh, 2000);
-    keyring_on(&sec[2], a->obs, 3000);
+    test_sec_on(&sec[0], a->gcs, FLEET_KEY, 1000, false); /* keys, but unsigned frames still allowed */
+    test_sec_on(&sec[1], a->veh, FLEET_KEY, 2000, false);
+    test_sec_on(&sec[2], a->obs, FLEET_KEY, 3000, false);
     assert_false(ub_node_link_requires_signed(a->veh, a->veh_link_rogue));
     uint64_t refused = counters(a->veh)->drops[UB_DROP_NOT_AUTHORIZED];
     uint64_t member_refused = counters(a->veh)->membership_refused;

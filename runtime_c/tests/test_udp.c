@@ -296,17 +296,6 @@ static void test_refused_sender_is_remembered(void **state) {
 static const uint8_t FLEET_KEY[UB_SEC_KEY_LEN] = {7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7,
                                                   7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 1};
 
-static void sec_on(ub_sec_t *sec, ub_node_t *node, uint64_t wall) {
-    assert_int_equal(ub_sec_init(sec, NULL), UB_OK);
-    assert_int_equal(ub_sec_add_key(sec, 1, FLEET_KEY), UB_OK);
-    assert_int_equal(ub_sec_set_tx_key(sec, 1), UB_OK);
-    assert_int_equal(ub_sec_start(sec, 0, wall), UB_OK);
-    if (node != NULL) {
-        assert_int_equal(ub_node_set_security(node, sec), UB_OK);
-        assert_int_equal(ub_node_set_require_signed(node, true), UB_OK);
-    }
-}
-
 /* A signed frame (a key holder's, or a captured one) from entity "ghost", whose freshness `to` has not seen. */
 static size_t ghost_frame(ub_sec_t *sec, const uint8_t to[UB_ENTITY_ID_LEN], uint8_t *out) {
     ub_frame_header_t h;
@@ -338,9 +327,9 @@ static void test_signed_link_learns_provisional_peers(void **state) {
     udp_pair_t *u = udp_pair_new();
     pair_t *p = u->p;
     static ub_sec_t sa, sb, sx;
-    sec_on(&sa, p->pub_node, 1000);
-    sec_on(&sb, p->sub_node, 5000);
-    sec_on(&sx, NULL, 9000);
+    test_sec_on(&sa, p->pub_node, FLEET_KEY, 1000, true);
+    test_sec_on(&sb, p->sub_node, FLEET_KEY, 5000, true);
+    test_sec_on(&sx, NULL, FLEET_KEY, 9000, true);
     ub_udp_close(&u->a); /* the publisher ("vehicle") learns its peers: accept=any */
     assert_int_equal(ub_udp_open(&u->a, "127.0.0.1", u->port_a, NULL, 0), UB_OK);
     assert_int_equal(ub_udp_attach(&u->a, p->pub_node, p->pub_link), UB_OK);
