@@ -38,8 +38,7 @@ from uavbus.sim.hitl import Hitl, HitlOptions
 
 __all__ = ["ATTACKS", "SHORT_ATTACKS", "AttackResult", "Campaign", "attack_options", "start_with_tap"]
 
-DATA, PUB_REQUEST, SUB_REQUEST, PUB_STOP, SUB_STOP, ACK, NACK = 0, 1, 2, 3, 4, 5, 6
-CHALLENGE, CHALLENGE_REPLY = 7, 8
+DATA, PUB_REQUEST, PUB_STOP, NACK = 0, 1, 3, 6     # admin codes (ub_frame.h)
 NACK_TABLE_FULL = 3
 MAGIC = b"\x5a\xa5" * 4                   # marks every forged value
 MODES = (("unsigned", {}), ("signed", {"key": None}), ("signed", {"key_id": 77}))   # no tag; a guessed key; key id 77
@@ -409,9 +408,7 @@ class Campaign:
 
     def _link_rate(self, t0: float, t1: float) -> float:
         """Bytes/s the tap forwarded toward gcs1 in [t0, t1)."""
-        with self.tap._lock:
-            got = [(t, d) for t, dr, d in self.tap.captured if dr == "b>a" and t0 <= t < t1]
-        return sum(len(d) for _t, d in got) / max(t1 - t0, 1e-3)
+        return sum(len(d) for d in self.tap.frames("b>a", since=t0, until=t1)) / max(t1 - t0, 1e-3)
 
     def _foreign(self, name: str) -> AttackResult:
         node, link = "primary", UDP_LINK["primary"]
