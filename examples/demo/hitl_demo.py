@@ -1,15 +1,17 @@
 #!/usr/bin/env python3
-"""`make demo`: the paper's scenarios end to end on one machine (issue 6).
+"""`make demo`: the paper's scenarios end to end on one machine (issue 6), signed (issue 11).
 
 1. HITL configuration (paper Table 2, figure 11) on 127.0.0.1: rmax1ob1, rmax1ob2 and fcs20 as C
    `uavbus_node` processes, gcs1 as the Python GCS in this process; gcs1<->rmax1ob1 over UDP plus a pty
-   "wireless serial" link, rmax1ob1<->rmax1ob2 over TCP, rmax1ob1<->fcs20 over a pty serial link.
+   "wireless serial" link, rmax1ob1<->rmax1ob2 over TCP, rmax1ob1<->fcs20 over a pty serial link. Every
+   frame is signed with a key made at run time (demo-out/secure/keys, never committed).
 2. From the GCS's global administration table, the paper's two tests: a publication of gpsOut from
    rmax1ob1 to gcs1, and a subscription of gcs1 to imuOut on the backup computer fcs20 (2 hops).
 3. kill -9 rmax1ob1 and restart it: the subscription heals by itself.
 4. The Table 1 / figure 9 configuration in this process over in-memory links.
+5. The attacker step (attack_step.py): issue 11's attacks against the signed Table 2; each is a check.
 
-Prints a summary table and writes demo-out/summary.json, demo-out/gcs1.ublog (the GCS's binary log)
+Prints a summary table and writes demo-out/summary.json (with "security": {"attacks": [...]}), demo-out/gcs1.ublog (the GCS's binary log)
 and demo-out/imu.png. Exits 0 only if every check held; each failed check names itself and says why.
 Every process it starts is stopped on success, on failure and on Ctrl-C.
 
@@ -28,6 +30,7 @@ from typing import Any
 
 REPO = Path(__file__).resolve().parents[2]
 
+from attack_step import attacker_part, signed_table2  # noqa: E402  (beside this file)
 from uavbus.sim.build import node_program  # noqa: E402
 from uavbus.sim.hitl import Hitl, HitlOptions, timetag_latency_ms  # noqa: E402
 from uavbus.sim.metrics import (  # noqa: E402
@@ -153,7 +156,8 @@ def hitl_part(args: argparse.Namespace, check: Checks, rows: list[SummaryRow]) -
     if log.exists():
         log.unlink()
     say("\n== HITL configuration (paper Table 2, figure 11): 3 C processes + the Python GCS on 127.0.0.1")
-    opts = HitlOptions(program=args.program, record=log, stats_ms=500, node_logs=args.out / "nodes")
+    opts = HitlOptions(program=args.program, config=args.config, record=log, stats_ms=500,
+                       node_logs=args.out / "nodes")
     with Hitl(opts) as h:
         assert h.topo is not None
         for node in ("gcs", "primary", "secondary", "backup"):
@@ -356,18 +360,21 @@ def main(argv: list[str] | None = None) -> int:
     started = time.monotonic()
     check = Checks()
     rows: list[SummaryRow] = []
+    extra: dict[str, Any] = {}
     try:
         args.program = args.program or node_program()
+        args.config = signed_table2(args.out / "secure", fresh=True)
         plot = hitl_part(args, check, rows)
         table1_part(args, check, rows)
         make_plot(args, check, plot)
+        extra["security"] = attacker_part(args, check, say)
     except KeyboardInterrupt:
         say("\ninterrupted: every process the demo started has been stopped")
         return 130
     except Exception as e:  # noqa: BLE001 - a crash is a failed check with its reason
         check("demo ran to the end", False, f"{type(e).__name__}: {e}")
     if rows:
-        write_summary(args.out / "summary.json", rows, {"checks": [c.__dict__ for c in check.items],
+        write_summary(args.out / "summary.json", rows, {**extra, "checks": [c.__dict__ for c in check.items],
                                                         "short": args.short})
         say("\n== Summary\n" + render_table(rows))
         say(f"\nwrote {args.out / 'summary.json'}, {args.out / 'gcs1.ublog'}, {args.out / 'imu.png'}")

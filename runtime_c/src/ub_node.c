@@ -459,7 +459,7 @@ static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_head
     bool ok;
     ub_drop_reason_t drop = UB_DROP_BAD_PAYLOAD;
     if (h->admin == UB_ADMIN_MEMBERSHIP) {
-        ok = ub_priv_member_on_request(node, slot, h, payload, link_id >= 0, now_ms, &drop);
+        ok = ub_priv_member_on_request(node, slot, h, payload, link_id >= 0 ? rx : NULL, now_ms, &drop);
     } else if ((h->admin == UB_ADMIN_ACK || h->admin == UB_ADMIN_NACK) && h->payload_size >= UB_PL_REPLY_LEN &&
                payload[UB_PL_REPLY_CODE] == UB_ADMIN_MEMBERSHIP) {
         /* Replies to membership requests belong to the requester, not to the publish/subscribe tables. */
@@ -469,7 +469,7 @@ static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_head
     } else if (h->admin == UB_ADMIN_HELLO || h->admin == UB_ADMIN_ROUTE_UPDATE) {
         ok = false; /* routing frames are link-local only */
     } else {
-        ok = ub_priv_pubsub_on_admin(node, slot, h, payload, link_id >= 0, now_ms, &drop);
+        ok = ub_priv_pubsub_on_admin(node, slot, h, payload, link_id >= 0 ? rx : NULL, now_ms, &drop);
     }
     if (!ok) count_drop(node, link_id, drop);
 }
@@ -570,8 +570,9 @@ static void route_link_local(ub_node_t *node, int link_id, const ub_frame_header
 
 /* Routes one verified frame received on `link_id`. Returns the verdict (ub_rx_verdict_t, ub_node.h): a
  * check that refuses a frame for its origin (security, window) returns UB_VERDICT_REFUSED; a genuine copy
- * already handled UB_VERDICT_DUPLICATE; once past the window the frame is accepted, whatever happens next.
- * `verdicts` (may be NULL) counts authentic and fresh frames for TCP adoption (ub_tcp.c). */
+ * already handled UB_VERDICT_DUPLICATE; an authentic frame from a source whose freshness is not established
+ * yet (a challenge runs) UB_VERDICT_UNVERIFIED; once past the window the frame is accepted, whatever happens
+ * next. `verdicts` (may be NULL) counts authentic and fresh frames for TCP adoption (ub_tcp.c). */
 static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
                                       size_t len, uint64_t now_ms, ub_rx_verdicts_t *verdicts) {
     ub_link_t *link = &node->links[link_id];
@@ -599,7 +600,9 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
     ub_priv_window_t verdict = ub_priv_window_pass(node, handler, link_id, h, &rx, now_ms);
     if (verdict != UB_PRIV_WINDOW_PASS) {
         if (verdict == UB_PRIV_WINDOW_UNVERIFIED && verdicts != NULL) verdicts->authentic++;
-        return verdict == UB_PRIV_WINDOW_DUPLICATE ? UB_VERDICT_DUPLICATE : UB_VERDICT_REFUSED;
+        return verdict == UB_PRIV_WINDOW_DUPLICATE    ? UB_VERDICT_DUPLICATE
+               : verdict == UB_PRIV_WINDOW_UNVERIFIED ? UB_VERDICT_UNVERIFIED
+                                                      : UB_VERDICT_REFUSED;
     }
     link->counters.frames_accepted++;
     if (verdicts != NULL) {
@@ -778,9 +781,11 @@ int ub_node_send_link_local(ub_node_t *node, int link_id, ub_admin_code_t code, 
     return send_stamped(node, link->owner, (uint8_t)(1u << link->index), frame, &h, now_ms);
 }
 
-bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN]) {
-    /* The paper's exclusive rights (ub_policy.h): without a policy every entity has them. */
+bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN], bool verified) {
     (void)entity;
+    /* With a keyring, who the requester is rests on its tag: an unsigned frame can claim any source. */
+    if (node->sec != NULL && !verified) return false;
+    /* The paper's exclusive rights (ub_policy.h): without a policy every entity has them. */
     return node->policy == NULL || ub_policy_is_admin(node->policy, src_id);
 }
 

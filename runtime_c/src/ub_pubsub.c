@@ -151,8 +151,9 @@ typedef struct request {
 
 /*
  * The sender of an admin frame as the policy sees it (ub_policy.h). `policed`: a policy is attached and
- * the frame came over a link. `admin`: may use the exclusive rights -- everyone without a policy (the
- * paper's closed lab) and local entities, otherwise only a listed administrator.
+ * the frame came over a link. `admin`: may use the exclusive rights -- local entities, and over a link
+ * whoever ub_node_may_administer() accepts: on a node with a keyring only a verified (signed) requester,
+ * then everyone without a policy (the paper's closed lab), otherwise only a listed administrator.
  */
 typedef struct sender {
     const ub_frame_header_t *h;
@@ -396,10 +397,10 @@ static bool on_reply_to_subscription(ub_node_t *node, int slot, const ub_frame_h
 }
 
 bool ub_priv_pubsub_on_admin(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
-                             bool from_link, uint64_t now_ms, ub_drop_reason_t *drop) {
+                             const ub_priv_rx_t *rx, uint64_t now_ms, ub_drop_reason_t *drop) {
     uint16_t len = h->payload_size;
-    sender_t s = {h, node->policy != NULL && from_link, true};
-    if (s.policed) s.admin = ub_policy_is_admin(node->policy, h->src_id);
+    sender_t s = {h, node->policy != NULL && rx != NULL, true};
+    if (rx != NULL) s.admin = ub_node_may_administer(node, node->locals[slot].entity, h->src_id, rx->secured);
     *drop = UB_DROP_BAD_PAYLOAD;
     switch (h->admin) {
     case UB_ADMIN_PUB_REQUEST:

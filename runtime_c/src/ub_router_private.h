@@ -63,14 +63,17 @@ int ub_priv_send_reply(ub_node_t *node, int slot, bool nack, const uint8_t dir_i
 int ub_priv_send_data_from_slot(ub_node_t *node, int slot, uint32_t instance, const uint8_t dest_id[UB_ENTITY_ID_LEN],
                                 uint64_t now_ms);
 
+struct ub_priv_rx; /* what the security gate established about a received frame (below) */
+
 /*
- * An admin frame reached local slot `slot`, over a link (`from_link`) or from
- * another local entity. Returns true when handled; false when the node must
- * count it as dropped for `*drop` (bad_payload: unusable; not_authorized:
- * refused by the policy, a NACK already sent).
+ * An admin frame reached local slot `slot`, over a link (`rx`: what the
+ * security gate established) or from another local entity (`rx` NULL).
+ * Returns true when handled; false when the node must count it as dropped for
+ * `*drop` (bad_payload: unusable; not_authorized: refused by the policy, a
+ * NACK already sent).
  */
 bool ub_priv_pubsub_on_admin(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
-                             bool from_link, uint64_t now_ms, ub_drop_reason_t *drop);
+                             const struct ub_priv_rx *rx, uint64_t now_ms, ub_drop_reason_t *drop);
 
 /*
  * Write policy (ub_policy.h): may DATA of `instance` from `src_id`, received

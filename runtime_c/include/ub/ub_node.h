@@ -425,13 +425,19 @@ UB_CHECK int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame
  */
 typedef enum ub_rx_verdict {
     /** Not a frame (bad sync, CRC, length...), or refused by a check on its origin: with security on,
-     *  unsigned where signing is required, bad tag, unknown key, replay, unverified. */
+     *  unsigned where signing is required, bad tag, unknown key, replay. */
     UB_VERDICT_REFUSED = 0,
     /** A genuine frame the node had handled already: the copy over a redundant link (a 0x11 mask),
-     *  or a replay of an earlier frame. */
+     *  or a replay of an earlier frame (with security on: anyone may send such a copy). */
     UB_VERDICT_DUPLICATE = 1,
     /** Genuine and new: passed verification, every security check and the duplicate window. */
-    UB_VERDICT_ACCEPTED = 2
+    UB_VERDICT_ACCEPTED = 2,
+    /** Authentic (its tag verified) but not accepted: its source has no freshness state here yet, so it
+     *  was dropped `unverified` and a CHALLENGE went to the source (docs/security.md). It may be the
+     *  first frame of a genuine new peer -- or a captured one replayed: a transport may reach its sender
+     *  provisionally, so the challenge can get there, and must not trust it more until a frame from it is
+     *  ACCEPTED (ub_udp.h). */
+    UB_VERDICT_UNVERIFIED = 3
 } ub_rx_verdict_t;
 
 /**
@@ -469,12 +475,18 @@ UB_CHECK int ub_node_send_link_local(ub_node_t *node, int link_id, ub_admin_code
 
 /**
  * The one authorization question of the administrative plane: may entity
- * `src_id` administer local entity `entity` (change its tables: membership
- * today)? Every membership request received over a link asks it: true
- * without a policy (the paper's closed lab), else only for the policy's
- * administrators (ub_policy.h; docs/routing.md, "Membership").
+ * `src_id` administer local entity `entity` (use the exclusive rights:
+ * change its tables, membership)? Every admin request received over a link
+ * asks it (membership here, publish/subscribe requests in ub_pubsub.c).
+ * `verified`: the request arrived SIGNED or ENCRYPTED and its tag verified
+ * (the receive gate; docs/security.md). When the node has a keyring
+ * (ub_node_set_security()), an unverified request never administers, since
+ * only the tag proves who sent it (a link with "require_signed": false still
+ * carries unsigned data, never administration). Otherwise: true without a
+ * policy (the paper's closed lab), else only for the policy's administrators
+ * (ub_policy.h; docs/routing.md, "Membership"; docs/pubsub.md).
  */
-bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN]);
+bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN], bool verified);
 
 /**
  * Advances every local entity's publish/subscribe table (and attached

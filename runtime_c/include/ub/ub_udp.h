@@ -31,6 +31,15 @@
  * node refuses (not a frame, or unsigned/forged/replayed with security on)
  * never makes its sender a peer. With no peer yet, a send is refused with
  * UB_ERR_NOROUTE (counted `no_peer` here, `no_route` by the node).
+ * On a link that requires signed frames (ub_node_link_requires_signed()):
+ *  - a duplicate teaches nothing: anyone who overheard a frame can send a copy;
+ *  - the first frame of a new signed sender is UB_VERDICT_UNVERIFIED (the node
+ *    challenges its source first, docs/security.md). Its sender becomes a
+ *    *provisional* peer, so the challenge reaches it: confirmed by the first
+ *    frame of it the node accepts, forgotten after UB_UDP_PROVISIONAL_MS
+ *    otherwise (counted in peers_forgotten). A provisional peer takes a free
+ *    slot or another provisional one's, never a confirmed peer's: replaying a
+ *    captured frame from a new address displaces no one and lasts 2 s at most.
  *
  * Batching (off by default, so every send is one datagram at once): sends are
  * packed into up to UB_UDP_TX_SLOTS datagrams and written with one sendmmsg()
@@ -98,6 +107,11 @@ extern "C" {
 #ifndef UB_UDP_PEER_IDLE_MS
 #define UB_UDP_PEER_IDLE_MS 10000
 #endif
+/** A provisional peer (learned from an authentic first frame on a signed link) is forgotten after this
+ *  unless a frame from it was accepted: the freshness challenge takes one round trip, retried every 200 ms. */
+#ifndef UB_UDP_PROVISIONAL_MS
+#define UB_UDP_PROVISIONAL_MS 2000
+#endif
 #if UB_UDP_MAX_PEERS < 1 || UB_UDP_MAX_PEERS > 255
 #error "UB_UDP_MAX_PEERS must be 1..255"
 #endif
@@ -113,6 +127,8 @@ typedef enum ub_udp_accept {
 typedef struct ub_udp_peer {
     struct sockaddr_in addr;
     uint64_t last_heard_ms; /**< last genuine frame from it (0: configured, never heard) */
+    uint64_t provisional_until_ms; /**< 0: confirmed; else learned from an unverified frame and forgotten
+                                        at this time unless a frame from it is accepted first */
     uint8_t in_use;
     uint8_t configured;     /**< given by the spec (ub_udp_open()/ub_udp_set_peer()), not learned */
 } ub_udp_peer_t;
@@ -133,7 +149,7 @@ typedef struct ub_udp_stats {
     uint64_t tx_calls;      /**< send system calls that sent something */
     uint64_t tx_discarded;  /**< queued frames thrown away because their datagram's send failed (send_errors) */
     uint64_t peers_learned; /**< senders that became a peer (or replaced one) */
-    uint64_t peers_forgotten; /**< learned peers dropped: idle, or making room in a full table */
+    uint64_t peers_forgotten; /**< learned peers dropped: idle, provisional and never confirmed, or making room */
     uint64_t no_peer;       /**< frames not sent because no peer is known yet (UB_ERR_NOROUTE) */
     uint64_t copy_errors;   /**< copies to the second and further peers that the socket refused */
 } ub_udp_stats_t;
