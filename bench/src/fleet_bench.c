@@ -1,5 +1,5 @@
 /*
- * Fleet bench, in process (bench figure 7, issue 12): N vehicles and 2 ground stations, one node each, with
+ * Fleet bench, in process (bench figure 8, issue 12): N vehicles and 2 ground stations, one node each, with
  * automatic routes (ub_route) over memlinks whose connectivity follows a range model, on a simulated clock
  * (1 ms steps: every node ticks, then every memlink is pumped until quiet -- as uavbus_node wakes every ms).
  *
