@@ -674,6 +674,7 @@ static bool send_update(ub_node_t *node, int slot, ub_ps_row_t *row, uint64_t no
     bool sent = ub_priv_send_data_from_slot(node, slot, row->instance, row->peer, now_ms) >= 0;
     if (sent) {
         row->frames++;
+        keeper_alive(row, now_ms);
         report_flowing(node, slot, row, UB_ADMIN_PUB_REQUEST, now_ms);
     }
     row->next_due_ms += row->period_ms;
@@ -696,18 +697,28 @@ int ub_pubsub_updated(ub_node_t *node, int entity, uint32_t instance, uint64_t n
     return sent;
 }
 
+/* The keeper of a publication is its destination: reachable while the node has a route to it (with automatic
+ * routes the route goes when the destination does; a manual mask never tells). */
+static bool route_to(const ub_node_t *node, int slot, const uint8_t id[UB_ENTITY_ID_LEN]) {
+    int e = ub_node_find_entity(node, id);
+    return e >= 0 && (node->entities[e].local >= 0 || node->locals[slot].masks[e] != 0);
+}
+
 static void tick_publication(ub_node_t *node, int slot, ub_ps_row_t *row, uint64_t now_ms) {
-    if (row->lease_until_ms != 0 && now_ms >= row->lease_until_ms && lease_lapsed_reclaims(node, row, now_ms)) {
-        row->kind = UB_PS_FREE;
-        return;
+    if (row->lease_until_ms != 0 && now_ms >= row->lease_until_ms) {
+        /* Asked every tick once handed over, so that a row published on update, which may send rarely,
+         * lives on its route and not on its traffic. */
+        if (third_party(row) && route_to(node, slot, row->peer)) keeper_alive(row, now_ms);
+        if (lease_lapsed_reclaims(node, row, now_ms)) {
+            row->kind = UB_PS_FREE;
+            return;
+        }
     }
     if (on_update(node, row->instance)) {
         (void)send_update(node, slot, row, now_ms);
         return;
     }
     if (now_ms < row->next_due_ms) return;
-    /* The keeper of a publication is its destination: reachable as long as the node has a route to it (with
-     * automatic routes the route goes when the destination does; a manual mask never tells). */
     if (ub_priv_send_data_from_slot(node, slot, row->instance, row->peer, now_ms) >= 0) {
         row->frames++;
         keeper_alive(row, now_ms);

@@ -119,7 +119,7 @@ typedef struct ub_ps_row {
     uint32_t stop_tries;                 /**< PUB_STOPs sent while STOPPING */
     uint64_t lease_until_ms;             /**< owner's lease; 0 = no lease (created through this API, or asked so) */
     uint64_t keeper_ms;                  /**< last sign of life of the row's keeper (subscription: the source's
-                                              ACK or DATA; publication: DATA handed to a route to the destination) */
+                                              ACK or DATA; publication: a route to the destination) */
     uint64_t next_due_ms;                /**< publication: next DATA; subscription: next request */
     uint64_t last_data_ms;               /**< subscription: last DATA received */
     uint64_t frames;                     /**< publication: DATA sent; subscription: DATA received */
