@@ -463,6 +463,11 @@ def main() -> None:
 
     bridges_section(raw, w)
 
+    # ---- figure 8: fleets (bench/fleet_tables.py) ----
+    from fleet_tables import render as fleet_section  # bench/ is the script's own directory
+
+    fleet_section(raw, w, goals)
+
     # ---- goals ----
     w("## Goals")
     w("")

@@ -10,6 +10,8 @@
 3. kill -9 rmax1ob1 and restart it: the subscription heals by itself.
 4. The Table 1 / figure 9 configuration in this process over in-memory links.
 5. The attacker step (attack_step.py): issue 11's attacks against the signed Table 2; each is a check.
+6. A fleet: twelve vehicles and two ground stations with automatic routes (examples/demo/fleet_step.py;
+   skipped by --short unless --fleet).
 
 Prints a summary table and writes demo-out/summary.json (with "security": {"attacks": [...]}), demo-out/gcs1.ublog (the GCS's binary log)
 and demo-out/imu.png. Exits 0 only if every check held; each failed check names itself and says why.
@@ -353,7 +355,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--short", action="store_true", help="shorter measurement windows (for make test)")
     ap.add_argument("--out", type=Path, default=REPO / "demo-out", help="output directory (default demo-out/)")
     ap.add_argument("--program", type=Path, default=None, help="uavbus_node (default: build/ or $UAVBUS_NODE)")
+    ap.add_argument("--fleet", action=argparse.BooleanOptionalAction, default=None,
+                    help="run the fleet step (default: yes, except with --short)")
     args = ap.parse_args(argv)
+    args.fleet = not args.short if args.fleet is None else args.fleet
     args.out.mkdir(parents=True, exist_ok=True)
     # SIGTERM (e.g. from make or a CI timeout) unwinds like Ctrl-C, so every `with` stops its processes.
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
@@ -368,14 +373,18 @@ def main(argv: list[str] | None = None) -> int:
         table1_part(args, check, rows)
         make_plot(args, check, plot)
         extra["security"] = attacker_part(args, check, say)
+        if args.fleet:
+            from fleet_step import fleet_part
+
+            extra["fleet"] = fleet_part(args.out, args.program, check, say)
     except KeyboardInterrupt:
         say("\ninterrupted: every process the demo started has been stopped")
         return 130
     except Exception as e:  # noqa: BLE001 - a crash is a failed check with its reason
         check("demo ran to the end", False, f"{type(e).__name__}: {e}")
     if rows:
-        write_summary(args.out / "summary.json", rows, {**extra, "checks": [c.__dict__ for c in check.items],
-                                                        "short": args.short})
+        write_summary(args.out / "summary.json", rows, {"checks": [c.__dict__ for c in check.items],
+                                                        "short": args.short, **extra})
         say("\n== Summary\n" + render_table(rows))
         say(f"\nwrote {args.out / 'summary.json'}, {args.out / 'gcs1.ublog'}, {args.out / 'imu.png'}")
     took = time.monotonic() - started

@@ -548,10 +548,12 @@ static void event_stats(uint64_t now_ms, bool final) {
         ",\"forwarded\":%" PRIu64 ",\"delivered\":%" PRIu64 ",\"admin_handled\":%" PRIu64 ",\"local_direct\":%" PRIu64
         ",\"dedup_resets\":%" PRIu64 ",\"dedup_evictions\":%" PRIu64 ",\"leases_expired\":%" PRIu64
         ",\"replies_unmatched\":%" PRIu64 ",\"requests_limited\":%" PRIu64 ",\"leases_clamped\":%" PRIu64
-        ",\"rows_evicted\":%" PRIu64 ",\"random_failures\":%" PRIu64 ",",
+        ",\"rows_evicted\":%" PRIu64 ",\"random_failures\":%" PRIu64 ",\"handovers\":%" PRIu64
+        ",\"nacks_relayed\":%" PRIu64 ",\"other_admin\":%" PRIu64 ",",
         now_ms, now_ms - g_start_ms, final ? ",\"final\":true" : "", n->originated, n->forwarded, n->delivered,
         n->admin_handled, n->local_direct, n->dedup_resets, n->dedup_evictions, n->leases_expired,
-        n->replies_unmatched, n->requests_limited, n->leases_clamped, n->rows_evicted, n->random_failures);
+        n->replies_unmatched, n->requests_limited, n->leases_clamped, n->rows_evicted, n->random_failures,
+        n->handovers, n->nacks_relayed, n->other_admin);
     out_drops(n->drops);
     out("},\"links\":{");
     bool first = true;

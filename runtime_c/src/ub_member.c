@@ -144,7 +144,7 @@ bool ub_priv_member_on_request(ub_node_t *node, int slot, const ub_frame_header_
     if (reason != UB_NACK_NONE) node->counters.membership_refused++;
     else node->counters.membership_applied++;
     (void)ub_priv_send_reply(node, slot, reason != UB_NACK_NONE, zero_dir, h->src_id, id, UB_ADMIN_MEMBERSHIP,
-                             reason != UB_NACK_NONE ? reason : (changed ? UB_MEMBER_CHANGED : 0), now_ms);
+                             reason != UB_NACK_NONE ? reason : (changed ? UB_MEMBER_CHANGED : 0), 0, now_ms);
     if (!authorized) {
         *drop = UB_DROP_NOT_AUTHORIZED;
         return false;

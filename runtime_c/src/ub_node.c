@@ -99,13 +99,6 @@ int ub_node_add_entity(ub_node_t *node, const uint8_t id[UB_ENTITY_ID_LEN], bool
     return row;
 }
 
-/* Whether row `r` of a publish/subscribe table names `id` as its peer or its owner and is still live. */
-static bool row_names(const ub_ps_row_t *r, const uint8_t id[UB_ENTITY_ID_LEN]) {
-    if (r == NULL || r->kind == UB_PS_FREE) return false;
-    if (r->kind == UB_PS_SUBSCRIPTION && r->state == UB_SUB_STOPPING) return false; /* already on its way out */
-    return memcmp(r->peer, id, UB_ENTITY_ID_LEN) == 0 || memcmp(r->owner, id, UB_ENTITY_ID_LEN) == 0;
-}
-
 int ub_node_remove_entity(ub_node_t *node, int entity, uint64_t now_ms) {
     if (node == NULL || !entity_index_ok(node, entity) || node->entities[entity].local >= 0) return UB_ERR_INVAL;
     uint8_t id[UB_ENTITY_ID_LEN];
@@ -113,21 +106,10 @@ int ub_node_remove_entity(ub_node_t *node, int entity, uint64_t now_ms) {
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
         ub_local_entity_t *loc = &node->locals[slot];
         if (!loc->in_use) continue;
-        /* Rows go through the publish/subscribe and administration API, so their own rules (STOP
-         * messages, row states) apply; only the bookkeeping of what was touched is ours. */
-        for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
-            if (!row_names(ub_pubsub_row(node, loc->entity, r), id)) continue;
-            if (ub_pubsub_stop(node, loc->entity, r, now_ms) == UB_OK) node->counters.rows_stopped++;
-        }
-        ub_admin_t *adm = loc->admin;
-        for (int r = 0; adm != NULL && r < UB_MAX_ADMIN_ROWS; r++) {
-            ub_admin_row_info_t info;
-            if (ub_admin_row_status(adm, r, &info) != UB_OK || !info.active_flag) continue;
-            if (memcmp(info.spec.source, id, UB_ENTITY_ID_LEN) != 0 &&
-                memcmp(info.spec.destination, id, UB_ENTITY_ID_LEN) != 0)
-                continue;
-            if (ub_admin_set_active(adm, r, false, now_ms) == UB_OK) node->counters.admin_rows_stopped++;
-        }
+        /* The tables apply their own rules (docs/pubsub.md): rows with nobody left to talk to go at once,
+         * rows the entity merely administered live on under their keeper; we count. */
+        node->counters.rows_stopped += (uint64_t)ub_priv_pubsub_forget(node, slot, id, now_ms);
+        if (loc->admin != NULL) node->counters.admin_rows_stopped += (uint64_t)ub_priv_admin_forget(loc->admin, id, now_ms);
         for (size_t i = 0; i < UB_DEDUP_SOURCES; i++) {
             ub_dedup_entry_t *d = &loc->dedup[i];
             if (!d->in_use || memcmp(d->src, id, UB_ENTITY_ID_LEN) != 0) continue;
@@ -754,11 +736,12 @@ int ub_priv_send_admin(ub_node_t *node, int slot, ub_admin_code_t code, const ui
 
 int ub_priv_send_reply(ub_node_t *node, int slot, bool nack, const uint8_t dir_id[UB_DIR_ID_LEN],
                        const uint8_t dest_id[UB_ENTITY_ID_LEN], uint32_t request_id, uint8_t code, uint8_t detail,
-                       uint64_t now_ms) {
+                       uint8_t origin, uint64_t now_ms) {
     uint8_t payload[UB_PL_REPLY_LEN] = {0};
     ub_put_u32le(payload + UB_PL_REPLY_ID, request_id);
     ub_put_u8(payload + UB_PL_REPLY_CODE, code);
     ub_put_u8(payload + UB_PL_REPLY_DETAIL, detail);
+    ub_put_u8(payload + UB_PL_REPLY_FLAGS, nack ? origin : 0);
     return ub_priv_send_admin(node, slot, nack ? UB_ADMIN_NACK : UB_ADMIN_ACK, dir_id, 0, dest_id, payload,
                               UB_PL_REPLY_LEN, now_ms);
 }

@@ -72,6 +72,10 @@ int ub_policy_add_rule(ub_policy_t *pol, ub_policy_dir_t dir, const char *target
     return UB_OK;
 }
 
+void ub_policy_set_exclusive(ub_policy_t *pol, bool on) {
+    if (pol != NULL) pol->exclusive_admin = on ? 1 : 0;
+}
+
 void ub_policy_restrict_reads(ub_policy_t *pol) {
     if (pol != NULL) pol->read_restricted = 1;
 }
@@ -366,9 +370,18 @@ static int cfg_limits(const cfg_parse_t *c, const ub_json_value_t *obj) {
                                                       : cfg_fail(c, obj->line, NULL, "security.limits", "refused");
 }
 
+static int cfg_exclusive(const cfg_parse_t *c, const ub_json_value_t *v) {
+    if (v->kind != UB_JSON_TRUE && v->kind != UB_JSON_FALSE)
+        return cfg_fail(c, v->line, NULL, "security.exclusive_admin",
+                        "must be true (one administrator at a time per node) or false");
+    ub_policy_set_exclusive(c->pol, v->kind == UB_JSON_TRUE);
+    return UB_OK;
+}
+
 int ub_priv_policy_parse_key(ub_policy_t *pol, const ub_nodecfg_t *cfg, const ub_json_doc_t *doc, const char *key,
                              const ub_json_value_t *value, ub_cfg_error_t *err) {
     cfg_parse_t c = {pol, cfg, doc, err};
+    if (strcmp(key, "exclusive_admin") == 0) return cfg_exclusive(&c, value);
     if (strcmp(key, "administrators") == 0) return cfg_administrators(&c, value);
     if (strcmp(key, "read") == 0) return cfg_rules(&c, UB_POLICY_READ, value);
     if (strcmp(key, "write") == 0) return cfg_rules(&c, UB_POLICY_WRITE, value);

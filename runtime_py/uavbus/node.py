@@ -722,7 +722,9 @@ class Admin:
 
     def status(self, row: int) -> dict[str, Any]:
         """status: "inactive" | "pending" | "acknowledged" | "active" | "failed" | "stopping"; nack_reason:
-        None or the target's reason by name ("table_full", "not_authorized", "limit", ...)."""
+        None or the target's reason by name ("table_full", "not_authorized", "limit", "other_admin": another
+        administrator keeps this flow, ...); nack_relayed: the reason is the source's, relayed by the
+        destination of a subscription row."""
         s = ub_admin.ub_admin_row_status(self._c, row)
         s["content"] = self.node.catalogue.instances[s["instance"]].name
         return s

@@ -168,7 +168,8 @@ typedef struct ub_node_counters {
     uint64_t local_direct;    /**< frames from one local entity to another, delivered without a link */
     uint64_t dedup_resets;    /**< restarted sources detected */
     uint64_t dedup_evictions; /**< sources evicted from a full window table */
-    uint64_t leases_expired;  /**< publish/subscribe rows removed because their lease ran out */
+    uint64_t leases_expired;  /**< publish/subscribe rows removed because their lease ran out (and, for a row
+                                   handed over, its keeper was gone: docs/pubsub.md) */
     uint64_t replies_unmatched; /**< ACK/NACKs bound to no row (request id, counterpart or content differ): ignored */
     uint64_t requests_limited;  /**< requests refused with NACK LIMIT (ub_policy.h limits) */
     uint64_t leases_clamped;    /**< non-administrator leases shortened to the policy's max_lease_ms */
@@ -183,6 +184,9 @@ typedef struct ub_node_counters {
     uint64_t dedup_cleared;   /**< duplicate windows cleared because their source was removed */
     uint64_t membership_applied; /**< MEMBERSHIP requests served (ACKed) */
     uint64_t membership_refused; /**< MEMBERSHIP requests NACKed (invalid, full, unsupported, not authorized) */
+    uint64_t handovers;       /**< rows whose owner's lease lapsed while their keeper lived: kept (docs/pubsub.md) */
+    uint64_t nacks_relayed;   /**< source NACKs a subscribing destination relayed to the administrator of its row */
+    uint64_t other_admin;     /**< requests answered NACK OTHER_ADMIN: another administrator keeps the row or node */
     uint64_t drops[UB_DROP_REASON_COUNT];
 } ub_node_counters_t;
 
@@ -276,12 +280,15 @@ UB_CHECK int ub_node_add_entity(ub_node_t *node, const uint8_t id[UB_ENTITY_ID_L
  * Removes remote entity `entity` from the table at run time, and with it
  * everything that names it: every local entity's mask toward it (pinned or
  * not), the duplicate windows of it as a source, the routing engine's state
- * for it, the publish/subscribe rows whose peer or owner it is (stopped with
- * ub_pubsub_stop(): publications go at once, subscriptions send their PUB_STOP
- * retries, which now count `no_route`, then go) and the active administration
- * rows whose source or destination it is (deactivated with
- * ub_admin_set_active()). Each is counted (ub_node_counters_t). The row may be
- * reused by a later ub_node_add_entity().
+ * for it, and the rows naming it: publish/subscribe rows whose peer it is are
+ * freed at once, without a STOP nobody could route (`rows_stopped`); rows it
+ * owns as a third party (an administrator) have their lease end now and live
+ * on under their keeper (docs/pubsub.md, "Who keeps a row alive"); active
+ * administration rows whose target it is (the source of a publication row,
+ * the destination of a subscription row) become INACTIVE at once, those
+ * naming it only as the other end are deactivated with ub_admin_set_active()
+ * (their STOP goes to the target) (`admin_rows_stopped`). Each is counted
+ * (ub_node_counters_t). The row may be reused by a later ub_node_add_entity().
  * @return UB_OK; UB_ERR_INVAL (bad index, or a local entity: local entities
  *         live as long as the node).
  */
