@@ -167,7 +167,7 @@ def test_record_with_c_writer(pair, tmp_path) -> None:
     stats = gcs.stop_recording()
     assert stats is not None and stats["write_errors"] == 0
     data = path.read_bytes()
-    assert data.startswith(b"UBLOG1\r\n") and len(data) == stats["bytes"]
+    assert data.startswith(b"UBLOG2\r\n") and len(data) == stats["bytes"]
     assert b'"gcs"' in data[:2048]  # the meta names this node
 
 

@@ -35,4 +35,4 @@ def test_demo_short_mode_passes_and_writes_its_outputs(program: Path, tmp_path: 
         assert all("duplicate" not in reasons for link, reasons in row["dropped"].items()
                    if link.startswith("gcs1:")), row["dropped"]
     assert (tmp_path / "imu.png").stat().st_size > 1000
-    assert (tmp_path / "gcs1.ublog").read_bytes()[:8] == b"UBLOG1\r\n"
+    assert (tmp_path / "gcs1.ublog").read_bytes()[:8] == b"UBLOG2\r\n"
