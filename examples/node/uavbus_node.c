@@ -177,13 +177,53 @@ void out(const char *fmt, ...) {
     g_out_len += (size_t)n;
 }
 
+/* Length of the well-formed UTF-8 sequence at s[0, n) (RFC 3629: shortest form, no surrogates, at most
+ * U+10FFFF), or 0 when the bytes there are not one. */
+static size_t utf8_sequence(const unsigned char *s, size_t n) {
+    unsigned c = s[0];
+    size_t len;
+    uint32_t cp, min;
+    if (c < 0x80) return 1;
+    if ((c & 0xE0) == 0xC0) {
+        len = 2, cp = c & 0x1F, min = 0x80;
+    } else if ((c & 0xF0) == 0xE0) {
+        len = 3, cp = c & 0x0F, min = 0x800;
+    } else if ((c & 0xF8) == 0xF0) {
+        len = 4, cp = c & 0x07, min = 0x10000;
+    } else {
+        return 0;
+    }
+    if (n < len) return 0;
+    for (size_t i = 1; i < len; i++) {
+        if ((s[i] & 0xC0) != 0x80) return 0;
+        cp = cp << 6 | (s[i] & 0x3F);
+    }
+    return cp < min || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF) ? 0 : len;
+}
+
+/* A JSON string of s[0, max) (up to a NUL). Whatever the bytes (entity IDs and names arrive from the
+ * network), the output is valid UTF-8 JSON: quotes, backslashes and control characters are escaped, and
+ * every byte that is not part of a well-formed UTF-8 sequence becomes U+FFFD. */
 void out_str(const char *s, size_t max) {
+    const unsigned char *u = (const unsigned char *)s;
+    size_t n = strnlen(s, max);
     out("\"");
-    for (size_t i = 0; i < max && s[i] != '\0'; i++) {
-        unsigned char c = (unsigned char)s[i];
-        if (c == '"' || c == '\\') out("\\%c", c);
-        else if (c < 0x20) out("\\u%04x", c);
-        else out("%c", c);
+    for (size_t i = 0; i < n;) {
+        unsigned char c = u[i];
+        size_t len = utf8_sequence(u + i, n - i);
+        if (len == 0) {
+            out("\\ufffd");
+            i++;
+        } else if (c == '"' || c == '\\') {
+            out("\\%c", c);
+            i++;
+        } else if (c < 0x20) {
+            out("\\u%04x", c);
+            i++;
+        } else {
+            out("%.*s", (int)len, s + i);
+            i += len;
+        }
     }
     out("\"");
 }

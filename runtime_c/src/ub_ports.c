@@ -18,6 +18,11 @@ static void fail(char *err, size_t cap, const char *fmt, ...) {
     va_start(ap, fmt);
     vsnprintf(err, cap, fmt, ap);
     va_end(ap);
+    /* Messages quote text from config files and command lines: a control byte (a terminal escape) or a
+     * byte outside printable ASCII is shown as '?', so every message is one clean line (config-format.md). */
+    for (char *c = err; *c != '\0'; c++) {
+        if ((unsigned char)*c < 0x20 || (unsigned char)*c >= 0x7f) *c = '?';
+    }
 }
 
 const char *ub_port_kind_transport(ub_port_kind_t kind) {

@@ -107,6 +107,38 @@ static void test_spec_parse_errors(void **state) {
     assert_non_null(strstr(err, "port 'linkA': udp needs bind="));
 }
 
+/* Text quoted back from a config file or a command line never carries raw control bytes (a terminal escape
+ * in a config value must not reach the operator's terminal): non-printable bytes are shown as '?'.
+ * Before, the value came back byte for byte. */
+static void test_messages_never_echo_control_bytes(void **state) {
+    (void)state;
+    static const char cfg_text[] = "{\n"
+                                   "  \"entities\": [{\"name\": \"pub\", \"links\": [\"pubPort\"]}],\n"
+                                   "  \"ports\": {\"pubPort\": {\"transport\": \"udp\",\n"
+                                   "              \"bind\": \"\\u001b[2J\\u00e9\\u0007:1\", \"peer\": \"127.0.0.1:9\"}}\n"
+                                   "}\n";
+    ub_nodecfg_t *cfg = calloc(1, sizeof *cfg);
+    assert_non_null(cfg);
+    char err[UB_NODECFG_ERR_LEN];
+    assert_int_equal(ub_nodecfg_parse(cfg, cfg_text, strlen(cfg_text), "t.json", err, sizeof err), UB_OK);
+    ub_port_spec_t s;
+    assert_int_equal(ub_port_spec_from_config(&cfg->ports[0], cfg->source, &s, err, sizeof err), UB_ERR_CONFIG);
+    assert_string_equal(err, "t.json:3: port 'pubPort', field 'bind': 'bind=?[2J???:1': expected HOST:PORT with a "
+                             "dotted IPv4 host and a port 0..65535, e.g. 127.0.0.1:5001");
+    /* The command-line forms too. */
+    assert_int_equal(ub_port_spec_parse("\x1b]0;owned\x07:x=1", &s, err, sizeof err), UB_ERR_INVAL);
+    assert_string_equal(err, "unknown transport '?]0;owned?' (expected udp, tcp, serial or mem, e.g. udp:bind="
+                             "127.0.0.1:0,peer=127.0.0.1:5001 | tcp:listen=127.0.0.1:5001 | tcp:connect=127.0.0.1:5001"
+                             " | serial:device=/dev/ttyUSB0,baud=115200 | mem)");
+    char name[64];
+    assert_int_equal(ub_port_arg_parse("l\r\nk=udp:bind=1.2.3.4:5", name, sizeof name, &s, err, sizeof err),
+                     UB_ERR_INVAL);
+    assert_string_equal(err, "port 'l??k': udp needs both bind=HOST:PORT and peer=HOST:PORT, e.g. "
+                             "udp:bind=127.0.0.1:0,peer=127.0.0.1:5001");
+    for (const char *c = err; *c != '\0'; c++) assert_true(*c >= 0x20 && *c < 0x7f);
+    free(cfg);
+}
+
 static const char k_config[] = "{\n"
                                "  \"entities\": [{\"name\": \"pub\", \"links\": [\"pubPort\"]},\n"
                                "               {\"name\": \"sub\", \"links\": [\"subPort\"]}],\n"
@@ -370,6 +402,7 @@ int main(void) {
         cmocka_unit_test(test_spec_parse_forms),
         cmocka_unit_test(test_spec_parse_errors),
         cmocka_unit_test(test_config_entries),
+        cmocka_unit_test(test_messages_never_echo_control_bytes),
         cmocka_unit_test(test_rebind_tcp_to_udp_keeps_the_subscription),
         cmocka_unit_test(test_impairment_on_ports),
         cmocka_unit_test(test_impairment_survives_tcp_connects),

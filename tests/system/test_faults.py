@@ -7,15 +7,22 @@ Each test reproduces what an adversarial run found against the earlier code (nam
 from __future__ import annotations
 
 import json
-import os
 import signal
+import socket
+import struct
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
+from uavbus._bindings.ub_catalogue import ub_entity_id
+from uavbus._bindings.ub_frame import FrameHeader, ub_frame_finish
+from uavbus.catalogue import Catalogue
 from uavbus.logfile import LogReader
+from uavbus.sim.hitl import catalogue_for
+from uavbus.sim.portalloc import PortAllocator
+from uavbus.sim.process import ProcessGroup
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -65,3 +72,58 @@ def test_log_survives_a_file_size_limit(program: Path, tmp_path: Path) -> None:
             assert recs[0].seq == next_seq
         next_seq = recs[-1].seq + 1
     assert next_seq == s["records"]
+
+
+# ---- supervision output (issue #17 item 2) --------------------------------------------------------------
+
+FAKE = [sys.executable, str(Path(__file__).with_name("fake_node.py"))]
+
+
+def test_supervisor_survives_bad_lines_and_keeps_later_events() -> None:
+    """Before: NodeProcess decoded stdout strictly in its reader thread; one non-UTF-8 line killed the
+    thread, and every later event was lost while the node ran on."""
+    with ProcessGroup() as g:
+        p = g.spawn([*FAKE, "n1"], "n1")
+        p.send("garbage")
+        after = p.request_stats(timeout=5.0)  # a later event still arrives
+        assert after["node"] == {"n": 1}
+        assert p.bad_lines == 3
+        texts = [e for e in p.events if e.get("event") == "text"]
+        assert [e["reason"] for e in texts] == ["not UTF-8", "not JSON", "not a JSON object"]
+        assert "\ufffd" in texts[0]["text"]
+
+
+def test_stats_stay_valid_utf8_json_under_hostile_bytes(program: Path) -> None:
+    """Before: a forged PUB_REQUEST whose source and destination IDs were not UTF-8 put those raw bytes
+    into every later stats line (invalid UTF-8: the supervisor above lost everything after it)."""
+    cat = Catalogue.load(str(catalogue_for(program)))
+    inst = cat.instance("gpsOut")
+    alloc = PortAllocator()
+    me = alloc.port()
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.bind(("127.0.0.1", me))
+    try:
+        with ProcessGroup() as g:
+            p = g.spawn([str(program), "--config", str(TABLE2), "--node", "primary", "--port",
+                         f"onboardPortRelay=udp:bind=127.0.0.1:0,peer=127.0.0.1:{me}", "--stats-ms", "0"], "primary")
+            node_port = p.wait_ready()["ports"]["onboardPortRelay"]["local_port"]
+            src = b"\xff\xfe\x1b[2J\xed\xa0\x80\"\\\x7f"  # not UTF-8, a terminal escape, a surrogate, quotes
+            dest_peer = b"\xc3(\xf4\x90\x80\x80ok\x00\x00\x00\x00"  # bad continuation, above U+10FFFF
+            payload = struct.pack("<III", 1, 100, 0) + dest_peer
+            frame = ub_frame_finish(FrameHeader(dir_id=inst.id, dest_id=ub_entity_id("rmax1ob1"), src_id=src,
+                                                admin=1, seq=1, fingerprint=inst.type.fingerprint), payload)
+            sock.sendto(frame, ("127.0.0.1", node_port))
+            row = None
+            for _ in range(50):
+                st = p.request_stats()
+                rows = [r for r in st["pubsub"]["rmax1ob1"] if "owner" in r]
+                if rows:
+                    row = rows[0]
+                    break
+            assert row is not None, "the forged request never showed up in the stats"
+            assert p.bad_lines == 0  # the node itself wrote valid UTF-8 JSON
+            assert row["owner"] == "\ufffd\ufffd\x1b[2J\ufffd\ufffd\ufffd\"\\\x7f"
+            assert row["destination"] == "\ufffd(\ufffd\ufffd\ufffd\ufffdok"
+            assert p.request_stats()["event"] == "stats"  # and later events keep coming
+    finally:
+        sock.close()
