@@ -564,9 +564,12 @@ static void out_driver(const ub_port_t *p) {
     }
     case UB_PORT_SERIAL: {
         const ub_serial_stats_t *s = ub_serial_stats(&d->u.serial);
-        out(",\"serial\":{\"bytes_in\":%" PRIu64 ",\"bytes_out\":%" PRIu64 ",\"backpressure\":%" PRIu64
-            ",\"io_errors\":%" PRIu64 "}",
-            s->bytes_in, s->bytes_out, s->backpressure, s->io_errors);
+        out(",\"serial\":{\"state\":\"%s\",\"bytes_in\":%" PRIu64 ",\"bytes_out\":%" PRIu64 ",\"backpressure\":%" PRIu64
+            ",\"io_errors\":%" PRIu64 ",\"hangups\":%" PRIu64 ",\"reopens\":%" PRIu64 ",\"reopen_failures\":%" PRIu64
+            ",\"send_closed\":%" PRIu64 ",\"tx_discarded\":%" PRIu64 "}",
+            ub_serial_state(&d->u.serial) == UB_SERIAL_UP ? "up" : "down", s->bytes_in, s->bytes_out,
+            s->backpressure, s->io_errors, s->hangups, s->reopens, s->reopen_failures, s->send_closed,
+            s->tx_discarded);
         break;
     }
     default: break;

@@ -692,6 +692,8 @@ int ub_ports_poll_timeout(const ub_ports_t *ports, uint64_t now_ms, int max_ms) 
         if (d->kind == UB_PORT_TCP_CONNECT && ub_tcp_state(&d->u.tcp) == UB_TCP_DOWN
             && d->u.tcp.next_attempt_ms < best)
             best = d->u.tcp.next_attempt_ms;
+        /* So must a serial device that hung up and waits to be reopened. */
+        if (d->kind == UB_PORT_SERIAL && ub_serial_next_retry(&d->u.serial, &due) && due < best) best = due;
     }
     return best <= now_ms ? 0 : (int)(best - now_ms);
 }

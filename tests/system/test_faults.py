@@ -7,11 +7,14 @@ Each test reproduces what an adversarial run found against the earlier code (nam
 from __future__ import annotations
 
 import json
+import os
 import signal
 import socket
 import struct
 import subprocess
 import sys
+import time
+import tty
 from pathlib import Path
 
 import pytest
@@ -127,3 +130,58 @@ def test_stats_stay_valid_utf8_json_under_hostile_bytes(program: Path) -> None:
             assert p.request_stats()["event"] == "stats"  # and later events keep coming
     finally:
         sock.close()
+
+
+# ---- links that notice (issue #17 item 3) ----------------------------------------------------------------
+
+def _cpu_seconds(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _cpu_over(pid: int, seconds: float) -> float:
+    c0 = _cpu_seconds(pid)
+    time.sleep(seconds)
+    return (_cpu_seconds(pid) - c0) / seconds
+
+
+def _new_pty(link: Path) -> int:
+    """A raw pty pair; `link` (a symlink, as udev makes for an adapter) names its slave. Returns the master."""
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    path = os.ttyname(slave)
+    os.close(slave)
+    if link.is_symlink():
+        link.unlink()
+    link.symlink_to(path)
+    return master
+
+
+def test_serial_hangup_is_noticed_without_spinning(program: Path) -> None:
+    """Before: when the device hung up (the pty's far end closed, as a pulled USB adapter), no counter
+    moved and the node spun at 56-80 % of a core on a descriptor that polls readable forever."""
+    dev = Path(f"/tmp/ub_tty_{os.getpid()}")  # a port spec's device path is at most 63 characters
+    master = _new_pty(dev)
+    with ProcessGroup() as g:
+        g.on_close(lambda: dev.unlink(missing_ok=True))
+        p = g.spawn([str(program), "--config", str(TABLE2), "--node", "primary", "--port",
+                     f"onboardPortDatalink1=serial:device={dev}", "--stats-ms", "0"], "primary")
+        idle = _cpu_over(p.pid, 1.0)
+        os.close(master)  # hang-up: the slave side reads end-of-file, its /dev/pts entry disappears
+        hung = _cpu_over(p.pid, 1.0)
+        st = p.request_stats()["links"]["onboardPortDatalink1"]["serial"]
+        assert st["state"] == "down" and st["hangups"] == 1 and st["reopen_failures"] >= 2
+        # Near idle, not a spinning core (measured here: idle ~2-3 %, hung-up before the fix ~80 %).
+        assert hung < max(0.15, idle + 0.10), f"CPU {hung:.0%} of a core while hung up (idle {idle:.0%})"
+        # The adapter comes back under the same name: the node reopens it on its backoff and is up again.
+        master = _new_pty(dev)
+        try:
+            deadline = time.monotonic() + 10
+            while time.monotonic() < deadline:
+                st = p.request_stats()["links"]["onboardPortDatalink1"]["serial"]
+                if st["state"] == "up":
+                    break
+                time.sleep(0.1)
+            assert st["state"] == "up" and st["reopens"] == 1 and st["hangups"] == 1
+        finally:
+            os.close(master)
