@@ -164,6 +164,12 @@ static int builder_param(spec_builder_t *b, const char *key, const char *value, 
                  UB_PORT_DEVICE_LEN - 1);
             return UB_ERR_INVAL;
         }
+        /* A config file could name one, but the spec text (--port, rebind, the "ready" event) could not say it. */
+        if (strchr(value, ',') != NULL) {
+            fail(err, cap, "'device=%.40s': a device path cannot contain ',' (it separates a spec's parameters); "
+                 "use a symlink without one", value);
+            return UB_ERR_INVAL;
+        }
         memcpy(s->device, value, n + 1);
         b->has_device = true;
         return UB_OK;
