@@ -1,12 +1,13 @@
 /*
  * Fuzz harness: hostile bytes into a configured node (issue #17 item 6).
  *
- * The node is one of Table 2 (examples/configs/table2.json): "primary" (rmax1ob1, the flight computer)
- * or "gcs" (gcs1, with the global administration table attached), over the generated flight-software
- * catalogue, with directories bound to storage and a capturing transport behind every link. The input
- * is a program of operations:
+ * The node is one of Table 2 (examples/configs/table2.json, or table2_policy.json with its security policy:
+ * administrators, read/write rules, limits): "primary" (rmax1ob1, the flight computer) or "gcs" (gcs1,
+ * with the global administration table attached), over the generated flight-software catalogue, with
+ * directories bound to storage and a capturing transport behind every link. The input is a program of
+ * operations:
  *
- *   byte 0: which node (bit 0)
+ *   byte 0: which node (bit 0: primary or gcs) of which file (bit 1: table2 or table2_policy)
  *   then, repeated: op u8 | arg u8 | len u16le | len bytes
  *     op % 8 = 0  stream bytes into ub_node_rx() on link arg
  *              1  the bytes resealed into a frame (see below), into ub_node_rx()
@@ -44,14 +45,15 @@
 #include "ub/ub_wire.h"
 #include "ub_router_private.h"
 
-#ifndef UB_FUZZ_CONFIG
-#define UB_FUZZ_CONFIG "examples/configs/table2.json"
+#ifndef UB_FUZZ_CONFIG_DIR
+#define UB_FUZZ_CONFIG_DIR "examples/configs"
 #endif
 
 #define STORAGE_MAX 4096
-#define N_NODES 2
+#define N_NODES 4
 
-static const char *const k_node_names[N_NODES] = {"primary", "gcs"};
+static const char *const k_node_names[N_NODES] = {"primary", "gcs", "primary", "gcs"};
+static const char *const k_files[N_NODES] = {"table2.json", "table2.json", "table2_policy.json", "table2_policy.json"};
 /* Bound first (what uavbus_node binds), then other instances up to UB_MAX_BINDINGS. */
 static const char *const k_first_bound[] = {"gpsOut",       "navFilterState",       "imuOutPrimary",
                                             "onboardSet",   "imuOut",               "gpsOutBackup",
@@ -84,7 +86,9 @@ int LLVMFuzzerInitialize(int *argc, char ***argv) {
     (void)argv;
     char err[UB_NODECFG_ERR_LEN];
     for (int k = 0; k < N_NODES; k++) {
-        if (ub_nodecfg_load_file(&g_cfg[k], UB_FUZZ_CONFIG, g_cfg_text, sizeof g_cfg_text, err, sizeof err) != UB_OK
+        char path[512];
+        snprintf(path, sizeof path, "%s/%s", UB_FUZZ_CONFIG_DIR, k_files[k]);
+        if (ub_nodecfg_load_file(&g_cfg[k], path, g_cfg_text, sizeof g_cfg_text, err, sizeof err) != UB_OK
             || ub_nodecfg_select_node(&g_cfg[k], k_node_names[k], err, sizeof err) != UB_OK) {
             fprintf(stderr, "fuzz_node_rx: %s\n", err);
             exit(1);
@@ -120,7 +124,7 @@ static void setup(int which) {
     for (int l = 0; l < UB_MAX_NODE_LINKS; l++) {
         if (ub_node_link(&g_node, l) != NULL) fuzz_ignore(ub_node_link_attach(&g_node, l, &k_capture_ops, NULL));
     }
-    if (which == 1) FUZZ_CHECK(ub_admin_init(&g_admin, &g_node, local_entity(), NULL) == UB_OK, "admin init");
+    if (which % 2 == 1) FUZZ_CHECK(ub_admin_init(&g_admin, &g_node, local_entity(), NULL) == UB_OK, "admin init");
     g_send_rc = UB_OK;
     memset(g_fed_stream, 0, sizeof g_fed_stream);
     memset(g_fed_total, 0, sizeof g_fed_total);
@@ -222,7 +226,7 @@ static void check_accounting(void) {
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     fuzz_in_t in = {data, size};
-    setup(fuzz_u8(&in) & 1);
+    setup(fuzz_u8(&in) % N_NODES);
     uint64_t now = 1000;
     static uint8_t frame[UB_FRAME_MAX];
     while (in.left > 0) {
@@ -333,6 +337,15 @@ static size_t seed_data(uint8_t *f, const char *name, const char *src, const cha
     return seed_frame(f, name, src, dest, UB_ADMIN_DATA, pl, (uint16_t)(n < 0 ? 0 : n), seq);
 }
 
+/* Each seed twice: on the plain Table 2 and on table2_policy.json. */
+static void seed_write(const char *dir, const char *name, seed_t *s) {
+    char policy_name[96];
+    fuzz_write_seed(dir, name, s->buf, s->len);
+    s->buf[0] |= 2;
+    snprintf(policy_name, sizeof policy_name, "%s_policy", name);
+    fuzz_write_seed(dir, policy_name, s->buf, s->len);
+}
+
 void ub_fuzz_write_seeds(const char *dir) {
     static seed_t s;
     uint8_t f[UB_FRAME_MAX];
@@ -348,7 +361,7 @@ void ub_fuzz_write_seeds(const char *dir) {
     seed_op(&s, 0, 0, f, seed_data(f, "gpsOut", "gcs1", "fcs20", 4)); /* to be forwarded */
     seed_op(&s, 0, 0, f, seed_request(f, "gpsOut", "gcs1", "rmax1ob1", UB_ADMIN_PUB_STOP, "gcs1", 5));
     seed_op(&s, 4, 255, tick, 0);
-    fuzz_write_seed(dir, "primary_requests_and_data", s.buf, s.len);
+    seed_write(dir, "primary_requests_and_data", &s);
     /* gcs: the operator's rows, their replies and data. */
     memset(&s, 0, sizeof s);
     s.buf[s.len++] = 1;
@@ -369,7 +382,7 @@ void ub_fuzz_write_seeds(const char *dir) {
     seed_op(&s, 3, 1, f, seed_data(f, "gpsOut", "rmax1ob1", "gcs1", 11));
     seed_op(&s, 0, 0, f, seed_frame(f, "gpsOut", "rmax1ob1", "gcs1", UB_ADMIN_NACK, reply, sizeof reply, 12));
     seed_op(&s, 4, 255, tick, 0);
-    fuzz_write_seed(dir, "gcs_admin_rows", s.buf, s.len);
+    seed_write(dir, "gcs_admin_rows", &s);
     /* Resealed operations with every arg bit, and a re-attach in the middle of a frame. */
     memset(&s, 0, sizeof s);
     s.buf[s.len++] = 0;
@@ -382,5 +395,5 @@ void ub_fuzz_write_seeds(const char *dir) {
     seed_op(&s, 6, 1, tick, 0);
     seed_op(&s, 5, 0, call, sizeof call);
     seed_op(&s, 4, 30, tick, 0);
-    fuzz_write_seed(dir, "resealed_and_reattached", s.buf, s.len);
+    seed_write(dir, "resealed_and_reattached", &s);
 }
