@@ -23,6 +23,16 @@ def ub_log_open(fd: int, node: Any, node_name: str, record_tx: bool, start_unix_
     return log
 
 
+def ub_log_open_path(path: str, node: Any, node_name: str, record_tx: bool, start_unix_ms: int, start_t_ms: int,
+                     max_bytes: int = 0, max_ms: int = 0, max_files: int = 0) -> Any:
+    """A log the C writer opens and owns at `path`, rotated by size/time, keeping `max_files` (0 = no limit)."""
+    log = ffi.new("ub_log_t *")
+    rot = ffi.new("ub_log_rotation_t *", {"max_bytes": max_bytes, "max_ms": max_ms, "max_files": max_files})
+    ensure(lib.ub_log_open_path(log, path.encode(), rot, node, _c_name(node_name), record_tx, start_unix_ms,
+                                start_t_ms), f"log {path!r}")
+    return log
+
+
 def ub_log_install(node: Any, log: Any) -> None:
     """Makes `log` the node's frame tap (`log` must stay alive until removed)."""
     lib.ub_node_set_tap(node, lib.ub_log_tap, log)
