@@ -148,21 +148,43 @@ def parse_header(data: bytes | bytearray | memoryview, path: str = "<log>") -> L
         raise LogFormatError(f"{path}: header metadata is not valid JSON meta: {exc}") from exc
 
 
+_COUNTERS = ("records", "record_bytes", "skipped_bytes", "damaged_records", "resyncs", "truncated_bytes",
+             "missing_records", "seq_restarts")
+
+
 class _RecordScanner:
-    """Splits a growing byte buffer into records. Used by the one-shot reader and by follow mode."""
+    """Splits a growing byte buffer into records. Used by the one-shot reader and by follow mode, which
+    moves it on to the next file of a rotated set (next_file) with the counters carried over."""
 
     def __init__(self, header: LogHeader, stats: ReadStats) -> None:
-        self.header = header
         self.stats = stats
+        self._done = dict.fromkeys(_COUNTERS, 0)  # counters of the files already finished
+        self.last_seq: int | None = None
+        self._start(header)
+
+    def _start(self, header: LogHeader) -> None:
+        self.header = header
         self._reader = ub_log.LogRecordReader(header.version)
         if header.first_seq is not None:
             self._reader.expect_seq(header.first_seq)
 
-    def scan(self, buf: bytearray | bytes, base: int, final: bool = False) -> tuple[list[LogRecord], int]:
+    def next_file(self, header: LogHeader) -> None:
+        """Goes on with the next file of a rotated set; records the writer lost between the two files
+        (a file it could not open) count as missing."""
+        for k, v in self._reader.stats().items():
+            self._done[k] += v
+        if self.last_seq is not None and header.first_seq is not None:
+            gap = (header.first_seq - self.last_seq - 1) & 0xFFFFFFFF
+            self._done["missing_records" if gap < 0x80000000 else "seq_restarts"] += gap if gap < 0x80000000 else 1
+        self._start(header)
+
+    def scan(self, buf: bytearray | bytes | memoryview, base: int,
+             final: bool = False) -> tuple[list[LogRecord], int]:
         """Records in `buf` (file offset `base`) and the bytes decided; the rest waits for more (not final)."""
         raw, used = self._reader.scan(buf, final)
         out: list[LogRecord] = []
         for offset, seq, t_ms, link_id, direction, frame in raw:
+            self.last_seq = seq
             try:
                 h = ub_frame_parse(frame)
             except UbError as exc:
@@ -174,7 +196,7 @@ class _RecordScanner:
                                  link=self.header.link_name(link_id),
                                  dir=DIR_NAMES[direction] if direction < 2 else f"dir{direction}",
                                  frame=frame, header=h, seq=seq))
-        c = self._reader.stats()
+        c = {k: v + self._done[k] for k, v in self._reader.stats().items()}
         self.stats.records = c["records"]
         self.stats.record_bytes = c["record_bytes"]
         self.stats.update(c)
@@ -229,16 +251,31 @@ def load_catalogue(catalogue_json: str) -> Any:
     return Catalogue.from_json_text(catalogue_json)
 
 
+def _wait_header(f: BinaryIO, path: str, buf: bytearray, stop: Callable[[], bool] | None,
+                 sleep: Callable[[float], None], poll_s: float) -> LogHeader | None:
+    """Reads from `f` into `buf` until the file header is whole; None when `stop()` says so first."""
+    while True:
+        buf += f.read()
+        header = parse_header(buf, path)
+        if header is not None:
+            return header
+        if stop is not None and stop():
+            return None
+        sleep(poll_s)
+
+
 def follow(path: str | os.PathLike[str], *, poll_s: float = 0.05, stop: Callable[[], bool] | None = None,
            from_start: bool = True, sleep: Callable[[float], None] = time.sleep,
            on_header: Callable[[LogHeader], None] | None = None,
-           stats: ReadStats | None = None) -> Iterator[LogRecord]:
+           stats: ReadStats | None = None, rotation: bool = True) -> Iterator[LogRecord]:
     """Yields records of a log that is still being written, as they are appended (like tail -f).
 
     Waits for the file and its header to appear. A partial record at the end is waited for, not
     reported: the writer appends one record per write(). Damage is skipped and counted in `stats`
-    (pass a ReadStats to see it), exactly as LogReader does. `stop()` is checked between polls;
-    `from_start=False` skips existing records."""
+    (pass a ReadStats to see it), exactly as LogReader does. With `rotation` (the default), following
+    the first file of a rotated set (ub_log_open_path, docs/log-format.md "Rotation") moves on to the
+    next file once the writer has started it, with the counters carried over. `stop()` is checked
+    between polls; `from_start=False` skips existing records."""
     path = str(path)
     stats = stats if stats is not None else ReadStats()
     f: BinaryIO | None = None
@@ -251,20 +288,17 @@ def follow(path: str | os.PathLike[str], *, poll_s: float = 0.05, stop: Callable
                     return
                 sleep(poll_s)
         buf = bytearray()
-        header: LogHeader | None = None
-        while header is None:
-            buf += f.read()
-            header = parse_header(buf, path)
-            if header is None:
-                if stop is not None and stop():
-                    return
-                sleep(poll_s)
+        header = _wait_header(f, path, buf, stop, sleep, poll_s)
+        if header is None:
+            return
         if on_header is not None:
             on_header(header)
         scanner = _RecordScanner(header, stats)
         base = header.size
         del buf[: header.size]
         skip = not from_start
+        index = 0
+        rotation = rotation and header.version >= 2 and header.file_index == 0  # next files are named after `path`
         while True:
             records, used = scanner.scan(buf, base)
             del buf[:used]
@@ -276,6 +310,21 @@ def follow(path: str | os.PathLike[str], *, poll_s: float = 0.05, stop: Callable
                 buf += chunk
                 continue
             skip = False
+            nxt = ub_log.ub_log_file_name(path, index + 1) if rotation else ""
+            if nxt and os.path.exists(nxt):
+                # The writer has moved on: what is left of this file is all there will be.
+                records, _ = scanner.scan(buf, base, final=True)
+                yield from records
+                f.close()
+                f = open(nxt, "rb")  # noqa: SIM115
+                buf = bytearray()
+                nh = _wait_header(f, nxt, buf, stop, sleep, poll_s)
+                if nh is None:
+                    return
+                header, index, base = nh, index + 1, nh.size
+                del buf[: nh.size]
+                scanner.next_file(nh)
+                continue
             if stop is not None and stop():
                 return
             sleep(poll_s)

@@ -27,11 +27,11 @@ def crc32c(data: bytes, crc: int = 0) -> int:
 
 
 def file_header(node: str, links: dict[int, str], catalogue_json: str, start_unix_ms: int = 1_700_000_000_000,
-                version: int = 2, first_seq: int = 0) -> bytes:
+                version: int = 2, first_seq: int = 0, file_index: int = 0) -> bytes:
     meta_obj: dict[str, Any] = {"format": version, "node": node, "links": {str(k): v for k, v in links.items()},
                                 "start_unix_ms": start_unix_ms, "start_t_ms": 1000, "record_tx": True}
     if version == 2:
-        meta_obj.update(file_index=0, first_seq=first_seq)
+        meta_obj.update(file_index=file_index, first_seq=first_seq)
     meta = json.dumps(meta_obj, separators=(",", ":")).encode()
     cat = catalogue_json.encode()
     magic = MAGIC if version == 2 else MAGIC_V1

@@ -215,3 +215,41 @@ def test_follow_skips_and_counts_damage(sample_log, tmp_path: Path) -> None:
     t.join()
     assert [r.seq for r in got] == [r.seq for r in want]
     assert stats.damaged_records == 1 and stats.resyncs == 1 and stats.missing_records == 2
+
+
+
+def test_follow_moves_on_through_a_rotated_set(sample_log, tmp_path: Path, cat) -> None:
+    """A writer that rotates (ub_log_open_path): following the first file reads on into the next one,
+    and records the writer lost between the files (it could not open the next one) count as missing."""
+    _, _, _ = sample_log(n_gps=2)
+    recs = LogReader(tmp_path / "gcs.ublog").records()
+    links = {0: "gcsPortDatalink1", 1: "gcsPortDatalink2"}
+    first = tmp_path / "set.ublog"
+    second = tmp_path / "set.0001.ublog"
+    done = threading.Event()
+
+    def raw(r, seq: int) -> bytes:
+        return record(r.frame, r.t_ms, r.link_id, 0 if r.dir == "rx" else 1, seq=seq)
+
+    def writer() -> None:
+        with open(first, "wb") as f:
+            f.write(file_header("gcs", links, cat.json_text)); f.flush()
+            for seq in range(5):
+                f.write(raw(recs[seq], seq)); f.flush(); time.sleep(0.002)
+        time.sleep(0.05)
+        with open(second, "wb") as f:  # seq 5 and 6 were never written
+            f.write(file_header("gcs", links, cat.json_text, first_seq=7, file_index=1)); f.flush()
+            for seq in range(7, 10):
+                f.write(raw(recs[seq], seq)); f.flush(); time.sleep(0.002)
+        done.set()
+
+    t = threading.Thread(target=writer)
+    t.start()
+    stats = ReadStats()
+    got = []
+    for rec in follow(first, poll_s=0.005, stats=stats, stop=lambda: done.is_set() and len(got) >= 8):
+        got.append(rec)
+    t.join()
+    assert [r.seq for r in got] == [0, 1, 2, 3, 4, 7, 8, 9]
+    assert [r.frame for r in got] == [recs[i].frame for i in (0, 1, 2, 3, 4, 7, 8, 9)]
+    assert stats.records == 8 and stats.missing_records == 2 and stats.ignored_bytes == 0
