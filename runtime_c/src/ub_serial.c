@@ -181,12 +181,13 @@ int ub_serial_attach(ub_serial_t *serial, ub_node_t *node, int link_id) {
     return UB_OK;
 }
 
-/* read() returned 0. With VMIN = VTIME = 0 that is also "no data now", so ask poll(): a hung-up or
- * vanished device reports POLLHUP/POLLERR/POLLNVAL, or readable while read() gives 0 (end of file). */
+/* read() returned 0. With VMIN = VTIME = 0 that is also "no data now", so ask poll(): a hung-up tty
+ * (carrier lost, USB adapter gone, the other end of a pty closed) reports POLLHUP (with POLLERR); POLLIN
+ * alone is not enough, since a byte may have arrived just after the read(). */
 static bool at_end_of_file(int fd) {
     struct pollfd p = {.fd = fd, .events = POLLIN};
     if (poll(&p, 1, 0) <= 0) return false;
-    return (p.revents & (POLLHUP | POLLERR | POLLNVAL | POLLIN)) != 0;
+    return (p.revents & (POLLHUP | POLLERR | POLLNVAL)) != 0;
 }
 
 int ub_serial_service(ub_serial_t *serial, ub_node_t *node, uint64_t now_ms) {
