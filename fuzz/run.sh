@@ -3,8 +3,8 @@
 #   fuzz/run.sh BUILD_DIR SECONDS [HARNESS...]        (make fuzz: FUZZ_SECONDS, default 600; make test: 5)
 # Each harness starts from the checked-in corpus fuzz/corpus/<h> and grows its own working corpus in
 # BUILD_DIR/fuzz-out/corpus/<h> (kept between runs, never checked in). A crash leaves its input in
-# BUILD_DIR/fuzz-out/artifacts/ and makes the run fail. Python harnesses under fuzz/python/ (atheris; the
-# CLI and log tools) are run the same way when present, with $UAVBUS_PYTHON (default .venv/bin/python).
+# BUILD_DIR/fuzz-out/artifacts/ and makes the run fail. Python harnesses under fuzz/python/ (the CLI and
+# the log tools) run for the same time with $UAVBUS_PYTHON (default .venv/bin/python).
 set -uo pipefail
 build=${1:?usage: fuzz/run.sh BUILD_DIR SECONDS [HARNESS...]}
 secs=${2:?usage: fuzz/run.sh BUILD_DIR SECONDS [HARNESS...]}
@@ -49,24 +49,24 @@ for h in $harnesses; do
   if [ "$rc" -ne 0 ]; then status=1; tail -30 "$log" >&2; fi
 done
 
-# Python harnesses (atheris), if any were put under fuzz/python/.
+# Python harnesses under fuzz/python/ (the command line and the log tools; docs/tools.md): each takes
+# --seconds N and ends with "<runs> runs in <t> s ...; <k> finding(s)", exit status 1 on a finding.
 py=${UAVBUS_PYTHON:-$here/../.venv/bin/python}
 shopt -s nullglob
 pyh=("$here"/python/fuzz_*.py)
 if [ ${#pyh[@]} -gt 0 ] && [ $# -eq 0 ]; then
-  "$py" -c 'import atheris' 2>/dev/null || "$py" -m pip install -q atheris
   for f in "${pyh[@]}"; do
     name=$(basename "$f" .py)
-    mkdir -p "$out/corpus/$name"
-    seeds=()
-    [ -d "$here/python/corpus/$name" ] && seeds=("$here/python/corpus/$name")
     log=$out/$name.log
     echo "fuzz: $name (python) for ${secs} s"
-    "$py" "$f" -max_total_time="$secs" -print_final_stats=1 -timeout=10 \
-      -artifact_prefix="$out/artifacts/$name-" "$out/corpus/$name" "${seeds[@]}" > "$log" 2>&1
+    "$py" "$f" --seconds "$secs" > "$log" 2>&1
     rc=$?
-    row "$name (python)" "$log" "$rc"
-    if [ "$rc" -ne 0 ]; then status=1; tail -30 "$log" >&2; fi
+    runs=$(sed -n 's/.*: \([0-9]*\) runs in \([0-9.]*\) s.*/\1/p' "$log" | tail -1)
+    took=$(sed -n 's/.*: \([0-9]*\) runs in \([0-9.]*\) s.*/\2/p' "$log" | tail -1)
+    rate=$( [ -n "$runs" ] && [ -n "$took" ] && awk -v r="$runs" -v t="$took" 'BEGIN { if (t > 0) printf "%d", r / t }')
+    result=ok
+    if [ "$rc" -ne 0 ]; then result="FAILED (exit $rc, see $log)"; status=1; tail -30 "$log" >&2; fi
+    echo "| $name (python) | ${runs:-?} | ${rate:-?} | - | - | - | $result |" >> "$report"
   done
 fi
 cat "$report"

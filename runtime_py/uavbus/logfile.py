@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import os
+import struct
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -36,7 +37,9 @@ from uavbus._bindings.ub_frame import FrameHeader, ub_frame_parse
 MAGIC = b"UBLOG2\r\n"
 MAGIC_V1 = b"UBLOG1\r\n"
 FORMAT = ub_log.FORMAT
+FILE_HEADER = struct.Struct("<8sIII")  # magic, meta_len, catalogue_len, crc32c(meta | catalogue)
 RECORD_HEADER_LEN = ub_log.RECORD_HEADER_LEN  # format 2; format 1 records have ub_log.V1_RECORD_HEADER_LEN
+RECORD_HEAD_SPAN = 20  # head_crc covers record[0:20]; it sits at 20, the frame's crc (continued from it) at 24
 DIR_NAMES = ("rx", "tx")
 
 
