@@ -270,7 +270,7 @@ static void test_ports_contracts_and_serial_ports(void **state) {
     assert_int_equal(ub_port_spec_parse(NULL, &spec, err, sizeof err), UB_ERR_INVAL);
     assert_int_equal(ub_port_spec_parse("udp", NULL, err, sizeof err), UB_ERR_INVAL);
     assert_int_equal(ub_port_spec_parse("", &spec, err, sizeof err), UB_ERR_INVAL);
-    assert_int_equal(ub_port_spec_parse("udp:bind=1.2.3.4:5", &spec, NULL, 0), UB_ERR_INVAL); /* no message wanted */
+    assert_int_equal(ub_port_spec_parse("pigeon", &spec, NULL, 0), UB_ERR_INVAL); /* no message wanted */
     assert_int_equal(ub_port_arg_parse(NULL, name, sizeof name, &spec, err, sizeof err), UB_ERR_INVAL);
     assert_int_equal(ub_port_arg_parse("a=mem", NULL, sizeof name, &spec, err, sizeof err), UB_ERR_INVAL);
     assert_int_equal(ub_port_arg_parse("a=mem", name, 0, &spec, err, sizeof err), UB_ERR_INVAL);

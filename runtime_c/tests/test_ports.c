@@ -127,14 +127,11 @@ static void test_messages_never_echo_control_bytes(void **state) {
                              "dotted IPv4 host and a port 0..65535, e.g. 127.0.0.1:5001");
     /* The command-line forms too. */
     assert_int_equal(ub_port_spec_parse("\x1b]0;owned\x07:x=1", &s, err, sizeof err), UB_ERR_INVAL);
-    assert_string_equal(err, "unknown transport '?]0;owned?' (expected udp, tcp, serial or mem, e.g. udp:bind="
-                             "127.0.0.1:0,peer=127.0.0.1:5001 | tcp:listen=127.0.0.1:5001 | tcp:connect=127.0.0.1:5001"
-                             " | serial:device=/dev/ttyUSB0,baud=115200 | mem)");
+    assert_non_null(strstr(err, "unknown transport '?]0;owned?' (expected udp, tcp, serial or mem"));
     char name[64];
-    assert_int_equal(ub_port_arg_parse("l\r\nk=udp:bind=1.2.3.4:5", name, sizeof name, &s, err, sizeof err),
+    assert_int_equal(ub_port_arg_parse("l\r\nk=udp:bind=1.2.3.4", name, sizeof name, &s, err, sizeof err),
                      UB_ERR_INVAL);
-    assert_string_equal(err, "port 'l??k': udp needs both bind=HOST:PORT and peer=HOST:PORT, e.g. "
-                             "udp:bind=127.0.0.1:0,peer=127.0.0.1:5001");
+    assert_non_null(strstr(err, "port 'l??k': 'bind=1.2.3.4': expected HOST:PORT"));
     for (const char *c = err; *c != '\0'; c++) assert_true(*c >= 0x20 && *c < 0x7f);
     free(cfg);
     /* Found by fuzz_nodecfg: a device path with ',' came from a config file, but its spec text (the ready
