@@ -230,8 +230,11 @@ int ub_node_get_mask(const ub_node_t *node, int entity, int dest, uint8_t *mask)
 int ub_node_link_attach(ub_node_t *node, int link_id, const ub_link_ops_t *ops, void *impl) {
     if (node == NULL || !link_id_ok(node, link_id) || ops == NULL || ops->send == NULL) return UB_ERR_INVAL;
     ub_link_t *link = &node->links[link_id];
-    /* Keep the counters across the switch: they describe the port, not the transport. */
+    /* Keep the counters across the switch: they describe the port, not the transport. The bytes the
+     * decoder still holds (a frame the old stream cut) are dropped here, so they are counted as garbage:
+     * bytes_in == bytes_ok + garbage_bytes + pending holds across every re-attach. */
     ub_decoder_stats_t kept = link->decoder.stats;
+    kept.garbage_bytes += ub_decoder_pending(&link->decoder);
     ub_decoder_init(&link->decoder);
     link->decoder.stats = kept;
     link->ops = ops;

@@ -213,7 +213,10 @@ static int cfg_administrators(const cfg_parse_t *c, const ub_json_value_t *list)
     for (int k = 0; ub_json_iter_next(&it, NULL, &v); k++) {
         (void)snprintf(field, sizeof field, "security.administrators[%d]", k);
         size_t n = cfg_string(c, &v, name);
-        if (n == 0 || n > UB_ENTITY_ID_LEN || strchr(name, '*') != NULL || ub_entity_id(name, id) != UB_OK)
+        /* The character check comes first: the name is quoted back below, and must be printable to be
+         * (config-format.md: text from the file is quoted back only when it is safe). Found by fuzz_nodecfg. */
+        if (n == 0 || n > UB_ENTITY_ID_LEN || !ub_policy_pattern_ok(name, UB_ENTITY_ID_LEN) || strchr(name, '*') != NULL
+            || ub_entity_id(name, id) != UB_OK)
             return cfg_fail(c, v.line, NULL, field, "must be an entity name (administrators are named, not patterns)");
         if (!cfg_has_entity(c->cfg, name)) return cfg_fail(c, v.line, NULL, field, "no entity named '%s' in 'entities'", name);
         int rc = ub_policy_add_admin(c->pol, id);

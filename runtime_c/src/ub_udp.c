@@ -266,9 +266,20 @@ static int verdict_rank(ub_rx_verdict_t v) {
     }
 }
 
+/* True when `data` (at least a header long) starts with a header whose checks hold: sync, header check,
+ * version, consistent sizes. Parsing the 64 header bytes alone, a sound header reports the payload as
+ * missing (TRUNCATED), or an empty-payload frame parses whole or fails only its message CRC. */
+static int sound_header(const uint8_t *data) {
+    ub_rx_reason_t why = UB_RX_BAD_SYNC;
+    int rc = ub_frame_parse_reason(data, UB_FRAME_HEADER_LEN, NULL, &why);
+    return rc == UB_OK || rc == UB_ERR_TRUNCATED || (rc == UB_ERR_CHECKSUM && why == UB_RX_BAD_CRC);
+}
+
 /* Hands the frames of one datagram to the node and returns the best verdict among them. Each frame's
- * msg_size says where the next one starts; a single-frame datagram (the common case) is handed whole,
- * so a bad one is still rejected with the decoder's reason, and so is any tail that does not parse. */
+ * msg_size says where the next one starts, but only a sound header's msg_size is trusted: otherwise the
+ * rest of the datagram is handed whole and rejected once (with the decoder's reason), so a garbage
+ * datagram is exactly one rejection, whatever bytes it holds. A single-frame datagram (the common case)
+ * is handed whole without the extra check. */
 static ub_rx_verdict_t hand_datagram(ub_udp_t *udp, ub_node_t *node, const uint8_t *data, size_t len,
                                      uint64_t now_ms) {
     ub_rx_verdict_t best = UB_VERDICT_REFUSED;
@@ -277,7 +288,7 @@ static ub_rx_verdict_t hand_datagram(ub_udp_t *udp, ub_node_t *node, const uint8
         size_t rest = len - off, take = rest;
         if (rest > UB_FRAME_HEADER_LEN) {
             size_t size = ub_get_u16le(data + off + UB_FRAME_OFF_MSG_SIZE);
-            if (size >= UB_FRAME_HEADER_LEN && size < rest) take = size;
+            if (size >= UB_FRAME_HEADER_LEN && size < rest && sound_header(data + off)) take = size;
         }
         udp->stats.frames_in++;
         ub_rx_verdict_t v = UB_VERDICT_REFUSED;

@@ -43,4 +43,4 @@ def test_demo_short_mode_passes_and_writes_its_outputs(program: Path, tmp_path: 
         assert attack["accepted"] == 0 and sum(attack["dropped_as"].values()) == attack["sent"] > 0, attack
     assert {c["name"] for c in doc["checks"] if c["ok"]} >= {f"attack refused: {a['name']}" for a in sec["attacks"]}
     assert not list((tmp_path / "secure" / "keys").glob("*.key"))[0].stat().st_mode & 0o077
-    assert (tmp_path / "gcs1.ublog").read_bytes()[:8] == b"UBLOG1\r\n"
+    assert (tmp_path / "gcs1.ublog").read_bytes()[:8] == b"UBLOG2\r\n"

@@ -361,7 +361,8 @@ UB_CHECK int ub_node_get_mask(const ub_node_t *node, int entity, int dest, uint8
  * Puts transport (`ops`, `impl`) behind link slot `link_id`, replacing any
  * previous one. Entity tables, masks, publish/subscribe state and counters
  * are kept; the slot's stream decoder is reset (its partial bytes belonged to
- * the old transport).
+ * the old transport, and are counted in its garbage_bytes, so the decoder's
+ * bytes_in == bytes_ok + garbage_bytes + pending holds across re-attaches).
  * @return UB_OK, or UB_ERR_INVAL (bad id, NULL ops or ops->send).
  */
 UB_CHECK int ub_node_link_attach(ub_node_t *node, int link_id, const ub_link_ops_t *ops, void *impl);

@@ -5,7 +5,9 @@
  *
  * A datagram carries one frame, or with batching on (ub_udp_set_batching())
  * several whole frames back to back, up to UB_UDP_DATAGRAM_MAX bytes: the
- * frame's msg_size says where the next one starts. ub_udp_service() reads
+ * frame's msg_size says where the next one starts (trusted only when that
+ * frame's header checks hold: a datagram whose header is damaged, or garbage,
+ * is one rejection, never split at a random size). ub_udp_service() reads
  * every datagram waiting (recvmmsg(), UB_UDP_RX_SLOTS per system call, up to
  * UB_UDP_RX_BUDGET per call, so one busy link cannot starve an event loop)
  * and hands each frame to the node with ub_node_rx_frame_verdict(); a frame that
