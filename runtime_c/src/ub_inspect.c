@@ -50,10 +50,13 @@ typedef struct request {
  * a frame whose tag verified when the node has a security context (a forged source ID gets nothing). */
 static bool permitted(const ub_node_t *node, int slot, const request_t *r, bool from_link, bool secured,
                       ub_policy_dir_t dir, bool admin_only, int instance) {
-    if (!from_link || node->policy == NULL) return true;
+    if (!from_link) return true;
     int entity = ub_priv_slot_entity(node, slot);
-    if (ub_node_may_administer(node, entity, r->h->src_id) && (node->sec == NULL || secured)) return true;
+    if (ub_node_may_administer(node, entity, r->h->src_id, secured)) return true;
     if (admin_only) return false;
+    /* Not an administrator: the content's read or write rule. Without a policy, reads are as open as
+     * subscriptions and a write needs the administrator (there is no rule to grant it). */
+    if (node->policy == NULL) return dir == UB_POLICY_READ;
     if (dir == UB_POLICY_READ && !node->policy->read_restricted) return true;
     const char *name = node->cat->instances[instance].name;
     return ub_policy_rule_matches(node->policy, dir, node->entities[entity].id, r->h->src_id, name ? name : "");
@@ -311,7 +314,7 @@ bool ub_priv_inspect_on_request(ub_node_t *node, int slot, const ub_frame_header
     else node->counters.inspect_served++;
     if (!value_sent) {
         (void)ub_priv_send_reply(node, slot, reason != UB_NACK_NONE, h->dir_id, h->src_id, r.id, UB_ADMIN_INSPECT,
-                                 reason != UB_NACK_NONE ? reason : (changed ? 1u : 0u), now_ms);
+                                 reason != UB_NACK_NONE ? reason : (changed ? 1u : 0u), 0, now_ms);
     }
     if (!authorized) {
         *drop = UB_DROP_NOT_AUTHORIZED;

@@ -166,7 +166,6 @@ class Node:
         self._ports: Any = None
         self._pollfds = ffi.new("struct pollfd[]", ub_ports.POLLFD_CAP)
         self._log: Any = None
-        self._log_fd = -1
         self._closed = False
         self.notices: list[str] = []  # one-time notices of the ports (also logged to the "uavbus" logger)
         self.config: Config | None = None
@@ -570,16 +569,14 @@ class Node:
         self._kept.append(transport)
 
     # -- recording -----------------------------------------------------------------------------
-    def record(self, path: str | Path, tx: bool = False) -> None:
-        """Records received (and with tx=True sent) frames to a binary log with the C writer."""
+    def record(self, path: str | Path, tx: bool = False, *, max_bytes: int = 0, max_ms: int = 0,
+               max_files: int = 0) -> None:
+        """Records received (and with tx=True sent) frames to a binary log with the C writer
+        (docs/log-format.md). With max_bytes / max_ms a new file starts when the current one would grow
+        past that size or is that old; max_files keeps the newest files (path, path's .0001, .0002...)."""
         self.stop_recording()
-        fd = os.open(str(path), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
-        try:
-            self._log = ub_log.ub_log_open(fd, self._c, self.name, tx, int(time.time() * 1000), self.now())
-        except Exception:
-            os.close(fd)
-            raise
-        self._log_fd = fd
+        self._log = ub_log.ub_log_open_path(str(path), self._c, self.name, tx, int(time.time() * 1000), self.now(),
+                                            max_bytes=max_bytes, max_ms=max_ms, max_files=max_files)
         if not self._frame_callbacks:  # otherwise the Python tap feeds the log (_Sink.on_tap)
             ub_log.ub_log_install(self._c, self._log)
 
@@ -590,9 +587,8 @@ class Node:
         if not self._frame_callbacks:
             ub_node.set_tap_sink(self._c, None)
         stats = ub_log.ub_log_stats(self._log)
-        ub_log.ub_log_close(self._log)
-        os.close(self._log_fd)
-        self._log, self._log_fd = None, -1
+        ub_log.ub_log_close(self._log)  # closes the file: the writer owns it
+        self._log = None
         return stats
 
     # -- security (docs/security.md) --------------------------------------------------------------
@@ -737,7 +733,9 @@ class Admin:
 
     def status(self, row: int) -> dict[str, Any]:
         """status: "inactive" | "pending" | "acknowledged" | "active" | "failed" | "stopping"; nack_reason:
-        None or the target's reason by name ("table_full", "not_authorized", "limit", ...)."""
+        None or the target's reason by name ("table_full", "not_authorized", "limit", "other_admin": another
+        administrator keeps this flow, ...); nack_relayed: the reason is the source's, relayed by the
+        destination of a subscription row."""
         s = ub_admin.ub_admin_row_status(self._c, row)
         s["content"] = self.node.catalogue.instances[s["instance"]].name
         return s

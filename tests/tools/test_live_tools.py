@@ -63,7 +63,7 @@ def test_echo_follows_a_growing_log(sample_log, tmp_path: Path) -> None:
             f.write(data[:src.header.size]); f.flush()
             for r in src.records():
                 time.sleep(0.002)
-                f.write(record(r.frame, r.t_ms, r.link_id, 0 if r.dir == "rx" else 1)); f.flush()
+                f.write(record(r.frame, r.t_ms, r.link_id, 0 if r.dir == "rx" else 1, seq=r.seq)); f.flush()
 
     t = threading.Thread(target=writer)
     t.start()

@@ -23,6 +23,22 @@
  * PUB_STOP / SUB_STOP remove the entries at both ends. Leases, the choice and
  * the payload layouts are documented in docs/pubsub.md.
  *
+ * Flows outlive their administrator (docs/pubsub.md, "Who keeps a row
+ * alive"): a row an administrator created for a flow between two other
+ * entities (a subscription at the destination, a publication at the source
+ * toward someone else) is a lease only while the administrator renews it.
+ * When that lease lapses the row is handed over to its **keeper**, the
+ * flow's other end: it lives on while the keeper shows signs of life (a
+ * subscription: the source acknowledges its requests; a publication: the
+ * node has a route to the destination) and is reclaimed `expiry_ms` after the
+ * last one. A publication requested by its own destination stays a plain
+ * lease (the destination is its keeper and renews it).
+ *
+ * No silent status: a source's NACK to a subscription set up by an
+ * administrator is relayed to that administrator (NACK flag "relayed"); a
+ * second administrator asking for a row another one keeps alive is answered
+ * NACK OTHER_ADMIN, and never moves or stops the first one's row.
+ *
  * Scheduling: a publication's next send is `previous due + period`, so rates do
  * not drift; after a stall longer than a period it sends once and restarts the
  * schedule from `now` (no burst of missed frames).
@@ -73,12 +89,15 @@ typedef struct ub_pubsub_timing {
     uint32_t lease_ms;       /**< lease written into requests; default 3 * renew_ms */
     uint32_t timeout_min_ms; /**< lower bound of the data timeout; default 500 */
     uint32_t stop_retries;   /**< PUB_STOP attempts before leaving it to the lease; default 10 */
+    uint32_t expiry_ms;      /**< a handed-over row is reclaimed this long after its keeper's last sign of life;
+                                  default 60000 (docs/pubsub.md, "Who keeps a row alive") */
 } ub_pubsub_timing_t;
 
 #define UB_PS_DEFAULT_RETRY_MS 200u
 #define UB_PS_DEFAULT_RENEW_MS 1000u
 #define UB_PS_DEFAULT_TIMEOUT_MIN_MS 500u
 #define UB_PS_DEFAULT_STOP_RETRIES 10u
+#define UB_PS_DEFAULT_EXPIRY_MS 60000u
 
 /** One row. Read it with ub_pubsub_row(); change it only through this API. */
 typedef struct ub_ps_row {
@@ -86,6 +105,11 @@ typedef struct ub_ps_row {
     uint8_t state;                       /**< ub_sub_state_t (subscriptions) */
     uint8_t acked;                       /**< subscription: the source acknowledged a request */
     uint8_t reported_flowing;            /**< a FLOWING status was sent to the owner */
+    uint8_t source_acked;                /**< subscription: the source acknowledged a request since the row's
+                                              last (re)activation, and has not refused one since */
+    uint8_t source_nack;                 /**< subscription: the source's last answer was this NACK reason (0: not a NACK) */
+    uint8_t handed_over;                 /**< the owner's lease lapsed; the row lives on its keeper (counted once) */
+    uint8_t keeper_seen;                 /**< keeper_ms is valid */
     uint32_t instance;                   /**< catalogue instance index (the content) */
     uint8_t peer[UB_ENTITY_ID_LEN];      /**< publication: destination; subscription: source */
     uint8_t owner[UB_ENTITY_ID_LEN];     /**< who created the row remotely; all zero = local API */
@@ -93,7 +117,9 @@ typedef struct ub_ps_row {
     uint32_t request_id;                 /**< id of this row's own requests (subscriptions): random, never 0 */
     uint32_t period_ms;
     uint32_t stop_tries;                 /**< PUB_STOPs sent while STOPPING */
-    uint64_t lease_until_ms;             /**< 0 = no lease (created through this API) */
+    uint64_t lease_until_ms;             /**< owner's lease; 0 = no lease (created through this API, or asked so) */
+    uint64_t keeper_ms;                  /**< last sign of life of the row's keeper (subscription: the source's
+                                              ACK or DATA; publication: a route to the destination) */
     uint64_t next_due_ms;                /**< publication: next DATA; subscription: next request */
     uint64_t last_data_ms;               /**< subscription: last DATA received */
     uint64_t frames;                     /**< publication: DATA sent; subscription: DATA received */

@@ -18,6 +18,7 @@ typedef struct ub_pubsub_timing {
     uint32_t lease_ms;
     uint32_t timeout_min_ms;
     uint32_t stop_retries;
+    uint32_t expiry_ms;
     ...;
 } ub_pubsub_timing_t;
 
@@ -57,6 +58,9 @@ typedef struct ub_node_counters {
     uint64_t dedup_cleared;
     uint64_t membership_applied;
     uint64_t membership_refused;
+    uint64_t handovers;
+    uint64_t nacks_relayed;
+    uint64_t other_admin;
     uint64_t inspect_served;
     uint64_t inspect_refused;
     uint64_t drops[...];

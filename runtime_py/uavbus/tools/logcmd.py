@@ -61,10 +61,14 @@ def _check_only(contents: Contents, only: list[str] | None, path: str) -> set[st
 
 
 def _truncation_note(log: LogReader) -> str:
+    """What the reader skipped (damage, a cut tail) and what the sequence numbers say is missing; "" if none."""
     s = log.stats
-    if not s.ignored_bytes:
-        return ""
-    return f"{log.path}: ignored the last {s.ignored_bytes} bytes: {s.ignored_reason}"
+    parts = []
+    if s.ignored_bytes:
+        parts.append(f"ignored {s.ignored_bytes} bytes: {s.ignored_reason}")
+    if s.missing_records:
+        parts.append(f"{s.missing_records} records missing by their sequence numbers (not written, or lost to damage)")
+    return f"{log.path}: " + "; ".join(parts) if parts else ""
 
 
 def cmd_info(args: argparse.Namespace, out: IO[str]) -> int:
@@ -110,7 +114,7 @@ def cmd_info(args: argparse.Namespace, out: IO[str]) -> int:
         print(f"bad frames: {log.stats.bad_frames} (record CRC held, frame check failed: {log.stats.by_reason})",
               file=out)
     note = _truncation_note(log)
-    print("tail:       " + (note or "complete (no truncated record)"), file=out)
+    print("damage:     " + (note or "none (nothing skipped, nothing missing)"), file=out)
     return 0
 
 
