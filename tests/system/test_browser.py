@@ -80,3 +80,27 @@ def test_policy_refusal_shows_its_reason(hitl_opts: HitlOptions, tmp_path: Path)
         with pytest.raises(RefusedError) as refused:
             fcs.table("links")  # tables are the administrators'
         assert refused.value.reason == "not_authorized"
+
+
+def test_cli_get_and_set_against_c_process(hitl_opts: HitlOptions) -> None:
+    import subprocess
+    import sys
+
+    hitl_opts.start_gcs = False  # the CLI is the GCS: it hosts gcs1 on its UDP datalink
+    with Hitl(hitl_opts) as h:
+        assert h.topo is not None
+        spec = h.topo.specs("gcs")["gcsPortDatalink1"]
+        common = ["--config", str(hitl_opts.config), "--node", "gcs", "--catalogue", str(h.catalogue_path),
+                  "--port", f"gcsPortDatalink1={spec}"]
+
+        def cli(*args: str) -> subprocess.CompletedProcess:
+            return subprocess.run([sys.executable, "-m", "uavbus.cli", *args, *common], capture_output=True,
+                                  text=True, timeout=30)
+
+        r = cli("set", "fcs20", "airData.outsideAirTempC", "21.5")
+        assert r.returncode == 0 and json.loads(r.stdout) == {"changed": True}, r.stderr
+        r = cli("get", "fcs20", "airData.outsideAirTempC")
+        assert r.returncode == 0 and json.loads(r.stdout) == pytest.approx(21.5), r.stderr
+        r = cli("get", "fcs20", "airData.noSuchField")
+        assert r.returncode == 2 or r.returncode == 3 or r.returncode == 1, r
+        assert r.stderr.count("\n") == 1 and "noSuchField" in r.stderr
