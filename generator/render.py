@@ -459,6 +459,7 @@ class BindBase:
     c_type: str
     base: str
     dims: tuple[int, ...]
+    declare: bool  # defined in a `.c` input: NAME.h does not declare it, the table must
 
 
 def bind_bases(cat: Catalogue) -> list[BindBase]:
@@ -468,16 +469,19 @@ def bind_bases(cat: Catalogue) -> list[BindBase]:
     out: dict[str, BindBase] = {}
     for inst in cat.instances:
         t = cat.type(inst.type)
-        if inst.qualifier is not None or t.c_name is None:
+        if not bindable(inst, cat):
             continue
         old = out.get(inst.base)
         dims = tuple(i + 1 for i in inst.index)
         if old is not None:
             dims = tuple(max(a, b) for a, b in zip(old.dims, dims))
-        out[inst.base] = BindBase(t.c_name, inst.base, dims)
+        out[inst.base] = BindBase(t.c_name, inst.base, dims, str(inst.loc.file).endswith(".c"))
     return list(out.values())
 
 
 def bindable(inst: "model.Instance", cat: Catalogue) -> bool:
-    return inst.qualifier is None and cat.type(inst.type).c_name is not None
+    # Catalogued from a `.c` input: its declaration in NAME.h (if any) may differ (const, bounds), and
+    # redeclaring it could conflict, so it is bound by hand. Header-declared instances are marked weak.
+    return (inst.qualifier is None and cat.type(inst.type).c_name is not None
+            and not str(inst.loc.file).endswith(".c"))
 

@@ -183,12 +183,12 @@ const ub_catalogue_t kinds_catalogue = {
  * pull an object file out of a static library: the program links the file that defines its
  * directories (as it does to use them). Other compilers get an empty table: bind by hand there. */
 #if defined(__GNUC__) || defined(__clang__)
-extern struct packed_hdr hdr1 __attribute__((weak));
-extern struct all_kinds kinds __attribute__((weak));
-extern struct vec3 lattice[2][2] __attribute__((weak));
-extern struct vec3 macro_set __attribute__((weak));
-extern struct empty_set nothing __attribute__((weak));
-extern waypoint_t waypoints[3] __attribute__((weak));
+#pragma weak hdr1
+#pragma weak kinds
+#pragma weak lattice
+#pragma weak macro_set
+#pragma weak nothing
+#pragma weak waypoints
 void *const kinds_storage[11] = {
     (void *)&hdr1,
     (void *)&kinds,

@@ -100,8 +100,8 @@ const ub_catalogue_t navcat_catalogue = {
  * pull an object file out of a static library: the program links the file that defines its
  * directories (as it does to use them). Other compilers get an empty table: bind by hand there. */
 #if defined(__GNUC__) || defined(__clang__)
-extern struct nav_state onboardSet __attribute__((weak));
-extern position_t waypoint[2][2] __attribute__((weak));
+#pragma weak onboardSet
+#pragma weak waypoint
 void *const navcat_storage[5] = {
     (void *)&onboardSet,
     (void *)&waypoint[0][0],
