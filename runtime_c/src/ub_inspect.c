@@ -65,12 +65,7 @@ static bool permitted(const ub_node_t *node, int slot, const request_t *r, bool 
 static void send_value(ub_node_t *node, int slot, const request_t *r, uint16_t total, uint16_t next,
                        const uint8_t *data, size_t len, uint64_t now_ms) {
     uint8_t p[UB_MAX_PAYLOAD];
-    ub_put_u32le(p + UB_INSPECT_VAL_ID, r->id);
-    p[UB_INSPECT_VAL_OP] = r->op;
-    p[UB_INSPECT_VAL_ARG] = r->arg;
-    ub_put_u16le(p + UB_INSPECT_VAL_OFFSET, r->offset);
-    ub_put_u16le(p + UB_INSPECT_VAL_TOTAL, total);
-    ub_put_u16le(p + UB_INSPECT_VAL_NEXT, next);
+    ub_inspect_put_value_head(p, r->id, r->op, r->arg, r->offset, total, next);
     memcpy(p + UB_INSPECT_VAL_DATA, data, len);
     (void)ub_priv_send_admin(node, slot, UB_ADMIN_INSPECT_VALUE, r->h->dir_id, r->h->fingerprint, r->h->src_id, p,
                              (uint16_t)(UB_INSPECT_VAL_DATA + len), now_ms);
@@ -132,56 +127,114 @@ static uint8_t serve_write(ub_node_t *node, int slot, const request_t *r, int in
     return UB_NACK_NONE;
 }
 
-static size_t put_entity(const ub_node_t *node, int slot, int e, uint8_t *p) {
+/* ---- payload layouts (pure; docs/inspect.md, tests/vectors/inspect.json) ---------------------------- */
+
+void ub_inspect_put_value_head(uint8_t p[UB_INSPECT_VAL_DATA], uint32_t request_id, uint8_t op, uint8_t arg,
+                               uint16_t offset, uint16_t total, uint16_t next) {
+    ub_put_u32le(p + UB_INSPECT_VAL_ID, request_id);
+    p[UB_INSPECT_VAL_OP] = op;
+    p[UB_INSPECT_VAL_ARG] = arg;
+    ub_put_u16le(p + UB_INSPECT_VAL_OFFSET, offset);
+    ub_put_u16le(p + UB_INSPECT_VAL_TOTAL, total);
+    ub_put_u16le(p + UB_INSPECT_VAL_NEXT, next);
+}
+
+void ub_inspect_put_entity_rec(uint8_t p[UB_INSPECT_ENTITY_REC], const ub_inspect_entity_rec_t *r) {
     memset(p, 0, UB_INSPECT_ENTITY_REC);
-    memcpy(p, node->entities[e].id, UB_ENTITY_ID_LEN);
-    p[12] = node->entities[e].local >= 0;
-    p[13] = node->locals[slot].masks[e];
-    p[14] = node->locals[slot].pinned[e];
+    memcpy(p, r->id, UB_ENTITY_ID_LEN);
+    p[12] = r->local;
+    p[13] = r->mask;
+    p[14] = r->pinned;
+}
+
+void ub_inspect_put_link_rec(uint8_t p[UB_INSPECT_LINK_REC], const ub_inspect_link_rec_t *r) {
+    memset(p, 0, UB_INSPECT_LINK_REC);
+    memcpy(p, r->name, strnlen(r->name, UB_LINK_NAME_LEN));
+    p[32] = r->index;
+    p[33] = r->attached;
+    const uint32_t counters[6] = {r->frames_in, r->frames_out, r->bytes_in, r->bytes_out, r->drops, r->accepted};
+    for (int k = 0; k < 6; k++) ub_put_u32le(p + 36 + 4 * k, counters[k]);
+}
+
+void ub_inspect_put_pubsub_rec(uint8_t p[UB_INSPECT_PUBSUB_REC], const ub_inspect_pubsub_rec_t *r) {
+    ub_put_u16le(p, r->row);
+    p[2] = r->kind;
+    p[3] = r->state;
+    memcpy(p + 4, r->dir_id, UB_DIR_ID_LEN);
+    memcpy(p + 20, r->peer, UB_ENTITY_ID_LEN);
+    memcpy(p + 32, r->owner, UB_ENTITY_ID_LEN);
+    ub_put_u32le(p + 44, r->period_ms);
+    ub_put_u32le(p + 48, r->frames);
+}
+
+void ub_inspect_put_admin_rec(uint8_t p[UB_INSPECT_ADMIN_REC], const ub_inspect_admin_rec_t *r) {
+    ub_put_u16le(p, r->row);
+    p[2] = r->type;
+    p[3] = r->status;
+    memcpy(p + 4, r->dir_id, UB_DIR_ID_LEN);
+    memcpy(p + 20, r->source, UB_ENTITY_ID_LEN);
+    memcpy(p + 32, r->destination, UB_ENTITY_ID_LEN);
+    ub_put_u32le(p + 44, r->period_ms);
+    p[48] = r->active;
+    p[49] = r->nack_reason;
+    p[50] = p[51] = 0;
+}
+
+size_t ub_inspect_put_request(uint8_t *p, size_t cap, uint32_t request_id, const ub_inspect_spec_t *s) {
+    size_t extra = s->op == UB_INSPECT_WRITE ? s->len : s->op == UB_INSPECT_SET_MASK ? UB_ENTITY_ID_LEN : 0;
+    if (p == NULL || s == NULL || extra > UB_INSPECT_CHUNK || cap < UB_INSPECT_REQ_DATA + extra) return 0;
+    ub_put_u32le(p + UB_INSPECT_REQ_ID, request_id);
+    p[UB_INSPECT_REQ_OP] = s->op;
+    p[UB_INSPECT_REQ_ARG] = s->arg;
+    ub_put_u16le(p + UB_INSPECT_REQ_OFFSET, s->offset);
+    ub_put_u32le(p + UB_INSPECT_REQ_VALUE, s->value);
+    if (s->op == UB_INSPECT_WRITE) memcpy(p + UB_INSPECT_REQ_DATA, s->data, s->len);
+    if (s->op == UB_INSPECT_SET_MASK) memcpy(p + UB_INSPECT_REQ_DATA, s->subject, UB_ENTITY_ID_LEN);
+    return UB_INSPECT_REQ_DATA + extra;
+}
+
+/* ---- records of the node's tables ------------------------------------------------------------------ */
+
+static size_t put_entity(const ub_node_t *node, int slot, int e, uint8_t *p) {
+    ub_inspect_entity_rec_t r = {.local = node->entities[e].local >= 0, .mask = node->locals[slot].masks[e],
+                                 .pinned = node->locals[slot].pinned[e]};
+    memcpy(r.id, node->entities[e].id, UB_ENTITY_ID_LEN);
+    ub_inspect_put_entity_rec(p, &r);
     return UB_INSPECT_ENTITY_REC;
 }
 
 static size_t put_link(const ub_node_t *node, int link_id, uint8_t *p) {
     const ub_link_t *l = &node->links[link_id];
-    memset(p, 0, UB_INSPECT_LINK_REC);
-    memcpy(p, l->name, strnlen(l->name, UB_LINK_NAME_LEN));
-    p[32] = l->index;
-    p[33] = l->ops != NULL;
     uint64_t drops = 0;
     for (int d = 0; d < UB_DROP_REASON_COUNT; d++) drops += l->counters.drops[d];
-    ub_put_u32le(p + 36, sat32(l->counters.frames_in));
-    ub_put_u32le(p + 40, sat32(l->counters.frames_out));
-    ub_put_u32le(p + 44, sat32(l->counters.bytes_in));
-    ub_put_u32le(p + 48, sat32(l->counters.bytes_out));
-    ub_put_u32le(p + 52, sat32(drops));
-    ub_put_u32le(p + 56, sat32(l->counters.frames_accepted));
+    ub_inspect_link_rec_t r = {.index = l->index, .attached = l->ops != NULL,
+                               .frames_in = sat32(l->counters.frames_in), .frames_out = sat32(l->counters.frames_out),
+                               .bytes_in = sat32(l->counters.bytes_in), .bytes_out = sat32(l->counters.bytes_out),
+                               .drops = sat32(drops), .accepted = sat32(l->counters.frames_accepted)};
+    memcpy(r.name, l->name, UB_LINK_NAME_LEN);
+    ub_inspect_put_link_rec(p, &r);
     return UB_INSPECT_LINK_REC;
 }
 
 static size_t put_pubsub(const ub_node_t *node, int r, const ub_ps_row_t *row, uint8_t *p) {
-    memset(p, 0, UB_INSPECT_PUBSUB_REC);
-    ub_put_u16le(p, (uint16_t)r);
-    p[2] = row->kind;
-    p[3] = row->kind == UB_PS_SUBSCRIPTION ? row->state : row->reported_flowing;
-    memcpy(p + 4, node->cat->instances[row->instance].id, UB_DIR_ID_LEN);
-    memcpy(p + 20, row->peer, UB_ENTITY_ID_LEN);
-    memcpy(p + 32, row->owner, UB_ENTITY_ID_LEN);
-    ub_put_u32le(p + 44, row->period_ms);
-    ub_put_u32le(p + 48, sat32(row->frames));
+    ub_inspect_pubsub_rec_t rec = {.row = (uint16_t)r, .kind = row->kind,
+                                   .state = row->kind == UB_PS_SUBSCRIPTION ? row->state : row->reported_flowing,
+                                   .period_ms = row->period_ms, .frames = sat32(row->frames)};
+    memcpy(rec.dir_id, node->cat->instances[row->instance].id, UB_DIR_ID_LEN);
+    memcpy(rec.peer, row->peer, UB_ENTITY_ID_LEN);
+    memcpy(rec.owner, row->owner, UB_ENTITY_ID_LEN);
+    ub_inspect_put_pubsub_rec(p, &rec);
     return UB_INSPECT_PUBSUB_REC;
 }
 
 static size_t put_admin(const ub_node_t *node, int r, const ub_admin_row_info_t *info, uint8_t *p) {
-    memset(p, 0, UB_INSPECT_ADMIN_REC);
-    ub_put_u16le(p, (uint16_t)r);
-    p[2] = (uint8_t)info->spec.type;
-    p[3] = (uint8_t)info->status;
-    memcpy(p + 4, node->cat->instances[info->spec.instance].id, UB_DIR_ID_LEN);
-    memcpy(p + 20, info->spec.source, UB_ENTITY_ID_LEN);
-    memcpy(p + 32, info->spec.destination, UB_ENTITY_ID_LEN);
-    ub_put_u32le(p + 44, info->spec.period_ms);
-    p[48] = info->active_flag;
-    p[49] = (uint8_t)info->nack_reason;
+    ub_inspect_admin_rec_t rec = {.row = (uint16_t)r, .type = (uint8_t)info->spec.type, .status = (uint8_t)info->status,
+                                  .period_ms = info->spec.period_ms, .active = info->active_flag,
+                                  .nack_reason = (uint8_t)info->nack_reason};
+    memcpy(rec.dir_id, node->cat->instances[info->spec.instance].id, UB_DIR_ID_LEN);
+    memcpy(rec.source, info->spec.source, UB_ENTITY_ID_LEN);
+    memcpy(rec.destination, info->spec.destination, UB_ENTITY_ID_LEN);
+    ub_inspect_put_admin_rec(p, &rec);
     return UB_INSPECT_ADMIN_REC;
 }
 
@@ -394,26 +447,13 @@ const ub_inspect_counters_t *ub_inspect_counters(const ub_inspect_t *in) { retur
 static void send_request(ub_inspect_t *in, const ub_inspect_row_t *row, uint64_t now_ms) {
     const ub_inspect_spec_t *s = &row->spec;
     uint8_t p[UB_MAX_PAYLOAD];
-    memset(p, 0, UB_INSPECT_REQ_DATA);
-    ub_put_u32le(p + UB_INSPECT_REQ_ID, row->result.request_id);
-    p[UB_INSPECT_REQ_OP] = s->op;
-    p[UB_INSPECT_REQ_ARG] = s->arg;
-    ub_put_u16le(p + UB_INSPECT_REQ_OFFSET, s->offset);
-    ub_put_u32le(p + UB_INSPECT_REQ_VALUE, s->value);
-    uint16_t len = UB_INSPECT_REQ_DATA;
+    uint16_t len = (uint16_t)ub_inspect_put_request(p, sizeof p, row->result.request_id, s);
     uint8_t dir[UB_DIR_ID_LEN] = {0};
     uint32_t fingerprint = 0;
     if (s->op == UB_INSPECT_READ || s->op == UB_INSPECT_WRITE) {
         const ub_instance_desc_t *inst = &in->node->cat->instances[s->instance];
         memcpy(dir, inst->id, UB_DIR_ID_LEN);
         fingerprint = inst->type->fingerprint;
-    }
-    if (s->op == UB_INSPECT_WRITE) {
-        memcpy(p + len, s->data, s->len);
-        len = (uint16_t)(len + s->len);
-    } else if (s->op == UB_INSPECT_SET_MASK) {
-        memcpy(p + len, s->subject, UB_ENTITY_ID_LEN);
-        len = (uint16_t)(len + UB_ENTITY_ID_LEN);
     }
     int slot = ub_priv_local_slot(in->node, in->entity);
     (void)ub_priv_send_admin(in->node, slot, UB_ADMIN_INSPECT, dir, fingerprint, s->target, p, len, now_ms);

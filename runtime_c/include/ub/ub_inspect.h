@@ -106,6 +106,54 @@ typedef enum ub_inspect_admin_field {
 /** @return a static name ("read", "list", ...) for an operation, "?" if unknown. */
 const char *ub_inspect_op_name(ub_inspect_op_t op);
 
+/* ---- payload layouts (docs/inspect.md), as pure encoders: the requester and the server use them, and
+ * tests/vectors/inspect.json pins them byte for byte ---------------------------------------------------- */
+
+/** An entity table record (LIST entities). */
+typedef struct ub_inspect_entity_rec {
+    uint8_t id[UB_ENTITY_ID_LEN];
+    uint8_t local;  /**< hosted by the answering node */
+    uint8_t mask;   /**< the target's link mask toward this entity */
+    uint8_t pinned; /**< the mask is pinned (routing leaves it) */
+} ub_inspect_entity_rec_t;
+
+/** A link record (LIST links); counters saturate at UINT32_MAX. */
+typedef struct ub_inspect_link_rec {
+    char name[UB_LINK_NAME_LEN]; /**< NUL-padded, not necessarily NUL-terminated */
+    uint8_t index, attached;
+    uint32_t frames_in, frames_out, bytes_in, bytes_out, drops, accepted;
+} ub_inspect_link_rec_t;
+
+/** A publish/subscribe row record (LIST pubsub). */
+typedef struct ub_inspect_pubsub_rec {
+    uint16_t row;
+    uint8_t kind, state; /**< kind: 1 publication, 2 subscription */
+    uint8_t dir_id[UB_DIR_ID_LEN];
+    uint8_t peer[UB_ENTITY_ID_LEN];
+    uint8_t owner[UB_ENTITY_ID_LEN]; /**< zero: the local API */
+    uint32_t period_ms, frames;
+} ub_inspect_pubsub_rec_t;
+
+/** An administration row record (LIST admin). */
+typedef struct ub_inspect_admin_rec {
+    uint16_t row;
+    uint8_t type, status; /**< type: 0 publication, 1 subscription; status: ub_admin_status_t */
+    uint8_t dir_id[UB_DIR_ID_LEN];
+    uint8_t source[UB_ENTITY_ID_LEN];
+    uint8_t destination[UB_ENTITY_ID_LEN];
+    uint32_t period_ms;
+    uint8_t active, nack_reason;
+} ub_inspect_admin_rec_t;
+
+void ub_inspect_put_entity_rec(uint8_t p[UB_INSPECT_ENTITY_REC], const ub_inspect_entity_rec_t *r);
+void ub_inspect_put_link_rec(uint8_t p[UB_INSPECT_LINK_REC], const ub_inspect_link_rec_t *r);
+void ub_inspect_put_pubsub_rec(uint8_t p[UB_INSPECT_PUBSUB_REC], const ub_inspect_pubsub_rec_t *r);
+void ub_inspect_put_admin_rec(uint8_t p[UB_INSPECT_ADMIN_REC], const ub_inspect_admin_rec_t *r);
+
+/** Writes the fixed part of an INSPECT_VALUE payload (UB_INSPECT_VAL_DATA bytes); the data follows. */
+void ub_inspect_put_value_head(uint8_t p[UB_INSPECT_VAL_DATA], uint32_t request_id, uint8_t op, uint8_t arg,
+                               uint16_t offset, uint16_t total, uint16_t next);
+
 /** One request, as the operator enters it. */
 typedef struct ub_inspect_spec {
     uint8_t op;                       /**< ub_inspect_op_t */
@@ -173,6 +221,12 @@ typedef struct ub_inspect {
     ub_inspect_row_t rows[UB_MAX_INSPECT_REQUESTS];
     ub_inspect_counters_t counters;
 } ub_inspect_t;
+
+/**
+ * Writes the INSPECT payload of `spec` with `request_id` into `p` (`cap` bytes): the fixed part, then
+ * WRITE's data or SET_MASK's subject. @return its length, or 0 if it does not fit in `cap`.
+ */
+size_t ub_inspect_put_request(uint8_t *p, size_t cap, uint32_t request_id, const ub_inspect_spec_t *spec);
 
 /**
  * Initialises `in` and attaches it to `node` (one per node; replaces any
