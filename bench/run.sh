@@ -190,6 +190,12 @@ cmake --build "$build/fleet-node" --target uavbus_node >/dev/null
 timed fleet "$VPY" bench/fleet_procs.py "$build/fleet-node/examples/node/uavbus_node" 30 --out "$build/fleet-procs" \
   >>"$raw/fleet.txt" 2>"$raw/fleet_procs.log"
 
+# ---- figure 10: remote inspection (issue 16): one-shot read over 1 and 2 hops, Table 2 processes ----
+say "figure 10: remote read round trip over 1 and 2 hops"
+[ -d build ] || cmake -S . -B build -G Ninja -DUAVBUS_PYTHON="$VPY" >/dev/null   # the node Hitl runs (sim.build)
+cmake --build build --target uavbus_node >/dev/null
+timed inspect "$VPY" bench/inspect_bench.py --n "${INSPECT_N:-300}" >"$raw/inspect.txt" 2>"$raw/inspect.log"
+
 # ---- internals kept from the first bench (frame codec, router costs, false-accept rate) ----
 "$build/runtime_c/ub_frame_bench" >"$raw/frame_bench.txt"
 "$build/runtime_c/ub_router_bench" >"$raw/router_bench.txt"
