@@ -9,7 +9,6 @@ mask changed, and a policy's refusal with its reason.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 
@@ -63,13 +62,8 @@ def test_read_write_tables_rate_and_mask_two_hops(hitl_opts: HitlOptions) -> Non
         assert h.gcs.counters()["drops"]["bad_payload"] == 0
 
 
-def test_policy_refusal_shows_its_reason(hitl_opts: HitlOptions, tmp_path: Path) -> None:
-    # Only rmax1ob2 administers; gcs1 may write fcsSet into fcs20 and nothing else; reads are open.
-    cfg = json.loads(Path(hitl_opts.config).read_text())
-    cfg["security"] = {"administrators": ["rmax1ob2"], "write": {"fcs20": [{"from": "gcs1", "content": "fcsSet"}]}}
-    path = tmp_path / "table2_browser_policy.json"
-    path.write_text(json.dumps(cfg))
-    hitl_opts.config = path
+def test_policy_refusal_shows_its_reason(browser_policy_opts: HitlOptions) -> None:
+    hitl_opts = browser_policy_opts  # only rmax1ob2 administers; gcs1 may write fcsSet into fcs20; reads open
     with Hitl(hitl_opts) as h:
         fcs = h.gcs.remote("fcs20")
         assert "time" in fcs.get("gpsOutBackup")  # reads are open

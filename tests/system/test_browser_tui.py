@@ -9,7 +9,6 @@ confirmation, and sees the reason of a policy's refusal.
 from __future__ import annotations
 
 import asyncio
-import json
 from pathlib import Path
 from typing import Any
 
@@ -102,13 +101,9 @@ def test_tui_reads_tables_and_changes_a_rate_two_hops(hitl_opts: HitlOptions) ->
         assert h.meter("imuOut", "fcs20").rate_hz(t0, t0 + 1.0) > 30.0  # 50 Hz asked, 10 Hz before
 
 
-def test_tui_shows_a_policy_refusal_and_its_reason(hitl_opts: HitlOptions, tmp_path: Path) -> None:
-    # Only rmax1ob2 administers; gcs1 may write fcsSet into fcs20 and nothing else; reads are open.
-    cfg = json.loads(Path(hitl_opts.config).read_text())
-    cfg["security"] = {"administrators": ["rmax1ob2"], "write": {"fcs20": [{"from": "gcs1", "content": "fcsSet"}]}}
-    path = tmp_path / "table2_browser_policy.json"
-    path.write_text(json.dumps(cfg))
-    hitl_opts.config = path
+def test_tui_shows_a_policy_refusal_and_its_reason(browser_policy_opts: HitlOptions) -> None:
+    hitl_opts = browser_policy_opts  # only rmax1ob2 administers; gcs1 may write fcsSet into fcs20; reads open
+    path = Path(hitl_opts.config)
     with Hitl(hitl_opts) as h:
         async def scenario() -> None:
             app = BrowserApp(session_of(h, path), live_s=60.0)

@@ -19,6 +19,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from make_frame_vectors import dir_id, entity_id  # noqa: E402  (the IDs of the independent frame reference)
+
 OUTPUT = Path(__file__).with_name("inspect.json")
 OPS = {"read": 1, "write": 2, "list": 3, "set_period": 4, "set_mask": 5, "admin_row": 6}
 TABLES = {"entities": 1, "links": 2, "pubsub": 3, "admin": 4}
@@ -33,20 +36,6 @@ KINDS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "pubsub": (("row", "kind", "state", "period_ms", "frames"), ("dir_id", "peer", "owner")),
     "admin": (("row", "type", "status", "period_ms", "active", "nack_reason"), ("dir_id", "source", "destination")),
 }
-
-
-def entity_id(name: str) -> bytes:
-    raw = name.encode("ascii")
-    assert len(raw) <= 12
-    return raw.ljust(12, b"\0")
-
-
-def dir_id(name: str) -> bytes:
-    raw = name.encode("ascii")
-    if len(raw) <= 8:
-        half = raw.ljust(8, b"\0")
-        return half + half
-    return raw[:8] + raw[-8:].rjust(8, b"\0")
 
 
 def encode(kind: str, f: dict[str, Any]) -> bytes:
