@@ -154,6 +154,8 @@ const char *ub_rx_reason_name(ub_rx_reason_t reason) {
     case UB_RX_BAD_LENGTH: return "bad_length";
     case UB_RX_BAD_VERSION: return "bad_version";
     case UB_RX_BAD_SYNC: return "bad_sync";
+    case UB_RX_NO_DICTIONARY: return "no_dictionary";
+    case UB_RX_NO_REFERENCE: return "no_reference";
     case UB_RX_REASON_COUNT: break;
     }
     return "?";
@@ -165,7 +167,8 @@ void ub_decoder_init(ub_decoder_t *d) {
     memset(&d->stats, 0, sizeof d->stats);
 }
 
-size_t ub_decoder_pending(const ub_decoder_t *d) { return d == NULL ? 0 : d->have; }
+/* (A compact link's decoder marks an overlong packet being skipped with a `have` beyond the buffer: nothing pending.) */
+size_t ub_decoder_pending(const ub_decoder_t *d) { return d == NULL || d->have > sizeof d->buf ? 0 : d->have; }
 
 static void deliver(ub_decoder_t *d, const uint8_t *f, size_t frame_len, ub_frame_cb cb, void *user) {
     d->stats.frames_ok++;
