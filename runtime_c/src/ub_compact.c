@@ -387,6 +387,15 @@ void ub_compact_init(ub_compact_t *s, const ub_catalogue_t *cat, uint32_t epoch,
     s->cat_hash = ub_compact_catalogue_hash(cat);
 }
 
+/* A round at once: for events that happen once per peer epoch (first contact, a restart, the peer's list
+ * complete), so they cannot make a storm. */
+static void schedule_now(ub_compact_t *s, uint64_t now_ms) {
+    s->started = 1;
+    if (now_ms < s->next_round_ms) s->next_round_ms = now_ms;
+}
+
+/* A round soon, at most one per retry_ms: for what a peer or a line fault may repeat (echo mismatch, packets
+ * this end could not expand). */
 static void schedule_soon(ub_compact_t *s, uint64_t now_ms) {
     uint64_t at = s->last_round_ms + s->params.retry_ms;
     if (!s->started || at < now_ms) at = now_ms;
@@ -517,6 +526,9 @@ static bool take_packet(ub_compact_t *s, const uint8_t *seg, size_t n, uint64_t 
         return false;
     }
     s->stats.rx_frames++;
+    /* Traffic from a peer whose LINK_HELLO we never took in (lost, or dropped while its freshness was being
+     * established): announce ourselves again soon, which makes it answer. */
+    if (!s->peer_heard) schedule_soon(s, now_ms);
     if (cb != NULL) cb(user, &h, frame, (size_t)len, (pkt[0] & UB_COMPACT_EXT) && (pkt[1] & UB_COMPACT_SEQ32));
     return true;
 }
@@ -649,7 +661,7 @@ int ub_compact_on_hello(ub_compact_t *s, const uint8_t *payload, size_t len, uin
         s->peer_epoch = epoch;
         s->peer_refs_lost = refs_lost;
         s->peer_heard = 1;
-        schedule_soon(s, now_ms);
+        schedule_now(s, now_ms);
     }
     if (refs_lost != s->peer_refs_lost) { /* the peer lacked references: send all 32 bits again */
         reset_tx_refs(s);
@@ -675,7 +687,7 @@ int ub_compact_on_hello(ub_compact_t *s, const uint8_t *payload, size_t len, uin
     if (ub_compact_list_hash((const uint8_t(*)[UB_ENTITY_ID_LEN])s->peer_ids, total) == list) {
         s->peer_list_ok = 1;
         s->stats.peer_lists++;
-        schedule_soon(s, now_ms); /* echo it promptly, so the peer starts using indices */
+        schedule_now(s, now_ms); /* echo it at once, so the peer starts using indices */
     } else {
         s->stats.hello_bad++;
         memset(s->peer_pages, 0, sizeof s->peer_pages);

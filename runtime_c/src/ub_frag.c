@@ -68,7 +68,7 @@ void ub_frag_init(ub_frag_t *f, const ub_frag_params_t *params, uint16_t first_t
     for (size_t i = 0; i < UB_FRAG_TX_SLOTS; i++) f->tx[i].in_use = 0;
 }
 
-static void start(ub_frag_rx_t *r, int slot, const uint8_t src[UB_ENTITY_ID_LEN], const uint8_t dir_id[UB_DIR_ID_LEN],
+static void start(ub_frag_t *f, ub_frag_rx_t *r, int slot, const uint8_t src[UB_ENTITY_ID_LEN], const uint8_t dir_id[UB_DIR_ID_LEN],
                   uint32_t fingerprint, const ub_frag_info_t *fi) {
     r->in_use = 1;
     r->slot = (int8_t)slot;
@@ -80,6 +80,7 @@ static void start(ub_frag_rx_t *r, int slot, const uint8_t src[UB_ENTITY_ID_LEN]
     r->total = fi->total;
     r->received = 0;
     memset(r->have, 0, sizeof r->have);
+    f->stats.rx_started++;
 }
 
 int ub_frag_take(ub_frag_t *f, int slot, const uint8_t src[UB_ENTITY_ID_LEN], const uint8_t dir_id[UB_DIR_ID_LEN],
@@ -100,7 +101,7 @@ int ub_frag_take(ub_frag_t *f, int slot, const uint8_t src[UB_ENTITY_ID_LEN], co
     if (r != NULL && (r->count != fi.count || r->total != fi.total || r->fingerprint != fingerprint ||
                       memcmp(r->dir_id, dir_id, UB_DIR_ID_LEN) != 0)) {
         f->stats.rx_restarted++; /* a reused transfer number, or a forgery: never mix the two */
-        start(r, slot, src, dir_id, fingerprint, &fi);
+        start(f, r, slot, src, dir_id, fingerprint, &fi);
     }
     if (r == NULL) {
         for (size_t i = 0; i < UB_FRAG_SLOTS && r == NULL; i++)
@@ -111,7 +112,7 @@ int ub_frag_take(ub_frag_t *f, int slot, const uint8_t src[UB_ENTITY_ID_LEN], co
                 if (f->rx[i].last_ms < r->last_ms) r = &f->rx[i];
             f->stats.rx_evicted++;
         }
-        start(r, slot, src, dir_id, fingerprint, &fi);
+        start(f, r, slot, src, dir_id, fingerprint, &fi);
     }
     uint8_t bit = (uint8_t)(1u << (fi.index % 8));
     if (r->have[fi.index / 8] & bit) {

@@ -115,6 +115,7 @@ typedef struct ub_frag_stats {
     uint64_t tx_busy;        /**< sends refused: every transmit slot busy (UB_ERR_AGAIN) */
     uint64_t tx_paused;      /**< times a transfer stopped for a transport's push back and went on later */
     uint64_t tx_abandoned;   /**< transfers given up (no route, send error) */
+    uint64_t rx_started;     /**< reassemblies begun (each ends complete, timed out, evicted or restarted, or is pending) */
     uint64_t rx_fragments;   /**< fragments taken into a reassembly */
     uint64_t rx_duplicates;  /**< fragments already held */
     uint64_t rx_complete;    /**< directories reassembled and handed on */
