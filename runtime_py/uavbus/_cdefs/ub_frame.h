@@ -14,7 +14,7 @@
 typedef enum ub_admin_code {
     UB_ADMIN_DATA, UB_ADMIN_PUB_REQUEST, UB_ADMIN_SUB_REQUEST, UB_ADMIN_PUB_STOP,
     UB_ADMIN_SUB_STOP, UB_ADMIN_ACK, UB_ADMIN_NACK, UB_ADMIN_CHALLENGE, UB_ADMIN_CHALLENGE_REPLY,
-    UB_ADMIN_HELLO, UB_ADMIN_ROUTE_UPDATE, UB_ADMIN_MEMBERSHIP, ...
+    UB_ADMIN_HELLO, UB_ADMIN_ROUTE_UPDATE, UB_ADMIN_MEMBERSHIP, UB_ADMIN_LINK_HELLO, UB_ADMIN_FRAGMENT, ...
 } ub_admin_code_t;
 
 typedef struct ub_frame_header {
@@ -38,6 +38,7 @@ int ub_frame_parse(const uint8_t *frame, size_t len, ub_frame_header_t *h);
 
 typedef enum ub_rx_reason {
     UB_RX_BAD_HDR_CHECK, UB_RX_BAD_CRC, UB_RX_BAD_LENGTH, UB_RX_BAD_VERSION, UB_RX_BAD_SYNC,
+    UB_RX_NO_DICTIONARY, UB_RX_NO_REFERENCE,
     UB_RX_REASON_COUNT, ...
 } ub_rx_reason_t;
 
