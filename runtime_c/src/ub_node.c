@@ -14,9 +14,9 @@ bool ub_priv_id_is_zero(const uint8_t id[UB_ENTITY_ID_LEN]) {
 }
 
 bool ub_entity_id_is_link_local(const uint8_t id[UB_ENTITY_ID_LEN]) {
-    for (size_t i = 0; i < UB_ENTITY_ID_LEN; i++)
-        if (id[i] != UB_LINK_LOCAL_BYTE) return false;
-    return true;
+    static const uint8_t link_local[UB_ENTITY_ID_LEN] = {0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF,
+                                                         0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF};
+    return ub_priv_id_eq(id, link_local);
 }
 
 static bool entity_index_ok(const ub_node_t *node, int entity) {
@@ -65,7 +65,7 @@ int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_optio
 int ub_node_find_entity(const ub_node_t *node, const uint8_t id[UB_ENTITY_ID_LEN]) {
     if (node == NULL || id == NULL) return UB_ERR_INVAL;
     for (int e = 0; e < UB_MAX_ENTITIES; e++)
-        if (node->entities[e].in_use && memcmp(node->entities[e].id, id, UB_ENTITY_ID_LEN) == 0) return e;
+        if (node->entities[e].in_use && ub_priv_id_eq(node->entities[e].id, id)) return e;
     return UB_ERR_NOTFOUND;
 }
 
@@ -431,8 +431,9 @@ static int form_get(ub_node_t *node, tx_forms_t *f, int form) {
 
 static int send_forms(ub_node_t *node, const ub_local_entity_t *loc, uint8_t mask, tx_forms_t *f, uint64_t now_ms) {
     int sent = 0;
-    for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) {
-        if (!(mask & (1u << i)) || loc->link_ids[i] < 0) continue;
+    for (unsigned bits = mask; bits != 0; bits &= bits - 1) { /* the links of the mask, lowest first */
+        unsigned i = (unsigned)__builtin_ctz(bits);
+        if (i >= UB_MAX_LINKS_PER_ENTITY || loc->link_ids[i] < 0) continue;
         int link_id = loc->link_ids[i];
         int form = node->links[link_id].encrypt ? FORM_ENCRYPTED : f->protect ? FORM_SIGNED : FORM_PLAIN;
         if (form == FORM_ENCRYPTED && !f->protect) {
@@ -449,9 +450,25 @@ static int send_forms(ub_node_t *node, const ub_local_entity_t *loc, uint8_t mas
     return sent;
 }
 
+/* The catalogue index of a content ID: the last one found, else a binary search. */
+static int content_index(ub_node_t *node, const uint8_t dir_id[UB_DIR_ID_LEN]) {
+    uint32_t c = node->last_content;
+    if (c < node->cat->n_instances) {
+        uint64_t a0, a1, b0, b1;
+        memcpy(&a0, node->cat->instances[c].id, 8);
+        memcpy(&a1, node->cat->instances[c].id + 8, 8);
+        memcpy(&b0, dir_id, 8);
+        memcpy(&b1, dir_id + 8, 8);
+        if (((a0 ^ b0) | (a1 ^ b1)) == 0) return (int)c;
+    }
+    int idx = ub_catalogue_find(node->cat, dir_id);
+    if (idx >= 0) node->last_content = (uint32_t)idx;
+    return idx;
+}
+
 void ub_priv_deliver_data(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
                           uint64_t now_ms) {
-    int idx = ub_catalogue_find(node->cat, h->dir_id);
+    int idx = content_index(node, h->dir_id);
     if (idx < 0) {
         count_drop(node, link_id, UB_DROP_UNKNOWN_CONTENT);
         return;

@@ -11,6 +11,7 @@
 
 #include <stdbool.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "ub/ub_admin.h"
 #include "ub/ub_frame.h"
@@ -99,6 +100,18 @@ bool ub_priv_admin_routes_to(const ub_admin_t *adm, uint32_t instance, const uin
                              const uint8_t dest_id[UB_ENTITY_ID_LEN]);
 
 void ub_priv_admin_tick(ub_admin_t *adm, uint64_t now_ms);
+
+/* Whether two 12-byte entity IDs are equal: two loads each (memcpy into integers), not a byte loop. The router
+ * compares IDs on every frame (destination, window, link-local address). */
+static inline bool ub_priv_id_eq(const uint8_t a[UB_ENTITY_ID_LEN], const uint8_t b[UB_ENTITY_ID_LEN]) {
+    uint64_t a0, b0;
+    uint32_t a1, b1;
+    memcpy(&a0, a, 8);
+    memcpy(&b0, b, 8);
+    memcpy(&a1, a + 8, 4);
+    memcpy(&b1, b + 8, 4);
+    return ((a0 ^ b0) | (uint64_t)(a1 ^ b1)) == 0;
+}
 
 /* Whether an entity ID is all zero (the "no owner" marker). */
 bool ub_priv_id_is_zero(const uint8_t id[UB_ENTITY_ID_LEN]);

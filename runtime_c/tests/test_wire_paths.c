@@ -321,8 +321,9 @@ static void test_signed_compact_frames_verify_after_translation(void **state) {
     for (int k = 0; k < 2; k++) (void)ub_memlink_pump(&l->w->links[k], l->w->now_ms);
     ub_memlink_end_t *end = &l->w->links[2].end[0]; /* n2 -> n3 */
     assert_int_equal(end->count, 1);
-    size_t w = end->queue[0].len;
-    memcpy(wire, end->queue[0].bytes, w);
+    const ub_memlink_frame_t *queued = &end->queue[end->ring[end->head]];
+    size_t w = queued->len;
+    memcpy(wire, queued->bytes, w);
     int n = ub_cobs_decode(wire, w - 1, pkt, sizeof pkt);
     assert_true(n > 30);
     assert_int_equal((pkt[0] & UB_COMPACT_PROT_MASK) >> UB_COMPACT_PROT_SHIFT, 2); /* ENCRYPTED */
@@ -335,6 +336,8 @@ static void test_signed_compact_frames_verify_after_translation(void **state) {
     ub_put_u32le(pkt + n - 4, ub_crc32c_update(ub_crc32c(prefix, 16), pkt, (size_t)n - 4));
     w = ub_cobs_encode(pkt, (size_t)n, wire, sizeof wire);
     end->count = 0; /* the genuine one never arrives */
+    end->n_free = UB_MEMLINK_DEPTH;
+    for (size_t i = 0; i < UB_MEMLINK_DEPTH; i++) end->free_slots[i] = (uint16_t)i;
     assert_int_equal(ub_node_rx_frame(l->node[3], l->left[3], wire, w, l->w->now_ms), UB_OK);
     assert_int_equal(drops(l->node[3], UB_DROP_BAD_TAG), 1);
     assert_int_equal(in3->counters.frames_accepted, accepted);

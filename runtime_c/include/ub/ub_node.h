@@ -265,6 +265,7 @@ struct ub_node {
     struct ub_member *member; /**< membership requester (ub_member_init()), or NULL */
     ub_frag_t *frag;          /**< fragment state (ub_node_set_frag()), or NULL: no directory above the payload limit */
     uint16_t mtu_links;       /**< links with an MTU set: only then does a send compare frame sizes with MTUs */
+    uint32_t last_content;    /**< catalogue index of the last DATA delivered: checked before a search */
     ub_node_counters_t counters;
 };
 
