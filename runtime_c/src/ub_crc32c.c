@@ -432,6 +432,35 @@ __attribute__((target("sse4.2"))) static uint32_t header_words_sse42(const uint6
     return ~_mm_crc32_u32((uint32_t)c, (uint32_t)w[7]);
 }
 
+/* Both checks in one chain: the header CRC is finished from the register that the message CRC then
+ * continues over the body (ub_crc32c_update(header_crc, ...) undoes the final inversion, which is the
+ * same thing), so the 56 header bytes are read once and there is one dispatch per frame. No state
+ * is kept between calls. */
+__attribute__((target("sse4.2"))) static uint32_t frame_words_sse42(const uint64_t w[8], const uint8_t *body,
+                                                                    size_t len, uint32_t *header_crc) {
+    uint64_t c = _mm_crc32_u32(0xFFFFFFFFu, (uint32_t)(w[0] >> 32));
+    for (int k = 1; k < 7; k++) c = _mm_crc32_u64(c, w[k]);
+    c = _mm_crc32_u32((uint32_t)c, (uint32_t)w[7]);
+    *header_crc = ~(uint32_t)c; /* the finished header CRC; the message CRC goes on from the same register */
+    while (len >= 8) {
+        uint64_t word;
+        memcpy(&word, body, sizeof word);
+        c = _mm_crc32_u64(c, word);
+        body += 8;
+        len -= 8;
+    }
+    uint32_t c32 = (uint32_t)c;
+    if (len >= 4) {
+        uint32_t word;
+        memcpy(&word, body, sizeof word);
+        c32 = _mm_crc32_u32(c32, word);
+        body += 4;
+        len -= 4;
+    }
+    while (len--) c32 = _mm_crc32_u8(c32, *body++);
+    return ~c32;
+}
+
 int ub_crc32c_hw_available(void) {
 #if defined(__SSE4_2__)
     return 1;
@@ -460,6 +489,16 @@ uint32_t ub_crc32c_header_words(const uint64_t words[8]) {
 #endif
 }
 
+uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, size_t body_len, uint32_t *header_crc) {
+#if !defined(__SSE4_2__)
+    if (!__builtin_cpu_supports("sse4.2")) {
+        *header_crc = header_words_portable(words);
+        return ub_crc32c_update_portable(*header_crc, body, body_len);
+    }
+#endif
+    return frame_words_sse42(words, body, body_len, header_crc);
+}
+
 #elif defined(UB_CRC32C_ARM)
 static uint32_t crc32c_armv8(uint32_t crc, const uint8_t *data, size_t len) {
     uint32_t c = ~crc;
@@ -486,6 +525,11 @@ uint32_t ub_crc32c_header_words(const uint64_t w[8]) {
     return ~__crc32cw(c, (uint32_t)w[7]);
 }
 
+uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, size_t body_len, uint32_t *header_crc) {
+    *header_crc = ub_crc32c_header_words(words);
+    return crc32c_armv8(*header_crc, body, body_len);
+}
+
 #else
 int ub_crc32c_hw_available(void) { return 0; }
 
@@ -498,6 +542,11 @@ uint32_t ub_crc32c_update(uint32_t crc, const uint8_t *data, size_t len) {
 }
 
 uint32_t ub_crc32c_header_words(const uint64_t words[8]) { return header_words_portable(words); }
+
+uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, size_t body_len, uint32_t *header_crc) {
+    *header_crc = header_words_portable(words);
+    return ub_crc32c_update_portable(*header_crc, body, body_len);
+}
 #endif
 
 uint32_t ub_crc32c(const uint8_t *data, size_t len) { return ub_crc32c_update(0, data, len); }
