@@ -3,7 +3,7 @@
 # writes bench/results.md (bench/tables.py turns the raw outputs in build-bench/raw/ into tables).
 # Compare ratios, not absolute values: figures drift between runs and machines.
 #
-#   bench/run.sh            everything (~5 minutes on 2 vCPUs)
+#   bench/run.sh            everything (~8 minutes on 2 vCPUs)
 #   RUNS=3 bench/run.sh     fewer loopback rounds
 #
 # Peers are installed at run time from PyPI into .venv (the `bench` extra: pymavlink, lcm); their
@@ -126,6 +126,20 @@ for n in 100 700 3000 10000; do
 done
 echo "uavbus gen build-bench/bench-gen/synthN.h --name synth -o ... (N = 100, 700, 3000, 10000; 3 runs each)" >>"$raw/commands.txt"
 
+# ---- figure 5b: generator and selftest at scale (issue #13): tests/corpus/big/make_big.py, N/4 types ----
+say "figure 5b: gen and selftest at 1,000 and 10,000 instances"
+for n in 1000 10000; do
+  "$VPY" tests/corpus/big/make_big.py "$gen/big$n" --instances "$n"
+  t0=$(date +%s%N)
+  "$root/.venv/bin/uavbus" gen "$gen/big$n/big_all.h" -I "$gen/big$n/include" --name big -o "$gen/big$n/out" >/dev/null 2>&1
+  t1=$(date +%s%N)
+  "$root/.venv/bin/uavbus" selftest "$gen/big$n/big_all.h" -I "$gen/big$n/include" --name big --timeout 1200 >/dev/null 2>&1 \
+    && ok=1 || ok=0
+  t2=$(date +%s%N)
+  echo "scale n=$n gen_ns=$((t1 - t0)) selftest_ns=$((t2 - t1)) ok=$ok" >>"$raw/scale.txt"
+done
+echo "make_big.py N; uavbus gen|selftest big_all.h -I include --name big (N = 1000, 10000; jobs = all CPUs)" >>"$raw/commands.txt"
+
 # ---- figure 6: RAM for the reference configuration, and allocations after init ----
 say "figure 6: RAM"
 REF=(-DUB_MAX_ENTITIES=16 -DUB_MAX_LINKS_PER_ENTITY=8 -DUB_MAX_NODE_LINKS=8 -DUB_MAX_LOCAL_ENTITIES=4 -DUB_MAX_PUBSUB_ROWS=64)
@@ -149,6 +163,32 @@ cmake --build "$build/mcu" >/dev/null
   arm-none-eabi-nm -S --size-sort "$build/mcu/firmware.elf" | sed 's/^/sym /'; } >"$raw/mcu.txt"
 echo "cmake -S examples/mcu -DCMAKE_BUILD_TYPE=MinSizeRel -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/arm-none-eabi-cortex-m4.cmake;" \
   "arm-none-eabi-size firmware.elf, libub.a" >>"$raw/commands.txt"
+
+# ---- figure 7: the bridges (MAVLink, Zenoh) beside the same paths without them ----
+say "figure 7: bridges"
+cmake --build "$build" --target uavbus_mavbridge_prog uavbus_node >/dev/null
+timed bridges "$VPY" bench/bridges_bench.py --build "$build" --out "$raw/bridges.json" --runs "${BRIDGE_RUNS:-3}"
+
+# ---- figure 8: fleets (issue 12): 10, 30, 100 vehicles + 2 ground stations in process; 30 as processes ----
+# A fleet of 102 entities needs room in every node's tables: the runtime is compiled again with larger
+# capacities (ub_config.h: every capacity is a -D). The process fleet runs uavbus_node built the same way.
+say "figure 8: fleets in process (range model, simulated clock) and 30 vehicles as processes over UDP"
+FLEET_CAPS=(-DUB_MAX_ENTITIES=128 -DUB_DEDUP_SOURCES=128 -DUB_MAX_LOCAL_ENTITIES=1)
+mkdir -p "$build/fleet-lib"
+rm -f "$build"/fleet-lib/*
+for f in runtime_c/src/*.c; do
+  gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -DUB_SECURITY=1 "${FLEET_CAPS[@]}" -Iruntime_c/include -c "$f" \
+    -o "$build/fleet-lib/$(basename "$f" .c).o"
+done
+ar rcs "$build/fleet-lib/libub.a" "$build"/fleet-lib/*.o
+gcc "${CFLAGS[@]}" "${FLEET_CAPS[@]}" bench/src/fleet_bench.c "$gen/benchcat.c" "$build/fleet-lib/libub.a" $SODIUM -lm \
+  -o "$bin/fleet_bench"
+for n in 10 30 100; do timed fleet "$bin/fleet_bench" "$n" >>"$raw/fleet.txt"; done
+cmake -S . -B "$build/fleet-node" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DUAVBUS_BUILD_TESTS=OFF \
+  -DUAVBUS_PYTHON="$VPY" "-DCMAKE_C_FLAGS=-DUB_MAX_ENTITIES=64 -DUB_DEDUP_SOURCES=64" >/dev/null
+cmake --build "$build/fleet-node" --target uavbus_node >/dev/null
+timed fleet "$VPY" bench/fleet_procs.py "$build/fleet-node/examples/node/uavbus_node" 30 --out "$build/fleet-procs" \
+  >>"$raw/fleet.txt" 2>"$raw/fleet_procs.log"
 
 # ---- internals kept from the first bench (frame codec, router costs, false-accept rate) ----
 "$build/runtime_c/ub_frame_bench" >"$raw/frame_bench.txt"

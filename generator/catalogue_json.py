@@ -27,6 +27,8 @@ def catalogue_json(cat: Catalogue, name: str, compact: bool = False) -> str:
         "skipped_instances": [
             {"name": s.name, "file": s.loc.file, "line": s.loc.line, "reason": s.reason} for s in cat.skipped_instances
         ],
+        # Enum constants the members use, in declaration order (docs/catalogue.md).
+        "enums": {e.name: dict(e.constants) for e in cat.enums},
     }
     if compact:
         return json.dumps(doc, separators=(",", ":"), ensure_ascii=True)
@@ -60,4 +62,6 @@ def _field(f: Field) -> dict[str, Any]:
         "c_type": f.c_spelling,
         "long_double": f.long_double,
         "skipped": f.skipped,
+        "enum": f.enum,
+        "text": f.text,
     }

@@ -1,14 +1,17 @@
 """Front end: C files -> plain records. The only module that imports libclang.
 
-Each input is parsed as its own translation unit. Any diagnostic of severity error or worse
-aborts the whole run (a partial AST is never catalogued). The records below hold no clang
-objects; the model (model.py) decides what is packed and what is skipped.
+Each input is parsed as its own translation unit. An input with any diagnostic of severity error
+or worse contributes nothing (a partial AST is never catalogued): parse_inputs() returns an
+FeFailure for it, carrying every error with the header where it occurred and the `#include`
+chain that led there, so one run reports every failing input. The records below hold no clang
+objects; the model (model.py) decides what is packed, skipped or refused.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import re
 import shlex
 import shutil
 import subprocess
@@ -42,6 +45,7 @@ class FeScalar:
     plain_char: bool = False  # `char` itself (neither `signed char` nor `unsigned char`)
     is_enum: bool = False
     is_long_double: bool = False
+    enum_key: str | None = None  # FeEnum.key when is_enum
 
 
 @dataclass(frozen=True)
@@ -86,11 +90,29 @@ class FeRecord:
 
 
 @dataclass(frozen=True)
+class FeEnum:
+    """An enum type used by a member: its constants in declaration order."""
+
+    key: str  # "enum tag", a typedef name, or "<parent key>::<member>" for an unnamed enum
+    constants: tuple[tuple[str, int], ...]
+    loc: SourceLoc
+
+
+@dataclass(frozen=True)
 class FeInstance:
     name: str
     type_key: str
     dims: tuple[int, ...]
     loc: SourceLoc
+    definition: bool = False  # a definition (with or without initializer), not only `extern`
+
+
+@dataclass(frozen=True)
+class IncludeRef:
+    """One `#include` the generated header can write: the directive's operand and the file it opens."""
+
+    text: str  # '<stdint.h>' or '"nav/nav_msg.h"'
+    path: str  # the file clang opened
 
 
 @dataclass(frozen=True)
@@ -101,6 +123,43 @@ class FeUnit:
     records: tuple[FeRecord, ...]
     instances: tuple[FeInstance, ...]
     skipped_instances: tuple[tuple[str, SourceLoc, str], ...]  # (name, loc, reason)
+    enums: tuple[FeEnum, ...] = ()
+    # Struct types defined at file scope outside system headers: (C spelling, loc); for the hint
+    # given when a run finds types but no instance.
+    defined_types: tuple[tuple[str, SourceLoc], ...] = ()
+    is_source: bool = False  # a `.c` file (the generated header cannot include it)
+    self_include: IncludeRef | None = None  # a header input: how the generated header includes it
+    top_includes: tuple[IncludeRef, ...] = ()  # a `.c` input: its own #include lines, in order
+    # A `.c` input: record key -> index into top_includes of the #include that brings its
+    # definition in (-1: defined in the .c file itself).
+    record_via: tuple[tuple[str, int], ...] = ()
+
+
+@dataclass(frozen=True)
+class FeDiagnostic:
+    severity: str  # "error" or "fatal error"
+    loc: SourceLoc | None  # None: the command line
+    message: str
+    included_from: tuple[SourceLoc, ...] = ()  # the #include lines from the input down to loc.file
+
+
+@dataclass(frozen=True)
+class FeFailure:
+    """An input that cannot be catalogued: every error clang reported while parsing it."""
+
+    file: str
+    diagnostics: tuple[FeDiagnostic, ...]
+
+    def format(self, rel=lambda p: p) -> str:
+        """`input: error: ...` then, per diagnostic, its include chain and `header:line: severity: message`
+        (clang's layout), every path through `rel`."""
+        n = len(self.diagnostics)
+        lines = [f"{rel(self.file)}: error: cannot be parsed ({n} error{'s' if n != 1 else ''}):"]
+        for d in self.diagnostics:
+            lines += [f"  In file included from {rel(s.file)}:{s.line}:" for s in d.included_from]
+            where = f"{rel(d.loc.file)}:{d.loc.line}" if d.loc else "<command line>"
+            lines.append(f"  {where}: {d.severity}: {d.message}")
+        return "\n".join(lines)
 
 
 class FrontendError(Exception):
@@ -235,34 +294,172 @@ def args_for(opts: ParseOptions, source: str) -> list[str]:
 # Parsing
 
 
-def parse_files(files: Iterable[str], opts: ParseOptions) -> list[FeUnit]:
-    """Parses every file as its own translation unit; raises FrontendError on any clang error."""
+def parse_inputs(files: Iterable[str], opts: ParseOptions) -> list[Union[FeUnit, FeFailure]]:
+    """Parses every file as its own translation unit, in order: an FeUnit for each input that
+    parsed without error, an FeFailure (every error, with its include chain) for each other."""
     if opts.builtin_include is None:
         opts = ParseOptions(**{**opts.__dict__, "builtin_include": find_builtin_include()})
     index = ci.Index.create()
     return [_parse_one(index, f, opts) for f in files]
 
 
-def _parse_one(index: ci.Index, path: str, opts: ParseOptions) -> FeUnit:
+def parse_files(files: Iterable[str], opts: ParseOptions) -> list[FeUnit]:
+    """Every input's records; raises FrontendError naming every failing input."""
+    results = parse_inputs(files, opts)
+    failures = [r for r in results if isinstance(r, FeFailure)]
+    if failures:
+        raise FrontendError("\n".join(f.format() for f in failures))
+    return [r for r in results if isinstance(r, FeUnit)]
+
+
+SOURCE_SUFFIXES = (".c", ".i")
+
+
+def is_source(path: str) -> bool:
+    """A translation unit's own source (`.c`): generated code can never #include it."""
+    return path.endswith(SOURCE_SUFFIXES)
+
+
+def _parse_one(index: ci.Index, path: str, opts: ParseOptions) -> Union[FeUnit, FeFailure]:
     if not os.path.isfile(path):
-        raise FrontendError(f"{path}: error: no such file")
+        return FeFailure(path, (FeDiagnostic("error", None, f"no such file: {path}"),))
+    args = args_for(opts, path)
     try:
-        tu = index.parse(path, args=args_for(opts, path))
+        tu = index.parse(path, args=args)
     except ci.TranslationUnitLoadError as exc:
-        raise FrontendError(f"{path}: error: clang could not parse the file ({exc})") from exc
+        return FeFailure(path, (FeDiagnostic("error", None, f"clang could not parse the file ({exc})"),))
     errors = [d for d in tu.diagnostics if d.severity >= ci.Diagnostic.Error]
     if errors:
-        raise FrontendError("\n".join(_format_diag(d) for d in errors))
+        parents = _include_parents(tu)
+        return FeFailure(path, tuple(_diagnostic(d, parents) for d in errors))
     walker = _Walker()
     walker.visit_tu(tu)
-    return FeUnit(path, tuple(walker.records.values()), tuple(walker.instances), tuple(walker.skipped))
+    search = _include_dirs(args)
+    source = is_source(path)
+    top: tuple[IncludeRef, ...] = ()
+    via: tuple[tuple[str, int], ...] = ()
+    if source:
+        top, via = _source_includes(tu, path, walker.records, search)
+    return FeUnit(
+        file=path,
+        records=tuple(walker.records.values()),
+        instances=tuple(walker.instances),
+        skipped_instances=tuple(walker.skipped),
+        enums=tuple(walker.enums.values()),
+        defined_types=tuple(walker.defined),
+        is_source=source,
+        self_include=None if source else IncludeRef(f'"{_spell_path(path, search)}"', path),
+        top_includes=top,
+        record_via=via,
+    )
 
 
-def _format_diag(diag: ci.Diagnostic) -> str:
-    loc = diag.location
-    where = f"{loc.file.name}:{loc.line}" if loc.file else "<command line>"
+def _include_parents(tu: ci.TranslationUnit) -> dict[str, tuple[str, int, int]]:
+    """Included file -> (including file, line of the #include, depth), first inclusion of each."""
+    parents: dict[str, tuple[str, int, int]] = {}
+    for inc in tu.get_includes():
+        name = os.path.normpath(inc.include.name)
+        if name not in parents and inc.location.file is not None:
+            parents[name] = (os.path.normpath(inc.location.file.name), inc.location.line, inc.depth)
+    return parents
+
+
+def _chain(file: str, parents: dict[str, tuple[str, int, int]]) -> tuple[SourceLoc, ...]:
+    """The #include lines leading from the main file to `file`, outermost first."""
+    out: list[SourceLoc] = []
+    cur = os.path.normpath(file)
+    while cur in parents and len(out) < 200:
+        src, line, _ = parents[cur]
+        out.append(SourceLoc(src, line))
+        cur = src
+    return tuple(reversed(out))
+
+
+def _diagnostic(diag: ci.Diagnostic, parents: dict[str, tuple[str, int, int]]) -> FeDiagnostic:
     severity = "fatal error" if diag.severity >= ci.Diagnostic.Fatal else "error"
-    return f"{where}: {severity}: {diag.spelling}"
+    loc = diag.location
+    if loc.file is None:
+        return FeDiagnostic(severity, None, diag.spelling)
+    return FeDiagnostic(severity, SourceLoc(loc.file.name, loc.line), diag.spelling, _chain(loc.file.name, parents))
+
+
+def _include_dirs(args: list[str]) -> tuple[str, ...]:
+    """The quote/angle search directories of a command line (-iquote, -I, -isystem, -idirafter), in
+    clang's search order, absolute."""
+    quote: list[str] = []
+    angle: list[str] = []
+    after: list[str] = []
+    i = 0
+    while i < len(args):
+        arg = args[i]
+        for flag, bucket in (("-iquote", quote), ("-isystem", angle), ("-idirafter", after), ("-I", angle)):
+            if arg == flag and i + 1 < len(args):
+                bucket.append(os.path.abspath(args[i + 1]))
+                i += 1
+                break
+            if arg.startswith(flag) and len(arg) > len(flag) and not (flag == "-I" and arg.startswith("-include")):
+                bucket.append(os.path.abspath(arg[len(flag):]))
+                break
+        i += 1
+    return tuple(quote + angle + after)
+
+
+def _spell_path(path: str, search: tuple[str, ...]) -> str:
+    """How `#include "..."` reaches `path` from anywhere: relative to the search directory that
+    finds it first (shortest such spelling), else by its file name (the caller adds its directory)."""
+    target = os.path.realpath(path)
+    candidates = sorted({os.path.relpath(target, os.path.realpath(d)) for d in search
+                         if os.path.commonpath([os.path.realpath(d), target]) == os.path.realpath(d)}, key=len)
+    for rel in candidates:
+        if _resolve(rel, search) == target:
+            return rel.replace(os.sep, "/")
+    return os.path.basename(path)
+
+
+def _resolve(spelled: str, search: tuple[str, ...]) -> str | None:
+    for d in search:
+        cand = os.path.join(d, spelled)
+        if os.path.isfile(cand):
+            return os.path.realpath(cand)
+    return None
+
+
+_INCLUDE_LINE = re.compile(r'^\s*#\s*(?:include|include_next|import)\s*([<"][^>"]+[>"])')
+
+
+def _source_includes(tu: ci.TranslationUnit, path: str, records: dict[str, FeRecord], search: tuple[str, ...]
+                     ) -> tuple[tuple[IncludeRef, ...], tuple[tuple[str, int], ...]]:
+    """A `.c` input's own #include lines (as the generated header can write them) and, for each
+    record, the one that brings its definition in (-1: the record is defined in the .c file)."""
+    parents = _include_parents(tu)
+    main = os.path.normpath(path)
+    try:
+        lines = Path(path).read_text(errors="replace").splitlines()
+    except OSError:
+        lines = []
+    top: list[tuple[int, IncludeRef]] = []
+    for name, (src, line, depth) in parents.items():
+        if depth != 1 or src != main:
+            continue
+        m = _INCLUDE_LINE.match(lines[line - 1]) if 0 < line <= len(lines) else None
+        text = m.group(1) if m else f'"{_spell_path(name, search)}"'
+        if text.startswith('"') and _resolve(text[1:-1], search) != os.path.realpath(name):
+            # Found next to the .c file (or through a macro): spell it so the search path finds it.
+            text = f'"{_spell_path(name, search)}"'
+        top.append((line, IncludeRef(text, name)))
+    top.sort(key=lambda x: x[0])
+    index = {ref.path: k for k, (_, ref) in enumerate(top)}
+    via = []
+    for key, rec in records.items():
+        chain = _chain(rec.loc.file, parents)
+        if not chain:
+            via.append((key, -1))  # defined in the main file
+            continue
+        # The outermost #include of the chain sits in the main file; it opened chain[1]'s file
+        # (or the record's own file when the chain has one step).
+        opened = os.path.normpath(chain[1].file) if len(chain) > 1 else os.path.normpath(rec.loc.file)
+        via.append((key, index.get(opened, -1)))
+    return tuple(ref for _, ref in top), tuple(via)
 
 
 def _loc(cursor: ci.Cursor) -> SourceLoc:
@@ -283,6 +480,10 @@ _FLOATS = {ci.TypeKind.FLOAT: False, ci.TypeKind.DOUBLE: False, ci.TypeKind.LONG
 _POINTERS = {ci.TypeKind.POINTER, ci.TypeKind.BLOCKPOINTER, ci.TypeKind.MEMBERPOINTER}
 _RECORD_CURSORS = {ci.CursorKind.STRUCT_DECL, ci.CursorKind.UNION_DECL}
 
+SKIP_STATIC = "static: internal linkage, not visible to other translation units (remove `static` to publish it)"
+SKIP_UNKNOWN_BOUND = "array of unknown bound (declare its size, e.g. `extern T x[N];`, or define it in an input)"
+SKIP_ZERO_LENGTH = "zero-length array (no element to publish)"
+
 
 def _strip_qualifiers(spelling: str) -> str:
     words = [w for w in spelling.split(" ") if w not in ("const", "volatile", "restrict", "_Atomic")]
@@ -296,37 +497,63 @@ def _is_unnamed(decl: ci.Cursor) -> bool:
 @dataclass
 class _Walker:
     records: dict[str, FeRecord] = field(default_factory=dict)
+    enums: dict[str, FeEnum] = field(default_factory=dict)
     instances: list[FeInstance] = field(default_factory=list)
     skipped: list[tuple[str, SourceLoc, str]] = field(default_factory=list)
+    defined: list[tuple[str, SourceLoc]] = field(default_factory=list)
 
     def visit_tu(self, tu: ci.TranslationUnit) -> None:
         for cur in tu.cursor.get_children():
-            if cur.kind != ci.CursorKind.VAR_DECL or cur.location.is_in_system_header:
+            if cur.location.is_in_system_header:
                 continue
-            if cur.storage_class == ci.StorageClass.STATIC or cur.linkage != ci.LinkageKind.EXTERNAL:
-                continue
-            self._visit_var(cur)
+            if cur.kind == ci.CursorKind.VAR_DECL:
+                self._visit_var(cur)
+            elif cur.kind in (ci.CursorKind.STRUCT_DECL, ci.CursorKind.TYPEDEF_DECL):
+                self._note_type(cur)
+
+    def _note_type(self, cur: ci.Cursor) -> None:
+        if cur.kind == ci.CursorKind.STRUCT_DECL:
+            spelling = cur.type.spelling  # "struct tag"; a typedef name for `typedef struct {...} t`
+            if cur.is_definition() and spelling.startswith("struct ") and not _is_unnamed(cur):
+                self.defined.append((spelling, _loc(cur)))
+            return
+        under = cur.underlying_typedef_type.get_canonical()
+        if under.kind == ci.TypeKind.RECORD and under.get_declaration().kind == ci.CursorKind.STRUCT_DECL:
+            self.defined.append((cur.spelling, _loc(cur)))
 
     def _visit_var(self, cur: ci.Cursor) -> None:
         ctype = cur.type.get_canonical()
         dims: list[int] = []
-        while ctype.kind == ci.TypeKind.CONSTANTARRAY:
-            dims.append(ctype.element_count)
+        unknown_bound = False
+        while ctype.kind in (ci.TypeKind.CONSTANTARRAY, ci.TypeKind.INCOMPLETEARRAY):
+            if ctype.kind == ci.TypeKind.INCOMPLETEARRAY:
+                unknown_bound = True
+            else:
+                dims.append(ctype.element_count)
             ctype = ctype.element_type.get_canonical()
         if ctype.kind != ci.TypeKind.RECORD:
-            return
+            return  # not a structure: not a directory
+        static = cur.storage_class == ci.StorageClass.STATIC or cur.linkage != ci.LinkageKind.EXTERNAL
         decl = ctype.get_declaration()
         if decl.kind != ci.CursorKind.STRUCT_DECL:
-            self.skipped.append((cur.spelling, _loc(cur), "union"))
+            reason = "union"
+        elif _is_unnamed(decl):
+            reason = "unnamed struct type (give the type a tag or typedef)"
+        elif ctype.get_size() < 0:
+            reason = "incomplete struct type (no definition visible)"
+        elif static:
+            reason = SKIP_STATIC
+        elif unknown_bound:
+            reason = SKIP_UNKNOWN_BOUND
+        elif 0 in dims:
+            reason = SKIP_ZERO_LENGTH
+        else:
+            key = self._record(ctype, None)
+            # A file-scope object without `extern` is a (possibly tentative) definition.
+            definition = cur.is_definition() or cur.storage_class != ci.StorageClass.EXTERN
+            self.instances.append(FeInstance(cur.spelling, key, tuple(dims), _loc(cur), definition))
             return
-        if _is_unnamed(decl):
-            self.skipped.append((cur.spelling, _loc(cur), "unnamed struct type (give the type a tag or typedef)"))
-            return
-        if ctype.get_size() < 0:
-            self.skipped.append((cur.spelling, _loc(cur), "incomplete struct type (no definition visible)"))
-            return
-        key = self._record(ctype, None)
-        self.instances.append(FeInstance(cur.spelling, key, tuple(dims), _loc(cur)))
+        self.skipped.append((cur.spelling, _loc(cur), reason))
 
     def _record(self, ctype: ci.Type, unnamed_key: str | None) -> str:
         """Records the struct `ctype` (canonical) and what it needs; returns its key."""
@@ -375,7 +602,8 @@ class _Walker:
             ftype = ftype.element_type.get_canonical()
         width = ch.get_bitfield_width() if ch.is_bitfield() else None
         offset = ch.get_field_offsetof() + base_bits
-        if ftype.kind == ci.TypeKind.INCOMPLETEARRAY:
+        if ftype.kind == ci.TypeKind.INCOMPLETEARRAY or 0 in dims:
+            # `T tail[]` (C99) and GNU's `T tail[0]`: storage past the end of the struct.
             return FeField(ch.spelling, FeOther("flexible", ch.type.spelling), (), offset, None, _loc(ch))
         return FeField(ch.spelling, self._type(ftype, f"{key}::{ch.spelling}"), tuple(dims), offset, width, _loc(ch))
 
@@ -392,8 +620,11 @@ class _Walker:
         if kind in _FLOATS:
             return FeScalar("float", size, True, spelling, is_long_double=_FLOATS[kind])
         if kind == ci.TypeKind.ENUM:
-            int_kind = ftype.get_declaration().enum_type.get_canonical().kind
-            return FeScalar("int", size, int_kind in _SIGNED or int_kind == ci.TypeKind.CHAR_S, spelling, is_enum=True)
+            decl = ftype.get_declaration()
+            int_kind = decl.enum_type.get_canonical().kind
+            enum_key = self._enum(decl, spelling, unnamed_key)
+            signed = int_kind in _SIGNED or int_kind == ci.TypeKind.CHAR_S
+            return FeScalar("int", size, signed, spelling, is_enum=True, enum_key=enum_key)
         if kind in _POINTERS or kind == ci.TypeKind.FUNCTIONPROTO:
             return FeOther("pointer", spelling)
         if kind == ci.TypeKind.RECORD:
@@ -402,6 +633,16 @@ class _Walker:
                 return FeOther("union", spelling)
             return FeRecordRef(self._record(ftype, unnamed_key if _is_unnamed(decl) else None))
         return FeOther("unsupported", spelling)
+
+    def _enum(self, decl: ci.Cursor, spelling: str, unnamed_key: str) -> str:
+        """Records an enum's constants; its key is `enum tag`, its typedef name, or the member's
+        `<parent>::<member>` for an enum with neither (like unnamed struct members)."""
+        key = unnamed_key if _is_unnamed(decl) and not re.match(r"^[A-Za-z_]\w*$", spelling) else spelling
+        if key not in self.enums:
+            consts = tuple((c.spelling, int(c.enum_value)) for c in decl.get_children()
+                           if c.kind == ci.CursorKind.ENUM_CONSTANT_DECL)
+            self.enums[key] = FeEnum(key, consts, _loc(decl))
+        return key
 
 
 def _element_type(t: ci.Type) -> ci.Type:

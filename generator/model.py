@@ -8,6 +8,7 @@ deterministic self-test values (mavgen `gen_test_value` style) shared by the C a
 from __future__ import annotations
 
 import dataclasses
+import fnmatch
 import hashlib
 import math
 import os
@@ -19,7 +20,7 @@ from itertools import product
 from typing import Callable, Iterable, Iterator, Union
 
 from . import ids
-from .frontend import FeField, FeInstance, FeOther, FeRecord, FeRecordRef, FeScalar, FeUnit, SourceLoc
+from .frontend import FeEnum, FeField, FeInstance, FeOther, FeRecord, FeRecordRef, FeScalar, FeUnit, SourceLoc
 
 
 class ModelError(Exception):
@@ -33,6 +34,16 @@ class DuplicateDefinitionError(ModelError):
 
 
 class CollisionError(ModelError):
+    exit_code = 1
+
+
+class PayloadLimitError(ModelError):
+    exit_code = 1
+
+
+class CatalogueRefusedError(ModelError):
+    """Several of the problems above at once."""
+
     exit_code = 1
 
 
@@ -97,6 +108,33 @@ SKIP_FLEXIBLE = "flexible array member"
 SKIP_UNION = "union"
 SKIP_UNSUPPORTED = "unsupported type"
 
+STRINGS_SKIP = "skip"  # the paper's rule: `char` arrays are not sent
+STRINGS_BYTES = "bytes"  # `char` arrays are sent as their bytes (all of them, NULs included)
+DEFAULT_MAX_PAYLOAD = 16384  # UB_MAX_DIRECTORY of the default runtime build (runtime_c/include/ub/ub_config.h)
+
+
+@dataclass(frozen=True)
+class BuildOptions:
+    """What the user chose. `max_payload` is the one number the runtime's node can carry
+    (UB_MAX_DIRECTORY: above UB_MAX_PAYLOAD in fragments); a type packing to more is refused
+    (or, with keep_going, left out)."""
+
+    id_scheme: str = "paper"
+    strings: str = STRINGS_SKIP
+    string_fields: tuple[str, ...] = ()  # fnmatch patterns on "<type name>.<member>"
+    max_payload: int = DEFAULT_MAX_PAYLOAD
+    keep_going: bool = False
+
+    def __post_init__(self) -> None:
+        if self.strings not in (STRINGS_SKIP, STRINGS_BYTES):
+            raise ValueError(f"strings must be '{STRINGS_SKIP}' or '{STRINGS_BYTES}', not {self.strings!r}")
+        if self.max_payload <= 0:
+            raise ValueError(f"the payload limit must be positive, not {self.max_payload}")
+
+    def string_as_bytes(self, type_name: str, member: str) -> bool:
+        return self.strings == STRINGS_BYTES or any(
+            fnmatch.fnmatchcase(f"{type_name}.{member}", pat) for pat in self.string_fields)
+
 
 # ---------------------------------------------------------------------------------------------
 # Model classes
@@ -105,7 +143,8 @@ SKIP_UNSUPPORTED = "unsupported type"
 @dataclass(frozen=True)
 class Field:
     """One member of a struct. Exactly one of `wire` (a packed scalar or bitfield), `struct` (a
-    nested struct, by StructType.name) or `skipped` (the reason it is not on the wire) is set."""
+    nested struct, by StructType.name) or `skipped` (the reason it is not on the wire) is set.
+    `enum` names the member's EnumType; `text` marks a `char` array sent as bytes (wire u8)."""
 
     name: str
     dims: tuple[int, ...]
@@ -117,6 +156,8 @@ class Field:
     bits: int | None = None
     long_double: bool = False
     skipped: str | None = None
+    enum: str | None = None
+    text: bool = False
 
     def __post_init__(self) -> None:
         kinds = sum(x is not None for x in (self.wire, self.struct, self.skipped))
@@ -128,6 +169,10 @@ class Field:
             raise ValueError(f"{self.loc}: bitfield '{self.name}' of {self.bits} bits does not fit its container")
         if self.skipped is None and not self.name:
             raise ValueError(f"{self.loc}: a packed field needs a name")
+        if self.text and (self.wire is None or self.wire.name != "u8" or not self.dims):
+            raise ValueError(f"{self.loc}: text field '{self.name}' must be a u8 array")
+        if self.enum is not None and (self.wire is None or self.wire.is_float or self.wire.name == "bool"):
+            raise ValueError(f"{self.loc}: enum field '{self.name}' must have an integer wire type")
 
     @property
     def packed(self) -> bool:
@@ -141,6 +186,23 @@ class Field:
     def wire_name(self) -> str:
         """The wire type as written in the catalogue: a primitive name, 'struct' or None (skipped)."""
         return self.wire.name if self.wire else ("struct" if self.struct else "none")
+
+    @property
+    def checked(self) -> bool:
+        """Unpack refuses some wire values of this scalar: a bool byte other than 0/1, or a bitfield
+        container holding bits outside the field's width (docs/catalogue.md, canonical codecs)."""
+        if self.wire is None:
+            return False
+        if self.wire.name == "bool":
+            return True
+        return self.bits is not None and self.bits < self.wire.bits
+
+    def bit_range(self) -> tuple[int, int]:
+        """The values a bitfield of this width holds (two's complement when signed)."""
+        assert self.wire is not None and self.bits is not None
+        if self.wire.signed:
+            return -(1 << (self.bits - 1)), (1 << (self.bits - 1)) - 1
+        return 0, (1 << self.bits) - 1
 
 
 @dataclass(frozen=True)
@@ -177,8 +239,26 @@ class StructType:
 
 
 @dataclass(frozen=True)
+class EnumType:
+    """An enum used by some catalogued member: its constants in declaration order."""
+
+    name: str  # "enum tag", a typedef name, or "<parent>::<member>" for an unnamed enum
+    constants: tuple[tuple[str, int], ...]
+    loc: SourceLoc
+
+    def __post_init__(self) -> None:
+        names = [n for n, _ in self.constants]
+        if len(names) != len(set(names)):
+            raise ValueError(f"{self.loc}: {self.name} has two constants of one name")
+
+
+_NON_IDENT = re.compile(r"[^A-Za-z0-9_]")
+
+
+@dataclass(frozen=True)
 class Instance:
-    """One catalogued instance; an array element is its own instance, named `base[i][j]`."""
+    """One catalogued instance; an array element is its own instance, named `base[i][j]`. An
+    instance defined in several files is catalogued once per file, named `base[i]@qualifier`."""
 
     name: str
     type: str  # StructType.name
@@ -186,17 +266,20 @@ class Instance:
     loc: SourceLoc
     base: str
     index: tuple[int, ...]
+    qualifier: str | None = None
 
     def __post_init__(self) -> None:
         if len(self.id) != ids.DIR_ID_LEN:
             raise ValueError(f"{self.loc}: ID of {self.name} is not {ids.DIR_ID_LEN} bytes")
-        if self.name != self.base + "".join(f"[{i}]" for i in self.index):
-            raise ValueError(f"{self.loc}: element name {self.name} does not match {self.base}{list(self.index)}")
+        want = self.base + "".join(f"[{i}]" for i in self.index) + (f"@{self.qualifier}" if self.qualifier else "")
+        if self.name != want:
+            raise ValueError(f"{self.loc}: element name {self.name} does not match {want}")
 
     @property
     def ident(self) -> str:
-        """A C identifier fragment: `name[1][2]` -> `name_1_2`."""
-        return self.base + "".join(f"_{i}" for i in self.index)
+        """A C identifier fragment: `name[1][2]` -> `name_1_2`, `name@apps/x` -> `name__apps_x`."""
+        out = self.base + "".join(f"_{i}" for i in self.index)
+        return out + "__" + _NON_IDENT.sub("_", self.qualifier) if self.qualifier else out
 
 
 @dataclass(frozen=True)
@@ -207,11 +290,29 @@ class SkippedInstance:
 
 
 @dataclass(frozen=True)
+class Note:
+    """Something the user should read: `severity` is 'warning' or 'note'; loc may be None."""
+
+    severity: str
+    text: str
+    loc: SourceLoc | None = None
+
+    def __str__(self) -> str:
+        return f"{self.loc}: {self.severity}: {self.text}" if self.loc else f"{self.severity}: {self.text}"
+
+
+@dataclass(frozen=True)
 class Catalogue:
     id_scheme: str
     types: tuple[StructType, ...]  # sorted by name
     instances: tuple[Instance, ...]  # sorted by ID
     skipped_instances: tuple[SkippedInstance, ...] = ()
+    enums: tuple[EnumType, ...] = ()  # sorted by name
+    includes: tuple[str, ...] = ()  # what the generated C header #includes, in order: '"a.h"', '<b.h>'
+    notes: tuple[Note, ...] = ()
+    max_payload: int = DEFAULT_MAX_PAYLOAD
+    _by_name: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
+    _checks: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)  # has_checks() memo
 
     def __post_init__(self) -> None:
         if self.id_scheme not in ids.ID_SCHEMES:
@@ -219,10 +320,15 @@ class Catalogue:
         by_name = {t.name: t for t in self.types}
         if len(by_name) != len(self.types) or [t.name for t in self.types] != sorted(by_name):
             raise ValueError("types must be unique and sorted by name")
+        enums = {e.name for e in self.enums}
+        if len(enums) != len(self.enums) or [e.name for e in self.enums] != sorted(enums):
+            raise ValueError("enums must be unique and sorted by name")
         for t in self.types:
             for f in t.fields:
                 if f.struct is not None and f.struct not in by_name:
                     raise ValueError(f"{f.loc}: {t.name}.{f.name} needs type {f.struct}, not in the catalogue")
+                if f.enum is not None and f.enum not in enums:
+                    raise ValueError(f"{f.loc}: {t.name}.{f.name} needs enum {f.enum}, not in the catalogue")
         idents = [t.ident for t in self.types]
         if len(set(idents)) != len(idents):
             raise ModelError("two types map to one C identifier: " + ", ".join(sorted(_dupes(idents))))
@@ -235,12 +341,13 @@ class Catalogue:
         for inst in self.instances:
             if by_name.get(inst.type) is None or by_name[inst.type].c_name is None:
                 raise ValueError(f"{inst.loc}: instance {inst.name} has no named type")
+        self._by_name.update(by_name)
 
     def type(self, name: str) -> StructType:
-        for t in self.types:
-            if t.name == name:
-                return t
-        raise KeyError(name)
+        try:
+            return self._by_name[name]
+        except KeyError:
+            raise KeyError(name) from None
 
     @property
     def named_types(self) -> tuple[StructType, ...]:
@@ -250,6 +357,24 @@ class Catalogue:
     @property
     def max_packed_size(self) -> int:
         return max((t.packed_size for t in self.types), default=0)
+
+    def has_checks(self, t: StructType) -> bool:
+        """Unpack of `t` refuses some byte strings (a checked scalar somewhere inside)."""
+        known = self._checks.get(t.name)
+        if known is None:
+            known = any(f.checked or (f.struct is not None and self.has_checks(self.type(f.struct)))
+                        for f in t.packed_fields)
+            self._checks[t.name] = known
+        return known
+
+    def skipped_fields(self) -> dict[str, list[tuple[StructType, Field]]]:
+        """Skipped members by reason (the reason's first word: 'unsupported type (x)' -> 'unsupported type')."""
+        out: dict[str, list[tuple[StructType, Field]]] = {}
+        for t in self.types:
+            for f in t.fields:
+                if f.skipped:
+                    out.setdefault(f.skipped.split(" (")[0], []).append((t, f))
+        return dict(sorted(out.items()))
 
 
 def _dupes(items: Iterable[str]) -> set[str]:
@@ -261,16 +386,57 @@ def _dupes(items: Iterable[str]) -> set[str]:
 # Building
 
 
-def build_catalogue(units: list[FeUnit], id_scheme: str = "paper", relpath: Callable[[str], str] = str) -> Catalogue:
-    """The union of all translation units: checks duplicates, IDs and uniqueness."""
+def build_catalogue(units: list[FeUnit], id_scheme: str = "paper", relpath: Callable[[str], str] = str,
+                    options: BuildOptions | None = None) -> Catalogue:
+    """The union of all translation units: checks duplicates, IDs, sizes and uniqueness. Every
+    problem of one run is reported at once (a ModelError carries the notes gathered so far)."""
+    notes: list[Note] = []
+    try:
+        return _build(units, id_scheme, relpath, options, notes)
+    except ModelError as exc:
+        exc.notes = tuple(notes)  # type: ignore[attr-defined]
+        raise
+
+
+def _build(units: list[FeUnit], id_scheme: str, relpath: Callable[[str], str], options: BuildOptions | None,
+           notes: list[Note]) -> Catalogue:
+    opts = dataclasses.replace(options or BuildOptions(), id_scheme=id_scheme)
     records = _merge_records(units, relpath)
-    fe_instances = _merge_instances(units, relpath)
-    needed = _reachable(records, {i.type_key for i in fe_instances})
-    types = _make_types(records, needed, relpath)
+    fe_enums = _merge_enums(units, relpath)
+    fe_instances, skipped = _merge_instances(units, relpath, notes)
+    includes, unreachable = _include_plan(units, {i.type_key for i, _ in fe_instances})
+    for key, where in sorted(unreachable.items()):
+        users = sorted({i.name for i, _ in fe_instances if i.type_key == key})
+        notes.append(Note("warning", f"'{key}' is defined in {relpath(where.file)}, a .c file the generated C cannot "
+                                     f"include: {len(users)} instance(s) not catalogued ({', '.join(users)}); move the "
+                                     "definition into a header that file includes",
+                          SourceLoc(relpath(where.file), where.line)))
+        for inst, _ in fe_instances:
+            if inst.type_key == key:
+                skipped[inst.name] = SkippedInstance(inst.name, SourceLoc(relpath(inst.loc.file), inst.loc.line),
+                                                     f"type defined in a .c file: '{key}' (move it to a header)")
+    fe_instances = [(i, q) for i, q in fe_instances if i.type_key not in unreachable]
+    needed = _reachable(records, {i.type_key for i, _ in fe_instances})
+    types = _make_types(records, needed, relpath, opts)
+    problems: list[str] = []
+    fe_instances = _apply_payload_limit(types, fe_instances, skipped, opts, notes, relpath, problems)
+    kept = _reachable(records, {i.type_key for i, _ in fe_instances})
+    types = {k: t for k, t in types.items() if k in kept}
     instances = _expand_instances(fe_instances, id_scheme, relpath)
-    _check_unique(instances, id_scheme)
-    skipped = _merge_skipped(units, relpath)
-    return Catalogue(id_scheme, tuple(types[k] for k in sorted(types)), tuple(sorted(instances, key=lambda i: i.id)), skipped)
+    try:
+        _check_unique(instances, id_scheme)
+    except CollisionError as exc:
+        if not problems:
+            raise
+        problems.append(str(exc))
+    if problems:
+        raise (PayloadLimitError if len(problems) == 1 else CatalogueRefusedError)("\n".join(problems))
+    used_enums = {f.enum for t in types.values() for f in t.fields if f.enum}
+    enums = tuple(EnumType(e.key, e.constants, SourceLoc(relpath(e.loc.file), e.loc.line))
+                  for k, e in sorted(fe_enums.items()) if k in used_enums)
+    notes += _hints(units, instances, skipped, types, opts, relpath)
+    return Catalogue(id_scheme, tuple(types[k] for k in sorted(types)), tuple(sorted(instances, key=lambda i: i.id)),
+                     tuple(skipped[k] for k in sorted(skipped)), enums, includes, tuple(notes), opts.max_payload)
 
 
 def _loc_key(loc: SourceLoc, relpath: Callable[[str], str]) -> tuple[str, int]:
@@ -296,38 +462,194 @@ def _merge_records(units: list[FeUnit], relpath: Callable[[str], str]) -> dict[s
 
 
 def _record_shape(rec: FeRecord, relpath: Callable[[str], str]) -> tuple:
-    fields = tuple((f.name, f.type, f.dims, f.offset_bits, f.bit_width) for f in rec.fields)
+    fields = tuple((f.name, _shape_type(f.type, relpath), f.dims, f.offset_bits, f.bit_width) for f in rec.fields)
     return (rec.c_name, rec.size, rec.align, rec.packed, fields)
 
 
-def _merge_instances(units: list[FeUnit], relpath: Callable[[str], str]) -> list[FeInstance]:
-    merged: dict[str, FeInstance] = {}
+def _shape_type(t: object, relpath: Callable[[str], str]) -> object:
+    """A field type for comparison across inputs (clang's spelling of unnamed things holds paths)."""
+    if isinstance(t, (FeScalar, FeOther)):
+        return dataclasses.replace(t, spelling=_spelling(t.spelling, relpath))
+    return t
+
+
+def _merge_enums(units: list[FeUnit], relpath: Callable[[str], str]) -> dict[str, FeEnum]:
+    merged: dict[str, FeEnum] = {}
     for unit in units:
-        for inst in unit.instances:
-            old = merged.get(inst.name)
+        for e in unit.enums:
+            old = merged.get(e.key)
             if old is None:
-                merged[inst.name] = inst
-            elif (old.type_key, old.dims) != (inst.type_key, inst.dims):
-                a, b = sorted((_fmt(old.loc, relpath), _fmt(inst.loc, relpath)))
+                merged[e.key] = e
+            elif old.constants != e.constants:
+                a, b = sorted((_fmt(old.loc, relpath), _fmt(e.loc, relpath)))
                 raise DuplicateDefinitionError(
-                    f"{a}: error: instance '{inst.name}' is declared with another type here and at {b} "
-                    f"({_decl_text(old)} vs {_decl_text(inst)})"
+                    f"{a}: error: '{e.key}' has other constants here than at {b}; "
+                    "one enum name must mean one set of constants in every input")
+            elif _loc_key(e.loc, relpath) < _loc_key(old.loc, relpath):
+                merged[e.key] = e
+    return merged
+
+
+def _merge_instances(units: list[FeUnit], relpath: Callable[[str], str], notes: list[Note]
+                     ) -> tuple[list[tuple[FeInstance, str | None]], dict[str, SkippedInstance]]:
+    """The instances of the union, as (record, qualifier), and the skipped ones by name.
+
+    One name declared in several inputs is one instance, at its first place. One name *defined*
+    in several files (each translation unit's definition counts once, a header's definition is
+    one file however many inputs include it) is one instance per file, qualified by the file:
+    `name@<shortest trailing path without suffix that tells the files apart>`."""
+    seen: dict[str, list[tuple[int, FeInstance]]] = {}
+    for k, unit in enumerate(units):
+        for inst in unit.instances:
+            seen.setdefault(inst.name, []).append((k, inst))
+    out: list[tuple[FeInstance, str | None]] = []
+    for name in sorted(seen):
+        places = seen[name]
+        first = min((inst for _, inst in places), key=lambda i: _loc_key(i.loc, relpath))
+        for _, inst in places:
+            if (first.type_key, first.dims) != (inst.type_key, inst.dims):
+                a, b = sorted((_fmt(first.loc, relpath), _fmt(inst.loc, relpath)))
+                raise DuplicateDefinitionError(
+                    f"{a}: error: instance '{name}' is declared with another type here and at {b} "
+                    f"({_decl_text(first)} vs {_decl_text(inst)})"
                 )
-            elif _loc_key(inst.loc, relpath) < _loc_key(old.loc, relpath):
-                merged[inst.name] = inst
-    return [merged[k] for k in sorted(merged)]
+        definitions: dict[str, FeInstance] = {}
+        for k in sorted({k for k, _ in places}):
+            defs = [inst for j, inst in places if j == k and inst.definition]
+            if defs:
+                own = [d for d in defs if os.path.normpath(d.loc.file) == os.path.normpath(units[k].file)]
+                pick = (own or defs)[0]
+                definitions.setdefault(relpath(pick.loc.file), pick)
+        if len(definitions) <= 1:
+            out.append((first, None))
+            continue
+        quals = _qualifiers(sorted(definitions))
+        names = [f"{name}@{quals[f]}" for f in sorted(definitions)]
+        notes.append(Note("note", f"'{name}' is defined in {len(definitions)} files; catalogued once per file as "
+                                  f"{', '.join(names)} (docs/catalogue.md, duplicate definitions)",
+                          SourceLoc(relpath(first.loc.file), first.loc.line)))
+        out += [(definitions[f], quals[f]) for f in sorted(definitions)]
+    catalogued = set(seen)
+    skipped: dict[str, SkippedInstance] = {}
+    for unit in units:
+        for name, loc, reason in unit.skipped_instances:
+            if name not in catalogued:
+                skipped.setdefault(name, SkippedInstance(name, SourceLoc(relpath(loc.file), loc.line), reason))
+    return out, skipped
+
+
+def _qualifiers(files: list[str]) -> dict[str, str]:
+    """The shortest trailing path, without the suffix, that tells each file from the others:
+    `apps/sc/tables/sc_rts001.c` -> `sc_rts001`; `a/tbl.c`, `b/tbl.c` -> `a/tbl`, `b/tbl`."""
+    parts = {f: tuple(os.path.splitext(f)[0].split("/")) for f in files}
+    out = {}
+    for f, p in parts.items():
+        for n in range(1, len(p) + 1):
+            if all(q[-n:] != p[-n:] for g, q in parts.items() if g != f):
+                out[f] = "/".join(p[-n:])
+                break
+        else:
+            out[f] = "/".join(p)
+    return out
 
 
 def _decl_text(inst: FeInstance) -> str:
     return inst.type_key + "".join(f"[{d}]" for d in inst.dims)
 
 
-def _merge_skipped(units: list[FeUnit], relpath: Callable[[str], str]) -> tuple[SkippedInstance, ...]:
-    found: dict[str, SkippedInstance] = {}
-    for unit in units:
-        for name, loc, reason in unit.skipped_instances:
-            found.setdefault(name, SkippedInstance(name, SourceLoc(relpath(loc.file), loc.line), reason))
-    return tuple(found[k] for k in sorted(found))
+def _include_plan(units: list[FeUnit], type_keys: set[str]) -> tuple[tuple[str, ...], dict[str, SourceLoc]]:
+    """What the generated header #includes so every instance type is visible, in the context clang
+    parsed it in, and the types no header can reach (key -> where the .c defines it).
+
+    A type seen through a header input: that header (it parsed on its own, so it is self-contained).
+    A type seen only through `.c` inputs: the first such input's own #include lines, in order, up to
+    the one that brings the type in; the headers before it are what a non-self-contained header
+    needs. A type defined inside a `.c` file cannot be reached."""
+    chosen: dict[str, tuple[int, int]] = {}  # key -> (unit, index into top_includes; -1 = self_include)
+    defined_in_c: dict[str, SourceLoc] = {}
+    seen = [{r.key: r.loc for r in unit.records} for unit in units]
+    vias = [dict(unit.record_via) for unit in units]
+    for key in sorted(type_keys):
+        for k, unit in enumerate(units):
+            if key not in seen[k]:
+                continue
+            if not unit.is_source:
+                chosen[key] = (k, -1)
+                break
+            via = vias[k].get(key, -1)
+            if via >= 0:
+                chosen[key] = (k, via)
+                break
+            defined_in_c.setdefault(key, seen[k][key])
+    unreachable = {k: loc for k, loc in defined_in_c.items() if k not in chosen}
+    wanted: dict[int, int] = {}
+    for k, via in chosen.values():
+        wanted[k] = max(wanted.get(k, -1), via)
+    includes: list[str] = []
+    opened: set[str] = set()
+    for k in sorted(wanted):
+        unit = units[k]
+        refs = [unit.self_include] if not unit.is_source else list(unit.top_includes[:wanted[k] + 1])
+        for ref in refs:
+            assert ref is not None
+            path = os.path.normpath(os.path.abspath(ref.path))
+            if path not in opened and ref.text not in includes:
+                opened.add(path)
+                includes.append(ref.text)
+    return tuple(includes), unreachable
+
+
+def _apply_payload_limit(types: dict[str, StructType], fe_instances: list[tuple[FeInstance, str | None]],
+                         skipped: dict[str, SkippedInstance], opts: BuildOptions, notes: list[Note],
+                         relpath: Callable[[str], str], problems: list[str]) -> list[tuple[FeInstance, str | None]]:
+    """Every type packing to more than the payload limit, named; a problem (the catalogue is
+    refused), or with keep_going its instances are left out (a node refuses such a catalogue)."""
+    big = sorted((t for t in types.values() if t.packed_size > opts.max_payload), key=lambda t: (str(t.loc), t.name))
+    if not big:
+        return fe_instances
+    lines = [f"  {t.loc}: {t.name}: {t.packed_size} bytes on the wire" for t in big]
+    fix = ("fix: split the type, skip members, or build the runtime with a larger UB_MAX_DIRECTORY and pass the "
+           "same value as --max-payload")
+    if not opts.keep_going:
+        problems.append(f"error: {len(big)} type(s) pack to more than the payload limit of {opts.max_payload} "
+                        "bytes (--max-payload; the runtime's UB_MAX_DIRECTORY):\n" + "\n".join(lines) + "\n" + fix)
+        return fe_instances
+    too_big = {t.name for t in big}
+    notes.append(Note("warning", f"{len(big)} type(s) pack to more than the payload limit of {opts.max_payload} "
+                                 "bytes; their instances are not catalogued:\n" + "\n".join(lines) + "\n" + fix))
+    kept = []
+    for inst, qual in fe_instances:
+        if inst.type_key in too_big:
+            name = inst.name + (f"@{qual}" if qual else "")
+            skipped[name] = SkippedInstance(name, SourceLoc(relpath(inst.loc.file), inst.loc.line),
+                                            f"larger than the payload limit ({types[inst.type_key].packed_size} > "
+                                            f"{opts.max_payload} bytes)")
+        else:
+            kept.append((inst, qual))
+    return kept
+
+
+def _hints(units: list[FeUnit], instances: list[Instance], skipped: dict[str, SkippedInstance],
+           types: dict[str, StructType], opts: BuildOptions, relpath: Callable[[str], str]) -> list[Note]:
+    out = []
+    if not instances:
+        defined = sorted({name for unit in units for name, _ in unit.defined_types})
+        if defined:
+            example = defined[0]
+            var = re.sub(r"\W", "", example.removeprefix("struct ")).removesuffix("_t") or "x"
+            more = f" ({', '.join(defined[:5])}{', ...' if len(defined) > 5 else ''})"
+            out.append(Note("warning", f"no instance to catalogue: the inputs define {len(defined)} struct type(s){more} "
+                                       "but declare no instance of one with external linkage; declare each directory "
+                                       f"the system shares, e.g. `extern {example} {var};` in a header the inputs "
+                                       "include (docs/catalogue.md, what is catalogued)"))
+        elif not skipped:
+            out.append(Note("warning", "no instance to catalogue: the inputs define no struct type and declare no "
+                                       "instance (docs/catalogue.md, what is catalogued)"))
+    for pat in opts.string_fields:
+        if not any(fnmatch.fnmatchcase(f"{t.name}.{f.name}", pat) for t in types.values() for f in t.fields):
+            out.append(Note("warning", f"--string-field '{pat}' matches no member (write it as '<type name>.<member>', "
+                                       "e.g. 'struct tbl_row.name' or '*.callsign')"))
+    return out
 
 
 def _fmt(loc: SourceLoc, relpath: Callable[[str], str]) -> str:
@@ -346,14 +668,15 @@ def _reachable(records: dict[str, FeRecord], roots: set[str]) -> set[str]:
     return seen
 
 
-def _make_types(records: dict[str, FeRecord], needed: set[str], relpath: Callable[[str], str]) -> dict[str, StructType]:
+def _make_types(records: dict[str, FeRecord], needed: set[str], relpath: Callable[[str], str],
+                opts: BuildOptions) -> dict[str, StructType]:
     done: dict[str, StructType] = {}
 
     def make(key: str) -> StructType:
         if key in done:
             return done[key]
         rec = records[key]
-        fields = tuple(_make_field(f, relpath) for f in rec.fields)
+        fields = tuple(_make_field(f, relpath, opts.string_as_bytes(key, f.name)) for f in rec.fields)
         for f in fields:
             if f.struct:
                 make(f.struct)
@@ -378,10 +701,10 @@ def _spelling(text: str, relpath: Callable[[str], str]) -> str:
     return _ANONYMOUS_AT.sub(lambda m: f"({m[1]} at {relpath(m[2])}:{m[3]}:{m[4]})", text)
 
 
-def _make_field(f: FeField, relpath: Callable[[str], str]) -> Field:
+def _make_field(f: FeField, relpath: Callable[[str], str], text: bool = False) -> Field:
     loc = SourceLoc(relpath(f.loc.file), f.loc.line)
     t = f.type
-    if isinstance(t, FeOther):
+    if isinstance(t, (FeOther, FeScalar)):
         t = dataclasses.replace(t, spelling=_spelling(t.spelling, relpath))
     common = dict(name=f.name, dims=f.dims, offset_bits=f.offset_bits, loc=loc)
     if isinstance(t, FeOther):
@@ -389,22 +712,25 @@ def _make_field(f: FeField, relpath: Callable[[str], str]) -> Field:
         return Field(**common, c_spelling=t.spelling, skipped=reason or f"{SKIP_UNSUPPORTED} ({t.spelling})")
     if isinstance(t, FeRecordRef):
         return Field(**common, c_spelling=t.key, struct=t.key)
-    return _scalar_field(f, t, common)
+    return _scalar_field(f, t, common, text)
 
 
-def _scalar_field(f: FeField, t: FeScalar, common: dict) -> Field:
-    if t.plain_char and f.dims:
+def _scalar_field(f: FeField, t: FeScalar, common: dict, text: bool = False) -> Field:
+    if t.plain_char and f.dims and f.bit_width is None:
+        if text:
+            return Field(**common, c_spelling=t.spelling, wire=PRIMITIVES["u8"], text=True)
         return Field(**common, c_spelling=t.spelling, skipped=SKIP_STRING)
+    enum = t.enum_key if t.is_enum else None
     if f.bit_width is not None:
         wire = PRIMITIVES["bool"] if t.kind == "bool" else bitfield_container(f.bit_width, t.signed)
-        return Field(**common, c_spelling=t.spelling, wire=wire, bits=f.bit_width)
+        return Field(**common, c_spelling=t.spelling, wire=wire, bits=f.bit_width, enum=enum if wire.name != "bool" else None)
     if t.kind == "bool" and t.size == 1:
         return Field(**common, c_spelling=t.spelling, wire=PRIMITIVES["bool"])
     if t.kind == "float" and (t.size in (4, 8) or t.is_long_double):
         wire = PRIMITIVES["f64" if t.is_long_double or t.size == 8 else "f32"]
         return Field(**common, c_spelling=t.spelling, wire=wire, long_double=t.is_long_double)
     if t.kind == "int" and t.size in (1, 2, 4, 8):
-        return Field(**common, c_spelling=t.spelling, wire=int_primitive(t.size, t.signed))
+        return Field(**common, c_spelling=t.spelling, wire=int_primitive(t.size, t.signed), enum=enum)
     return Field(**common, c_spelling=t.spelling, skipped=f"{SKIP_UNSUPPORTED} ({t.spelling})")
 
 
@@ -435,17 +761,17 @@ def fingerprint(canonical: str) -> int:
     return int.from_bytes(hashlib.sha256(canonical.encode("utf-8")).digest()[:4], "little")
 
 
-def _expand_instances(fe: list[FeInstance], scheme: str, relpath: Callable[[str], str]) -> list[Instance]:
+def _expand_instances(fe: list[tuple[FeInstance, str | None]], scheme: str, relpath: Callable[[str], str]) -> list[Instance]:
     out = []
-    for inst in fe:
+    for inst, qual in fe:
         loc = SourceLoc(relpath(inst.loc.file), inst.loc.line)
         for index in product(*(range(d) for d in inst.dims)):
-            name = inst.name + "".join(f"[{i}]" for i in index)
+            name = inst.name + "".join(f"[{i}]" for i in index) + (f"@{qual}" if qual else "")
             try:
                 ident = ids.dir_id(name, scheme)
             except ids.IdError as exc:
                 raise ModelError(f"{loc}: error: {exc}") from exc
-            out.append(Instance(name, inst.type_key, ident, loc, inst.name, tuple(index)))
+            out.append(Instance(name, inst.type_key, ident, loc, inst.name, tuple(index), qual))
     return out
 
 
@@ -505,7 +831,8 @@ def _leaves(cat: Catalogue, t: StructType, prefix: Path, counter: Iterator[int])
 
 
 def test_value(f: Field, k: int) -> Union[int, float, bool]:
-    """A value that fits the field exactly (floats are exact binary fractions)."""
+    """A value that fits the field exactly (floats are exact binary fractions; text is printable
+    ASCII with a NUL now and then, so bytes after a terminator travel too)."""
     assert f.wire is not None
     if f.wire.name == "bool":
         return k % 2 == 1
@@ -513,6 +840,8 @@ def test_value(f: Field, k: int) -> Union[int, float, bool]:
         return (k * 37 % 4096) * 0.25 - 512.0
     if f.wire.name == "f64":
         return (k * 7919 % 100003) * 0.125 - 6000.5
+    if f.text:
+        return 0 if k % 11 == 0 else 32 + (k * 7) % 95
     width = f.bits if f.bits is not None else f.wire.bits
     span = (1 << width) - 1  # signed values stay in [-(2^(w-1)-1), 2^(w-1)-1]
     raw = (k * 2654435761 + 40503) % span if span else 0
@@ -532,7 +861,8 @@ def expected_digest(cat: Catalogue) -> int:
 
 
 def value_tree(leaves: list[Leaf], cat: Catalogue, t: StructType) -> dict:
-    """The test values as the nested dict `to_dict()` returns (arrays as nested lists)."""
+    """The test values as the nested dict `to_dict()` returns (arrays as nested lists; a text
+    member's innermost dimension as one `bytes`)."""
     flat = {leaf.path: leaf.value for leaf in leaves}
     return _tree(cat, t, (), flat)
 
@@ -545,11 +875,60 @@ def _tree(cat: Catalogue, t: StructType, prefix: Path, flat: dict) -> dict:
 
 
 def _tree_dims(cat: Catalogue, f: Field, prefix: Path, dims: tuple[int, ...], flat: dict):
+    if f.text and len(dims) == 1:
+        return bytes(flat[prefix + (i,)] for i in range(dims[0]))
     if dims:
         return [_tree_dims(cat, f, prefix + (i,), dims[1:], flat) for i in range(dims[0])]
     if f.struct:
         return _tree(cat, cat.type(f.struct), prefix, flat)
     return flat[prefix]
+
+
+@dataclass(frozen=True)
+class WireCheck:
+    """A scalar whose wire bytes unpack may refuse (Field.checked) or whose value may not come
+    back bit for bit (a long double's NaN payload): where it sits in a packed image of its type."""
+
+    offset: int  # byte offset in the packed image
+    leaf: int  # index in the flat value tuple of the type's Python struct (a text row is one value)
+    field: Field
+
+    @property
+    def kind(self) -> str:
+        """'bool', 'bits' (a bitfield narrower than its container), 'ldouble' or 'f32'."""
+        assert self.field.wire is not None
+        if self.field.wire.name == "bool":
+            return "bool"
+        if self.field.checked:
+            return "bits"
+        return "ldouble" if self.field.long_double else "f32"
+
+
+def wire_checks(cat: Catalogue, t: StructType, f32: bool = False) -> list[WireCheck]:
+    """Every checked scalar and every long double of `t` (and every f32 with `f32`: Python's struct
+    quiets a signalling NaN), nested ones included, in wire order."""
+    out: list[WireCheck] = []
+    _walk_checks(cat, t, 0, [0], out, f32)
+    return out
+
+
+def _walk_checks(cat: Catalogue, t: StructType, base: int, leaf: list[int], out: list[WireCheck], f32: bool) -> int:
+    at = base
+    for f in t.packed_fields:
+        if f.text:  # one bytes value per innermost row in Python's flat tuple
+            at += f.count
+            leaf[0] += f.count // f.dims[-1]
+            continue
+        for _ in range(f.count):
+            if f.struct:
+                at = _walk_checks(cat, cat.type(f.struct), at, leaf, out, f32)
+                continue
+            assert f.wire is not None
+            if f.checked or f.long_double or (f32 and f.wire.name == "f32"):
+                out.append(WireCheck(at, leaf[0], f))
+            at += f.wire.size
+            leaf[0] += 1
+    return at
 
 
 # ---------------------------------------------------------------------------------------------

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import re
 from dataclasses import dataclass
+from itertools import product
 from pathlib import Path
 from typing import Any
 
@@ -24,18 +25,30 @@ ABI_VERSION = 2  # must equal UB_CATALOGUE_ABI_VERSION in runtime_c/include/ub/u
 
 
 class Properties:
-    """Per-language reserved identifiers (templates/properties.json)."""
+    """Per-language reserved identifiers and the prefixes for names the language would mangle
+    (templates/properties.json)."""
 
     def __init__(self, data: dict[str, Any]) -> None:
         self.reserved = {lang: frozenset(v["reserved_identifiers"]) for lang, v in data.items()}
+        self.dunder_prefix = {lang: v.get("dunder_prefix", {}) for lang, v in data.items()}
 
     @classmethod
     def load(cls, template_dir: Path = TEMPLATE_DIR) -> "Properties":
         return cls(json.loads((template_dir / "properties.json").read_text()))
 
-    def mangle(self, name: str, lang: str) -> str:
-        """`name` unchanged unless reserved in `lang`; then with a trailing underscore (repeated
-        until free, so `pack_` stays distinct from a mangled `pack`)."""
+    def mangle(self, name: str, lang: str, role: str = "attribute") -> str:
+        """`name` unchanged unless the language would not take it as is: a name with a leading `__`
+        (Python mangles it inside class bodies) gets the role's prefix (`C` for a class, `m` for an
+        attribute); a reserved name gets a trailing underscore (repeated until free, so `pack_`
+        stays distinct from a mangled `pack`).
+
+        >>> p = Properties({"py": {"reserved_identifiers": ["class"], "dunder_prefix": {"class": "C"}}})
+        >>> p.mangle("__pthread", "py", "class"), p.mangle("class", "py")
+        ('C__pthread', 'class_')
+        """
+        prefix = self.dunder_prefix.get(lang, {}).get(role)
+        if prefix and name.startswith("__"):
+            name = prefix + name
         while name in self.reserved[lang]:
             name += "_"
         return name
@@ -44,7 +57,6 @@ class Properties:
 @dataclass(frozen=True)
 class RenderInputs:
     name: str  # NAME: output base name and C/Python prefix
-    includes: tuple[str, ...]  # headers NAME.h includes, as written in #include "..."
     catalogue_json: str = ""  # compact catalogue JSON, embedded in NAME.c as the catalogue's self-description
 
 
@@ -64,15 +76,20 @@ class Renderer:
             autoescape=False,
         )
         self.env.filters.update(
-            c_put=c_put, c_get=c_get, c_literal=c_literal, c_bytes=c_bytes, c_string=c_string, c_string_lines=c_string_lines,
+            c_put=c_put, c_get=c_get, c_literal=c_literal, c_bytes=c_bytes, c_string=c_string,
+            c_valid=c_valid, c_value_type=c_value_type,
             py_attr=lambda n: self.props.mangle(n, "py"), py_class=self.py_class,
             py_format=self.py_format, py_literal=py_literal, hex8=lambda v: f"0x{v:08x}",
         )
         self.env.globals.update(
-            cat=cat, NAME=inputs.name, includes=inputs.includes, abi_version=ABI_VERSION, model=model,
+            cat=cat, NAME=inputs.name, abi_version=ABI_VERSION, model=model,
             type_of=cat.type, leaves_of=self.leaves_count, C_PATH=c_path, render_node=self.render_node,
             id_scheme_c="UB_ID_SCHEME_" + cat.id_scheme.upper(), catalogue_json=inputs.catalogue_json,
+            check_runs=check_runs, json_rows=c_json_rows, wire_checks=lambda t: model.wire_checks(cat, t),
+            py_checks=self.py_checks, py_property_checks=self.py_property_checks, indexes=lambda dims: list(product(*(range(d) for d in dims))), concrete=_concrete, LOOP_MIN=LOOP_MIN,
+            rounds=PROPERTY_ROUNDS,
         )
+        self._py_classes = self._python_class_names()
 
     # -- template resolution ------------------------------------------------------------------
     def render_node(self, obj: object, lang: str, ext: str, **extra: Any) -> str:
@@ -96,18 +113,60 @@ class Renderer:
         }
 
     def render_selftest(self) -> dict[str, str]:
-        """The self-test programs (C and Python) with their shared values."""
+        """The self-test programs with their shared values: C split into translation units of about
+        SELFTEST_CHUNK_WEIGHT leaves each (so they build in parallel at -O0), and Python."""
         n = self.inputs.name
         cases = [SelftestCase.make(self.cat, t) for t in self.cat.named_types]
-        return {
-            f"{n}_selftest.c": tidy(self.env.get_template("c/Selftest.c.j2").render(cases=cases)),
+        chunks: list[list[SelftestCase]] = [[]]
+        weight = 0
+        for case in cases:
+            if chunks[-1] and weight + case.weight > SELFTEST_CHUNK_WEIGHT:
+                chunks.append([])
+                weight = 0
+            chunks[-1].append(case)
+            weight += case.weight
+        files = {
+            f"{n}_selftest.h": tidy(self.env.get_template("c/Selftest.h.j2").render(chunks=chunks)),
+            f"{n}_selftest.c": tidy(self.env.get_template("c/Selftest.c.j2").render(chunks=chunks)),
             f"{n}_selftest.py": tidy(self.env.get_template("py/Selftest.py.j2").render(cases=cases)),
         }
+        for k, chunk in enumerate(chunks):
+            files[f"{n}_selftest_{k}.c"] = tidy(
+                self.env.get_template("c/SelftestChunk.c.j2").render(chunk=chunk, chunk_index=k))
+        return files
 
     # -- Python helpers -----------------------------------------------------------------------
+    def _python_class_names(self) -> dict[str, str]:
+        """Type name -> Python class name, unique in the module (a clash gets underscores)."""
+        taken = set(self.props.reserved["py"])
+        out: dict[str, str] = {}
+        for t in self.cat.types:
+            name = self.props.mangle(t.ident, "py", "class")
+            while name in taken:
+                name += "_"
+            taken.add(name)
+            out[t.name] = name
+        return out
+
     def py_class(self, t: StructType | str) -> str:
-        t = self.cat.type(t) if isinstance(t, str) else t
-        return self.props.mangle(t.ident, "py")
+        return self._py_classes[t if isinstance(t, str) else t.name]
+
+    def py_property_checks(self, t: StructType) -> list[tuple[int, str, int, bool, int]]:
+        """(offset, kind, bits, signed, container size) of every bool, narrow bitfield and f32 leaf."""
+        return [(c.offset, c.kind, c.field.bits or 0, bool(c.field.wire and c.field.wire.signed), c.field.wire.size)  # type: ignore[union-attr]
+                for c in model.wire_checks(self.cat, t, f32=True) if c.kind != "ldouble"]
+
+    def py_checks(self, t: StructType) -> tuple[tuple[int, ...], tuple[tuple[int, int, int, str], ...]]:
+        """What Python's unpack refuses: byte offsets of bools (a byte other than 0/1) and, per
+        bitfield, (index in the flat value tuple, lowest, highest, member name)."""
+        bools, ranges = [], []
+        for c in model.wire_checks(self.cat, t):
+            if c.kind == "bool":
+                bools.append(c.offset)
+            elif c.kind == "bits":
+                lo, hi = c.field.bit_range()
+                ranges.append((c.leaf, lo, hi, c.field.name))
+        return tuple(bools), tuple(ranges)
 
     def py_format(self, t: StructType) -> str:
         """struct-module format for the whole type without the '<' prefix, runs merged ('3f' not 'fff')."""
@@ -116,14 +175,38 @@ class Renderer:
     def _format_runs(self, t: StructType) -> list[tuple[int, str]]:
         runs: list[tuple[int, str]] = []
         for f in t.packed_fields:
-            if f.wire:
+            if f.text:  # one bytes value per innermost row: "16s" (a count on `s` is its length)
+                runs += [(1, f"{f.dims[-1]}s")] * (f.count // f.dims[-1])
+            elif f.wire:
                 runs.append((f.count, f.wire.py_format))
             else:
                 runs += self._format_runs(self.cat.type(f.struct)) * f.count  # type: ignore[arg-type]
         return runs
 
     def leaves_count(self, t: StructType) -> int:
-        return sum(f.count if f.wire else f.count * self.leaves_count(self.cat.type(f.struct)) for f in t.packed_fields)  # type: ignore[arg-type]
+        """Values in the type's flat tuple (a text row is one `bytes` value)."""
+        return sum(f.count // f.dims[-1] if f.text else f.count if f.wire
+                   else f.count * self.leaves_count(self.cat.type(f.struct))  # type: ignore[arg-type]
+                   for f in t.packed_fields)
+
+
+SELFTEST_CHUNK_WEIGHT = 3000  # C statements per self-test translation unit, roughly
+PROPERTY_ROUNDS = 48  # random byte strings per type in the canonical-codec property test
+
+
+@dataclass(frozen=True)
+class LeafGroup:
+    """Leaves of one scalar member at every index of the arrays around it: assigned and compared
+    by one loop over a value table (`path` holds loop variables `i0`, `i1`... for the indexes)."""
+
+    path: tuple[str | int, ...]
+    dims: tuple[int, ...]  # extent of each loop variable, outermost first
+    field: Field
+    values: tuple[Any, ...]  # row-major
+
+    @property
+    def count(self) -> int:
+        return len(self.values)
 
 
 @dataclass(frozen=True)
@@ -132,16 +215,87 @@ class SelftestCase:
     leaves: tuple[model.Leaf, ...]
     expected: bytes
     tree: dict
+    groups: tuple[LeafGroup, ...]
+    checks: tuple[model.WireCheck, ...]
 
     @classmethod
     def make(cls, cat: Catalogue, t: StructType) -> "SelftestCase":
         leaves = model.test_leaves(cat, t)
-        return cls(t, tuple(leaves), model.expected_packed(cat, t), model.value_tree(leaves, cat, t))
+        return cls(t, tuple(leaves), model.expected_packed(cat, t), model.value_tree(leaves, cat, t),
+                   tuple(_leaf_groups(cat, t, leaves)), tuple(model.wire_checks(cat, t)))
 
     @property
     def skipped_paths(self) -> tuple[str, ...]:
         """Top-level skipped members the C test can poison and re-check (unpack must not touch them)."""
         return tuple(f.name for f in self.type.fields if f.skipped and f.name and f.skipped != model.SKIP_FLEXIBLE)
+
+    @property
+    def weight(self) -> int:
+        return 20 + sum(1 if g.count < LOOP_MIN else 3 + g.count // 8 for g in self.groups)
+
+    @property
+    def seed(self) -> int:
+        return self.type.fingerprint or 1
+
+
+LOOP_MIN = 4  # a group of fewer leaves is written out one statement per leaf
+
+
+def _leaf_groups(cat: Catalogue, t: StructType, leaves: list[model.Leaf]) -> list[LeafGroup]:
+    """The leaves of `t` grouped per member path (array indexes abstracted), in first-leaf order."""
+    values = {leaf.path: leaf.value for leaf in leaves}
+    out: list[LeafGroup] = []
+
+    def walk(t: StructType, prefix: tuple, dims: tuple[int, ...]) -> None:
+        for f in t.packed_fields:
+            var_path = prefix + (f.name,) + tuple(LoopVar(len(dims) + k) for k in range(len(f.dims)))
+            all_dims = dims + f.dims
+            if f.struct:
+                walk(cat.type(f.struct), var_path, all_dims)
+                continue
+            vals = tuple(values[_concrete(var_path, index)] for index in product(*(range(d) for d in all_dims)))
+            out.append(LeafGroup(var_path, all_dims, f, vals))
+
+    walk(t, (), ())
+    return out
+
+
+@dataclass(frozen=True)
+class LoopVar:
+    """An array index that a self-test loop runs over: written `[i<k>]` in C paths."""
+
+    k: int
+
+
+def _concrete(path: tuple, index: tuple[int, ...]) -> tuple:
+    """A group path with its loop variables replaced by `index` (LoopVar(0) -> index[0]...)."""
+    return tuple(index[p.k] if isinstance(p, LoopVar) else p for p in path)
+
+
+@dataclass(frozen=True)
+class CheckRun:
+    """`count` checked scalars of one member, `stride` bytes apart from `offset` (unpack validation)."""
+
+    field: Field
+    offset: int
+    count: int
+    stride: int
+
+
+def check_runs(checks: list[model.WireCheck]) -> list[CheckRun]:
+    """Refusable scalars (bools, narrow bitfields) merged into runs of equal stride."""
+    runs: list[CheckRun] = []
+    for c in checks:
+        if c.kind == "ldouble":
+            continue
+        last = runs[-1] if runs else None
+        if last is not None and last.field is c.field:
+            stride = c.offset - last.offset if last.count == 1 else last.stride
+            if c.offset == last.offset + stride * last.count and stride > 0:
+                runs[-1] = CheckRun(last.field, last.offset, last.count + 1, stride)
+                continue
+        runs.append(CheckRun(c.field, c.offset, 1, 0))
+    return runs
 
 
 # -- C filters (pure functions, doctested) --------------------------------------------------------
@@ -203,17 +357,72 @@ def c_string(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def c_string_lines(text: str, width: int = 96) -> str:
-    """A long C string literal as adjacent literals, one per line (the compiler joins them)."""
-    chunks = [text[i:i + width] for i in range(0, len(text), width)] or [""]
-    return "\n".join("    " + c_string(c) for c in chunks)
+JSON_ROW = 4000  # characters per row of the embedded catalogue (C99: a string literal holds at most 4095)
+JSON_PIECE = 1000  # characters per source line of a row (C99: a logical source line holds at most 4095)
 
 
-def c_path(path: model.Path, base: str) -> str:
-    """`base` + path as C member/index access: ('a', 1, 'b') -> `base.a[1].b`."""
+def c_json_rows(text: str, row: int = JSON_ROW) -> list[tuple[int, list[str]]]:
+    """ASCII text cut into rows of `row` characters, each as (array size, [C string literals, one
+    per source line]); the last row holds the rest and the NUL (an empty literal if nothing is left).
+
+    >>> c_json_rows("abcdefg", row=4)
+    [(4, ['"abcd"']), (4, ['"efg"'])]
+    """
+    rows = [text[i:i + row] for i in range(0, len(text), row)]
+    if not rows or len(rows[-1]) == row:
+        rows.append("")
+    out = []
+    for k, chunk in enumerate(rows):
+        pieces = [chunk[i:i + JSON_PIECE] for i in range(0, len(chunk), JSON_PIECE)] or [""]
+        out.append((len(chunk) + (1 if k == len(rows) - 1 else 0), [c_string(p) for p in pieces]))
+    return out
+
+
+def c_value_type(f: Field) -> str:
+    """The C type of a self-test value table for `f` (its wire type's C type; long double tables
+    hold doubles, the values are exact in both)."""
+    assert f.wire is not None
+    return f.wire.c_type
+
+
+def c_valid(f: Field, at: str) -> str:
+    """A C condition, true when the wire scalar of checked field `f` at `at` is one unpack accepts.
+
+    >>> from uavbus_gen.model import PRIMITIVES, Field, SourceLoc
+    >>> loc = SourceLoc("x.h", 1)
+    >>> c_valid(Field("b", (), 0, loc, "_Bool", wire=PRIMITIVES["bool"]), "q")
+    'ub_get_u8(q) <= 1u'
+    >>> c_valid(Field("s", (), 0, loc, "int", wire=PRIMITIVES["i8"], bits=5), "q")
+    '(int8_t)ub_get_u8(q) >= -16 && (int8_t)ub_get_u8(q) <= 15'
+    """
+    w = f.wire
+    assert w is not None
+    if w.name == "bool":
+        return f"ub_get_u8({at}) <= 1u"
+    read = f"ub_get_u{w.bits}{'' if w.size == 1 else 'le'}({at})"
+    lo, hi = f.bit_range()
+    if not w.signed:
+        return f"{read} <= {_c_int(hi, w.bits, False)}"
+    val = f"({w.c_type}){read}"
+    return f"{val} >= {_c_int(lo, w.bits, True)} && {val} <= {_c_int(hi, w.bits, True)}"
+
+
+def _c_int(v: int, bits: int, signed: bool) -> str:
+    if bits == 64:
+        return f"INT64_C({v})" if signed else f"UINT64_C({v})"
+    if signed:
+        return f"({v + 1} - 1)" if v == -(1 << 31) else str(v)  # INT32_MIN has no literal
+    return f"{v}u"
+
+
+def c_path(path: tuple, base: str) -> str:
+    """`base` + path as C member/index access: ('a', 1, 'b') -> `base.a[1].b`; a LoopVar is `[i<k>]`."""
     out = base
     for part in path:
-        out += f"[{part}]" if isinstance(part, int) else f".{part}"
+        if isinstance(part, LoopVar):
+            out += f"[i{part.k}]"
+        else:
+            out += f"[{part}]" if isinstance(part, int) else f".{part}"
     return out
 
 
@@ -221,7 +430,7 @@ def _merge_runs(runs: list[tuple[int, str]]) -> list[tuple[int, str]]:
     """Adjacent runs of one format code merged: [(1,'f'), (2,'f'), (1,'B')] -> [(3,'f'), (1,'B')]."""
     merged: list[tuple[int, str]] = []
     for n, code in runs:
-        if merged and merged[-1][1] == code:
+        if merged and merged[-1][1] == code and not code.endswith("s"):  # "6s" twice is "6s6s", not "26s"
             merged[-1] = (merged[-1][0] + n, code)
         else:
             merged.append((n, code))

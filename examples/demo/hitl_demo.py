@@ -1,15 +1,19 @@
 #!/usr/bin/env python3
-"""`make demo`: the paper's scenarios end to end on one machine (issue 6).
+"""`make demo`: the paper's scenarios end to end on one machine (issue 6), signed (issue 11).
 
 1. HITL configuration (paper Table 2, figure 11) on 127.0.0.1: rmax1ob1, rmax1ob2 and fcs20 as C
    `uavbus_node` processes, gcs1 as the Python GCS in this process; gcs1<->rmax1ob1 over UDP plus a pty
-   "wireless serial" link, rmax1ob1<->rmax1ob2 over TCP, rmax1ob1<->fcs20 over a pty serial link.
+   "wireless serial" link, rmax1ob1<->rmax1ob2 over TCP, rmax1ob1<->fcs20 over a pty serial link. Every
+   frame is signed with a key made at run time (demo-out/secure/keys, never committed).
 2. From the GCS's global administration table, the paper's two tests: a publication of gpsOut from
    rmax1ob1 to gcs1, and a subscription of gcs1 to imuOut on the backup computer fcs20 (2 hops).
 3. kill -9 rmax1ob1 and restart it: the subscription heals by itself.
 4. The Table 1 / figure 9 configuration in this process over in-memory links.
+5. The attacker step (attack_step.py): issue 11's attacks against the signed Table 2; each is a check.
+6. A fleet: twelve vehicles and two ground stations with automatic routes (examples/demo/fleet_step.py;
+   skipped by --short unless --fleet).
 
-Prints a summary table and writes demo-out/summary.json, demo-out/gcs1.ublog (the GCS's binary log)
+Prints a summary table and writes demo-out/summary.json (with "security": {"attacks": [...]}), demo-out/gcs1.ublog (the GCS's binary log)
 and demo-out/imu.png. Exits 0 only if every check held; each failed check names itself and says why.
 Every process it starts is stopped on success, on failure and on Ctrl-C.
 
@@ -28,6 +32,7 @@ from typing import Any
 
 REPO = Path(__file__).resolve().parents[2]
 
+from attack_step import attacker_part, signed_table2  # noqa: E402  (beside this file)
 from uavbus.sim.build import node_program  # noqa: E402
 from uavbus.sim.hitl import Hitl, HitlOptions, timetag_latency_ms  # noqa: E402
 from uavbus.sim.metrics import (  # noqa: E402
@@ -153,7 +158,8 @@ def hitl_part(args: argparse.Namespace, check: Checks, rows: list[SummaryRow]) -
     if log.exists():
         log.unlink()
     say("\n== HITL configuration (paper Table 2, figure 11): 3 C processes + the Python GCS on 127.0.0.1")
-    opts = HitlOptions(program=args.program, record=log, stats_ms=500, node_logs=args.out / "nodes")
+    opts = HitlOptions(program=args.program, config=args.config, record=log, stats_ms=500,
+                       node_logs=args.out / "nodes")
     with Hitl(opts) as h:
         assert h.topo is not None
         for node in ("gcs", "primary", "secondary", "backup"):
@@ -349,18 +355,28 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--short", action="store_true", help="shorter measurement windows (for make test)")
     ap.add_argument("--out", type=Path, default=REPO / "demo-out", help="output directory (default demo-out/)")
     ap.add_argument("--program", type=Path, default=None, help="uavbus_node (default: build/ or $UAVBUS_NODE)")
+    ap.add_argument("--fleet", action=argparse.BooleanOptionalAction, default=None,
+                    help="run the fleet step (default: yes, except with --short)")
     args = ap.parse_args(argv)
+    args.fleet = not args.short if args.fleet is None else args.fleet
     args.out.mkdir(parents=True, exist_ok=True)
     # SIGTERM (e.g. from make or a CI timeout) unwinds like Ctrl-C, so every `with` stops its processes.
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     started = time.monotonic()
     check = Checks()
     rows: list[SummaryRow] = []
+    extra: dict[str, Any] = {}
     try:
         args.program = args.program or node_program()
+        args.config = signed_table2(args.out / "secure", fresh=True)
         plot = hitl_part(args, check, rows)
         table1_part(args, check, rows)
         make_plot(args, check, plot)
+        extra["security"] = attacker_part(args, check, say)
+        if args.fleet:
+            from fleet_step import fleet_part
+
+            extra["fleet"] = fleet_part(args.out, args.program, check, say)
     except KeyboardInterrupt:
         say("\ninterrupted: every process the demo started has been stopped")
         return 130
@@ -368,7 +384,7 @@ def main(argv: list[str] | None = None) -> int:
         check("demo ran to the end", False, f"{type(e).__name__}: {e}")
     if rows:
         write_summary(args.out / "summary.json", rows, {"checks": [c.__dict__ for c in check.items],
-                                                        "short": args.short})
+                                                        "short": args.short, **extra})
         say("\n== Summary\n" + render_table(rows))
         say(f"\nwrote {args.out / 'summary.json'}, {args.out / 'gcs1.ublog'}, {args.out / 'imu.png'}")
     took = time.monotonic() - started

@@ -3,7 +3,8 @@
  * (e.g. Table 2's "primary" = rmax1ob1), with its links on real transports.
  *
  *   uavbus_node --config examples/configs/table2.json --node primary
- *               [--port NAME=SPEC]... [--record FILE [--record-tx]]
+ *               [--port NAME=SPEC]... [--record FILE [--record-tx] [--record-max-bytes N]
+ *               [--record-max-ms MS] [--record-max-files N]]
  *               [--impair loss=0.2,reorder=0.2,dup=0,delay=5,jitter=0,seed=1]
  *               [--stats-ms 500] [--duration-ms N]
  *               [--subscribe ENTITY:CONTENT@SOURCE/PERIOD_MS]... [--publish ENTITY:CONTENT>DEST/PERIOD_MS]...
@@ -101,6 +102,7 @@ typedef struct options {
     const char *node;
     const char *record;
     bool record_tx;
+    ub_log_rotation_t rotation;
     const char *impair;
     uint64_t stats_ms;
     uint64_t duration_ms;
@@ -123,7 +125,7 @@ static ub_sec_t g_sec;                /* used when the config has a "security" s
 static ub_counter_file_t g_counter;
 static ub_ports_t g_ports;
 static ub_log_t g_log;
-static int g_log_fd = -1;
+static bool g_logging;
 static node_motion_t g_motion;
 static dir_state_t g_dirs[N_DIRS];
 static uint64_t g_start_ms;
@@ -176,13 +178,53 @@ void out(const char *fmt, ...) {
     g_out_len += (size_t)n;
 }
 
+/* Length of the well-formed UTF-8 sequence at s[0, n) (RFC 3629: shortest form, no surrogates, at most
+ * U+10FFFF), or 0 when the bytes there are not one. */
+static size_t utf8_sequence(const unsigned char *s, size_t n) {
+    unsigned c = s[0];
+    size_t len;
+    uint32_t cp, min;
+    if (c < 0x80) return 1;
+    if ((c & 0xE0) == 0xC0) {
+        len = 2, cp = c & 0x1F, min = 0x80;
+    } else if ((c & 0xF0) == 0xE0) {
+        len = 3, cp = c & 0x0F, min = 0x800;
+    } else if ((c & 0xF8) == 0xF0) {
+        len = 4, cp = c & 0x07, min = 0x10000;
+    } else {
+        return 0;
+    }
+    if (n < len) return 0;
+    for (size_t i = 1; i < len; i++) {
+        if ((s[i] & 0xC0) != 0x80) return 0;
+        cp = cp << 6 | (s[i] & 0x3F);
+    }
+    return cp < min || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF) ? 0 : len;
+}
+
+/* A JSON string of s[0, max) (up to a NUL). Whatever the bytes (entity IDs and names arrive from the
+ * network), the output is valid UTF-8 JSON: quotes, backslashes and control characters are escaped, and
+ * every byte that is not part of a well-formed UTF-8 sequence becomes U+FFFD. */
 void out_str(const char *s, size_t max) {
+    const unsigned char *u = (const unsigned char *)s;
+    size_t n = strnlen(s, max);
     out("\"");
-    for (size_t i = 0; i < max && s[i] != '\0'; i++) {
-        unsigned char c = (unsigned char)s[i];
-        if (c == '"' || c == '\\') out("\\%c", c);
-        else if (c < 0x20) out("\\u%04x", c);
-        else out("%c", c);
+    for (size_t i = 0; i < n;) {
+        unsigned char c = u[i];
+        size_t len = utf8_sequence(u + i, n - i);
+        if (len == 0) {
+            out("\\ufffd");
+            i++;
+        } else if (c == '"' || c == '\\') {
+            out("\\%c", c);
+            i++;
+        } else if (c < 0x20) {
+            out("\\u%04x", c);
+            i++;
+        } else {
+            out("%.*s", (int)len, s + i);
+            i += len;
+        }
     }
     out("\"");
 }
@@ -223,7 +265,8 @@ static void event_warning(const char *msg) {
 
 static void usage(FILE *f) {
     fprintf(f,
-            "usage: uavbus_node --config FILE --node NAME [--port LINK=SPEC]... [--record FILE [--record-tx]]\n"
+            "usage: uavbus_node --config FILE --node NAME [--port LINK=SPEC]... [--record FILE [--record-tx]\n"
+            "                   [--record-max-bytes N] [--record-max-ms MS] [--record-max-files N]]\n"
             "                   [--impair loss=P,dup=P,reorder=P,delay=MS,jitter=MS,seed=N] [--stats-ms MS]\n"
             "                   [--duration-ms MS] [--subscribe ENTITY:CONTENT@SOURCE/PERIOD_MS]...\n"
             "                   [--publish ENTITY:CONTENT>DEST/PERIOD_MS]...\n"
@@ -258,6 +301,16 @@ static uint64_t parse_ms(const char *s, int argi) {
     return (uint64_t)v;
 }
 
+static uint64_t parse_count(const char *s, int argi, const char *unit) {
+    char *end = NULL;
+    errno = 0;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (s[0] == '\0' || s[0] == '-' || *end != '\0' || errno != 0) {
+        die("uavbus_node:argv[%d]: '%s' is not a whole number of %s", argi, s, unit);
+    }
+    return (uint64_t)v;
+}
+
 static void parse_args(int argc, char **argv, options_t *o) {
     memset(o, 0, sizeof *o);
     o->stats_ms = 1000;
@@ -279,6 +332,13 @@ static void parse_args(int argc, char **argv, options_t *o) {
         if (strcmp(a, "--config") == 0) o->config = v;
         else if (strcmp(a, "--node") == 0) o->node = v;
         else if (strcmp(a, "--record") == 0) o->record = v;
+        else if (strcmp(a, "--record-max-bytes") == 0) o->rotation.max_bytes = parse_count(v, i, "bytes");
+        else if (strcmp(a, "--record-max-ms") == 0) o->rotation.max_ms = parse_ms(v, i);
+        else if (strcmp(a, "--record-max-files") == 0) {
+            uint64_t n = parse_count(v, i, "files");
+            if (n > UINT32_MAX) die("uavbus_node:argv[%d]: '%s' files is too many (at most %u)", i, v, UINT32_MAX);
+            o->rotation.max_files = (uint32_t)n;
+        }
         else if (strcmp(a, "--impair") == 0) o->impair = v;
         else if (fleet_option(a, v, i)) continue;
         else if (strcmp(a, "--stats-ms") == 0) o->stats_ms = parse_ms(v, i);
@@ -505,9 +565,12 @@ static void out_driver(const ub_port_t *p) {
     }
     case UB_PORT_SERIAL: {
         const ub_serial_stats_t *s = ub_serial_stats(&d->u.serial);
-        out(",\"serial\":{\"bytes_in\":%" PRIu64 ",\"bytes_out\":%" PRIu64 ",\"backpressure\":%" PRIu64
-            ",\"io_errors\":%" PRIu64 "}",
-            s->bytes_in, s->bytes_out, s->backpressure, s->io_errors);
+        out(",\"serial\":{\"state\":\"%s\",\"bytes_in\":%" PRIu64 ",\"bytes_out\":%" PRIu64 ",\"backpressure\":%" PRIu64
+            ",\"io_errors\":%" PRIu64 ",\"hangups\":%" PRIu64 ",\"reopens\":%" PRIu64 ",\"reopen_failures\":%" PRIu64
+            ",\"send_closed\":%" PRIu64 ",\"tx_discarded\":%" PRIu64 "}",
+            ub_serial_state(&d->u.serial) == UB_SERIAL_UP ? "up" : "down", s->bytes_in, s->bytes_out,
+            s->backpressure, s->io_errors, s->hangups, s->reopens, s->reopen_failures, s->send_closed,
+            s->tx_discarded);
         break;
     }
     default: break;
@@ -549,10 +612,12 @@ static void event_stats(uint64_t now_ms, bool final) {
         ",\"forwarded\":%" PRIu64 ",\"delivered\":%" PRIu64 ",\"admin_handled\":%" PRIu64 ",\"local_direct\":%" PRIu64
         ",\"dedup_resets\":%" PRIu64 ",\"dedup_evictions\":%" PRIu64 ",\"leases_expired\":%" PRIu64
         ",\"replies_unmatched\":%" PRIu64 ",\"requests_limited\":%" PRIu64 ",\"leases_clamped\":%" PRIu64
-        ",\"rows_evicted\":%" PRIu64 ",\"random_failures\":%" PRIu64 ",",
+        ",\"rows_evicted\":%" PRIu64 ",\"random_failures\":%" PRIu64 ",\"handovers\":%" PRIu64
+        ",\"nacks_relayed\":%" PRIu64 ",\"other_admin\":%" PRIu64 ",",
         now_ms, now_ms - g_start_ms, final ? ",\"final\":true" : "", n->originated, n->forwarded, n->delivered,
         n->admin_handled, n->local_direct, n->dedup_resets, n->dedup_evictions, n->leases_expired,
-        n->replies_unmatched, n->requests_limited, n->leases_clamped, n->rows_evicted, n->random_failures);
+        n->replies_unmatched, n->requests_limited, n->leases_clamped, n->rows_evicted, n->random_failures,
+        n->handovers, n->nacks_relayed, n->other_admin);
     out_drops(n->drops);
     out("},\"links\":{");
     bool first = true;
@@ -628,11 +693,18 @@ static void event_stats(uint64_t now_ms, bool final) {
         first = false;
     }
     out("}");
-    if (g_log_fd >= 0) {
+    if (g_logging) {
         const ub_log_stats_t *s = ub_log_stats(&g_log);
         out(",\"log\":{\"records\":%" PRIu64 ",\"bytes\":%" PRIu64 ",\"write_errors\":%" PRIu64 ",\"skipped_tx\":%" PRIu64
-            "}",
-            s->records, s->bytes, s->write_errors, s->skipped_tx);
+            ",\"torn_writes\":%" PRIu64 ",\"recoveries\":%" PRIu64 ",\"file_index\":%" PRIu32 ",\"files\":%" PRIu64
+            ",\"files_deleted\":%" PRIu64 ",\"open_errors\":%" PRIu64 ",\"limit_rotations\":%" PRIu64
+            ",\"failing\":%s,\"last_error\":",
+            s->records, s->bytes, s->write_errors, s->skipped_tx, s->torn_writes, s->recoveries,
+            ub_log_file_index(&g_log), s->files, s->files_deleted, s->open_errors, s->limit_rotations,
+            g_log.failing ? "true" : "false");
+        if (s->last_errno != 0) out_str(strerror(s->last_errno), SIZE_MAX);
+        else out("null");
+        out("}");
     }
     out_security();
     out(",\"stdin_dropped\":%" PRIu64 "}", g_stdin_dropped);
@@ -854,6 +926,7 @@ int main(int argc, char **argv) {
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
     signal(SIGPIPE, SIG_IGN); /* a closed stdout reader must not kill the node; writes just fail */
+    signal(SIGXFSZ, SIG_IGN); /* a file-size limit must not kill it either: the log sees EFBIG and rotates */
 
     char err[UB_NODECFG_ERR_LEN];
     int rc = ub_nodecfg_load_file(&g_cfg, o.config, g_cfg_text, sizeof g_cfg_text, err, sizeof err);
@@ -895,11 +968,12 @@ int main(int argc, char **argv) {
     open_ports(&o, g_start_ms);
     for (int i = 0; i < o.n_ps; i++) add_pubsub(o.ps[i], o.ps_is_pub[i], o.ps_argi[i], g_start_ms);
     if (o.record != NULL) {
-        g_log_fd = open(o.record, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-        if (g_log_fd < 0) die("%s: cannot create the log: %s", o.record, strerror(errno));
-        rc = ub_log_open(&g_log, g_log_fd, &g_node, node_name, o.record_tx, unix_ms(), g_start_ms);
-        if (rc != UB_OK) die("%s: cannot write the log header: %s (%s)", o.record, ub_strerror(rc), strerror(errno));
+        /* ub_log_open_path() opens (and rotates) the files itself; a file-size limit comes back as EFBIG
+         * since SIGXFSZ is ignored, and the log moves on to its next file. */
+        rc = ub_log_open_path(&g_log, o.record, &o.rotation, &g_node, node_name, o.record_tx, unix_ms(), g_start_ms);
+        if (rc != UB_OK) die("%s: cannot start the log: %s (%s)", o.record, ub_strerror(rc), strerror(errno));
         ub_node_set_tap(&g_node, ub_log_tap, &g_log);
+        g_logging = true;
     }
     event_ready(node_name);
 
@@ -940,10 +1014,9 @@ int main(int argc, char **argv) {
     }
     now = mono_ms();
     event_stats(now, true);
-    if (g_log_fd >= 0) {
+    if (g_logging) {
         ub_node_set_tap(&g_node, NULL, NULL);
         ub_log_close(&g_log);
-        close(g_log_fd);
     }
     ub_ports_close_all(&g_ports);
     return 0;

@@ -104,7 +104,7 @@ def deep_mutate_log(rng: random.Random, data: bytes) -> bytes:
     Uses the log format's constants from uavbus.logfile; if they change shape, falls back to bytes."""
     try:
         from uavbus._bindings.ub_frame import ub_crc32c, ub_crc32c_update
-        from uavbus.logfile import FILE_HEADER, MAGIC, RECORD_CRC_SPAN, RECORD_HEADER
+        from uavbus.logfile import FILE_HEADER, MAGIC, RECORD_HEAD_SPAN, RECORD_HEADER_LEN
 
         magic, meta_len, cat_len, _ = FILE_HEADER.unpack_from(data, 0)
         if magic != MAGIC:
@@ -127,19 +127,20 @@ def deep_mutate_log(rng: random.Random, data: bytes) -> bytes:
         elif rest:
             pos = 0
             offsets = []
-            while pos + RECORD_HEADER.size <= len(rest):
+            while pos + RECORD_HEADER_LEN <= len(rest):
                 frame_len = struct.unpack_from("<H", rest, pos + 2)[0]
                 offsets.append((pos, frame_len))
-                pos += RECORD_HEADER.size + frame_len
+                pos += RECORD_HEADER_LEN + frame_len
             if offsets:
                 pos, frame_len = rng.choice(offsets)
-                f0 = pos + RECORD_HEADER.size
+                f0 = pos + RECORD_HEADER_LEN
                 frame = bytearray(rest[f0:f0 + frame_len])
                 if frame:
                     frame[rng.randrange(len(frame))] ^= 1 << rng.randrange(8)
                 rest[f0:f0 + frame_len] = frame
-                crc = ub_crc32c_update(ub_crc32c(bytes(rest[pos:pos + RECORD_CRC_SPAN])), bytes(frame))
-                struct.pack_into("<I", rest, pos + RECORD_CRC_SPAN, crc)
+                # Format 2 (docs/log-format.md): head_crc over the record header, crc continued over the frame.
+                head = ub_crc32c(bytes(rest[pos:pos + RECORD_HEAD_SPAN]))
+                struct.pack_into("<II", rest, pos + RECORD_HEAD_SPAN, head, ub_crc32c_update(head, bytes(frame)))
         header = FILE_HEADER.pack(MAGIC, meta_len, cat_len, ub_crc32c(bytes(body)))
         return header + bytes(body) + bytes(rest)
     except (ImportError, AttributeError, struct.error, ValueError):

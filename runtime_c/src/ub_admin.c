@@ -26,6 +26,7 @@ static const char *const nack_names[] = {
     [UB_NACK_NOT_AUTHORIZED] = "not_authorized",
     [UB_NACK_LIMIT] = "limit",
     [UB_NACK_UNSUPPORTED] = "unsupported",
+    [UB_NACK_OTHER_ADMIN] = "other_admin",
 };
 
 const char *ub_nack_reason_name(ub_nack_reason_t reason) {
@@ -66,6 +67,15 @@ int ub_admin_add_row(ub_admin_t *adm, const ub_admin_row_spec_t *spec) {
     if (spec->instance >= adm->node->cat->n_instances || spec->period_ms == 0) return UB_ERR_INVAL;
     if (memcmp(spec->source, spec->destination, UB_ENTITY_ID_LEN) == 0) return UB_ERR_INVAL;
     if (spec->type != UB_ADMIN_ROW_PUBLICATION && spec->type != UB_ADMIN_ROW_SUBSCRIPTION) return UB_ERR_INVAL;
+    /* One flow, one row: two rows of one table for the same flow would renew one target row in turns, each
+     * with its own rate and request id, and each would read the other's status. */
+    for (int r = 0; r < UB_MAX_ADMIN_ROWS; r++) {
+        const ub_admin_row_spec_t *o = &adm->rows[r].info.spec;
+        if (adm->rows[r].in_use && o->instance == spec->instance &&
+            memcmp(o->source, spec->source, UB_ENTITY_ID_LEN) == 0 &&
+            memcmp(o->destination, spec->destination, UB_ENTITY_ID_LEN) == 0)
+            return UB_ERR_EXISTS;
+    }
     for (int r = 0; r < UB_MAX_ADMIN_ROWS; r++) {
         if (adm->rows[r].in_use) continue;
         memset(&adm->rows[r], 0, sizeof adm->rows[r]);
@@ -90,6 +100,7 @@ int ub_admin_set_active(ub_admin_t *adm, int row, bool active, uint64_t now_ms) 
         /* A fresh request id, so late replies to an earlier activation are not mistaken for this one. */
         r->info.request_id = ub_priv_new_request_id(adm->node);
         r->info.nack_reason = UB_NACK_NONE;
+        r->info.nack_relayed = false;
         r->info.acked_at_ms = 0;
         r->info.active_at_ms = 0;
         r->info.last_ack_ms = 0;
@@ -104,7 +115,8 @@ int ub_admin_set_active(ub_admin_t *adm, int row, bool active, uint64_t now_ms) 
 int ub_admin_remove_row(ub_admin_t *adm, int row) {
     ub_admin_row_t *r = row_at(adm, row);
     if (r == NULL) return UB_ERR_NOTFOUND;
-    if (r->info.status != UB_ADMIN_INACTIVE && r->info.status != UB_ADMIN_FAILED) return UB_ERR_INVAL;
+    if (r->info.status != UB_ADMIN_INACTIVE && r->info.status != UB_ADMIN_FAILED && r->info.status != UB_ADMIN_STOPPING)
+        return UB_ERR_INVAL;
     r->in_use = 0;
     return UB_OK;
 }
@@ -166,7 +178,7 @@ static bool reply_is_for(const ub_admin_t *adm, const ub_admin_row_t *row, const
 }
 
 bool ub_priv_admin_on_reply(ub_admin_t *adm, const ub_frame_header_t *h, uint32_t request_id, uint8_t code, bool nack,
-                            uint8_t detail, uint64_t now_ms) {
+                            uint8_t detail, uint8_t flags, uint64_t now_ms) {
     for (int r = 0; r < UB_MAX_ADMIN_ROWS; r++) {
         ub_admin_row_t *row = &adm->rows[r];
         if (!reply_is_for(adm, row, h, request_id)) continue;
@@ -180,6 +192,7 @@ bool ub_priv_admin_on_reply(ub_admin_t *adm, const ub_frame_header_t *h, uint32_
         if (!live || code != request_code(&info->spec)) return true;
         if (nack) {
             info->nack_reason = (ub_nack_reason_t)detail;
+            info->nack_relayed = (flags & UB_NACK_RELAYED) != 0;
             enter(row, UB_ADMIN_FAILED, now_ms);
             return true;
         }
@@ -234,17 +247,34 @@ void ub_priv_admin_tick(ub_admin_t *adm, uint64_t now_ms) {
             if (row->next_send_ms <= now_ms) row->next_send_ms = now_ms + adm->opt.retry_ms;
             break;
         case UB_ADMIN_STOPPING:
+            /* Until acknowledged: a flow handed over to its keeper does not end when we go quiet, so giving
+             * up would leave "inactive" on a flow that still runs. After the first burst, at the renewal pace. */
             if (now_ms < row->next_send_ms) break;
-            if (info->attempts >= adm->opt.max_stop_retries) {
-                enter(row, UB_ADMIN_INACTIVE, now_ms);
-                break;
-            }
             send_row(adm, row, true, now_ms);
             info->attempts++;
-            row->next_send_ms = now_ms + adm->opt.retry_ms;
+            row->next_send_ms = now_ms + (info->attempts >= adm->opt.max_stop_retries ? adm->opt.renew_ms
+                                                                                      : adm->opt.retry_ms);
             break;
         default:
             break;
         }
     }
+}
+
+int ub_priv_admin_forget(ub_admin_t *adm, const uint8_t id[UB_ENTITY_ID_LEN], uint64_t now_ms) {
+    int n = 0;
+    for (int r = 0; r < UB_MAX_ADMIN_ROWS; r++) {
+        ub_admin_row_t *row = &adm->rows[r];
+        ub_admin_row_info_t *info = &row->info;
+        if (!row->in_use || (!info->active_flag && info->status != UB_ADMIN_STOPPING)) continue;
+        if (memcmp(target_of(&info->spec), id, UB_ENTITY_ID_LEN) == 0) {
+            /* Nobody left to ask or to stop: the row is inactive now, not STOPPING toward no route. */
+            info->active_flag = false;
+            enter(row, UB_ADMIN_INACTIVE, now_ms);
+            n++;
+        } else if (info->active_flag && memcmp(peer_of(&info->spec), id, UB_ENTITY_ID_LEN) == 0) {
+            if (ub_admin_set_active(adm, r, false, now_ms) == UB_OK) n++;
+        }
+    }
+    return n;
 }

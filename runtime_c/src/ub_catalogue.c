@@ -2,6 +2,17 @@
 
 #include <string.h>
 
+#include "ub/ub_config.h"
+
+uint32_t ub_catalogue_payload_limit(void) { return (uint32_t)UB_MAX_DIRECTORY; }
+
+const ub_type_desc_t *ub_catalogue_oversize(const ub_catalogue_t *cat, uint32_t limit) {
+    if (cat == NULL) return NULL;
+    for (size_t i = 0; i < cat->n_types; i++)
+        if (cat->types[i].packed_size > limit) return &cat->types[i];
+    return NULL;
+}
+
 int ub_catalogue_find(const ub_catalogue_t *cat, const uint8_t id[UB_DIR_ID_LEN]) {
     size_t lo = 0, hi = cat->n_instances;
     while (lo < hi) {

@@ -40,11 +40,13 @@ void ub_priv_route_forget_link(struct ub_route *rt, int link_id, uint64_t now_ms
 
 /* ---- membership (ub_member.c) --------------------------------------------------------------------- */
 
-/* A MEMBERSHIP request reached local slot `slot` (`from_link`: over a link, so the policy judges it).
- * Returns false when the node must count a drop, of reason `*drop`: an unusable payload (bad_payload,
- * nothing answered) or a refused requester (not_authorized, NACK sent). */
+/* A MEMBERSHIP request reached local slot `slot` over a link (`rx`, from the security gate: the policy
+ * judges it, ub_node_may_administer()) or from a local entity (`rx` NULL). Returns false when the node
+ * must count a drop, of reason `*drop`: an unusable payload (bad_payload, nothing answered) or a refused
+ * requester (not_authorized, NACK sent). */
+struct ub_priv_rx;
 bool ub_priv_member_on_request(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
-                               bool from_link, uint64_t now_ms, ub_drop_reason_t *drop);
+                               const struct ub_priv_rx *rx, uint64_t now_ms, ub_drop_reason_t *drop);
 
 /* An ACK/NACK answering a MEMBERSHIP request reached local slot `slot`. */
 void ub_priv_member_on_reply(ub_node_t *node, int slot, const uint8_t src_id[UB_ENTITY_ID_LEN], uint32_t request_id,

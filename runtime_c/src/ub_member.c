@@ -122,7 +122,7 @@ static void decode(const ub_frame_header_t *h, const uint8_t *p, ub_member_spec_
 }
 
 bool ub_priv_member_on_request(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
-                               bool from_link, uint64_t now_ms, ub_drop_reason_t *drop) {
+                               const ub_priv_rx_t *rx, uint64_t now_ms, ub_drop_reason_t *drop) {
     *drop = UB_DROP_BAD_PAYLOAD;
     if (h->payload_size < UB_MEMBER_ENTITY_LEN) return false;
     uint32_t id = ub_get_u32le(payload + UB_MEMBER_OFF_ID);
@@ -132,7 +132,7 @@ bool ub_priv_member_on_request(ub_node_t *node, int slot, const ub_frame_header_
     uint8_t reason;
     bool changed = false;
     /* Entities of one node share its process: only requests that came over a link are judged. */
-    bool authorized = !from_link || ub_node_may_administer(node, entity, h->src_id);
+    bool authorized = rx == NULL || ub_node_may_administer(node, entity, h->src_id, rx->secured);
     if (!authorized) {
         reason = UB_NACK_NOT_AUTHORIZED;
     } else {
@@ -144,7 +144,7 @@ bool ub_priv_member_on_request(ub_node_t *node, int slot, const ub_frame_header_
     if (reason != UB_NACK_NONE) node->counters.membership_refused++;
     else node->counters.membership_applied++;
     (void)ub_priv_send_reply(node, slot, reason != UB_NACK_NONE, zero_dir, h->src_id, id, UB_ADMIN_MEMBERSHIP,
-                             reason != UB_NACK_NONE ? reason : (changed ? UB_MEMBER_CHANGED : 0), now_ms);
+                             reason != UB_NACK_NONE ? reason : (changed ? UB_MEMBER_CHANGED : 0), 0, now_ms);
     if (!authorized) {
         *drop = UB_DROP_NOT_AUTHORIZED;
         return false;

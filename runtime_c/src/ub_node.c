@@ -48,7 +48,11 @@ static void count_drop(ub_node_t *node, int link_id, ub_drop_reason_t reason) { 
 
 int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt) {
     if (node == NULL || cat == NULL) return UB_ERR_INVAL;
-    if (cat->abi_version != UB_CATALOGUE_ABI_VERSION || cat->max_packed_size > UB_MAX_DIRECTORY) return UB_ERR_INVAL;
+    /* ub_catalogue_oversize() names the type a caller reports when this refuses. Types above
+     * UB_MAX_PAYLOAD travel as fragments (ub_node_set_frag()), so the limit is UB_MAX_DIRECTORY. */
+    if (cat->abi_version != UB_CATALOGUE_ABI_VERSION || cat->max_packed_size > UB_MAX_DIRECTORY ||
+        ub_catalogue_oversize(cat, UB_MAX_DIRECTORY) != NULL)
+        return UB_ERR_INVAL;
     memset(node, 0, sizeof *node);
     node->cat = cat;
     if (opt != NULL) node->opt = *opt;
@@ -96,13 +100,6 @@ int ub_node_add_entity(ub_node_t *node, const uint8_t id[UB_ENTITY_ID_LEN], bool
     return row;
 }
 
-/* Whether row `r` of a publish/subscribe table names `id` as its peer or its owner and is still live. */
-static bool row_names(const ub_ps_row_t *r, const uint8_t id[UB_ENTITY_ID_LEN]) {
-    if (r == NULL || r->kind == UB_PS_FREE) return false;
-    if (r->kind == UB_PS_SUBSCRIPTION && r->state == UB_SUB_STOPPING) return false; /* already on its way out */
-    return memcmp(r->peer, id, UB_ENTITY_ID_LEN) == 0 || memcmp(r->owner, id, UB_ENTITY_ID_LEN) == 0;
-}
-
 int ub_node_remove_entity(ub_node_t *node, int entity, uint64_t now_ms) {
     if (node == NULL || !entity_index_ok(node, entity) || node->entities[entity].local >= 0) return UB_ERR_INVAL;
     uint8_t id[UB_ENTITY_ID_LEN];
@@ -110,21 +107,10 @@ int ub_node_remove_entity(ub_node_t *node, int entity, uint64_t now_ms) {
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
         ub_local_entity_t *loc = &node->locals[slot];
         if (!loc->in_use) continue;
-        /* Rows go through the publish/subscribe and administration API, so their own rules (STOP
-         * messages, row states) apply; only the bookkeeping of what was touched is ours. */
-        for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
-            if (!row_names(ub_pubsub_row(node, loc->entity, r), id)) continue;
-            if (ub_pubsub_stop(node, loc->entity, r, now_ms) == UB_OK) node->counters.rows_stopped++;
-        }
-        ub_admin_t *adm = loc->admin;
-        for (int r = 0; adm != NULL && r < UB_MAX_ADMIN_ROWS; r++) {
-            ub_admin_row_info_t info;
-            if (ub_admin_row_status(adm, r, &info) != UB_OK || !info.active_flag) continue;
-            if (memcmp(info.spec.source, id, UB_ENTITY_ID_LEN) != 0 &&
-                memcmp(info.spec.destination, id, UB_ENTITY_ID_LEN) != 0)
-                continue;
-            if (ub_admin_set_active(adm, r, false, now_ms) == UB_OK) node->counters.admin_rows_stopped++;
-        }
+        /* The tables apply their own rules (docs/pubsub.md): rows with nobody left to talk to go at once,
+         * rows the entity merely administered live on under their keeper; we count. */
+        node->counters.rows_stopped += (uint64_t)ub_priv_pubsub_forget(node, slot, id, now_ms);
+        if (loc->admin != NULL) node->counters.admin_rows_stopped += (uint64_t)ub_priv_admin_forget(loc->admin, id, now_ms);
         for (size_t i = 0; i < UB_DEDUP_SOURCES; i++) {
             ub_dedup_entry_t *d = &loc->dedup[i];
             if (!d->in_use || memcmp(d->src, id, UB_ENTITY_ID_LEN) != 0) continue;
@@ -247,8 +233,11 @@ int ub_node_get_mask(const ub_node_t *node, int entity, int dest, uint8_t *mask)
 int ub_node_link_attach(ub_node_t *node, int link_id, const ub_link_ops_t *ops, void *impl) {
     if (node == NULL || !link_id_ok(node, link_id) || ops == NULL || ops->send == NULL) return UB_ERR_INVAL;
     ub_link_t *link = &node->links[link_id];
-    /* Keep the counters across the switch: they describe the port, not the transport. */
+    /* Keep the counters across the switch: they describe the port, not the transport. The bytes the
+     * decoder still holds (a frame the old stream cut) are dropped here, so they are counted as garbage:
+     * bytes_in == bytes_ok + garbage_bytes + pending holds across every re-attach. */
     ub_decoder_stats_t kept = link->decoder.stats;
+    kept.garbage_bytes += ub_decoder_pending(&link->decoder);
     ub_decoder_init(&link->decoder);
     link->decoder.stats = kept;
     link->ops = ops;
@@ -287,6 +276,7 @@ int ub_node_bind(ub_node_t *node, uint32_t instance, void *storage) {
     if (node->n_bindings >= UB_MAX_BINDINGS) return UB_ERR_FULL;
     node->bindings[node->n_bindings].instance = instance;
     node->bindings[node->n_bindings].storage = storage;
+    node->bindings[node->n_bindings].on_update = 0;
     node->n_bindings++;
     return UB_OK;
 }
@@ -519,7 +509,7 @@ static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_head
     bool ok;
     ub_drop_reason_t drop = UB_DROP_BAD_PAYLOAD;
     if (h->admin == UB_ADMIN_MEMBERSHIP) {
-        ok = ub_priv_member_on_request(node, slot, h, payload, link_id >= 0, now_ms, &drop);
+        ok = ub_priv_member_on_request(node, slot, h, payload, link_id >= 0 ? rx : NULL, now_ms, &drop);
     } else if ((h->admin == UB_ADMIN_ACK || h->admin == UB_ADMIN_NACK) && h->payload_size >= UB_PL_REPLY_LEN &&
                payload[UB_PL_REPLY_CODE] == UB_ADMIN_MEMBERSHIP) {
         /* Replies to membership requests belong to the requester, not to the publish/subscribe tables. */
@@ -529,7 +519,7 @@ static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_head
     } else if (h->admin == UB_ADMIN_HELLO || h->admin == UB_ADMIN_ROUTE_UPDATE) {
         ok = false; /* routing frames are link-local only */
     } else {
-        ok = ub_priv_pubsub_on_admin(node, slot, h, payload, link_id >= 0, now_ms, &drop);
+        ok = ub_priv_pubsub_on_admin(node, slot, h, payload, link_id >= 0 ? rx : NULL, now_ms, &drop);
     }
     if (!ok) count_drop(node, link_id, drop);
 }
@@ -642,8 +632,9 @@ static void route_link_local(ub_node_t *node, int link_id, const ub_frame_header
 
 /* Routes one verified frame received on `link_id`. Returns the verdict (ub_rx_verdict_t, ub_node.h): a
  * check that refuses a frame for its origin (security, window) returns UB_VERDICT_REFUSED; a genuine copy
- * already handled UB_VERDICT_DUPLICATE; once past the window the frame is accepted, whatever happens next.
- * `verdicts` (may be NULL) counts authentic and fresh frames for TCP adoption (ub_tcp.c). */
+ * already handled UB_VERDICT_DUPLICATE; an authentic frame from a source whose freshness is not established
+ * yet (a challenge runs) UB_VERDICT_UNVERIFIED; once past the window the frame is accepted, whatever happens
+ * next. `verdicts` (may be NULL) counts authentic and fresh frames for TCP adoption (ub_tcp.c). */
 static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *frame,
                                       size_t len, uint64_t now_ms, ub_rx_verdicts_t *verdicts) {
     ub_link_t *link = &node->links[link_id];
@@ -671,7 +662,9 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
     ub_priv_window_t verdict = ub_priv_window_pass(node, handler, link_id, h, &rx, now_ms);
     if (verdict != UB_PRIV_WINDOW_PASS) {
         if (verdict == UB_PRIV_WINDOW_UNVERIFIED && verdicts != NULL) verdicts->authentic++;
-        return verdict == UB_PRIV_WINDOW_DUPLICATE ? UB_VERDICT_DUPLICATE : UB_VERDICT_REFUSED;
+        return verdict == UB_PRIV_WINDOW_DUPLICATE    ? UB_VERDICT_DUPLICATE
+               : verdict == UB_PRIV_WINDOW_UNVERIFIED ? UB_VERDICT_UNVERIFIED
+                                                      : UB_VERDICT_REFUSED;
     }
     link->counters.frames_accepted++;
     if (verdicts != NULL) {
@@ -882,11 +875,12 @@ int ub_priv_send_admin(ub_node_t *node, int slot, ub_admin_code_t code, const ui
 
 int ub_priv_send_reply(ub_node_t *node, int slot, bool nack, const uint8_t dir_id[UB_DIR_ID_LEN],
                        const uint8_t dest_id[UB_ENTITY_ID_LEN], uint32_t request_id, uint8_t code, uint8_t detail,
-                       uint64_t now_ms) {
+                       uint8_t origin, uint64_t now_ms) {
     uint8_t payload[UB_PL_REPLY_LEN] = {0};
     ub_put_u32le(payload + UB_PL_REPLY_ID, request_id);
     ub_put_u8(payload + UB_PL_REPLY_CODE, code);
     ub_put_u8(payload + UB_PL_REPLY_DETAIL, detail);
+    ub_put_u8(payload + UB_PL_REPLY_FLAGS, nack ? origin : 0);
     return ub_priv_send_admin(node, slot, nack ? UB_ADMIN_NACK : UB_ADMIN_ACK, dir_id, 0, dest_id, payload,
                               UB_PL_REPLY_LEN, now_ms);
 }
@@ -909,9 +903,11 @@ int ub_node_send_link_local(ub_node_t *node, int link_id, ub_admin_code_t code, 
     return send_stamped(node, link->owner, (uint8_t)(1u << link->index), frame, &h, now_ms);
 }
 
-bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN]) {
-    /* The paper's exclusive rights (ub_policy.h): without a policy every entity has them. */
+bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN], bool verified) {
     (void)entity;
+    /* With a keyring, who the requester is rests on its tag: an unsigned frame can claim any source. */
+    if (node->sec != NULL && !verified) return false;
+    /* The paper's exclusive rights (ub_policy.h): without a policy every entity has them. */
     return node->policy == NULL || ub_policy_is_admin(node->policy, src_id);
 }
 

@@ -569,7 +569,7 @@ static int parse_ports(const parser_t *p, const ub_json_value_t *obj) {
  *  - frame protection (docs/security.md): keys, tx_key, require_signed, counter_file, links — here, into
  *    cfg->security; on as soon as one of them is given, and then keys and counter_file are required.
  *    Key files and the counter file are read only by ub_nodecfg_apply_security();
- *  - authorization of the admin plane: administrators, read, write, limits — ub_policy.c
+ *  - authorization of the admin plane: administrators, read, write, limits, exclusive_admin — ub_policy.c
  *    (ub_priv_policy_parse_key), into cfg->policy; on as soon as one of those is given. */
 
 #define FRAME_SECURITY_KEYS "keys", "tx_key", "require_signed", "counter_file", "links"

@@ -72,6 +72,10 @@ int ub_policy_add_rule(ub_policy_t *pol, ub_policy_dir_t dir, const char *target
     return UB_OK;
 }
 
+void ub_policy_set_exclusive(ub_policy_t *pol, bool on) {
+    if (pol != NULL) pol->exclusive_admin = on ? 1 : 0;
+}
+
 void ub_policy_restrict_reads(ub_policy_t *pol) {
     if (pol != NULL) pol->read_restricted = 1;
 }
@@ -209,7 +213,10 @@ static int cfg_administrators(const cfg_parse_t *c, const ub_json_value_t *list)
     for (int k = 0; ub_json_iter_next(&it, NULL, &v); k++) {
         (void)snprintf(field, sizeof field, "security.administrators[%d]", k);
         size_t n = cfg_string(c, &v, name);
-        if (n == 0 || n > UB_ENTITY_ID_LEN || strchr(name, '*') != NULL || ub_entity_id(name, id) != UB_OK)
+        /* The character check comes first: the name is quoted back below, and must be printable to be
+         * (config-format.md: text from the file is quoted back only when it is safe). Found by fuzz_nodecfg. */
+        if (n == 0 || n > UB_ENTITY_ID_LEN || !ub_policy_pattern_ok(name, UB_ENTITY_ID_LEN) || strchr(name, '*') != NULL
+            || ub_entity_id(name, id) != UB_OK)
             return cfg_fail(c, v.line, NULL, field, "must be an entity name (administrators are named, not patterns)");
         if (!cfg_has_entity(c->cfg, name)) return cfg_fail(c, v.line, NULL, field, "no entity named '%s' in 'entities'", name);
         int rc = ub_policy_add_admin(c->pol, id);
@@ -366,9 +373,18 @@ static int cfg_limits(const cfg_parse_t *c, const ub_json_value_t *obj) {
                                                       : cfg_fail(c, obj->line, NULL, "security.limits", "refused");
 }
 
+static int cfg_exclusive(const cfg_parse_t *c, const ub_json_value_t *v) {
+    if (v->kind != UB_JSON_TRUE && v->kind != UB_JSON_FALSE)
+        return cfg_fail(c, v->line, NULL, "security.exclusive_admin",
+                        "must be true (one administrator at a time per node) or false");
+    ub_policy_set_exclusive(c->pol, v->kind == UB_JSON_TRUE);
+    return UB_OK;
+}
+
 int ub_priv_policy_parse_key(ub_policy_t *pol, const ub_nodecfg_t *cfg, const ub_json_doc_t *doc, const char *key,
                              const ub_json_value_t *value, ub_cfg_error_t *err) {
     cfg_parse_t c = {pol, cfg, doc, err};
+    if (strcmp(key, "exclusive_admin") == 0) return cfg_exclusive(&c, value);
     if (strcmp(key, "administrators") == 0) return cfg_administrators(&c, value);
     if (strcmp(key, "read") == 0) return cfg_rules(&c, UB_POLICY_READ, value);
     if (strcmp(key, "write") == 0) return cfg_rules(&c, UB_POLICY_WRITE, value);

@@ -18,6 +18,11 @@ static void fail(char *err, size_t cap, const char *fmt, ...) {
     va_start(ap, fmt);
     vsnprintf(err, cap, fmt, ap);
     va_end(ap);
+    /* Messages quote text from config files and command lines: a control byte (a terminal escape) or a
+     * byte outside printable ASCII is shown as '?', so every message is one clean line (config-format.md). */
+    for (char *c = err; *c != '\0'; c++) {
+        if ((unsigned char)*c < 0x20 || (unsigned char)*c >= 0x7f) *c = '?';
+    }
 }
 
 const char *ub_port_kind_transport(ub_port_kind_t kind) {
@@ -157,6 +162,12 @@ static int builder_param(spec_builder_t *b, const char *key, const char *value, 
         if (n == 0 || n >= UB_PORT_DEVICE_LEN) {
             fail(err, cap, "'device': give a device path of 1 to %d characters, e.g. /dev/ttyUSB0",
                  UB_PORT_DEVICE_LEN - 1);
+            return UB_ERR_INVAL;
+        }
+        /* A config file could name one, but the spec text (--port, rebind, the "ready" event) could not say it. */
+        if (strchr(value, ',') != NULL) {
+            fail(err, cap, "'device=%.40s': a device path cannot contain ',' (it separates a spec's parameters); "
+                 "use a symlink without one", value);
             return UB_ERR_INVAL;
         }
         memcpy(s->device, value, n + 1);
@@ -734,6 +745,8 @@ int ub_ports_poll_timeout(const ub_ports_t *ports, uint64_t now_ms, int max_ms) 
         if (d->kind == UB_PORT_TCP_CONNECT && ub_tcp_state(&d->u.tcp) == UB_TCP_DOWN
             && d->u.tcp.next_attempt_ms < best)
             best = d->u.tcp.next_attempt_ms;
+        /* So must a serial device that hung up and waits to be reopened. */
+        if (d->kind == UB_PORT_SERIAL && ub_serial_next_retry(&d->u.serial, &due) && due < best) best = due;
     }
     return best <= now_ms ? 0 : (int)(best - now_ms);
 }

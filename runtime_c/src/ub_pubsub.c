@@ -12,6 +12,7 @@ void ub_priv_timing_defaults(ub_pubsub_timing_t *t) {
     if (t->lease_ms == 0) t->lease_ms = 3u * t->renew_ms;
     if (t->timeout_min_ms == 0) t->timeout_min_ms = UB_PS_DEFAULT_TIMEOUT_MIN_MS;
     if (t->stop_retries == 0) t->stop_retries = UB_PS_DEFAULT_STOP_RETRIES;
+    if (t->expiry_ms == 0) t->expiry_ms = UB_PS_DEFAULT_EXPIRY_MS;
 }
 
 uint64_t ub_pubsub_data_timeout_ms(const ub_pubsub_timing_t *timing, uint32_t period_ms) {
@@ -54,6 +55,48 @@ static ub_ps_row_t *new_row(ub_pubsub_table_t *t, ub_ps_kind_t kind, uint32_t in
 
 static int row_index(const ub_pubsub_table_t *t, const ub_ps_row_t *row) { return (int)(row - t->rows); }
 
+/* ---- who keeps a row alive (docs/pubsub.md) ------------------------------
+ *
+ * A remote row has an owner (who asked for it) and a lease the owner renews. When the owner is the flow's
+ * other end -- a publication its own destination asked for -- the lease is the whole story. When it is a
+ * third party -- an administrator's subscription at a destination, or its publication from a source to
+ * someone else -- the row belongs to the flow once the target acknowledged it (the paper: "the
+ * responsibility for regenerating table change requests ... lies at the data destination"): if the owner's
+ * lease lapses, the row lives on as long as its keeper, the flow's other end, shows signs of life, and is
+ * reclaimed `expiry_ms` after the last one. */
+
+static bool third_party(const ub_ps_row_t *row) {
+    if (ub_priv_id_is_zero(row->owner)) return false; /* local */
+    return row->kind == UB_PS_SUBSCRIPTION || memcmp(row->owner, row->peer, UB_ENTITY_ID_LEN) != 0;
+}
+
+/* The owner renews its lease: it is still around (as far as this node can tell). Local rows have no owner. */
+static bool owner_live(const ub_ps_row_t *row, uint64_t now_ms) {
+    return !ub_priv_id_is_zero(row->owner) && (row->lease_until_ms == 0 || now_ms < row->lease_until_ms);
+}
+
+static void keeper_alive(ub_ps_row_t *row, uint64_t now_ms) {
+    row->keeper_ms = now_ms;
+    row->keeper_seen = 1;
+}
+
+static bool keeper_lives(const ub_node_t *node, const ub_ps_row_t *row, uint64_t now_ms) {
+    return row->keeper_seen && now_ms - row->keeper_ms < node->opt.timing.expiry_ms;
+}
+
+/* The owner's lease ran out at `now_ms`: true when the row must go, false when it is (or stays) handed over. */
+static bool lease_lapsed_reclaims(ub_node_t *node, ub_ps_row_t *row, uint64_t now_ms) {
+    if (!third_party(row) || !keeper_lives(node, row, now_ms)) {
+        node->counters.leases_expired++;
+        return true;
+    }
+    if (!row->handed_over) {
+        row->handed_over = 1;
+        node->counters.handovers++;
+    }
+    return false;
+}
+
 static void start_requesting(ub_ps_row_t *row, uint64_t now_ms) {
     row->state = UB_SUB_REQUESTING;
     row->reported_flowing = 0;
@@ -85,6 +128,7 @@ int ub_pubsub_publish(ub_node_t *node, int entity, uint32_t instance, const uint
     if (row == NULL) return UB_ERR_FULL;
     memset(row->owner, 0, UB_ENTITY_ID_LEN);
     row->lease_until_ms = 0;
+    row->handed_over = 0;
     row->period_ms = period_ms;
     row->next_due_ms = now_ms;
     return row_index(t, row);
@@ -101,6 +145,7 @@ int ub_pubsub_subscribe(ub_node_t *node, int entity, uint32_t instance, const ui
     if (r < 0) row->request_id = ub_priv_new_request_id(node);
     memset(row->owner, 0, UB_ENTITY_ID_LEN);
     row->lease_until_ms = 0;
+    row->handed_over = 0;
     row->period_ms = period_ms;
     start_requesting(row, now_ms);
     return row_index(t, row);
@@ -151,8 +196,9 @@ typedef struct request {
 
 /*
  * The sender of an admin frame as the policy sees it (ub_policy.h). `policed`: a policy is attached and
- * the frame came over a link. `admin`: may use the exclusive rights -- everyone without a policy (the
- * paper's closed lab) and local entities, otherwise only a listed administrator.
+ * the frame came over a link. `admin`: may use the exclusive rights -- local entities, and over a link
+ * whoever ub_node_may_administer() accepts: on a node with a keyring only a verified (signed) requester,
+ * then everyone without a policy (the paper's closed lab), otherwise only a listed administrator.
  */
 typedef struct sender {
     const ub_frame_header_t *h;
@@ -166,7 +212,35 @@ static bool is_self(const uint8_t *peer, const ub_frame_header_t *h) {
 
 static void reply(ub_node_t *node, int slot, const ub_frame_header_t *h, uint32_t request_id, bool nack,
                   uint8_t detail, uint64_t now_ms) {
-    (void)ub_priv_send_reply(node, slot, nack, h->dir_id, h->src_id, request_id, h->admin, detail, now_ms);
+    (void)ub_priv_send_reply(node, slot, nack, h->dir_id, h->src_id, request_id, h->admin, detail, 0, now_ms);
+}
+
+/* Another administrator keeps this row (or, under an exclusive policy, this node): the request changes nothing,
+ * and the requester is told so instead of being acknowledged into a status that is not its own. */
+static bool other_admin(ub_node_t *node, int slot, const ub_frame_header_t *h, uint32_t request_id, uint64_t now_ms) {
+    node->counters.other_admin++;
+    reply(node, slot, h, request_id, true, UB_NACK_OTHER_ADMIN, now_ms);
+    return true;
+}
+
+/* Exclusive-administrator policy (ub_policy.h): some administrator other than `requester` owns a live row in a
+ * table of this node. */
+static bool node_held_by_other(const ub_node_t *node, const uint8_t requester[UB_ENTITY_ID_LEN], uint64_t now_ms) {
+    for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
+        if (!node->locals[slot].in_use) continue;
+        for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
+            const ub_ps_row_t *row = &node->locals[slot].ps.rows[r];
+            if (row->kind == UB_PS_FREE || !owner_live(row, now_ms)) continue;
+            if (row->kind == UB_PS_SUBSCRIPTION && row->state == UB_SUB_STOPPING) continue;
+            if (memcmp(row->owner, requester, UB_ENTITY_ID_LEN) != 0 && ub_policy_is_admin(node->policy, row->owner))
+                return true;
+        }
+    }
+    return false;
+}
+
+static bool exclusive_refuses(const ub_node_t *node, const sender_t *s, uint64_t now_ms) {
+    return s->policed && s->admin && node->policy->exclusive_admin && node_held_by_other(node, s->h->src_id, now_ms);
 }
 
 /* The policy refuses this sender: tell it why; the caller's `false` makes the node count the drop. */
@@ -264,6 +338,23 @@ static void take_ownership(ub_ps_row_t *row, const ub_frame_header_t *h, uint32_
     memcpy(row->owner, h->src_id, UB_ENTITY_ID_LEN);
     row->owner_request_id = request_id;
     row->lease_until_ms = lease_ms != 0 ? now_ms + lease_ms : 0;
+    row->handed_over = 0;
+}
+
+/* What an existing row means to a new request from `h->src_id`. */
+typedef enum claim {
+    CLAIM_NEW,   /* no row yet */
+    CLAIM_LOCAL, /* created through the local API: never changed by a remote request */
+    CLAIM_MINE,  /* owned by the requester: a renewal, or a new activation of the same owner */
+    CLAIM_FREE,  /* owned by someone whose lease lapsed (a handed-over row): the requester may adopt it */
+    CLAIM_TAKEN  /* owned by someone else who still renews it */
+} claim_t;
+
+static claim_t claim_of(const ub_ps_row_t *row, const ub_frame_header_t *h, uint64_t now_ms) {
+    if (row == NULL) return CLAIM_NEW;
+    if (ub_priv_id_is_zero(row->owner)) return CLAIM_LOCAL;
+    if (memcmp(row->owner, h->src_id, UB_ENTITY_ID_LEN) == 0) return CLAIM_MINE;
+    return owner_live(row, now_ms) ? CLAIM_TAKEN : CLAIM_FREE;
 }
 
 static bool on_pub_request(ub_node_t *node, int slot, const sender_t *s, const request_t *req, uint64_t now_ms) {
@@ -277,13 +368,17 @@ static bool on_pub_request(ub_node_t *node, int slot, const sender_t *s, const r
         reply(node, slot, h, req->id, true, (uint8_t)-idx, now_ms);
         return true;
     }
+    if (exclusive_refuses(node, s, now_ms)) return other_admin(node, slot, h, req->id, now_ms);
     ub_pubsub_table_t *t = table_of(node, slot);
     int r = find_row(t, UB_PS_PUBLICATION, (uint32_t)idx, req->peer, false);
     ub_ps_row_t *existing = r >= 0 ? &t->rows[r] : NULL;
+    claim_t claim = claim_of(existing, h, now_ms);
+    /* Two administrators for one flow: the one who keeps the row keeps it, at its rate; the other is told. A
+     * non-administrator asking for data to itself is not administering: the data already flows to it. */
+    if (claim == CLAIM_TAKEN && s->admin) return other_admin(node, slot, h, req->id, now_ms);
     /* A remote request never changes a row created locally; a non-administrator changes only its own rows.
      * Either way the data already flows to the requester, so it gets its ACK. */
-    bool keep = existing != NULL && (ub_priv_id_is_zero(existing->owner) ||
-                                     (!s->admin && memcmp(existing->owner, h->src_id, UB_ENTITY_ID_LEN) != 0));
+    bool keep = claim == CLAIM_LOCAL || (!s->admin && claim != CLAIM_MINE && claim != CLAIM_NEW);
     if (!keep && s->policed && !s->admin &&
         !within_limits(node, h->src_id, (uint32_t)idx, req->period_ms, existing)) {
         node->counters.requests_limited++;
@@ -310,6 +405,12 @@ static bool on_pub_request(ub_node_t *node, int slot, const sender_t *s, const r
     return true;
 }
 
+/* A subscription reports FLOWING only for data its source agreed to send: data arriving while the source
+ * refuses this row's requests belongs to someone else's flow. */
+static bool subscription_flowing(const ub_ps_row_t *row) {
+    return row->state == UB_SUB_RECEIVING && row->source_acked && row->source_nack == 0;
+}
+
 static bool on_sub_request(ub_node_t *node, int slot, const sender_t *s, const request_t *req, uint64_t now_ms) {
     const ub_frame_header_t *h = s->h;
     /* Making another entity subscribe is the administration table's job alone. */
@@ -321,22 +422,46 @@ static bool on_sub_request(ub_node_t *node, int slot, const sender_t *s, const r
         reply(node, slot, h, req->id, true, (uint8_t)-idx, now_ms);
         return true;
     }
+    if (exclusive_refuses(node, s, now_ms)) return other_admin(node, slot, h, req->id, now_ms);
     ub_pubsub_table_t *t = table_of(node, slot);
     int r = find_row(t, UB_PS_SUBSCRIPTION, (uint32_t)idx, req->peer, true);
-    ub_ps_row_t *row = r >= 0 ? &t->rows[r] : new_row_for(node, t, s, UB_PS_SUBSCRIPTION, (uint32_t)idx, req->peer);
+    ub_ps_row_t *existing = r >= 0 ? &t->rows[r] : NULL;
+    bool stopping = existing != NULL && existing->state == UB_SUB_STOPPING;
+    claim_t claim = stopping ? CLAIM_FREE : claim_of(existing, h, now_ms);
+    if (claim == CLAIM_TAKEN) return other_admin(node, slot, h, req->id, now_ms);
+    if (claim == CLAIM_LOCAL) {
+        /* The destination subscribes by itself already: acknowledged, never converted into a lease. */
+        reply(node, slot, h, req->id, false, subscription_flowing(existing) ? UB_ACK_FLOWING : 0, now_ms);
+        return true;
+    }
+    ub_ps_row_t *row = existing != NULL ? existing : new_row_for(node, t, s, UB_PS_SUBSCRIPTION, (uint32_t)idx, req->peer);
     if (row == NULL) {
         reply(node, slot, h, req->id, true, UB_NACK_TABLE_FULL, now_ms);
         return true;
     }
-    if (r < 0) row->request_id = ub_priv_new_request_id(node);
-    if (r < 0 || row->state == UB_SUB_STOPPING || row->period_ms != req->period_ms) {
+    bool activation = claim != CLAIM_MINE || row->owner_request_id != req->id;
+    if (existing == NULL) row->request_id = ub_priv_new_request_id(node);
+    if (existing == NULL || stopping || row->period_ms != req->period_ms) {
         row->period_ms = req->period_ms;
         start_requesting(row, now_ms);
+    } else if (activation && row->source_nack != 0) {
+        row->next_due_ms = now_ms; /* a new activation after a refusal: ask the source again now */
     }
-    if (memcmp(row->owner, h->src_id, UB_ENTITY_ID_LEN) != 0 || row->owner_request_id != req->id)
+    if (activation) {
+        /* The source's answers so far belonged to an earlier activation. */
         row->reported_flowing = 0;
+        row->source_nack = 0;
+        if (existing == NULL || stopping) row->source_acked = 0;
+    }
     take_ownership(row, h, req->id, req->lease_ms, now_ms);
-    bool flowing = row->state == UB_SUB_RECEIVING;
+    if (row->source_nack != 0) {
+        /* A renewal while the source refuses: the refusal is the row's status, not an ACK. */
+        node->counters.nacks_relayed++;
+        (void)ub_priv_send_reply(node, slot, true, h->dir_id, h->src_id, req->id, h->admin, row->source_nack,
+                                 UB_NACK_RELAYED, now_ms);
+        return true;
+    }
+    bool flowing = subscription_flowing(row);
     if (flowing) row->reported_flowing = 1;
     reply(node, slot, h, req->id, false, flowing ? UB_ACK_FLOWING : 0, now_ms);
     return true;
@@ -354,12 +479,17 @@ static bool on_stop(ub_node_t *node, int slot, const sender_t *s, uint32_t reque
         int r = find_row(t, pub ? UB_PS_PUBLICATION : UB_PS_SUBSCRIPTION, (uint32_t)idx, peer, false);
         if (r >= 0) {
             ub_ps_row_t *row = &t->rows[r];
+            claim_t claim = claim_of(row, h, now_ms);
             /* ... and only a row it owns, bound by the request id that created it: never a local row. */
-            if (!s->admin && !(memcmp(row->owner, h->src_id, UB_ENTITY_ID_LEN) == 0 &&
-                               row->owner_request_id == request_id))
+            if (!s->admin && !(claim == CLAIM_MINE && row->owner_request_id == request_id))
                 return refuse(node, slot, h, request_id, now_ms);
-            if (pub) row->kind = UB_PS_FREE;
-            else start_stopping(row, now_ms);
+            /* An administrator stops its own rows, local ones, and rows nobody keeps any more; a row another
+             * owner still renews is that owner's flow (two administrators): the STOP is acknowledged, since
+             * the stopper's own row is gone, and the flow goes on. */
+            if (claim != CLAIM_TAKEN) {
+                if (pub) row->kind = UB_PS_FREE;
+                else start_stopping(row, now_ms);
+            }
         }
     }
     /* Stops are idempotent: an absent row is already stopped. */
@@ -367,10 +497,17 @@ static bool on_stop(ub_node_t *node, int slot, const sender_t *s, uint32_t reque
     return true;
 }
 
+static void report_flowing(ub_node_t *node, int slot, ub_ps_row_t *row, uint8_t code, uint64_t now_ms) {
+    if (ub_priv_id_is_zero(row->owner) || row->reported_flowing || !owner_live(row, now_ms)) return;
+    row->reported_flowing = 1;
+    (void)ub_priv_send_reply(node, slot, false, node->cat->instances[row->instance].id, row->owner,
+                             row->owner_request_id, code, UB_ACK_FLOWING, 0, now_ms);
+}
+
 /* A reply to one of this entity's own subscription requests: bound to the row by the request id, the
  * source that was asked and the content. Returns false when it answers no row. */
 static bool on_reply_to_subscription(ub_node_t *node, int slot, const ub_frame_header_t *h, uint32_t request_id,
-                                     uint8_t code, bool nack, uint64_t now_ms) {
+                                     uint8_t code, bool nack, uint8_t detail, uint64_t now_ms) {
     ub_pubsub_table_t *t = table_of(node, slot);
     for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
         ub_ps_row_t *row = &t->rows[r];
@@ -382,6 +519,23 @@ static bool on_reply_to_subscription(ub_node_t *node, int slot, const ub_frame_h
             row->kind = UB_PS_FREE;
         } else if (code == UB_ADMIN_PUB_REQUEST && row->state != UB_SUB_STOPPING) {
             row->acked = nack ? 0 : 1;
+            if (nack) {
+                /* No silent status: the administrator who set this row up learns the source's refusal, with
+                 * its reason, through the destination (its own row would otherwise say acknowledged). Only
+                 * while it renews: an administrator gone quiet is not sent frames it cannot receive. */
+                row->source_nack = detail;
+                row->source_acked = 0;
+                if (third_party(row) && owner_live(row, now_ms)) {
+                    node->counters.nacks_relayed++;
+                    (void)ub_priv_send_reply(node, slot, true, h->dir_id, row->owner, row->owner_request_id,
+                                             UB_ADMIN_SUB_REQUEST, detail, UB_NACK_RELAYED, now_ms);
+                }
+            } else {
+                row->source_nack = 0;
+                row->source_acked = 1;
+                keeper_alive(row, now_ms);
+                if (row->state == UB_SUB_RECEIVING) report_flowing(node, slot, row, UB_ADMIN_SUB_REQUEST, now_ms);
+            }
             if (nack || row->state == UB_SUB_RECEIVING) {
                 /* Renewal done (or refused, which will not change soon): next one at the renewal pace. */
                 row->next_due_ms = now_ms + node->opt.timing.renew_ms;
@@ -396,10 +550,10 @@ static bool on_reply_to_subscription(ub_node_t *node, int slot, const ub_frame_h
 }
 
 bool ub_priv_pubsub_on_admin(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
-                             bool from_link, uint64_t now_ms, ub_drop_reason_t *drop) {
+                             const ub_priv_rx_t *rx, uint64_t now_ms, ub_drop_reason_t *drop) {
     uint16_t len = h->payload_size;
-    sender_t s = {h, node->policy != NULL && from_link, true};
-    if (s.policed) s.admin = ub_policy_is_admin(node->policy, h->src_id);
+    sender_t s = {h, node->policy != NULL && rx != NULL, true};
+    if (rx != NULL) s.admin = ub_node_may_administer(node, node->locals[slot].entity, h->src_id, rx->secured);
     *drop = UB_DROP_BAD_PAYLOAD;
     switch (h->admin) {
     case UB_ADMIN_PUB_REQUEST:
@@ -422,11 +576,12 @@ bool ub_priv_pubsub_on_admin(ub_node_t *node, int slot, const ub_frame_header_t 
         uint32_t id = ub_get_u32le(payload + UB_PL_REPLY_ID);
         uint8_t code = ub_get_u8(payload + UB_PL_REPLY_CODE);
         uint8_t detail = ub_get_u8(payload + UB_PL_REPLY_DETAIL);
+        uint8_t flags = ub_get_u8(payload + UB_PL_REPLY_FLAGS);
         bool nack = h->admin == UB_ADMIN_NACK;
         ub_admin_t *adm = node->locals[slot].admin;
-        if (adm != NULL && ub_priv_admin_on_reply(adm, h, id, code, nack, detail, now_ms)) return true;
+        if (adm != NULL && ub_priv_admin_on_reply(adm, h, id, code, nack, detail, flags, now_ms)) return true;
         /* Never applied to a row it is not bound to; counted, since it is either late or forged. */
-        if (!on_reply_to_subscription(node, slot, h, id, code, nack, now_ms)) node->counters.replies_unmatched++;
+        if (!on_reply_to_subscription(node, slot, h, id, code, nack, detail, now_ms)) node->counters.replies_unmatched++;
         return true;
     }
     default:
@@ -452,13 +607,6 @@ bool ub_priv_pubsub_may_write(const ub_node_t *node, int slot, uint32_t instance
 
 /* ---- data and time ----------------------------------------------------- */
 
-static void report_flowing(ub_node_t *node, int slot, ub_ps_row_t *row, uint8_t code, uint64_t now_ms) {
-    if (ub_priv_id_is_zero(row->owner) || row->reported_flowing) return;
-    row->reported_flowing = 1;
-    (void)ub_priv_send_reply(node, slot, false, node->cat->instances[row->instance].id, row->owner,
-                             row->owner_request_id, code, UB_ACK_FLOWING, now_ms);
-}
-
 void ub_priv_pubsub_on_data(ub_node_t *node, int slot, uint32_t instance, const uint8_t src_id[UB_ENTITY_ID_LEN],
                             uint64_t now_ms) {
     ub_pubsub_table_t *t = table_of(node, slot);
@@ -467,11 +615,13 @@ void ub_priv_pubsub_on_data(ub_node_t *node, int slot, uint32_t instance, const 
     ub_ps_row_t *row = &t->rows[r];
     row->last_data_ms = now_ms;
     row->frames++;
+    /* Data from a source that refuses this row's requests is someone else's flow: no sign of life for us. */
+    if (row->source_nack == 0) keeper_alive(row, now_ms);
     if (row->state == UB_SUB_REQUESTING) {
         row->state = UB_SUB_RECEIVING;
         row->next_due_ms = now_ms + node->opt.timing.renew_ms;
-        report_flowing(node, slot, row, UB_ADMIN_SUB_REQUEST, now_ms);
     }
+    if (subscription_flowing(row)) report_flowing(node, slot, row, UB_ADMIN_SUB_REQUEST, now_ms);
 }
 
 static void send_pub_request(ub_node_t *node, int slot, const ub_ps_row_t *row, uint64_t now_ms) {
@@ -494,15 +644,85 @@ static void send_pub_stop(ub_node_t *node, int slot, const ub_ps_row_t *row, uin
                              UB_PL_STOP_LEN, now_ms);
 }
 
+/* ---- publication on update (ub_pubsub_set_on_update) --------------------- */
+
+static const ub_binding_t *binding_of(const ub_node_t *node, uint32_t instance) {
+    for (size_t b = 0; b < node->n_bindings; b++)
+        if (node->bindings[b].instance == instance) return &node->bindings[b];
+    return NULL;
+}
+
+static bool on_update(const ub_node_t *node, uint32_t instance) {
+    const ub_binding_t *b = binding_of(node, instance);
+    return b != NULL && b->on_update;
+}
+
+int ub_pubsub_set_on_update(ub_node_t *node, uint32_t instance, bool on) {
+    if (node == NULL) return UB_ERR_INVAL;
+    ub_binding_t *b = (ub_binding_t *)binding_of(node, instance);
+    if (b == NULL) return UB_ERR_NOTFOUND;
+    b->on_update = on ? 1u : 0u;
+    return UB_OK;
+}
+
+/* Sends a waiting update if the row's turn has come: half a period early at most (jitter), and the
+ * turn advances by one period from the previous one (no drift) but never lags now by more than half a
+ * period (no catch-up burst after a pause of the source). */
+static bool send_update(ub_node_t *node, int slot, ub_ps_row_t *row, uint64_t now_ms) {
+    uint64_t half = row->period_ms / 2u;
+    if (!row->update_pending || now_ms + half < row->next_due_ms) return false;
+    row->update_pending = 0;
+    bool sent = ub_priv_send_data_from_slot(node, slot, row->instance, row->peer, now_ms) >= 0;
+    if (sent) {
+        row->frames++;
+        keeper_alive(row, now_ms);
+        report_flowing(node, slot, row, UB_ADMIN_PUB_REQUEST, now_ms);
+    }
+    row->next_due_ms += row->period_ms;
+    if (row->next_due_ms + half < now_ms + row->period_ms) row->next_due_ms = now_ms + row->period_ms - half;
+    return sent;
+}
+
+int ub_pubsub_updated(ub_node_t *node, int entity, uint32_t instance, uint64_t now_ms) {
+    if (node == NULL) return UB_ERR_INVAL;
+    int slot = ub_priv_local_slot(node, entity);
+    if (slot < 0 || !on_update(node, instance)) return UB_ERR_INVAL;
+    ub_pubsub_table_t *t = table_of(node, slot);
+    int sent = 0;
+    for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
+        ub_ps_row_t *row = &t->rows[r];
+        if (row->kind != UB_PS_PUBLICATION || row->instance != instance) continue;
+        row->update_pending = 1;
+        sent += send_update(node, slot, row, now_ms);
+    }
+    return sent;
+}
+
+/* The keeper of a publication is its destination: reachable while the node has a route to it (with automatic
+ * routes the route goes when the destination does; a manual mask never tells). */
+static bool route_to(const ub_node_t *node, int slot, const uint8_t id[UB_ENTITY_ID_LEN]) {
+    int e = ub_node_find_entity(node, id);
+    return e >= 0 && (node->entities[e].local >= 0 || node->locals[slot].masks[e] != 0);
+}
+
 static void tick_publication(ub_node_t *node, int slot, ub_ps_row_t *row, uint64_t now_ms) {
     if (row->lease_until_ms != 0 && now_ms >= row->lease_until_ms) {
-        row->kind = UB_PS_FREE;
-        node->counters.leases_expired++;
+        /* Asked every tick once handed over, so that a row published on update, which may send rarely,
+         * lives on its route and not on its traffic. */
+        if (third_party(row) && route_to(node, slot, row->peer)) keeper_alive(row, now_ms);
+        if (lease_lapsed_reclaims(node, row, now_ms)) {
+            row->kind = UB_PS_FREE;
+            return;
+        }
+    }
+    if (on_update(node, row->instance)) {
+        (void)send_update(node, slot, row, now_ms);
         return;
     }
     if (now_ms < row->next_due_ms) return;
     if (ub_priv_send_data_from_slot(node, slot, row->instance, row->peer, now_ms) >= 0) {
         row->frames++;
+        keeper_alive(row, now_ms);
         report_flowing(node, slot, row, UB_ADMIN_PUB_REQUEST, now_ms);
     }
     /* Schedule from the previous due time (no drift); after a stall, resume from now (no burst). */
@@ -512,10 +732,9 @@ static void tick_publication(ub_node_t *node, int slot, ub_ps_row_t *row, uint64
 
 static void tick_subscription(ub_node_t *node, int slot, ub_ps_row_t *row, uint64_t now_ms) {
     const ub_pubsub_timing_t *timing = &node->opt.timing;
-    if (row->state != UB_SUB_STOPPING && row->lease_until_ms != 0 && now_ms >= row->lease_until_ms) {
-        node->counters.leases_expired++;
+    if (row->state != UB_SUB_STOPPING && row->lease_until_ms != 0 && now_ms >= row->lease_until_ms &&
+        lease_lapsed_reclaims(node, row, now_ms))
         start_stopping(row, now_ms);
-    }
     if (row->state == UB_SUB_RECEIVING && now_ms - row->last_data_ms > ub_pubsub_data_timeout_ms(timing, row->period_ms))
         start_requesting(row, now_ms);
     if (now_ms < row->next_due_ms) return;
@@ -547,4 +766,24 @@ void ub_priv_pubsub_tick(ub_node_t *node, int slot, uint64_t now_ms) {
         if (row->kind == UB_PS_PUBLICATION) tick_publication(node, slot, row, now_ms);
         else if (row->kind == UB_PS_SUBSCRIPTION) tick_subscription(node, slot, row, now_ms);
     }
+}
+
+int ub_priv_pubsub_forget(ub_node_t *node, int slot, const uint8_t id[UB_ENTITY_ID_LEN], uint64_t now_ms) {
+    ub_pubsub_table_t *t = table_of(node, slot);
+    int freed = 0;
+    for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
+        ub_ps_row_t *row = &t->rows[r];
+        if (row->kind == UB_PS_FREE) continue;
+        if (memcmp(row->peer, id, UB_ENTITY_ID_LEN) == 0) {
+            /* Nothing left to send to, nor to ask: a STOP to an entity nobody can route to would only count
+             * no_route until its retries ran out. */
+            row->kind = UB_PS_FREE;
+            freed++;
+        } else if (memcmp(row->owner, id, UB_ENTITY_ID_LEN) == 0 && owner_live(row, now_ms)) {
+            /* Its owner (an administrator) is gone: its lease ends now and the keeper decides (a flow outlives
+             * its administrator). */
+            row->lease_until_ms = now_ms != 0 ? now_ms : 1;
+        }
+    }
+    return freed;
 }

@@ -424,6 +424,10 @@ int ub_priv_route_on_frame(ub_route_t *rt, int link_id, const ub_frame_header_t 
         l->stats.entries_in++;
         on_update(rt, slot, link_id, ent, update_ms, now_ms);
     }
+    /* Choose again before looking at the requests: a starving neighbour sends its retraction and its seqno
+     * request in one frame, and a request from the next hop we were still using would be dropped (Babel does
+     * not forward toward the requester) -- leaving it to ask again a hello interval later. */
+    if (rt->reselect[slot]) reselect_slot(rt, slot, now_ms);
     for (unsigned i = 0; i < n_req; i++, ent += UB_ROUTE_ENTRY_LEN) {
         l->stats.requests_in++;
         on_request(rt, slot, link_id, h->src_id, ent, now_ms);

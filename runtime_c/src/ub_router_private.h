@@ -30,11 +30,13 @@
 #define UB_PL_STOP_LEN 16u
 #define UB_PL_STOP_ID 0u
 #define UB_PL_STOP_PEER 4u
-/* ACK / NACK: request_id u32, code u8 (the admin code answered), flags (ACK) or reason (NACK) u8, reserved u16. */
+/* ACK / NACK: request_id u32, code u8 (the admin code answered), flags (ACK) or reason (NACK) u8, NACK origin
+ * flags u8 (UB_NACK_RELAYED; 0 in ACKs), reserved u8. */
 #define UB_PL_REPLY_LEN 8u
 #define UB_PL_REPLY_ID 0u
 #define UB_PL_REPLY_CODE 4u
 #define UB_PL_REPLY_DETAIL 5u
+#define UB_PL_REPLY_FLAGS 6u
 
 /* Local-entity slot of entity-table index `entity`, or -1 if it is not local. */
 int ub_priv_local_slot(const ub_node_t *node, int entity);
@@ -55,23 +57,26 @@ int ub_priv_send_admin(ub_node_t *node, int slot, ub_admin_code_t code, const ui
                        uint32_t fingerprint, const uint8_t dest_id[UB_ENTITY_ID_LEN], const uint8_t *payload,
                        uint16_t len, uint64_t now_ms);
 
-/* Sends ACK (nack == false, detail = flags) or NACK (detail = reason). */
+/* Sends ACK (nack == false, detail = flags) or NACK (detail = reason, `origin` = UB_NACK_RELAYED or 0). */
 int ub_priv_send_reply(ub_node_t *node, int slot, bool nack, const uint8_t dir_id[UB_DIR_ID_LEN],
                        const uint8_t dest_id[UB_ENTITY_ID_LEN], uint32_t request_id, uint8_t code, uint8_t detail,
-                       uint64_t now_ms);
+                       uint8_t origin, uint64_t now_ms);
 
 /* Originates DATA of `instance` from `slot`; same returns as ub_node_send_data(). */
 int ub_priv_send_data_from_slot(ub_node_t *node, int slot, uint32_t instance, const uint8_t dest_id[UB_ENTITY_ID_LEN],
                                 uint64_t now_ms);
 
+struct ub_priv_rx; /* what the security gate established about a received frame (below) */
+
 /*
- * An admin frame reached local slot `slot`, over a link (`from_link`) or from
- * another local entity. Returns true when handled; false when the node must
- * count it as dropped for `*drop` (bad_payload: unusable; not_authorized:
- * refused by the policy, a NACK already sent).
+ * An admin frame reached local slot `slot`, over a link (`rx`: what the
+ * security gate established) or from another local entity (`rx` NULL).
+ * Returns true when handled; false when the node must count it as dropped for
+ * `*drop` (bad_payload: unusable; not_authorized: refused by the policy, a
+ * NACK already sent).
  */
 bool ub_priv_pubsub_on_admin(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
-                             bool from_link, uint64_t now_ms, ub_drop_reason_t *drop);
+                             const struct ub_priv_rx *rx, uint64_t now_ms, ub_drop_reason_t *drop);
 
 /*
  * Write policy (ub_policy.h): may DATA of `instance` from `src_id`, received
@@ -86,6 +91,10 @@ void ub_priv_pubsub_on_data(ub_node_t *node, int slot, uint32_t instance, const 
 
 void ub_priv_pubsub_tick(ub_node_t *node, int slot, uint64_t now_ms);
 
+/* Entity `id` is being removed from the node: rows of local slot `slot` whose peer it is are freed (returns how
+ * many); rows it owns have their lease end now (their keeper decides). */
+int ub_priv_pubsub_forget(ub_node_t *node, int slot, const uint8_t id[UB_ENTITY_ID_LEN], uint64_t now_ms);
+
 /*
  * An ACK/NACK reached the administration table's entity. Returns true if it
  * answered one of its rows: same request id, sent by the row's target (the
@@ -93,7 +102,11 @@ void ub_priv_pubsub_tick(ub_node_t *node, int slot, uint64_t now_ms);
  * the row's content.
  */
 bool ub_priv_admin_on_reply(ub_admin_t *adm, const ub_frame_header_t *h, uint32_t request_id, uint8_t code, bool nack,
-                            uint8_t detail, uint64_t now_ms);
+                            uint8_t detail, uint8_t flags, uint64_t now_ms);
+
+/* Entity `id` is being removed: rows whose target it is become INACTIVE at once (nobody to send a STOP to),
+ * active rows naming it as the other end are deactivated (their STOP goes to the target). Returns how many. */
+int ub_priv_admin_forget(ub_admin_t *adm, const uint8_t id[UB_ENTITY_ID_LEN], uint64_t now_ms);
 
 /* Whether an activated row of `adm` brings `instance` from `src_id` to entity `dest_id`. */
 bool ub_priv_admin_routes_to(const ub_admin_t *adm, uint32_t instance, const uint8_t src_id[UB_ENTITY_ID_LEN],

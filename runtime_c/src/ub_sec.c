@@ -1,8 +1,9 @@
 /* Frame security (contracts in ub/ub_sec.h; construction in docs/security.md).
  *
- * Only libsodium does cryptography here: keyed BLAKE2b (crypto_generichash) for SIGNED tags,
- * XChaCha20-Poly1305 (IETF, detached) for ENCRYPTED frames, sodium_memcmp for the tag comparison,
- * randombytes_buf for nonces and keys. UB_SECURITY (set by CMake's UAVBUS_SECURITY option and by the
+ * Only libsodium does cryptography here: its KDF (crypto_kdf_derive_from_key) splits each key file's
+ * key into a SipHash-2-4 subkey and an XChaCha20-Poly1305 subkey once, when the key is added;
+ * crypto_shorthash_siphash24 makes SIGNED tags, XChaCha20-Poly1305 (IETF, detached) ENCRYPTED frames,
+ * sodium_memcmp compares tags, randombytes_buf makes nonces and keys. UB_SECURITY (set by CMake's UAVBUS_SECURITY option and by the
  * cffi build) switches it in; without it every cryptographic entry point returns UB_ERR_UNSUPPORTED,
  * so nothing can be signed and nothing flagged can be accepted. */
 #include "ub/ub_sec.h"
@@ -14,8 +15,12 @@
 #if defined(UB_SECURITY) && UB_SECURITY
 #include <sodium.h>
 #define HAVE_SODIUM 1
-_Static_assert(sizeof(crypto_generichash_state) <= UB_SEC_MAC_STATE_WORDS * sizeof(uint64_t),
-               "UB_SEC_MAC_STATE_WORDS too small for libsodium's crypto_generichash_state");
+_Static_assert(crypto_shorthash_siphash24_KEYBYTES == UB_SEC_SIG_KEY_LEN, "SipHash-2-4 key length");
+_Static_assert(crypto_shorthash_siphash24_BYTES == UB_FRAME_SIG_TAG_LEN, "SipHash-2-4 output = the SIGNED tag");
+_Static_assert(crypto_kdf_KEYBYTES == UB_SEC_KEY_LEN, "KDF master key length");
+_Static_assert(crypto_kdf_CONTEXTBYTES == sizeof UB_SEC_SIG_CONTEXT - 1u, "KDF context length (signing)");
+_Static_assert(crypto_kdf_CONTEXTBYTES == sizeof UB_SEC_AEAD_CONTEXT - 1u, "KDF context length (AEAD)");
+_Static_assert(UB_SEC_SIG_KEY_LEN >= crypto_kdf_BYTES_MIN, "KDF subkey length");
 _Static_assert(crypto_aead_xchacha20poly1305_ietf_ABYTES == UB_FRAME_AEAD_TAG_LEN, "Poly1305 tag length");
 _Static_assert(crypto_aead_xchacha20poly1305_ietf_NPUBBYTES == 24, "XChaCha20 nonce length");
 _Static_assert(crypto_aead_xchacha20poly1305_ietf_KEYBYTES == UB_SEC_KEY_LEN, "AEAD key length");
@@ -23,7 +28,6 @@ _Static_assert(crypto_aead_xchacha20poly1305_ietf_KEYBYTES == UB_SEC_KEY_LEN, "A
 #define HAVE_SODIUM 0
 #endif
 
-#define MAC_OUT_LEN 16u /* BLAKE2b-128; the first UB_FRAME_SIG_TAG_LEN bytes are the tag */
 #define DOMAIN_LEN (sizeof UB_SEC_DOMAIN - 1u)
 
 _Static_assert(DOMAIN_LEN == 11, "domain string is 11 bytes");
@@ -86,16 +90,12 @@ int ub_sec_add_key(ub_sec_t *sec, uint8_t id, const uint8_t key[UB_SEC_KEY_LEN])
     for (size_t i = 0; i < UB_MAX_KEYS && slot == NULL; i++)
         if (sec->keys[i].id == 0) slot = &sec->keys[i];
     if (slot == NULL) return UB_ERR_FULL;
-    /* The keyed state with the constant domain string absorbed, computed once; every tag copies it. */
-    crypto_generichash_state st;
-    if (crypto_generichash_init(&st, key, UB_SEC_KEY_LEN, MAC_OUT_LEN) != 0 ||
-        crypto_generichash_update(&st, (const uint8_t *)UB_SEC_DOMAIN, DOMAIN_LEN) != 0) {
-        wipe(&st, sizeof st);
+    /* Key separation, once per key: the tag and the AEAD never use the same key, nor the file's key. */
+    if (crypto_kdf_derive_from_key(slot->sig_key, UB_SEC_SIG_KEY_LEN, UB_SEC_SUBKEY_ID, UB_SEC_SIG_CONTEXT, key) != 0 ||
+        crypto_kdf_derive_from_key(slot->aead_key, UB_SEC_KEY_LEN, UB_SEC_SUBKEY_ID, UB_SEC_AEAD_CONTEXT, key) != 0) {
+        wipe(slot, sizeof *slot);
         return UB_ERR_INVAL;
     }
-    memcpy(slot->mac_state, &st, sizeof st);
-    wipe(&st, sizeof st);
-    memcpy(slot->key, key, UB_SEC_KEY_LEN);
     slot->id = id;
     return UB_OK;
 #else
@@ -184,14 +184,14 @@ void ub_sec_signing_header(const ub_frame_header_t *h, uint8_t out[UB_SEC_SIGNIN
 }
 
 #if HAVE_SODIUM
-/* Tag over (signing header, payload) from the key's saved state; the domain string is already in it. */
+/* SipHash-2-4 over (signing header, payload). libsodium's SipHash takes one contiguous input, so both go
+ * into a stack buffer first (a copy of at most 68 + UB_MAX_PAYLOAD bytes: a few ns beside the hash). */
 static void sig_tag(const ub_sec_key_t *k, const uint8_t sh[UB_SEC_SIGNING_HEADER_LEN], const uint8_t *payload,
-                    size_t payload_len, uint8_t out[MAC_OUT_LEN]) {
-    crypto_generichash_state st;
-    memcpy(&st, k->mac_state, sizeof st);
-    (void)crypto_generichash_update(&st, sh + DOMAIN_LEN, UB_SEC_SIGNING_HEADER_LEN - DOMAIN_LEN);
-    (void)crypto_generichash_update(&st, payload, payload_len);
-    (void)crypto_generichash_final(&st, out, MAC_OUT_LEN);
+                    size_t payload_len, uint8_t out[UB_FRAME_SIG_TAG_LEN]) {
+    uint8_t in[UB_SEC_SIGNING_HEADER_LEN + UB_MAX_PAYLOAD];
+    memcpy(in, sh, UB_SEC_SIGNING_HEADER_LEN);
+    if (payload_len > 0) memcpy(in + UB_SEC_SIGNING_HEADER_LEN, payload, payload_len);
+    (void)crypto_shorthash_siphash24(out, in, UB_SEC_SIGNING_HEADER_LEN + payload_len, k->sig_key);
 }
 
 static void aead_nonce(const ub_frame_header_t *h, uint8_t nonce[24]) {
@@ -220,9 +220,7 @@ int ub_sec_protect(ub_sec_t *sec, const ub_frame_header_t *h, const uint8_t *pay
     ub_put_u16le(trailer + UB_FRAME_TRL_OFF_COUNTER_HI, h->counter_hi);
     if (h->flags == UB_FRAME_FLAG_SIGNED) {
         if (payload != body) memmove(body, payload, h->payload_size);
-        uint8_t mac[MAC_OUT_LEN];
-        sig_tag(k, sh, body, h->payload_size, mac);
-        memcpy(trailer + UB_FRAME_TRL_OFF_TAG, mac, UB_FRAME_SIG_TAG_LEN);
+        sig_tag(k, sh, body, h->payload_size, trailer + UB_FRAME_TRL_OFF_TAG);
         sec->stats.signed_out++;
     } else {
         uint8_t nonce[24];
@@ -232,7 +230,7 @@ int ub_sec_protect(ub_sec_t *sec, const ub_frame_header_t *h, const uint8_t *pay
         if (payload != body) memmove(body, payload, h->payload_size);
         if (crypto_aead_xchacha20poly1305_ietf_encrypt_detached(body, trailer + UB_FRAME_TRL_OFF_TAG, &mac_len, body,
                                                                 h->payload_size, sh, sizeof sh, NULL, nonce,
-                                                                k->key) != 0)
+                                                                k->aead_key) != 0)
             return UB_ERR_INVAL;
         sec->stats.encrypted_out++;
     }
@@ -260,7 +258,7 @@ int ub_sec_verify(ub_sec_t *sec, const ub_frame_header_t *h, const uint8_t *fram
     uint8_t sh[UB_SEC_SIGNING_HEADER_LEN];
     ub_sec_signing_header(h, sh);
     if (h->flags == UB_FRAME_FLAG_SIGNED) {
-        uint8_t mac[MAC_OUT_LEN];
+        uint8_t mac[UB_FRAME_SIG_TAG_LEN];
         sig_tag(k, sh, body, h->payload_size, mac);
         if (sodium_memcmp(mac, tag, UB_FRAME_SIG_TAG_LEN) != 0) {
             sec->stats.auth_failures++;
@@ -273,7 +271,7 @@ int ub_sec_verify(ub_sec_t *sec, const ub_frame_header_t *h, const uint8_t *fram
     uint8_t nonce[24];
     aead_nonce(h, nonce);
     if (crypto_aead_xchacha20poly1305_ietf_decrypt_detached(plain, NULL, body, h->payload_size, tag, sh, sizeof sh,
-                                                            nonce, k->key) != 0) {
+                                                            nonce, k->aead_key) != 0) {
         sec->stats.auth_failures++;
         return UB_ERR_AUTH;
     }

@@ -5,6 +5,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <poll.h>
 #include <string.h>
 #include <termios.h>
 #include <unistd.h>
@@ -52,6 +53,21 @@ static void reset(ub_serial_t *serial) {
     memset(serial, 0, sizeof *serial);
     serial->fd = -1;
     serial->link_id = -1;
+    serial->state = UB_SERIAL_DOWN;
+    serial->backoff_ms = UB_SERIAL_RETRY_MIN_MS;
+}
+
+/* open() + configure(); @return the descriptor, or -1 with errno set. */
+static int open_device(const char *path, speed_t speed) {
+    int fd = open(path, O_RDWR | O_NOCTTY | O_NONBLOCK);
+    if (fd < 0) return -1;
+    if (configure(fd, speed) < 0) {
+        int saved = errno;
+        close(fd);
+        errno = saved;
+        return -1;
+    }
+    return fd;
 }
 
 int ub_serial_open(ub_serial_t *serial, const char *path, uint32_t baud) {
@@ -59,16 +75,15 @@ int ub_serial_open(ub_serial_t *serial, const char *path, uint32_t baud) {
     reset(serial);
     speed_t speed;
     if (find_speed(baud, &speed) < 0) return UB_ERR_RANGE;
-    int fd = open(path, O_RDWR | O_NOCTTY | O_NONBLOCK);
+    size_t n = strlen(path);
+    if (n >= sizeof serial->path) return UB_ERR_NOSPACE;
+    int fd = open_device(path, speed);
     if (fd < 0) return UB_ERR_IO;
-    if (configure(fd, speed) < 0) {
-        int saved = errno;
-        close(fd);
-        errno = saved;
-        return UB_ERR_IO;
-    }
+    memcpy(serial->path, path, n + 1);
+    serial->baud = baud;
     serial->fd = fd;
     serial->owns_fd = 1;
+    serial->state = UB_SERIAL_UP;
     return UB_OK;
 }
 
@@ -81,15 +96,60 @@ int ub_serial_adopt(ub_serial_t *serial, int fd, uint32_t baud) {
     if (flags < 0 || fcntl(fd, F_SETFL, flags | O_NONBLOCK) < 0) return UB_ERR_IO;
     if (baud != 0 && configure(fd, speed) < 0) return UB_ERR_IO;
     serial->fd = fd;
+    serial->baud = baud;
+    serial->state = UB_SERIAL_UP;
     return UB_OK;
+}
+
+/* errno values that mean the device itself is gone (pulled adapter, closed pty end, dropped carrier). */
+static bool gone(int err) { return err == EIO || err == ENXIO || err == ENODEV || err == EPIPE; }
+
+/* The device went away: count it and close the descriptor at once (a hung-up tty polls readable forever,
+ * so keeping it would spin the caller's poll loop); a device opened by path is retried after the backoff. */
+static void hang_up(ub_serial_t *serial, uint64_t now_ms) {
+    serial->stats.hangups++;
+    serial->stats.tx_discarded += serial->tx_len;
+    serial->tx_len = 0;
+    if (serial->owns_fd) close(serial->fd);
+    serial->fd = -1;
+    serial->state = UB_SERIAL_DOWN;
+    serial->hung = 1;
+    serial->next_attempt_ms = now_ms + serial->backoff_ms;
+}
+
+/* Reopens a device opened by path when its retry is due; a new device re-attaches the node slot, which
+ * resets the slot's decoder (counting the bytes it held), so the new stream starts clean. */
+static void try_reopen(ub_serial_t *serial, uint64_t now_ms) {
+    if (serial->path[0] == '\0' || now_ms < serial->next_attempt_ms) return;
+    speed_t speed = B115200;
+    (void)find_speed(serial->baud, &speed); /* cannot fail: checked by ub_serial_open() */
+    int fd = open_device(serial->path, speed);
+    if (fd < 0) {
+        serial->stats.reopen_failures++;
+        serial->backoff_ms = serial->backoff_ms > UB_SERIAL_RETRY_MAX_MS / 2u ? UB_SERIAL_RETRY_MAX_MS
+                                                                              : serial->backoff_ms * 2u;
+        serial->next_attempt_ms = now_ms + serial->backoff_ms;
+        return;
+    }
+    serial->fd = fd;
+    serial->state = UB_SERIAL_UP;
+    serial->hung = 0;
+    serial->backoff_ms = UB_SERIAL_RETRY_MIN_MS;
+    serial->stats.reopens++;
+    if (serial->node != NULL) {
+        int attached = ub_node_link_attach(serial->node, serial->link_id, &ub_serial_ops, serial);
+        (void)attached; /* cannot fail: ub_serial_attach() succeeded with these arguments */
+    }
 }
 
 static long device_write(int fd, const uint8_t *data, size_t len) { return (long)write(fd, data, len); }
 
 static int serial_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms) {
-    (void)now_ms;
     ub_serial_t *serial = impl;
-    if (serial->fd < 0) return UB_ERR_CLOSED;
+    if (serial->state != UB_SERIAL_UP) {
+        serial->stats.send_closed++;
+        return UB_ERR_CLOSED;
+    }
     int rc = ub_stream_tx_send(serial->fd, device_write, serial->tx, sizeof serial->tx, &serial->tx_len, frame, len,
                                &serial->stats.bytes_out);
     if (rc == UB_ERR_AGAIN) {
@@ -97,6 +157,10 @@ static int serial_send(void *impl, const uint8_t *frame, size_t len, uint64_t no
         return rc;
     }
     if (rc < 0) {
+        if (gone(errno)) {
+            hang_up(serial, now_ms);
+            return UB_ERR_CLOSED;
+        }
         serial->stats.io_errors++;
         return rc;
     }
@@ -117,10 +181,28 @@ int ub_serial_attach(ub_serial_t *serial, ub_node_t *node, int link_id) {
     return UB_OK;
 }
 
+/* read() returned 0. With VMIN = VTIME = 0 that is also "no data now", so ask poll(): a hung-up tty
+ * (carrier lost, USB adapter gone, the other end of a pty closed) reports POLLHUP (with POLLERR); POLLIN
+ * alone is not enough, since a byte may have arrived just after the read(). */
+static bool at_end_of_file(int fd) {
+    struct pollfd p = {.fd = fd, .events = POLLIN};
+    if (poll(&p, 1, 0) <= 0) return false;
+    return (p.revents & (POLLHUP | POLLERR | POLLNVAL)) != 0;
+}
+
 int ub_serial_service(ub_serial_t *serial, ub_node_t *node, uint64_t now_ms) {
-    if (serial == NULL || serial->fd < 0 || node == NULL || node != serial->node) return UB_ERR_INVAL;
+    if (serial == NULL || node == NULL || node != serial->node) return UB_ERR_INVAL;
+    if (serial->state != UB_SERIAL_UP) {
+        if (!serial->hung) return UB_ERR_INVAL; /* closed (or never opened), not hung up */
+        try_reopen(serial, now_ms);
+        if (serial->state != UB_SERIAL_UP) return 0;
+    }
     if (serial->tx_len > 0 &&
         ub_stream_tx_flush(serial->fd, device_write, serial->tx, &serial->tx_len, &serial->stats.bytes_out) < 0) {
+        if (gone(errno)) {
+            hang_up(serial, now_ms);
+            return 0;
+        }
         serial->stats.io_errors++;
         return UB_ERR_IO;
     }
@@ -134,7 +216,10 @@ int ub_serial_service(ub_serial_t *serial, ub_node_t *node, uint64_t now_ms) {
             continue;
         }
         if (n < 0 && errno == EINTR) continue;
-        /* 0 with VMIN = VTIME = 0, or EAGAIN: nothing more now. */
+        if ((n == 0 && i == 0 && at_end_of_file(serial->fd)) || (n < 0 && gone(errno))) {
+            hang_up(serial, now_ms);
+            return frames;
+        }
         if (n == 0 || errno == EAGAIN || errno == EWOULDBLOCK) break;
         serial->stats.io_errors++;
         return UB_ERR_IO;
@@ -144,12 +229,24 @@ int ub_serial_service(ub_serial_t *serial, ub_node_t *node, uint64_t now_ms) {
 
 int ub_serial_fileno(const ub_serial_t *serial) { return serial == NULL ? -1 : serial->fd; }
 
+ub_serial_state_t ub_serial_state(const ub_serial_t *serial) {
+    return serial == NULL ? UB_SERIAL_DOWN : (ub_serial_state_t)serial->state;
+}
+
+bool ub_serial_next_retry(const ub_serial_t *serial, uint64_t *due_ms) {
+    if (serial == NULL || !serial->hung || serial->path[0] == '\0') return false;
+    if (due_ms != NULL) *due_ms = serial->next_attempt_ms;
+    return true;
+}
+
 size_t ub_serial_tx_pending(const ub_serial_t *serial) { return serial == NULL ? 0 : serial->tx_len; }
 
 const ub_serial_stats_t *ub_serial_stats(const ub_serial_t *serial) { return serial == NULL ? NULL : &serial->stats; }
 
 void ub_serial_close(ub_serial_t *serial) {
-    if (serial == NULL || serial->fd < 0) return;
-    if (serial->owns_fd) close(serial->fd);
+    if (serial == NULL) return;
+    if (serial->fd >= 0 && serial->owns_fd) close(serial->fd);
     serial->fd = -1;
+    serial->state = UB_SERIAL_DOWN;
+    serial->hung = 0; /* an explicit close ends reopening */
 }

@@ -3,6 +3,7 @@
 #include "ub/ub_udp.h"
 
 #include <arpa/inet.h>
+#include <stdbool.h>
 #include <errno.h>
 #include <string.h>
 #include <sys/socket.h>
@@ -255,9 +256,30 @@ static int find_peer(const ub_udp_t *udp, const struct sockaddr_in *from) {
     return -1;
 }
 
+/* What a verdict says about a datagram's sender, worst to best (for a datagram of several frames). */
+static int verdict_rank(ub_rx_verdict_t v) {
+    switch (v) {
+    case UB_VERDICT_ACCEPTED: return 3;
+    case UB_VERDICT_DUPLICATE: return 2;
+    case UB_VERDICT_UNVERIFIED: return 1;
+    default: return 0;
+    }
+}
+
+/* True when `data` (at least a header long) starts with a header whose checks hold: sync, header check,
+ * version, consistent sizes. Parsing the 64 header bytes alone, a sound header reports the payload as
+ * missing (TRUNCATED), or an empty-payload frame parses whole or fails only its message CRC. */
+static int sound_header(const uint8_t *data) {
+    ub_rx_reason_t why = UB_RX_BAD_SYNC;
+    int rc = ub_frame_parse_reason(data, UB_FRAME_HEADER_LEN, NULL, &why);
+    return rc == UB_OK || rc == UB_ERR_TRUNCATED || (rc == UB_ERR_CHECKSUM && why == UB_RX_BAD_CRC);
+}
+
 /* Hands the frames of one datagram to the node and returns the best verdict among them. Each frame's
- * msg_size says where the next one starts; a single-frame datagram (the common case) is handed whole,
- * so a bad one is still rejected with the decoder's reason, and so is any tail that does not parse. */
+ * msg_size says where the next one starts, but only a sound header's msg_size is trusted: otherwise the
+ * rest of the datagram is handed whole and rejected once (with the decoder's reason), so a garbage
+ * datagram is exactly one rejection, whatever bytes it holds. A single-frame datagram (the common case)
+ * is handed whole without the extra check. */
 static ub_rx_verdict_t hand_datagram(ub_udp_t *udp, ub_node_t *node, const uint8_t *data, size_t len,
                                      uint64_t now_ms) {
     ub_rx_verdict_t best = UB_VERDICT_REFUSED;
@@ -271,57 +293,70 @@ static ub_rx_verdict_t hand_datagram(ub_udp_t *udp, ub_node_t *node, const uint8
         size_t rest = len - off, take = rest;
         if (rest > UB_FRAME_HEADER_LEN) {
             size_t size = ub_get_u16le(data + off + UB_FRAME_OFF_MSG_SIZE);
-            if (size >= UB_FRAME_HEADER_LEN && size < rest) take = size;
+            if (size >= UB_FRAME_HEADER_LEN && size < rest && sound_header(data + off)) take = size;
         }
         udp->stats.frames_in++;
         ub_rx_verdict_t v = UB_VERDICT_REFUSED;
         if (ub_node_rx_frame_verdict(node, udp->link_id, data + off, take, now_ms, &v) < 0) udp->stats.rejected++;
-        if (v > best) best = v;
+        if (verdict_rank(v) > verdict_rank(best)) best = v;
         off += take;
     }
     return best;
 }
 
-/* A learned peer in slot k (configured peers are never replaced by learning). */
-static void put_learned(ub_udp_t *udp, int k, const struct sockaddr_in *from, uint64_t now_ms) {
+/* A learned peer in slot k (configured peers are never replaced by learning); `provisional`: from an
+ * unverified frame, to be confirmed by an accepted one within UB_UDP_PROVISIONAL_MS. */
+static void put_learned(ub_udp_t *udp, int k, const struct sockaddr_in *from, bool provisional, uint64_t now_ms) {
     if (udp->peers[k].in_use) udp->stats.peers_forgotten++;
     udp->peers[k].addr = *from;
     udp->peers[k].in_use = 1;
     udp->peers[k].configured = 0;
     udp->peers[k].last_heard_ms = now_ms;
+    udp->peers[k].provisional_until_ms = provisional ? now_ms + UB_UDP_PROVISIONAL_MS : 0;
     udp->stats.peers_learned++;
 }
 
-/* The node's verdict on a datagram from an address that is not a peer yet: learn it or not. */
-static void learn(ub_udp_t *udp, const struct sockaddr_in *from, ub_rx_verdict_t verdict, uint64_t now_ms) {
+/* The node's verdict on a datagram from an address that is not a peer yet: learn it or not (ub_udp.h). */
+static void learn(ub_udp_t *udp, ub_node_t *node, const struct sockaddr_in *from, ub_rx_verdict_t verdict,
+                  uint64_t now_ms) {
     if (verdict == UB_VERDICT_REFUSED) return;
+    /* Where frames are signed, a copy of one already handled proves nothing about who sends it: anyone who
+     * overheard it can. An authentic frame from a source not verified yet makes a provisional peer, so the
+     * node's challenge reaches the sender. */
+    if (verdict == UB_VERDICT_DUPLICATE && ub_node_link_requires_signed(node, udp->link_id)) return;
+    bool provisional = verdict == UB_VERDICT_UNVERIFIED;
     if (udp->accept == UB_UDP_ACCEPT_LEARN) {
         /* One peer. A duplicate (a redundant link's copy, or a replay) may teach the first one, but only a
          * frame the node accepted as new moves the link away from a peer it has. */
         int k = first_peer(udp);
         if (k >= 0 && verdict != UB_VERDICT_ACCEPTED) return;
-        put_learned(udp, k >= 0 ? k : 0, from, now_ms);
+        put_learned(udp, k >= 0 ? k : 0, from, provisional, now_ms);
         return;
     }
-    /* ANY: a free slot, else the learned peer heard least recently. */
+    /* ANY: a free slot, else the learned peer heard least recently (a provisional newcomer: only another
+     * provisional one, so replays from new addresses never push out a confirmed peer). */
     int slot = -1;
     for (int k = 0; k < UB_UDP_MAX_PEERS && slot < 0; k++)
         if (!udp->peers[k].in_use) slot = k;
-    for (int k = 0; k < UB_UDP_MAX_PEERS && slot < 0; k++) {
-        if (udp->peers[k].configured) continue;
-        int oldest = k;
-        for (int j = k + 1; j < UB_UDP_MAX_PEERS; j++)
-            if (!udp->peers[j].configured && udp->peers[j].last_heard_ms < udp->peers[oldest].last_heard_ms) oldest = j;
-        slot = oldest;
+    if (slot < 0) {
+        for (int k = 0; k < UB_UDP_MAX_PEERS; k++) {
+            const ub_udp_peer_t *p = &udp->peers[k];
+            if (p->configured || (provisional && p->provisional_until_ms == 0)) continue;
+            if (slot < 0 || p->last_heard_ms < udp->peers[slot].last_heard_ms) slot = k;
+        }
     }
-    if (slot >= 0) put_learned(udp, slot, from, now_ms);
+    if (slot < 0) return;
+    if (udp->peers[slot].in_use) udp->stats.peers_forgotten++;
+    put_learned(udp, slot, from, provisional, now_ms);
 }
 
 static void forget_idle(ub_udp_t *udp, uint64_t now_ms) {
-    if (udp->accept != UB_UDP_ACCEPT_ANY) return;
     for (int k = 0; k < UB_UDP_MAX_PEERS; k++) {
         ub_udp_peer_t *p = &udp->peers[k];
-        if (!p->in_use || p->configured || now_ms < p->last_heard_ms + UB_UDP_PEER_IDLE_MS) continue;
+        if (!p->in_use || p->configured) continue;
+        bool unconfirmed = p->provisional_until_ms != 0 && now_ms >= p->provisional_until_ms;
+        bool idle = udp->accept == UB_UDP_ACCEPT_ANY && now_ms >= p->last_heard_ms + UB_UDP_PEER_IDLE_MS;
+        if (!unconfirmed && !idle) continue;
         p->in_use = 0;
         udp->stats.peers_forgotten++;
     }
@@ -388,8 +423,9 @@ int ub_udp_service(ub_udp_t *udp, ub_node_t *node, uint64_t now_ms) {
             }
             if (known >= 0) {
                 if (verdict != UB_VERDICT_REFUSED) udp->peers[known].last_heard_ms = now_ms;
+                if (verdict == UB_VERDICT_ACCEPTED) udp->peers[known].provisional_until_ms = 0; /* confirmed */
             } else {
-                learn(udp, &from[i], verdict, now_ms);
+                learn(udp, node, &from[i], verdict, now_ms);
             }
         }
         if ((unsigned)n < want) break;

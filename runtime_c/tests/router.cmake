@@ -4,7 +4,7 @@
 #  - test_noalloc counts malloc/calloc/realloc/free through -Wl,--wrap;
 #  - ub_noalloc_nm: the static library must not reference any allocator symbol at all.
 
-set(UB_ROUTER_TESTS test_node test_router test_pubsub test_admin test_memlink test_table1 test_faults test_loops
+set(UB_ROUTER_TESTS test_node test_router test_pubsub test_admin test_memlink test_table1 test_faults test_loops test_handover
                     test_layout test_noalloc test_authz test_route test_member)
 foreach(t ${UB_ROUTER_TESTS})
   if(TARGET ${t})

@@ -176,7 +176,16 @@ static void test_row_validation(void **state) {
     spec.instance = 9;
     assert_int_equal(ub_admin_add_row(&adm, &spec), UB_ERR_INVAL);
     spec.instance = TEST_GPS;
-    for (int i = 0; i < UB_MAX_ADMIN_ROWS; i++) assert_int_equal(ub_admin_add_row(&adm, &spec), i);
+    assert_int_equal(ub_admin_add_row(&adm, &spec), 0);
+    /* One flow, one row, whatever the type or rate: two would fight over the target's row. */
+    spec.type = UB_ADMIN_ROW_SUBSCRIPTION;
+    spec.period_ms = 500;
+    assert_int_equal(ub_admin_add_row(&adm, &spec), UB_ERR_EXISTS);
+    for (int i = 1; i < UB_MAX_ADMIN_ROWS; i++) {
+        spec.destination[UB_ENTITY_ID_LEN - 1] = (uint8_t)i; /* other destinations: other flows */
+        assert_int_equal(ub_admin_add_row(&adm, &spec), i);
+    }
+    spec.destination[UB_ENTITY_ID_LEN - 1] = 0xFF;
     assert_int_equal(ub_admin_add_row(&adm, &spec), UB_ERR_FULL);
     assert_string_equal(ub_admin_status_name((ub_admin_status_t)42), "?");
     pair_free(p);

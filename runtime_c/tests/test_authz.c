@@ -18,7 +18,10 @@
 #include "ub/ub_admin.h"
 #include "ub/ub_policy.h"
 #include "ub/ub_pubsub.h"
+#include "ub/ub_member.h"
 #include "ub/ub_random.h"
+#include "ub/ub_sec.h"
+#include "ub/ub_wire.h"
 
 static uint8_t g_id[4][UB_ENTITY_ID_LEN];
 
@@ -446,6 +449,78 @@ static void test_without_policy_behaviour_unchanged(void **state) {
     free(a);
 }
 
+/* ---- with a keyring, only a verified requester administers ----------------------------------- */
+
+static const uint8_t FLEET_KEY[UB_SEC_KEY_LEN] = {0x5a, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15,
+                                                  16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31};
+
+static void membership_request(authz_t *a, const char *src, uint32_t id) {
+    uint8_t p[UB_MEMBER_ENTITY_LEN] = {0};
+    ub_put_u32le(p + UB_MEMBER_OFF_ID, id);
+    p[UB_MEMBER_OFF_OP] = UB_MEMBER_REMOVE_ENTITY;
+    test_eid("obs1", p + UB_MEMBER_OFF_SUBJECT);
+    uint8_t frame[UB_FRAME_MAX];
+    static const uint8_t no_dir[UB_DIR_ID_LEN] = {0};
+    size_t n = make_frame(frame, UB_ADMIN_MEMBERSHIP, no_dir, src, "veh1", a->seq++, 8, 0, p, sizeof p);
+    assert_int_equal(ub_node_rx_frame(a->veh, a->veh_link_rogue, frame, n, a->w.now_ms), UB_OK);
+}
+
+/*
+ * A node with a keyring whose radio link still takes unsigned frames ("require_signed": false, e.g. for
+ * a legacy sensor): an unsigned frame claiming the administrator gcs1 gets none of its rights (the tag is
+ * what proves the sender), while gcs1's genuine, signed requests still administer. Without the keyring
+ * the same forged frames administer (the control: this test can fail).
+ */
+static void test_with_a_keyring_only_verified_requests_administer(void **state) {
+    (void)state;
+    authz_t *a = authz_new(61);
+    uint32_t gps = authz_instance(a, "gpsOut"), imu = authz_instance(a, "imuOut");
+    uint8_t gcs1[UB_ENTITY_ID_LEN];
+    test_eid("gcs1", gcs1);
+    /* control, no keyring: the forged "gcs1" requests are obeyed */
+    authz_request(a, UB_ADMIN_PUB_REQUEST, gps, "gcs1", "mallory", 100, 0, 1);
+    assert_non_null(veh_row(a, UB_PS_PUBLICATION, "gpsOut", "mallory"));
+    authz_stop(a, UB_ADMIN_PUB_STOP, gps, "gcs1", "mallory", 1);
+    assert_null(veh_row(a, UB_PS_PUBLICATION, "gpsOut", "mallory"));
+    assert_true(ub_node_may_administer(a->veh, a->e_veh, gcs1, false));
+
+    static ub_sec_t sec[3];
+    test_sec_on(&sec[0], a->gcs, FLEET_KEY, 1000, false); /* keys, but unsigned frames still allowed */
+    test_sec_on(&sec[1], a->veh, FLEET_KEY, 2000, false);
+    test_sec_on(&sec[2], a->obs, FLEET_KEY, 3000, false);
+    assert_false(ub_node_link_requires_signed(a->veh, a->veh_link_rogue));
+    uint64_t refused = counters(a->veh)->drops[UB_DROP_NOT_AUTHORIZED];
+    uint64_t member_refused = counters(a->veh)->membership_refused;
+    assert_true(ub_pubsub_publish(a->veh, a->e_veh, imu, eid(0, "obs1"), 100, a->w.now_ms) >= 0);
+    /* forged, unsigned, claiming the administrator: data to mallory, a subscription, a stop of a local row,
+     * a membership change */
+    authz_request(a, UB_ADMIN_PUB_REQUEST, gps, "gcs1", "mallory", 1, 0, 2);
+    authz_request(a, UB_ADMIN_SUB_REQUEST, gps, "gcs1", "mallory", 100, 0, 3);
+    authz_stop(a, UB_ADMIN_PUB_STOP, imu, "gcs1", "obs1", 0);
+    membership_request(a, "gcs1", 4);
+    assert_int_equal(counters(a->veh)->drops[UB_DROP_NOT_AUTHORIZED] - refused, 4);
+    assert_int_equal(counters(a->veh)->membership_refused - member_refused, 1);
+    assert_null(veh_row(a, UB_PS_PUBLICATION, "gpsOut", "mallory"));
+    assert_int_equal(ub_pubsub_count(a->veh, a->e_veh, UB_PS_SUBSCRIPTION), 0);
+    assert_non_null(veh_row(a, UB_PS_PUBLICATION, "imuOut", "obs1"));
+    assert_true(ub_node_find_entity(a->veh, eid(0, "obs1")) >= 0);
+    assert_false(ub_node_may_administer(a->veh, a->e_veh, gcs1, false));
+    assert_true(ub_node_may_administer(a->veh, a->e_veh, gcs1, true));
+    run(a, 500);
+    assert_int_equal(a->rogue.data, 0);
+
+    /* gcs1's own administration table, signed over its link: data to obs1 (exclusive rights) flows */
+    int row = admin_row(a, "gpsOut", "veh1", "obs1", 100, UB_ADMIN_ROW_PUBLICATION);
+    run(a, 1500);
+    assert_int_equal(info(a, row).status, UB_ADMIN_ACTIVE);
+    const ub_ps_row_t *granted = veh_row(a, UB_PS_PUBLICATION, "gpsOut", "obs1");
+    assert_non_null(granted);
+    assert_memory_equal(granted->owner, gcs1, UB_ENTITY_ID_LEN);
+    assert_true(granted->frames >= 10);
+    assert_int_equal(counters(a->veh)->drops[UB_DROP_NOT_AUTHORIZED] - refused, 4);
+    free(a);
+}
+
 /* ---- request ids ---------------------------------------------------------------------------- */
 
 typedef struct scripted {
@@ -518,6 +593,7 @@ int main(void) {
         cmocka_unit_test(test_read_policy_nacks),
         cmocka_unit_test(test_limits_per_requester),
         cmocka_unit_test(test_without_policy_behaviour_unchanged),
+        cmocka_unit_test(test_with_a_keyring_only_verified_requests_administer),
         cmocka_unit_test(test_request_ids_unguessable_and_injectable),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -339,8 +339,9 @@ static void test_membership_needs_an_administrator(void **state) {
     assert_int_equal(ub_node_find_entity(p->uav, v9), UB_ERR_NOTFOUND);
     assert_int_equal(ub_node_counters(p->uav)->drops[UB_DROP_NOT_AUTHORIZED], 1);
     assert_int_equal(ub_node_counters(p->uav)->membership_refused, 1);
-    assert_false(ub_node_may_administer(p->uav, p->u, ub_node_entity_id(p->gcs, p->g)));
-    assert_true(ub_node_may_administer(p->uav, p->u, boss));
+    assert_false(ub_node_may_administer(p->uav, p->u, ub_node_entity_id(p->gcs, p->g), true));
+    assert_true(ub_node_may_administer(p->uav, p->u, boss, true));
+    assert_true(ub_node_may_administer(p->uav, p->u, boss, false)); /* no keyring: nothing is verified */
     /* gcs1 becomes an administrator: the same request is applied. */
     assert_int_equal(ub_policy_add_admin(pol, ub_node_entity_id(p->gcs, p->g)), UB_OK);
     info = run_request(p, &add);

@@ -507,6 +507,37 @@ static void test_starvation_is_resolved_by_a_seqno_request(void **state) {
     fleet_free(f);
 }
 
+/* The starving node's neighbour was routing through it: the retraction and the seqno request arrive in one
+ * frame. The neighbour chooses its other route first and forwards the request along it at once; dropping it
+ * (as a request from its next hop) left the starving node to ask again a hello interval later.
+ *
+ *   v0 (A) --cut-- v2 (D)        A's only alternative, through B, is unfeasible (512 + 256 > its FD 256).
+ *    |              |            B routes through A (its first link); its other route, through C, is
+ *   v1 (B) ------ v3 (C)         feasible at the same metric. */
+static void test_starving_neighbours_request_goes_on_at_once(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(4, NULL);
+    int direct = fleet_link(f, 0, 2);
+    fleet_link(f, 1, 0);
+    fleet_link(f, 1, 3);
+    fleet_link(f, 3, 2);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    world_run(f->w, f->w->now_ms + 10 * HELLO_MS, 1);
+    assert_string_equal((const char *)route(f, 1, 2).next_hop, "v0");
+    fleet_cut(f, direct);
+    while (route(f, 0, 2).reachable) world_run(f->w, f->w->now_ms + 1, 1); /* A notices: dead_misses */
+    uint64_t lost = f->w->now_ms;
+    while (!route(f, 0, 2).reachable) {
+        assert_true(f->w->now_ms - lost < HELLO_MS / 2); /* a few triggered frames, not another hello interval */
+        world_run(f->w, f->w->now_ms + 1, 1);
+    }
+    assert_string_equal((const char *)route(f, 0, 2).next_hop, "v1");
+    assert_true(ub_route_counters(&f->rt[1])->requests_forwarded >= 1);
+    assert_int_equal(ub_route_counters(&f->rt[0])->starvation_requests, 1);
+    fleet_free(f);
+}
+
 /* A node restarts (all state lost, seqno back to 0): its neighbours hold a newer FD for it, starve, ask,
  * and the restarted node jumps its seqno past the old one. */
 static void test_restarted_node_is_reachable_again(void **state) {
@@ -681,6 +712,7 @@ int main(void) {
         cmocka_unit_test(test_silent_neighbour_expires),
         cmocka_unit_test(test_partition_and_repair),
         cmocka_unit_test(test_starvation_is_resolved_by_a_seqno_request),
+        cmocka_unit_test(test_starving_neighbours_request_goes_on_at_once),
         cmocka_unit_test(test_restarted_node_is_reachable_again),
         cmocka_unit_test(test_manual_mask_pins_a_route),
         cmocka_unit_test(test_removed_entity_is_not_relearned_at_once),

@@ -194,7 +194,8 @@ static void test_keyring_rules(void **state) {
     for (size_t i = 0; i < UB_MAX_KEYS; i++)
         if (sec.keys[i].id == 0) {
             uint8_t zero[UB_SEC_KEY_LEN] = {0};
-            assert_memory_equal(sec.keys[i].key, zero, sizeof zero);
+            assert_memory_equal(sec.keys[i].sig_key, zero, UB_SEC_SIG_KEY_LEN);
+            assert_memory_equal(sec.keys[i].aead_key, zero, UB_SEC_KEY_LEN);
         }
 }
 

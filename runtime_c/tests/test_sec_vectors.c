@@ -1,6 +1,7 @@
 /* Conformance: SIGNED and ENCRYPTED frames built by ub_sec from the inputs of
- * tests/vectors/signed_frames.json match the independent Python reference (hashlib BLAKE2b,
- * PyNaCl XChaCha20-Poly1305) byte for byte; they parse and verify back to the inputs; the decoder
+ * tests/vectors/signed_frames.json match the independent Python reference (the KDF rebuilt with
+ * hashlib BLAKE2b, PyNaCl SipHash-2-4 and XChaCha20-Poly1305) byte for byte; each key's subkeys are
+ * those of the reference; they parse and verify back to the inputs; the decoder
  * delivers them whatever the chunking; and every "reject" frame is refused for the named reason. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -38,6 +39,22 @@ static ub_frame_header_t vector_header(const signed_vector_t *v) {
     h.key_id = v->key_id;
     h.fingerprint = v->fingerprint;
     return h;
+}
+
+static void test_subkeys_match_the_reference_kdf(void **state) {
+    (void)state;
+    for (size_t i = 0; i < SIGNED_KEY_COUNT; i++) {
+        const ub_sec_key_t *k = NULL;
+        for (size_t j = 0; j < UB_MAX_KEYS; j++)
+            if (g_sec.keys[j].id == signed_keys[i].id) k = &g_sec.keys[j];
+        assert_non_null(k);
+        assert_memory_equal(k->sig_key, signed_keys[i].sig, sizeof signed_keys[i].sig);
+        assert_memory_equal(k->aead_key, signed_keys[i].aead, sizeof signed_keys[i].aead);
+        /* key separation: neither subkey is (a prefix of) the key file's key, nor of each other */
+        assert_memory_not_equal(k->sig_key, signed_keys[i].key, UB_SEC_SIG_KEY_LEN);
+        assert_memory_not_equal(k->aead_key, signed_keys[i].key, UB_SEC_KEY_LEN);
+        assert_memory_not_equal(k->sig_key, k->aead_key, UB_SEC_SIG_KEY_LEN);
+    }
 }
 
 static void test_protect_matches_reference_byte_for_byte(void **state) {
@@ -144,6 +161,7 @@ static void test_rejects_are_refused_for_the_named_reason(void **state) {
 
 int main(void) {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_subkeys_match_the_reference_kdf),
         cmocka_unit_test(test_protect_matches_reference_byte_for_byte),
         cmocka_unit_test(test_parse_and_verify_recover_the_inputs),
         cmocka_unit_test(test_tag_does_not_cover_the_hop_limit),

@@ -13,7 +13,10 @@
 #include <poll.h>
 #include <stdlib.h>
 #include <string.h>
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <sys/socket.h>
+#include <unistd.h>
 
 #include "support/ub_test_pair.h"
 #include "ub/ub_pubsub.h"
@@ -244,6 +247,84 @@ static void test_send_without_connection_is_counted(void **state) {
     tcp_pair_free(t);
 }
 
+/* Serves the server end until `cond` holds (bounded in steps and real time). */
+#define SERVE_SERVER_UNTIL(t, now, cond)                                          \
+    for (int i_ = 0; i_ < 2000 && !(cond); i_++) {                                \
+        wait_ready(t, 2);                                                         \
+        assert_true(ub_tcp_service(&(t)->server, (t)->p->sub_node, (now)++) >= 0); \
+    }                                                                             \
+    assert_true(cond)
+
+/* A peer that half-closes (shutdown(SHUT_WR) with its socket kept open: it will never send again) in the
+ * middle of a frame: the server sees the end of the stream, counts the disconnect and closes its socket at
+ * once (nothing left to poll, so no busy loop); the cut frame's bytes stay accounted in the slot's decoder.
+ * A client whose server half-closes does the same and reconnects on its backoff. */
+static void test_peer_half_close_is_a_lost_connection(void **state) {
+    (void)state;
+    tcp_pair_t *t = tcp_pair_new();
+    uint64_t now = 0;
+    int raw = socket(AF_INET, SOCK_STREAM, 0);
+    assert_true(raw >= 0);
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons(t->port)};
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    assert_int_equal(connect(raw, (struct sockaddr *)&a, sizeof a), 0);
+    SERVE_SERVER_UNTIL(t, now, ub_tcp_state(&t->server) == UB_TCP_UP);
+    uint8_t frame[UB_FRAME_MAX];
+    ub_frame_header_t h = {.hop_limit = 1, .payload_size = 40};
+    int n = ub_frame_finish(frame, sizeof frame, &h);
+    assert_true(n > 30);
+    assert_int_equal(send(raw, frame, 30, 0), 30);
+    const ub_link_t *l = ub_node_link(t->p->sub_node, t->p->sub_link);
+    SERVE_SERVER_UNTIL(t, now, l->decoder.stats.bytes_in == 30);
+    assert_int_equal(shutdown(raw, SHUT_WR), 0);
+    SERVE_SERVER_UNTIL(t, now, ub_tcp_stats(&t->server)->disconnects == 1);
+    assert_int_equal(ub_tcp_state(&t->server), UB_TCP_DOWN);
+    assert_int_equal(ub_tcp_fileno(&t->server), -1);
+    assert_true(ub_tcp_listen_fileno(&t->server) >= 0); /* still listening for the next peer */
+    const ub_decoder_stats_t *d = &l->decoder.stats;
+    assert_int_equal(d->bytes_in, d->bytes_ok + d->garbage_bytes + ub_decoder_pending(&l->decoder));
+    close(raw);
+
+    /* The client side: a server that accepts, then half-closes. */
+    int lsock = socket(AF_INET, SOCK_STREAM, 0);
+    assert_true(lsock >= 0);
+    struct sockaddr_in la = {.sin_family = AF_INET};
+    la.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof la;
+    assert_int_equal(bind(lsock, (struct sockaddr *)&la, sizeof la), 0);
+    assert_int_equal(listen(lsock, 1), 0);
+    assert_int_equal(getsockname(lsock, (struct sockaddr *)&la, &len), 0);
+    ub_tcp_t c;
+    ub_tcp_options_t opt = {.backoff_initial_ms = 50, .backoff_max_ms = 400};
+    assert_int_equal(ub_tcp_client_init(&c, "127.0.0.1", ntohs(la.sin_port), &opt), UB_OK);
+    assert_int_equal(ub_tcp_attach(&c, t->p->pub_node, t->p->pub_link), UB_OK);
+    for (int i = 0; i < 2000 && ub_tcp_state(&c) != UB_TCP_UP; i++) {
+        (void)poll(&(struct pollfd){.fd = ub_tcp_fileno(&c), .events = POLLOUT}, 1, 2);
+        assert_true(ub_tcp_service(&c, t->p->pub_node, now) >= 0);
+    }
+    assert_int_equal(ub_tcp_state(&c), UB_TCP_UP);
+    int peer = accept(lsock, NULL, NULL);
+    assert_true(peer >= 0);
+    assert_int_equal(shutdown(peer, SHUT_WR), 0);
+    for (int i = 0; i < 2000 && ub_tcp_stats(&c)->disconnects == 0; i++) {
+        (void)poll(&(struct pollfd){.fd = ub_tcp_fileno(&c), .events = POLLIN}, 1, 2);
+        assert_true(ub_tcp_service(&c, t->p->pub_node, now) >= 0);
+    }
+    assert_int_equal(ub_tcp_stats(&c)->disconnects, 1);
+    assert_int_equal(ub_tcp_state(&c), UB_TCP_DOWN);
+    assert_int_equal(ub_tcp_fileno(&c), -1);
+    /* The next attempt waits for the backoff. */
+    uint64_t attempts = ub_tcp_stats(&c)->attempts;
+    assert_true(ub_tcp_service(&c, t->p->pub_node, now + 49) >= 0);
+    assert_int_equal(ub_tcp_stats(&c)->attempts, attempts);
+    assert_true(ub_tcp_service(&c, t->p->pub_node, now + 50) >= 0);
+    assert_int_equal(ub_tcp_stats(&c)->attempts, attempts + 1);
+    ub_tcp_close(&c);
+    close(peer);
+    close(lsock);
+    tcp_pair_free(t);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_two_nodes_exchange_over_tcp),
@@ -252,6 +333,7 @@ int main(void) {
         cmocka_unit_test(test_full_transmit_buffer_is_backpressure),
         cmocka_unit_test(test_batching_collects_frames_for_one_write),
         cmocka_unit_test(test_send_without_connection_is_counted),
+        cmocka_unit_test(test_peer_half_close_is_a_lost_connection),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

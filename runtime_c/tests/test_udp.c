@@ -17,6 +17,7 @@
 
 #include "support/ub_test_pair.h"
 #include "ub/ub_pubsub.h"
+#include "ub/ub_sec.h"
 #include "ub/ub_udp.h"
 
 typedef struct udp_pair {
@@ -290,6 +291,92 @@ static void test_refused_sender_is_remembered(void **state) {
     udp_pair_free(u);
 }
 
+/* ---- signed links: provisional peers ---------------------------------------------------------- */
+
+static const uint8_t FLEET_KEY[UB_SEC_KEY_LEN] = {7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7,
+                                                  7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 7, 1};
+
+/* A signed frame (a key holder's, or a captured one) from entity "ghost", whose freshness `to` has not seen. */
+static size_t ghost_frame(ub_sec_t *sec, const uint8_t to[UB_ENTITY_ID_LEN], uint8_t *out) {
+    ub_frame_header_t h;
+    memset(&h, 0, sizeof h);
+    memcpy(h.dest_id, to, UB_ENTITY_ID_LEN);
+    memcpy(h.src_id, "ghost", 5);
+    h.admin = UB_ADMIN_DATA;
+    h.hop_limit = 8;
+    h.payload_size = 4;
+    h.flags = UB_FRAME_FLAG_SIGNED;
+    h.key_id = 1;
+    h.seq = 77;
+    h.counter_hi = 3;
+    static const uint8_t payload[4] = {1, 2, 3, 4};
+    int n = ub_sec_protect(sec, &h, payload, out, UB_FRAME_MAX);
+    assert_true(n > 0);
+    return (size_t)n;
+}
+
+/*
+ * A link that requires signed frames and learns its peers: the first frame of a new sender is unverified
+ * (its source gets a challenge), so the sender becomes a provisional peer -- the challenge must reach it --
+ * and is confirmed by its first accepted frame. An address that proves nothing (here: an authentic frame
+ * of a source that never answers its challenge) is forgotten after UB_UDP_PROVISIONAL_MS, and never takes
+ * a confirmed peer's place.
+ */
+static void test_signed_link_learns_provisional_peers(void **state) {
+    (void)state;
+    udp_pair_t *u = udp_pair_new();
+    pair_t *p = u->p;
+    static ub_sec_t sa, sb, sx;
+    test_sec_on(&sa, p->pub_node, FLEET_KEY, 1000, true);
+    test_sec_on(&sb, p->sub_node, FLEET_KEY, 5000, true);
+    test_sec_on(&sx, NULL, FLEET_KEY, 9000, true);
+    ub_udp_close(&u->a); /* the publisher ("vehicle") learns its peers: accept=any */
+    assert_int_equal(ub_udp_open(&u->a, "127.0.0.1", u->port_a, NULL, 0), UB_OK);
+    assert_int_equal(ub_udp_attach(&u->a, p->pub_node, p->pub_link), UB_OK);
+    assert_true(ub_node_link_requires_signed(p->pub_node, p->pub_link));
+
+    assert_true(ub_pubsub_subscribe(p->sub_node, p->sub, TEST_GPS, p->pub_id, 50, 0) >= 0);
+    run(u, 0, 3);
+    char host[16];
+    uint16_t port = 0;
+    assert_int_equal(ub_udp_peer_at(&u->a, 0, host, &port), UB_OK);
+    assert_int_equal(port, u->port_b);
+    assert_true(u->a.peers[0].provisional_until_ms != 0);           /* unverified first frame */
+    assert_int_equal(ub_node_link(p->pub_node, p->pub_link)->counters.drops[UB_DROP_UNVERIFIED], 1);
+    run(u, 3, 2500);
+    assert_int_equal(u->a.peers[0].provisional_until_ms, 0);        /* confirmed by an accepted frame */
+    assert_true(delivery_count(&p->log, p->sub, TEST_GPS, 0, 2500) >= 10);
+
+    /* A stranger with an authentic frame of a source that never proves its freshness. */
+    ub_udp_t c;
+    uint16_t port_c;
+    assert_int_equal(ub_udp_open(&c, "127.0.0.1", 0, "127.0.0.1", u->port_a), UB_OK);
+    assert_int_equal(ub_udp_local_port(&c, &port_c), UB_OK);
+    uint8_t f[UB_FRAME_MAX];
+    size_t n = ghost_frame(&sx, p->pub_id, f);
+    send_raw(ub_udp_fileno(&c), u->port_a, f, n);
+    run(u, 2500, 2502);
+    assert_int_equal(ub_udp_peer_at(&u->a, 1, host, &port), UB_OK);
+    assert_int_equal(port, port_c);
+    assert_true(u->a.peers[1].provisional_until_ms != 0);
+    uint64_t forgotten = u->a.stats.peers_forgotten;
+    run(u, 2502, 2502 + UB_UDP_PROVISIONAL_MS + 2);
+    assert_int_equal(ub_udp_peer_at(&u->a, 1, host, &port), UB_ERR_NOTFOUND);
+    assert_int_equal(u->a.stats.peers_forgotten, forgotten + 1);
+    assert_int_equal(ub_udp_peer_at(&u->a, 0, host, &port), UB_OK); /* the confirmed peer stays */
+    assert_int_equal(port, u->port_b);
+
+    /* accept=learn: one peer; an unverified stranger does not take the confirmed one's place. */
+    assert_int_equal(ub_udp_set_accept(&u->a, UB_UDP_ACCEPT_LEARN), UB_OK);
+    send_raw(ub_udp_fileno(&c), u->port_a, f, n);
+    run(u, 4600, 4602);
+    assert_int_equal(ub_udp_peer_at(&u->a, 0, host, &port), UB_OK);
+    assert_int_equal(port, u->port_b);
+    assert_int_equal(ub_udp_peer_at(&u->a, 1, host, &port), UB_ERR_NOTFOUND);
+    ub_udp_close(&c);
+    udp_pair_free(u);
+}
+
 static void test_argument_errors(void **state) {
     (void)state;
     ub_udp_t u;
@@ -320,6 +407,7 @@ int main(void) {
         cmocka_unit_test(test_learn_takes_the_sender_of_accepted_frames),
         cmocka_unit_test(test_any_serves_several_peers),
         cmocka_unit_test(test_refused_sender_is_remembered),
+        cmocka_unit_test(test_signed_link_learns_provisional_peers),
         cmocka_unit_test(test_argument_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -19,7 +19,11 @@ foreach(i RANGE ${lastkey})
   string(JSON kid MEMBER "${json}" keys ${i})
   string(JSON khex GET "${json}" keys ${kid})
   hex_to_c("${khex}" kc)
-  string(APPEND keys "    {${kid}u, {${kc}}},\n")
+  string(JSON sighex GET "${json}" subkeys ${kid} sig)
+  string(JSON aeadhex GET "${json}" subkeys ${kid} aead)
+  hex_to_c("${sighex}" sigc)
+  hex_to_c("${aeadhex}" aeadc)
+  string(APPEND keys "    {${kid}u, {${kc}}, {${sigc}}, {${aeadc}}},\n")
 endforeach()
 
 set(arrays "")
@@ -67,7 +71,8 @@ file(WRITE "${OUT}" "/* Generated from tests/vectors/${in_name} by runtime_c/too
 #include <stdint.h>
 #include \"ub/ub_frame.h\"
 
-typedef struct signed_key { uint8_t id; uint8_t key[32]; } signed_key_t;
+/* key: the key file's key; sig, aead: its subkeys (libsodium KDF, contexts \"ubsig001\" / \"ubaead01\", id 1) */
+typedef struct signed_key { uint8_t id; uint8_t key[32]; uint8_t sig[16]; uint8_t aead[32]; } signed_key_t;
 typedef struct signed_vector {
     const char *name;
     uint8_t flags;

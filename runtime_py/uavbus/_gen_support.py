@@ -9,6 +9,7 @@ import math
 from typing import Any, Callable, Iterator
 
 SUPPORT_VERSION = 1  # generated modules check this at import
+SUPPORT_LEVEL = 2  # 2: fit, text, check_wire (bitfield widths, text members, refused wire values)
 
 
 def flatten(seq: Any, depth: int) -> Iterator[Any]:
@@ -52,3 +53,32 @@ def build(fn: Callable[[], Any], dims: tuple[int, ...]) -> list:
     if len(dims) == 1:
         return [fn() for _ in range(dims[0])]
     return [build(fn, dims[1:]) for _ in range(dims[0])]
+
+
+def fit(value: Any, lo: int, hi: int, where: str) -> Any:
+    """`value` if it is an int in [lo, hi] (a bitfield's range), else ValueError: C cannot hold it,
+    so Python refuses to send it rather than truncate it silently."""
+    if not isinstance(value, int) or not lo <= value <= hi:
+        raise ValueError(f"{where}: {value!r} does not fit the bitfield's range [{lo}, {hi}]")
+    return value
+
+
+def text(value: Any, size: int, where: str) -> bytes:
+    """A text member's bytes: at most `size` (shorter ones are NUL-padded on the wire)."""
+    if not isinstance(value, (bytes, bytearray)):
+        raise ValueError(f"{where}: expected bytes of at most {size}, got {type(value).__name__}")
+    if len(value) > size:
+        raise ValueError(f"{where}: {len(value)} bytes do not fit {size}")
+    return bytes(value)
+
+
+def check_wire(name: str, data: Any, values: tuple, bool_at: tuple, ranges: tuple) -> None:
+    """ValueError if a packed image holds what pack never writes: a bool byte other than 0/1
+    (`bool_at`: byte offsets) or a bitfield value outside its width (`ranges`: (index in
+    `values`, lowest, highest, member)). Unpack refuses these, as the generated C does."""
+    for off in bool_at:
+        if data[off] > 1:
+            raise ValueError(f"{name}: bool byte {data[off]} at offset {off} is not 0 or 1")
+    for k, lo, hi, member in ranges:
+        if not lo <= values[k] <= hi:
+            raise ValueError(f"{name}.{member}: {values[k]} does not fit the bitfield's range [{lo}, {hi}]")

@@ -3,9 +3,12 @@ with their content IDs, dict <-> bytes codecs, and the C `ub_catalogue_t` the ro
 
 The wire format (docs/wire-format.md, generator/model.py) is little-endian with no padding: every
 packed member in declaration order, arrays row-major, nested structs inline, a bitfield as its own
-whole container (the `wire` type of the field), `long double` as f64, skipped members absent. This
-module derives that layout from the JSON alone, so any process can decode a catalogue it did not
-build (binary logs embed the JSON), and the result is byte-identical to the generated `<name>.py`.
+whole container (the `wire` type of the field), `long double` as f64, skipped members absent; a
+`text` member (a char array sent as data) is one `bytes` per innermost row. This module derives
+that layout from the JSON alone, so any process can decode a catalogue it did not build (binary
+logs embed the JSON), and the result is byte-identical to the generated `<name>.py`. Like the
+generated codecs, decoding refuses what no encoder writes (DecodeError): a bool byte other than 0/1
+and a bitfield value wider than its field. Enum constants: `Catalogue.enums`, `Field.enum`.
 
 Pure Python: the cffi extension is imported only when `c_catalogue` is first used.
 """
@@ -37,6 +40,12 @@ class EncodeError(ValueError):
     """A value that does not fit its field; the message names the field path."""
 
 
+class DecodeError(ValueError):
+    """A packed image holding what no encoder writes (a bool byte other than 0/1, a bitfield value
+    wider than its field); the message names the member. The generated C unpack refuses the same
+    (UB_ERR_RANGE)."""
+
+
 @dataclass(frozen=True)
 class Field:
     """One member of a type as the catalogue lists it. `wire` is a wire type name, "struct" (then
@@ -52,6 +61,8 @@ class Field:
     c_offset: int  # byte offset in the C struct (clang), for reference only
     wire_offset: int = -1  # byte offset in the packed image; -1 for skipped members
     wire_size: int = 0  # packed bytes of the whole member (all elements)
+    enum: str | None = None  # the member's enum type (Catalogue.enums[enum] holds its constants)
+    text: bool = False  # a char array sent as data: one `bytes` per innermost row
 
     @property
     def packed(self) -> bool:
@@ -86,7 +97,14 @@ class Type:
     _subtypes: dict[str, "Type"] = field(repr=False, compare=False, default_factory=dict)
     # Plain scalar members (no array, no nested struct, no bitfield range to check): name ->
     # (struct.Struct, wire offset), so a Directory reads and writes them with one pack_into/unpack_from.
-    _scalars: dict[str, tuple[struct.Struct, int]] = field(repr=False, compare=False, default_factory=dict)
+    _scalars: dict[str, tuple[Any, int]] = field(repr=False, compare=False, default_factory=dict)
+    # What decoding refuses: byte offsets of bools, and (index in the flat value tuple, lowest,
+    # highest, member) per bitfield narrower than its container, nested members included.
+    _bool_at: tuple[int, ...] = field(repr=False, compare=False, default=())
+    _ranges: tuple[tuple[int, int, int, str], ...] = field(repr=False, compare=False, default=())
+    _nleaves: int = field(repr=False, compare=False, default=0)  # values in the flat tuple of _struct
+    # (byte offset, size) of every bool and narrow-bitfield container, nested members included.
+    refusable: tuple[tuple[int, int], ...] = field(repr=False, compare=False, default=())
 
     @property
     def packed_fields(self) -> tuple[Field, ...]:
@@ -126,6 +144,10 @@ class Catalogue:
         if self.id_scheme not in ("paper", "hashed"):
             raise CatalogueError(f"{origin}: unknown id_scheme {self.id_scheme!r}")
         self._json_compact = json.dumps(doc, separators=(",", ":"), ensure_ascii=True)
+        raw_enums = doc.get("enums") or {}  # absent in catalogues written before enums were recorded
+        if not isinstance(raw_enums, dict) or not all(isinstance(v, dict) for v in raw_enums.values()):
+            raise CatalogueError(f"{origin}: 'enums' must map enum names to {{constant: value}}")
+        self._enums: dict[str, dict[str, int]] = {k: {c: int(v) for c, v in consts.items()} for k, consts in raw_enums.items()}
         self._types: dict[str, Type] = {}
         for name in raw_types:
             self._make_type(name, raw_types, ())
@@ -175,31 +197,54 @@ class Catalogue:
         fields: list[Field] = []
         at = 0
         fmt: list[str] = []
+        bool_at: list[int] = []
+        ranges: list[tuple[int, int, int, str]] = []
+        spans: list[tuple[int, int]] = []  # Type.refusable
+        leaves = 0
         for rf in raw["fields"]:
             dims = tuple(int(d) for d in rf.get("count") or ())
             f = Field(rf["name"], rf["wire"], rf.get("struct"), dims, rf.get("bits"), bool(rf.get("long_double")),
-                      rf.get("skipped"), int(rf.get("offset", 0)))
+                      rf.get("skipped"), int(rf.get("offset", 0)), enum=rf.get("enum"), text=bool(rf.get("text")))
+            if f.enum is not None and f.enum not in self._enums:
+                raise CatalogueError(f"{self.origin}: {name}.{f.name}: enum {f.enum!r} is not in 'enums'")
             if f.skipped is None:
                 count = f.count
                 if f.wire == "struct":
                     sub = self._make_type(f.struct or "", raw_types, stack + (name,))
                     size = sub.packed_size * count
                     fmt.append(sub._struct.format.lstrip("<") * count)
+                    for k in range(count):
+                        spans += [(at + k * sub.packed_size + o, n) for o, n in sub.refusable]
+                        bool_at += [at + k * sub.packed_size + o for o in sub._bool_at]
+                        ranges += [(leaves + k * sub._nleaves + i, lo, hi, m) for i, lo, hi, m in sub._ranges]
+                    leaves += count * sub._nleaves
+                elif f.text and f.wire == "u8" and dims:
+                    size = count
+                    fmt.append(f"{dims[-1]}s" * (count // dims[-1]))
+                    leaves += count // dims[-1]
                 elif f.wire in WIRE_TYPES:
                     code, one = WIRE_TYPES[f.wire]
                     size = one * count
                     fmt.append(f"{count}{code}" if count > 1 else code)
+                    if f.wire == "bool":
+                        bool_at += [at + k for k in range(count)]
+                        spans += [(at + k, 1) for k in range(count)]
+                    limits = _range_of(f)
+                    if limits is not None:
+                        ranges.append((leaves, limits[0], limits[1], f.name))
+                        spans.append((at, one))
+                    leaves += count
                 else:
                     raise CatalogueError(f"{self.origin}: {name}.{f.name}: unknown wire type {f.wire!r}")
                 f = Field(f.name, f.wire, f.struct if f.wire == "struct" else None, dims, f.bits, f.long_double,
-                          None, f.c_offset, at, size)
+                          None, f.c_offset, at, size, f.enum, f.text)
                 at += size
             fields.append(f)
         if at != raw["packed_size"]:
             raise CatalogueError(f"{self.origin}: {name}: fields pack to {at} bytes but packed_size says "
                                  f"{raw['packed_size']} (regenerate the catalogue with this uavbus version)")
         t = Type(name, raw.get("c_name"), int(raw.get("size", 0)), at, int(raw["fingerprint"], 16), tuple(fields),
-                 struct.Struct("<" + "".join(fmt)))
+                 struct.Struct("<" + "".join(fmt)), _bool_at=tuple(bool_at), _ranges=tuple(ranges), _nleaves=leaves, refusable=tuple(spans))
         t = _with_codec(t, self._types)
         self._types[name] = t
         return t
@@ -249,6 +294,19 @@ class Catalogue:
         if what in self._types:
             return self._types[what]
         raise KeyError(f"catalogue {self.name} has no instance or type {what!r}")
+
+    @property
+    def enums(self) -> dict[str, dict[str, int]]:
+        """Enum constants the members use: enum type name ("enum tag", a typedef name, or
+        "<parent>::<member>") -> {constant: value} in declaration order; {} for a catalogue written
+        before enums were recorded. A copy: changing it changes nothing here."""
+        return {k: dict(v) for k, v in self._enums.items()}
+
+    def enum_of(self, what: str | Instance | Type, member: str) -> dict[str, int] | None:
+        """The constants of `member`'s enum (a member of an instance or type), or None when the
+        member is not of an enum type (or the catalogue predates enums)."""
+        f = self.type_of(what).field(member)
+        return dict(self._enums[f.enum]) if f.enum is not None else None
 
     def __contains__(self, name: object) -> bool:
         return name in self._by_name
@@ -321,16 +379,54 @@ def encode_type(t: Type, value: dict[str, Any]) -> bytes:
 def decode_type(t: Type, payload: bytes) -> dict[str, Any]:
     if len(payload) < t.packed_size:
         raise ValueError(f"{t.name} needs {t.packed_size} bytes, got {len(payload)}")
-    out, _ = t._build(t._struct.unpack_from(payload), 0)
+    values = t._struct.unpack_from(payload)
+    if t._bool_at or t._ranges:
+        _check_wire(t, payload, values)
+    out, _ = t._build(values, 0)
     return out
 
 
+def refused(t: Type, payload: bytes) -> str | None:
+    """Why every codec refuses this packed image of `t` (a bool byte other than 0/1, a bitfield
+    value outside its width), or None when it decodes; cheap for types without such members."""
+    if not (t._bool_at or t._ranges) or len(payload) < t.packed_size:
+        return None
+    try:
+        _check_wire(t, payload, t._struct.unpack_from(payload))
+    except DecodeError as exc:
+        return str(exc)
+    return None
+
+
+def _check_wire(t: Type, payload: Any, values: tuple) -> None:
+    """DecodeError if the image holds what no encoder writes (same rule as the generated codecs)."""
+    for off in t._bool_at:
+        b = payload[off]
+        if b > 1:
+            raise DecodeError(f"{t.name}: bool byte {b} at offset {off} is not 0 or 1")
+    for k, lo, hi, member in t._ranges:
+        if not lo <= values[k] <= hi:
+            raise DecodeError(f"{t.name}.{member}: {values[k]} does not fit the bitfield's range [{lo}, {hi}]")
+
+
 def read_member(t: Type, name: str, buf: Any, offset: int) -> Any:
-    """Member `name` of a packed image of `t` held in `buf` at `offset` (scalar, nested lists, dict)."""
+    """Member `name` of a packed image of `t` held in `buf` at `offset` (scalar, nested lists, dict).
+    DecodeError if the member holds what no encoder writes."""
     f = t.field(name)
     s, _, build = t._members[name]
+    values = s.unpack_from(buf, offset + f.wire_offset)
+    sub = t._subtypes.get(f.struct) if f.struct else None
+    if f.wire == "bool" or sub is not None and (sub._bool_at or sub._ranges):
+        image = bytes(buf[offset + f.wire_offset:offset + f.wire_offset + f.wire_size])
+        for k in range(f.count if sub is not None else 0):
+            _check_wire(sub, image[k * sub.packed_size:], values[k * sub._nleaves:])  # type: ignore[union-attr]
+        if f.wire == "bool" and any(b > 1 for b in image):
+            raise DecodeError(f"{t.name}.{name}: a bool byte is not 0 or 1")
+    limits = _range_of(f)
+    if limits is not None and not limits[0] <= values[0] <= limits[1]:
+        raise DecodeError(f"{t.name}.{name}: {values[0]} does not fit the bitfield's range [{limits[0]}, {limits[1]}]")
     out: dict[str, Any] = {}
-    build(s.unpack_from(buf, offset + f.wire_offset), 0, out)
+    build(values, 0, out)
     return out[name]
 
 
@@ -356,16 +452,40 @@ def _range_of(f: Field) -> tuple[int, int] | None:
     return 0, (1 << f.bits) - 1
 
 
+class _CheckedBool:
+    """A bool member's fast path for Directory (the interface of struct.Struct("<?")): reading
+    refuses a byte other than 0/1, as decoding does."""
+
+    _B = struct.Struct("<B")
+    size = 1
+
+    def __init__(self, where: str) -> None:
+        self.where = where
+
+    def unpack_from(self, buf: Any, offset: int = 0) -> tuple[bool]:
+        b = self._B.unpack_from(buf, offset)[0]
+        if b > 1:
+            raise DecodeError(f"{self.where}: bool byte {b} is not 0 or 1")
+        return (b == 1,)
+
+    def pack_into(self, buf: Any, offset: int, value: Any) -> None:
+        self._B.pack_into(buf, offset, 1 if value else 0)
+
+
 def _with_codec(t: Type, types: dict[str, Type]) -> Type:
     steps_flat: list[Callable[[dict, list, str], None]] = []
     steps_build: list[Callable[[tuple, int, dict], int]] = []
     for f in t.packed_fields:
         steps_flat.append(_field_flattener(f, types))
         steps_build.append(_field_builder(f, types))
-        code = types[f.struct]._struct.format.lstrip("<") if f.struct else WIRE_TYPES[f.wire or ""][0]
-        t._members[f.name] = (struct.Struct("<" + code * f.count), steps_flat[-1], steps_build[-1])
+        if f.text:
+            code = f"{f.dims[-1]}s" * (f.count // f.dims[-1])
+        else:
+            code = (types[f.struct]._struct.format.lstrip("<") if f.struct else WIRE_TYPES[f.wire or ""][0]) * f.count
+        t._members[f.name] = (struct.Struct("<" + code), steps_flat[-1], steps_build[-1])
         if not f.struct and not f.dims and _range_of(f) is None:
-            t._scalars[f.name] = (t._members[f.name][0], f.wire_offset)
+            scalar = _CheckedBool(f"{t.name}.{f.name}") if f.wire == "bool" else t._members[f.name][0]
+            t._scalars[f.name] = (scalar, f.wire_offset)
         if f.struct:
             t._subtypes[f.struct] = types[f.struct]
 
@@ -395,13 +515,21 @@ def _field_flattener(f: Field, types: dict[str, Type]) -> Callable[[dict, list, 
         if sub is not None:
             sub._flatten(x, out, where)
             return
+        if f.text:
+            if not isinstance(x, (bytes, bytearray)) or len(x) > dims[-1]:
+                raise EncodeError(f"{where}: expected bytes of at most {dims[-1]}, got "
+                                  f"{type(x).__name__}{' of ' + str(len(x)) if isinstance(x, (bytes, bytearray)) else ''}")
+            out.append(bytes(x))
+            return
         if limits is not None and not (isinstance(x, int) and limits[0] <= x <= limits[1]):
             raise EncodeError(f"{where}: {x!r} does not fit a {f.bits}-bit {f.wire} bitfield "
                               f"[{limits[0]}, {limits[1]}]")
         out.append(x)
 
+    leaf_depth = len(dims) - 1 if f.text else len(dims)
+
     def put(x: Any, out: list, where: str, depth: int) -> None:
-        if depth == len(dims):
+        if depth == leaf_depth:
             put_leaf(x, out, where)
             return
         n = dims[depth]
@@ -425,6 +553,13 @@ def _field_flattener(f: Field, types: dict[str, Type]) -> Callable[[dict, list, 
 def _field_builder(f: Field, types: dict[str, Type]) -> Callable[[tuple, int, dict], int]:
     name, dims, count = f.name, f.dims, f.count
     sub = types[f.struct] if f.struct else None
+    if f.text:  # one bytes per innermost row
+        dims, count = dims[:-1], count // dims[-1]
+        if not dims:
+            def text(v: tuple, i: int, out: dict) -> int:
+                out[name] = v[i]
+                return i + 1
+            return text
     if sub is None and not dims:
         def scalar(v: tuple, i: int, out: dict) -> int:
             out[name] = v[i]

@@ -25,6 +25,7 @@ TOOLS = {
     "tui": ("uavbus.tui.app", "main"),
     "sim": ("uavbus.sim.run_scenario", "main"),
     "keys": ("uavbus.keys", "main"),
+    "bridge": ("uavbus.bridges.zenoh_bridge", "main"),
 }
 
 # Exit statuses of the runtime tools (the generator commands, gen/check/selftest, keep their own, documented
@@ -48,7 +49,7 @@ EXIT_CODES = {
     EXIT_BROKEN_PIPE: "the output was closed early (e.g. | head)",
 }
 
-USAGE = """usage: uavbus [--version] {gen,check,selftest,log,spy,echo,hz,bw,tables,tui,sim,keys} ...
+USAGE = """usage: uavbus [--version] {gen,check,selftest,log,spy,echo,hz,bw,tables,tui,sim,keys,bridge} ...
 
   gen       C headers -> catalogue + C and Python codecs
   check     the same inputs; checks ID uniqueness, writes nothing
@@ -62,6 +63,7 @@ USAGE = """usage: uavbus [--version] {gen,check,selftest,log,spy,echo,hz,bw,tabl
   tui       terminal variable browser (Textual)
   sim       run a fleet scenario file (vehicles, links, events; docs/scenarios.md)
   keys      new FILE [--id N] | show FILE: keys for signed frames (docs/security.md)
+  bridge    zenoh: join uavbus sites through Zenoh sessions (docs/bridges.md)
 
 `uavbus COMMAND --help` says more. Exit status: 0 ok, 1 no (check/selftest), 2 bad command line,
 3 bad input file, 4 the system refused (port, device, output), 70 internal error, 130 interrupted,

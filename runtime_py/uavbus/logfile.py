@@ -1,18 +1,22 @@
 """Reader for uavbus binary logs (docs/log-format.md): header, embedded catalogue, records.
 
-A log is written by the C writer (ub_log.h) from any node. This module only reads it: the file
-header and the record framing are parsed here, every checksum is the C runtime's CRC-32C, and every
-frame's header is parsed and verified by the C frame codec (ub_frame_parse), never in Python.
+A log is written by the C writer (ub_log.h) from any node. This module reads it through the C reader
+(ub_log_header_parse, ub_log_reader_*), so C and Python find the same records in a damaged file and
+count the same damage; every frame's header is then parsed and verified by the C frame codec
+(ub_frame_parse), never in Python.
 
-Layout (little-endian):
+Layout (little-endian), format 2:
 
-    header: "UBLOG1\\r\\n" | u32 meta_len | u32 catalogue_len | u32 crc32c(meta | catalogue)
+    header: "UBLOG2\\r\\n" | u32 meta_len | u32 catalogue_len | u32 crc32c(meta | catalogue)
             | meta (JSON) | catalogue (compact catalogue JSON)
-    record: u16 0xB10C | u16 frame_len | u64 t_ms | u8 link_id | u8 dir (0 rx, 1 tx)
-            | u16 reserved | u32 crc32c(record[0:16] | frame) | frame
+    record: u16 0xB10C | u16 frame_len | u32 seq | u64 t_ms | u8 link_id | u8 dir (0 rx, 1 tx)
+            | u16 reserved | u32 crc32c(record[0:20]) | u32 crc32c continued over the frame | frame
 
-A crash can leave a partial record at the end. Reading stops at the last whole record whose CRC
-holds; `LogReader.ignored_bytes` says how many bytes after it were not read, and why.
+Damage costs only the records it touches: the reader skips a record whose frame fails its check, and
+after bytes were lost or inserted it searches for the next record. `ReadStats` counts what was skipped
+(`ignored_bytes`, `damaged_records`, `resyncs`, a cut tail in `truncated_bytes`) and, from the records'
+sequence numbers, how many are missing (`missing_records`: not written, e.g. on a full disk, or lost
+to damage). Format 1 files ("UBLOG1") are still read.
 """
 
 from __future__ import annotations
@@ -26,14 +30,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, BinaryIO
 
-from uavbus._bindings.ub_error import UbError
-from uavbus._bindings.ub_frame import FrameHeader, ub_crc32c, ub_crc32c_update, ub_frame_parse
+from uavbus._bindings import ub_log
+from uavbus._bindings.ub_error import ChecksumError, InvalidArgumentError, TruncatedError, UbError
+from uavbus._bindings.ub_frame import FrameHeader, ub_frame_parse
 
-MAGIC = b"UBLOG1\r\n"
-FILE_HEADER = struct.Struct("<8sIII")
-RECORD_MARKER = 0xB10C
-RECORD_HEADER = struct.Struct("<HHQBBHI")  # marker, frame_len, t_ms, link_id, dir, reserved, crc
-RECORD_CRC_SPAN = 16  # the CRC covers the record header up to (not including) itself, then the frame
+MAGIC = b"UBLOG2\r\n"
+MAGIC_V1 = b"UBLOG1\r\n"
+FORMAT = ub_log.FORMAT
+FILE_HEADER = struct.Struct("<8sIII")  # magic, meta_len, catalogue_len, crc32c(meta | catalogue)
+RECORD_HEADER_LEN = ub_log.RECORD_HEADER_LEN  # format 2; format 1 records have ub_log.V1_RECORD_HEADER_LEN
+RECORD_HEAD_SPAN = 20  # head_crc covers record[0:20]; it sits at 20, the frame's crc (continued from it) at 24
 DIR_NAMES = ("rx", "tx")
 
 
@@ -53,6 +59,9 @@ class LogHeader:
     meta: dict[str, Any]
     catalogue_json: str
     size: int  # bytes of the file header, i.e. the offset of the first record
+    version: int = FORMAT  # 1 or 2
+    file_index: int = 0  # which file of a rotated set (ub_log_open_path)
+    first_seq: int | None = None  # sequence number of the file's first record (format 2)
 
     def link_name(self, link_id: int) -> str:
         return self.links.get(link_id, f"link{link_id}")
@@ -69,6 +78,7 @@ class LogRecord:
     dir: str  # "rx" or "tx"
     frame: bytes
     header: FrameHeader
+    seq: int = 0  # the writer's record number (format 1: numbered by the reader)
 
     @property
     def payload(self) -> bytes:
@@ -82,91 +92,118 @@ class ReadStats:
 
     records: int = 0
     record_bytes: int = 0
-    ignored_bytes: int = 0
-    ignored_reason: str = ""  # "", "partial record", "bad record CRC at offset N", ...
+    ignored_bytes: int = 0  # bytes in no good record: damaged records, garbage, a cut tail
+    ignored_reason: str = ""  # "" when nothing was ignored, else what: "2 damaged records skipped; ..."
+    damaged_records: int = 0  # records whose header held and whose frame failed its check
+    resyncs: int = 0  # times the record boundary was lost (bytes lost or inserted) and found again
+    truncated_bytes: int = 0  # an incomplete record at the end (a crash or a copy cut it)
+    missing_records: int = 0  # absent by the sequence numbers: not written (disk full...) or lost to damage
+    seq_restarts: int = 0  # the sequence went backwards: files of two runs joined
     bad_frames: int = 0  # records whose CRC held but whose frame the C codec rejected (skipped)
     by_reason: dict[str, int] = field(default_factory=dict)
+
+    def update(self, c: dict[str, int]) -> None:
+        """Takes the C reader's counters (ub_log_reader_stats) and describes them."""
+        self.ignored_bytes = c["skipped_bytes"]
+        for name in ("damaged_records", "resyncs", "truncated_bytes", "missing_records", "seq_restarts"):
+            setattr(self, name, c[name])
+        parts = []
+        if self.damaged_records:
+            parts.append(f"{self.damaged_records} damaged record{'s' if self.damaged_records != 1 else ''} skipped")
+        if self.resyncs:
+            parts.append(f"{self.resyncs} damaged region{'s' if self.resyncs != 1 else ''} skipped "
+                         "(record boundary lost and found again)")
+        if self.truncated_bytes:
+            parts.append(f"partial record at the end (truncated tail, {self.truncated_bytes} bytes)")
+        self.ignored_reason = "; ".join(parts) if self.ignored_bytes else ""
 
 
 def _entity_text(raw: bytes) -> str:
     return raw.rstrip(b"\0").decode("ascii", "replace")
 
 
-def parse_header(data: bytes | memoryview, path: str = "<log>") -> LogHeader | None:
+def parse_header(data: bytes | bytearray | memoryview, path: str = "<log>") -> LogHeader | None:
     """The file header from the start of `data`; None when `data` is still too short to hold it.
 
     Raises LogFormatError (message `path: ...`) when the bytes are not a valid log header."""
-    if len(data) < len(MAGIC):
-        if bytes(data) != MAGIC[: len(data)]:
-            raise LogFormatError(f"{path}: not a uavbus log (no UBLOG1 magic)")
-        return None
-    if bytes(data[: len(MAGIC)]) != MAGIC:
-        raise LogFormatError(f"{path}: not a uavbus log (no UBLOG1 magic)")
-    if len(data) < FILE_HEADER.size:
-        return None
-    _, meta_len, cat_len, crc = FILE_HEADER.unpack_from(data, 0)
-    end = FILE_HEADER.size + meta_len + cat_len
-    if len(data) < end:
-        return None
-    body = bytes(data[FILE_HEADER.size:end])
-    if ub_crc32c(body) != crc:
-        raise LogFormatError(f"{path}: header CRC mismatch: the log's metadata or catalogue is damaged")
     try:
-        meta = json.loads(body[:meta_len].decode("utf-8"))
-        catalogue_json = body[meta_len:].decode("utf-8")
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise LogFormatError(f"{path}: header metadata is not JSON: {exc}") from exc
-    links = {int(k): str(v) for k, v in dict(meta.get("links", {})).items()}
-    return LogHeader(node=str(meta.get("node", "")), links=links,
-                     start_unix_ms=int(meta.get("start_unix_ms", 0)), start_t_ms=int(meta.get("start_t_ms", 0)),
-                     record_tx=bool(meta.get("record_tx", False)), meta=meta,
-                     catalogue_json=catalogue_json, size=end)
+        raw = ub_log.ub_log_header_parse(data)
+    except TruncatedError:
+        return None
+    except InvalidArgumentError:
+        raise LogFormatError(f"{path}: not a uavbus log (no UBLOG1/UBLOG2 magic)") from None
+    except ChecksumError:
+        raise LogFormatError(f"{path}: header CRC mismatch: the log's metadata or catalogue is damaged") from None
+    try:
+        meta = json.loads(raw.meta.decode("utf-8"))
+        catalogue_json = raw.catalogue.decode("utf-8")
+        if not isinstance(meta, dict):
+            raise ValueError("not an object")
+        links = {int(k): str(v) for k, v in dict(meta.get("links", {})).items()}
+        first_seq = meta.get("first_seq")
+        return LogHeader(node=str(meta.get("node", "")), links=links,
+                         start_unix_ms=int(meta.get("start_unix_ms", 0)), start_t_ms=int(meta.get("start_t_ms", 0)),
+                         record_tx=bool(meta.get("record_tx", False)), meta=meta,
+                         catalogue_json=catalogue_json, size=raw.size, version=raw.version,
+                         file_index=int(meta.get("file_index", 0)),
+                         first_seq=int(first_seq) if isinstance(first_seq, int) else None)
+    except (UnicodeDecodeError, ValueError, TypeError, AttributeError) as exc:
+        raise LogFormatError(f"{path}: header metadata is not valid JSON meta: {exc}") from exc
+
+
+_COUNTERS = ("records", "record_bytes", "skipped_bytes", "damaged_records", "resyncs", "truncated_bytes",
+             "missing_records", "seq_restarts")
 
 
 class _RecordScanner:
-    """Splits a growing byte buffer into records. Used by the one-shot reader and by follow mode."""
+    """Splits a growing byte buffer into records. Used by the one-shot reader and by follow mode, which
+    moves it on to the next file of a rotated set (next_file) with the counters carried over."""
 
     def __init__(self, header: LogHeader, stats: ReadStats) -> None:
-        self.header = header
         self.stats = stats
-        self.stopped = ""  # non-empty once a damaged record ended the log
+        self._done = dict.fromkeys(_COUNTERS, 0)  # counters of the files already finished
+        self.last_seq: int | None = None
+        self._start(header)
 
-    def scan(self, buf: bytearray, base: int) -> tuple[list[LogRecord], int]:
-        """Whole records at the start of `buf` (file offset `base`) and the bytes they used."""
+    def _start(self, header: LogHeader) -> None:
+        self.header = header
+        self._reader = ub_log.LogRecordReader(header.version)
+        if header.first_seq is not None:
+            self._reader.expect_seq(header.first_seq)
+
+    def next_file(self, header: LogHeader) -> None:
+        """Goes on with the next file of a rotated set; records the writer lost between the two files
+        (a file it could not open) count as missing."""
+        for k, v in self._reader.stats().items():
+            self._done[k] += v
+        if self.last_seq is not None and header.first_seq is not None:
+            gap = (header.first_seq - self.last_seq - 1) & 0xFFFFFFFF
+            self._done["missing_records" if gap < 0x80000000 else "seq_restarts"] += gap if gap < 0x80000000 else 1
+        self._start(header)
+
+    def scan(self, buf: bytearray | bytes | memoryview, base: int,
+             final: bool = False) -> tuple[list[LogRecord], int]:
+        """Records in `buf` (file offset `base`) and the bytes decided; the rest waits for more (not final)."""
+        raw, used = self._reader.scan(buf, final)
         out: list[LogRecord] = []
-        view = memoryview(buf)
-        pos = 0
-        try:
-            while not self.stopped and len(buf) - pos >= RECORD_HEADER.size:
-                marker, frame_len, t_ms, link_id, direction, _reserved, crc = RECORD_HEADER.unpack_from(view, pos)
-                if marker != RECORD_MARKER:
-                    self.stopped = f"no record marker at offset {base + pos}"
-                    break
-                end = pos + RECORD_HEADER.size + frame_len
-                if end > len(buf):
-                    break  # partial record: wait for more (follow) or report it (end of file)
-                frame = bytes(view[pos + RECORD_HEADER.size:end])
-                head_crc = ub_crc32c(bytes(view[pos:pos + RECORD_CRC_SPAN]))
-                if ub_crc32c_update(head_crc, frame) != crc:
-                    self.stopped = f"bad record CRC at offset {base + pos}"
-                    break
-                pos = end
-                self.stats.records += 1
-                self.stats.record_bytes += RECORD_HEADER.size + frame_len
-                try:
-                    h = ub_frame_parse(frame)
-                except UbError as exc:
-                    # The writer logs only verified frames, so this is a damaged file; count, skip.
-                    self.stats.bad_frames += 1
-                    self.stats.by_reason[exc.name] = self.stats.by_reason.get(exc.name, 0) + 1
-                    continue
-                out.append(LogRecord(offset=base + pos - (RECORD_HEADER.size + frame_len), t_ms=t_ms,
-                                     link_id=link_id, link=self.header.link_name(link_id),
-                                     dir=DIR_NAMES[direction] if direction < 2 else f"dir{direction}",
-                                     frame=frame, header=h))
-        finally:
-            view.release()
-        return out, pos
+        for offset, seq, t_ms, link_id, direction, frame in raw:
+            self.last_seq = seq
+            try:
+                h = ub_frame_parse(frame)
+            except UbError as exc:
+                # The writer logs only verified frames, so this is a damaged file; count, skip.
+                self.stats.bad_frames += 1
+                self.stats.by_reason[exc.name] = self.stats.by_reason.get(exc.name, 0) + 1
+                continue
+            out.append(LogRecord(offset=base + offset, t_ms=t_ms, link_id=link_id,
+                                 link=self.header.link_name(link_id),
+                                 dir=DIR_NAMES[direction] if direction < 2 else f"dir{direction}",
+                                 frame=frame, header=h, seq=seq))
+        c = {k: v + self._done[k] for k, v in self._reader.stats().items()}
+        self.stats.records = c["records"]
+        self.stats.record_bytes = c["record_bytes"]
+        self.stats.update(c)
+        return out, used
 
 
 class LogReader:
@@ -196,11 +233,11 @@ class LogReader:
     def records(self) -> list[LogRecord]:
         if self._records is None:
             scanner = _RecordScanner(self.header, self.stats)
-            body = bytearray(self._data[self.header.size:])
-            self._records, used = scanner.scan(body, self.header.size)
-            self.stats.ignored_bytes = len(body) - used
-            if self.stats.ignored_bytes:
-                self.stats.ignored_reason = scanner.stopped or "partial record at the end (truncated tail)"
+            body = memoryview(self._data)[self.header.size:]
+            try:
+                self._records, _ = scanner.scan(body, self.header.size, final=True)
+            finally:
+                body.release()
         return self._records
 
     def __iter__(self) -> Iterator[LogRecord]:
@@ -217,16 +254,33 @@ def load_catalogue(catalogue_json: str) -> Any:
     return Catalogue.from_json_text(catalogue_json)
 
 
+def _wait_header(f: BinaryIO, path: str, buf: bytearray, stop: Callable[[], bool] | None,
+                 sleep: Callable[[float], None], poll_s: float) -> LogHeader | None:
+    """Reads from `f` into `buf` until the file header is whole; None when `stop()` says so first."""
+    while True:
+        buf += f.read()
+        header = parse_header(buf, path)
+        if header is not None:
+            return header
+        if stop is not None and stop():
+            return None
+        sleep(poll_s)
+
+
 def follow(path: str | os.PathLike[str], *, poll_s: float = 0.05, stop: Callable[[], bool] | None = None,
            from_start: bool = True, sleep: Callable[[float], None] = time.sleep,
-           on_header: Callable[[LogHeader], None] | None = None) -> Iterator[LogRecord]:
+           on_header: Callable[[LogHeader], None] | None = None,
+           stats: ReadStats | None = None, rotation: bool = True) -> Iterator[LogRecord]:
     """Yields records of a log that is still being written, as they are appended (like tail -f).
 
     Waits for the file and its header to appear. A partial record at the end is waited for, not
-    reported: the writer appends one record per write(). A damaged record ends the iteration with
-    LogFormatError. `stop()` is checked between polls; `from_start=False` skips existing records."""
+    reported: the writer appends one record per write(). Damage is skipped and counted in `stats`
+    (pass a ReadStats to see it), exactly as LogReader does. With `rotation` (the default), following
+    the first file of a rotated set (ub_log_open_path, docs/log-format.md "Rotation") moves on to the
+    next file once the writer has started it, with the counters carried over. `stop()` is checked
+    between polls; `from_start=False` skips existing records."""
     path = str(path)
-    stats = ReadStats()
+    stats = stats if stats is not None else ReadStats()
     f: BinaryIO | None = None
     try:
         while f is None:
@@ -237,33 +291,43 @@ def follow(path: str | os.PathLike[str], *, poll_s: float = 0.05, stop: Callable
                     return
                 sleep(poll_s)
         buf = bytearray()
-        header: LogHeader | None = None
-        while header is None:
-            buf += f.read()
-            header = parse_header(buf, path)
-            if header is None:
-                if stop is not None and stop():
-                    return
-                sleep(poll_s)
+        header = _wait_header(f, path, buf, stop, sleep, poll_s)
+        if header is None:
+            return
         if on_header is not None:
             on_header(header)
         scanner = _RecordScanner(header, stats)
         base = header.size
         del buf[: header.size]
         skip = not from_start
+        index = 0
+        rotation = rotation and header.version >= 2 and header.file_index == 0  # next files are named after `path`
         while True:
             records, used = scanner.scan(buf, base)
             del buf[:used]
             base += used
             if not skip:
                 yield from records
-            if scanner.stopped:
-                raise LogFormatError(f"{path}: {scanner.stopped}: stopped following")
             chunk = f.read()
             if chunk:
                 buf += chunk
                 continue
             skip = False
+            nxt = ub_log.ub_log_file_name(path, index + 1) if rotation else ""
+            if nxt and os.path.exists(nxt):
+                # The writer has moved on: what is left of this file is all there will be.
+                records, _ = scanner.scan(buf, base, final=True)
+                yield from records
+                f.close()
+                f = open(nxt, "rb")  # noqa: SIM115
+                buf = bytearray()
+                nh = _wait_header(f, nxt, buf, stop, sleep, poll_s)
+                if nh is None:
+                    return
+                header, index, base = nh, index + 1, nh.size
+                del buf[: nh.size]
+                scanner.next_file(nh)
+                continue
             if stop is not None and stop():
                 return
             sleep(poll_s)

@@ -24,7 +24,7 @@ from uavbus._bindings import (ub_admin, ub_log, ub_member, ub_memlink, ub_node, 
                               ub_route, ub_sec)
 from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, NotFoundError, UbError, ensure
 from uavbus._ub import ffi, lib
-from uavbus.catalogue import Catalogue, CatalogueError, Instance
+from uavbus.catalogue import Catalogue, CatalogueError, Instance, refused
 from uavbus.config import Config, load_config
 from uavbus.directory import Directory
 from uavbus.enums import catalogue_enums
@@ -164,14 +164,15 @@ class Node:
         self._inbox: deque[Message] = deque()
         self._inbox_dropped = 0
         self._callback_errors = 0
+        self._refused_payloads = 0
         self._memlinks: list[MemLink] = []
+        self._kept: list[Any] = []  # Python transports (uavbus.pylink) C holds pointers to
         self._admins: dict[str, Admin] = {}
         self._route: Any = None
         self._membership: Membership | None = None
         self._ports: Any = None
         self._pollfds = ffi.new("struct pollfd[]", ub_ports.POLLFD_CAP)
         self._log: Any = None
-        self._log_fd = -1
         self._closed = False
         self.notices: list[str] = []  # one-time notices of the ports (also logged to the "uavbus" logger)
         self.config: Config | None = None
@@ -415,6 +416,11 @@ class Node:
         pending, self._sink.pending = self._sink.pending, []
         instances, names = self.catalogue.instances, self._local_names
         for k, (entity, instance, src_id, dest_id, seq, now_ms, raw, hop_limit) in enumerate(pending):
+            if refused(instances[instance].type, raw) is not None:
+                # What a C node's generated unpack refuses (UB_ERR_RANGE, counted as bad_payload); this
+                # node's wire-image storage took it as is, so the delivery is dropped and counted here.
+                self._refused_payloads += 1
+                continue
             local = names.get(entity)
             if local is None:
                 local = names[entity] = _entity_at(self, entity)
@@ -584,17 +590,19 @@ class Node:
         s = self._frag.stats
         return {k: int(getattr(s, k)) for k in FRAG_COUNTERS}
 
+    def _keep_alive(self, transport: Any) -> None:
+        """Keeps a Python transport (uavbus.pylink.PyLink) alive as long as the node: C points at it."""
+        self._kept.append(transport)
+
     # -- recording -----------------------------------------------------------------------------
-    def record(self, path: str | Path, tx: bool = False) -> None:
-        """Records received (and with tx=True sent) frames to a binary log with the C writer."""
+    def record(self, path: str | Path, tx: bool = False, *, max_bytes: int = 0, max_ms: int = 0,
+               max_files: int = 0) -> None:
+        """Records received (and with tx=True sent) frames to a binary log with the C writer
+        (docs/log-format.md). With max_bytes / max_ms a new file starts when the current one would grow
+        past that size or is that old; max_files keeps the newest files (path, path's .0001, .0002...)."""
         self.stop_recording()
-        fd = os.open(str(path), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
-        try:
-            self._log = ub_log.ub_log_open(fd, self._c, self.name, tx, int(time.time() * 1000), self.now())
-        except Exception:
-            os.close(fd)
-            raise
-        self._log_fd = fd
+        self._log = ub_log.ub_log_open_path(str(path), self._c, self.name, tx, int(time.time() * 1000), self.now(),
+                                            max_bytes=max_bytes, max_ms=max_ms, max_files=max_files)
         if not self._frame_callbacks:  # otherwise the Python tap feeds the log (_Sink.on_tap)
             ub_log.ub_log_install(self._c, self._log)
 
@@ -605,9 +613,8 @@ class Node:
         if not self._frame_callbacks:
             ub_node.set_tap_sink(self._c, None)
         stats = ub_log.ub_log_stats(self._log)
-        ub_log.ub_log_close(self._log)
-        os.close(self._log_fd)
-        self._log, self._log_fd = None, -1
+        ub_log.ub_log_close(self._log)  # closes the file: the writer owns it
+        self._log = None
         return stats
 
     # -- security (docs/security.md) --------------------------------------------------------------
@@ -646,7 +653,7 @@ class Node:
         if self._sec is not None:
             out["security"] = self.security()
         out["python"] = {"inbox_dropped": self._inbox_dropped, "callback_errors": self._callback_errors,
-                         "frames_dropped": self._frames_dropped}
+                         "frames_dropped": self._frames_dropped, "refused_payloads": self._refused_payloads}
         if self._log is not None:
             out["log"] = ub_log.ub_log_stats(self._log)
         return out
@@ -681,6 +688,8 @@ class Node:
         if self._membership is not None:
             ub_member.ub_member_detach(self._membership._c)
         self.disable_routing()
+        for transport in self._kept:
+            transport.detach()
         ub_node.set_deliver_sink(self._c, None)
 
     def __enter__(self) -> "Node":
@@ -748,7 +757,9 @@ class Admin:
 
     def status(self, row: int) -> dict[str, Any]:
         """status: "inactive" | "pending" | "acknowledged" | "active" | "failed" | "stopping"; nack_reason:
-        None or the target's reason by name ("table_full", "not_authorized", "limit", ...)."""
+        None or the target's reason by name ("table_full", "not_authorized", "limit", "other_admin": another
+        administrator keeps this flow, ...); nack_relayed: the reason is the source's, relayed by the
+        destination of a subscription row."""
         s = ub_admin.ub_admin_row_status(self._c, row)
         s["content"] = self.node.catalogue.instances[s["instance"]].name
         return s

@@ -167,7 +167,7 @@ def test_record_with_c_writer(pair, tmp_path) -> None:
     stats = gcs.stop_recording()
     assert stats is not None and stats["write_errors"] == 0
     data = path.read_bytes()
-    assert data.startswith(b"UBLOG1\r\n") and len(data) == stats["bytes"]
+    assert data.startswith(b"UBLOG2\r\n") and len(data) == stats["bytes"]
     assert b'"gcs"' in data[:2048]  # the meta names this node
 
 
@@ -209,3 +209,22 @@ def test_on_frame_sees_every_frame_and_recording_goes_on(pair, tmp_path) -> None
     stats = gcs.stop_recording()
     assert stats is not None and stats["records"] == len(frames) and stats["write_errors"] == 0
     assert sum(1 for _ in LogReader(tmp_path / "gcs.ublog").records()) == len(frames)
+
+
+def test_recording_rotates_and_keeps_max_files(pair, tmp_path) -> None:
+    from uavbus.logfile import LogReader
+
+    gcs, air, link, clock = pair
+    air.bind("gpsOut")
+    path = tmp_path / "gcs.ublog"
+    gcs.record(path, tx=True, max_ms=100, max_files=3)  # the node's clock: a new file every 100 ms
+    gcs.subscribe("gcs1", "gpsOut", source="rmax1ob1", period_ms=10)
+    run([gcs, air], clock, 1000)
+    stats = gcs.stop_recording()
+    assert stats is not None and stats["write_errors"] == 0
+    assert stats["files"] >= 9 and stats["files_deleted"] == stats["files"] - 3
+    files = sorted(tmp_path.glob("gcs*.ublog"))
+    assert len(files) == 3 and path not in files  # the first files were deleted
+    seqs = [r.seq for f in files for r in LogReader(f).records()]
+    assert seqs == list(range(seqs[0], seqs[0] + len(seqs)))  # the newest records, none missing
+    assert seqs[-1] == stats["records"] - 1

@@ -1,5 +1,6 @@
 """tests/vectors/structs.json reproduced byte for byte by uavbus.Catalogue and by the generated
-`<name>.py`, and decoded back to the same values (the C side: see the room B report)."""
+`<name>.py`, and decoded back to the same values; its `refused` images refused by both (the C side:
+tests/vectors/CMakeLists.txt builds the same checks against the generated C)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,8 @@ import pytest
 
 from binding_testutil import REPO, Generated
 
-VECTORS = json.loads((REPO / "tests" / "vectors" / "structs.json").read_text())["vectors"]
+DOC = json.loads((REPO / "tests" / "vectors" / "structs.json").read_text())
+VECTORS = DOC["vectors"]
 
 
 @pytest.mark.parametrize("vec", VECTORS, ids=lambda v: f"{v['catalogue']}:{v['instance']}")
@@ -24,6 +26,25 @@ def test_struct_vector(vec: dict, request: pytest.FixtureRequest) -> None:
     cls = {c.NAME: c for c in gen.module.TYPES}[t.name]
     assert cls.from_dict(vec["value"]).pack() == packed
     assert cat.decode(vec["instance"], packed) == vec["value"] == cls.unpack(packed).to_dict()
+
+
+@pytest.mark.parametrize("vec", DOC["refused"], ids=lambda v: f"{v['catalogue']}:{'.'.join(map(str, v['member']))}")
+def test_refused_image(vec: dict, request: pytest.FixtureRequest) -> None:
+    from uavbus.catalogue import DecodeError
+
+    gen: Generated = request.getfixturevalue(vec["catalogue"] if vec["catalogue"] == "kinds" else "flightsw")
+    image = bytes.fromhex(vec["packed"])
+    said = "bool byte" if vec["why"].startswith("bool") else f"{vec['member'][-1]}: "  # the message names it
+    with pytest.raises(DecodeError, match=said):
+        gen.catalogue.decode(vec["instance"], image)
+    cls = {c.NAME: c for c in gen.module.TYPES}[vec["type"]]
+    with pytest.raises(ValueError):
+        cls.unpack(image)
+
+
+def test_refused_images_cover_bools_and_both_signs_of_bitfields() -> None:
+    whys = " | ".join(v["why"] for v in DOC["refused"])
+    assert "bool byte 2" in whys and "-17 in a 5-bit signed" in whys and "16 in a 5-bit signed" in whys
 
 
 def test_vectors_file_is_current() -> None:

@@ -146,3 +146,19 @@ def test_selftest_hashed_is_green_in_both_languages(mavlink: MavlinkWorkspace) -
     assert set(results) == {"C", "Python"}, describe(proc)
     assert results["C"] == results["Python"], results
     assert results["C"][0] == len(mavlink.messages), f"{results['C'][0]} types, {len(mavlink.messages)} messages"
+
+
+@pytest.mark.parametrize("flags", [
+    ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror"],          # the inputs are system headers here
+    ["-std=c99", "-Wall", "-Werror", "-Wno-address-of-packed-member"],  # MAVLink's own C99 build
+], ids=["c99-pedantic", "mavlink-flags"])
+def test_generated_c_compiles(mavlink: MavlinkWorkspace, tmp_path: Path, flags: list[str]) -> None:
+    proc = mavlink.uavbus("gen", *mavlink.inputs(), "--id-scheme", "hashed", "--name", "mavcache",
+                          "-o", str(tmp_path / "out"))
+    assert proc.returncode == 0, describe(proc)
+    runtime_include = Path(__file__).resolve().parents[2] / "runtime_c" / "include"
+    dirs = ["-isystem" if "-pedantic" in flags else "-I", str(mavlink.include),
+            "-isystem" if "-pedantic" in flags else "-I", str(mavlink.root)]
+    cc = run(["gcc", *flags, *dirs, "-I", str(runtime_include), "-I", str(tmp_path / "out"), "-c",
+              str(tmp_path / "out" / "mavcache.c"), "-o", str(tmp_path / "m.o")], cwd=tmp_path)
+    assert cc.returncode == 0, describe(cc)

@@ -31,6 +31,9 @@ def main() -> int:
             emit({"event": "stats", "t_ms": int(time.monotonic() * 1000), "node": {"n": n}, "links": {}})
         elif cmd[0] == "rebind":
             emit({"event": "rebound", "port": cmd[1], "spec": cmd[2]})
+        elif cmd[0] == "garbage":  # lines a supervisor must survive: not UTF-8, not JSON, a JSON array
+            sys.stdout.buffer.write(b'{"event":"stats","bad":"\xff\xfe\xc3("}\n' b"not json at all\n" b"[1, 2]\n")
+            sys.stdout.buffer.flush()
         elif cmd[0] == "quit":
             return 0
         else:

@@ -35,4 +35,12 @@ def test_demo_short_mode_passes_and_writes_its_outputs(program: Path, tmp_path: 
         assert all("duplicate" not in reasons for link, reasons in row["dropped"].items()
                    if link.startswith("gcs1:")), row["dropped"]
     assert (tmp_path / "imu.png").stat().st_size > 1000
-    assert (tmp_path / "gcs1.ublog").read_bytes()[:8] == b"UBLOG1\r\n"
+    # signed, with a reduced attacker step (issue 11 item 9): every attack refused and counted, rates kept
+    sec = doc["security"]
+    assert sec["signed"] and len(sec["attacks"]) >= 5
+    for attack in sec["attacks"]:
+        assert set(attack) >= {"name", "sent", "accepted", "dropped_as"}
+        assert attack["accepted"] == 0 and sum(attack["dropped_as"].values()) == attack["sent"] > 0, attack
+    assert {c["name"] for c in doc["checks"] if c["ok"]} >= {f"attack refused: {a['name']}" for a in sec["attacks"]}
+    assert not list((tmp_path / "secure" / "keys").glob("*.key"))[0].stat().st_mode & 0o077
+    assert (tmp_path / "gcs1.ublog").read_bytes()[:8] == b"UBLOG2\r\n"

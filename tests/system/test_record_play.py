@@ -66,7 +66,7 @@ def test_record_and_play_back_same_values_same_order(hitl_opts: HitlOptions, tmp
         h.wait_data("imuOut", "fcs20", 10, 5.0)
         h.run_for(0.5)
         live: list[Msg] = [(n, s, q, r) for _, n, s, q, r in h.messages]
-    assert log.read_bytes()[:8] == b"UBLOG1\r\n"
+    assert log.read_bytes()[:8] == b"UBLOG2\r\n"
 
     replayed, report = play_into_fresh_node(hitl_opts, catalogue, log)
     assert report["frames"] > len(live)                 # both datalinks recorded: duplicates included
@@ -75,8 +75,12 @@ def test_record_and_play_back_same_values_same_order(hitl_opts: HitlOptions, tmp
     only, _ = play_into_fresh_node(hitl_opts, catalogue, log, "--only", "gpsOut")
     assert only == [m for m in live if m[0] == "gpsOut"] and only
 
+    from uavbus.logfile import LogReader
+
     data = log.read_bytes()
-    cut_at = random.Random(20261121).randrange(len(data) // 3, len(data) - 1)
+    header = LogReader(log).header.size  # the header embeds the catalogue: its size follows the catalogue's
+    records = len(data) - header
+    cut_at = random.Random(20261121).randrange(header + records // 3, len(data) - 1)
     cut = tmp_path / "cut.ublog"
     cut.write_bytes(data[:cut_at])
     part, report = play_into_fresh_node(hitl_opts, catalogue, cut)

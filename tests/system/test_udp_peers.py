@@ -8,6 +8,8 @@
   `warning` event naming the stranger and what to do), never delivered.
 - `uavbus log play --into udp:peer=...` (no bind: an ephemeral source port) into a node that learns its
   peers delivers every frame; into a fixed-peer port it is refused, counted, and logged once.
+- On a signed network (issue 11), forged frames (unsigned, a guessed key, an unknown key id) and copies of
+  genuine frames replayed from a new address make no peer: only a frame the node accepted as new does.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from __future__ import annotations
 import json
 import logging
 import socket
+import struct
 import subprocess
 import sys
 import time
@@ -131,6 +134,57 @@ def test_a_fixed_peer_refuses_strangers_and_says_so_once(program: Path, config: 
             assert stranger.link_counters()["gcsRadio"]["frames_in"] == 0
         finally:
             stranger.close()
+
+
+@pytest.mark.parametrize("accept", ["any", "learn"])
+def test_a_signed_vehicle_learns_no_peer_from_forged_or_replayed_datagrams(program: Path, config: Path,
+                                                                           tmp_path: Path, accept: str) -> None:
+    from uavbus import Catalogue, Node
+    from uavbus.sim.attacker import forge
+    from uavbus.sim.secure import signed_config
+
+    signed = signed_config(config, tmp_path)
+    cat = Catalogue.load(catalogue_for(program))
+    with ProcessGroup() as group:
+        vehicle, vport = start_vehicle(group, program, signed, f"udp:bind=127.0.0.1:0,accept={accept}")
+        attacker = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        attacker.bind(("127.0.0.1", 0))
+        gcs = Node(cat, config=signed, node="gcs")
+        sent: list[bytes] = []
+        gcs.on_frame(lambda _link, direction, frame, _t: sent.append(frame) if direction == "tx" else None)
+        try:
+            # Before any peer: the subscription request of gcs1, forged in the three forms a forger can make.
+            request = struct.pack("<III12s", 77, 100, 0, b"mallory".ljust(12, b"\0"))
+            for mode, kw in (("unsigned", {}), ("signed", {}), ("signed", {"key_id": 99})):
+                attacker.sendto(forge(cat, "gpsOut", "gcs1", "rmax1ob1", request, admin=1, counter=10**12,
+                                      mode=mode, **kw), ("127.0.0.1", vport))
+            time.sleep(0.3)
+            # The genuine GCS is learned from its signed frames and gets its publication.
+            gcs.open_port("gcsRadio", f"udp:bind=127.0.0.1:0,peer=127.0.0.1:{vport}")
+            gcs.bind("gpsOut")
+            gcs.subscribe("gcs1", "gpsOut", source="rmax1ob1", period_ms=100)
+            got = [m for m, _ in zip(gcs.messages(timeout=5.0), range(5))]
+            assert len(got) == 5
+            # Copies of genuine frames from the attacker's address: authentic, already seen (duplicates).
+            genuine = [f for f in sent if f[3] & 0x10][-4:]
+            assert genuine
+            for f in genuine:
+                attacker.sendto(f, ("127.0.0.1", vport))
+            end = time.monotonic() + 0.6
+            while time.monotonic() < end:
+                gcs.poll(0.02)
+            attacker.settimeout(0.3)
+            with pytest.raises(socket.timeout):     # never made a peer: the vehicle sends it nothing
+                attacker.recvfrom(2048)
+            st = vehicle.request_stats()
+            assert st["links"]["radio"]["udp"]["peers_learned"] == 1, st["links"]["radio"]["udp"]
+            drops = st["links"]["radio"]["drops"]
+            assert drops["unsigned"] == 1 and drops["bad_tag"] == 1 and drops["unknown_key"] == 1, drops
+            assert drops["duplicate"] + drops["replay"] >= len(genuine), drops
+            assert [m for m, _ in zip(gcs.messages(timeout=2.0), range(3))], "the GCS lost its stream"
+        finally:
+            attacker.close()
+            gcs.close()
 
 
 def record_log(program: Path, config: Path, log: Path) -> int:

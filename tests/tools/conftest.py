@@ -16,6 +16,7 @@ from logwriter import write_log  # noqa: E402
 from tools_testutil import ROOT, gps_value, imu_value, make_frame  # noqa: E402,F401 (fixtures use them)
 
 from uavbus.catalogue import Catalogue  # noqa: E402
+from uavbus.enums import catalogue_enums  # noqa: E402
 
 
 
@@ -45,7 +46,9 @@ def sample_log(tmp_path: Path, cat: Catalogue) -> Callable[..., tuple[Path, byte
             t = 1000 + 100 * k
             v = gps_value(cat, k)
             records.append((make_frame(cat, "gpsOut", v, "rmax1ob1", "gcs1", seq), t, 0, 0))
-            expected.append({"name": "gpsOut", "t_ms": t, "seq": seq, "value": v})
+            # As the tools show it: enum members by their constants' names.
+            shown = catalogue_enums(cat).labels(cat.type_of("gpsOut"), v)
+            expected.append({"name": "gpsOut", "t_ms": t, "seq": seq, "value": v, "shown": shown})
             seq += 1
             for j in range(5):
                 records.append((make_frame(cat, "imuOut", imu_value(cat, k), "fcs20", "gcs1", 1000 + 5 * k + j),

@@ -11,6 +11,7 @@ from tools_testutil import UAVBUS
 
 from uavbus import MemLink, Node
 from uavbus.config import load_config
+from uavbus.enums import catalogue_enums
 from uavbus.logfile import LogReader
 from uavbus.tools import logcmd, tables
 
@@ -33,7 +34,8 @@ def test_reader_reads_the_c_writer_and_export_matches_received_values(cat, tmp_p
     log_path = tmp_path / "gcs.ublog"
     gcs.record(log_path, tx=True)
     received = []
-    gcs.on_data(lambda m: received.append((m.seq, m.source, m.value)))
+    labels = catalogue_enums(cat).labels  # the export shows enum members by name
+    gcs.on_data(lambda m: received.append((m.seq, m.source, labels(m.instance.type, m.value))))
     gcs.subscribe("gcs1", "gpsOut", source="rmax1ob1", period_ms=50)
     for k in range(200):
         now[0] += 5

@@ -34,7 +34,7 @@ def test_echo_on_log_gives_decoded_values(sample_log) -> None:
     out = io.StringIO()
     assert live.echo_main(["gpsOut", "--log", str(path), "--count", "5"], out=out) == 0
     lines = [json.loads(x) for x in out.getvalue().splitlines()]
-    assert [x["value"] for x in lines] == [e["value"] for e in expected[:5]]
+    assert [x["value"] for x in lines] == [e["shown"] for e in expected[:5]]
     assert [x["seq"] for x in lines] == [1, 2, 3, 4, 5]
     assert {x["source"] for x in lines} == {"rmax1ob1"}
 
@@ -63,7 +63,7 @@ def test_echo_follows_a_growing_log(sample_log, tmp_path: Path) -> None:
             f.write(data[:src.header.size]); f.flush()
             for r in src.records():
                 time.sleep(0.002)
-                f.write(record(r.frame, r.t_ms, r.link_id, 0 if r.dir == "rx" else 1)); f.flush()
+                f.write(record(r.frame, r.t_ms, r.link_id, 0 if r.dir == "rx" else 1, seq=r.seq)); f.flush()
 
     t = threading.Thread(target=writer)
     t.start()
@@ -72,4 +72,4 @@ def test_echo_follows_a_growing_log(sample_log, tmp_path: Path) -> None:
                           out=out) == 0
     t.join()
     lines = [json.loads(x) for x in out.getvalue().splitlines()]
-    assert [x["value"] for x in lines] == [e["value"] for e in expected]
+    assert [x["value"] for x in lines] == [e["shown"] for e in expected]

@@ -37,7 +37,7 @@ def test_info_console_script(sample_log) -> None:
     assert "gcsPortDatalink1         tx  1" in text
     # gpsOut: 20 frames at 100 ms = 10 Hz; imuOut: 100 frames, 50 Hz on average.
     assert any(line.split()[:5] == ["gpsOut", "data", "rx", "20", "10.00"] for line in text.splitlines())
-    assert "complete (no truncated record)" in text
+    assert "damage:     none (nothing skipped, nothing missing)" in text
 
 
 def test_info_reports_truncated_tail(sample_log, tmp_path: Path) -> None:
@@ -46,7 +46,7 @@ def test_info_reports_truncated_tail(sample_log, tmp_path: Path) -> None:
     cut.write_bytes(data[:-10])
     text = run("info", str(cut))
     assert "records:    120" in text
-    assert "truncated tail" in text and "ignored the last" in text
+    assert "truncated tail" in text and "ignored " in text
 
 
 def test_export_jsonl_matches_encoded_values(sample_log) -> None:
@@ -54,7 +54,7 @@ def test_export_jsonl_matches_encoded_values(sample_log) -> None:
     lines = [json.loads(x) for x in run("export", str(path), "--jsonl", "--only", "gpsOut").splitlines()]
     assert [(x["name"], x["t_ms"], x["seq"], x["source"], x["dest"], x["link"]) for x in lines] == \
         [("gpsOut", e["t_ms"], e["seq"], "rmax1ob1", "gcs1", "gcsPortDatalink1") for e in expected]
-    assert [x["value"] for x in lines] == [e["value"] for e in expected]
+    assert [x["value"] for x in lines] == [e["shown"] for e in expected]
     every = run("export", str(path), "--jsonl").splitlines()
     assert len(every) == 120  # DATA only by default
     with_admin = [json.loads(x) for x in run("export", str(path), "--jsonl", "--admin").splitlines()]

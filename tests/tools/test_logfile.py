@@ -1,4 +1,5 @@
-"""The Python log reader: header, records, truncated tails at random cut points, damaged records, follow."""
+"""The Python log reader (the C reader through cffi): header, records, truncated tails at random cut points,
+damage at random places skipped and counted, format 1 files, follow."""
 
 from __future__ import annotations
 
@@ -8,9 +9,9 @@ import time
 from pathlib import Path
 
 import pytest
-from logwriter import MAGIC, file_header, record
+from logwriter import MAGIC, file_header, record, write_log
 
-from uavbus.logfile import RECORD_HEADER, LogFormatError, LogReader, follow, parse_header
+from uavbus.logfile import RECORD_HEADER_LEN, LogFormatError, LogReader, ReadStats, follow, parse_header
 
 
 def test_reads_header_and_every_record(sample_log, cat) -> None:
@@ -26,13 +27,16 @@ def test_reads_header_and_every_record(sample_log, cat) -> None:
     assert [r.header.seq for r in gps] == [e["seq"] for e in expected]
     assert [cat.decode("gpsOut", r.payload) for r in gps] == [e["value"] for e in expected]
     assert recs[-1].dir == "tx" and recs[-1].link == "gcsPortDatalink1"
+    assert [r.seq for r in recs] == list(range(len(recs)))
+    assert log.header.version == 2 and log.header.first_seq == 0
+    assert log.stats.missing_records == 0 and log.stats.damaged_records == 0
     assert log.catalogue().name == "flightsw"
 
 
 def test_truncated_at_random_cut_points_reads_whole_records_only(sample_log, tmp_path: Path) -> None:
     path, data, _ = sample_log(n_gps=6)
     full = LogReader(path).records()
-    ends = [r.offset + RECORD_HEADER.size + len(r.frame) for r in full]
+    ends = [r.offset + RECORD_HEADER_LEN + len(r.frame) for r in full]
     header_size = LogReader(path).header.size
     rng = random.Random(20261121)
     cuts = sorted({rng.randrange(header_size, len(data)) for _ in range(60)} | {header_size, len(data) - 1})
@@ -70,12 +74,80 @@ def test_damaged_header_and_record_are_reported(sample_log, tmp_path: Path) -> N
         LogReader(tmp_path / "bh.ublog")
     recs = LogReader(path).records()
     bad = bytearray(data)
-    bad[recs[4].offset + RECORD_HEADER.size + 70] ^= 0x40  # payload byte of the 5th record
+    bad[recs[4].offset + RECORD_HEADER_LEN + 70] ^= 0x40  # payload byte of the 5th record
     (tmp_path / "br.ublog").write_bytes(bytes(bad))
     log = LogReader(tmp_path / "br.ublog")
-    assert len(log.records()) == 4
-    assert log.stats.ignored_reason == f"bad record CRC at offset {recs[4].offset}"
-    assert log.ignored_bytes == len(data) - recs[4].offset
+    # Only the damaged record is lost: the reader skips it and reads on.
+    assert [r.seq for r in log.records()] == [r.seq for r in recs if r.seq != 4]
+    assert log.stats.ignored_reason == "1 damaged record skipped"
+    assert log.ignored_bytes == RECORD_HEADER_LEN + len(recs[4].frame)
+    assert log.stats.damaged_records == 1 and log.stats.missing_records == 1 and log.stats.resyncs == 0
+
+
+def _damage(data: bytes, start: int, rng: random.Random) -> tuple[bytes, list[tuple[int, int]]]:
+    """Flips, deletes and inserts bytes at seeded places after `start`; returns the damaged bytes and the
+    damaged ranges in the original's offsets (an insertion is the empty range at its place)."""
+    out = bytearray(data)
+    spots = sorted(rng.sample(range(start, len(data)), 5), reverse=True)  # back to front: offsets stay valid
+    ranges = []
+    for at in spots:
+        kind = rng.choice(("flip", "delete", "insert"))
+        n = rng.randint(1, 40)
+        if kind == "flip":
+            for k in range(at, min(at + n, len(out))):
+                out[k] ^= rng.randint(1, 255)
+            ranges.append((at, min(at + n, len(data))))
+        elif kind == "delete":
+            del out[at:at + n]
+            ranges.append((at, min(at + n, len(data))))
+        else:
+            out[at:at] = bytes(rng.getrandbits(8) for _ in range(n))
+            ranges.append((at, at))
+    return bytes(out), ranges
+
+
+def test_every_undamaged_record_survives_damage_at_random_places(sample_log, tmp_path: Path) -> None:
+    path, data, _ = sample_log(n_gps=20)
+    full = LogReader(path).records()
+    header_size = LogReader(path).header.size
+    rng = random.Random(17)
+    for trial in range(40):
+        bad, ranges = _damage(data, header_size, rng)
+        p = tmp_path / f"d{trial}.ublog"
+        p.write_bytes(bad)
+        log = LogReader(p)
+        got = {r.seq: r.frame for r in log.records()}
+
+        def touched(r) -> bool:
+            end = r.offset + RECORD_HEADER_LEN + len(r.frame)
+            return any((a < end and b > r.offset) if a != b else r.offset < a < end for a, b in ranges)
+
+        for r in full:
+            if not touched(r):
+                assert got.get(r.seq) == r.frame, (trial, r.seq)
+        assert all(got[s] == full[s].frame for s in got)  # nothing read that was not written
+        assert header_size + log.stats.record_bytes + log.ignored_bytes == len(bad)
+        assert log.stats.missing_records == (max(got) + 1) - len(got)  # from first_seq 0 (the header says)
+        if log.ignored_bytes:
+            assert log.stats.ignored_reason
+
+
+def test_format_1_logs_are_still_read(sample_log, tmp_path: Path, cat) -> None:
+    path, _, _ = sample_log(n_gps=3)
+    v2 = LogReader(path).records()
+    records = [(r.frame, r.t_ms, r.link_id, 0 if r.dir == "rx" else 1) for r in v2]
+    v1_path = tmp_path / "v1.ublog"
+    data = write_log(v1_path, "gcs", {0: "gcsPortDatalink1", 1: "gcsPortDatalink2"}, cat.json_text, records, version=1)
+    log = LogReader(v1_path)
+    assert log.header.version == 1 and log.header.first_seq is None
+    assert [(r.frame, r.t_ms, r.link_id, r.dir) for r in log.records()] == [(r.frame, r.t_ms, r.link_id, r.dir)
+                                                                            for r in v2]
+    bad = bytearray(data)
+    bad[log.records()[2].offset + 30] ^= 0x10  # format 1 has one CRC per record: the reader searches on
+    v1_path.write_bytes(bytes(bad))
+    log = LogReader(v1_path)
+    assert [r.frame for r in log.records()] == [r.frame for i, r in enumerate(v2) if i != 2]
+    assert log.stats.resyncs == 1
 
 
 def test_parse_header_waits_for_more_bytes(cat) -> None:
@@ -98,7 +170,7 @@ def test_follow_yields_records_as_they_are_appended(sample_log, tmp_path: Path) 
             f.write(data[:10]); f.flush(); time.sleep(0.02)
             f.write(data[10:src.header.size]); f.flush()
             for r in recs:
-                raw = record(r.frame, r.t_ms, r.link_id, 0 if r.dir == "rx" else 1)
+                raw = record(r.frame, r.t_ms, r.link_id, 0 if r.dir == "rx" else 1, seq=r.seq)
                 f.write(raw[:7]); f.flush(); time.sleep(0.002)
                 f.write(raw[7:]); f.flush()
         done.set()
@@ -111,3 +183,73 @@ def test_follow_yields_records_as_they_are_appended(sample_log, tmp_path: Path) 
     t.join()
     assert [r.frame for r in got] == [r.frame for r in recs]
     assert [r.t_ms for r in got] == [r.t_ms for r in recs]
+
+
+def test_follow_skips_and_counts_damage(sample_log, tmp_path: Path) -> None:
+    _, data, _ = sample_log(n_gps=3)
+    src = LogReader(tmp_path / "gcs.ublog")
+    recs = src.records()
+    path = tmp_path / "damaged-growing.ublog"
+    done = threading.Event()
+
+    def writer() -> None:
+        with open(path, "wb") as f:
+            f.write(data[:src.header.size]); f.flush()
+            for r in recs:
+                raw = bytearray(record(r.frame, r.t_ms, r.link_id, 0 if r.dir == "rx" else 1, seq=r.seq))
+                if r.seq == 5:
+                    raw[40] ^= 0xFF  # a damaged frame
+                if r.seq == 9:
+                    raw = raw[:15]  # a torn write: the rest never came
+                f.write(raw[:9]); f.flush(); time.sleep(0.001)
+                f.write(raw[9:]); f.flush()
+        done.set()
+
+    t = threading.Thread(target=writer)
+    t.start()
+    stats = ReadStats()
+    got = []
+    want = [r for r in recs if r.seq not in (5, 9)]
+    for rec in follow(path, poll_s=0.005, stats=stats, stop=lambda: done.is_set() and len(got) >= len(want)):
+        got.append(rec)
+    t.join()
+    assert [r.seq for r in got] == [r.seq for r in want]
+    assert stats.damaged_records == 1 and stats.resyncs == 1 and stats.missing_records == 2
+
+
+
+def test_follow_moves_on_through_a_rotated_set(sample_log, tmp_path: Path, cat) -> None:
+    """A writer that rotates (ub_log_open_path): following the first file reads on into the next one,
+    and records the writer lost between the files (it could not open the next one) count as missing."""
+    _, _, _ = sample_log(n_gps=2)
+    recs = LogReader(tmp_path / "gcs.ublog").records()
+    links = {0: "gcsPortDatalink1", 1: "gcsPortDatalink2"}
+    first = tmp_path / "set.ublog"
+    second = tmp_path / "set.0001.ublog"
+    done = threading.Event()
+
+    def raw(r, seq: int) -> bytes:
+        return record(r.frame, r.t_ms, r.link_id, 0 if r.dir == "rx" else 1, seq=seq)
+
+    def writer() -> None:
+        with open(first, "wb") as f:
+            f.write(file_header("gcs", links, cat.json_text)); f.flush()
+            for seq in range(5):
+                f.write(raw(recs[seq], seq)); f.flush(); time.sleep(0.002)
+        time.sleep(0.05)
+        with open(second, "wb") as f:  # seq 5 and 6 were never written
+            f.write(file_header("gcs", links, cat.json_text, first_seq=7, file_index=1)); f.flush()
+            for seq in range(7, 10):
+                f.write(raw(recs[seq], seq)); f.flush(); time.sleep(0.002)
+        done.set()
+
+    t = threading.Thread(target=writer)
+    t.start()
+    stats = ReadStats()
+    got = []
+    for rec in follow(first, poll_s=0.005, stats=stats, stop=lambda: done.is_set() and len(got) >= 8):
+        got.append(rec)
+    t.join()
+    assert [r.seq for r in got] == [0, 1, 2, 3, 4, 7, 8, 9]
+    assert [r.frame for r in got] == [recs[i].frame for i in (0, 1, 2, 3, 4, 7, 8, 9)]
+    assert stats.records == 8 and stats.missing_records == 2 and stats.ignored_bytes == 0

@@ -60,8 +60,8 @@ def test_generated_code_has_banner_abi_check_and_static_asserts(kinds_out: Path)
     c = (kinds_out / "kinds.c").read_text()
     assert "DO NOT EDIT" in h and "DO NOT EDIT" in c and "DO NOT EDIT" in (kinds_out / "kinds.py").read_text()
     assert f"#if UB_CATALOGUE_ABI_VERSION != {render.ABI_VERSION}" in h
-    assert "_Static_assert(sizeof(struct vec3) == 12u" in c
-    assert "_Static_assert(offsetof(struct all_kinds, roll)" in c
+    assert "kinds_LAYOUT_ASSERT(sizeof(struct vec3) == 12u" in c
+    assert "kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, roll)" in c
     assert "offsetof(struct all_kinds, bf_u3)" not in c  # bitfields have no offsetof
     assert "#include \"all_kinds.h\"" in h
     assert str(REPO) not in h + c

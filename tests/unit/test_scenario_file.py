@@ -87,6 +87,13 @@ def test_bandwidth_and_encoding_of_a_radio_link() -> None:
     ("position: {n: 0, e: 0}}", 'position: {n: 0, e: 0}, motion: "static"}', 5, "give motion or position, not both"),
     (', motion: "waypoints:v=10,pts=0/0;100/0"', "", 8, "vehicle b: 'motion' is required"),
     ("{t: 1, add: c}", "{t: 1, add: gcs1}", 19, "add: only vehicles join during a run"),
+    ("period_ms: 100}", "period_ms: 100, admin: a}", 15, "flow.admin: 'a' must be a ground station with run: python"),
+    ("period_ms: 100}", "period_ms: 100, kind: publication}", 15, "flow.kind: only with 'admin'"),
+    ("period_ms: 100}", "period_ms: 100, admin: gcs1, kind: push}", 15, "flow.kind: 'push' is not one of"),
+    ("{t: 4, fail_link: [a, b]}", "{t: 4, move: gcs1}", 20, "move: give the new motion"),
+    ("{t: 4, fail_link: [a, b]}", '{t: 4, move: a, motion: "static:n=9"}', 20, "move: 'a' is a vehicle"),
+    ("{t: 4, fail_link: [a, b]}", '{t: 4, kill: a, motion: "static:n=9"}', 20, "event.motion: only with move"),
+    ("duration_s: 10\n", "duration_s: 10\nsigned: maybe\n", 2, "signed: 'maybe' is not one of true, false"),
 ])
 def test_errors_name_the_line(old: str, new: str, line: int, message: str) -> None:
     assert old in GOOD
@@ -94,6 +101,22 @@ def test_errors_name_the_line(old: str, new: str, line: int, message: str) -> No
         parse_scenario(GOOD.replace(old, new, 1), "bad.yaml")
     assert str(exc.value).startswith(f"bad.yaml:{line}: "), str(exc.value)
     assert message in str(exc.value), str(exc.value)
+
+
+def test_administered_flows_moves_and_signing() -> None:
+    text = GOOD.replace("period_ms: 100}", "period_ms: 100, admin: gcs1, kind: publication}").replace(
+        "{t: 4, fail_link: [a, b]}", '{t: 4, move: gcs1, motion: "waypoints:v=50,loop=0,pts=0/0;-900/0"}')
+    sc = parse_scenario("signed: true\n" + text, "good.yaml")
+    f = sc.flows[0]
+    assert (f.admin, f.kind) == ("gcs1", "publication") and sc.admin_flows == [f]
+    move = sc.events[-1]
+    assert move.kind == "move" and move.target == ("gcs1",) and move.motion.startswith("waypoints:v=50")
+    assert sc.signed and not parse_scenario(GOOD, "good.yaml").signed
+    # A flow listed twice (even under another name) would be two administrators of one flow in one table.
+    twice = GOOD.replace("flows:\n", "flows:\n  - {name: x, content: gpsOut, source: a, destination: gcs1, "
+                                      "period_ms: 200}\n")
+    with pytest.raises(ScenarioError, match="gpsOut from a to gcs1 is listed twice"):
+        parse_scenario(twice, "bad.yaml")
 
 
 def test_yaml_syntax_and_limits() -> None:

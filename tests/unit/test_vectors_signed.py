@@ -1,5 +1,6 @@
 """SIGNED / ENCRYPTED conformance vectors: the committed tests/vectors/signed_frames.json is exactly what the
-independent Python reference (hashlib BLAKE2b, PyNaCl XChaCha20-Poly1305) produces, and the C runtime,
+independent Python reference (libsodium's KDF rebuilt with hashlib BLAKE2b, PyNaCl SipHash-2-4 and
+XChaCha20-Poly1305) produces, and the C runtime,
 through the cffi binding, rebuilds every frame byte for byte, verifies it back to its plaintext and
 refuses every reject for the named reason. (runtime_c/tests/test_sec_vectors.c checks C alone.)"""
 
@@ -15,7 +16,7 @@ from types import ModuleType
 from typing import Any
 
 import pytest
-from nacl.bindings import crypto_aead_xchacha20poly1305_ietf_decrypt
+from nacl.bindings import crypto_aead_xchacha20poly1305_ietf_decrypt, crypto_shorthash_siphash24
 
 from uavbus._bindings import ub_frame as uf
 from uavbus._bindings import ub_sec
@@ -27,6 +28,7 @@ DOC: dict[str, Any] = json.loads(JSON_PATH.read_text(encoding="utf-8"))
 VECTORS: list[dict[str, Any]] = DOC["vectors"]
 REJECTS: list[dict[str, Any]] = DOC["rejects"]
 KEYS = {int(k): bytes.fromhex(v) for k, v in DOC["keys"].items()}
+SUBKEYS = {int(k): {n: bytes.fromhex(x) for n, x in v.items()} for k, v in DOC["subkeys"].items()}
 
 
 def load_reference() -> ModuleType:
@@ -68,11 +70,23 @@ def test_vectors_cover_the_construction() -> None:
     assert {r["expect"] for r in REJECTS} >= {"bad_tag", "unknown_key", "bad_version", "bad_length"}
 
 
+def test_subkeys_are_libsodiums_kdf_of_each_key() -> None:
+    """The documented KDF (docs/security.md): BLAKE2b keyed with the key over nothing, salt = subkey id 1
+    (LE, padded to 16 bytes), personalisation = the 8-character context (padded to 16)."""
+    assert DOC["kdf"] == {"function": "crypto_kdf_derive_from_key", "subkey_id": 1,
+                          "contexts": {"sig": "ubsig001", "aead": "ubaead01"}}
+    for kid, key in KEYS.items():
+        salt = (1).to_bytes(8, "little") + bytes(8)
+        assert SUBKEYS[kid]["sig"] == hashlib.blake2b(b"", digest_size=16, key=key, salt=salt,
+                                                      person=b"ubsig001" + bytes(8)).digest()
+        assert SUBKEYS[kid]["aead"] == hashlib.blake2b(b"", digest_size=32, key=key, salt=salt,
+                                                       person=b"ubaead01" + bytes(8)).digest()
+
+
 @pytest.mark.parametrize("v", VECTORS, ids=[v["name"] for v in VECTORS])
 def test_vector_layout_matches_the_documented_construction(v: dict[str, Any]) -> None:
     frame = bytes.fromhex(v["frame"])
     payload = bytes.fromhex(v["payload"])
-    key = KEYS[v["key_id"]]
     flags = 0x10 if v["mode"] == "signed" else 0x20
     tag_len = 8 if flags == 0x10 else 16
     assert frame[3] == 0x01 | flags
@@ -83,12 +97,13 @@ def test_vector_layout_matches_the_documented_construction(v: dict[str, Any]) ->
     assert len(sh) == 68 and sh.startswith(b"uavbus-sig1")
     if flags == 0x10:
         assert frame[64:64 + len(payload)] == payload
-        assert trailer[3:] == hashlib.blake2b(sh + payload, digest_size=16, key=key).digest()[:8]
+        assert trailer[3:] == crypto_shorthash_siphash24(sh + payload, SUBKEYS[v["key_id"]]["sig"])
     else:
         nonce = bytes.fromhex(v["nonce"])
         assert nonce == frame[36:48] + v["counter"].to_bytes(6, "little") + bytes([v["key_id"]]) + bytes(5)
         body = frame[64:64 + len(payload)]
-        assert crypto_aead_xchacha20poly1305_ietf_decrypt(body + trailer[3:], sh, nonce, key) == payload
+        assert crypto_aead_xchacha20poly1305_ietf_decrypt(body + trailer[3:], sh, nonce,
+                                                          SUBKEYS[v["key_id"]]["aead"]) == payload
 
 
 @pytest.mark.parametrize("v", VECTORS, ids=[v["name"] for v in VECTORS])

@@ -2,9 +2,11 @@
 """Independent pure-Python reference for SIGNED and ENCRYPTED frames; writes tests/vectors/signed_frames.json.
 
 It shares no code with the C runtime: the construction is transcribed from docs/security.md and
-docs/wire-format.md ("Flags and trailer"). The tag is keyed BLAKE2b from Python's hashlib, the AEAD is
-XChaCha20-Poly1305 (IETF) from PyNaCl; the frame layout and CRC-32C come from the frame reference
-(make_frame_vectors.py, itself independent of C). The C runtime rebuilds every frame from the same
+docs/wire-format.md ("Flags and trailer"). The two subkeys come from libsodium's KDF
+(crypto_kdf_derive_from_key) rebuilt with Python's hashlib.blake2b (key = the key file's key, salt =
+the subkey id, person = the context); the tag is SipHash-2-4 from PyNaCl, the AEAD XChaCha20-Poly1305
+(IETF) from PyNaCl; the frame layout and CRC-32C come from the frame reference (make_frame_vectors.py,
+itself independent of C). The C runtime rebuilds every frame from the same
 inputs, in C (runtime_c/tests/test_sec_vectors.c) and through the cffi binding (tests/unit), and
 must match byte for byte.
 
@@ -26,7 +28,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import make_frame_vectors as frame_ref  # noqa: E402  (the independent frame reference)
 
-from nacl.bindings import crypto_aead_xchacha20poly1305_ietf_encrypt  # noqa: E402
+from nacl.bindings import crypto_aead_xchacha20poly1305_ietf_encrypt, crypto_shorthash_siphash24  # noqa: E402
 
 OUTPUT = Path(__file__).with_name("signed_frames.json")
 
@@ -37,12 +39,30 @@ SIG_TAG_LEN = 8
 AEAD_TAG_LEN = 16
 TRAILER_LEN = {FLAG_SIGNED: 3 + SIG_TAG_LEN, FLAG_ENCRYPTED: 3 + AEAD_TAG_LEN}
 ADMIN = {**frame_ref.ADMIN, "CHALLENGE": 7, "CHALLENGE_REPLY": 8}
+SIG_CONTEXT, AEAD_CONTEXT, SUBKEY_ID = b"ubsig001", b"ubaead01", 1
+SIG_KEY_LEN, AEAD_KEY_LEN = 16, 32
 
 KEYS = {
     1: bytes(range(32)),                                    # 00 01 02 ... 1f
     7: hashlib.sha256(b"uavbus test-vector key 7").digest(),
     200: bytes([0xFF] * 32),
 }
+
+
+def kdf(key: bytes, length: int, subkey_id: int, context: bytes) -> bytes:
+    """libsodium's crypto_kdf_derive_from_key: BLAKE2b keyed with the master key over an empty message,
+    salt = the subkey id (64-bit LE) padded to 16 bytes, personalisation = the 8-byte context padded to 16."""
+    assert len(key) == 32 and len(context) == 8 and 16 <= length <= 64
+    return hashlib.blake2b(b"", digest_size=length, key=key, salt=subkey_id.to_bytes(8, "little") + bytes(8),
+                           person=context + bytes(8)).digest()
+
+
+def sig_key(key: bytes) -> bytes:
+    return kdf(key, SIG_KEY_LEN, SUBKEY_ID, SIG_CONTEXT)
+
+
+def aead_key(key: bytes) -> bytes:
+    return kdf(key, AEAD_KEY_LEN, SUBKEY_ID, AEAD_CONTEXT)
 
 
 @dataclass(frozen=True)
@@ -95,13 +115,14 @@ def protect(v: SignedInput) -> dict[str, object]:
     key = KEYS[v.key_id]
     if v.mode == "signed":
         sh = signing_header(FLAG_SIGNED, v)
-        tag = hashlib.blake2b(sh + v.payload, digest_size=16, key=key).digest()[:SIG_TAG_LEN]
+        tag = crypto_shorthash_siphash24(sh + v.payload, sig_key(key))
+        assert len(tag) == SIG_TAG_LEN
         frame, hdr_check, msg_crc = frame_bytes(FLAG_SIGNED, v, v.payload, tag)
         extra: dict[str, object] = {}
     else:
         sh = signing_header(FLAG_ENCRYPTED, v)
         nonce = aead_nonce(v)
-        sealed = crypto_aead_xchacha20poly1305_ietf_encrypt(v.payload, sh, nonce, key)
+        sealed = crypto_aead_xchacha20poly1305_ietf_encrypt(v.payload, sh, nonce, aead_key(key))
         body, tag = sealed[:-AEAD_TAG_LEN], sealed[-AEAD_TAG_LEN:]
         frame, hdr_check, msg_crc = frame_bytes(FLAG_ENCRYPTED, v, body, tag)
         extra = {"nonce": nonce.hex(), "ciphertext": body.hex()}
@@ -199,6 +220,9 @@ def document() -> dict[str, object]:
         "description": "uavbus SIGNED / ENCRYPTED frame conformance vectors (docs/security.md); regenerate with "
                        "tests/vectors/make_signed_vectors.py. Public test keys only.",
         "keys": {str(k): v.hex() for k, v in KEYS.items()},
+        "kdf": {"function": "crypto_kdf_derive_from_key", "subkey_id": SUBKEY_ID,
+                "contexts": {"sig": SIG_CONTEXT.decode(), "aead": AEAD_CONTEXT.decode()}},
+        "subkeys": {str(k): {"sig": sig_key(v).hex(), "aead": aead_key(v).hex()} for k, v in KEYS.items()},
         "flags": {"signed": FLAG_SIGNED, "encrypted": FLAG_ENCRYPTED},
         "domain": DOMAIN.decode("ascii"),
         "vectors": [vector_json(v) for v in inputs()],

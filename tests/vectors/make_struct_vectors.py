@@ -14,6 +14,11 @@ vector byte for byte with both; a C test can do the same with the generated C pa
 `--emit-c` writes the C test (tests/vectors/CMakeLists.txt runs it at build time): for every
 vector it assigns the values to the C struct member by member and checks that the *generated C*
 pack gives the bytes of structs.json, and that the generated unpack gives the members back.
+
+`refused` lists packed images no encoder writes: one vector's bytes with one bool or bitfield
+container holding a value outside the field (a bool byte of 2, a 3-bit field holding 8, a 5-bit
+signed field holding 16 or -17...). Every codec must refuse them (docs/catalogue.md, canonical
+codecs): the generated C unpack returns UB_ERR_RANGE and writes nothing, Python raises.
 """
 
 from __future__ import annotations
@@ -69,6 +74,46 @@ def vectors_for(name: str, files: list[str], includes: list[str], scheme: str, i
     return out
 
 
+# (catalogue, instance, member path, raw container value): out of the member's width.
+REFUSED = [
+    ("kinds", "kinds", ("flag",), 2),
+    ("kinds", "kinds", ("bf_b",), 2),
+    ("kinds", "kinds", ("bf_u3",), 8),
+    ("kinds", "kinds", ("bf_s5",), 16),
+    ("kinds", "kinds", ("bf_s5",), -17),
+    ("kinds", "kinds", ("bf_u12",), 4096),
+    ("kinds", "kinds", ("bf_s33",), 1 << 32),
+    ("kinds", "kinds", ("flags", 2), 255),
+    ("flightsw", "gpsOut", ("status", "jammingLevel"), 16),
+]
+
+
+def refused_for(vectors: list[dict]) -> list[dict]:
+    """The REFUSED images: the vector's bytes with the member's container overwritten."""
+    out = []
+    for name, inst_name, path, raw in REFUSED:
+        case = next(c for c in CASES if c[0] == name)
+        cat = _catalogue(case[1], case[2], case[3])
+        t = cat.type({i.name: i for i in cat.instances}[inst_name].type)
+        offset = 0
+        for leaf in model.test_leaves(cat, t):
+            w = leaf.field.wire
+            assert w is not None
+            if leaf.path == path:
+                break
+            offset += w.size
+        else:
+            raise SystemExit(f"{name}:{inst_name}: no member {path}")
+        base = bytearray.fromhex(next(v["packed"] for v in vectors if (v["catalogue"], v["instance"]) == (name, inst_name)))
+        base[offset:offset + w.size] = raw.to_bytes(w.size, "little", signed=raw < 0)
+        f = leaf.field
+        why = (f"bool byte {raw}" if w.name == "bool" else
+               f"{raw} in a {f.bits}-bit {'signed ' if w.signed else ''}bitfield ({w.name} container)")
+        out.append({"catalogue": name, "instance": inst_name, "type": t.name, "member": list(path),
+                    "offset": offset, "why": why, "packed": base.hex()})
+    return out
+
+
 def _catalogue(files: list[str], includes: list[str], scheme: str) -> model.Catalogue:
     old = os.getcwd()
     os.chdir(REPO)
@@ -79,7 +124,7 @@ def _catalogue(files: list[str], includes: list[str], scheme: str) -> model.Cata
         os.chdir(old)
 
 
-def emit_c(vectors: list[dict], catalogue: str) -> str:
+def emit_c(vectors: list[dict], catalogue: str, refused: list[dict] | None = None) -> str:
     """The cmocka test reproducing the vectors of `catalogue` with its generated C codecs
     (one program per catalogue: their input headers may define the same names)."""
     from uavbus_gen import render
@@ -118,6 +163,22 @@ def emit_c(vectors: list[dict], catalogue: str) -> str:
             out += [f"    assert_true({render.c_path(leaf.path, '(*b)')} == {render.c_path(leaf.path, '(*a)')});"
                     for leaf in leaves]
             out += ["    free(a);", "    free(b);", "}", ""]
+        types = {t.name: t for t in cat.types}
+        for k, vec in enumerate(r for r in (refused or []) if r["catalogue"] == name):
+            t = types[vec["type"]]
+            fn = f"test_{name}_refused_{k}"
+            tests.append(fn)
+            packed = bytes.fromhex(vec["packed"])
+            out += [f"/* {name} {vec['instance']}: {'.'.join(map(str, vec['member']))} holds {vec['why']}: refused */",
+                    f"static void {fn}(void **state) {{",
+                    "    (void)state;",
+                    f"    static const uint8_t image[{len(packed)}] = {{ {render.c_bytes(packed)} }};",
+                    f"    {t.c_name} *a = calloc(1, sizeof *a), *before = calloc(1, sizeof *before);",
+                    "    assert_non_null(a);", "    assert_non_null(before);",
+                    "    memset(a, 0x5A, sizeof *a);", "    memcpy(before, a, sizeof *a);",
+                    f"    assert_int_equal({name}_unpack_{t.ident}(a, image, sizeof image), UB_ERR_RANGE);",
+                    "    assert_memory_equal(a, before, sizeof *a); /* nothing written */",
+                    "    free(a);", "    free(before);", "}", ""]
     out += ["int main(void) {", "    const struct CMUnitTest tests[] = {"]
     out += [f"        cmocka_unit_test({fn})," for fn in tests]
     out += ["    };", "    return cmocka_run_group_tests(tests, NULL, NULL);", "}", ""]
@@ -125,9 +186,12 @@ def emit_c(vectors: list[dict], catalogue: str) -> str:
 
 
 def build() -> str:
+    vectors = [v for case in CASES for v in vectors_for(*case)]
     doc = {"description": "Packed directory structs (little-endian, no padding) for deterministic values; "
-                          "written by tests/vectors/make_struct_vectors.py",
-           "vectors": [v for case in CASES for v in vectors_for(*case)]}
+                          "written by tests/vectors/make_struct_vectors.py. `refused`: images no encoder writes "
+                          "(a bool byte other than 0/1, a bitfield value outside its width), which every unpack refuses",
+           "vectors": vectors,
+           "refused": refused_for(vectors)}
     return json.dumps(doc, indent=1) + "\n"
 
 
@@ -138,11 +202,11 @@ def main() -> int:
                     help="write the cmocka test for CATALOGUE's vectors in structs.json to OUT")
     args = ap.parse_args()
     if args.emit_c:
-        vectors = json.loads(OUTPUT.read_text())["vectors"]
+        doc = json.loads(OUTPUT.read_text())
         catalogue, out = args.emit_c
         if catalogue not in {case[0] for case in CASES}:
             ap.error(f"--emit-c: no vectors for catalogue '{catalogue}' (known: {', '.join(c[0] for c in CASES)})")
-        Path(out).write_text(emit_c(vectors, catalogue))
+        Path(out).write_text(emit_c(doc["vectors"], catalogue, doc.get("refused", [])))
         return 0
     text = build()
     if args.check:

@@ -37,8 +37,17 @@
  *    not "the destination receives" (a publication is the weaker link).
  *  - Deactivation sends PUB_STOP (publication rows, to the source) or
  *    SUB_STOP (subscription rows, to the destination, which then stops the
- *    source) every `retry_ms` until acknowledged, at most `max_stop_retries`
- *    times; leases remove whatever a lost STOP left behind.
+ *    source) every `retry_ms` until acknowledged, `max_stop_retries` times,
+ *    then every `renew_ms` until acknowledged: the row stays STOPPING, since a
+ *    flow handed over to its keeper (ub_pubsub.h) does not end by itself when
+ *    the administrator goes quiet. A STOPPING row may be removed (the operator
+ *    gives up on the STOP).
+ *  - **No silent status**: a NACK fails the row with its reason, also when the
+ *    destination of a subscription row relays its source's refusal
+ *    (`nack_relayed`); a target whose row another administrator keeps alive
+ *    answers UB_NACK_OTHER_ADMIN, so two administrators never both see
+ *    ACTIVE for one flow at two rates. One table refuses a second row for the
+ *    same (content, source, destination) (UB_ERR_EXISTS).
  */
 #ifndef UB_ADMIN_H
 #define UB_ADMIN_H
@@ -84,7 +93,9 @@ typedef enum ub_nack_reason {
     UB_NACK_INVALID = 5,         /**< period 0, or a payload the target cannot read */
     UB_NACK_NOT_AUTHORIZED = 6,  /**< the target's policy refuses the request to its source (ub_policy.h) */
     UB_NACK_LIMIT = 7,           /**< the request exceeds the requester's limits (period, rows, bytes/s) */
-    UB_NACK_UNSUPPORTED = 8      /**< the target cannot do this membership operation (e.g. links: no handler) */
+    UB_NACK_UNSUPPORTED = 8,     /**< the target cannot do this membership operation (e.g. links: no handler) */
+    UB_NACK_OTHER_ADMIN = 9      /**< another administrator keeps this row alive (or, under an exclusive-administrator
+                                      policy, holds rows at this node): the request changed nothing */
 } ub_nack_reason_t;
 
 /** @return a static name ("table_full", "not_authorized", ...) for a NACK reason; "none" for 0, "?" if unknown. */
@@ -92,6 +103,9 @@ const char *ub_nack_reason_name(ub_nack_reason_t reason);
 
 /** ACK status flags (byte 5 of an ACK payload). */
 #define UB_ACK_FLOWING 0x01u /**< data is flowing for the acknowledged row */
+
+/** NACK origin flags (byte 6 of a NACK payload). */
+#define UB_NACK_RELAYED 0x01u /**< the reason is the source's, relayed by the destination of a subscription */
 
 /** An operator row, as entered in the paper's Figure 5. */
 typedef struct ub_admin_row_spec {
@@ -108,6 +122,7 @@ typedef struct ub_admin_row_info {
     ub_admin_status_t status;
     bool active_flag;            /**< the operator's activation flag */
     ub_nack_reason_t nack_reason;
+    bool nack_relayed;           /**< the NACK came from the source, relayed by the destination (subscription rows) */
     uint32_t request_id;
     uint32_t attempts;           /**< requests (or STOPs) sent since the last status change */
     uint64_t acked_at_ms;        /**< time of the first ACK after activation (0 = none yet) */
@@ -121,7 +136,7 @@ typedef struct ub_admin_options {
     uint32_t renew_ms;         /**< renewal period while ACKNOWLEDGED/ACTIVE; default 1000 */
     uint32_t lease_ms;         /**< lease requested at the target; default 3 * renew_ms */
     uint32_t max_retries;      /**< PENDING attempts before FAILED; 0 = retry forever (default) */
-    uint32_t max_stop_retries; /**< STOP attempts before giving up to INACTIVE; default 10 */
+    uint32_t max_stop_retries; /**< STOPs at the retry pace before slowing to the renewal pace; default 10 */
 } ub_admin_options_t;
 
 /** Internal row state; read it through ub_admin_row_status(). */
@@ -153,7 +168,9 @@ void ub_admin_detach(ub_admin_t *adm);
 /**
  * Adds an inactive row.
  * @return the row index; UB_ERR_INVAL (bad instance index, period 0, source ==
- *         destination); UB_ERR_FULL.
+ *         destination); UB_ERR_EXISTS (a row for the same content, source and
+ *         destination, of either type: the two would fight over one flow);
+ *         UB_ERR_FULL.
  */
 UB_CHECK int ub_admin_add_row(ub_admin_t *adm, const ub_admin_row_spec_t *spec);
 
@@ -166,7 +183,12 @@ UB_CHECK int ub_admin_add_row(ub_admin_t *adm, const ub_admin_row_spec_t *spec);
  */
 UB_CHECK int ub_admin_set_active(ub_admin_t *adm, int row, bool active, uint64_t now_ms);
 
-/** Removes a row; it must be INACTIVE or FAILED. @return UB_OK, UB_ERR_NOTFOUND, UB_ERR_INVAL (still active). */
+/**
+ * Removes a row; it must be INACTIVE, FAILED or STOPPING (removing a STOPPING
+ * row abandons its STOP: a flow already handed over lives on at the target
+ * until its keeper is gone, docs/pubsub.md).
+ * @return UB_OK, UB_ERR_NOTFOUND, UB_ERR_INVAL (still active).
+ */
 UB_CHECK int ub_admin_remove_row(ub_admin_t *adm, int row);
 
 /** Copies a row's status out. @return UB_OK or UB_ERR_NOTFOUND. */

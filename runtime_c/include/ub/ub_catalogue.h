@@ -90,6 +90,28 @@ UB_CHECK int ub_catalogue_find(const ub_catalogue_t *cat, const uint8_t id[UB_DI
 UB_CHECK int ub_catalogue_find_name(const ub_catalogue_t *cat, const char *name);
 
 /**
+ * The payload limit of this runtime build: UB_MAX_DIRECTORY (ub_config.h) as the
+ * library was compiled, the largest packed type a node carries (types above
+ * UB_MAX_PAYLOAD, one frame's payload, travel in fragments). `uavbus gen
+ * --max-payload` checks a catalogue against the same number.
+ */
+uint32_t ub_catalogue_payload_limit(void);
+
+/**
+ * Finds the first type of `cat` that packs to more than `limit` bytes.
+ * ub_node_init() refuses a catalogue holding such a type (UB_ERR_INVAL) for
+ * limit = ub_catalogue_payload_limit(); call this to say which type and why:
+ *
+ *     const ub_type_desc_t *big = ub_catalogue_oversize(&cat, ub_catalogue_payload_limit());
+ *     if (big != NULL)
+ *         fprintf(stderr, "%s packs to %u bytes; this runtime carries %u (UB_MAX_DIRECTORY)\n",
+ *                 big->name, (unsigned)big->packed_size, (unsigned)ub_catalogue_payload_limit());
+ *
+ * @return the type, or NULL when every type fits (or `cat` is NULL).
+ */
+const ub_type_desc_t *ub_catalogue_oversize(const ub_catalogue_t *cat, uint32_t limit);
+
+/**
  * Computes a content ID under the paper's rule: the first 8 and the last 8
  * characters of the name; shorter names overlap; each half of a name shorter
  * than 8 is padded on the right with 0x00. (Same rule as the generator.)

@@ -179,7 +179,8 @@ typedef struct ub_node_counters {
     uint64_t local_direct;    /**< frames from one local entity to another, delivered without a link */
     uint64_t dedup_resets;    /**< restarted sources detected */
     uint64_t dedup_evictions; /**< sources evicted from a full window table */
-    uint64_t leases_expired;  /**< publish/subscribe rows removed because their lease ran out */
+    uint64_t leases_expired;  /**< publish/subscribe rows removed because their lease ran out (and, for a row
+                                   handed over, its keeper was gone: docs/pubsub.md) */
     uint64_t replies_unmatched; /**< ACK/NACKs bound to no row (request id, counterpart or content differ): ignored */
     uint64_t requests_limited;  /**< requests refused with NACK LIMIT (ub_policy.h limits) */
     uint64_t leases_clamped;    /**< non-administrator leases shortened to the policy's max_lease_ms */
@@ -194,6 +195,9 @@ typedef struct ub_node_counters {
     uint64_t dedup_cleared;   /**< duplicate windows cleared because their source was removed */
     uint64_t membership_applied; /**< MEMBERSHIP requests served (ACKed) */
     uint64_t membership_refused; /**< MEMBERSHIP requests NACKed (invalid, full, unsupported, not authorized) */
+    uint64_t handovers;       /**< rows whose owner's lease lapsed while their keeper lived: kept (docs/pubsub.md) */
+    uint64_t nacks_relayed;   /**< source NACKs a subscribing destination relayed to the administrator of its row */
+    uint64_t other_admin;     /**< requests answered NACK OTHER_ADMIN: another administrator keeps the row or node */
     uint64_t drops[UB_DROP_REASON_COUNT];
 } ub_node_counters_t;
 
@@ -240,6 +244,7 @@ typedef struct ub_local_entity {
 typedef struct ub_binding {
     uint32_t instance;
     void *storage;
+    uint8_t on_update; /**< published on update, not on a timer (ub_pubsub_set_on_update()) */
 } ub_binding_t;
 
 /** The node. Caller-owned; treat the fields as private (use the functions). */
@@ -272,7 +277,8 @@ struct ub_node {
 /**
  * Initialises an empty node over `cat` (which must outlive the node).
  * @return UB_OK, or UB_ERR_INVAL (NULL node/catalogue, catalogue ABI version
- *         mismatch, or a catalogue type larger than UB_MAX_DIRECTORY; types above
+ *         mismatch, or a catalogue type larger than UB_MAX_DIRECTORY: which one,
+ *         ub_catalogue_oversize(cat, ub_catalogue_payload_limit()) says; types above
  *         UB_MAX_PAYLOAD travel in fragments, ub_node_set_frag()).
  */
 UB_CHECK int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt);
@@ -289,12 +295,15 @@ UB_CHECK int ub_node_add_entity(ub_node_t *node, const uint8_t id[UB_ENTITY_ID_L
  * Removes remote entity `entity` from the table at run time, and with it
  * everything that names it: every local entity's mask toward it (pinned or
  * not), the duplicate windows of it as a source, the routing engine's state
- * for it, the publish/subscribe rows whose peer or owner it is (stopped with
- * ub_pubsub_stop(): publications go at once, subscriptions send their PUB_STOP
- * retries, which now count `no_route`, then go) and the active administration
- * rows whose source or destination it is (deactivated with
- * ub_admin_set_active()). Each is counted (ub_node_counters_t). The row may be
- * reused by a later ub_node_add_entity().
+ * for it, and the rows naming it: publish/subscribe rows whose peer it is are
+ * freed at once, without a STOP nobody could route (`rows_stopped`); rows it
+ * owns as a third party (an administrator) have their lease end now and live
+ * on under their keeper (docs/pubsub.md, "Who keeps a row alive"); active
+ * administration rows whose target it is (the source of a publication row,
+ * the destination of a subscription row) become INACTIVE at once, those
+ * naming it only as the other end are deactivated with ub_admin_set_active()
+ * (their STOP goes to the target) (`admin_rows_stopped`). Each is counted
+ * (ub_node_counters_t). The row may be reused by a later ub_node_add_entity().
  * @return UB_OK; UB_ERR_INVAL (bad index, or a local entity: local entities
  *         live as long as the node).
  */
@@ -367,7 +376,8 @@ UB_CHECK int ub_node_get_mask(const ub_node_t *node, int entity, int dest, uint8
  * Puts transport (`ops`, `impl`) behind link slot `link_id`, replacing any
  * previous one. Entity tables, masks, publish/subscribe state and counters
  * are kept; the slot's stream decoder is reset (its partial bytes belonged to
- * the old transport).
+ * the old transport, and are counted in its garbage_bytes, so the decoder's
+ * bytes_in == bytes_ok + garbage_bytes + pending holds across re-attaches).
  * @return UB_OK, or UB_ERR_INVAL (bad id, NULL ops or ops->send).
  */
 UB_CHECK int ub_node_link_attach(ub_node_t *node, int link_id, const ub_link_ops_t *ops, void *impl);
@@ -438,13 +448,19 @@ UB_CHECK int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame
  */
 typedef enum ub_rx_verdict {
     /** Not a frame (bad sync, CRC, length...), or refused by a check on its origin: with security on,
-     *  unsigned where signing is required, bad tag, unknown key, replay, unverified. */
+     *  unsigned where signing is required, bad tag, unknown key, replay. */
     UB_VERDICT_REFUSED = 0,
     /** A genuine frame the node had handled already: the copy over a redundant link (a 0x11 mask),
-     *  or a replay of an earlier frame. */
+     *  or a replay of an earlier frame (with security on: anyone may send such a copy). */
     UB_VERDICT_DUPLICATE = 1,
     /** Genuine and new: passed verification, every security check and the duplicate window. */
-    UB_VERDICT_ACCEPTED = 2
+    UB_VERDICT_ACCEPTED = 2,
+    /** Authentic (its tag verified) but not accepted: its source has no freshness state here yet, so it
+     *  was dropped `unverified` and a CHALLENGE went to the source (docs/security.md). It may be the
+     *  first frame of a genuine new peer -- or a captured one replayed: a transport may reach its sender
+     *  provisionally, so the challenge can get there, and must not trust it more until a frame from it is
+     *  ACCEPTED (ub_udp.h). */
+    UB_VERDICT_UNVERIFIED = 3
 } ub_rx_verdict_t;
 
 /**
@@ -482,12 +498,18 @@ UB_CHECK int ub_node_send_link_local(ub_node_t *node, int link_id, ub_admin_code
 
 /**
  * The one authorization question of the administrative plane: may entity
- * `src_id` administer local entity `entity` (change its tables: membership
- * today)? Every membership request received over a link asks it: true
- * without a policy (the paper's closed lab), else only for the policy's
- * administrators (ub_policy.h; docs/routing.md, "Membership").
+ * `src_id` administer local entity `entity` (use the exclusive rights:
+ * change its tables, membership)? Every admin request received over a link
+ * asks it (membership here, publish/subscribe requests in ub_pubsub.c).
+ * `verified`: the request arrived SIGNED or ENCRYPTED and its tag verified
+ * (the receive gate; docs/security.md). When the node has a keyring
+ * (ub_node_set_security()), an unverified request never administers, since
+ * only the tag proves who sent it (a link with "require_signed": false still
+ * carries unsigned data, never administration). Otherwise: true without a
+ * policy (the paper's closed lab), else only for the policy's administrators
+ * (ub_policy.h; docs/routing.md, "Membership"; docs/pubsub.md).
  */
-bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN]);
+bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN], bool verified);
 
 /**
  * Advances every local entity's publish/subscribe table (and attached

@@ -25,6 +25,13 @@
  *    write rule names it; else it is dropped `not_allowed` before storage is
  *    touched.
  *  - **Limits** bound what one non-administrator can make a node send.
+ *  - **Exclusive administrator** (optional, ub_policy_set_exclusive(); config
+ *    "exclusive_admin": true): the paper's "only one entity interfaces with
+ *    the global table" per node. While one administrator keeps a live row in
+ *    this node's tables, requests from any other administrator are answered
+ *    NACK OTHER_ADMIN; once its rows are stopped or their leases lapsed, the
+ *    next administrator may take over. Without it, two administrators are told
+ *    apart per row only (docs/pubsub.md, "Two administrators").
  *
  * Frames that entities of the same node send each other are not judged: they
  * share one process and its storage.
@@ -85,6 +92,7 @@ typedef struct ub_policy {
     uint8_t n_admins;
     uint8_t admins[UB_POLICY_MAX_ADMINS][UB_ENTITY_ID_LEN];
     uint8_t read_restricted; /**< PUB_REQUESTs of non-administrators need a read rule */
+    uint8_t exclusive_admin; /**< one administrator at a time per node (ub_policy_set_exclusive()) */
     uint16_t n_rules;
     ub_policy_rule_t rules[UB_POLICY_MAX_RULES];
     ub_policy_limits_t limits; /**< defaults filled in */
@@ -112,6 +120,9 @@ UB_CHECK int ub_policy_add_rule(ub_policy_t *pol, ub_policy_dir_t dir, const cha
 
 /** From now on a non-administrator's PUB_REQUEST needs a matching read rule (none given = nobody). */
 void ub_policy_restrict_reads(ub_policy_t *pol);
+
+/** One administrator at a time per node (see the file comment), or with `on` false any number (the default). */
+void ub_policy_set_exclusive(ub_policy_t *pol, bool on);
 
 /** Sets the limits; 0 in a field = its default. @return UB_OK, or UB_ERR_RANGE (max_lease_ms below UB_POLICY_MIN_LEASE_MS). */
 UB_CHECK int ub_policy_set_limits(ub_policy_t *pol, const ub_policy_limits_t *limits);

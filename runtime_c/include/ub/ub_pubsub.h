@@ -23,6 +23,22 @@
  * PUB_STOP / SUB_STOP remove the entries at both ends. Leases, the choice and
  * the payload layouts are documented in docs/pubsub.md.
  *
+ * Flows outlive their administrator (docs/pubsub.md, "Who keeps a row
+ * alive"): a row an administrator created for a flow between two other
+ * entities (a subscription at the destination, a publication at the source
+ * toward someone else) is a lease only while the administrator renews it.
+ * When that lease lapses the row is handed over to its **keeper**, the
+ * flow's other end: it lives on while the keeper shows signs of life (a
+ * subscription: the source acknowledges its requests; a publication: the
+ * node has a route to the destination) and is reclaimed `expiry_ms` after the
+ * last one. A publication requested by its own destination stays a plain
+ * lease (the destination is its keeper and renews it).
+ *
+ * No silent status: a source's NACK to a subscription set up by an
+ * administrator is relayed to that administrator (NACK flag "relayed"); a
+ * second administrator asking for a row another one keeps alive is answered
+ * NACK OTHER_ADMIN, and never moves or stops the first one's row.
+ *
  * Scheduling: a publication's next send is `previous due + period`, so rates do
  * not drift; after a stall longer than a period it sends once and restarts the
  * schedule from `now` (no burst of missed frames).
@@ -39,6 +55,7 @@
 #ifndef UB_PUBSUB_H
 #define UB_PUBSUB_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 #include "ub_catalogue.h"
@@ -72,12 +89,15 @@ typedef struct ub_pubsub_timing {
     uint32_t lease_ms;       /**< lease written into requests; default 3 * renew_ms */
     uint32_t timeout_min_ms; /**< lower bound of the data timeout; default 500 */
     uint32_t stop_retries;   /**< PUB_STOP attempts before leaving it to the lease; default 10 */
+    uint32_t expiry_ms;      /**< a handed-over row is reclaimed this long after its keeper's last sign of life;
+                                  default 60000 (docs/pubsub.md, "Who keeps a row alive") */
 } ub_pubsub_timing_t;
 
 #define UB_PS_DEFAULT_RETRY_MS 200u
 #define UB_PS_DEFAULT_RENEW_MS 1000u
 #define UB_PS_DEFAULT_TIMEOUT_MIN_MS 500u
 #define UB_PS_DEFAULT_STOP_RETRIES 10u
+#define UB_PS_DEFAULT_EXPIRY_MS 60000u
 
 /** One row. Read it with ub_pubsub_row(); change it only through this API. */
 typedef struct ub_ps_row {
@@ -85,6 +105,11 @@ typedef struct ub_ps_row {
     uint8_t state;                       /**< ub_sub_state_t (subscriptions) */
     uint8_t acked;                       /**< subscription: the source acknowledged a request */
     uint8_t reported_flowing;            /**< a FLOWING status was sent to the owner */
+    uint8_t source_acked;                /**< subscription: the source acknowledged a request since the row's
+                                              last (re)activation, and has not refused one since */
+    uint8_t source_nack;                 /**< subscription: the source's last answer was this NACK reason (0: not a NACK) */
+    uint8_t handed_over;                 /**< the owner's lease lapsed; the row lives on its keeper (counted once) */
+    uint8_t keeper_seen;                 /**< keeper_ms is valid */
     uint32_t instance;                   /**< catalogue instance index (the content) */
     uint8_t peer[UB_ENTITY_ID_LEN];      /**< publication: destination; subscription: source */
     uint8_t owner[UB_ENTITY_ID_LEN];     /**< who created the row remotely; all zero = local API */
@@ -92,10 +117,13 @@ typedef struct ub_ps_row {
     uint32_t request_id;                 /**< id of this row's own requests (subscriptions): random, never 0 */
     uint32_t period_ms;
     uint32_t stop_tries;                 /**< PUB_STOPs sent while STOPPING */
-    uint64_t lease_until_ms;             /**< 0 = no lease (created through this API) */
+    uint64_t lease_until_ms;             /**< owner's lease; 0 = no lease (created through this API, or asked so) */
+    uint64_t keeper_ms;                  /**< last sign of life of the row's keeper (subscription: the source's
+                                              ACK or DATA; publication: a route to the destination) */
     uint64_t next_due_ms;                /**< publication: next DATA; subscription: next request */
     uint64_t last_data_ms;               /**< subscription: last DATA received */
     uint64_t frames;                     /**< publication: DATA sent; subscription: DATA received */
+    uint8_t update_pending;              /**< publication on update: a new value waits for its turn */
 } ub_ps_row_t;
 
 /** The table of one local entity (part of ub_node_t). */
@@ -143,6 +171,36 @@ const ub_ps_row_t *ub_pubsub_row(const ub_node_t *node, int entity, int row);
 
 /** @return the number of rows of `kind` (UB_PS_FREE counts free rows), or UB_ERR_INVAL. */
 UB_CHECK int ub_pubsub_count(const ub_node_t *node, int entity, ub_ps_kind_t kind);
+
+/**
+ * Publishes bound instance `instance` **on update** instead of on a timer: for
+ * directories refreshed from outside the node at their own pace (a bridge's
+ * telemetry, e.g. the MAVLink bridge, docs/bridges.md). A publication row of
+ * such an instance sends the bound value once after each ub_pubsub_updated(),
+ * as soon as its period allows, and never sends a value twice:
+ *
+ *  - the period is the row's spacing: the row may send when `now + period/2`
+ *    reaches its next due time, which then advances by one period (and never
+ *    lags `now` by more than half a period). A source at the row's rate with
+ *    up to half a period of jitter has every update sent at once; a faster
+ *    source is thinned to the period, without drift; an update that comes
+ *    too early waits (only the latest value) for its turn at the next tick;
+ *  - a source that stops updating stops the data: subscribers see their data
+ *    time out (ub_pubsub.h) instead of copies of a stale value.
+ *
+ * Applies to the rows of every local entity, existing and future.
+ * @return UB_OK; UB_ERR_INVAL (NULL node); UB_ERR_NOTFOUND (`instance` not bound).
+ */
+UB_CHECK int ub_pubsub_set_on_update(ub_node_t *node, uint32_t instance, bool on_update);
+
+/**
+ * The bound value of on-update instance `instance` (ub_pubsub_set_on_update())
+ * was just refreshed: every publication row of it at local entity `entity`
+ * whose turn has come sends it now; the others send it at their turn.
+ * @return the number of rows that sent now (>= 0); UB_ERR_INVAL (not a local
+ *         entity, or the instance is not published on update).
+ */
+UB_CHECK int ub_pubsub_updated(ub_node_t *node, int entity, uint32_t instance, uint64_t now_ms);
 
 /** @return the data timeout of a subscription with `period_ms` under `timing`: max(3 * period, timeout_min_ms). */
 uint64_t ub_pubsub_data_timeout_ms(const ub_pubsub_timing_t *timing, uint32_t period_ms);

@@ -13,14 +13,18 @@
  *    fingerprint u32 | key_id u8 | counter_hi u16 (integers little-endian).
  *    Not covered: sync, hdr_check, msg_size, hop_limit, msg_crc, so a
  *    forwarder lowers the hop limit without re-signing.
- *  - **SIGNED** (flag 0x10): tag = first 8 bytes of keyed BLAKE2b-128
- *    (libsodium crypto_generichash, 32-byte key) over the tag input; trailer
- *    key_id | counter_hi | tag[8] (11 bytes).
+ *  - **Keys**: each 32-byte key (a key file's) is split once, when it is
+ *    added, by libsodium's KDF (crypto_kdf_derive_from_key, subkey id 1) into
+ *    a 128-bit signing subkey (context "ubsig001") and a 256-bit AEAD subkey
+ *    (context "ubaead01"); the file's key itself is not kept.
+ *  - **SIGNED** (flag 0x10): tag = SipHash-2-4 (libsodium
+ *    crypto_shorthash_siphash24, 64-bit output) of the tag input under the
+ *    signing subkey; trailer key_id | counter_hi | tag[8] (11 bytes).
  *  - **ENCRYPTED** (flag 0x20): XChaCha20-Poly1305 (IETF, detached) of the
  *    payload in place; additional data = the signing header (with the
  *    ENCRYPTED flag); nonce = src_id[12] | counter (48-bit LE, 6 bytes) |
- *    key_id | 5 zero bytes; trailer key_id | counter_hi | Poly1305 tag[16]
- *    (19 bytes).
+ *    key_id | 5 zero bytes; key = the AEAD subkey; trailer key_id |
+ *    counter_hi | Poly1305 tag[16] (19 bytes).
  *  - **Freshness** is the sender's 48-bit counter, counter_hi << 32 | seq.
  *    It starts at max(persisted reservation, wall clock in 10 µs units since
  *    2015-01-01) and rises by one per originated frame; before using values
@@ -29,8 +33,8 @@
  *    handed out (fail closed): counters are never reused, which the AEAD
  *    nonce's uniqueness rests on.
  *
- * The keyed BLAKE2b state is computed once per key (ub_sec_add_key()) and
- * copied per frame. Everything here works on caller-owned structs: no
+ * The subkeys are derived once per key (ub_sec_add_key()): no per-frame key
+ * setup. Everything here works on caller-owned structs: no
  * allocation, no statics (libsodium's sodium_init() runs in ub_sec_init()).
  *
  * Built with UAVBUS_SECURITY=OFF (no libsodium, e.g. bare-metal), every
@@ -38,7 +42,7 @@
  * cannot attach a context: flagged frames are then dropped `unknown_key` and
  * nothing is signed (fail closed). The replay-window functions work in both.
  *
- *     ub_sec_t sec;                                      // caller-owned (static: ~2 KiB)
+ *     ub_sec_t sec;                                      // caller-owned (368 bytes with 4 keys)
  *     ub_sec_options_t o = {.reserve = my_store, .reserve_user = &file};
  *     ub_sec_init(&sec, &o);
  *     ub_sec_add_key(&sec, 7, key32);  ub_sec_set_tx_key(&sec, 7);
@@ -74,8 +78,12 @@ extern "C" {
 #define UB_SEC_DEFAULT_REPLY_MIN_MS 50u
 /** Challenge sends per outstanding challenge without traffic from the source (then it waits for the next frame). */
 #define UB_SEC_CHALLENGE_TRIES 5u
-/** Size of the saved keyed-hash state (libsodium's crypto_generichash_state is 384 bytes). */
-#define UB_SEC_MAC_STATE_WORDS 48u
+/** SipHash-2-4 key: the 128-bit signing subkey. */
+#define UB_SEC_SIG_KEY_LEN 16u
+/** libsodium KDF contexts (8 characters each) and the subkey id of both subkeys. */
+#define UB_SEC_SIG_CONTEXT "ubsig001"
+#define UB_SEC_AEAD_CONTEXT "ubaead01"
+#define UB_SEC_SUBKEY_ID 1u
 
 /**
  * Durably stores `mark`: after a restart the context must start at or above
@@ -99,9 +107,9 @@ typedef struct ub_sec_options {
 
 /** One key of the keyring. Treat as private. */
 typedef struct ub_sec_key {
-    uint8_t id; /**< 1..255; 0 = free slot */
-    uint8_t key[UB_SEC_KEY_LEN];
-    uint64_t mac_state[UB_SEC_MAC_STATE_WORDS]; /**< keyed BLAKE2b state with the domain string absorbed */
+    uint8_t id;                          /**< 1..255; 0 = free slot */
+    uint8_t sig_key[UB_SEC_SIG_KEY_LEN]; /**< SipHash-2-4 subkey (KDF context "ubsig001") */
+    uint8_t aead_key[UB_SEC_KEY_LEN];    /**< XChaCha20-Poly1305 subkey (KDF context "ubaead01") */
 } ub_sec_key_t;
 
 /** Counters of a security context (node-wide). Drops of received frames are in the node's drop counters. */
@@ -144,7 +152,8 @@ bool ub_sec_available(void);
 UB_CHECK int ub_sec_init(ub_sec_t *sec, const ub_sec_options_t *opt);
 
 /**
- * Adds key `id` (1..255) and precomputes its hash state. Accepting a key does
+ * Adds key `id` (1..255): derives its signing and AEAD subkeys (the key
+ * itself is not kept). Accepting a key does
  * not make it sign (ub_sec_set_tx_key()): during a rollover both old and new
  * keys verify.
  * @return UB_OK; UB_ERR_INVAL (NULL, id 0); UB_ERR_EXISTS (id present);

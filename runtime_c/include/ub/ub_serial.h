@@ -15,12 +15,26 @@
  * is refused whole with UB_ERR_AGAIN (counted as backpressure by the node and
  * here). Nothing is dropped silently.
  *
+ * Hang-ups: a device that goes away (a USB adapter pulled, the other end of a
+ * pty closed, a modem dropping carrier) is detected by ub_serial_service() --
+ * end of file, POLLHUP/POLLERR, or EIO/ENXIO/ENODEV from read or write -- and
+ * counted (`hangups`); the descriptor is closed at once (so a poll loop never
+ * spins on it), the link is down (ub_serial_state(), sends refused with
+ * UB_ERR_CLOSED and counted `send_closed`, queued bytes counted in
+ * `tx_discarded`), and a device opened by path is reopened with exponential
+ * backoff (UB_SERIAL_RETRY_MIN_MS doubling to UB_SERIAL_RETRY_MAX_MS, driven
+ * by the `now_ms` given to ub_serial_service(): call it periodically while
+ * down). A reopened device re-attaches the node slot, so no half frame from
+ * before the hang-up is glued to the new stream. An adopted descriptor cannot
+ * be reopened: it stays down.
+ *
  * Tests and simulations use a pseudo-terminal: open the slave side with
  * ub_serial_open() and drive the master side, raw, with ub_serial_adopt().
  */
 #ifndef UB_SERIAL_H
 #define UB_SERIAL_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -43,26 +57,54 @@ extern "C" {
 #define UB_SERIAL_RX_BUDGET 16
 #endif
 
+/** Reopen backoff after a hang-up: first wait, and the cap it doubles up to (ms of node time). */
+#ifndef UB_SERIAL_RETRY_MIN_MS
+#define UB_SERIAL_RETRY_MIN_MS 100u
+#endif
+#ifndef UB_SERIAL_RETRY_MAX_MS
+#define UB_SERIAL_RETRY_MAX_MS 5000u
+#endif
+/** Longest device path kept for reopening, NUL included. */
+#ifndef UB_SERIAL_PATH_MAX
+#define UB_SERIAL_PATH_MAX 128
+#endif
+
 #if UB_SERIAL_TX_BUFFER < UB_FRAME_MAX
 #error "UB_SERIAL_TX_BUFFER must hold at least one whole frame (UB_FRAME_MAX)"
 #endif
 
 typedef struct ub_node ub_node_t;
 
+typedef enum ub_serial_state {
+    UB_SERIAL_DOWN = 0, /**< no device: hung up (reopening by path with backoff) or closed */
+    UB_SERIAL_UP = 1
+} ub_serial_state_t;
+
 typedef struct ub_serial_stats {
     uint64_t bytes_in;
     uint64_t bytes_out;    /**< bytes the device accepted */
     uint64_t frames_out;   /**< frames accepted into the transmit path */
     uint64_t backpressure; /**< frames refused with UB_ERR_AGAIN: transmit buffer full */
-    uint64_t io_errors;    /**< read or write errors */
+    uint64_t io_errors;    /**< read or write errors other than a hang-up */
+    uint64_t hangups;      /**< the device went away: EOF, POLLHUP/POLLERR, EIO/ENXIO/ENODEV */
+    uint64_t reopens;      /**< the device came back (opened again by path) */
+    uint64_t reopen_failures; /**< reopen attempts that failed (device still absent) */
+    uint64_t send_closed;  /**< frames refused with UB_ERR_CLOSED while down */
+    uint64_t tx_discarded; /**< queued bytes thrown away with a hang-up */
 } ub_serial_stats_t;
 
 /** A serial link. Caller-owned; treat the fields as private. */
 typedef struct ub_serial {
     int fd;
     uint8_t owns_fd;
+    uint8_t state;         /**< ub_serial_state_t */
+    uint8_t hung;          /**< down because the device went away (not closed by the caller) */
     ub_node_t *node;
     int link_id;
+    uint32_t baud;         /**< 0: adopted without configuring */
+    uint32_t backoff_ms;
+    uint64_t next_attempt_ms;
+    char path[UB_SERIAL_PATH_MAX]; /**< "" for an adopted descriptor */
     ub_serial_stats_t stats;
     size_t tx_len;
     uint8_t tx[UB_SERIAL_TX_BUFFER];
@@ -75,8 +117,10 @@ extern const ub_link_ops_t ub_serial_ops;
 /**
  * Opens `path` (O_RDWR | O_NOCTTY | O_NONBLOCK) and sets it raw, 8 data bits,
  * no parity, 1 stop bit, no flow control, at `baud` (one of 1200, 2400, 4800,
- * 9600, 19200, 38400, 57600, 115200, 230400, 460800, 921600).
+ * 9600, 19200, 38400, 57600, 115200, 230400, 460800, 921600). The path is
+ * kept to reopen the device after a hang-up.
  * @return UB_OK; UB_ERR_INVAL (NULL path); UB_ERR_RANGE (baud not supported);
+ *         UB_ERR_NOSPACE (path longer than UB_SERIAL_PATH_MAX - 1);
  *         UB_ERR_IO (open or termios failed, errno set; not a tty is ENOTTY).
  */
 UB_CHECK int ub_serial_open(ub_serial_t *serial, const char *path, uint32_t baud);
@@ -94,14 +138,26 @@ UB_CHECK int ub_serial_attach(ub_serial_t *serial, ub_node_t *node, int link_id)
 
 /**
  * Flushes the transmit buffer, then reads what is available (at most
- * UB_SERIAL_RX_BUDGET reads) into the node with ub_node_rx().
- * @return frames the node found; UB_ERR_INVAL (not attached to `node`);
- *         UB_ERR_IO (read/write error other than would-block, e.g. the device went away).
+ * UB_SERIAL_RX_BUDGET reads) into the node with ub_node_rx(). Detects a
+ * hang-up (see the file comment); while down, reopens the device by path when
+ * the backoff allows.
+ * @return frames the node found (0 while down); UB_ERR_INVAL (not attached to
+ *         `node`, or closed); UB_ERR_IO (a read/write error that is neither
+ *         would-block nor a hang-up; counted in io_errors).
  */
 UB_CHECK int ub_serial_service(ub_serial_t *serial, ub_node_t *node, uint64_t now_ms);
 
-/** @return the device descriptor, or -1 when closed. */
+/** @return the device descriptor, or -1 when closed or down. */
 int ub_serial_fileno(const ub_serial_t *serial);
+
+/** @return UB_SERIAL_UP or UB_SERIAL_DOWN. */
+ub_serial_state_t ub_serial_state(const ub_serial_t *serial);
+
+/**
+ * When a down device opened by path is next tried (node time).
+ * @return true and `*due_ms` set while such a retry is pending; false otherwise.
+ */
+bool ub_serial_next_retry(const ub_serial_t *serial, uint64_t *due_ms);
 
 /** @return bytes waiting in the transmit buffer. */
 size_t ub_serial_tx_pending(const ub_serial_t *serial);
@@ -109,7 +165,7 @@ size_t ub_serial_tx_pending(const ub_serial_t *serial);
 /** @return the driver counters. */
 const ub_serial_stats_t *ub_serial_stats(const ub_serial_t *serial);
 
-/** Closes the device (not an adopted descriptor). Safe to call twice. */
+/** Closes the device (not an adopted descriptor) and stops reopening. Safe to call twice. */
 void ub_serial_close(ub_serial_t *serial);
 
 #ifdef __cplusplus

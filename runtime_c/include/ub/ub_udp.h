@@ -5,7 +5,9 @@
  *
  * A datagram carries one frame, or with batching on (ub_udp_set_batching())
  * several whole frames back to back, up to UB_UDP_DATAGRAM_MAX bytes: the
- * frame's msg_size says where the next one starts. ub_udp_service() reads
+ * frame's msg_size says where the next one starts (trusted only when that
+ * frame's header checks hold: a datagram whose header is damaged, or garbage,
+ * is one rejection, never split at a random size). ub_udp_service() reads
  * every datagram waiting (recvmmsg(), UB_UDP_RX_SLOTS per system call, up to
  * UB_UDP_RX_BUDGET per call, so one busy link cannot starve an event loop)
  * and hands each frame to the node with ub_node_rx_frame_verdict(); a frame that
@@ -31,6 +33,15 @@
  * node refuses (not a frame, or unsigned/forged/replayed with security on)
  * never makes its sender a peer. With no peer yet, a send is refused with
  * UB_ERR_NOROUTE (counted `no_peer` here, `no_route` by the node).
+ * On a link that requires signed frames (ub_node_link_requires_signed()):
+ *  - a duplicate teaches nothing: anyone who overheard a frame can send a copy;
+ *  - the first frame of a new signed sender is UB_VERDICT_UNVERIFIED (the node
+ *    challenges its source first, docs/security.md). Its sender becomes a
+ *    *provisional* peer, so the challenge reaches it: confirmed by the first
+ *    frame of it the node accepts, forgotten after UB_UDP_PROVISIONAL_MS
+ *    otherwise (counted in peers_forgotten). A provisional peer takes a free
+ *    slot or another provisional one's, never a confirmed peer's: replaying a
+ *    captured frame from a new address displaces no one and lasts 2 s at most.
  *
  * Batching (off by default, so every send is one datagram at once): sends are
  * packed into up to UB_UDP_TX_SLOTS datagrams and written with one sendmmsg()
@@ -98,6 +109,11 @@ extern "C" {
 #ifndef UB_UDP_PEER_IDLE_MS
 #define UB_UDP_PEER_IDLE_MS 10000
 #endif
+/** A provisional peer (learned from an authentic first frame on a signed link) is forgotten after this
+ *  unless a frame from it was accepted: the freshness challenge takes one round trip, retried every 200 ms. */
+#ifndef UB_UDP_PROVISIONAL_MS
+#define UB_UDP_PROVISIONAL_MS 2000
+#endif
 #if UB_UDP_MAX_PEERS < 1 || UB_UDP_MAX_PEERS > 255
 #error "UB_UDP_MAX_PEERS must be 1..255"
 #endif
@@ -113,6 +129,8 @@ typedef enum ub_udp_accept {
 typedef struct ub_udp_peer {
     struct sockaddr_in addr;
     uint64_t last_heard_ms; /**< last genuine frame from it (0: configured, never heard) */
+    uint64_t provisional_until_ms; /**< 0: confirmed; else learned from an unverified frame and forgotten
+                                        at this time unless a frame from it is accepted first */
     uint8_t in_use;
     uint8_t configured;     /**< given by the spec (ub_udp_open()/ub_udp_set_peer()), not learned */
 } ub_udp_peer_t;
@@ -133,7 +151,7 @@ typedef struct ub_udp_stats {
     uint64_t tx_calls;      /**< send system calls that sent something */
     uint64_t tx_discarded;  /**< queued frames thrown away because their datagram's send failed (send_errors) */
     uint64_t peers_learned; /**< senders that became a peer (or replaced one) */
-    uint64_t peers_forgotten; /**< learned peers dropped: idle, or making room in a full table */
+    uint64_t peers_forgotten; /**< learned peers dropped: idle, provisional and never confirmed, or making room */
     uint64_t no_peer;       /**< frames not sent because no peer is known yet (UB_ERR_NOROUTE) */
     uint64_t copy_errors;   /**< copies to the second and further peers that the socket refused */
 } ub_udp_stats_t;

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ub/ub_sec.h"
 #include "ub/ub_wire.h"
 
 /* ---- codecs, as the generator would write them --------------------------- */
@@ -230,4 +231,14 @@ size_t make_frame(uint8_t *out, ub_admin_code_t admin, const uint8_t dir_id[UB_D
     int len = ub_frame_finish(out, UB_FRAME_MAX, &h);
     assert_true(len > 0);
     return (size_t)len;
+}
+
+void test_sec_on(struct ub_sec *sec, ub_node_t *node, const uint8_t key[32], uint64_t wall, bool require) {
+    assert_int_equal(ub_sec_init(sec, NULL), UB_OK);
+    assert_int_equal(ub_sec_add_key(sec, 1, key), UB_OK);
+    assert_int_equal(ub_sec_set_tx_key(sec, 1), UB_OK);
+    assert_int_equal(ub_sec_start(sec, 0, wall), UB_OK);
+    if (node == NULL) return;
+    assert_int_equal(ub_node_set_security(node, sec), UB_OK);
+    if (require) assert_int_equal(ub_node_set_require_signed(node, true), UB_OK);
 }

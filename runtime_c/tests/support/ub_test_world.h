@@ -15,6 +15,7 @@
 #ifndef UB_TEST_WORLD_H
 #define UB_TEST_WORLD_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -121,5 +122,10 @@ extern const ub_link_ops_t capture_ops;
 size_t make_frame(uint8_t *out, ub_admin_code_t admin, const uint8_t dir_id[UB_DIR_ID_LEN], const char *src,
                   const char *dest, uint32_t seq, uint8_t hop_limit, uint32_t fingerprint, const uint8_t *payload,
                   uint16_t payload_len);
+
+/* A started security context with key 1 = `key` that signs, counters from `wall`, attached to `node` (if not
+ * NULL), which then requires signed frames when `require`. */
+struct ub_sec;
+void test_sec_on(struct ub_sec *sec, ub_node_t *node, const uint8_t key[32], uint64_t wall, bool require);
 
 #endif /* UB_TEST_WORLD_H */

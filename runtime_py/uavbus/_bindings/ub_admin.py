@@ -57,6 +57,7 @@ def ub_admin_row_status(adm: Any, row: int) -> dict[str, Any]:
         "kind": _ROW_TYPE_NAMES.get(s.type, "?"),
         "status": ffi.string(lib.ub_admin_status_name(info.status)).decode("ascii"),
         "active": bool(info.active_flag), "nack_reason": nack_reason_name(info.nack_reason),
+        "nack_relayed": bool(info.nack_relayed),
         "request_id": int(info.request_id), "attempts": int(info.attempts), "acked_at_ms": int(info.acked_at_ms),
         "active_at_ms": int(info.active_at_ms), "last_ack_ms": int(info.last_ack_ms),
     }

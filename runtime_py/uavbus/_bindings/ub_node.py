@@ -25,7 +25,7 @@ _COUNTER_FIELDS = ("originated", "forwarded", "delivered", "admin_handled", "loc
                    "dedup_evictions", "leases_expired", "replies_unmatched", "requests_limited", "leases_clamped",
                    "rows_evicted", "random_failures", "entities_added", "entities_removed", "links_added",
                    "links_removed", "rows_stopped", "admin_rows_stopped", "dedup_cleared", "membership_applied",
-                   "membership_refused")
+                   "membership_refused", "handovers", "nacks_relayed", "other_admin")
 
 
 def entity_id(name: str) -> bytes:
@@ -57,7 +57,16 @@ def ub_node_new(c_catalogue: Any, hop_limit: int = 0, first_seq: int = 0,
             raise InvalidArgumentError(f"unknown pubsub timing field {key!r} (retry_ms, renew_ms, lease_ms, "
                                        "timeout_min_ms, stop_retries)")
         setattr(opt.timing, key, value)
-    ensure(lib.ub_node_init(node, c_catalogue, opt), "ub_node_init")
+    rc = lib.ub_node_init(node, c_catalogue, opt)
+    if rc != 0 and c_catalogue != ffi.NULL:
+        big = lib.ub_catalogue_oversize(c_catalogue, lib.ub_catalogue_payload_limit())
+        if big != ffi.NULL:
+            raise InvalidArgumentError(
+                f"catalogue {ffi.string(c_catalogue.name).decode('utf-8', 'replace')!r}: type "
+                f"{ffi.string(big.name).decode('utf-8', 'replace')!r} packs to {big.packed_size} bytes, more than this "
+                f"runtime's payload limit of {lib.ub_catalogue_payload_limit()} bytes (UB_MAX_DIRECTORY); rebuild the "
+                "runtime with a larger -DUB_MAX_DIRECTORY, or split the type (uavbus gen --max-payload names them all)")
+    ensure(rc, "ub_node_init")
     return node
 
 

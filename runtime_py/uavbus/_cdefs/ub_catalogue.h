@@ -45,4 +45,6 @@ typedef struct ub_catalogue {
 int ub_catalogue_find(const ub_catalogue_t *cat, const uint8_t id[]);
 int ub_catalogue_find_name(const ub_catalogue_t *cat, const char *name);
 void ub_dir_id_paper(const char *name, uint8_t out[]);
+uint32_t ub_catalogue_payload_limit(void);
+const ub_type_desc_t *ub_catalogue_oversize(const ub_catalogue_t *cat, uint32_t limit);
 int ub_entity_id(const char *name, uint8_t out[]);

@@ -1,5 +1,6 @@
 /* cffi cdef for runtime_c/include/ub/ub_link.h: link slots, their counters and the mask notation.
- * Python never implements a transport; it only reads slots and counters. */
+ * Python reads slots and counters, and can put a transport of its own behind a slot (uavbus.pylink):
+ * its `send` is the `extern "Python"` ub_py_link_send below. */
 
 #define UB_LINK_NAME_LEN ...
 
@@ -27,8 +28,12 @@ typedef struct ub_link_counters {
 
 typedef struct ub_link_ops {
     const char *kind;
+    int (*send)(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms);
+    int (*fileno)(void *impl);
     ...;
 } ub_link_ops_t;
+
+extern "Python" int ub_py_link_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms);
 
 typedef struct ub_link {
     char name[...];

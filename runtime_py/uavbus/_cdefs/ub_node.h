@@ -18,6 +18,7 @@ typedef struct ub_pubsub_timing {
     uint32_t lease_ms;
     uint32_t timeout_min_ms;
     uint32_t stop_retries;
+    uint32_t expiry_ms;
     ...;
 } ub_pubsub_timing_t;
 
@@ -57,6 +58,9 @@ typedef struct ub_node_counters {
     uint64_t dedup_cleared;
     uint64_t membership_applied;
     uint64_t membership_refused;
+    uint64_t handovers;
+    uint64_t nacks_relayed;
+    uint64_t other_admin;
     uint64_t drops[...];
     ...;
 } ub_node_counters_t;
@@ -99,6 +103,7 @@ int ub_node_find_link(const ub_node_t *node, const char *name);
 const ub_link_t *ub_node_link(const ub_node_t *node, int link_id);
 int ub_node_set_mask(ub_node_t *node, int entity, int dest, uint8_t mask);
 int ub_node_get_mask(const ub_node_t *node, int entity, int dest, uint8_t *mask);
+int ub_node_link_attach(ub_node_t *node, int link_id, const ub_link_ops_t *ops, void *impl);
 int ub_node_link_detach(ub_node_t *node, int link_id);
 uint64_t ub_node_link_bad_frames(const ub_node_t *node, int link_id, ub_rx_reason_t reason);
 int ub_node_bind(ub_node_t *node, uint32_t instance, void *storage);

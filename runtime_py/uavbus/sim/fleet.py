@@ -9,12 +9,16 @@ How the parts meet (docs/scenarios.md):
    one is without reading its GPS;
  - every entity runs automatic routes (ub_route); each node's table starts with itself and the peers of its
    flows (the operator's knowledge); relays are learned;
- - a flow is a subscription at its destination (it re-requests by itself after outages, as the paper says);
+ - a flow is a subscription at its destination (it re-requests by itself after outages, as the paper says), or,
+   with `admin:`, a row of a Python ground station's administration table (subscription or publication), which
+   the flow outlives when that ground station goes out of range (docs/pubsub.md, "Who keeps a row alive");
  - a link's model is applied per port with the runtime's impairment (ub_ports_set_link_impairment(), stdin
    `link impair` of uavbus_node; memlink faults in process): loss, delay, jitter always, loss 1 while out of
    range or failed;
  - a vehicle that joins gets its links created on the running peers at run time (`link add`,
-   Node.add_link), and the ground station announces it to everybody (MEMBERSHIP add_entity).
+   Node.add_link), and the ground station announces it to everybody (MEMBERSHIP add_entity);
+ - a ground station may `move` (a new motion from the event on): its radio links follow the range model;
+ - `signed: true`: one fleet key, every node signs and refuses unsigned frames (routing frames included).
 """
 
 from __future__ import annotations
@@ -76,6 +80,7 @@ class Member:
     station: Station
     model: FlightModel
     links: list[LinkEnd] = field(default_factory=list)
+    model_t0: float = 0.0    # scenario time at which `model` starts (a ground station's `move`)
     proc: NodeProcess | None = None
     node: Any = None         # uavbus.Node for run: python
     dirs: VehicleDirectories | None = None
@@ -135,11 +140,20 @@ class FleetRun:
         self.epoch = 0.0
         self.catalogue: Any = None
         self.announcements: list[tuple[Any, int]] = []  # (Membership of a Python ground station, row)
+        self.admin_rows: dict[str, tuple[Any, int]] = {}  # flow name -> (Admin of its ground station, row)
+        self.final_stats: dict[str, dict[str, Any]] = {}  # process name -> its last `stats` event
+        self._calls: list[tuple[float, Callable[[FleetRun, float], None]]] = []
         self._modems: list[NullModem] = []
 
     # ---- time ------------------------------------------------------------------------------------------
     def t(self) -> float:
         return time.monotonic() - self.epoch
+
+    def call_at(self, t: float, fn: Callable[[FleetRun, float], None]) -> None:
+        """Calls fn(run, t) from the loop once scenario time `t` is reached (an operator's action that the
+        file format has no word for, e.g. a second administrator's row)."""
+        self._calls.append((t, fn))
+        self._calls.sort(key=lambda c: c[0])
 
     # ---- set-up ----------------------------------------------------------------------------------------
     def _plan_links(self) -> None:
@@ -185,9 +199,12 @@ class FleetRun:
         return next(link for link in self.links if end in link.ends)
 
     def _config(self, m: Member) -> Path:
-        """This node's table: itself with its links, and the peers of its flows (the operator's knowledge)."""
-        peers = sorted({f.source for f in self.sc.flows if f.destination == m.name} |
-                       {f.destination for f in self.sc.flows if f.source == m.name})
+        """This node's table: itself with its links, and the peers of its flows (the operator's knowledge); an
+        administrator also knows the ends of the flows it sets up. Signed scenarios get the fleet key."""
+        peers = sorted(({f.source for f in self.sc.flows if f.destination == m.name} |
+                        {f.destination for f in self.sc.flows if f.source == m.name} |
+                        {x for f in self.sc.flows if f.admin == m.name for x in (f.source, f.destination)})
+                       - {m.name})
         links = [e.name for e in sorted(m.links, key=lambda e: e.index)]
         if [e.index for e in sorted(m.links, key=lambda e: e.index)] != list(range(len(links))):
             # Indexes have holes (links added at run time, then a restart): keep positions with placeholders.
@@ -198,6 +215,11 @@ class FleetRun:
         path = self.out / "configs" / f"{m.name}.json"
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(doc, indent=1) + "\n")
+        if self.sc.signed:
+            from uavbus.sim.secure import signed_config
+
+            # One fleet key for every node (created once, mode 0600); counters in configs/state/.
+            path = signed_config(path, path.parent, keys_dir=self.out / "keys", name=f"{m.name}.signed.json")
         return path
 
     def _argv(self, m: Member) -> list[str]:
@@ -213,7 +235,7 @@ class FleetRun:
             if e.spec:
                 argv += ["--port", f"{e.name}={e.spec}"]
         for f in self.sc.flows:
-            if f.destination == m.name:
+            if f.destination == m.name and f.admin is None:
                 argv += ["--subscribe", f"{m.name}:{f.content}@{f.source}/{f.period_ms}"]
         return argv
 
@@ -241,8 +263,10 @@ class FleetRun:
         if m.station.is_vehicle:
             m.dirs = VehicleDirectories(node, m.model)
         for f in self.sc.flows:
-            if f.destination == m.name:
+            if f.destination == m.name and f.admin is None:
                 node.subscribe(m.name, f.content, source=f.source, period_ms=f.period_ms)
+            elif f.destination == m.name:
+                node.bind(f.content)   # storage for what an administrator will have sent here (idempotent)
         node.on_data(lambda msg, me=m.name: self._on_message(me, msg))
         m.node = node
         m.up = True
@@ -271,6 +295,10 @@ class FleetRun:
                 self._start_python(m)
         for link in self.links:
             link.created = all(e.station not in joins for e in link.ends)
+        # Where everybody stands at t = 0 is the starting state, not an event.
+        pos = self._positions(0.0)
+        for link in self.links:
+            link.out_of_range = pos[link.spec.a].distance(pos[link.spec.b]) > link.spec.range_m
         self._connect_memory()
         deadline = time.monotonic() + 15.0
         while any(m.starting for m in self.members.values()):
@@ -282,8 +310,15 @@ class FleetRun:
         for link in self.links:
             if link.created:
                 self._impair(link)
+        for f in self.sc.admin_flows:
+            # The operator fills the administration table (paper Figure 5) and activates the rows.
+            adm = self.members[f.admin].node.admin(f.admin)
+            row = adm.add(f.content, f.source, f.destination, f.period_ms, kind=f.kind)
+            adm.activate(row)
+            self.admin_rows[f.name] = (adm, row)
         self.log(f"[{self.sc.name}] {len(self.sc.vehicles)} vehicles, {len(self.sc.ground_stations)} ground "
-                 f"stations, {len(self.links)} links, {len(self.flows)} flows; t=0 in {-self.t():.1f} s")
+                 f"stations, {len(self.links)} links, {len(self.flows)} flows"
+                 f"{', signed' if self.sc.signed else ''}; t=0 in {-self.t():.1f} s")
 
     # ---- link models -------------------------------------------------------------------------------------
     def _impair(self, link: RunLink) -> None:
@@ -308,7 +343,7 @@ class FleetRun:
             link.memlink.set_faults({"loss_ppm": round(loss * 1e6), "delay_ms": s.delay_ms, "jitter_ms": s.jitter_ms})
 
     def _positions(self, t: float) -> dict[str, Any]:
-        return {name: m.model.sample(t) for name, m in self.members.items()}
+        return {name: m.model.sample(t - m.model_t0) for name, m in self.members.items()}
 
     def _range_step(self, t: float) -> None:
         pos = self._positions(t)
@@ -344,6 +379,11 @@ class FleetRun:
         elif kind == "add":
             self._join(self.members[target[0]])
         self._mark(t, kind, target, f"{kind} {' '.join(target)}")
+
+    def _move(self, name: str, motion: str, t: float) -> None:
+        m = self.members[name]
+        m.model, m.model_t0 = FlightModel(motion), t
+        self._mark(t, "move", (name,), f"move {name}")
 
     def _join(self, m: Member) -> None:
         """A vehicle joins: its links are created on the running peers (membership at run time), it starts,
@@ -421,6 +461,8 @@ class FleetRun:
         elif kind == "routes":
             frames = {name: int(li["frames_out"]) for name, li in ev.get("links", {}).items()}
             m.routes_seen.append((ev["t_ms"] / 1000.0 - self.epoch, run, frames))
+        elif kind == "stats":
+            self.final_stats[m.name] = ev
         elif kind == "error":
             self.log(f"[{self.sc.name}] {m.name}: {ev.get('message')}")
 
@@ -504,7 +546,12 @@ class FleetRun:
             if t >= 0.0:
                 while pending and pending[0].t <= t:
                     e = pending.pop(0)
-                    self._fire(e.kind, e.target, t)
+                    if e.kind == "move":
+                        self._move(e.target[0], e.motion, t)
+                    else:
+                        self._fire(e.kind, e.target, t)
+                while self._calls and self._calls[0][0] <= t:
+                    self._calls.pop(0)[1](self, t)
                 if t >= next_range:
                     self._range_step(t)
                     next_range = t + RANGE_STEP_S
@@ -521,8 +568,21 @@ class FleetRun:
             self._service()
             time.sleep(STEP_S)
 
+    def counters(self) -> dict[str, dict[str, Any]]:
+        """Node counters per station: Python nodes read now, processes from their last `stats` event."""
+        out: dict[str, dict[str, Any]] = {}
+        for name, m in self.members.items():
+            if m.node is not None:
+                out[name] = m.node.counters()
+            elif name in self.final_stats:
+                out[name] = dict(self.final_stats[name].get("node", {}))
+        return out
+
     def finish(self) -> dict[str, Any]:
         self._sample_routes()
+        for m in self.members.values():
+            if m.proc is not None and m.up:
+                m.proc.send("stats")
         end = time.monotonic() + 1.0
         while time.monotonic() < end:
             self._service()

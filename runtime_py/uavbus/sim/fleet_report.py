@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from uavbus.sim.fleet import FleetRun, FlowTrack
 
-__all__ = ["summarize", "plot_timeline", "flow_gaps"]
+__all__ = ["summarize", "plot_timeline", "flow_gaps", "window_delivery"]
 
 SETTLE_S = 2.0
 
@@ -43,6 +43,18 @@ def flow_gaps(tr: FlowTrack, end: float) -> list[tuple[float, float, bool]]:
     elif end - tr.last > gap_s:
         out.append((tr.last, end, True))
     return out
+
+
+def window_delivery(tr: FlowTrack, t0: float, t1: float) -> float | None:
+    """Deliveries of a flow in [t0, t1) (whole 0.5 s bins) over what its period promises there."""
+    k0, k1 = int(round(t0 / 0.5)), int(t1 / 0.5)
+    if k1 <= k0:
+        return None
+    got = sum(tr.bins.get(k, 0) for k in range(k0, k1))
+    return round(got / ((k1 - k0) * 500.0 / tr.spec.period_ms), 4)
+
+
+COUNTERS = ("handovers", "leases_expired", "nacks_relayed", "other_admin", "replies_unmatched")
 
 
 def _reconvergence(run: FleetRun, end: float) -> list[dict[str, Any]]:
@@ -124,6 +136,11 @@ def summarize(run: FleetRun) -> dict[str, Any]:
             "hops": tr.hops,
             "outages": [[round(a, 3), round(b, 3)] + (["open"] if o else []) for a, b, o in gaps],
         })
+        if f.admin is not None:
+            adm, row = run.admin_rows[name]
+            st = adm.status(row)
+            flows[-1].update({"admin": f.admin, "kind": f.kind, "admin_status": st["status"],
+                              "nack_reason": st["nack_reason"], "nack_relayed": st["nack_relayed"]})
     return {
         "scenario": run.sc.name, "file": run.sc.source, "duration_s": end, "seed": run.sc.seed,
         "routing": {"hello_ms": run.sc.routing.hello_ms, "dead_misses": run.sc.routing.dead_misses,
@@ -135,6 +152,8 @@ def summarize(run: FleetRun) -> dict[str, Any]:
         "processes": {m.name: {"starts": m.proc.starts, "running": m.proc.running}
                       for m in run.members.values() if m.proc is not None},
         "announcements": [ms.status(row) for ms, row in run.announcements],
+        "signed": run.sc.signed,
+        "counters": {name: {k: c.get(k, 0) for k in COUNTERS} for name, c in sorted(run.counters().items())},
     }
 
 

@@ -1,7 +1,9 @@
 """Child processes speaking the `uavbus_node` protocol: JSON lines on stdout, line commands on stdin.
 
 `NodeProcess` starts one program (normally ``uavbus_node``, examples/node/README.md), reads its stdout in
-a thread (every line a JSON event: ready, stats, rebound, error; anything else is kept as ``text``),
+a thread (every line a JSON event: ready, stats, rebound, error; a line that is not UTF-8, not JSON or not
+an object is kept as a ``text`` event with the reason, counted in ``bad_lines``, and never stops the
+reader),
 keeps the tail of stderr for error messages, and can be sent commands, killed with -9 and restarted with
 the same arguments. `ProcessGroup` owns several and guarantees that every process it started is gone when
 it closes -- on success, on an exception, on Ctrl-C, and at interpreter exit (atexit). Each child runs in
@@ -65,9 +67,10 @@ class NodeProcess:
         self.env = env
         self.events: list[Event] = []
         self.starts = 0
+        self.bad_lines = 0  # stdout lines that were not UTF-8 JSON objects (kept as "text" events)
         self._stderr: collections.deque[str] = collections.deque(maxlen=stderr_lines)
         self._cond = threading.Condition()
-        self._proc: subprocess.Popen[str] | None = None
+        self._proc: subprocess.Popen[bytes] | None = None
         self._threads: list[threading.Thread] = []
 
     # -- life cycle ---------------------------------------------------------------------------------------
@@ -75,9 +78,11 @@ class NodeProcess:
         if self.running:
             raise NodeError(f"{self.name}: already running (pid {self.pid})")
         self._stderr.clear()
+        # Binary pipes: each line is decoded here, so bytes a node should never have written cannot kill
+        # the reader thread (a decode error inside a text-mode iterator would).
         self._proc = subprocess.Popen(
             self.argv, cwd=self.cwd, env=self.env, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE, text=True, bufsize=1, start_new_session=True, preexec_fn=_child_setup)
+            stderr=subprocess.PIPE, start_new_session=True, preexec_fn=_child_setup)
         self.starts += 1
         run = self.starts
         self._threads = [
@@ -162,35 +167,48 @@ class NodeProcess:
         if self._proc is None or self._proc.stdin is None or self._proc.poll() is not None:
             raise NodeError(f"{self.name}: cannot send {line!r}: not running{self._exit_note()}")
         try:
-            self._proc.stdin.write(line.rstrip("\n") + "\n")
+            self._proc.stdin.write((line.rstrip("\n") + "\n").encode("utf-8"))
             self._proc.stdin.flush()
         except BrokenPipeError as e:
             raise NodeError(f"{self.name}: cannot send {line!r}: stdin closed{self._exit_note()}") from e
 
-    def _read_stdout(self, proc: subprocess.Popen[str], run: int) -> None:
+    @staticmethod
+    def _parse_line(raw: bytes) -> Event | None:
+        """One stdout line as an event; None for a blank line. Never raises."""
+        try:
+            line = raw.decode("utf-8").strip()
+        except UnicodeDecodeError:
+            return {"event": "text", "text": raw.decode("utf-8", "replace").strip(), "reason": "not UTF-8"}
+        if not line:
+            return None
+        try:
+            ev = json.loads(line)
+        except ValueError:
+            return {"event": "text", "text": line, "reason": "not JSON"}
+        if not isinstance(ev, dict):
+            return {"event": "text", "text": line, "reason": "not a JSON object"}
+        return ev
+
+    def _read_stdout(self, proc: subprocess.Popen[bytes], run: int) -> None:
         assert proc.stdout is not None
         for raw in proc.stdout:
-            line = raw.strip()
-            if not line:
+            ev = self._parse_line(raw)
+            if ev is None:
                 continue
-            try:
-                ev = json.loads(line)
-                if not isinstance(ev, dict):
-                    ev = {"event": "text", "text": line}
-            except json.JSONDecodeError:
-                ev = {"event": "text", "text": line}
             ev["_run"] = run
             ev["_rx_mono"] = time.monotonic()
             with self._cond:
+                if ev.get("event") == "text" and "reason" in ev:
+                    self.bad_lines += 1
                 self.events.append(ev)
                 self._cond.notify_all()
         with self._cond:
             self._cond.notify_all()
 
-    def _read_stderr(self, proc: subprocess.Popen[str]) -> None:
+    def _read_stderr(self, proc: subprocess.Popen[bytes]) -> None:
         assert proc.stderr is not None
         for raw in proc.stderr:
-            self._stderr.append(raw.rstrip("\n"))
+            self._stderr.append(raw.decode("utf-8", "replace").rstrip("\n"))
 
     def _exit_note(self) -> str:
         rc = self.returncode

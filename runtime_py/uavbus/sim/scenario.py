@@ -18,7 +18,8 @@ __all__ = ["Scenario", "Station", "LinkSpec", "FlowSpec", "EventSpec", "RoutingS
 MAX_LINKS = 8  # the paper's links per entity (UB_MAX_LINKS_PER_ENTITY)
 TRANSPORTS = ("udp", "tcp", "serial", "memory")
 MODELS = ("radio", "wire")
-EVENT_KINDS = ("kill", "restart", "add", "fail_link", "restore_link")
+EVENT_KINDS = ("kill", "restart", "add", "fail_link", "restore_link", "move")
+FLOW_KINDS = ("subscription", "publication")
 PRODUCED = ("gpsOut", "imuOut", "navFilterState")
 DATUM = {"lat": 32.3738, "lon": -84.9664, "alt": 120.0}
 
@@ -91,6 +92,9 @@ class FlowSpec:
     destination: str
     period_ms: int
     line: int
+    admin: str | None = None     # ground station whose administration table sets the flow up (None: the
+                                 # destination subscribes by itself)
+    kind: str = "subscription"   # the administration row's type (FLOW_KINDS)
 
     @property
     def gap_ms(self) -> int:
@@ -104,6 +108,7 @@ class EventSpec:
     kind: str                    # EVENT_KINDS
     target: tuple[str, ...]      # one name, or the two ends of a link
     line: int
+    motion: str = ""             # move: the station's new motion, sampled from the event's time
 
     def describe(self) -> str:
         return f"{self.kind} {'-'.join(self.target)}"
@@ -121,6 +126,11 @@ class Scenario:
     flows: tuple[FlowSpec, ...]
     events: tuple[EventSpec, ...]
     datum: dict[str, float] = field(default_factory=lambda: dict(DATUM))
+    signed: bool = False         # every node signs with one fleet key and refuses unsigned frames
+
+    @property
+    def admin_flows(self) -> list[FlowSpec]:
+        return [f for f in self.flows if f.admin is not None]
 
     def station(self, name: str) -> Station:
         return next(s for s in self.stations if s.name == name)
@@ -368,7 +378,7 @@ def _flows(src: _Src, node: Any, names: dict[str, int], stations: dict[str, Stat
     out = []
     for item in _seq(src, node, "flows"):
         m = _mapping(src, item, "flow", {"name": False, "content": True, "source": True, "destination": True,
-                                         "period_ms": True})
+                                         "period_ms": True, "admin": False, "kind": False})
         content = _choice(src, m["content"], "flow.content", PRODUCED)
         source = _known(src, m["source"], "flow.source", names)
         dest = _known(src, m["destination"], "flow.destination", names)
@@ -381,7 +391,19 @@ def _flows(src: _Src, node: Any, names: dict[str, int], stations: dict[str, Stat
         name = _scalar(src, m["name"], "flow.name") if "name" in m else f"{content}:{source}>{dest}"
         if any(f.name == name for f in out):
             raise src.fail(item, f"flow name '{name}' used twice; give each flow its own name")
-        out.append(FlowSpec(name, content, source, dest, period, _line(item)))
+        admin = None
+        if "admin" in m:
+            admin = _known(src, m["admin"], "flow.admin", names)
+            st = stations[admin]
+            if st.is_vehicle or st.run != "python":
+                raise src.fail(m["admin"], f"flow.admin: '{admin}' must be a ground station with run: python (its "
+                                           "administration table is the Python GCS API)")
+        if "kind" in m and admin is None:
+            raise src.fail(m["kind"], "flow.kind: only with 'admin' (the type of the administration row)")
+        kind = _choice(src, m["kind"], "flow.kind", FLOW_KINDS) if "kind" in m else "subscription"
+        if any(f.source == source and f.destination == dest and f.content == content for f in out):
+            raise src.fail(item, f"flow: {content} from {source} to {dest} is listed twice")
+        out.append(FlowSpec(name, content, source, dest, period, _line(item), admin, kind))
     return out
 
 
@@ -389,7 +411,7 @@ def _events(src: _Src, node: Any, names: dict[str, int], stations: dict[str, Sta
             links: list[LinkSpec]) -> list[EventSpec]:
     out = []
     for item in _seq(src, node, "events"):
-        m = _mapping(src, item, "event", {"t": True, **{k: False for k in EVENT_KINDS}})
+        m = _mapping(src, item, "event", {"t": True, "motion": False, **{k: False for k in EVENT_KINDS}})
         kinds = [k for k in EVENT_KINDS if k in m]
         if len(kinds) != 1:
             raise src.fail(item, f"event: give exactly one of {', '.join(EVENT_KINDS)} with its time t")
@@ -407,7 +429,17 @@ def _events(src: _Src, node: Any, names: dict[str, int], stations: dict[str, Sta
                                         "processes (run: process) can be killed and restarted")
             if kind == "add" and not st.is_vehicle:
                 raise src.fail(m[kind], "add: only vehicles join during a run; start ground stations at t=0")
-        out.append(EventSpec(t, kind, target, _line(item)))
+            if kind == "move" and st.is_vehicle:
+                raise src.fail(m[kind], f"move: '{st.name}' is a vehicle, whose own process flies its motion; "
+                                        "move ground stations (give vehicles waypoints instead)")
+        motion = ""
+        if kind == "move":
+            if "motion" not in m:
+                raise src.fail(item, "move: give the new motion, e.g. motion: \"waypoints:v=40,loop=0,pts=0/0;-2000/0\"")
+            motion = _motion(src, m["motion"], "event.motion")
+        elif "motion" in m:
+            raise src.fail(m["motion"], f"event.motion: only with move (this event is {kind})")
+        out.append(EventSpec(t, kind, target, _line(item), motion))
     out.sort(key=lambda e: (e.t, e.line))
     # Life cycle: restart after kill, no kill before an add, one add per vehicle.
     alive: dict[str, bool] = {n: True for n in names}
@@ -449,7 +481,7 @@ def parse_scenario(text: str, source: str = "<scenario>") -> Scenario:
     if root is None:
         raise ScenarioError(f"{source}:1: empty file; a scenario needs at least duration_s and vehicles")
     m = _mapping(src, root, "scenario", {"name": False, "duration_s": True, "seed": False, "routing": False,
-                                         "datum": False, "radio": False, "ground_stations": False,
+                                         "datum": False, "radio": False, "ground_stations": False, "signed": False,
                                          "vehicles": True, "links": False, "flows": False, "events": False})
     duration = _number(src, m["duration_s"], "duration_s", 1.0, 3600.0)
     seed = int(_number(src, m["seed"], "seed", 0, 2**31, True)) if "seed" in m else 1
@@ -474,9 +506,15 @@ def parse_scenario(text: str, source: str = "<scenario>") -> Scenario:
     links = _links(src, m["links"], seen, radio, by_name) if "links" in m else []
     flows = _flows(src, m["flows"], seen, by_name) if "flows" in m else []
     events = _events(src, m["events"], seen, by_name, duration, links) if "events" in m else []
+    if datum != DATUM:
+        events = [EventSpec(e.t, e.kind, e.target, e.line, e.motion + suffix) if e.motion else e for e in events]
     name = _scalar(src, m["name"], "name") if "name" in m else Path(source).stem
+    signed = False
+    if "signed" in m:
+        text = _choice(src, m["signed"], "signed", ("true", "false"))
+        signed = text == "true"
     return Scenario(name, source, duration, seed, routing, tuple(stations), tuple(links), tuple(flows), tuple(events),
-                    datum)
+                    datum, signed)
 
 
 def load_scenario(path: str | Path) -> Scenario:

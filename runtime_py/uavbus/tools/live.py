@@ -76,7 +76,7 @@ class Tool:
         finally:
             src.close()
         if src.log is not None and src.log.stats.ignored_bytes:
-            print(f"{src.log.path}: ignored the last {src.log.stats.ignored_bytes} bytes: "
+            print(f"{src.log.path}: ignored {src.log.stats.ignored_bytes} bytes: "
                   f"{src.log.stats.ignored_reason}", file=sys.stderr)
         return 0
 

@@ -2,6 +2,7 @@
 
     uavbus log info FILE
     uavbus log export FILE (--csv | --jsonl) [--only NAME[,NAME...]]... [--admin] [--numeric] [-o OUT]
+    uavbus log export FILE --mcap OUT [--only NAME[,NAME...]]...
     uavbus log play FILE --into SPEC [--only NAME[,NAME...]]... [--speed X | --fast] [--dir rx|tx|all]
 """
 
@@ -60,10 +61,14 @@ def _check_only(contents: Contents, only: list[str] | None, path: str) -> set[st
 
 
 def _truncation_note(log: LogReader) -> str:
+    """What the reader skipped (damage, a cut tail) and what the sequence numbers say is missing; "" if none."""
     s = log.stats
-    if not s.ignored_bytes:
-        return ""
-    return f"{log.path}: ignored the last {s.ignored_bytes} bytes: {s.ignored_reason}"
+    parts = []
+    if s.ignored_bytes:
+        parts.append(f"ignored {s.ignored_bytes} bytes: {s.ignored_reason}")
+    if s.missing_records:
+        parts.append(f"{s.missing_records} records missing by their sequence numbers (not written, or lost to damage)")
+    return f"{log.path}: " + "; ".join(parts) if parts else ""
 
 
 def cmd_info(args: argparse.Namespace, out: IO[str]) -> int:
@@ -109,7 +114,7 @@ def cmd_info(args: argparse.Namespace, out: IO[str]) -> int:
         print(f"bad frames: {log.stats.bad_frames} (record CRC held, frame check failed: {log.stats.by_reason})",
               file=out)
     note = _truncation_note(log)
-    print("tail:       " + (note or "complete (no truncated record)"), file=out)
+    print("damage:     " + (note or "none (nothing skipped, nothing missing)"), file=out)
     return 0
 
 
@@ -212,6 +217,7 @@ def build_parser() -> argparse.ArgumentParser:
     fmt = exp.add_mutually_exclusive_group(required=True)
     fmt.add_argument("--csv", action="store_true")
     fmt.add_argument("--jsonl", action="store_true")
+    fmt.add_argument("--mcap", metavar="OUT", help="an MCAP file for Foxglove and PlotJuggler (tools/mcap_export.py)")
     exp.add_argument("--only", action="append", metavar="NAME[,NAME...]",
                      help="only these contents (instance names); repeat it or separate names with commas")
     exp.add_argument("--admin", action="store_true", help="also export administrative frames (no values)")
@@ -245,6 +251,10 @@ def main(argv: list[str] | None = None, out: IO[str] | None = None) -> int:
     if args.cmd == "info":
         return cmd_info(args, out)
     if args.cmd == "export":
+        if args.mcap:
+            from uavbus.tools.mcap_export import cmd_export_mcap
+
+            return cmd_export_mcap(args, out)
         if args.output:
             with open(args.output, "w", encoding="utf-8", newline="") as f:
                 return cmd_export(args, f)

@@ -12,50 +12,171 @@
 
 #include "ub/ub_wire.h"
 
+/* Layout checks against clang's measurements: _Static_assert in C11; in C99, gcc and clang still
+ * know it (__extension__ keeps -pedantic quiet), other C99 compilers get a negative array size
+ * (the typedef's name says which check failed). */
+#if defined(__STDC_VERSION__) && __STDC_VERSION__ >= 201112L
+#define kinds_LAYOUT_ASSERT(cond, id, msg) _Static_assert(cond, msg)
+#elif defined(__GNUC__)
+#define kinds_LAYOUT_ASSERT(cond, id, msg) __extension__ _Static_assert(cond, msg)
+#else
+#define kinds_LAYOUT_ASSERT(cond, id, msg) typedef char kinds_layout_##id[(cond) ? 1 : -1]
+#endif
+
+/* Every file-scope declaration comes before the functions: gcc -std=c99 -pedantic spends time
+ * linear in the functions already defined on each declaration that follows them.
+ *
+ * A compiler or ABI that lays a type out differently from clang at generation time fails here. */
+/* struct all_kinds (all_kinds.h:33) */
+kinds_LAYOUT_ASSERT(sizeof(struct all_kinds) == 416u, all_kinds_size, "struct all_kinds: sizeof differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, c) == 0u, all_kinds_c, "struct all_kinds.c: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, sc) == 1u, all_kinds_sc, "struct all_kinds.sc: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, uc) == 2u, all_kinds_uc, "struct all_kinds.uc: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, s) == 4u, all_kinds_s, "struct all_kinds.s: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, us) == 6u, all_kinds_us, "struct all_kinds.us: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, i) == 8u, all_kinds_i, "struct all_kinds.i: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, ui) == 12u, all_kinds_ui, "struct all_kinds.ui: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, l) == 16u, all_kinds_l, "struct all_kinds.l: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, ul) == 24u, all_kinds_ul, "struct all_kinds.ul: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, ll) == 32u, all_kinds_ll, "struct all_kinds.ll: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, ull) == 40u, all_kinds_ull, "struct all_kinds.ull: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, i8) == 48u, all_kinds_i8, "struct all_kinds.i8: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, u16) == 50u, all_kinds_u16, "struct all_kinds.u16: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, i32) == 52u, all_kinds_i32, "struct all_kinds.i32: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, u64) == 56u, all_kinds_u64, "struct all_kinds.u64: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, flag) == 64u, all_kinds_flag, "struct all_kinds.flag: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, f) == 68u, all_kinds_f, "struct all_kinds.f: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, d) == 72u, all_kinds_d, "struct all_kinds.d: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, ld) == 80u, all_kinds_ld, "struct all_kinds.ld: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, mode) == 96u, all_kinds_mode, "struct all_kinds.mode: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, wide) == 104u, all_kinds_wide, "struct all_kinds.wide: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, tiny) == 112u, all_kinds_tiny, "struct all_kinds.tiny: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, vel) == 136u, all_kinds_vel, "struct all_kinds.vel: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, roll) == 148u, all_kinds_roll, "struct all_kinds.roll: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, pitch) == 150u, all_kinds_pitch, "struct all_kinds.pitch: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, unnamed_member) == 152u, all_kinds_unnamed_member, "struct all_kinds.unnamed_member: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, matrix) == 168u, all_kinds_matrix, "struct all_kinds.matrix: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, route) == 204u, all_kinds_route, "struct all_kinds.route: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, grid) == 268u, all_kinds_grid, "struct all_kinds.grid: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, bytes) == 316u, all_kinds_bytes, "struct all_kinds.bytes: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, raw) == 322u, all_kinds_raw, "struct all_kinds.raw: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, flags) == 328u, all_kinds_flags, "struct all_kinds.flags: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, hdr) == 331u, all_kinds_hdr, "struct all_kinds.hdr: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, name) == 338u, all_kinds_name, "struct all_kinds.name: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, text) == 360u, all_kinds_text, "struct all_kinds.text: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, ptr) == 368u, all_kinds_ptr, "struct all_kinds.ptr: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, handler) == 376u, all_kinds_handler, "struct all_kinds.handler: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, either) == 384u, all_kinds_either, "struct all_kinds.either: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, vp) == 392u, all_kinds_vp, "struct all_kinds.vp: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, count) == 400u, all_kinds_count, "struct all_kinds.count: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, tail) == 402u, all_kinds_tail, "struct all_kinds.tail: offset differs from the catalogue; regenerate");
+
+/* struct empty_set (all_kinds.h:28) */
+kinds_LAYOUT_ASSERT(sizeof(struct empty_set) == 16u, empty_set_size, "struct empty_set: sizeof differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct empty_set, label) == 0u, empty_set_label, "struct empty_set.label: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct empty_set, callback) == 8u, empty_set_callback, "struct empty_set.callback: offset differs from the catalogue; regenerate");
+
+/* struct packed_hdr (all_kinds.h:22) */
+kinds_LAYOUT_ASSERT(sizeof(struct packed_hdr) == 7u, packed_hdr_size, "struct packed_hdr: sizeof differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct packed_hdr, tag) == 0u, packed_hdr_tag, "struct packed_hdr.tag: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct packed_hdr, len) == 1u, packed_hdr_len, "struct packed_hdr.len: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct packed_hdr, crc) == 5u, packed_hdr_crc, "struct packed_hdr.crc: offset differs from the catalogue; regenerate");
+
+/* struct vec3 (all_kinds.h:13) */
+kinds_LAYOUT_ASSERT(sizeof(struct vec3) == 12u, vec3_size, "struct vec3: sizeof differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct vec3, x) == 0u, vec3_x, "struct vec3.x: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct vec3, y) == 4u, vec3_y, "struct vec3.y: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(struct vec3, z) == 8u, vec3_z, "struct vec3.z: offset differs from the catalogue; regenerate");
+
+/* waypoint_t (all_kinds.h:17) */
+kinds_LAYOUT_ASSERT(sizeof(waypoint_t) == 16u, waypoint_t_size, "waypoint_t: sizeof differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(waypoint_t, id) == 0u, waypoint_t_id, "waypoint_t.id: offset differs from the catalogue; regenerate");
+kinds_LAYOUT_ASSERT(offsetof(waypoint_t, pos) == 4u, waypoint_t_pos, "waypoint_t.pos: offset differs from the catalogue; regenerate");
+
+/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
+static int kinds_pack_all_kinds_any(const void *obj, uint8_t *buf, size_t cap);
+static int kinds_unpack_all_kinds_any(void *obj, const uint8_t *buf, size_t len);
+static int kinds_pack_empty_set_any(const void *obj, uint8_t *buf, size_t cap);
+static int kinds_unpack_empty_set_any(void *obj, const uint8_t *buf, size_t len);
+static int kinds_pack_packed_hdr_any(const void *obj, uint8_t *buf, size_t cap);
+static int kinds_unpack_packed_hdr_any(void *obj, const uint8_t *buf, size_t len);
+static int kinds_pack_vec3_any(const void *obj, uint8_t *buf, size_t cap);
+static int kinds_unpack_vec3_any(void *obj, const uint8_t *buf, size_t len);
+static int kinds_pack_waypoint_t_any(const void *obj, uint8_t *buf, size_t cap);
+static int kinds_unpack_waypoint_t_any(void *obj, const uint8_t *buf, size_t len);
+
+static const ub_type_desc_t kinds_types[5] = {
+    { "struct all_kinds", 0xc9215705u, 302u, 416u, kinds_pack_all_kinds_any, kinds_unpack_all_kinds_any },
+    { "struct empty_set", 0x42c4b0e3u, 0u, 16u, kinds_pack_empty_set_any, kinds_unpack_empty_set_any },
+    { "struct packed_hdr", 0xefc8c2ffu, 7u, 7u, kinds_pack_packed_hdr_any, kinds_unpack_packed_hdr_any },
+    { "struct vec3", 0x7a76ed67u, 12u, 12u, kinds_pack_vec3_any, kinds_unpack_vec3_any },
+    { "waypoint_t", 0x79ce9804u, 13u, 16u, kinds_pack_waypoint_t_any, kinds_unpack_waypoint_t_any },
+};
+
+static const ub_instance_desc_t kinds_instances[11] = {
+    { { 0x68, 0x64, 0x72, 0x31, 0x00, 0x00, 0x00, 0x68, 0x64, 0x72, 0x31, 0x00, 0x00, 0x00, 0x33, 0x57 }, "hdr1", &kinds_types[kinds_TYPE_packed_hdr] },
+    { { 0x6b, 0x69, 0x6e, 0x64, 0x73, 0x00, 0x00, 0x6b, 0x69, 0x6e, 0x64, 0x73, 0x00, 0x00, 0xfa, 0x47 }, "kinds", &kinds_types[kinds_TYPE_all_kinds] },
+    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x30, 0x5d, 0x5b, 0x30, 0x5d, 0xa9, 0x1f }, "lattice[0][0]", &kinds_types[kinds_TYPE_vec3] },
+    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x30, 0x5d, 0x5b, 0x31, 0x5d, 0x98, 0x2c }, "lattice[0][1]", &kinds_types[kinds_TYPE_vec3] },
+    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x31, 0x5d, 0x5b, 0x30, 0x5d, 0xf8, 0xb5 }, "lattice[1][0]", &kinds_types[kinds_TYPE_vec3] },
+    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x31, 0x5d, 0x5b, 0x31, 0x5d, 0xc9, 0x86 }, "lattice[1][1]", &kinds_types[kinds_TYPE_vec3] },
+    { { 0x6d, 0x61, 0x63, 0x72, 0x6f, 0x5f, 0x73, 0x63, 0x72, 0x6f, 0x5f, 0x73, 0x65, 0x74, 0x2f, 0x47 }, "macro_set", &kinds_types[kinds_TYPE_vec3] },
+    { { 0x6e, 0x6f, 0x74, 0x68, 0x69, 0x6e, 0x67, 0x6e, 0x6f, 0x74, 0x68, 0x69, 0x6e, 0x67, 0x48, 0x93 }, "nothing", &kinds_types[kinds_TYPE_empty_set] },
+    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x69, 0x6e, 0x74, 0x73, 0x5b, 0x30, 0x5d, 0x7c, 0x11 }, "waypoints[0]", &kinds_types[kinds_TYPE_waypoint_t] },
+    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x69, 0x6e, 0x74, 0x73, 0x5b, 0x31, 0x5d, 0x4d, 0x22 }, "waypoints[1]", &kinds_types[kinds_TYPE_waypoint_t] },
+    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x69, 0x6e, 0x74, 0x73, 0x5b, 0x32, 0x5d, 0x1e, 0x77 }, "waypoints[2]", &kinds_types[kinds_TYPE_waypoint_t] },
+};
+
+/* The catalogue's self-description (the compact form of kinds.catalogue.json, NUL-terminated):
+ * binary logs copy it into their header so they stay decodable without this build. C99 bounds a
+ * string literal to 4095 characters, so the text is cut into rows held back to back in one struct
+ * of char arrays (char arrays have no padding between them: checked below). The rows are pieces,
+ * not strings: only the last has a NUL, hence `nonstring` where the compiler knows it. */
+#if defined(__has_attribute)
+#if __has_attribute(nonstring)
+#define kinds_NONSTRING __attribute__((nonstring))
+#endif
+#endif
+#ifndef kinds_NONSTRING
+#define kinds_NONSTRING
+#endif
+static const struct {
+    char row0[4000] kinds_NONSTRING;
+    char row1[4000] kinds_NONSTRING;
+    char row2[4000] kinds_NONSTRING;
+    char row3[1564];
+} kinds_catalogue_json = {
+    "{\"catalogue\":\"kinds\",\"abi_version\":2,\"id_scheme\":\"hashed\",\"types\":[{\"name\":\"struct all_kinds\",\"c_name\":\"struct all_kinds\",\"size\":416,\"align\":16,\"packed_attr\":false,\"packed_size\":302,\"fingerprint\":\"c9215705\",\"file\":\"all_kinds.h\",\"line\":33,\"fields\":[{\"name\":\"c\",\"wire\":\"i8\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"sc\",\"wire\":\"i8\",\"struct\":null,\"count\":[],\"offset\":1,\"bit_offset\":8,\"bits\":null,\"c_type\":\"signed char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"uc\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":2,\"bit_offset\":16,\"bits\":null,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"s\",\"wire\":\"i16\",\"struct\":null,\"count\":[],\"offset\":4,\"bit_offset\":32,\"bits\":null,\"c_type\":\"short\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"us\",\"wire\":\"u16\",\"struct\":null,\"count\":[],\"offset\":6,\"bit_offset\""
+    ":48,\"bits\":null,\"c_type\":\"unsigned short\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"i\",\"wire\":\"i32\",\"struct\":null,\"count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"int\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"ui\",\"wire\":\"u32\",\"struct\":null,\"count\":[],\"offset\":12,\"bit_offset\":96,\"bits\":null,\"c_type\":\"unsigned int\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"l\",\"wire\":\"i64\",\"struct\":null,\"count\":[],\"offset\":16,\"bit_offset\":128,\"bits\":null,\"c_type\":\"long\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"ul\",\"wire\":\"u64\",\"struct\":null,\"count\":[],\"offset\":24,\"bit_offset\":192,\"bits\":null,\"c_type\":\"unsigned long\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"ll\",\"wire\":\"i64\",\"struct\":null,\"count\":[],\"offset\":32,\"bit_offset\":256,\"bits\":null,\"c_type\":\"long long\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"ull\",\"wire\":\"u64\",\"struct\":"
+    "null,\"count\":[],\"offset\":40,\"bit_offset\":320,\"bits\":null,\"c_type\":\"unsigned long long\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"i8\",\"wire\":\"i8\",\"struct\":null,\"count\":[],\"offset\":48,\"bit_offset\":384,\"bits\":null,\"c_type\":\"signed char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"u16\",\"wire\":\"u16\",\"struct\":null,\"count\":[],\"offset\":50,\"bit_offset\":400,\"bits\":null,\"c_type\":\"unsigned short\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"i32\",\"wire\":\"i32\",\"struct\":null,\"count\":[],\"offset\":52,\"bit_offset\":416,\"bits\":null,\"c_type\":\"int\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"u64\",\"wire\":\"u64\",\"struct\":null,\"count\":[],\"offset\":56,\"bit_offset\":448,\"bits\":null,\"c_type\":\"unsigned long\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"flag\",\"wire\":\"bool\",\"struct\":null,\"count\":[],\"offset\":64,\"bit_offset\":512,\"bits\":null,\"c_type\":\"_Bool\",\"long_double\":false,\"skipped\":null,\"e"
+    "num\":null,\"text\":false},{\"name\":\"f\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":68,\"bit_offset\":544,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"d\",\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":72,\"bit_offset\":576,\"bits\":null,\"c_type\":\"double\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"ld\",\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":80,\"bit_offset\":640,\"bits\":null,\"c_type\":\"long double\",\"long_double\":true,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"mode\",\"wire\":\"u32\",\"struct\":null,\"count\":[],\"offset\":96,\"bit_offset\":768,\"bits\":null,\"c_type\":\"mode_e\",\"long_double\":false,\"skipped\":null,\"enum\":\"mode_e\",\"text\":false},{\"name\":\"wide\",\"wire\":\"i64\",\"struct\":null,\"count\":[],\"offset\":104,\"bit_offset\":832,\"bits\":null,\"c_type\":\"enum wide_e\",\"long_double\":false,\"skipped\":null,\"enum\":\"enum wide_e\",\"text\":false},{\"name\":\"tiny\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":112,\"bit_offset\":896,\"bits\":null,\"c_",
+    "type\":\"tiny_e\",\"long_double\":false,\"skipped\":null,\"enum\":\"tiny_e\",\"text\":false},{\"name\":\"bf_u3\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":113,\"bit_offset\":904,\"bits\":3,\"c_type\":\"unsigned int\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"bf_s5\",\"wire\":\"i8\",\"struct\":null,\"count\":[],\"offset\":113,\"bit_offset\":907,\"bits\":5,\"c_type\":\"int\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"bf_u12\",\"wire\":\"u16\",\"struct\":null,\"count\":[],\"offset\":114,\"bit_offset\":912,\"bits\":12,\"c_type\":\"unsigned int\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"bf_u40\",\"wire\":\"u64\",\"struct\":null,\"count\":[],\"offset\":120,\"bit_offset\":960,\"bits\":40,\"c_type\":\"unsigned long\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"bf_s33\",\"wire\":\"i64\",\"struct\":null,\"count\":[],\"offset\":128,\"bit_offset\":1024,\"bits\":33,\"c_type\":\"long\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"bf_b\",\"wire\":\"bool\",\"struct\":nul"
+    "l,\"count\":[],\"offset\":132,\"bit_offset\":1057,\"bits\":1,\"c_type\":\"_Bool\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"vel\",\"wire\":\"struct\",\"struct\":\"struct vec3\",\"count\":[],\"offset\":136,\"bit_offset\":1088,\"bits\":null,\"c_type\":\"struct vec3\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"roll\",\"wire\":\"i16\",\"struct\":null,\"count\":[],\"offset\":148,\"bit_offset\":1184,\"bits\":null,\"c_type\":\"short\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"pitch\",\"wire\":\"i16\",\"struct\":null,\"count\":[],\"offset\":150,\"bit_offset\":1200,\"bits\":null,\"c_type\":\"short\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"unnamed_member\",\"wire\":\"struct\",\"struct\":\"struct all_kinds::unnamed_member\",\"count\":[],\"offset\":152,\"bit_offset\":1216,\"bits\":null,\"c_type\":\"struct all_kinds::unnamed_member\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"matrix\",\"wire\":\"f32\",\"struct\":null,\"count\":[3,3],\"offset\":168,\"bit_offset\":1"
+    "344,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"route\",\"wire\":\"struct\",\"struct\":\"waypoint_t\",\"count\":[4],\"offset\":204,\"bit_offset\":1632,\"bits\":null,\"c_type\":\"waypoint_t\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"grid\",\"wire\":\"struct\",\"struct\":\"struct vec3\",\"count\":[2,2],\"offset\":268,\"bit_offset\":2144,\"bits\":null,\"c_type\":\"struct vec3\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"bytes\",\"wire\":\"i8\",\"struct\":null,\"count\":[6],\"offset\":316,\"bit_offset\":2528,\"bits\":null,\"c_type\":\"signed char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"raw\",\"wire\":\"u8\",\"struct\":null,\"count\":[2,3],\"offset\":322,\"bit_offset\":2576,\"bits\":null,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"flags\",\"wire\":\"bool\",\"struct\":null,\"count\":[3],\"offset\":328,\"bit_offset\":2624,\"bits\":null,\"c_type\":\"_Bool\",\"long_double\":false,\"skipped\":null,\"enu"
+    "m\":null,\"text\":false},{\"name\":\"hdr\",\"wire\":\"struct\",\"struct\":\"struct packed_hdr\",\"count\":[],\"offset\":331,\"bit_offset\":2648,\"bits\":null,\"c_type\":\"struct packed_hdr\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"name\",\"wire\":null,\"struct\":null,\"count\":[16],\"offset\":338,\"bit_offset\":2704,\"bits\":null,\"c_type\":\"char\",\"long_double\":false,\"skipped\":\"string\",\"enum\":null,\"text\":false},{\"name\":\"text\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":360,\"bit_offset\":2880,\"bits\":null,\"c_type\":\"char *\",\"long_double\":false,\"skipped\":\"pointer\",\"enum\":null,\"text\":false},{\"name\":\"ptr\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":368,\"bit_offset\":2944,\"bits\":null,\"c_type\":\"int *\",\"long_double\":false,\"skipped\":\"pointer\",\"enum\":null,\"text\":false},{\"name\":\"handler\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":376,\"bit_offset\":3008,\"bits\":null,\"c_type\":\"void (*)(void)\",\"long_double\":false,\"skipped\":\"pointer\",\"enum\":null,\"text\":false},{\"name\":\"either\",\"wire\":null,\"struct\":null,\"count\":",
+    "[],\"offset\":384,\"bit_offset\":3072,\"bits\":null,\"c_type\":\"union all_kinds::(unnamed at all_kinds.h:88:5)\",\"long_double\":false,\"skipped\":\"union\",\"enum\":null,\"text\":false},{\"name\":\"\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":388,\"bit_offset\":3104,\"bits\":null,\"c_type\":\"anonymous union\",\"long_double\":false,\"skipped\":\"union\",\"enum\":null,\"text\":false},{\"name\":\"vp\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":392,\"bit_offset\":3136,\"bits\":null,\"c_type\":\"struct vec3 *\",\"long_double\":false,\"skipped\":\"pointer\",\"enum\":null,\"text\":false},{\"name\":\"count\",\"wire\":\"u16\",\"struct\":null,\"count\":[],\"offset\":400,\"bit_offset\":3200,\"bits\":null,\"c_type\":\"unsigned short\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"tail\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":402,\"bit_offset\":3216,\"bits\":null,\"c_type\":\"uint8_t[]\",\"long_double\":false,\"skipped\":\"flexible array member\",\"enum\":null,\"text\":false}]},{\"name\":\"struct all_kinds::unnamed_member\",\"c_name\":null,\"size\":16,\"align\":8,\"packed"
+    "_attr\":false,\"packed_size\":9,\"fingerprint\":\"da0eece7\",\"file\":\"all_kinds.h\",\"line\":72,\"fields\":[{\"name\":\"a\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"b\",\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"double\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false}]},{\"name\":\"struct empty_set\",\"c_name\":\"struct empty_set\",\"size\":16,\"align\":8,\"packed_attr\":false,\"packed_size\":0,\"fingerprint\":\"42c4b0e3\",\"file\":\"all_kinds.h\",\"line\":28,\"fields\":[{\"name\":\"label\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"char *\",\"long_double\":false,\"skipped\":\"pointer\",\"enum\":null,\"text\":false},{\"name\":\"callback\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"void (*)(int)\",\"long_double\":false,\"skipped\":\"pointer\",\"enum\":null,\"text\":false}]},{\"name\":\"struct packed"
+    "_hdr\",\"c_name\":\"struct packed_hdr\",\"size\":7,\"align\":1,\"packed_attr\":true,\"packed_size\":7,\"fingerprint\":\"efc8c2ff\",\"file\":\"all_kinds.h\",\"line\":22,\"fields\":[{\"name\":\"tag\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"len\",\"wire\":\"u32\",\"struct\":null,\"count\":[],\"offset\":1,\"bit_offset\":8,\"bits\":null,\"c_type\":\"unsigned int\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"crc\",\"wire\":\"u16\",\"struct\":null,\"count\":[],\"offset\":5,\"bit_offset\":40,\"bits\":null,\"c_type\":\"unsigned short\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false}]},{\"name\":\"struct vec3\",\"c_name\":\"struct vec3\",\"size\":12,\"align\":4,\"packed_attr\":false,\"packed_size\":12,\"fingerprint\":\"7a76ed67\",\"file\":\"all_kinds.h\",\"line\":13,\"fields\":[{\"name\":\"x\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null,\"enum\":"
+    "null,\"text\":false},{\"name\":\"y\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":4,\"bit_offset\":32,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"z\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false}]},{\"name\":\"waypoint_t\",\"c_name\":\"waypoint_t\",\"size\":16,\"align\":4,\"packed_attr\":false,\"packed_size\":13,\"fingerprint\":\"79ce9804\",\"file\":\"all_kinds.h\",\"line\":17,\"fields\":[{\"name\":\"id\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"pos\",\"wire\":\"struct\",\"struct\":\"struct vec3\",\"count\":[],\"offset\":4,\"bit_offset\":32,\"bits\":null,\"c_type\":\"struct vec3\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false}]}],\"instances\":[{\"name\":\"hdr1\",\"type\":\"struct packed_hdr\",\"id\":\"68647231000000686472310000003357\",\"file\":\"all_kinds.h\"",
+    ",\"line\":104},{\"name\":\"kinds\",\"type\":\"struct all_kinds\",\"id\":\"6b696e647300006b696e64730000fa47\",\"file\":\"all_kinds.h\",\"line\":101},{\"name\":\"lattice[0][0]\",\"type\":\"struct vec3\",\"id\":\"6c617474696365655b305d5b305da91f\",\"file\":\"all_kinds.h\",\"line\":103},{\"name\":\"lattice[0][1]\",\"type\":\"struct vec3\",\"id\":\"6c617474696365655b305d5b315d982c\",\"file\":\"all_kinds.h\",\"line\":103},{\"name\":\"lattice[1][0]\",\"type\":\"struct vec3\",\"id\":\"6c617474696365655b315d5b305df8b5\",\"file\":\"all_kinds.h\",\"line\":103},{\"name\":\"lattice[1][1]\",\"type\":\"struct vec3\",\"id\":\"6c617474696365655b315d5b315dc986\",\"file\":\"all_kinds.h\",\"line\":103},{\"name\":\"macro_set\",\"type\":\"struct vec3\",\"id\":\"6d6163726f5f7363726f5f7365742f47\",\"file\":\"all_kinds.h\",\"line\":109},{\"name\":\"nothing\",\"type\":\"struct empty_set\",\"id\":\"6e6f7468696e676e6f7468696e674893\",\"file\":\"all_kinds.h\",\"line\":105},{\"name\":\"waypoints[0]\",\"type\":\"waypoint_t\",\"id\":\"776179706f696e696e74735b305d7c11\",\"file\":\"all_kinds.h\",\"line\":102},{\"name\":\"waypoints[1]\",\"type\":\"waypoint_t\",\"id\":\"7761"
+    "79706f696e696e74735b315d4d22\",\"file\":\"all_kinds.h\",\"line\":102},{\"name\":\"waypoints[2]\",\"type\":\"waypoint_t\",\"id\":\"776179706f696e696e74735b325d1e77\",\"file\":\"all_kinds.h\",\"line\":102}],\"skipped_instances\":[{\"name\":\"not_a_struct\",\"file\":\"all_kinds.h\",\"line\":106,\"reason\":\"union\"},{\"name\":\"not_visible\",\"file\":\"all_kinds.h\",\"line\":107,\"reason\":\"static: internal linkage, not visible to other translation units (remove `static` to publish it)\"}],\"enums\":{\"enum wide_e\":{\"WIDE_NEG\":-1,\"WIDE_BIG\":549755813887},\"mode_e\":{\"MODE_IDLE\":0,\"MODE_AUTO\":3},\"tiny_e\":{\"TINY_A\":1}}}",
+};
+kinds_LAYOUT_ASSERT(sizeof kinds_catalogue_json == 13564u, catalogue_json, "the catalogue text must be contiguous");
+
+const ub_catalogue_t kinds_catalogue = {
+    "kinds",
+    UB_ID_SCHEME_HASHED,
+    UB_CATALOGUE_ABI_VERSION,
+    kinds_types,
+    kinds_N_TYPES,
+    kinds_instances,
+    kinds_N_INSTANCES,
+    kinds_MAX_PACKED_SIZE,
+    (const char *)&kinds_catalogue_json,
+    13563u,
+};
+
 /* ---- struct all_kinds (all_kinds.h:33) ---- */
-/* A compiler or ABI that lays struct all_kinds out differently from clang at generation time fails here. */
-_Static_assert(sizeof(struct all_kinds) == 416u, "struct all_kinds: sizeof differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, c) == 0u, "struct all_kinds.c: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, sc) == 1u, "struct all_kinds.sc: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, uc) == 2u, "struct all_kinds.uc: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, s) == 4u, "struct all_kinds.s: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, us) == 6u, "struct all_kinds.us: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, i) == 8u, "struct all_kinds.i: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, ui) == 12u, "struct all_kinds.ui: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, l) == 16u, "struct all_kinds.l: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, ul) == 24u, "struct all_kinds.ul: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, ll) == 32u, "struct all_kinds.ll: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, ull) == 40u, "struct all_kinds.ull: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, i8) == 48u, "struct all_kinds.i8: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, u16) == 50u, "struct all_kinds.u16: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, i32) == 52u, "struct all_kinds.i32: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, u64) == 56u, "struct all_kinds.u64: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, flag) == 64u, "struct all_kinds.flag: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, f) == 68u, "struct all_kinds.f: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, d) == 72u, "struct all_kinds.d: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, ld) == 80u, "struct all_kinds.ld: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, mode) == 96u, "struct all_kinds.mode: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, wide) == 104u, "struct all_kinds.wide: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, tiny) == 112u, "struct all_kinds.tiny: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, vel) == 136u, "struct all_kinds.vel: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, roll) == 148u, "struct all_kinds.roll: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, pitch) == 150u, "struct all_kinds.pitch: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, unnamed_member) == 152u, "struct all_kinds.unnamed_member: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, matrix) == 168u, "struct all_kinds.matrix: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, route) == 204u, "struct all_kinds.route: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, grid) == 268u, "struct all_kinds.grid: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, bytes) == 316u, "struct all_kinds.bytes: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, raw) == 322u, "struct all_kinds.raw: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, flags) == 328u, "struct all_kinds.flags: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, hdr) == 331u, "struct all_kinds.hdr: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, name) == 338u, "struct all_kinds.name: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, text) == 360u, "struct all_kinds.text: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, ptr) == 368u, "struct all_kinds.ptr: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, handler) == 376u, "struct all_kinds.handler: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, either) == 384u, "struct all_kinds.either: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, vp) == 392u, "struct all_kinds.vp: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, count) == 400u, "struct all_kinds.count: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct all_kinds, tail) == 402u, "struct all_kinds.tail: offset differs from the catalogue; regenerate");
 /* name: skipped (string) */
 /* text: skipped (pointer) */
 /* ptr: skipped (pointer) */
@@ -66,7 +187,7 @@ _Static_assert(offsetof(struct all_kinds, tail) == 402u, "struct all_kinds.tail:
 /* tail: skipped (flexible array member) */
 
 int kinds_pack_all_kinds(const struct all_kinds *obj, uint8_t *buf, size_t cap) {
-    if (cap < kinds_all_kinds_PACKED_SIZE) return UB_ERR_NOSPACE;
+    if (cap < kinds_all_kinds_PACKED_SIZE) { return UB_ERR_NOSPACE; }
     uint8_t *p = buf;
     ub_put_u8(p, (uint8_t)obj->c);
     p += 1;
@@ -183,8 +304,26 @@ int kinds_pack_all_kinds(const struct all_kinds *obj, uint8_t *buf, size_t cap) 
     return (int)kinds_all_kinds_PACKED_SIZE;
 }
 
+/* Every wire value unpack would take for struct all_kinds is one pack gives back bit for bit: bools are 0 or
+ * 1, bitfields fit their width. Checked before anything is written, so a refusal leaves *obj alone. */
+static int kinds_valid_all_kinds(const uint8_t *buf) {
+    if (!(ub_get_u8(buf + 62) <= 1u)) { return 0; }
+    if (!(ub_get_u8(buf + 96) <= 7u)) { return 0; }
+    if (!((int8_t)ub_get_u8(buf + 97) >= -16 && (int8_t)ub_get_u8(buf + 97) <= 15)) { return 0; }
+    if (!(ub_get_u16le(buf + 98) <= 4095u)) { return 0; }
+    if (!(ub_get_u64le(buf + 100) <= UINT64_C(1099511627775))) { return 0; }
+    if (!((int64_t)ub_get_u64le(buf + 108) >= INT64_C(-4294967296) && (int64_t)ub_get_u64le(buf + 108) <= INT64_C(4294967295))) { return 0; }
+    if (!(ub_get_u8(buf + 116) <= 1u)) { return 0; }
+    for (size_t k = 0; k < 3u; k++) {
+        const uint8_t *q = buf + 290 + k * 1u;
+        if (!(ub_get_u8(q) <= 1u)) { return 0; }
+    }
+    return 1;
+}
+
 int kinds_unpack_all_kinds(struct all_kinds *obj, const uint8_t *buf, size_t len) {
-    if (len < kinds_all_kinds_PACKED_SIZE) return UB_ERR_TRUNCATED;
+    if (len < kinds_all_kinds_PACKED_SIZE) { return UB_ERR_TRUNCATED; }
+    if (!kinds_valid_all_kinds(buf)) { return UB_ERR_RANGE; }
     const uint8_t *p = buf;
     obj->c = (int8_t)ub_get_u8(p);
     p += 1;
@@ -301,7 +440,6 @@ int kinds_unpack_all_kinds(struct all_kinds *obj, const uint8_t *buf, size_t len
     return (int)kinds_all_kinds_PACKED_SIZE;
 }
 
-/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int kinds_pack_all_kinds_any(const void *obj, uint8_t *buf, size_t cap) {
     return kinds_pack_all_kinds((const struct all_kinds *)obj, buf, cap);
 }
@@ -310,10 +448,6 @@ static int kinds_unpack_all_kinds_any(void *obj, const uint8_t *buf, size_t len)
 }
 
 /* ---- struct empty_set (all_kinds.h:28) ---- */
-/* A compiler or ABI that lays struct empty_set out differently from clang at generation time fails here. */
-_Static_assert(sizeof(struct empty_set) == 16u, "struct empty_set: sizeof differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct empty_set, label) == 0u, "struct empty_set.label: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct empty_set, callback) == 8u, "struct empty_set.callback: offset differs from the catalogue; regenerate");
 /* label: skipped (pointer) */
 /* callback: skipped (pointer) */
 
@@ -331,7 +465,6 @@ int kinds_unpack_empty_set(struct empty_set *obj, const uint8_t *buf, size_t len
     return (int)kinds_empty_set_PACKED_SIZE;
 }
 
-/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int kinds_pack_empty_set_any(const void *obj, uint8_t *buf, size_t cap) {
     return kinds_pack_empty_set((const struct empty_set *)obj, buf, cap);
 }
@@ -340,14 +473,9 @@ static int kinds_unpack_empty_set_any(void *obj, const uint8_t *buf, size_t len)
 }
 
 /* ---- struct packed_hdr (all_kinds.h:22) ---- */
-/* A compiler or ABI that lays struct packed_hdr out differently from clang at generation time fails here. */
-_Static_assert(sizeof(struct packed_hdr) == 7u, "struct packed_hdr: sizeof differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct packed_hdr, tag) == 0u, "struct packed_hdr.tag: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct packed_hdr, len) == 1u, "struct packed_hdr.len: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct packed_hdr, crc) == 5u, "struct packed_hdr.crc: offset differs from the catalogue; regenerate");
 
 int kinds_pack_packed_hdr(const struct packed_hdr *obj, uint8_t *buf, size_t cap) {
-    if (cap < kinds_packed_hdr_PACKED_SIZE) return UB_ERR_NOSPACE;
+    if (cap < kinds_packed_hdr_PACKED_SIZE) { return UB_ERR_NOSPACE; }
     uint8_t *p = buf;
     ub_put_u8(p, (uint8_t)obj->tag);
     p += 1;
@@ -359,7 +487,7 @@ int kinds_pack_packed_hdr(const struct packed_hdr *obj, uint8_t *buf, size_t cap
 }
 
 int kinds_unpack_packed_hdr(struct packed_hdr *obj, const uint8_t *buf, size_t len) {
-    if (len < kinds_packed_hdr_PACKED_SIZE) return UB_ERR_TRUNCATED;
+    if (len < kinds_packed_hdr_PACKED_SIZE) { return UB_ERR_TRUNCATED; }
     const uint8_t *p = buf;
     obj->tag = ub_get_u8(p);
     p += 1;
@@ -370,7 +498,6 @@ int kinds_unpack_packed_hdr(struct packed_hdr *obj, const uint8_t *buf, size_t l
     return (int)kinds_packed_hdr_PACKED_SIZE;
 }
 
-/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int kinds_pack_packed_hdr_any(const void *obj, uint8_t *buf, size_t cap) {
     return kinds_pack_packed_hdr((const struct packed_hdr *)obj, buf, cap);
 }
@@ -379,14 +506,9 @@ static int kinds_unpack_packed_hdr_any(void *obj, const uint8_t *buf, size_t len
 }
 
 /* ---- struct vec3 (all_kinds.h:13) ---- */
-/* A compiler or ABI that lays struct vec3 out differently from clang at generation time fails here. */
-_Static_assert(sizeof(struct vec3) == 12u, "struct vec3: sizeof differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct vec3, x) == 0u, "struct vec3.x: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct vec3, y) == 4u, "struct vec3.y: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct vec3, z) == 8u, "struct vec3.z: offset differs from the catalogue; regenerate");
 
 int kinds_pack_vec3(const struct vec3 *obj, uint8_t *buf, size_t cap) {
-    if (cap < kinds_vec3_PACKED_SIZE) return UB_ERR_NOSPACE;
+    if (cap < kinds_vec3_PACKED_SIZE) { return UB_ERR_NOSPACE; }
     uint8_t *p = buf;
     ub_put_f32le(p, obj->x);
     p += 4;
@@ -398,7 +520,7 @@ int kinds_pack_vec3(const struct vec3 *obj, uint8_t *buf, size_t cap) {
 }
 
 int kinds_unpack_vec3(struct vec3 *obj, const uint8_t *buf, size_t len) {
-    if (len < kinds_vec3_PACKED_SIZE) return UB_ERR_TRUNCATED;
+    if (len < kinds_vec3_PACKED_SIZE) { return UB_ERR_TRUNCATED; }
     const uint8_t *p = buf;
     obj->x = ub_get_f32le(p);
     p += 4;
@@ -409,7 +531,6 @@ int kinds_unpack_vec3(struct vec3 *obj, const uint8_t *buf, size_t len) {
     return (int)kinds_vec3_PACKED_SIZE;
 }
 
-/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int kinds_pack_vec3_any(const void *obj, uint8_t *buf, size_t cap) {
     return kinds_pack_vec3((const struct vec3 *)obj, buf, cap);
 }
@@ -418,13 +539,9 @@ static int kinds_unpack_vec3_any(void *obj, const uint8_t *buf, size_t len) {
 }
 
 /* ---- waypoint_t (all_kinds.h:17) ---- */
-/* A compiler or ABI that lays waypoint_t out differently from clang at generation time fails here. */
-_Static_assert(sizeof(waypoint_t) == 16u, "waypoint_t: sizeof differs from the catalogue; regenerate");
-_Static_assert(offsetof(waypoint_t, id) == 0u, "waypoint_t.id: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(waypoint_t, pos) == 4u, "waypoint_t.pos: offset differs from the catalogue; regenerate");
 
 int kinds_pack_waypoint_t(const waypoint_t *obj, uint8_t *buf, size_t cap) {
-    if (cap < kinds_waypoint_t_PACKED_SIZE) return UB_ERR_NOSPACE;
+    if (cap < kinds_waypoint_t_PACKED_SIZE) { return UB_ERR_NOSPACE; }
     uint8_t *p = buf;
     ub_put_u8(p, (uint8_t)obj->id);
     p += 1;
@@ -438,7 +555,7 @@ int kinds_pack_waypoint_t(const waypoint_t *obj, uint8_t *buf, size_t cap) {
 }
 
 int kinds_unpack_waypoint_t(waypoint_t *obj, const uint8_t *buf, size_t len) {
-    if (len < kinds_waypoint_t_PACKED_SIZE) return UB_ERR_TRUNCATED;
+    if (len < kinds_waypoint_t_PACKED_SIZE) { return UB_ERR_TRUNCATED; }
     const uint8_t *p = buf;
     obj->id = ub_get_u8(p);
     p += 1;
@@ -451,172 +568,9 @@ int kinds_unpack_waypoint_t(waypoint_t *obj, const uint8_t *buf, size_t len) {
     return (int)kinds_waypoint_t_PACKED_SIZE;
 }
 
-/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int kinds_pack_waypoint_t_any(const void *obj, uint8_t *buf, size_t cap) {
     return kinds_pack_waypoint_t((const waypoint_t *)obj, buf, cap);
 }
 static int kinds_unpack_waypoint_t_any(void *obj, const uint8_t *buf, size_t len) {
     return kinds_unpack_waypoint_t((waypoint_t *)obj, buf, len);
 }
-
-static const ub_type_desc_t kinds_types[5] = {
-    { "struct all_kinds", 0xc9215705u, 302u, 416u, kinds_pack_all_kinds_any, kinds_unpack_all_kinds_any },
-    { "struct empty_set", 0x42c4b0e3u, 0u, 16u, kinds_pack_empty_set_any, kinds_unpack_empty_set_any },
-    { "struct packed_hdr", 0xefc8c2ffu, 7u, 7u, kinds_pack_packed_hdr_any, kinds_unpack_packed_hdr_any },
-    { "struct vec3", 0x7a76ed67u, 12u, 12u, kinds_pack_vec3_any, kinds_unpack_vec3_any },
-    { "waypoint_t", 0x79ce9804u, 13u, 16u, kinds_pack_waypoint_t_any, kinds_unpack_waypoint_t_any },
-};
-
-static const ub_instance_desc_t kinds_instances[11] = {
-    { { 0x68, 0x64, 0x72, 0x31, 0x00, 0x00, 0x00, 0x68, 0x64, 0x72, 0x31, 0x00, 0x00, 0x00, 0x33, 0x57 }, "hdr1", &kinds_types[kinds_TYPE_packed_hdr] },
-    { { 0x6b, 0x69, 0x6e, 0x64, 0x73, 0x00, 0x00, 0x6b, 0x69, 0x6e, 0x64, 0x73, 0x00, 0x00, 0xfa, 0x47 }, "kinds", &kinds_types[kinds_TYPE_all_kinds] },
-    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x30, 0x5d, 0x5b, 0x30, 0x5d, 0xa9, 0x1f }, "lattice[0][0]", &kinds_types[kinds_TYPE_vec3] },
-    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x30, 0x5d, 0x5b, 0x31, 0x5d, 0x98, 0x2c }, "lattice[0][1]", &kinds_types[kinds_TYPE_vec3] },
-    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x31, 0x5d, 0x5b, 0x30, 0x5d, 0xf8, 0xb5 }, "lattice[1][0]", &kinds_types[kinds_TYPE_vec3] },
-    { { 0x6c, 0x61, 0x74, 0x74, 0x69, 0x63, 0x65, 0x65, 0x5b, 0x31, 0x5d, 0x5b, 0x31, 0x5d, 0xc9, 0x86 }, "lattice[1][1]", &kinds_types[kinds_TYPE_vec3] },
-    { { 0x6d, 0x61, 0x63, 0x72, 0x6f, 0x5f, 0x73, 0x63, 0x72, 0x6f, 0x5f, 0x73, 0x65, 0x74, 0x2f, 0x47 }, "macro_set", &kinds_types[kinds_TYPE_vec3] },
-    { { 0x6e, 0x6f, 0x74, 0x68, 0x69, 0x6e, 0x67, 0x6e, 0x6f, 0x74, 0x68, 0x69, 0x6e, 0x67, 0x48, 0x93 }, "nothing", &kinds_types[kinds_TYPE_empty_set] },
-    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x69, 0x6e, 0x74, 0x73, 0x5b, 0x30, 0x5d, 0x7c, 0x11 }, "waypoints[0]", &kinds_types[kinds_TYPE_waypoint_t] },
-    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x69, 0x6e, 0x74, 0x73, 0x5b, 0x31, 0x5d, 0x4d, 0x22 }, "waypoints[1]", &kinds_types[kinds_TYPE_waypoint_t] },
-    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x69, 0x6e, 0x74, 0x73, 0x5b, 0x32, 0x5d, 0x1e, 0x77 }, "waypoints[2]", &kinds_types[kinds_TYPE_waypoint_t] },
-};
-
-/* The catalogue's self-description (the compact form of kinds.catalogue.json): binary logs copy it
- * into their header so they stay decodable without this build. */
-static const char kinds_catalogue_json[] =
-    "{\"catalogue\":\"kinds\",\"abi_version\":2,\"id_scheme\":\"hashed\",\"types\":[{\"name\":\"struct all_kinds\",\"c"
-    "_name\":\"struct all_kinds\",\"size\":416,\"align\":16,\"packed_attr\":false,\"packed_size\":302,\"fingerpri"
-    "nt\":\"c9215705\",\"file\":\"all_kinds.h\",\"line\":33,\"fields\":[{\"name\":\"c\",\"wire\":\"i8\",\"struct\":null,\"c"
-    "ount\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"char\",\"long_double\":false,\"skipped\":nul"
-    "l},{\"name\":\"sc\",\"wire\":\"i8\",\"struct\":null,\"count\":[],\"offset\":1,\"bit_offset\":8,\"bits\":null,\"c_ty"
-    "pe\":\"signed char\",\"long_double\":false,\"skipped\":null},{\"name\":\"uc\",\"wire\":\"u8\",\"struct\":null,\"co"
-    "unt\":[],\"offset\":2,\"bit_offset\":16,\"bits\":null,\"c_type\":\"unsigned char\",\"long_double\":false,\"ski"
-    "pped\":null},{\"name\":\"s\",\"wire\":\"i16\",\"struct\":null,\"count\":[],\"offset\":4,\"bit_offset\":32,\"bits\":"
-    "null,\"c_type\":\"short\",\"long_double\":false,\"skipped\":null},{\"name\":\"us\",\"wire\":\"u16\",\"struct\":nul"
-    "l,\"count\":[],\"offset\":6,\"bit_offset\":48,\"bits\":null,\"c_type\":\"unsigned short\",\"long_double\":fals"
-    "e,\"skipped\":null},{\"name\":\"i\",\"wire\":\"i32\",\"struct\":null,\"count\":[],\"offset\":8,\"bit_offset\":64,\""
-    "bits\":null,\"c_type\":\"int\",\"long_double\":false,\"skipped\":null},{\"name\":\"ui\",\"wire\":\"u32\",\"struct\""
-    ":null,\"count\":[],\"offset\":12,\"bit_offset\":96,\"bits\":null,\"c_type\":\"unsigned int\",\"long_double\":f"
-    "alse,\"skipped\":null},{\"name\":\"l\",\"wire\":\"i64\",\"struct\":null,\"count\":[],\"offset\":16,\"bit_offset\":"
-    "128,\"bits\":null,\"c_type\":\"long\",\"long_double\":false,\"skipped\":null},{\"name\":\"ul\",\"wire\":\"u64\",\"s"
-    "truct\":null,\"count\":[],\"offset\":24,\"bit_offset\":192,\"bits\":null,\"c_type\":\"unsigned long\",\"long_d"
-    "ouble\":false,\"skipped\":null},{\"name\":\"ll\",\"wire\":\"i64\",\"struct\":null,\"count\":[],\"offset\":32,\"bit"
-    "_offset\":256,\"bits\":null,\"c_type\":\"long long\",\"long_double\":false,\"skipped\":null},{\"name\":\"ull\","
-    "\"wire\":\"u64\",\"struct\":null,\"count\":[],\"offset\":40,\"bit_offset\":320,\"bits\":null,\"c_type\":\"unsigne"
-    "d long long\",\"long_double\":false,\"skipped\":null},{\"name\":\"i8\",\"wire\":\"i8\",\"struct\":null,\"count\":"
-    "[],\"offset\":48,\"bit_offset\":384,\"bits\":null,\"c_type\":\"signed char\",\"long_double\":false,\"skipped\""
-    ":null},{\"name\":\"u16\",\"wire\":\"u16\",\"struct\":null,\"count\":[],\"offset\":50,\"bit_offset\":400,\"bits\":n"
-    "ull,\"c_type\":\"unsigned short\",\"long_double\":false,\"skipped\":null},{\"name\":\"i32\",\"wire\":\"i32\",\"st"
-    "ruct\":null,\"count\":[],\"offset\":52,\"bit_offset\":416,\"bits\":null,\"c_type\":\"int\",\"long_double\":fals"
-    "e,\"skipped\":null},{\"name\":\"u64\",\"wire\":\"u64\",\"struct\":null,\"count\":[],\"offset\":56,\"bit_offset\":4"
-    "48,\"bits\":null,\"c_type\":\"unsigned long\",\"long_double\":false,\"skipped\":null},{\"name\":\"flag\",\"wire"
-    "\":\"bool\",\"struct\":null,\"count\":[],\"offset\":64,\"bit_offset\":512,\"bits\":null,\"c_type\":\"_Bool\",\"lon"
-    "g_double\":false,\"skipped\":null},{\"name\":\"f\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":68,\"b"
-    "it_offset\":544,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null},{\"name\":\"d\",\"wir"
-    "e\":\"f64\",\"struct\":null,\"count\":[],\"offset\":72,\"bit_offset\":576,\"bits\":null,\"c_type\":\"double\",\"lo"
-    "ng_double\":false,\"skipped\":null},{\"name\":\"ld\",\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":80,"
-    "\"bit_offset\":640,\"bits\":null,\"c_type\":\"long double\",\"long_double\":true,\"skipped\":null},{\"name\":\""
-    "mode\",\"wire\":\"u32\",\"struct\":null,\"count\":[],\"offset\":96,\"bit_offset\":768,\"bits\":null,\"c_type\":\"m"
-    "ode_e\",\"long_double\":false,\"skipped\":null},{\"name\":\"wide\",\"wire\":\"i64\",\"struct\":null,\"count\":[],"
-    "\"offset\":104,\"bit_offset\":832,\"bits\":null,\"c_type\":\"enum wide_e\",\"long_double\":false,\"skipped\":n"
-    "ull},{\"name\":\"tiny\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":112,\"bit_offset\":896,\"bits\":nu"
-    "ll,\"c_type\":\"tiny_e\",\"long_double\":false,\"skipped\":null},{\"name\":\"bf_u3\",\"wire\":\"u8\",\"struct\":nu"
-    "ll,\"count\":[],\"offset\":113,\"bit_offset\":904,\"bits\":3,\"c_type\":\"unsigned int\",\"long_double\":false"
-    ",\"skipped\":null},{\"name\":\"bf_s5\",\"wire\":\"i8\",\"struct\":null,\"count\":[],\"offset\":113,\"bit_offset\":"
-    "907,\"bits\":5,\"c_type\":\"int\",\"long_double\":false,\"skipped\":null},{\"name\":\"bf_u12\",\"wire\":\"u16\",\"s"
-    "truct\":null,\"count\":[],\"offset\":114,\"bit_offset\":912,\"bits\":12,\"c_type\":\"unsigned int\",\"long_dou"
-    "ble\":false,\"skipped\":null},{\"name\":\"bf_u40\",\"wire\":\"u64\",\"struct\":null,\"count\":[],\"offset\":120,\""
-    "bit_offset\":960,\"bits\":40,\"c_type\":\"unsigned long\",\"long_double\":false,\"skipped\":null},{\"name\":\""
-    "bf_s33\",\"wire\":\"i64\",\"struct\":null,\"count\":[],\"offset\":128,\"bit_offset\":1024,\"bits\":33,\"c_type\":"
-    "\"long\",\"long_double\":false,\"skipped\":null},{\"name\":\"bf_b\",\"wire\":\"bool\",\"struct\":null,\"count\":[]"
-    ",\"offset\":132,\"bit_offset\":1057,\"bits\":1,\"c_type\":\"_Bool\",\"long_double\":false,\"skipped\":null},{\""
-    "name\":\"vel\",\"wire\":\"struct\",\"struct\":\"struct vec3\",\"count\":[],\"offset\":136,\"bit_offset\":1088,\"bi"
-    "ts\":null,\"c_type\":\"struct vec3\",\"long_double\":false,\"skipped\":null},{\"name\":\"roll\",\"wire\":\"i16\","
-    "\"struct\":null,\"count\":[],\"offset\":148,\"bit_offset\":1184,\"bits\":null,\"c_type\":\"short\",\"long_doubl"
-    "e\":false,\"skipped\":null},{\"name\":\"pitch\",\"wire\":\"i16\",\"struct\":null,\"count\":[],\"offset\":150,\"bit"
-    "_offset\":1200,\"bits\":null,\"c_type\":\"short\",\"long_double\":false,\"skipped\":null},{\"name\":\"unnamed_"
-    "member\",\"wire\":\"struct\",\"struct\":\"struct all_kinds::unnamed_member\",\"count\":[],\"offset\":152,\"bit"
-    "_offset\":1216,\"bits\":null,\"c_type\":\"struct all_kinds::unnamed_member\",\"long_double\":false,\"skipp"
-    "ed\":null},{\"name\":\"matrix\",\"wire\":\"f32\",\"struct\":null,\"count\":[3,3],\"offset\":168,\"bit_offset\":13"
-    "44,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null},{\"name\":\"route\",\"wire\":\"stru"
-    "ct\",\"struct\":\"waypoint_t\",\"count\":[4],\"offset\":204,\"bit_offset\":1632,\"bits\":null,\"c_type\":\"waypo"
-    "int_t\",\"long_double\":false,\"skipped\":null},{\"name\":\"grid\",\"wire\":\"struct\",\"struct\":\"struct vec3\""
-    ",\"count\":[2,2],\"offset\":268,\"bit_offset\":2144,\"bits\":null,\"c_type\":\"struct vec3\",\"long_double\":f"
-    "alse,\"skipped\":null},{\"name\":\"bytes\",\"wire\":\"i8\",\"struct\":null,\"count\":[6],\"offset\":316,\"bit_off"
-    "set\":2528,\"bits\":null,\"c_type\":\"signed char\",\"long_double\":false,\"skipped\":null},{\"name\":\"raw\",\""
-    "wire\":\"u8\",\"struct\":null,\"count\":[2,3],\"offset\":322,\"bit_offset\":2576,\"bits\":null,\"c_type\":\"unsi"
-    "gned char\",\"long_double\":false,\"skipped\":null},{\"name\":\"flags\",\"wire\":\"bool\",\"struct\":null,\"coun"
-    "t\":[3],\"offset\":328,\"bit_offset\":2624,\"bits\":null,\"c_type\":\"_Bool\",\"long_double\":false,\"skipped\""
-    ":null},{\"name\":\"hdr\",\"wire\":\"struct\",\"struct\":\"struct packed_hdr\",\"count\":[],\"offset\":331,\"bit_o"
-    "ffset\":2648,\"bits\":null,\"c_type\":\"struct packed_hdr\",\"long_double\":false,\"skipped\":null},{\"name\""
-    ":\"name\",\"wire\":null,\"struct\":null,\"count\":[16],\"offset\":338,\"bit_offset\":2704,\"bits\":null,\"c_typ"
-    "e\":\"char\",\"long_double\":false,\"skipped\":\"string\"},{\"name\":\"text\",\"wire\":null,\"struct\":null,\"coun"
-    "t\":[],\"offset\":360,\"bit_offset\":2880,\"bits\":null,\"c_type\":\"char *\",\"long_double\":false,\"skipped\""
-    ":\"pointer\"},{\"name\":\"ptr\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":368,\"bit_offset\":2944,\"b"
-    "its\":null,\"c_type\":\"int *\",\"long_double\":false,\"skipped\":\"pointer\"},{\"name\":\"handler\",\"wire\":nul"
-    "l,\"struct\":null,\"count\":[],\"offset\":376,\"bit_offset\":3008,\"bits\":null,\"c_type\":\"void (*)(void)\","
-    "\"long_double\":false,\"skipped\":\"pointer\"},{\"name\":\"either\",\"wire\":null,\"struct\":null,\"count\":[],\""
-    "offset\":384,\"bit_offset\":3072,\"bits\":null,\"c_type\":\"union all_kinds::(unnamed at all_kinds.h:88:"
-    "5)\",\"long_double\":false,\"skipped\":\"union\"},{\"name\":\"\",\"wire\":null,\"struct\":null,\"count\":[],\"offs"
-    "et\":388,\"bit_offset\":3104,\"bits\":null,\"c_type\":\"anonymous union\",\"long_double\":false,\"skipped\":\""
-    "union\"},{\"name\":\"vp\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":392,\"bit_offset\":3136,\"bits\":"
-    "null,\"c_type\":\"struct vec3 *\",\"long_double\":false,\"skipped\":\"pointer\"},{\"name\":\"count\",\"wire\":\"u"
-    "16\",\"struct\":null,\"count\":[],\"offset\":400,\"bit_offset\":3200,\"bits\":null,\"c_type\":\"unsigned short"
-    "\",\"long_double\":false,\"skipped\":null},{\"name\":\"tail\",\"wire\":null,\"struct\":null,\"count\":[],\"offse"
-    "t\":402,\"bit_offset\":3216,\"bits\":null,\"c_type\":\"uint8_t[]\",\"long_double\":false,\"skipped\":\"flexibl"
-    "e array member\"}]},{\"name\":\"struct all_kinds::unnamed_member\",\"c_name\":null,\"size\":16,\"align\":8,"
-    "\"packed_attr\":false,\"packed_size\":9,\"fingerprint\":\"da0eece7\",\"file\":\"all_kinds.h\",\"line\":72,\"fie"
-    "lds\":[{\"name\":\"a\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_"
-    "type\":\"unsigned char\",\"long_double\":false,\"skipped\":null},{\"name\":\"b\",\"wire\":\"f64\",\"struct\":null"
-    ",\"count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"double\",\"long_double\":false,\"skippe"
-    "d\":null}]},{\"name\":\"struct empty_set\",\"c_name\":\"struct empty_set\",\"size\":16,\"align\":8,\"packed_at"
-    "tr\":false,\"packed_size\":0,\"fingerprint\":\"42c4b0e3\",\"file\":\"all_kinds.h\",\"line\":28,\"fields\":[{\"na"
-    "me\":\"label\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":"
-    "\"char *\",\"long_double\":false,\"skipped\":\"pointer\"},{\"name\":\"callback\",\"wire\":null,\"struct\":null,\""
-    "count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"void (*)(int)\",\"long_double\":false,\"s"
-    "kipped\":\"pointer\"}]},{\"name\":\"struct packed_hdr\",\"c_name\":\"struct packed_hdr\",\"size\":7,\"align\":1"
-    ",\"packed_attr\":true,\"packed_size\":7,\"fingerprint\":\"efc8c2ff\",\"file\":\"all_kinds.h\",\"line\":22,\"fie"
-    "lds\":[{\"name\":\"tag\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\""
-    "c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null},{\"name\":\"len\",\"wire\":\"u32\",\"struct\":"
-    "null,\"count\":[],\"offset\":1,\"bit_offset\":8,\"bits\":null,\"c_type\":\"unsigned int\",\"long_double\":fals"
-    "e,\"skipped\":null},{\"name\":\"crc\",\"wire\":\"u16\",\"struct\":null,\"count\":[],\"offset\":5,\"bit_offset\":40"
-    ",\"bits\":null,\"c_type\":\"unsigned short\",\"long_double\":false,\"skipped\":null}]},{\"name\":\"struct vec"
-    "3\",\"c_name\":\"struct vec3\",\"size\":12,\"align\":4,\"packed_attr\":false,\"packed_size\":12,\"fingerprint\""
-    ":\"7a76ed67\",\"file\":\"all_kinds.h\",\"line\":13,\"fields\":[{\"name\":\"x\",\"wire\":\"f32\",\"struct\":null,\"cou"
-    "nt\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null"
-    "},{\"name\":\"y\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":4,\"bit_offset\":32,\"bits\":null,\"c_ty"
-    "pe\":\"float\",\"long_double\":false,\"skipped\":null},{\"name\":\"z\",\"wire\":\"f32\",\"struct\":null,\"count\":["
-    "],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null}]},"
-    "{\"name\":\"waypoint_t\",\"c_name\":\"waypoint_t\",\"size\":16,\"align\":4,\"packed_attr\":false,\"packed_size\""
-    ":13,\"fingerprint\":\"79ce9804\",\"file\":\"all_kinds.h\",\"line\":17,\"fields\":[{\"name\":\"id\",\"wire\":\"u8\",\""
-    "struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"unsigned char\",\"long_dou"
-    "ble\":false,\"skipped\":null},{\"name\":\"pos\",\"wire\":\"struct\",\"struct\":\"struct vec3\",\"count\":[],\"offs"
-    "et\":4,\"bit_offset\":32,\"bits\":null,\"c_type\":\"struct vec3\",\"long_double\":false,\"skipped\":null}]}],"
-    "\"instances\":[{\"name\":\"hdr1\",\"type\":\"struct packed_hdr\",\"id\":\"68647231000000686472310000003357\",\""
-    "file\":\"all_kinds.h\",\"line\":104},{\"name\":\"kinds\",\"type\":\"struct all_kinds\",\"id\":\"6b696e647300006b"
-    "696e64730000fa47\",\"file\":\"all_kinds.h\",\"line\":101},{\"name\":\"lattice[0][0]\",\"type\":\"struct vec3\","
-    "\"id\":\"6c617474696365655b305d5b305da91f\",\"file\":\"all_kinds.h\",\"line\":103},{\"name\":\"lattice[0][1]\""
-    ",\"type\":\"struct vec3\",\"id\":\"6c617474696365655b305d5b315d982c\",\"file\":\"all_kinds.h\",\"line\":103},{"
-    "\"name\":\"lattice[1][0]\",\"type\":\"struct vec3\",\"id\":\"6c617474696365655b315d5b305df8b5\",\"file\":\"all_"
-    "kinds.h\",\"line\":103},{\"name\":\"lattice[1][1]\",\"type\":\"struct vec3\",\"id\":\"6c617474696365655b315d5b"
-    "315dc986\",\"file\":\"all_kinds.h\",\"line\":103},{\"name\":\"macro_set\",\"type\":\"struct vec3\",\"id\":\"6d6163"
-    "726f5f7363726f5f7365742f47\",\"file\":\"all_kinds.h\",\"line\":109},{\"name\":\"nothing\",\"type\":\"struct em"
-    "pty_set\",\"id\":\"6e6f7468696e676e6f7468696e674893\",\"file\":\"all_kinds.h\",\"line\":105},{\"name\":\"waypo"
-    "ints[0]\",\"type\":\"waypoint_t\",\"id\":\"776179706f696e696e74735b305d7c11\",\"file\":\"all_kinds.h\",\"line\""
-    ":102},{\"name\":\"waypoints[1]\",\"type\":\"waypoint_t\",\"id\":\"776179706f696e696e74735b315d4d22\",\"file\":"
-    "\"all_kinds.h\",\"line\":102},{\"name\":\"waypoints[2]\",\"type\":\"waypoint_t\",\"id\":\"776179706f696e696e747"
-    "35b325d1e77\",\"file\":\"all_kinds.h\",\"line\":102}],\"skipped_instances\":[{\"name\":\"not_a_struct\",\"file"
-    "\":\"all_kinds.h\",\"line\":106,\"reason\":\"union\"}]}";
-
-const ub_catalogue_t kinds_catalogue = {
-    "kinds",
-    UB_ID_SCHEME_HASHED,
-    UB_CATALOGUE_ABI_VERSION,
-    kinds_types,
-    kinds_N_TYPES,
-    kinds_instances,
-    kinds_N_INSTANCES,
-    kinds_MAX_PACKED_SIZE,
-    kinds_catalogue_json,
-    sizeof kinds_catalogue_json - 1,
-};

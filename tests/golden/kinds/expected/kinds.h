@@ -14,6 +14,9 @@
 #include "ub/ub_catalogue.h"
 #include "ub/ub_error.h"
 
+/* The headers that define the catalogued types, included as the inputs include them (for a `.c`
+ * input: its own #include lines up to the one that brings the type in, so a header that needs
+ * others first still compiles). Compile with the inputs' flags and -I of each input's directory. */
 #include "all_kinds.h"
 
 #if UB_CATALOGUE_ABI_VERSION != 2
@@ -28,6 +31,9 @@ extern "C" {
 #define kinds_N_TYPES 5u
 #define kinds_N_INSTANCES 11u
 #define kinds_MAX_PACKED_SIZE 302u
+/* The payload limit the catalogue was checked against at generation (uavbus gen --max-payload):
+ * every type packs to at most this. A node refuses a type above its UB_MAX_DIRECTORY. */
+#define kinds_PAYLOAD_LIMIT 16384u
 
 /* struct all_kinds (all_kinds.h:33): 302 bytes on the wire, sizeof 416. */
 #define kinds_TYPE_all_kinds 0u
@@ -35,7 +41,8 @@ extern "C" {
 #define kinds_all_kinds_FINGERPRINT 0xc9215705u
 /** Packs `obj`; @return 302 (bytes written) or UB_ERR_NOSPACE when cap is smaller. */
 UB_CHECK int kinds_pack_all_kinds(const struct all_kinds *obj, uint8_t *buf, size_t cap);
-/** Unpacks into `obj`, leaving skipped members untouched; @return 302 or UB_ERR_TRUNCATED. */
+/** Unpacks into `obj`, leaving skipped members untouched; @return 302, UB_ERR_TRUNCATED, or
+ *  UB_ERR_RANGE (a bool byte other than 0/1 or a bitfield value wider than its field; nothing written). */
 UB_CHECK int kinds_unpack_all_kinds(struct all_kinds *obj, const uint8_t *buf, size_t len);
 
 /* struct empty_set (all_kinds.h:28): 0 bytes on the wire, sizeof 16. */

@@ -7,7 +7,9 @@
 
 Each type is a class with `__slots__`, `pack() -> bytes`, `unpack(data)`, `to_dict()` and
 `from_dict(d)`; the wire format is little-endian without padding (one precompiled struct.Struct
-per type). Skipped members (pointers, strings, unions, flexible arrays) are not attributes.
+per type). Skipped members (pointers, strings, unions, flexible arrays) are not attributes; a
+`char` array sent as data (`--strings bytes`) is a `bytes` of its length. ENUMS holds the enum
+constants the members use (FIELD_ENUMS per class says which member uses which).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from __future__ import annotations
 import struct as _struct
 from typing import Any
 
+from uavbus import _gen_support
 from uavbus._gen_support import SUPPORT_VERSION as _SUPPORT_VERSION
 from uavbus._gen_support import build as _build
 from uavbus._gen_support import flatten as _flatten
@@ -28,8 +31,20 @@ CATALOGUE_NAME = 'kinds'
 ID_SCHEME = 'hashed'
 MAX_PACKED_SIZE = 302
 
-if _SUPPORT_VERSION != 1:
-    raise ImportError("kinds.py was generated for uavbus._gen_support version 1; regenerate it with `uavbus gen`")
+if _SUPPORT_VERSION != 1 or getattr(_gen_support, "SUPPORT_LEVEL", 1) < 2:
+    raise ImportError("kinds.py needs uavbus._gen_support version 1, level 2 or later: update uavbus, "
+                      "or regenerate kinds.py with the installed `uavbus gen`")
+
+from uavbus._gen_support import check_wire as _check_wire  # noqa: E402
+from uavbus._gen_support import fit as _fit  # noqa: E402
+from uavbus._gen_support import text as _text  # noqa: E402
+
+# Enum constants used by the members: enum type name -> {constant: value}, in declaration order.
+ENUMS: dict = {
+    'enum wide_e': { 'WIDE_NEG': -1, 'WIDE_BIG': 549755813887, },
+    'mode_e': { 'MODE_IDLE': 0, 'MODE_AUTO': 3, },
+    'tiny_e': { 'TINY_A': 1, },
+}
 
 class all_kinds:
     """struct all_kinds (all_kinds.h:33): 302 bytes on the wire.
@@ -43,8 +58,13 @@ class all_kinds:
     FINGERPRINT = 0xc9215705
     C_SIZE = 416
     FIELDS = ('c', 'sc', 'uc', 's', 'us', 'i', 'ui', 'l', 'ul', 'll', 'ull', 'i8', 'u16', 'i32', 'u64', 'flag', 'f', 'd', 'ld', 'mode', 'wide', 'tiny', 'bf_u3', 'bf_s5', 'bf_u12', 'bf_u40', 'bf_s33', 'bf_b', 'vel', 'roll', 'pitch', 'unnamed_member', 'matrix', 'route', 'grid', 'bytes', 'raw', 'flags', 'hdr', 'count', )
+    # member -> enum type name (its constants: ENUMS[name] at module level)
+    FIELD_ENUMS = { 'mode': 'mode_e', 'wide': 'enum wide_e', 'tiny': 'tiny_e', }
     _S = _struct.Struct('<2bBhHiIqQqQbHiQ?f2dIq2BbHQq?3f2hBd9fB3fB3fB3fB15f6b6B3?BI2H')
     _NLEAVES = 91
+    # What unpack refuses (pack never writes it): bool bytes other than 0/1, bitfields out of width.
+    _BOOL_AT = (62, 116, 290, 291, 292)
+    _RANGES = ((22, 0, 7, 'bf_u3'), (23, -16, 15, 'bf_s5'), (24, 0, 4095, 'bf_u12'), (25, 0, 1099511627775, 'bf_u40'), (26, -4294967296, 4294967295, 'bf_s33'))
 
     def __init__(self, c: Any = None, sc: Any = None, uc: Any = None, s: Any = None, us: Any = None, i: Any = None, ui: Any = None, l: Any = None, ul: Any = None, ll: Any = None, ull: Any = None, i8: Any = None, u16: Any = None, i32: Any = None, u64: Any = None, flag: Any = None, f: Any = None, d: Any = None, ld: Any = None, mode: Any = None, wide: Any = None, tiny: Any = None, bf_u3: Any = None, bf_s5: Any = None, bf_u12: Any = None, bf_u40: Any = None, bf_s33: Any = None, bf_b: Any = None, vel: Any = None, roll: Any = None, pitch: Any = None, unnamed_member: Any = None, matrix: Any = None, route: Any = None, grid: Any = None, bytes_: Any = None, raw: Any = None, flags: Any = None, hdr: Any = None, count: Any = None) -> None:
         self.c = 0 if c is None else c
@@ -89,18 +109,22 @@ class all_kinds:
         self.count = 0 if count is None else count
 
     def _flat(self) -> tuple:
-        return (self.c, self.sc, self.uc, self.s, self.us, self.i, self.ui, self.l, self.ul, self.ll, self.ull, self.i8, self.u16, self.i32, self.u64, self.flag, self.f, self.d, self.ld, self.mode, self.wide, self.tiny, self.bf_u3, self.bf_s5, self.bf_u12, self.bf_u40, self.bf_s33, self.bf_b, *self.vel._flat(), self.roll, self.pitch, *self.unnamed_member._flat(), *_flatten(self.matrix, 2), *(x for e in _flatten(self.route, 1) for x in e._flat()), *(x for e in _flatten(self.grid, 2) for x in e._flat()), *self.bytes_, *_flatten(self.raw, 2), *self.flags, *self.hdr._flat(), self.count, )
+        return (self.c, self.sc, self.uc, self.s, self.us, self.i, self.ui, self.l, self.ul, self.ll, self.ull, self.i8, self.u16, self.i32, self.u64, self.flag, self.f, self.d, self.ld, self.mode, self.wide, self.tiny, _fit(self.bf_u3, 0, 7, 'struct all_kinds.bf_u3'), _fit(self.bf_s5, -16, 15, 'struct all_kinds.bf_s5'), _fit(self.bf_u12, 0, 4095, 'struct all_kinds.bf_u12'), _fit(self.bf_u40, 0, 1099511627775, 'struct all_kinds.bf_u40'), _fit(self.bf_s33, -4294967296, 4294967295, 'struct all_kinds.bf_s33'), self.bf_b, *self.vel._flat(), self.roll, self.pitch, *self.unnamed_member._flat(), *_flatten(self.matrix, 2), *(x for e in _flatten(self.route, 1) for x in e._flat()), *(x for e in _flatten(self.grid, 2) for x in e._flat()), *self.bytes_, *_flatten(self.raw, 2), *self.flags, *self.hdr._flat(), self.count, )
 
     def pack(self) -> bytes:
-        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit)."""
+        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit its
+        container, ValueError if it does not fit its bitfield or a text member is too long)."""
         return self._S.pack(*self._flat())
 
     @classmethod
     def unpack(cls, data: bytes) -> "all_kinds":
-        """Reads the first PACKED_SIZE bytes of `data` (ValueError when shorter)."""
+        """Reads the first PACKED_SIZE bytes of `data` (ValueError when shorter, or when a bool
+        byte is not 0/1 or a bitfield value is wider than its field)."""
         if len(data) < 302:
             raise ValueError(f"struct all_kinds needs 302 bytes, got {len(data)}")
-        return cls._take(cls._S.unpack_from(data), 0)
+        v = cls._S.unpack_from(data)
+        _check_wire(cls.NAME, data, v, cls._BOOL_AT, cls._RANGES)
+        return cls._take(v, 0)
 
     @classmethod
     def _take(cls, v: tuple, i: int) -> "all_kinds":
@@ -237,7 +261,7 @@ class all_kinds:
         )
 
     def __eq__(self, other: object) -> bool:
-        return type(other) is type(self) and self._flat() == other._flat()  # type: ignore[attr-defined]
+        return type(other) is type(self) and self.to_dict() == other.to_dict()  # type: ignore[attr-defined]
 
     def __repr__(self) -> str:
         return f"all_kinds({self.to_dict()!r})"
@@ -251,6 +275,8 @@ class all_kinds__unnamed_member:
     FINGERPRINT = 0xda0eece7
     C_SIZE = 16
     FIELDS = ('a', 'b', )
+    # member -> enum type name (its constants: ENUMS[name] at module level)
+    FIELD_ENUMS = { }
     _S = _struct.Struct('<Bd')
     _NLEAVES = 2
 
@@ -262,7 +288,8 @@ class all_kinds__unnamed_member:
         return (self.a, self.b, )
 
     def pack(self) -> bytes:
-        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit)."""
+        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit its
+        container, ValueError if it does not fit its bitfield or a text member is too long)."""
         return self._S.pack(*self._flat())
 
     @classmethod
@@ -270,7 +297,8 @@ class all_kinds__unnamed_member:
         """Reads the first PACKED_SIZE bytes of `data` (ValueError when shorter)."""
         if len(data) < 9:
             raise ValueError(f"struct all_kinds::unnamed_member needs 9 bytes, got {len(data)}")
-        return cls._take(cls._S.unpack_from(data), 0)
+        v = cls._S.unpack_from(data)
+        return cls._take(v, 0)
 
     @classmethod
     def _take(cls, v: tuple, i: int) -> "all_kinds__unnamed_member":
@@ -293,7 +321,7 @@ class all_kinds__unnamed_member:
         )
 
     def __eq__(self, other: object) -> bool:
-        return type(other) is type(self) and self._flat() == other._flat()  # type: ignore[attr-defined]
+        return type(other) is type(self) and self.to_dict() == other.to_dict()  # type: ignore[attr-defined]
 
     def __repr__(self) -> str:
         return f"all_kinds__unnamed_member({self.to_dict()!r})"
@@ -310,6 +338,8 @@ class empty_set:
     FINGERPRINT = 0x42c4b0e3
     C_SIZE = 16
     FIELDS = ()
+    # member -> enum type name (its constants: ENUMS[name] at module level)
+    FIELD_ENUMS = { }
     _S = _struct.Struct('<')
     _NLEAVES = 0
 
@@ -320,7 +350,8 @@ class empty_set:
         return ()
 
     def pack(self) -> bytes:
-        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit)."""
+        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit its
+        container, ValueError if it does not fit its bitfield or a text member is too long)."""
         return self._S.pack(*self._flat())
 
     @classmethod
@@ -328,7 +359,8 @@ class empty_set:
         """Reads the first PACKED_SIZE bytes of `data` (ValueError when shorter)."""
         if len(data) < 0:
             raise ValueError(f"struct empty_set needs 0 bytes, got {len(data)}")
-        return cls._take(cls._S.unpack_from(data), 0)
+        v = cls._S.unpack_from(data)
+        return cls._take(v, 0)
 
     @classmethod
     def _take(cls, v: tuple, i: int) -> "empty_set":
@@ -345,7 +377,7 @@ class empty_set:
         )
 
     def __eq__(self, other: object) -> bool:
-        return type(other) is type(self) and self._flat() == other._flat()  # type: ignore[attr-defined]
+        return type(other) is type(self) and self.to_dict() == other.to_dict()  # type: ignore[attr-defined]
 
     def __repr__(self) -> str:
         return f"empty_set({self.to_dict()!r})"
@@ -359,6 +391,8 @@ class packed_hdr:
     FINGERPRINT = 0xefc8c2ff
     C_SIZE = 7
     FIELDS = ('tag', 'len', 'crc', )
+    # member -> enum type name (its constants: ENUMS[name] at module level)
+    FIELD_ENUMS = { }
     _S = _struct.Struct('<BIH')
     _NLEAVES = 3
 
@@ -371,7 +405,8 @@ class packed_hdr:
         return (self.tag, self.len_, self.crc, )
 
     def pack(self) -> bytes:
-        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit)."""
+        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit its
+        container, ValueError if it does not fit its bitfield or a text member is too long)."""
         return self._S.pack(*self._flat())
 
     @classmethod
@@ -379,7 +414,8 @@ class packed_hdr:
         """Reads the first PACKED_SIZE bytes of `data` (ValueError when shorter)."""
         if len(data) < 7:
             raise ValueError(f"struct packed_hdr needs 7 bytes, got {len(data)}")
-        return cls._take(cls._S.unpack_from(data), 0)
+        v = cls._S.unpack_from(data)
+        return cls._take(v, 0)
 
     @classmethod
     def _take(cls, v: tuple, i: int) -> "packed_hdr":
@@ -405,7 +441,7 @@ class packed_hdr:
         )
 
     def __eq__(self, other: object) -> bool:
-        return type(other) is type(self) and self._flat() == other._flat()  # type: ignore[attr-defined]
+        return type(other) is type(self) and self.to_dict() == other.to_dict()  # type: ignore[attr-defined]
 
     def __repr__(self) -> str:
         return f"packed_hdr({self.to_dict()!r})"
@@ -419,6 +455,8 @@ class vec3:
     FINGERPRINT = 0x7a76ed67
     C_SIZE = 12
     FIELDS = ('x', 'y', 'z', )
+    # member -> enum type name (its constants: ENUMS[name] at module level)
+    FIELD_ENUMS = { }
     _S = _struct.Struct('<3f')
     _NLEAVES = 3
 
@@ -431,7 +469,8 @@ class vec3:
         return (self.x, self.y, self.z, )
 
     def pack(self) -> bytes:
-        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit)."""
+        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit its
+        container, ValueError if it does not fit its bitfield or a text member is too long)."""
         return self._S.pack(*self._flat())
 
     @classmethod
@@ -439,7 +478,8 @@ class vec3:
         """Reads the first PACKED_SIZE bytes of `data` (ValueError when shorter)."""
         if len(data) < 12:
             raise ValueError(f"struct vec3 needs 12 bytes, got {len(data)}")
-        return cls._take(cls._S.unpack_from(data), 0)
+        v = cls._S.unpack_from(data)
+        return cls._take(v, 0)
 
     @classmethod
     def _take(cls, v: tuple, i: int) -> "vec3":
@@ -465,7 +505,7 @@ class vec3:
         )
 
     def __eq__(self, other: object) -> bool:
-        return type(other) is type(self) and self._flat() == other._flat()  # type: ignore[attr-defined]
+        return type(other) is type(self) and self.to_dict() == other.to_dict()  # type: ignore[attr-defined]
 
     def __repr__(self) -> str:
         return f"vec3({self.to_dict()!r})"
@@ -479,6 +519,8 @@ class waypoint_t:
     FINGERPRINT = 0x79ce9804
     C_SIZE = 16
     FIELDS = ('id', 'pos', )
+    # member -> enum type name (its constants: ENUMS[name] at module level)
+    FIELD_ENUMS = { }
     _S = _struct.Struct('<B3f')
     _NLEAVES = 4
 
@@ -490,7 +532,8 @@ class waypoint_t:
         return (self.id, *self.pos._flat(), )
 
     def pack(self) -> bytes:
-        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit)."""
+        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit its
+        container, ValueError if it does not fit its bitfield or a text member is too long)."""
         return self._S.pack(*self._flat())
 
     @classmethod
@@ -498,7 +541,8 @@ class waypoint_t:
         """Reads the first PACKED_SIZE bytes of `data` (ValueError when shorter)."""
         if len(data) < 13:
             raise ValueError(f"waypoint_t needs 13 bytes, got {len(data)}")
-        return cls._take(cls._S.unpack_from(data), 0)
+        v = cls._S.unpack_from(data)
+        return cls._take(v, 0)
 
     @classmethod
     def _take(cls, v: tuple, i: int) -> "waypoint_t":
@@ -521,7 +565,7 @@ class waypoint_t:
         )
 
     def __eq__(self, other: object) -> bool:
-        return type(other) is type(self) and self._flat() == other._flat()  # type: ignore[attr-defined]
+        return type(other) is type(self) and self.to_dict() == other.to_dict()  # type: ignore[attr-defined]
 
     def __repr__(self) -> str:
         return f"waypoint_t({self.to_dict()!r})"

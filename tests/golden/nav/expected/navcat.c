@@ -12,15 +12,91 @@
 
 #include "ub/ub_wire.h"
 
+/* Layout checks against clang's measurements: _Static_assert in C11; in C99, gcc and clang still
+ * know it (__extension__ keeps -pedantic quiet), other C99 compilers get a negative array size
+ * (the typedef's name says which check failed). */
+#if defined(__STDC_VERSION__) && __STDC_VERSION__ >= 201112L
+#define navcat_LAYOUT_ASSERT(cond, id, msg) _Static_assert(cond, msg)
+#elif defined(__GNUC__)
+#define navcat_LAYOUT_ASSERT(cond, id, msg) __extension__ _Static_assert(cond, msg)
+#else
+#define navcat_LAYOUT_ASSERT(cond, id, msg) typedef char navcat_layout_##id[(cond) ? 1 : -1]
+#endif
+
+/* Every file-scope declaration comes before the functions: gcc -std=c99 -pedantic spends time
+ * linear in the functions already defined on each declaration that follows them.
+ *
+ * A compiler or ABI that lays a type out differently from clang at generation time fails here. */
+/* position_t (nav.h:7) */
+navcat_LAYOUT_ASSERT(sizeof(position_t) == 24u, position_t_size, "position_t: sizeof differs from the catalogue; regenerate");
+navcat_LAYOUT_ASSERT(offsetof(position_t, lat) == 0u, position_t_lat, "position_t.lat: offset differs from the catalogue; regenerate");
+navcat_LAYOUT_ASSERT(offsetof(position_t, lon) == 8u, position_t_lon, "position_t.lon: offset differs from the catalogue; regenerate");
+navcat_LAYOUT_ASSERT(offsetof(position_t, alt) == 16u, position_t_alt, "position_t.alt: offset differs from the catalogue; regenerate");
+
+/* struct nav_state (nav.h:12) */
+navcat_LAYOUT_ASSERT(sizeof(struct nav_state) == 48u, nav_state_size, "struct nav_state: sizeof differs from the catalogue; regenerate");
+navcat_LAYOUT_ASSERT(offsetof(struct nav_state, pos) == 0u, nav_state_pos, "struct nav_state.pos: offset differs from the catalogue; regenerate");
+navcat_LAYOUT_ASSERT(offsetof(struct nav_state, vel) == 24u, nav_state_vel, "struct nav_state.vel: offset differs from the catalogue; regenerate");
+navcat_LAYOUT_ASSERT(offsetof(struct nav_state, label) == 40u, nav_state_label, "struct nav_state.label: offset differs from the catalogue; regenerate");
+
+/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
+static int navcat_pack_position_t_any(const void *obj, uint8_t *buf, size_t cap);
+static int navcat_unpack_position_t_any(void *obj, const uint8_t *buf, size_t len);
+static int navcat_pack_nav_state_any(const void *obj, uint8_t *buf, size_t cap);
+static int navcat_unpack_nav_state_any(void *obj, const uint8_t *buf, size_t len);
+
+static const ub_type_desc_t navcat_types[2] = {
+    { "position_t", 0x1de000c6u, 20u, 24u, navcat_pack_position_t_any, navcat_unpack_position_t_any },
+    { "struct nav_state", 0x65445540u, 34u, 48u, navcat_pack_nav_state_any, navcat_unpack_nav_state_any },
+};
+
+static const ub_instance_desc_t navcat_instances[5] = {
+    { { 0x6f, 0x6e, 0x62, 0x6f, 0x61, 0x72, 0x64, 0x53, 0x62, 0x6f, 0x61, 0x72, 0x64, 0x53, 0x65, 0x74 }, "onboardSet", &navcat_types[navcat_TYPE_nav_state] },
+    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x30, 0x5d, 0x5b, 0x30, 0x5d }, "waypoint[0][0]", &navcat_types[navcat_TYPE_position_t] },
+    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x30, 0x5d, 0x5b, 0x31, 0x5d }, "waypoint[0][1]", &navcat_types[navcat_TYPE_position_t] },
+    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x31, 0x5d, 0x5b, 0x30, 0x5d }, "waypoint[1][0]", &navcat_types[navcat_TYPE_position_t] },
+    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x31, 0x5d, 0x5b, 0x31, 0x5d }, "waypoint[1][1]", &navcat_types[navcat_TYPE_position_t] },
+};
+
+/* The catalogue's self-description (the compact form of navcat.catalogue.json, NUL-terminated):
+ * binary logs copy it into their header so they stay decodable without this build. C99 bounds a
+ * string literal to 4095 characters, so the text is cut into rows held back to back in one struct
+ * of char arrays (char arrays have no padding between them: checked below). The rows are pieces,
+ * not strings: only the last has a NUL, hence `nonstring` where the compiler knows it. */
+#if defined(__has_attribute)
+#if __has_attribute(nonstring)
+#define navcat_NONSTRING __attribute__((nonstring))
+#endif
+#endif
+#ifndef navcat_NONSTRING
+#define navcat_NONSTRING
+#endif
+static const struct {
+    char row0[2406];
+} navcat_catalogue_json = {
+    "{\"catalogue\":\"navcat\",\"abi_version\":2,\"id_scheme\":\"paper\",\"types\":[{\"name\":\"position_t\",\"c_name\":\"position_t\",\"size\":24,\"align\":8,\"packed_attr\":false,\"packed_size\":20,\"fingerprint\":\"1de000c6\",\"file\":\"nav.h\",\"line\":7,\"fields\":[{\"name\":\"lat\",\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"double\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"lon\",\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"double\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"alt\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":16,\"bit_offset\":128,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false}]},{\"name\":\"struct nav_state\",\"c_name\":\"struct nav_state\",\"size\":48,\"align\":8,\"packed_attr\":false,\"packed_size\":34,\"fingerprint\":\"65445540\",\"file\":\"nav.h\",\"line\":12,\"fields\":[{\"name\":\"pos\",\"wire\":\"struct\",\"struct\":\"position_t\",\"count\":[],\"offset\":0,\"bit_offset\":0,\""
+    "bits\":null,\"c_type\":\"position_t\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"vel\",\"wire\":\"f32\",\"struct\":null,\"count\":[3],\"offset\":24,\"bit_offset\":192,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"mode\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":36,\"bit_offset\":288,\"bits\":4,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"valid\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":36,\"bit_offset\":292,\"bits\":1,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":null,\"enum\":null,\"text\":false},{\"name\":\"label\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":40,\"bit_offset\":320,\"bits\":null,\"c_type\":\"char *\",\"long_double\":false,\"skipped\":\"pointer\",\"enum\":null,\"text\":false}]}],\"instances\":[{\"name\":\"onboardSet\",\"type\":\"struct nav_state\",\"id\":\"6f6e626f61726453626f617264536574\",\"file\":\"nav.h\",\"line\":20},{\"name\":\"waypoint[0][0]\",\"type\":\"position_t\",\"id\":\"776179706f696e746e745b3"
+    "05d5b305d\",\"file\":\"nav.h\",\"line\":21},{\"name\":\"waypoint[0][1]\",\"type\":\"position_t\",\"id\":\"776179706f696e746e745b305d5b315d\",\"file\":\"nav.h\",\"line\":21},{\"name\":\"waypoint[1][0]\",\"type\":\"position_t\",\"id\":\"776179706f696e746e745b315d5b305d\",\"file\":\"nav.h\",\"line\":21},{\"name\":\"waypoint[1][1]\",\"type\":\"position_t\",\"id\":\"776179706f696e746e745b315d5b315d\",\"file\":\"nav.h\",\"line\":21}],\"skipped_instances\":[],\"enums\":{}}",
+};
+navcat_LAYOUT_ASSERT(sizeof navcat_catalogue_json == 2406u, catalogue_json, "the catalogue text must be contiguous");
+
+const ub_catalogue_t navcat_catalogue = {
+    "navcat",
+    UB_ID_SCHEME_PAPER,
+    UB_CATALOGUE_ABI_VERSION,
+    navcat_types,
+    navcat_N_TYPES,
+    navcat_instances,
+    navcat_N_INSTANCES,
+    navcat_MAX_PACKED_SIZE,
+    (const char *)&navcat_catalogue_json,
+    2405u,
+};
+
 /* ---- position_t (nav.h:7) ---- */
-/* A compiler or ABI that lays position_t out differently from clang at generation time fails here. */
-_Static_assert(sizeof(position_t) == 24u, "position_t: sizeof differs from the catalogue; regenerate");
-_Static_assert(offsetof(position_t, lat) == 0u, "position_t.lat: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(position_t, lon) == 8u, "position_t.lon: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(position_t, alt) == 16u, "position_t.alt: offset differs from the catalogue; regenerate");
 
 int navcat_pack_position_t(const position_t *obj, uint8_t *buf, size_t cap) {
-    if (cap < navcat_position_t_PACKED_SIZE) return UB_ERR_NOSPACE;
+    if (cap < navcat_position_t_PACKED_SIZE) { return UB_ERR_NOSPACE; }
     uint8_t *p = buf;
     ub_put_f64le(p, (double)obj->lat);
     p += 8;
@@ -32,7 +108,7 @@ int navcat_pack_position_t(const position_t *obj, uint8_t *buf, size_t cap) {
 }
 
 int navcat_unpack_position_t(position_t *obj, const uint8_t *buf, size_t len) {
-    if (len < navcat_position_t_PACKED_SIZE) return UB_ERR_TRUNCATED;
+    if (len < navcat_position_t_PACKED_SIZE) { return UB_ERR_TRUNCATED; }
     const uint8_t *p = buf;
     obj->lat = ub_get_f64le(p);
     p += 8;
@@ -43,7 +119,6 @@ int navcat_unpack_position_t(position_t *obj, const uint8_t *buf, size_t len) {
     return (int)navcat_position_t_PACKED_SIZE;
 }
 
-/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int navcat_pack_position_t_any(const void *obj, uint8_t *buf, size_t cap) {
     return navcat_pack_position_t((const position_t *)obj, buf, cap);
 }
@@ -52,15 +127,10 @@ static int navcat_unpack_position_t_any(void *obj, const uint8_t *buf, size_t le
 }
 
 /* ---- struct nav_state (nav.h:12) ---- */
-/* A compiler or ABI that lays struct nav_state out differently from clang at generation time fails here. */
-_Static_assert(sizeof(struct nav_state) == 48u, "struct nav_state: sizeof differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct nav_state, pos) == 0u, "struct nav_state.pos: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct nav_state, vel) == 24u, "struct nav_state.vel: offset differs from the catalogue; regenerate");
-_Static_assert(offsetof(struct nav_state, label) == 40u, "struct nav_state.label: offset differs from the catalogue; regenerate");
 /* label: skipped (pointer) */
 
 int navcat_pack_nav_state(const struct nav_state *obj, uint8_t *buf, size_t cap) {
-    if (cap < navcat_nav_state_PACKED_SIZE) return UB_ERR_NOSPACE;
+    if (cap < navcat_nav_state_PACKED_SIZE) { return UB_ERR_NOSPACE; }
     uint8_t *p = buf;
     ub_put_f64le(p, (double)obj->pos.lat);
     p += 8;
@@ -79,8 +149,17 @@ int navcat_pack_nav_state(const struct nav_state *obj, uint8_t *buf, size_t cap)
     return (int)navcat_nav_state_PACKED_SIZE;
 }
 
+/* Every wire value unpack would take for struct nav_state is one pack gives back bit for bit: bools are 0 or
+ * 1, bitfields fit their width. Checked before anything is written, so a refusal leaves *obj alone. */
+static int navcat_valid_nav_state(const uint8_t *buf) {
+    if (!(ub_get_u8(buf + 32) <= 15u)) { return 0; }
+    if (!(ub_get_u8(buf + 33) <= 1u)) { return 0; }
+    return 1;
+}
+
 int navcat_unpack_nav_state(struct nav_state *obj, const uint8_t *buf, size_t len) {
-    if (len < navcat_nav_state_PACKED_SIZE) return UB_ERR_TRUNCATED;
+    if (len < navcat_nav_state_PACKED_SIZE) { return UB_ERR_TRUNCATED; }
+    if (!navcat_valid_nav_state(buf)) { return UB_ERR_RANGE; }
     const uint8_t *p = buf;
     obj->pos.lat = ub_get_f64le(p);
     p += 8;
@@ -99,63 +178,9 @@ int navcat_unpack_nav_state(struct nav_state *obj, const uint8_t *buf, size_t le
     return (int)navcat_nav_state_PACKED_SIZE;
 }
 
-/* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int navcat_pack_nav_state_any(const void *obj, uint8_t *buf, size_t cap) {
     return navcat_pack_nav_state((const struct nav_state *)obj, buf, cap);
 }
 static int navcat_unpack_nav_state_any(void *obj, const uint8_t *buf, size_t len) {
     return navcat_unpack_nav_state((struct nav_state *)obj, buf, len);
 }
-
-static const ub_type_desc_t navcat_types[2] = {
-    { "position_t", 0x1de000c6u, 20u, 24u, navcat_pack_position_t_any, navcat_unpack_position_t_any },
-    { "struct nav_state", 0x65445540u, 34u, 48u, navcat_pack_nav_state_any, navcat_unpack_nav_state_any },
-};
-
-static const ub_instance_desc_t navcat_instances[5] = {
-    { { 0x6f, 0x6e, 0x62, 0x6f, 0x61, 0x72, 0x64, 0x53, 0x62, 0x6f, 0x61, 0x72, 0x64, 0x53, 0x65, 0x74 }, "onboardSet", &navcat_types[navcat_TYPE_nav_state] },
-    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x30, 0x5d, 0x5b, 0x30, 0x5d }, "waypoint[0][0]", &navcat_types[navcat_TYPE_position_t] },
-    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x30, 0x5d, 0x5b, 0x31, 0x5d }, "waypoint[0][1]", &navcat_types[navcat_TYPE_position_t] },
-    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x31, 0x5d, 0x5b, 0x30, 0x5d }, "waypoint[1][0]", &navcat_types[navcat_TYPE_position_t] },
-    { { 0x77, 0x61, 0x79, 0x70, 0x6f, 0x69, 0x6e, 0x74, 0x6e, 0x74, 0x5b, 0x31, 0x5d, 0x5b, 0x31, 0x5d }, "waypoint[1][1]", &navcat_types[navcat_TYPE_position_t] },
-};
-
-/* The catalogue's self-description (the compact form of navcat.catalogue.json): binary logs copy it
- * into their header so they stay decodable without this build. */
-static const char navcat_catalogue_json[] =
-    "{\"catalogue\":\"navcat\",\"abi_version\":2,\"id_scheme\":\"paper\",\"types\":[{\"name\":\"position_t\",\"c_name\""
-    ":\"position_t\",\"size\":24,\"align\":8,\"packed_attr\":false,\"packed_size\":20,\"fingerprint\":\"1de000c6\","
-    "\"file\":\"nav.h\",\"line\":7,\"fields\":[{\"name\":\"lat\",\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":0"
-    ",\"bit_offset\":0,\"bits\":null,\"c_type\":\"double\",\"long_double\":false,\"skipped\":null},{\"name\":\"lon\","
-    "\"wire\":\"f64\",\"struct\":null,\"count\":[],\"offset\":8,\"bit_offset\":64,\"bits\":null,\"c_type\":\"double\",\""
-    "long_double\":false,\"skipped\":null},{\"name\":\"alt\",\"wire\":\"f32\",\"struct\":null,\"count\":[],\"offset\":"
-    "16,\"bit_offset\":128,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null}]},{\"name\":\""
-    "struct nav_state\",\"c_name\":\"struct nav_state\",\"size\":48,\"align\":8,\"packed_attr\":false,\"packed_si"
-    "ze\":34,\"fingerprint\":\"65445540\",\"file\":\"nav.h\",\"line\":12,\"fields\":[{\"name\":\"pos\",\"wire\":\"struct\""
-    ",\"struct\":\"position_t\",\"count\":[],\"offset\":0,\"bit_offset\":0,\"bits\":null,\"c_type\":\"position_t\",\"l"
-    "ong_double\":false,\"skipped\":null},{\"name\":\"vel\",\"wire\":\"f32\",\"struct\":null,\"count\":[3],\"offset\":"
-    "24,\"bit_offset\":192,\"bits\":null,\"c_type\":\"float\",\"long_double\":false,\"skipped\":null},{\"name\":\"mo"
-    "de\",\"wire\":\"u8\",\"struct\":null,\"count\":[],\"offset\":36,\"bit_offset\":288,\"bits\":4,\"c_type\":\"unsigne"
-    "d char\",\"long_double\":false,\"skipped\":null},{\"name\":\"valid\",\"wire\":\"u8\",\"struct\":null,\"count\":[]"
-    ",\"offset\":36,\"bit_offset\":292,\"bits\":1,\"c_type\":\"unsigned char\",\"long_double\":false,\"skipped\":nu"
-    "ll},{\"name\":\"label\",\"wire\":null,\"struct\":null,\"count\":[],\"offset\":40,\"bit_offset\":320,\"bits\":nul"
-    "l,\"c_type\":\"char *\",\"long_double\":false,\"skipped\":\"pointer\"}]}],\"instances\":[{\"name\":\"onboardSet"
-    "\",\"type\":\"struct nav_state\",\"id\":\"6f6e626f61726453626f617264536574\",\"file\":\"nav.h\",\"line\":20},{\""
-    "name\":\"waypoint[0][0]\",\"type\":\"position_t\",\"id\":\"776179706f696e746e745b305d5b305d\",\"file\":\"nav.h"
-    "\",\"line\":21},{\"name\":\"waypoint[0][1]\",\"type\":\"position_t\",\"id\":\"776179706f696e746e745b305d5b315d"
-    "\",\"file\":\"nav.h\",\"line\":21},{\"name\":\"waypoint[1][0]\",\"type\":\"position_t\",\"id\":\"776179706f696e746"
-    "e745b315d5b305d\",\"file\":\"nav.h\",\"line\":21},{\"name\":\"waypoint[1][1]\",\"type\":\"position_t\",\"id\":\"77"
-    "6179706f696e746e745b315d5b315d\",\"file\":\"nav.h\",\"line\":21}],\"skipped_instances\":[]}";
-
-const ub_catalogue_t navcat_catalogue = {
-    "navcat",
-    UB_ID_SCHEME_PAPER,
-    UB_CATALOGUE_ABI_VERSION,
-    navcat_types,
-    navcat_N_TYPES,
-    navcat_instances,
-    navcat_N_INSTANCES,
-    navcat_MAX_PACKED_SIZE,
-    navcat_catalogue_json,
-    sizeof navcat_catalogue_json - 1,
-};

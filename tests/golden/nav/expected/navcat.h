@@ -14,6 +14,9 @@
 #include "ub/ub_catalogue.h"
 #include "ub/ub_error.h"
 
+/* The headers that define the catalogued types, included as the inputs include them (for a `.c`
+ * input: its own #include lines up to the one that brings the type in, so a header that needs
+ * others first still compiles). Compile with the inputs' flags and -I of each input's directory. */
 #include "nav.h"
 
 #if UB_CATALOGUE_ABI_VERSION != 2
@@ -28,6 +31,9 @@ extern "C" {
 #define navcat_N_TYPES 2u
 #define navcat_N_INSTANCES 5u
 #define navcat_MAX_PACKED_SIZE 34u
+/* The payload limit the catalogue was checked against at generation (uavbus gen --max-payload):
+ * every type packs to at most this. A node refuses a type above its UB_MAX_DIRECTORY. */
+#define navcat_PAYLOAD_LIMIT 16384u
 
 /* position_t (nav.h:7): 20 bytes on the wire, sizeof 24. */
 #define navcat_TYPE_position_t 0u
@@ -44,7 +50,8 @@ UB_CHECK int navcat_unpack_position_t(position_t *obj, const uint8_t *buf, size_
 #define navcat_nav_state_FINGERPRINT 0x65445540u
 /** Packs `obj`; @return 34 (bytes written) or UB_ERR_NOSPACE when cap is smaller. */
 UB_CHECK int navcat_pack_nav_state(const struct nav_state *obj, uint8_t *buf, size_t cap);
-/** Unpacks into `obj`, leaving skipped members untouched; @return 34 or UB_ERR_TRUNCATED. */
+/** Unpacks into `obj`, leaving skipped members untouched; @return 34, UB_ERR_TRUNCATED, or
+ *  UB_ERR_RANGE (a bool byte other than 0/1 or a bitfield value wider than its field; nothing written). */
 UB_CHECK int navcat_unpack_nav_state(struct nav_state *obj, const uint8_t *buf, size_t len);
 
 /* Instances: NAME_INST_<name> is the index in navcat_catalogue.instances (sorted by ID);

@@ -7,7 +7,9 @@
 
 Each type is a class with `__slots__`, `pack() -> bytes`, `unpack(data)`, `to_dict()` and
 `from_dict(d)`; the wire format is little-endian without padding (one precompiled struct.Struct
-per type). Skipped members (pointers, strings, unions, flexible arrays) are not attributes.
+per type). Skipped members (pointers, strings, unions, flexible arrays) are not attributes; a
+`char` array sent as data (`--strings bytes`) is a `bytes` of its length. ENUMS holds the enum
+constants the members use (FIELD_ENUMS per class says which member uses which).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from __future__ import annotations
 import struct as _struct
 from typing import Any
 
+from uavbus import _gen_support
 from uavbus._gen_support import SUPPORT_VERSION as _SUPPORT_VERSION
 from uavbus._gen_support import build as _build
 from uavbus._gen_support import flatten as _flatten
@@ -28,8 +31,17 @@ CATALOGUE_NAME = 'navcat'
 ID_SCHEME = 'paper'
 MAX_PACKED_SIZE = 34
 
-if _SUPPORT_VERSION != 1:
-    raise ImportError("navcat.py was generated for uavbus._gen_support version 1; regenerate it with `uavbus gen`")
+if _SUPPORT_VERSION != 1 or getattr(_gen_support, "SUPPORT_LEVEL", 1) < 2:
+    raise ImportError("navcat.py needs uavbus._gen_support version 1, level 2 or later: update uavbus, "
+                      "or regenerate navcat.py with the installed `uavbus gen`")
+
+from uavbus._gen_support import check_wire as _check_wire  # noqa: E402
+from uavbus._gen_support import fit as _fit  # noqa: E402
+from uavbus._gen_support import text as _text  # noqa: E402
+
+# Enum constants used by the members: enum type name -> {constant: value}, in declaration order.
+ENUMS: dict = {
+}
 
 class position_t:
     """position_t (nav.h:7): 20 bytes on the wire."""
@@ -40,6 +52,8 @@ class position_t:
     FINGERPRINT = 0x1de000c6
     C_SIZE = 24
     FIELDS = ('lat', 'lon', 'alt', )
+    # member -> enum type name (its constants: ENUMS[name] at module level)
+    FIELD_ENUMS = { }
     _S = _struct.Struct('<2df')
     _NLEAVES = 3
 
@@ -52,7 +66,8 @@ class position_t:
         return (self.lat, self.lon, self.alt, )
 
     def pack(self) -> bytes:
-        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit)."""
+        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit its
+        container, ValueError if it does not fit its bitfield or a text member is too long)."""
         return self._S.pack(*self._flat())
 
     @classmethod
@@ -60,7 +75,8 @@ class position_t:
         """Reads the first PACKED_SIZE bytes of `data` (ValueError when shorter)."""
         if len(data) < 20:
             raise ValueError(f"position_t needs 20 bytes, got {len(data)}")
-        return cls._take(cls._S.unpack_from(data), 0)
+        v = cls._S.unpack_from(data)
+        return cls._take(v, 0)
 
     @classmethod
     def _take(cls, v: tuple, i: int) -> "position_t":
@@ -86,7 +102,7 @@ class position_t:
         )
 
     def __eq__(self, other: object) -> bool:
-        return type(other) is type(self) and self._flat() == other._flat()  # type: ignore[attr-defined]
+        return type(other) is type(self) and self.to_dict() == other.to_dict()  # type: ignore[attr-defined]
 
     def __repr__(self) -> str:
         return f"position_t({self.to_dict()!r})"
@@ -103,8 +119,13 @@ class nav_state:
     FINGERPRINT = 0x65445540
     C_SIZE = 48
     FIELDS = ('pos', 'vel', 'mode', 'valid', )
+    # member -> enum type name (its constants: ENUMS[name] at module level)
+    FIELD_ENUMS = { }
     _S = _struct.Struct('<2d4f2B')
     _NLEAVES = 8
+    # What unpack refuses (pack never writes it): bool bytes other than 0/1, bitfields out of width.
+    _BOOL_AT = ()
+    _RANGES = ((6, 0, 15, 'mode'), (7, 0, 1, 'valid'))
 
     def __init__(self, pos: Any = None, vel: Any = None, mode: Any = None, valid: Any = None) -> None:
         self.pos = position_t() if pos is None else pos
@@ -113,18 +134,22 @@ class nav_state:
         self.valid = 0 if valid is None else valid
 
     def _flat(self) -> tuple:
-        return (*self.pos._flat(), *self.vel, self.mode, self.valid, )
+        return (*self.pos._flat(), *self.vel, _fit(self.mode, 0, 15, 'struct nav_state.mode'), _fit(self.valid, 0, 1, 'struct nav_state.valid'), )
 
     def pack(self) -> bytes:
-        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit)."""
+        """The wire form: exactly PACKED_SIZE bytes (struct.error if a value does not fit its
+        container, ValueError if it does not fit its bitfield or a text member is too long)."""
         return self._S.pack(*self._flat())
 
     @classmethod
     def unpack(cls, data: bytes) -> "nav_state":
-        """Reads the first PACKED_SIZE bytes of `data` (ValueError when shorter)."""
+        """Reads the first PACKED_SIZE bytes of `data` (ValueError when shorter, or when a bool
+        byte is not 0/1 or a bitfield value is wider than its field)."""
         if len(data) < 34:
             raise ValueError(f"struct nav_state needs 34 bytes, got {len(data)}")
-        return cls._take(cls._S.unpack_from(data), 0)
+        v = cls._S.unpack_from(data)
+        _check_wire(cls.NAME, data, v, cls._BOOL_AT, cls._RANGES)
+        return cls._take(v, 0)
 
     @classmethod
     def _take(cls, v: tuple, i: int) -> "nav_state":
@@ -153,7 +178,7 @@ class nav_state:
         )
 
     def __eq__(self, other: object) -> bool:
-        return type(other) is type(self) and self._flat() == other._flat()  # type: ignore[attr-defined]
+        return type(other) is type(self) and self.to_dict() == other.to_dict()  # type: ignore[attr-defined]
 
     def __repr__(self) -> str:
         return f"nav_state({self.to_dict()!r})"

@@ -1,0 +1,376 @@
+"""Latency and throughput the bridges add (make bench, figure 7; docs/bridges.md).
+
+    python bench/bridges_bench.py --build build-bench --out build-bench/raw/bridges.json [--runs 3]
+
+Side by side in one run, each case against the same path without the bridge:
+  - MAVLink: an autopilot's ATTITUDE reaching a Python GCS
+      direct:   autopilot UDP -> GCS parsing with pymavlink (what a Python GCS does without uavbus)
+      bridged:  autopilot UDP -> uavbus_mavbridge -> uavbus UDP -> Python uavbus Node (subscribed, 1 ms)
+    latency = GCS receive time - autopilot send time (one process, one clock), at 200 Hz;
+    ingest = of N packets blasted back to back, how many the receiving process took in, and at what
+    rate (pymavlink in a Python process vs the bridge's C parser, its `messages_in`); both receive
+    sockets ask for a 1 MiB buffer (UB_MAVIO_RCVBUF).
+  - Zenoh: a directory between two uavbus nodes
+      direct:   node A -> UDP -> node B
+      bridged:  node A -> UDP -> uavbus bridge zenoh [gwA] -> Zenoh (tcp) -> [gwB] -> UDP -> node B
+    latency at 200 Hz as above; throughput = frames delivered to B per second when A sends N back to
+    back (A and B in one process, interleaved: their Python cost is in both columns alike).
+The autopilot role is played by this script (pymavlink's encoder, prebuilt packets). Every loop is
+bounded by a count and a deadline; only 127.0.0.1 is used. Output: one JSON document.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import select
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("MAVLINK20", "1")
+from pymavlink.dialects.v20 import common as mavlink2  # noqa: E402
+
+from uavbus import Node  # noqa: E402
+from uavbus.sim.portalloc import PortAllocator  # noqa: E402
+from uavbus.sim.process import NodeProcess  # noqa: E402
+
+LAT_N, LAT_HZ = 600, 200
+BLAST_MAV, BLAST_UB = 100_000, 20_000
+HOST = "127.0.0.1"
+
+
+def pct(xs: list[float], q: float) -> float:
+    xs = sorted(xs)
+    return xs[min(len(xs) - 1, int(q * len(xs)))] if xs else float("nan")
+
+
+def attitude_packets(n: int) -> list[bytes]:
+    mav = mavlink2.MAVLink(None, srcSystem=1, srcComponent=1)
+    out = []
+    for k in range(n):
+        mav.seq = k & 0xFF
+        out.append(mav.attitude_encode(k + 1, 0.1, 0.2, 0.3, 0.0, 0.0, 0.0).pack(mav))
+    return out
+
+
+def udp(port: int = 0) -> socket.socket:
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind((HOST, port))
+    s.setblocking(False)
+    return s
+
+
+# ---- MAVLink ------------------------------------------------------------------------------------------
+
+def mav_direct_latency(packets: list[bytes]) -> list[float]:
+    ap, gcs = udp(), udp()
+    parser = mavlink2.MAVLink(None)
+    sent: dict[int, float] = {}
+    lat: list[float] = []
+    t0 = time.perf_counter() + 0.05
+    for k in range(LAT_N):
+        due = t0 + k / LAT_HZ
+        while True:
+            left = due - time.perf_counter()
+            r, _, _ = select.select([gcs], [], [], max(0.0, left))
+            if r:
+                data = gcs.recv(2048)
+                now = time.perf_counter()
+                for m in parser.parse_buffer(data) or []:
+                    lat.append(now - sent[m.time_boot_ms])
+            if left <= 0:
+                break
+        sent[k + 1] = time.perf_counter()
+        ap.sendto(packets[k], gcs.getsockname())
+    deadline = time.perf_counter() + 0.5
+    while time.perf_counter() < deadline and len(lat) < LAT_N:
+        if select.select([gcs], [], [], 0.05)[0]:
+            now = time.perf_counter()
+            for m in parser.parse_buffer(gcs.recv(2048)) or []:
+                lat.append(now - sent[m.time_boot_ms])
+    ap.close()
+    gcs.close()
+    return lat
+
+
+SINK = r"""
+import os, socket, sys, time, json
+os.environ["MAVLINK20"] = "1"
+from pymavlink.dialects.v20 import common as m
+s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM); s.bind(("127.0.0.1", 0))
+s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)  # as uavbus_mavbridge's (UB_MAVIO_RCVBUF)
+print(s.getsockname()[1], flush=True)
+p = m.MAVLink(None); n = 0; first = last = None
+s.settimeout(1.0)
+while True:
+    try:
+        data = s.recv(2048)
+    except socket.timeout:
+        if n:
+            break
+        continue
+    for msg in p.parse_buffer(data) or []:
+        n += 1
+        last = time.monotonic()
+        first = first or last
+print(json.dumps({"received": n, "seconds": (last - first) if n > 1 else 0.0}), flush=True)
+"""
+
+
+def blast(sock: socket.socket, packets: list[bytes], dest: tuple[str, int]) -> float:
+    t = time.perf_counter()
+    for p in packets:
+        while True:
+            try:
+                sock.sendto(p, dest)
+                break
+            except BlockingIOError:
+                select.select([], [sock], [], 0.01)
+    return time.perf_counter() - t
+
+
+def mav_direct_ingest(packets: list[bytes]) -> dict:
+    sink = subprocess.Popen([sys.executable, "-c", SINK], stdout=subprocess.PIPE, text=True)
+    try:
+        port = int(sink.stdout.readline())
+        ap = udp()
+        secs = blast(ap, packets, (HOST, port))
+        out = json.loads(sink.stdout.readline())
+        ap.close()
+    finally:
+        sink.kill()
+        sink.wait()
+    return {"sent": len(packets), "send_s": secs, "received": out["received"],
+            "rate": (out["received"] - 1) / out["seconds"] if out["seconds"] else 0.0}
+
+
+class MavBridge:
+    """uavbus_mavbridge + a Python GCS node subscribed to ATTITUDE_30 at 1 ms, the autopilot's socket here."""
+
+    def __init__(self, program: str, catalogue: str, tmp: Path) -> None:
+        ports = PortAllocator()
+        self.ap = udp(ports.port())
+        b, g, m = ports.port(), ports.port(), ports.port()
+        cfg = {"system": "mavbench",
+               "entities": [{"name": "mavbridge", "links": ["toGcs"], "linktoentity": {"gcs1": [0]}},
+                            {"name": "gcs1", "links": ["toBridge"], "linktoentity": {"mavbridge": [0]}}],
+               "nodes": {"bridge": ["mavbridge"], "gcs": ["gcs1"]},
+               "ports": {"toGcs": {"transport": "udp", "bind": f"{HOST}:{b}", "peer": f"{HOST}:{g}"},
+                         "toBridge": {"transport": "udp", "bind": f"{HOST}:{g}", "peer": f"{HOST}:{b}"}}}
+        path = tmp / "mavbench.json"
+        path.write_text(json.dumps(cfg))
+        self.mav_port = m
+        self.proc = NodeProcess([program, "--config", str(path), "--node", "bridge", "--stats-ms", "0",
+                                 "--mavlink", f"udp:bind={HOST}:{m},peer={HOST}:{self.ap.getsockname()[1]}"],
+                                "mavbridge").start()
+        self.proc.wait_ready(10)
+        self.gcs = Node(catalogue, config=path, node="gcs")
+        self.gcs.open_ports_from_config()
+        self.got: list[tuple[float, int]] = []
+        self.gcs.on_data(lambda msg: self.got.append((time.perf_counter(), msg.value["time_boot_ms"]))
+                         if msg.name == "ATTITUDE_30" else None)
+        hb = mavlink2.MAVLink(None, srcSystem=1, srcComponent=1)
+        self.ap.sendto(hb.heartbeat_encode(2, 3, 0, 0, 4, 3).pack(hb), (HOST, m))
+        self.proc.wait_event(lambda e: e.get("event") == "autopilot", 5, what="autopilot connected")
+        self.gcs.subscribe("gcs1", "ATTITUDE_30", source="mavbridge", period_ms=1)
+        warm = attitude_packets(1)
+        deadline = time.monotonic() + 5
+        while not self.got and time.monotonic() < deadline:
+            self.ap.sendto(warm[0], (HOST, m))
+            self.gcs.poll(0.02)
+        if not self.got:
+            raise RuntimeError("mavbridge bench: no ATTITUDE reached the GCS")
+
+    def latency(self, packets: list[bytes]) -> list[float]:
+        self.got.clear()
+        sent: dict[int, float] = {}
+        t0 = time.perf_counter() + 0.05
+        for k in range(LAT_N):
+            due = t0 + k / LAT_HZ
+            while time.perf_counter() < due:
+                self.gcs.poll(max(0.0, min(0.002, due - time.perf_counter())))
+            sent[k + 1] = time.perf_counter()
+            self.ap.sendto(packets[k], (HOST, self.mav_port))
+        deadline = time.perf_counter() + 0.5
+        while time.perf_counter() < deadline:
+            self.gcs.poll(0.005)
+        return [t - sent[b] for t, b in self.got if b in sent]
+
+    def ingest(self, packets: list[bytes]) -> dict:
+        before = self.proc.request_stats()["mavlink"]["messages_in"]
+        secs = blast(self.ap, packets, (HOST, self.mav_port))
+        t_end = time.perf_counter() + 3
+        last, stable_since = -1, time.perf_counter()
+        while time.perf_counter() < t_end:
+            n = self.proc.request_stats()["mavlink"]["messages_in"] - before
+            if n != last:
+                last, stable_since = n, time.perf_counter()
+            elif time.perf_counter() - stable_since > 0.3:
+                break
+            self.gcs.poll(0.05)
+        return {"sent": len(packets), "send_s": secs, "received": last, "rate": last / secs if secs else 0.0}
+
+    def close(self) -> None:
+        self.gcs.close()
+        self.proc.stop()
+        self.ap.close()
+
+
+# ---- Zenoh ----------------------------------------------------------------------------------------------
+
+def zenoh_config(tmp: Path, bridged: bool) -> tuple[Path, int]:
+    ports = PortAllocator()
+    a = {k: ports.port() for k in ("A", "B", "gwA", "gwB")}
+
+    def udp_port(bind: str, peer: str) -> dict:
+        return {"transport": "udp", "bind": f"{HOST}:{a[bind]}", "peer": f"{HOST}:{a[peer]}"}
+
+    if not bridged:
+        cfg = {"system": "zbench",
+               "entities": [{"name": "srcA", "links": ["l"], "linktoentity": {"dstB": [0]}},
+                            {"name": "dstB", "links": ["l"], "linktoentity": {"srcA": [0]}}],
+               "nodes": {"A": ["srcA"], "B": ["dstB"]},
+               "ports": {"srcA:l": udp_port("A", "B"), "dstB:l": udp_port("B", "A")}}
+    else:
+        cfg = {"system": "zbench",
+               "entities": [{"name": "srcA", "links": ["l"], "linktoentity": {"dstB": [0], "gwA": [0], "gwB": [0]}},
+                            {"name": "gwA", "links": ["site", "zenoh"],
+                             "linktoentity": {"srcA": ["site"], "dstB": ["zenoh"], "gwB": ["zenoh"]}},
+                            {"name": "gwB", "links": ["site", "zenoh"],
+                             "linktoentity": {"dstB": ["site"], "srcA": ["zenoh"], "gwA": ["zenoh"]}},
+                            {"name": "dstB", "links": ["l"], "linktoentity": {"srcA": [0], "gwA": [0], "gwB": [0]}}],
+               "nodes": {"A": ["srcA"], "B": ["dstB"], "gwA": ["gwA"], "gwB": ["gwB"]},
+               "ports": {"srcA:l": udp_port("A", "gwA"), "gwA:site": udp_port("gwA", "A"),
+                         "gwB:site": udp_port("gwB", "B"), "dstB:l": udp_port("B", "gwB")}}
+    path = tmp / ("zbridged.json" if bridged else "zdirect.json")
+    path.write_text(json.dumps(cfg))
+    return path, ports.port()
+
+
+class UbPair:
+    """Node A sends gpsOut to node B (solutionCount = index), directly or through two Zenoh bridges."""
+
+    def __init__(self, catalogue: str, tmp: Path, bridged: bool) -> None:
+        self.cfg, zport = zenoh_config(tmp, bridged)
+        self.procs: list[NodeProcess] = []
+        if bridged:
+            for name, zargs in (("gwA", ["--listen", f"tcp/{HOST}:{zport}"]), ("gwB", ["--connect", f"tcp/{HOST}:{zport}"])):
+                p = NodeProcess([sys.executable, "-m", "uavbus.cli", "bridge", "zenoh", "--config", str(self.cfg),
+                                 "--node", name, "--catalogue", catalogue, *zargs], name).start()
+                p.wait_ready(15)
+                self.procs.append(p)
+        self.a = Node(catalogue, config=self.cfg, node="A")
+        self.b = Node(catalogue, config=self.cfg, node="B")
+        for n in (self.a, self.b):
+            n.open_ports_from_config()
+        self.pub = self.a.publisher("srcA", "gpsOut", to="dstB")
+        self.b.bind("gpsOut")
+        self.got: list[tuple[float, int]] = []
+        # The index from the delivered image (msg.value), not the bound storage: one poll may deliver many.
+        self.b.on_data(lambda m: self.got.append((time.perf_counter(), m.value["solutionCount"])))
+        deadline = time.monotonic() + 10
+        while not self.got and time.monotonic() < deadline:  # Zenoh routes and sessions up
+            self.pub.directory.solutionCount = 0
+            self.pub.send()
+            self.b.poll(0.02)
+        if not self.got:
+            raise RuntimeError("zenoh bench: nothing crossed")
+
+    def latency(self) -> list[float]:
+        self.got.clear()
+        sent: dict[int, float] = {}
+        t0 = time.perf_counter() + 0.05
+        for k in range(1, LAT_N + 1):
+            due = t0 + k / LAT_HZ
+            while time.perf_counter() < due:
+                self.b.poll(max(0.0, min(0.002, due - time.perf_counter())))
+            self.pub.directory.solutionCount = k
+            sent[k] = time.perf_counter()
+            self.pub.send()
+        deadline = time.perf_counter() + 0.5
+        while time.perf_counter() < deadline:
+            self.b.poll(0.005)
+        return [t - sent[k] for t, k in self.got if k in sent]
+
+    def throughput(self) -> dict:
+        self.got.clear()
+        t0 = time.perf_counter()
+        for k in range(1, BLAST_UB + 1):
+            self.pub.directory.solutionCount = k
+            self.pub.send()
+            if k % 100 == 0:
+                self.b.poll(0)
+        deadline = time.perf_counter() + 3
+        last, since = -1, time.perf_counter()
+        while time.perf_counter() < deadline:
+            self.b.poll(0.01)
+            if len(self.got) != last:
+                last, since = len(self.got), time.perf_counter()
+            elif time.perf_counter() - since > 0.3:
+                break
+        got = {k for _, k in self.got}
+        t_last = max((t for t, _ in self.got), default=t0)
+        out = {"sent": BLAST_UB, "received": len(got), "rate": len(got) / (t_last - t0) if t_last > t0 else 0.0}
+        if self.procs:  # where frames went: into gwA, over Zenoh, out of gwB (the rest: UDP socket buffers)
+            a, b = (p.request_stats() for p in self.procs)
+            out.update(gw_in=a["links"]["site"]["frames_in"], zenoh_published=a["zenoh"]["published"],
+                       zenoh_received=b["zenoh"]["received"], gw_out=b["links"]["site"]["frames_out"])
+        return out
+
+    def close(self) -> None:
+        self.a.close()
+        self.b.close()
+        for p in self.procs:
+            p.stop()
+
+
+def lat_summary(xs: list[float]) -> dict:
+    return {"n": len(xs), "p50_us": pct(xs, 0.5) * 1e6, "p99_us": pct(xs, 0.99) * 1e6}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--build", required=True)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--runs", type=int, default=3)
+    args = ap.parse_args()
+    build = Path(args.build)
+    info = json.loads((build / "mavbridge.json").read_text())
+    flightsw = str(build / "examples" / "uavbus" / "flightsw" / "flightsw.catalogue.json")
+    packets = attitude_packets(max(LAT_N, BLAST_MAV))
+    res: dict[str, list] = {k: [] for k in ("mav_direct_lat", "mav_bridge_lat", "mav_direct_ingest", "mav_bridge_ingest",
+                                           "ub_direct_lat", "ub_zenoh_lat", "ub_direct_tput", "ub_zenoh_tput")}
+    with tempfile.TemporaryDirectory() as d:
+        tmp = Path(d)
+        for run in range(args.runs):
+            res["mav_direct_lat"].append(lat_summary(mav_direct_latency(packets)))
+            res["mav_direct_ingest"].append(mav_direct_ingest(packets[:BLAST_MAV]))
+            br = MavBridge(info["program"], info["catalogue"], tmp)
+            try:
+                res["mav_bridge_lat"].append(lat_summary(br.latency(packets)))
+                res["mav_bridge_ingest"].append(br.ingest(packets[:BLAST_MAV]))
+            finally:
+                br.close()
+            for bridged, lat_key, tput_key in ((False, "ub_direct_lat", "ub_direct_tput"),
+                                               (True, "ub_zenoh_lat", "ub_zenoh_tput")):
+                pair = UbPair(flightsw, tmp, bridged)
+                try:
+                    res[lat_key].append(lat_summary(pair.latency()))
+                    res[tput_key].append(pair.throughput())
+                finally:
+                    pair.close()
+            print(f"bridges bench: run {run + 1}/{args.runs} done", file=sys.stderr)
+    res["meta"] = [{"lat_n": LAT_N, "lat_hz": LAT_HZ, "blast_mavlink": BLAST_MAV, "blast_uavbus": BLAST_UB,
+                    "runs": args.runs, "affinity": sorted(os.sched_getaffinity(0))}]
+    Path(args.out).write_text(json.dumps(res, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,102 @@
+/**
+ * @file ub_mavio.h
+ * @brief POSIX transports between the MAVLink bridge (ub_mavbridge.h) and an autopilot: a UDP
+ *        socket (bind + the autopilot's address) or a serial device (raw 8N1, ub_serial.h's
+ *        set-up), both non-blocking, from the same spec text as uavbus ports
+ *        (`udp:bind=127.0.0.1:14550,peer=127.0.0.1:14555`, `serial:device=/dev/ttyACM0,baud=115200`),
+ *        and the signing key file.
+ *
+ * Nothing is dropped silently: datagrams from another address than the peer (`foreign`), messages
+ * the socket or the device could not take (`again`, `send_errors`, `tx_full`) are counted.
+ */
+#ifndef UB_MAVIO_H
+#define UB_MAVIO_H
+
+#include <netinet/in.h>
+#include <poll.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ub/ub_error.h"
+#include "ub/ub_ports.h"
+#include "ub/ub_serial.h"
+#include "ub_mavbridge.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Bytes queued toward a serial device when it cannot take them at once. */
+#ifndef UB_MAVIO_TX_BUFFER
+#define UB_MAVIO_TX_BUFFER 4096
+#endif
+/** Receive buffer asked for the UDP socket: room for a burst of an autopilot's telemetry while the
+ *  loop is busy (the kernel default holds ~256 datagrams). The kernel may grant less (rmem_max). */
+#ifndef UB_MAVIO_RCVBUF
+#define UB_MAVIO_RCVBUF (1 << 20)
+#endif
+/** Datagrams or reads per ub_mavio_service() at most (the poll loop comes back for the rest). */
+#ifndef UB_MAVIO_RX_BUDGET
+#define UB_MAVIO_RX_BUDGET 64
+#endif
+
+typedef struct ub_mavio_stats {
+    uint64_t datagrams_in;  /**< UDP datagrams from the peer */
+    uint64_t bytes_in;
+    uint64_t foreign;       /**< UDP datagrams from any other address: dropped */
+    uint64_t read_errors;
+    uint64_t messages_out;  /**< messages taken whole by the socket / into the device path */
+    uint64_t bytes_out;     /**< bytes the socket or the device accepted */
+    uint64_t again;         /**< messages refused: socket buffer full, or serial queue full */
+    uint64_t send_errors;   /**< socket or device write errors */
+} ub_mavio_stats_t;
+
+/** One transport. Caller-owned; fields private. */
+typedef struct ub_mavio {
+    ub_port_kind_t kind;
+    int fd;
+    struct sockaddr_in peer;
+    ub_serial_t serial;
+    size_t tx_len;
+    uint8_t tx[UB_MAVIO_TX_BUFFER];
+    uint8_t rx[2048];
+    ub_mavio_stats_t stats;
+} ub_mavio_t;
+
+/**
+ * Opens a UDP (`bind` and `peer` required) or serial spec (ub_port_spec_parse()).
+ * @return UB_OK; UB_ERR_INVAL (another transport kind); UB_ERR_IO (socket/device, errno in `err`).
+ */
+UB_CHECK int ub_mavio_open(ub_mavio_t *io, const ub_port_spec_t *spec, char *err, size_t err_cap);
+
+/** ub_mav_write_fn for ub_mavbridge_init() (`user` = the ub_mavio_t): one whole message or nothing. */
+int ub_mavio_write(void *user, const uint8_t *bytes, size_t len);
+
+/**
+ * Flushes queued serial bytes, then hands what arrived (at most UB_MAVIO_RX_BUDGET reads) to the bridge.
+ * @return messages the bridge accepted, or UB_ERR_IO (the device went away).
+ */
+UB_CHECK int ub_mavio_service(ub_mavio_t *io, ub_mavbridge_t *br, uint64_t now_ms);
+
+/** The descriptor to poll: POLLIN, plus POLLOUT while serial bytes wait. */
+void ub_mavio_pollfd(const ub_mavio_t *io, struct pollfd *pfd);
+
+/** The UDP socket's bound port. @return UB_OK, or UB_ERR_INVAL (serial) / UB_ERR_IO. */
+UB_CHECK int ub_mavio_local_port(const ub_mavio_t *io, uint16_t *port);
+
+/** Closes the descriptor. Safe twice. */
+void ub_mavio_close(ub_mavio_t *io);
+
+/**
+ * Reads a MAVLink signing key file: `#` comments and blank lines, then one line of 64 hex digits
+ * (the 32-byte secret; the SHA-256 of a passphrase, `printf %s PASSPHRASE | sha256sum`, is the key
+ * Mission Planner and QGroundControl derive from it). Refuses a file readable or writable by group
+ * or others, like ssh. Errors read "<path>:<line>: <what to do>".
+ * @return UB_OK; UB_ERR_IO (cannot read it); UB_ERR_CONFIG (bad content or mode).
+ */
+UB_CHECK int ub_mavbridge_load_key(const char *path, uint8_t key[32], char *err, size_t err_cap);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* UB_MAVIO_H */

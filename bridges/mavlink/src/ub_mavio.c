@@ -1,0 +1,242 @@
+/* POSIX transports to the autopilot and the signing key file (ub_mavio.h). */
+#include "ub_mavio.h"
+
+#include <arpa/inet.h>
+#include <ctype.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static int fail(char *err, size_t cap, int rc, const char *what, const char *detail) {
+    if (err != NULL && cap > 0) snprintf(err, cap, "%s: %s", what, detail);
+    return rc;
+}
+
+static int open_udp(ub_mavio_t *io, const ub_port_spec_t *spec, char *err, size_t cap) {
+    struct sockaddr_in local;
+    memset(&local, 0, sizeof local);
+    local.sin_family = AF_INET;
+    local.sin_port = htons(spec->port);
+    memset(&io->peer, 0, sizeof io->peer);
+    io->peer.sin_family = AF_INET;
+    io->peer.sin_port = htons(spec->peer_port);
+    if (inet_pton(AF_INET, spec->host, &local.sin_addr) != 1 || inet_pton(AF_INET, spec->peer_host, &io->peer.sin_addr) != 1)
+        return fail(err, cap, UB_ERR_INVAL, "udp", "bind and peer must be dotted IPv4 addresses");
+    int fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (fd < 0) return fail(err, cap, UB_ERR_IO, "udp socket", strerror(errno));
+    int rcvbuf = UB_MAVIO_RCVBUF;
+    (void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf); /* best effort: a smaller one still works */
+    if (bind(fd, (const struct sockaddr *)&local, sizeof local) < 0) {
+        int e = errno;
+        close(fd);
+        char what[96];
+        snprintf(what, sizeof what, "udp bind %s:%u", spec->host, (unsigned)spec->port);
+        return fail(err, cap, UB_ERR_IO, what, strerror(e));
+    }
+    io->fd = fd;
+    return UB_OK;
+}
+
+int ub_mavio_open(ub_mavio_t *io, const ub_port_spec_t *spec, char *err, size_t err_cap) {
+    if (io == NULL || spec == NULL) return UB_ERR_INVAL;
+    memset(io, 0, sizeof *io);
+    io->fd = -1;
+    io->kind = spec->kind;
+    if (spec->kind == UB_PORT_UDP) return open_udp(io, spec, err, err_cap);
+    if (spec->kind == UB_PORT_SERIAL) {
+        int rc = ub_serial_open(&io->serial, spec->device, spec->baud);
+        if (rc == UB_ERR_RANGE) return fail(err, err_cap, rc, spec->device, "unsupported baud rate");
+        if (rc < 0) return fail(err, err_cap, UB_ERR_IO, spec->device, strerror(errno));
+        io->fd = ub_serial_fileno(&io->serial);
+        return UB_OK;
+    }
+    return fail(err, err_cap, UB_ERR_INVAL, "mavlink",
+                "the autopilot link is udp:bind=HOST:PORT,peer=HOST:PORT or serial:device=PATH[,baud=N]");
+}
+
+/* Writes what the device takes now; returns bytes written or a negative error. */
+static ssize_t write_some(int fd, const uint8_t *p, size_t n) {
+    ssize_t w = write(fd, p, n);
+    if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) return 0;
+    return w;
+}
+
+static int flush_serial(ub_mavio_t *io) {
+    if (io->tx_len == 0) return UB_OK;
+    ssize_t w = write_some(io->fd, io->tx, io->tx_len);
+    if (w < 0) {
+        io->stats.send_errors++;
+        return UB_ERR_IO;
+    }
+    io->stats.bytes_out += (uint64_t)w;
+    memmove(io->tx, io->tx + w, io->tx_len - (size_t)w);
+    io->tx_len -= (size_t)w;
+    return UB_OK;
+}
+
+int ub_mavio_write(void *user, const uint8_t *bytes, size_t len) {
+    ub_mavio_t *io = user;
+    if (io == NULL || io->fd < 0) return UB_ERR_CLOSED;
+    if (io->kind == UB_PORT_UDP) {
+        ssize_t w = sendto(io->fd, bytes, len, 0, (const struct sockaddr *)&io->peer, sizeof io->peer);
+        if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+            io->stats.again++;
+            return UB_ERR_AGAIN;
+        }
+        if (w < 0 || (size_t)w != len) {
+            io->stats.send_errors++;
+            return UB_ERR_IO;
+        }
+        io->stats.messages_out++;
+        io->stats.bytes_out += len;
+        return UB_OK;
+    }
+    /* Serial: keep order behind what waits; a message is queued whole or refused whole. */
+    if (flush_serial(io) < 0) return UB_ERR_IO;
+    if (io->tx_len == 0) {
+        ssize_t w = write_some(io->fd, bytes, len);
+        if (w < 0) {
+            io->stats.send_errors++;
+            return UB_ERR_IO;
+        }
+        io->stats.bytes_out += (uint64_t)w;
+        bytes += w;
+        len -= (size_t)w;
+        if (len == 0) {
+            io->stats.messages_out++;
+            return UB_OK;
+        }
+    }
+    if (len > sizeof io->tx - io->tx_len) {
+        io->stats.again++;
+        return UB_ERR_AGAIN;
+    }
+    memcpy(io->tx + io->tx_len, bytes, len);
+    io->tx_len += len;
+    io->stats.messages_out++;
+    return UB_OK;
+}
+
+static bool same_peer(const struct sockaddr_in *a, const struct sockaddr_in *b) {
+    return a->sin_addr.s_addr == b->sin_addr.s_addr && a->sin_port == b->sin_port;
+}
+
+int ub_mavio_service(ub_mavio_t *io, ub_mavbridge_t *br, uint64_t now_ms) {
+    if (io == NULL || br == NULL || io->fd < 0) return UB_ERR_INVAL;
+    int accepted = 0;
+    if (io->kind == UB_PORT_SERIAL && flush_serial(io) < 0) return UB_ERR_IO;
+    for (int k = 0; k < UB_MAVIO_RX_BUDGET; k++) {
+        ssize_t n;
+        if (io->kind == UB_PORT_UDP) {
+            struct sockaddr_in from;
+            socklen_t flen = sizeof from;
+            n = recvfrom(io->fd, io->rx, sizeof io->rx, 0, (struct sockaddr *)&from, &flen);
+            if (n >= 0 && !same_peer(&from, &io->peer)) {
+                io->stats.foreign++;
+                continue;
+            }
+            if (n >= 0) io->stats.datagrams_in++;
+        } else {
+            n = read(io->fd, io->rx, sizeof io->rx);
+            if (n == 0) break; /* no data (VMIN 0) */
+        }
+        if (n < 0) {
+            if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) break;
+            io->stats.read_errors++;
+            return UB_ERR_IO;
+        }
+        io->stats.bytes_in += (uint64_t)n;
+        int r = ub_mavbridge_rx(br, io->rx, (size_t)n, now_ms);
+        if (r > 0) accepted += r;
+    }
+    return accepted;
+}
+
+void ub_mavio_pollfd(const ub_mavio_t *io, struct pollfd *pfd) {
+    pfd->fd = io->fd;
+    pfd->events = (short)(POLLIN | (io->tx_len > 0 ? POLLOUT : 0));
+    pfd->revents = 0;
+}
+
+int ub_mavio_local_port(const ub_mavio_t *io, uint16_t *port) {
+    if (io == NULL || port == NULL || io->kind != UB_PORT_UDP) return UB_ERR_INVAL;
+    struct sockaddr_in local;
+    socklen_t len = sizeof local;
+    if (getsockname(io->fd, (struct sockaddr *)&local, &len) < 0) return UB_ERR_IO;
+    *port = ntohs(local.sin_port);
+    return UB_OK;
+}
+
+void ub_mavio_close(ub_mavio_t *io) {
+    if (io == NULL || io->fd < 0) return;
+    if (io->kind == UB_PORT_SERIAL) ub_serial_close(&io->serial);
+    else close(io->fd);
+    io->fd = -1;
+}
+
+/* ---- signing key file --------------------------------------------------------------------------- */
+
+static int hexval(int c) {
+    if (c >= '0' && c <= '9') return c - '0';
+    c = tolower(c);
+    return c >= 'a' && c <= 'f' ? c - 'a' + 10 : -1;
+}
+
+int ub_mavbridge_load_key(const char *path, uint8_t key[32], char *err, size_t err_cap) {
+    if (path == NULL || key == NULL) return UB_ERR_INVAL;
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0) {
+        if (err != NULL) snprintf(err, err_cap, "%s: cannot open the MAVLink key file: %s", path, strerror(errno));
+        return UB_ERR_IO;
+    }
+    struct stat st;
+    char text[1024];
+    ssize_t n = fstat(fd, &st) == 0 ? read(fd, text, sizeof text - 1) : -1;
+    int e = errno;
+    close(fd);
+    if (n < 0) {
+        if (err != NULL) snprintf(err, err_cap, "%s: cannot read the MAVLink key file: %s", path, strerror(e));
+        return UB_ERR_IO;
+    }
+    if ((st.st_mode & (S_IRWXG | S_IRWXO)) != 0) {
+        if (err != NULL)
+            snprintf(err, err_cap, "%s:1: the MAVLink key file is accessible by group or others (chmod 600 %s)", path,
+                     path);
+        return UB_ERR_CONFIG;
+    }
+    text[n] = '\0';
+    unsigned line = 0;
+    char *save = NULL;
+    bool found = false;
+    for (char *l = strtok_r(text, "\n", &save); l != NULL; l = strtok_r(NULL, "\n", &save)) {
+        line++;
+        while (*l == ' ' || *l == '\t') l++;
+        size_t len = strcspn(l, "\r#");
+        while (len > 0 && (l[len - 1] == ' ' || l[len - 1] == '\t')) len--;
+        if (len == 0) continue;
+        if (found || len != 64) {
+            if (err != NULL)
+                snprintf(err, err_cap, "%s:%u: expected one line of 64 hex digits (the 32-byte key), e.g. the "
+                                       "output of: printf %%s PASSPHRASE | sha256sum", path, line);
+            return UB_ERR_CONFIG;
+        }
+        for (size_t i = 0; i < 32; i++) {
+            int hi = hexval((unsigned char)l[2 * i]), lo = hexval((unsigned char)l[2 * i + 1]);
+            if (hi < 0 || lo < 0) {
+                if (err != NULL) snprintf(err, err_cap, "%s:%u: character %zu is not a hex digit", path, line, 2 * i + (hi < 0 ? 1 : 2));
+                return UB_ERR_CONFIG;
+            }
+            key[i] = (uint8_t)(hi << 4 | lo);
+        }
+        found = true;
+    }
+    if (!found) {
+        if (err != NULL) snprintf(err, err_cap, "%s:%u: no key (one line of 64 hex digits)", path, line > 0 ? line : 1);
+        return UB_ERR_CONFIG;
+    }
+    return UB_OK;
+}

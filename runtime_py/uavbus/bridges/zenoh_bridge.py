@@ -1,0 +1,359 @@
+"""`uavbus bridge zenoh`: joins uavbus networks (sites) through Zenoh sessions (docs/bridges.md).
+
+    uavbus bridge zenoh --config FILE [--node NAME] --catalogue CAT.json
+                        [--link zenoh] [--mode peer|router|client]
+                        [--listen ENDPOINT]... [--connect ENDPOINT]...
+                        [--prefix KEY] [--flow DEST[/SOURCE[/DIRECTORY]]]... [--batch]
+                        [--stats-s S] [--duration-s S]
+
+The bridge is a uavbus node like any other: its entity (the one owning --link) has links to its own
+site (ports of the configuration) and one link whose transport is this Zenoh session (a
+uavbus.pylink.PyLink: the C router routes onto it as onto a UDP link). Entities of the other sites are
+rows of the entity table whose masks point at the Zenoh link, so they are reachable from every node of
+this site like any entity a few hops away; the one router does the work (verification, duplicates,
+hop limit, forwarding, counters).
+
+**Frames are carried unchanged**: each frame the router sends on the Zenoh link is one Zenoh sample,
+payload = the frame's bytes as they left the router (hop limit already decremented), so a signed or
+encrypted frame's trailer arrives intact and is verified end to end by its destination. On a signed
+network the bridges verify like any forwarder (they hold the fleet key, docs/security.md) but never
+re-sign: the tag the destination checks is the source's.
+
+**Key expressions**, one chunk per part, so Zenoh tools and ACLs can select flows:
+
+    <prefix>/<destination entity>/<source entity>/<directory>/<kind>
+
+<prefix> defaults to `uavbus/<system>` (the configuration's "system", else `uavbus/uavbus`);
+<directory> is the catalogue instance name (`navFilterState`, `gcsMissionRmax1[0]`), or `_` + the hex
+content ID for a content the bridge's catalogue does not know; <kind> is `data` or the admin frame's
+name (`pub_request`, `ack`, ...), so the requests and replies of a flow travel with its data.
+A bridge subscribes, for each entity of its own site (masks not through the Zenoh link, itself
+included), to `<prefix>/<entity>/**`, or to the --flow selections only (`gcs2/rmax1ob1/navFilterState`
+-> `<prefix>/gcs2/rmax1ob1/navFilterState/*`; `*` for any entity). It announces each of those entities
+with a liveliness token `<prefix>/@live/<entity>` and reports the other sites' tokens ("remote" events).
+
+JSON lines on stdout, as uavbus_node: "ready", "remote", "stats", "error"; stdin `stats`, `quit`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import select
+import sys
+import threading
+import time
+from collections import deque
+from typing import Any, TextIO
+
+from uavbus._bindings.ub_error import UbError
+from uavbus._bindings.ub_frame import ub_frame_parse
+from uavbus.catalogue import Catalogue
+from uavbus.errors import ConfigError
+from uavbus.pylink import PyLink
+from uavbus.tools.common import admin_name, entity_name
+
+LIVE_CHUNK = "@live"
+INBOX_MAX = 65536          # frames from Zenoh waiting for the loop; beyond: counted rx_overflow
+PUBLISHERS_MAX = 4096      # declared publishers kept (one per key); beyond: plain put, counted
+LOOP_WAIT_MS = 10          # the loop wakes for descriptors and Zenoh samples anyway; this bounds ticks
+
+
+class BridgeError(RuntimeError):
+    """A set-up problem, said in one line with what to do."""
+
+
+def frame_key(prefix: str, frame: bytes, catalogue: Catalogue) -> str:
+    """The key expression of one frame (module docstring)."""
+    h = ub_frame_parse(frame)
+    inst = catalogue.find(bytes(h.dir_id))
+    directory = inst.name if inst is not None else "_" + bytes(h.dir_id).hex()
+    return f"{prefix}/{entity_name(h.dest_id)}/{entity_name(h.src_id)}/{directory}/{admin_name(h.admin)}"
+
+
+def flow_keyexpr(prefix: str, flow: str) -> str:
+    """`DEST[/SOURCE[/DIRECTORY]]` ('*' = any) as a key expression under `prefix`."""
+    parts = flow.strip("/").split("/")
+    if not 1 <= len(parts) <= 3 or any(not p for p in parts):
+        raise BridgeError(f"--flow {flow!r}: expected DEST[/SOURCE[/DIRECTORY]] with '*' for any, "
+                          "e.g. gcs2/rmax1ob1/navFilterState or gcs2/*")
+    for p in parts:
+        if p != "*" and any(c in p for c in "*$#?"):
+            raise BridgeError(f"--flow {flow!r}: '{p}': a part is a name or '*', nothing else")
+    tail = "/*" if len(parts) == 3 else "/**"
+    return f"{prefix}/{'/'.join(parts)}{tail}"
+
+
+class ZenohBridge:
+    """One node's Zenoh link: outbound frames -> samples, subscribed samples -> the router."""
+
+    def __init__(self, node: Any, link: str, session: Any, prefix: str, flows: list[str] | None = None,
+                 express: bool = True) -> None:
+        import zenoh
+
+        self.node, self.link, self.session, self.prefix = node, link, session, prefix
+        self.express = express
+        self.entity, self.local_site, self.remote_site = self._sites()
+        self.pylink = PyLink(node, link, kind="zenoh")
+        self.flows = [flow_keyexpr(prefix, f) for f in flows] if flows else \
+            [f"{prefix}/{e}/**" for e in self.local_site]
+        self._inbox: deque[bytes] = deque()
+        self._wake_r, self._wake_w = os.pipe()
+        os.set_blocking(self._wake_r, False)
+        os.set_blocking(self._wake_w, False)
+        self._lock = threading.Lock()
+        self.counters = {"published": 0, "received": 0, "rejected": 0, "rx_overflow": 0, "put_errors": 0,
+                         "publishers_full": 0}
+        self.remote_alive: dict[str, bool] = {}
+        self.events: deque[dict[str, Any]] = deque()
+        self._publishers: dict[str, Any] = {}
+        self._cc = zenoh.CongestionControl.BLOCK
+        self._subs = [session.declare_subscriber(k, self._on_sample, allowed_origin=zenoh.Locality.REMOTE)
+                      for k in self.flows]
+        live = session.liveliness()
+        self._tokens = [live.declare_token(f"{prefix}/{LIVE_CHUNK}/{e}") for e in self.local_site]
+        self._live_sub = live.declare_subscriber(f"{prefix}/{LIVE_CHUNK}/*", self._on_live, history=True)
+
+    # -- which entities are where -----------------------------------------------------------------
+    def _sites(self) -> tuple[str, list[str], list[str]]:
+        cfg = self.node.config
+        if cfg is None:
+            raise BridgeError("the Zenoh bridge needs a node configuration (--config)")
+        owner = next((e for e in cfg.hosts if self.link in cfg.entity(e).links), None)
+        if owner is None:
+            raise BridgeError(f"{cfg.path}: no entity of this node has a link named '{self.link}' "
+                              f"(add it to the bridge entity's \"links\", or give --link)")
+        bit = 1 << cfg.entity(owner).links.index(self.link)
+        local, remote = [owner], []
+        for e in cfg.entities:
+            if e.name == owner:
+                continue
+            mask = cfg.mask(owner, e.name)
+            if mask & bit:
+                remote.append(e.name)
+            elif mask or e.name in cfg.hosts:
+                local.append(e.name)
+        if not remote:
+            raise BridgeError(f"{cfg.path}: entity '{owner}' sends nothing over '{self.link}': give the other "
+                              f"sites' entities a mask with that link in its \"linktoentity\"")
+        return owner, local, remote
+
+    # -- Zenoh threads: only queue and wake the loop -----------------------------------------------
+    def _wake(self) -> None:
+        try:
+            os.write(self._wake_w, b"\0")
+        except BlockingIOError:
+            pass  # the loop has wake-ups pending already
+
+    def _on_sample(self, sample: Any) -> None:
+        if len(self._inbox) >= INBOX_MAX:
+            with self._lock:
+                self.counters["rx_overflow"] += 1
+            return
+        self._inbox.append(sample.payload.to_bytes())
+        self._wake()
+
+    def _on_live(self, sample: Any) -> None:
+        import zenoh
+
+        entity = str(sample.key_expr).rsplit("/", 1)[-1]
+        alive = sample.kind == zenoh.SampleKind.PUT
+        if entity in self.local_site:
+            return
+        with self._lock:
+            self.remote_alive[entity] = alive
+            self.events.append({"event": "remote", "entity": entity, "alive": alive,
+                                "known": entity in self.remote_site})
+        self._wake()
+
+    # -- the loop's side ------------------------------------------------------------------------
+    def fileno(self) -> int:
+        return self._wake_r
+
+    def pump(self, now_ms: int | None = None) -> int:
+        """Frames from Zenoh into the router, then the router's frames out to Zenoh. Returns frames moved."""
+        try:
+            while os.read(self._wake_r, 4096):
+                pass
+        except BlockingIOError:
+            pass
+        moved = 0
+        while self._inbox:
+            frame = self._inbox.popleft()
+            self.counters["received"] += 1
+            if not self.pylink.receive(frame, now_ms):
+                self.counters["rejected"] += 1
+            moved += 1
+        for frame in self.pylink.drain():
+            self._publish(frame)
+            moved += 1
+        return moved
+
+    def _publish(self, frame: bytes) -> None:
+        try:
+            key = frame_key(self.prefix, frame, self.node.catalogue)
+            pub = self._publishers.get(key)
+            if pub is None and len(self._publishers) < PUBLISHERS_MAX:
+                pub = self._publishers[key] = self.session.declare_publisher(
+                    key, congestion_control=self._cc, express=self.express)
+            if pub is not None:
+                pub.put(frame)
+            else:
+                self.counters["publishers_full"] += 1
+                self.session.put(key, frame, congestion_control=self._cc, express=self.express)
+            self.counters["published"] += 1
+        except Exception:  # noqa: BLE001 (a Zenoh error must not stop the bridge: counted)
+            self.counters["put_errors"] += 1
+
+    def stats(self) -> dict[str, Any]:
+        with self._lock:
+            out = dict(self.counters)
+            out["remote_alive"] = sorted(e for e, up in self.remote_alive.items() if up)
+        out["outbox_refused"] = self.pylink.refused
+        return out
+
+    def close(self) -> None:
+        for thing in [*self._subs, self._live_sub, *self._tokens, *self._publishers.values()]:
+            try:
+                thing.undeclare()
+            except Exception:  # noqa: BLE001 (closing anyway)
+                pass
+        os.close(self._wake_r)
+        os.close(self._wake_w)
+
+
+def zenoh_config(mode: str, listen: list[str], connect: list[str]) -> Any:
+    import zenoh
+
+    conf = zenoh.Config()
+    conf.insert_json5("mode", json.dumps(mode))
+    if listen:
+        conf.insert_json5("listen/endpoints", json.dumps(listen))
+    if connect:
+        conf.insert_json5("connect/endpoints", json.dumps(connect))
+    # Only the endpoints given: no multicast discovery of whatever else is on the network.
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    return conf
+
+
+def _emit(out: TextIO, obj: dict[str, Any]) -> None:
+    out.write(json.dumps(obj, separators=(",", ":")) + "\n")
+    out.flush()
+
+
+def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
+    try:
+        import zenoh
+    except ImportError:
+        raise BridgeError("the Zenoh bridge needs the eclipse-zenoh package: pip install 'uavbus[bridges]'") from None
+    from uavbus.node import Node
+
+    zenoh.init_log_from_env_or("error")
+    node = Node(args.catalogue, config=args.config, node=args.node)
+    session = None
+    bridge = None
+    try:
+        node.open_ports_from_config()
+        prefix = args.prefix or f"uavbus/{node.config.system or 'uavbus'}"
+        try:
+            session = zenoh.open(zenoh_config(args.mode, args.listen, args.connect))
+        except zenoh.ZError as exc:
+            raise BridgeError(f"zenoh: cannot open a {args.mode} session (listen {args.listen}, connect "
+                              f"{args.connect}): {exc}") from None
+        bridge = ZenohBridge(node, args.link, session, prefix, args.flow, express=not args.batch)
+        ports = {}
+        for name, c in node.link_counters().items():
+            if c.get("port") is not None:
+                try:
+                    ports[name] = {"local_port": node.local_port(name)}
+                except UbError:
+                    ports[name] = {"local_port": None}
+        _emit(out, {"event": "ready", "pid": os.getpid(), "node": args.node, "entity": bridge.entity,
+                    "link": args.link, "prefix": prefix, "zid": str(session.info.zid()), "mode": args.mode,
+                    "listen": args.listen, "connect": args.connect, "flows": bridge.flows,
+                    "local_site": bridge.local_site, "remote_site": bridge.remote_site, "ports": ports})
+        end = time.monotonic() + args.duration_s if args.duration_s else None
+        next_stats = time.monotonic() + args.stats_s if args.stats_s else None
+        stdin_open = True
+        while end is None or time.monotonic() < end:
+            poller = select.poll()
+            for fd, events in node.fds():
+                poller.register(fd, events)
+            poller.register(bridge.fileno(), select.POLLIN)
+            if stdin_open:
+                poller.register(sys.stdin.fileno(), select.POLLIN)
+            ready = dict(poller.poll(LOOP_WAIT_MS))
+            if stdin_open and sys.stdin.fileno() in ready:
+                line = sys.stdin.readline()
+                if not line:
+                    stdin_open = False
+                elif line.strip() == "quit":
+                    break
+                elif line.strip() == "stats":
+                    _emit(out, _stats(node, bridge))
+            now = node.now()
+            bridge.pump(now)
+            node.service(now)
+            bridge.pump(now)
+            while bridge.events:
+                _emit(out, bridge.events.popleft())
+            if next_stats is not None and time.monotonic() >= next_stats:
+                _emit(out, _stats(node, bridge))
+                next_stats += args.stats_s
+        _emit(out, {**_stats(node, bridge), "final": True})
+        return 0
+    finally:
+        if bridge is not None:
+            bridge.close()
+        node.close()
+        if session is not None:
+            session.close()
+
+
+def _stats(node: Any, bridge: ZenohBridge) -> dict[str, Any]:
+    c = node.counters()
+    return {"event": "stats", "node": {k: c[k] for k in ("originated", "forwarded", "delivered")} | {"drops": c["drops"]},
+            "links": {name: {k: v[k] for k in ("frames_in", "frames_out", "drops")}
+                      for name, v in node.link_counters().items()},
+            "zenoh": bridge.stats()}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="uavbus bridge zenoh",
+                                description="carry uavbus frames between sites through Zenoh (docs/bridges.md)")
+    p.add_argument("--config", required=True, help="node configuration: entities, ports, security")
+    p.add_argument("--node", help="the node of the configuration this bridge runs (default: its \"hosts\")")
+    p.add_argument("--catalogue", required=True, help="catalogue JSON (names the directories in the keys)")
+    p.add_argument("--link", default="zenoh", help="the bridge entity's link carried by Zenoh (default zenoh)")
+    p.add_argument("--mode", choices=("peer", "router", "client"), default="peer", help="Zenoh session mode")
+    p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT", help="e.g. tcp/127.0.0.1:7447")
+    p.add_argument("--connect", action="append", default=[], metavar="ENDPOINT", help="e.g. tcp/127.0.0.1:7447")
+    p.add_argument("--prefix", help="key prefix (default uavbus/<system>)")
+    p.add_argument("--flow", action="append", metavar="DEST[/SOURCE[/DIRECTORY]]",
+                   help="receive only these flows ('*' = any); default: everything for this site's entities")
+    p.add_argument("--batch", action="store_true", help="let Zenoh batch samples (throughput) instead of express")
+    p.add_argument("--stats-s", type=float, default=0.0, help="print stats every S seconds (0: on request)")
+    p.add_argument("--duration-s", type=float, default=0.0, help="stop after S seconds (0: run until quit)")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] in ("-h", "--help"):
+        print("usage: uavbus bridge zenoh ...   (uavbus bridge zenoh --help)\n\n"
+              "  zenoh   carry uavbus frames between sites through Zenoh sessions\n\n"
+              "The MAVLink bridge is the C program uavbus_mavbridge (docs/bridges.md).")
+        return 0 if argv else 2
+    if argv[0] != "zenoh":
+        print(f"uavbus bridge: unknown bridge '{argv[0]}' (available: zenoh; the MAVLink bridge is the "
+              "program uavbus_mavbridge)", file=sys.stderr)
+        return 2
+    args = build_parser().parse_args(argv[1:])
+    try:
+        return run(args)
+    except (BridgeError, ConfigError, UbError, OSError) as exc:
+        msg = f"uavbus bridge zenoh: {exc}"
+        print(msg, file=sys.stderr)
+        _emit(sys.stdout, {"event": "error", "message": msg})
+        return 2

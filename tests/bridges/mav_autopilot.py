@@ -1,0 +1,183 @@
+"""A small autopilot made of pymavlink's mavutil (a MAVLink peer nobody here wrote): the vehicle end of
+the MAVLink bridge tests and bench.
+
+    python mav_autopilot.py --port P [--sysid 1 --compid 1] [--key FILE] [--duration S]
+
+Listens on udp 127.0.0.1:P (mavutil `udpin`: it answers whoever spoke last, so it starts streaming
+when the bridge's first HEARTBEAT arrives) and, as system 1 component 1:
+  - sends HEARTBEAT at 1 Hz, ATTITUDE at 50 Hz and GLOBAL_POSITION_INT at 10 Hz by default, each
+    with time_boot_ms (a new value per sample) and values that move;
+  - honours MAV_CMD_SET_MESSAGE_INTERVAL (interval µs; 0 = default rate, -1 = off) for the messages
+    it streams, answering ACCEPTED, and UNSUPPORTED for any other message id;
+  - answers every other COMMAND_LONG / COMMAND_INT with COMMAND_ACK ACCEPTED.
+With --key (64 hex digits in a file), pymavlink's own MAVLink 2 signing: everything it sends is signed
+and nothing unsigned is accepted.
+
+JSON lines on stdout: "ready", "command" (every command received: id, params, signed), "interval"
+(a stream's new interval), "stats" (on `stats` and at exit: messages sent per type, signing counters).
+stdin: `stats`, `quit`, `send_unsigned ROLL` (one unsigned ATTITUDE with that roll, then signing
+resumes: an attacker without the key), `send_badsig ROLL` (one signed with a wrong key), `pause S`
+(stop sending anything, heartbeats too, for S seconds: a lost link).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import select
+import sys
+import time
+
+os.environ.setdefault("MAVLINK20", "1")
+from pymavlink import mavutil  # noqa: E402
+
+DEFAULT_US = {30: 20_000, 33: 100_000}  # ATTITUDE 50 Hz, GLOBAL_POSITION_INT 10 Hz
+
+
+def emit(obj: dict) -> None:
+    sys.stdout.write(json.dumps(obj, separators=(",", ":")) + "\n")
+    sys.stdout.flush()
+
+
+def read_key(path: str) -> bytes:
+    for line in open(path, encoding="ascii"):
+        line = line.split("#", 1)[0].strip()
+        if line:
+            return bytes.fromhex(line)
+    raise SystemExit(f"{path}: no key")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--port", type=int, required=True)
+    ap.add_argument("--sysid", type=int, default=1)
+    ap.add_argument("--compid", type=int, default=1)
+    ap.add_argument("--key")
+    ap.add_argument("--duration", type=float, default=120.0)
+    args = ap.parse_args()
+
+    conn = mavutil.mavlink_connection(f"udpin:127.0.0.1:{args.port}", source_system=args.sysid,
+                                      source_component=args.compid, dialect="common")
+    mav = conn.mav
+    key = read_key(args.key) if args.key else None
+    if key:
+        mav.signing.secret_key = key
+        mav.signing.sign_outgoing = True
+        mav.signing.allow_unsigned_callback = None
+        mav.signing.timestamp = int((time.time() - 1420070400) * 100000)
+        mav.signing.link_id = 0
+    m = mavutil.mavlink
+    start = time.monotonic()
+    interval_us = dict(DEFAULT_US)
+    next_due = {msgid: start for msgid in interval_us}
+    next_hb = start
+    sent: dict[str, int] = {}
+    commands = 0
+    paused_until = 0.0
+    emit({"event": "ready", "pid": os.getpid(), "port": args.port, "signing": key is not None})
+
+    def boot_ms() -> int:
+        return int((time.monotonic() - start) * 1000)
+
+    def send(msg: object) -> None:
+        if time.monotonic() < paused_until or not conn.clients:
+            return
+        mav.send(msg)
+        name = msg.get_type()  # type: ignore[attr-defined]
+        sent[name] = sent.get(name, 0) + 1
+
+    def stream(msgid: int) -> object:
+        t = time.monotonic() - start
+        if msgid == 30:
+            return m.MAVLink_attitude_message(boot_ms(), 0.1 * math.sin(t), 0.05 * math.cos(t), t % 6.28, 0.1, 0.2, 0.3)
+        return m.MAVLink_global_position_int_message(boot_ms(), 473977420 + int(t * 100), 85455940, 500000, 20000,
+                                                     100, -50, 0, 9000)
+
+    def stats() -> dict:
+        s = {"event": "stats", "sent": sent, "commands": commands, "intervals": {str(k): v for k, v in interval_us.items()}}
+        if key:
+            g = mav.signing
+            s["signing"] = {"goodsig": g.goodsig_count, "badsig": g.badsig_count, "unsigned": g.unsigned_count,
+                            "reject": g.reject_count}
+        return s
+
+    def one_off(roll: float, good_key: bool) -> None:
+        """One ATTITUDE unsigned (good_key False and no key argument) or signed with a wrong key."""
+        saved = (mav.signing.secret_key, mav.signing.sign_outgoing)
+        if good_key is False and key is not None:
+            mav.signing.sign_outgoing = False
+        else:
+            mav.signing.secret_key = bytes(32)
+            mav.signing.sign_outgoing = True
+        mav.send(m.MAVLink_attitude_message(boot_ms(), roll, 0, 0, 0, 0, 0))
+        mav.signing.secret_key, mav.signing.sign_outgoing = saved
+
+    end = start + args.duration
+    stdin_buf = ""
+    while time.monotonic() < end:
+        now = time.monotonic()
+        wake = min([next_hb] + [t for k, t in next_due.items() if interval_us[k] > 0])
+        r, _, _ = select.select([conn.port, sys.stdin], [], [], max(0.0, min(wake - now, 0.05)))
+        if sys.stdin in r:
+            chunk = os.read(sys.stdin.fileno(), 4096).decode()
+            if not chunk:
+                break
+            stdin_buf += chunk
+            while "\n" in stdin_buf:
+                line, stdin_buf = stdin_buf.split("\n", 1)
+                words = line.split()
+                if not words:
+                    continue
+                if words[0] == "quit":
+                    end = 0
+                elif words[0] == "stats":
+                    emit(stats())
+                elif words[0] == "send_unsigned":
+                    one_off(float(words[1]), good_key=False)
+                elif words[0] == "send_badsig":
+                    one_off(float(words[1]), good_key=True)
+                elif words[0] == "pause":
+                    paused_until = time.monotonic() + float(words[1])
+        if conn.port in r:
+            while True:
+                msg = conn.recv_msg()
+                if msg is None:
+                    break
+                kind = msg.get_type()
+                if kind not in ("COMMAND_LONG", "COMMAND_INT"):
+                    continue
+                commands += 1
+                params = [msg.param1, msg.param2, msg.param3, msg.param4]
+                emit({"event": "command", "command": msg.command, "params": params,
+                      "from": [msg.get_srcSystem(), msg.get_srcComponent()],
+                      "target": [msg.target_system, msg.target_component],
+                      "signed": bool(getattr(msg, "_signed", False))})
+                result = m.MAV_RESULT_ACCEPTED
+                if msg.command == m.MAV_CMD_SET_MESSAGE_INTERVAL:
+                    msgid, us = int(msg.param1), int(msg.param2)
+                    if msgid in DEFAULT_US:
+                        interval_us[msgid] = DEFAULT_US[msgid] if us == 0 else (0 if us < 0 else us)
+                        next_due[msgid] = time.monotonic()
+                        emit({"event": "interval", "msgid": msgid, "requested_us": us, "interval_us": interval_us[msgid]})
+                    else:
+                        result = m.MAV_RESULT_UNSUPPORTED
+                send(m.MAVLink_command_ack_message(msg.command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()))
+        now = time.monotonic()
+        if now >= next_hb:
+            send(m.MAVLink_heartbeat_message(m.MAV_TYPE_QUADROTOR, m.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 0,
+                                             m.MAV_STATE_ACTIVE, 3))
+            next_hb += 1.0
+        for msgid, us in interval_us.items():
+            if us > 0 and now >= next_due[msgid]:
+                send(stream(msgid))
+                next_due[msgid] += us / 1e6
+                if next_due[msgid] < now:  # behind (a stall): no burst
+                    next_due[msgid] = now + us / 1e6
+    emit(stats())
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
