@@ -20,7 +20,7 @@ bin=$build/bench-bin
 VPY=$root/.venv/bin/python
 RUNS=${RUNS:-5}
 mkdir -p "$raw" "$peers" "$gen" "$bin"
-rm -f "$raw"/*
+rm -rf "${raw:?}"/*   # raw/callgrind is a directory: a second run must not stop here
 
 say() { echo "bench: $*" >&2; }
 timed() { # timed NAME command...: records the command for results.md, then runs it

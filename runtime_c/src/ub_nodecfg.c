@@ -138,7 +138,9 @@ static int check_fields(const parser_t *p, const ub_json_value_t *obj, const cha
         size_t n = key_text(p, &key, name);
         size_t k = 0;
         while (k < nfields && !(n < KEY_BUF && strlen(fields[k]) == n && memcmp(fields[k], name, n) == 0)) k++;
-        (void)snprintf(path, sizeof path, "%s%s", prefix, k < nfields ? fields[k] : echo(name, n));
+        /* The path only names the field in a message: a longer one is shown cut, marked with '~'. */
+        if (snprintf(path, sizeof path, "%s%s", prefix, k < nfields ? fields[k] : echo(name, n)) >= (int)sizeof path)
+            path[sizeof path - 2] = '~';
         if (k == nfields)
             return fail(p, key.line, entity, path, "unknown field (expected one of: %s)", expected);
         if (first_line[k] != 0)
