@@ -432,33 +432,13 @@ __attribute__((target("sse4.2"))) static uint32_t header_words_sse42(const uint6
     return ~_mm_crc32_u32((uint32_t)c, (uint32_t)w[7]);
 }
 
-/* Both checks in one chain: the header CRC is finished from the register that the message CRC then
- * continues over the body (ub_crc32c_update(header_crc, ...) undoes the final inversion, which is the
- * same thing), so the 56 header bytes are read once and there is one dispatch per frame. No state
- * is kept between calls. */
+/* Both checks in one call: the message CRC goes on from the header CRC's register (crc32c_sse42 undoes the
+ * final inversion), with one dispatch per frame; both helpers inline into one unbroken instruction chain.
+ * No state is kept between calls. */
 __attribute__((target("sse4.2"))) static uint32_t frame_words_sse42(const uint64_t w[8], const uint8_t *body,
                                                                     size_t len, uint32_t *header_crc) {
-    uint64_t c = _mm_crc32_u32(0xFFFFFFFFu, (uint32_t)(w[0] >> 32));
-    for (int k = 1; k < 7; k++) c = _mm_crc32_u64(c, w[k]);
-    c = _mm_crc32_u32((uint32_t)c, (uint32_t)w[7]);
-    *header_crc = ~(uint32_t)c; /* the finished header CRC; the message CRC goes on from the same register */
-    while (len >= 8) {
-        uint64_t word;
-        memcpy(&word, body, sizeof word);
-        c = _mm_crc32_u64(c, word);
-        body += 8;
-        len -= 8;
-    }
-    uint32_t c32 = (uint32_t)c;
-    if (len >= 4) {
-        uint32_t word;
-        memcpy(&word, body, sizeof word);
-        c32 = _mm_crc32_u32(c32, word);
-        body += 4;
-        len -= 4;
-    }
-    while (len--) c32 = _mm_crc32_u8(c32, *body++);
-    return ~c32;
+    *header_crc = header_words_sse42(w);
+    return crc32c_sse42(*header_crc, body, len);
 }
 
 int ub_crc32c_hw_available(void) {
