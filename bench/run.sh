@@ -197,6 +197,12 @@ rm -rf "$build/wire-frames"
 timed wire "$VPY" bench/wire_bench.py "$gen/benchcat.catalogue.json" "$build/wire-frames" >"$raw/wire.txt"
 timed radio "$bin/radio_bench" 5760 255 60 "$build"/wire-frames/*.frames >"$raw/radio.txt"
 
+# ---- figure 10: remote inspection (issue 16): one-shot read over 1 and 2 hops, Table 2 processes ----
+say "figure 10: remote read round trip over 1 and 2 hops"
+[ -d build ] || cmake -S . -B build -G Ninja -DUAVBUS_PYTHON="$VPY" >/dev/null   # the node Hitl runs (sim.build)
+cmake --build build --target uavbus_node >/dev/null
+timed inspect "$VPY" bench/inspect_bench.py --n "${INSPECT_N:-300}" >"$raw/inspect.txt" 2>"$raw/inspect.log"
+
 # ---- internals kept from the first bench (frame codec, router costs, false-accept rate) ----
 "$build/runtime_c/ub_frame_bench" >"$raw/frame_bench.txt"
 "$build/runtime_c/ub_router_bench" >"$raw/router_bench.txt"

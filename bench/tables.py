@@ -475,6 +475,11 @@ def main() -> None:
 
     wire_section(raw, w, goals)
 
+    # ---- figure 10: remote inspection (bench/inspect_tables.py) ----
+    from inspect_tables import render as inspect_section  # bench/ is the script's own directory
+
+    inspect_section(raw, w, goals)
+
     # ---- goals ----
     w("## Goals")
     w("")

@@ -87,7 +87,8 @@ class Renderer:
             id_scheme_c="UB_ID_SCHEME_" + cat.id_scheme.upper(), catalogue_json=inputs.catalogue_json,
             check_runs=check_runs, json_rows=c_json_rows, wire_checks=lambda t: model.wire_checks(cat, t),
             py_checks=self.py_checks, py_property_checks=self.py_property_checks, indexes=lambda dims: list(product(*(range(d) for d in dims))), concrete=_concrete, LOOP_MIN=LOOP_MIN,
-            rounds=PROPERTY_ROUNDS,
+            rounds=PROPERTY_ROUNDS, bind_bases=lambda: bind_bases(cat),
+            bindable=lambda i: bindable(i, cat),
         )
         self._py_classes = self._python_class_names()
 
@@ -448,3 +449,39 @@ def tidy(text: str) -> str:
     """Trailing whitespace removed, at most one blank line in a row, one final newline."""
     lines = [line.rstrip() for line in text.splitlines()]
     return _BLANK_RUNS.sub("\n\n", "\n".join(lines)).strip("\n") + "\n"
+
+
+@dataclass(frozen=True)
+class BindBase:
+    """One variable the generated bind table refers to (`NAME_storage`): an array's elements are
+    separate instances but one C object, declared once with the dimensions its elements span."""
+
+    c_type: str
+    base: str
+    dims: tuple[int, ...]
+    declare: bool  # defined in a `.c` input: NAME.h does not declare it, the table must
+
+
+def bind_bases(cat: Catalogue) -> list[BindBase]:
+    """The variables behind the catalogue's bindable instances, in instance order of first use. An
+    instance catalogued once per defining file (`name@file`) is left out: one program links at most
+    one of those definitions under that name, and the table cannot tell which."""
+    out: dict[str, BindBase] = {}
+    for inst in cat.instances:
+        t = cat.type(inst.type)
+        if not bindable(inst, cat):
+            continue
+        old = out.get(inst.base)
+        dims = tuple(i + 1 for i in inst.index)
+        if old is not None:
+            dims = tuple(max(a, b) for a, b in zip(old.dims, dims))
+        out[inst.base] = BindBase(t.c_name, inst.base, dims, str(inst.loc.file).endswith(".c"))
+    return list(out.values())
+
+
+def bindable(inst: "model.Instance", cat: Catalogue) -> bool:
+    # Catalogued from a `.c` input: its declaration in NAME.h (if any) may differ (const, bounds), and
+    # redeclaring it could conflict, so it is bound by hand. Header-declared instances are marked weak.
+    return (inst.qualifier is None and cat.type(inst.type).c_name is not None
+            and not str(inst.loc.file).endswith(".c"))
+

@@ -9,6 +9,8 @@
    rmax1ob1 to gcs1, and a subscription of gcs1 to imuOut on the backup computer fcs20 (2 hops).
 3. kill -9 rmax1ob1 and restart it: the subscription heals by itself.
 4. The Table 1 / figure 9 configuration in this process over in-memory links.
+   Then the variable browser over the bus (browser_step.py): a directory read from fcs20 that no flow
+   publishes, and a publication rate changed from the GCS.
 5. The attacker step (attack_step.py): issue 11's attacks against the signed Table 2; each is a check.
 6. A fleet: twelve vehicles and two ground stations with automatic routes (examples/demo/fleet_step.py;
    skipped by --short unless --fleet).
@@ -33,6 +35,7 @@ from typing import Any
 REPO = Path(__file__).resolve().parents[2]
 
 from attack_step import attacker_part, signed_table2  # noqa: E402  (beside this file)
+from browser_step import browser_part  # noqa: E402
 from uavbus.sim.build import node_program  # noqa: E402
 from uavbus.sim.hitl import Hitl, HitlOptions, timetag_latency_ms  # noqa: E402
 from uavbus.sim.metrics import (  # noqa: E402
@@ -152,7 +155,7 @@ def redundant_links(config: Path) -> set[str]:
     return out
 
 
-def hitl_part(args: argparse.Namespace, check: Checks, rows: list[SummaryRow]) -> dict[str, Any]:
+def hitl_part(args: argparse.Namespace, check: Checks, rows: list[SummaryRow], extra: dict[str, Any]) -> dict[str, Any]:
     measure_s, outage_s, after_s = (1.5, 0.7, 1.0) if args.short else (4.0, 1.5, 2.5)
     log = args.out / "gcs1.ublog"
     if log.exists():
@@ -237,6 +240,7 @@ def hitl_part(args: argparse.Namespace, check: Checks, rows: list[SummaryRow]) -
               f"{after_hz:.1f} Hz after the restart")
         plot = {"t0": h.t0, "times": list(imu_m.times), "values": list(imu_m.values),
                 "gap": (t1, t_up), "restart": t_up}
+        extra["browser"] = browser_part(h, gps, check, say)
         status = h.close()
     check("all C nodes exit cleanly", all(s == 0 for s in status.values()),
           ", ".join(f"{n}: exit {s}" for n, s in status.items()))
@@ -369,7 +373,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args.program = args.program or node_program()
         args.config = signed_table2(args.out / "secure", fresh=True)
-        plot = hitl_part(args, check, rows)
+        plot = hitl_part(args, check, rows, extra)
         table1_part(args, check, rows)
         make_plot(args, check, plot)
         extra["security"] = attacker_part(args, check, say)

@@ -376,6 +376,9 @@ static int local_entity(const char *name) {
 }
 
 static void bind_directories(void) {
+    /* Every catalogued instance flightsw_data.c defines is hosted (generated bind table), so an
+     * operator can subscribe to, read or write any of them; k_dirs only adds the motion models. */
+    if (flightsw_bind_all(&g_node) < 0) die("uavbus_node: the flightsw bind table does not match the catalogue");
     for (size_t i = 0; i < N_DIRS; i++) {
         int inst = ub_catalogue_find_name(&flightsw_catalogue, k_dirs[i].name);
         if (inst < 0) die("uavbus_node: directory '%s' is not in the flightsw catalogue (rebuild)", k_dirs[i].name);
@@ -414,9 +417,7 @@ static void add_pubsub(const char *text, bool publish, int argi, uint64_t now_ms
     int inst = ub_catalogue_find_name(&flightsw_catalogue, content);
     if (inst < 0) die("uavbus_node:argv[%d]: no directory '%s' in the flightsw catalogue", argi, content);
     if (ub_node_binding(&g_node, (uint32_t)inst) == NULL) {
-        die("uavbus_node:argv[%d]: uavbus_node keeps no storage for '%s' (it has: gpsOut, navFilterState, "
-            "imuOutPrimary, onboardSet, imuOut, gpsOutBackup, navFilterStateBackup, fcsSet, onboard2Set)",
-            argi, content);
+        die("uavbus_node:argv[%d]: no storage for '%s' (flightsw_data.c does not define it)", argi, content);
     }
     uint8_t pid[UB_ENTITY_ID_LEN];
     if (ub_entity_id(peer, pid) != UB_OK || ub_node_find_entity(&g_node, pid) < 0) {

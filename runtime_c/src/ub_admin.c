@@ -27,11 +27,13 @@ static const char *const nack_names[] = {
     [UB_NACK_LIMIT] = "limit",
     [UB_NACK_UNSUPPORTED] = "unsupported",
     [UB_NACK_OTHER_ADMIN] = "other_admin",
+    [UB_NACK_NO_SUCH_ROW] = "no_such_row",
+    [UB_NACK_BAD_VALUE] = "bad_value",
 };
 
 const char *ub_nack_reason_name(ub_nack_reason_t reason) {
     if ((unsigned)reason >= sizeof nack_names / sizeof nack_names[0]) return "?";
-    return nack_names[reason];
+    return nack_names[reason] != NULL ? nack_names[reason] : "?";
 }
 
 int ub_admin_init(ub_admin_t *adm, ub_node_t *node, int entity, const ub_admin_options_t *opt) {

@@ -19,6 +19,8 @@ const char *ub_strerror(int err) {
     case UB_ERR_RANGE: return "UB_ERR_RANGE";
     case UB_ERR_AUTH: return "UB_ERR_AUTH";
     case UB_ERR_UNSUPPORTED: return "UB_ERR_UNSUPPORTED";
+    case UB_ERR_REFUSED: return "UB_ERR_REFUSED";
+    case UB_ERR_NOANSWER: return "UB_ERR_NOANSWER";
     default: return err >= 0 ? "UB_OK" : "UB_ERR_UNKNOWN";
     }
 }

@@ -5,6 +5,7 @@
 #include "ub/ub_wire.h"
 #include "ub_rng_private.h"
 #include "ub_fleet_private.h"
+#include "ub_inspect_private.h"
 #include "ub_router_private.h"
 
 bool ub_priv_id_is_zero(const uint8_t id[UB_ENTITY_ID_LEN]) {
@@ -281,10 +282,19 @@ int ub_node_bind(ub_node_t *node, uint32_t instance, void *storage) {
     return UB_OK;
 }
 
+int ub_node_bind_table(ub_node_t *node, void *const *table, size_t n) {
+    if (node == NULL || (table != NULL && n != node->cat->n_instances)) return UB_ERR_INVAL;
+    node->bind_table = table;
+    int bound = 0;
+    for (size_t i = 0; table != NULL && i < n; i++) bound += table[i] != NULL;
+    return bound;
+}
+
 void *ub_node_binding(const ub_node_t *node, uint32_t instance) {
     if (node == NULL) return NULL;
     for (size_t b = 0; b < node->n_bindings; b++)
         if (node->bindings[b].instance == instance) return node->bindings[b].storage;
+    if (node->bind_table != NULL && instance < node->cat->n_instances) return node->bind_table[instance];
     return NULL;
 }
 
@@ -510,6 +520,15 @@ static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_head
     ub_drop_reason_t drop = UB_DROP_BAD_PAYLOAD;
     if (h->admin == UB_ADMIN_MEMBERSHIP) {
         ok = ub_priv_member_on_request(node, slot, h, payload, link_id >= 0 ? rx : NULL, now_ms, &drop);
+    } else if (h->admin == UB_ADMIN_INSPECT) {
+        ok = ub_priv_inspect_on_request(node, slot, h, payload, link_id >= 0, rx != NULL && rx->secured, now_ms, &drop);
+    } else if (h->admin == UB_ADMIN_INSPECT_VALUE) {
+        ok = ub_priv_inspect_on_value(node, slot, h, payload, now_ms);
+    } else if ((h->admin == UB_ADMIN_ACK || h->admin == UB_ADMIN_NACK) && h->payload_size >= UB_PL_REPLY_LEN &&
+               payload[UB_PL_REPLY_CODE] == UB_ADMIN_INSPECT) {
+        ub_priv_inspect_on_reply(node, slot, h->src_id, ub_get_u32le(payload + UB_PL_REPLY_ID),
+                                 h->admin == UB_ADMIN_NACK, payload[UB_PL_REPLY_DETAIL], now_ms);
+        ok = true;
     } else if ((h->admin == UB_ADMIN_ACK || h->admin == UB_ADMIN_NACK) && h->payload_size >= UB_PL_REPLY_LEN &&
                payload[UB_PL_REPLY_CODE] == UB_ADMIN_MEMBERSHIP) {
         /* Replies to membership requests belong to the requester, not to the publish/subscribe tables. */
@@ -919,6 +938,7 @@ void ub_node_tick(ub_node_t *node, uint64_t now_ms) {
     }
     if (node->route != NULL) ub_priv_route_tick(node->route, now_ms);
     if (node->member != NULL) ub_priv_member_tick(node->member, now_ms);
+    if (node->inspect != NULL) ub_priv_inspect_tick(node->inspect, now_ms);
     ub_priv_sec_tick(node, now_ms);
     ub_priv_compact_tick(node, now_ms);
     if (node->frag != NULL) ub_priv_frag_tick(node, now_ms);

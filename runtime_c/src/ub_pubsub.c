@@ -660,6 +660,12 @@ static bool on_update(const ub_node_t *node, uint32_t instance) {
 int ub_pubsub_set_on_update(ub_node_t *node, uint32_t instance, bool on) {
     if (node == NULL) return UB_ERR_INVAL;
     ub_binding_t *b = (ub_binding_t *)binding_of(node, instance);
+    void *table_storage = b == NULL ? ub_node_binding(node, instance) : NULL;
+    if (table_storage != NULL) { /* bound by the bind table: an explicit binding carries the flag */
+        int rc = ub_node_bind(node, instance, table_storage);
+        if (rc < 0) return rc;
+        b = (ub_binding_t *)binding_of(node, instance);
+    }
     if (b == NULL) return UB_ERR_NOTFOUND;
     b->on_update = on ? 1u : 0u;
     return UB_OK;

@@ -31,6 +31,7 @@ add_executable(ub_router_bench ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/router_
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_node.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_pubsub.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_admin.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_link.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_route.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_member.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_inspect.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_node_sec.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_sec.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_memlink.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_frame.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_crc32c.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_catalogue.c

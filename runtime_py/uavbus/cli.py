@@ -23,6 +23,8 @@ TOOLS = {
     "bw": ("uavbus.tools.live", "bw_main"),
     "tables": ("uavbus.tools.tables", "main"),
     "tui": ("uavbus.tui.app", "main"),
+    "get": ("uavbus.tools.browse", "get_main"),
+    "set": ("uavbus.tools.browse", "set_main"),
     "sim": ("uavbus.sim.run_scenario", "main"),
     "keys": ("uavbus.keys", "main"),
     "bridge": ("uavbus.bridges.zenoh_bridge", "main"),
@@ -49,7 +51,7 @@ EXIT_CODES = {
     EXIT_BROKEN_PIPE: "the output was closed early (e.g. | head)",
 }
 
-USAGE = """usage: uavbus [--version] {gen,check,selftest,log,spy,echo,hz,bw,tables,tui,sim,keys,bridge} ...
+USAGE = """usage: uavbus [--version] {gen,check,selftest,log,spy,echo,hz,bw,tables,tui,get,set,sim,keys,bridge} ...
 
   gen       C headers -> catalogue + C and Python codecs
   check     the same inputs; checks ID uniqueness, writes nothing
@@ -61,6 +63,8 @@ USAGE = """usage: uavbus [--version] {gen,check,selftest,log,spy,echo,hz,bw,tabl
   bw        bytes per second, per content and per link
   tables    entity, publish/subscribe and administration tables
   tui       terminal variable browser (Textual)
+  get       ENTITY NAME[.FIELD]: read a directory of a remote entity over the bus (C or Python)
+  set       ENTITY NAME.FIELD VALUE: write it (docs/inspect.md)
   sim       run a fleet scenario file (vehicles, links, events; docs/scenarios.md)
   keys      new FILE [--id N] | show FILE: keys for signed frames (docs/security.md)
   bridge    zenoh: join uavbus sites through Zenoh sessions (docs/bridges.md)

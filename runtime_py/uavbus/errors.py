@@ -22,7 +22,8 @@ from __future__ import annotations
 
 from uavbus._bindings.ub_error import (
     ChecksumError, ClosedError, ConfigError, ExistsError, FullError, InvalidArgumentError, IoError, LayoutError,
-    NoRouteError, NoSpaceError, NotFoundError, RangeError, TruncatedError, UbError, WouldBlockError,
+    NoAnswerError, NoRouteError, NoSpaceError, NotFoundError, RangeError, RefusedError, TruncatedError, UbError,
+    WouldBlockError,
 )
 from uavbus.catalogue import CatalogueError, EncodeError
 from uavbus.logfile import LogFormatError
@@ -30,5 +31,5 @@ from uavbus.logfile import LogFormatError
 __all__ = [
     "CatalogueError", "ChecksumError", "ClosedError", "ConfigError", "EncodeError", "ExistsError", "FullError",
     "InvalidArgumentError", "IoError", "LayoutError", "LogFormatError", "NoRouteError", "NoSpaceError",
-    "NotFoundError", "RangeError", "TruncatedError", "UbError", "WouldBlockError",
+    "NoAnswerError", "NotFoundError", "RangeError", "RefusedError", "TruncatedError", "UbError", "WouldBlockError",
 ]

@@ -20,8 +20,8 @@ from collections import deque
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
-from uavbus._bindings import (ub_admin, ub_log, ub_member, ub_memlink, ub_node, ub_nodecfg, ub_ports, ub_pubsub,
-                              ub_route, ub_sec)
+from uavbus._bindings import (ub_admin, ub_inspect, ub_log, ub_member, ub_memlink, ub_node, ub_nodecfg, ub_ports,
+                              ub_pubsub, ub_route, ub_sec)
 from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, NotFoundError, UbError, ensure
 from uavbus._ub import ffi, lib
 from uavbus.catalogue import Catalogue, CatalogueError, Instance, refused
@@ -170,6 +170,7 @@ class Node:
         self._admins: dict[str, Admin] = {}
         self._route: Any = None
         self._membership: Membership | None = None
+        self._inspect: Any = None  # ub_inspect_t of remote() (one per node)
         self._ports: Any = None
         self._pollfds = ffi.new("struct pollfd[]", ub_ports.POLLFD_CAP)
         self._log: Any = None
@@ -377,6 +378,18 @@ class Node:
         if self._membership is None:
             self._membership = Membership(self, entity or self.local_entities[0], options)
         return self._membership
+
+    def remote(self, entity: str, timeout: float = 3.0) -> "Remote":
+        """The variable browser on entity `entity`, anywhere on the bus: get/set its directories, read
+        and change its tables (uavbus.remote; INSPECT requests from this node's first local entity)."""
+        from uavbus.remote import Remote
+        return Remote(self, entity, timeout)
+
+    def _inspector(self, **options: int) -> Any:
+        self._check_open()
+        if self._inspect is None:
+            self._inspect = ub_inspect.ub_inspect_new(self._c, self.entity_index(self.local_entities[0]), **options)
+        return self._inspect
 
     def admin(self, entity: str, **options: int) -> "Admin":
         """The global administration table hosted by local `entity` (created on first use;
@@ -687,6 +700,8 @@ class Node:
             adm._detach()
         if self._membership is not None:
             ub_member.ub_member_detach(self._membership._c)
+        if self._inspect is not None:
+            lib.ub_inspect_detach(self._inspect)
         self.disable_routing()
         for transport in self._kept:
             transport.detach()

@@ -9,6 +9,7 @@ would look green.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -28,3 +29,15 @@ def program() -> Path:
 @pytest.fixture
 def hitl_opts(program: Path) -> HitlOptions:
     return HitlOptions(program=program)
+
+
+@pytest.fixture
+def browser_policy_opts(hitl_opts: HitlOptions, tmp_path: Path) -> HitlOptions:
+    """Table 2 with a policy for the browser tests: only rmax1ob2 administers; gcs1 may write fcsSet into
+    fcs20 and nothing else; reads are open."""
+    cfg = json.loads(Path(hitl_opts.config).read_text())
+    cfg["security"] = {"administrators": ["rmax1ob2"], "write": {"fcs20": [{"from": "gcs1", "content": "fcsSet"}]}}
+    path = tmp_path / "table2_browser_policy.json"
+    path.write_text(json.dumps(cfg))
+    hitl_opts.config = path
+    return hitl_opts

@@ -42,5 +42,12 @@ def test_demo_short_mode_passes_and_writes_its_outputs(program: Path, tmp_path: 
         assert set(attack) >= {"name", "sent", "accepted", "dropped_as"}
         assert attack["accepted"] == 0 and sum(attack["dropped_as"].values()) == attack["sent"] > 0, attack
     assert {c["name"] for c in doc["checks"] if c["ok"]} >= {f"attack refused: {a['name']}" for a in sec["attacks"]}
+    # the variable browser over the bus (issue 16): a directory no flow publishes, read 2 hops away; a rate changed
+    browser, held = doc["browser"], {c["name"] for c in doc["checks"] if c["ok"]}
+    assert {"browser: read airData from fcs20", "browser: change a publication rate"} <= held
+    assert browser["read"]["hops"] == 2 and browser["read"]["rows_publishing_it"] == 0
+    assert "staticPressurePa" in browser["read"]["fields"] and browser["read"]["rtt_ms"] > 0
+    assert browser["rate"]["period_ms"] == [100, 50]
+    assert abs(browser["rate"]["achieved_hz"] - 20.0) <= 3.0
     assert not list((tmp_path / "secure" / "keys").glob("*.key"))[0].stat().st_mode & 0o077
     assert (tmp_path / "gcs1.ublog").read_bytes()[:8] == b"UBLOG2\r\n"

@@ -94,8 +94,10 @@ typedef enum ub_nack_reason {
     UB_NACK_NOT_AUTHORIZED = 6,  /**< the target's policy refuses the request to its source (ub_policy.h) */
     UB_NACK_LIMIT = 7,           /**< the request exceeds the requester's limits (period, rows, bytes/s) */
     UB_NACK_UNSUPPORTED = 8,     /**< the target cannot do this membership operation (e.g. links: no handler) */
-    UB_NACK_OTHER_ADMIN = 9      /**< another administrator keeps this row alive (or, under an exclusive-administrator
+    UB_NACK_OTHER_ADMIN = 9,     /**< another administrator keeps this row alive (or, under an exclusive-administrator
                                       policy, holds rows at this node): the request changed nothing */
+    UB_NACK_NO_SUCH_ROW = 10,    /**< inspection: no such table row, entity, or offset past the value's end */
+    UB_NACK_BAD_VALUE = 11       /**< inspection: the target's codec refuses the value (e.g. a bool or enum out of range) */
 } ub_nack_reason_t;
 
 /** @return a static name ("table_full", "not_authorized", ...) for a NACK reason; "none" for 0, "?" if unknown. */

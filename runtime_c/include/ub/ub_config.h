@@ -83,6 +83,11 @@
 #ifndef UB_MAX_MEMBER_REQUESTS
 #define UB_MAX_MEMBER_REQUESTS 16
 #endif
+
+/** Remote inspection requests one node keeps open at once (ub_inspect.h; each holds one payload). */
+#ifndef UB_MAX_INSPECT_REQUESTS
+#define UB_MAX_INSPECT_REQUESTS 4
+#endif
 /** Removed entities the routing engine refuses to re-learn for a while (ub_route.h). */
 #ifndef UB_ROUTE_TOMBSTONES
 #define UB_ROUTE_TOMBSTONES 8

@@ -37,6 +37,8 @@ extern "C" {
 #define UB_ERR_RANGE -14     /**< a value does not fit its wire field */
 #define UB_ERR_AUTH -15      /**< authentication failed: a frame's tag does not verify (ub_sec.h) */
 #define UB_ERR_UNSUPPORTED -16 /**< not in this build (e.g. security with UAVBUS_SECURITY=OFF) */
+#define UB_ERR_REFUSED -22   /**< the remote target answered with a NACK (its reason says why; ub_inspect.h) */
+#define UB_ERR_NOANSWER -23  /**< the remote target did not answer within the retries (ub_inspect.h) */
 
 /** @return a static, human-readable name for an error code ("UB_ERR_INVAL"...). */
 const char *ub_strerror(int err);

@@ -122,6 +122,8 @@ typedef enum ub_admin_code {
     UB_ADMIN_HELLO = 9,        /**< routing: link-local hello + IHU (docs/routing.md); never forwarded */
     UB_ADMIN_ROUTE_UPDATE = 10, /**< routing: link-local hello + route entries + seqno requests; never forwarded */
     UB_ADMIN_MEMBERSHIP = 11,   /**< an administrator's membership change (ub_member.h); answered by ACK/NACK */
+    UB_ADMIN_INSPECT = 12,      /**< remote inspection request (ub_inspect.h); answered by INSPECT_VALUE, ACK or NACK */
+    UB_ADMIN_INSPECT_VALUE = 13, /**< the value or table page answering an INSPECT read or list (docs/inspect.md) */
     UB_ADMIN_LINK_HELLO = 20,   /**< compact links: link-local dictionary announcement (ub_compact.h); never forwarded */
     UB_ADMIN_FRAGMENT = 21      /**< one numbered fragment of a large DATA directory (ub_frag.h), end to end */
 } ub_admin_code_t;

@@ -194,6 +194,8 @@ typedef struct ub_node_counters {
     uint64_t admin_rows_stopped; /**< administration rows deactivated because an entity they named was removed */
     uint64_t dedup_cleared;   /**< duplicate windows cleared because their source was removed */
     uint64_t membership_applied; /**< MEMBERSHIP requests served (ACKed) */
+    uint64_t inspect_served;     /**< INSPECT requests answered with a value or ACK */
+    uint64_t inspect_refused;    /**< INSPECT requests answered with a NACK */
     uint64_t membership_refused; /**< MEMBERSHIP requests NACKed (invalid, full, unsupported, not authorized) */
     uint64_t handovers;       /**< rows whose owner's lease lapsed while their keeper lived: kept (docs/pubsub.md) */
     uint64_t nacks_relayed;   /**< source NACKs a subscribing destination relayed to the administrator of its row */
@@ -256,6 +258,7 @@ struct ub_node {
     ub_link_t links[UB_MAX_NODE_LINKS];
     ub_binding_t bindings[UB_MAX_BINDINGS];
     size_t n_bindings;
+    void *const *bind_table;    /**< per-instance storage (ub_node_bind_table()), or NULL */
     uint32_t next_seq;          /**< without a security context; with one, counters come from it */
     uint64_t rng_state;         /**< seeded fallback generator of request ids (ub_random.h) */
     const ub_policy_t *policy;  /**< NULL: no authorization (the paper's closed lab) */
@@ -271,6 +274,7 @@ struct ub_node {
     ub_frag_t *frag;          /**< fragment state (ub_node_set_frag()), or NULL: no directory above the payload limit */
     uint16_t mtu_links;       /**< links with an MTU set: only then does a send compare frame sizes with MTUs */
     uint32_t last_content;    /**< catalogue index of the last DATA delivered: checked before a search */
+    struct ub_inspect *inspect; /**< inspection requester (ub_inspect_init()), or NULL */
     ub_node_counters_t counters;
 };
 
@@ -405,7 +409,20 @@ uint64_t ub_node_link_bad_frames(const ub_node_t *node, int link_id, ub_rx_reaso
  */
 UB_CHECK int ub_node_bind(ub_node_t *node, uint32_t instance, void *storage);
 
-/** @return the storage bound to `instance`, or NULL. */
+/**
+ * Binds every instance at once from `table`, indexed by catalogue instance
+ * index, with exactly `n` == the catalogue's n_instances entries (NULL: that
+ * instance is not hosted here). The generated `<NAME>_bind_all()` passes the
+ * program's own link-time table (`<NAME>_storage`), so a program hosts every
+ * catalogued instance it defines with one call, no copy and no malloc; its
+ * capacity is the catalogue's, not UB_MAX_BINDINGS. The table must outlive
+ * the node. Bindings made with ub_node_bind() take precedence over it.
+ * @return the number of instances the table binds; UB_ERR_INVAL (NULL node,
+ *         `n` != n_instances). A NULL table removes a previous one (returns 0).
+ */
+UB_CHECK int ub_node_bind_table(ub_node_t *node, void *const *table, size_t n);
+
+/** @return the storage bound to `instance` (ub_node_bind(), else the bind table), or NULL. */
 void *ub_node_binding(const ub_node_t *node, uint32_t instance);
 
 /**

@@ -100,12 +100,26 @@ class UnsupportedError(UbError, builtins.NotImplementedError):
     code = lib.UB_ERR_UNSUPPORTED
 
 
+class RefusedError(UbError, builtins.PermissionError):
+    """The remote target answered with a NACK; `reason` names it ("not_authorized", "unbound", ...)."""
+    code = lib.UB_ERR_REFUSED
+
+    def __init__(self, message: str = "", reason: str = "") -> None:
+        super().__init__(message)
+        self.reason = reason
+
+
+class NoAnswerError(UbError, builtins.TimeoutError):
+    """The remote target did not answer within the retries (no route, down, or frames lost)."""
+    code = lib.UB_ERR_NOANSWER
+
+
 ERRORS_BY_CODE: dict[int, type[UbError]] = {
     cls.code: cls
     for cls in (
         InvalidArgumentError, NoSpaceError, TruncatedError, FullError, NotFoundError, ExistsError,
         ChecksumError, LayoutError, NoRouteError, IoError, WouldBlockError, ConfigError, ClosedError,
-        RangeError, AuthError, UnsupportedError,
+        RangeError, AuthError, UnsupportedError, RefusedError, NoAnswerError,
     )
 }
 

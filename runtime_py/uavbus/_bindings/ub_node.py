@@ -25,7 +25,8 @@ _COUNTER_FIELDS = ("originated", "forwarded", "delivered", "admin_handled", "loc
                    "dedup_evictions", "leases_expired", "replies_unmatched", "requests_limited", "leases_clamped",
                    "rows_evicted", "random_failures", "entities_added", "entities_removed", "links_added",
                    "links_removed", "rows_stopped", "admin_rows_stopped", "dedup_cleared", "membership_applied",
-                   "membership_refused", "handovers", "nacks_relayed", "other_admin")
+                   "membership_refused", "handovers", "nacks_relayed", "other_admin",
+                   "inspect_served", "inspect_refused")
 
 
 def entity_id(name: str) -> bytes:

@@ -13,7 +13,8 @@ const char *ub_admin_status_name(ub_admin_status_t status);
 
 typedef enum ub_nack_reason {
     UB_NACK_NONE, UB_NACK_UNKNOWN_CONTENT, UB_NACK_LAYOUT, UB_NACK_UNBOUND, UB_NACK_TABLE_FULL, UB_NACK_INVALID,
-    UB_NACK_NOT_AUTHORIZED, UB_NACK_LIMIT, UB_NACK_UNSUPPORTED, UB_NACK_OTHER_ADMIN, ...
+    UB_NACK_NOT_AUTHORIZED, UB_NACK_LIMIT, UB_NACK_UNSUPPORTED, UB_NACK_OTHER_ADMIN, UB_NACK_NO_SUCH_ROW,
+    UB_NACK_BAD_VALUE, ...
 } ub_nack_reason_t;
 
 const char *ub_nack_reason_name(ub_nack_reason_t reason);

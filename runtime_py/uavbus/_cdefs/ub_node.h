@@ -61,6 +61,8 @@ typedef struct ub_node_counters {
     uint64_t handovers;
     uint64_t nacks_relayed;
     uint64_t other_admin;
+    uint64_t inspect_served;
+    uint64_t inspect_refused;
     uint64_t drops[...];
     ...;
 } ub_node_counters_t;

@@ -2,10 +2,11 @@
 
     uavbus tui --config table2.json --node gcs --catalogue flightsw.catalogue.json [--port NAME=SPEC]...
 
-Four tabs: the entity table with link masks in the paper's hex notation (Figure 8), the
+Five tabs: the entity table with link masks in the paper's hex notation (Figure 8), the
 publish/subscribe table of each local entity (Figure 4), the global administration table with a
-form to fill in and activate a row (Figure 5), and the values of every directory seen. The node is
-the C router (uavbus.Node); the app drives its loop from a timer and never blocks.
+form to fill in and activate a row (Figure 5), the values of every directory seen, and Remote: any
+reachable entity's tables and directories read and changed over the bus (remote_view.py). The node is
+the C router (uavbus.Node); the app drives its loop from a timer.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from textual.widgets import Button, DataTable, Footer, Header, Input, Label, Sel
 from uavbus.tools.common import ArgumentParser, Stream, short_value
 from uavbus.tools.source import NodeSession, add_node_args, open_node
 from uavbus.tools.tables import ADMIN_COLUMNS, entity_rows
+from uavbus.tui.remote_view import RemoteView
 
 PUBSUB_COLUMNS = ("row", "kind", "content", "peer", "owner", "period_ms", "state", "frames")
 
@@ -41,11 +43,11 @@ class BrowserApp(App[None]):
     """
 
     def __init__(self, session: NodeSession, admin_entity: str | None = None, poll_s: float = 0.02,
-                 refresh_s: float = 0.2, pump: Callable[[], None] | None = None) -> None:
+                 refresh_s: float = 0.2, pump: Callable[[], None] | None = None, live_s: float = 1.0) -> None:
         super().__init__()
         self.session = session
         self.admin_entity = admin_entity or session.config.hosts[0]
-        self.poll_s, self.refresh_s, self.pump = poll_s, refresh_s, pump
+        self.poll_s, self.refresh_s, self.pump, self.live_s = poll_s, refresh_s, pump, live_s
         self.streams: dict[tuple[str, str], Stream] = {}
         self.admin_rows: list[Any] = []  # row handles returned by adm.add(), in table order
         self.message = ""
@@ -79,6 +81,8 @@ class BrowserApp(App[None]):
                     yield DataTable(id="admin", zebra_stripes=True, cursor_type="row")
             with TabPane("Values", id="tab-values"):
                 yield DataTable(id="values", zebra_stripes=True)
+            with TabPane("Remote", id="tab-remote"):
+                yield RemoteView(self.session, live_s=self.live_s)
         yield Footer()
 
     def on_mount(self) -> None:
@@ -155,6 +159,8 @@ class BrowserApp(App[None]):
                            str(st.last_seq),
                            short_value(st.last, 120) if st.last is not None else "(not decodable)"))
         self._fill("values", values)
+        if self.query_one("#tabs", TabbedContent).active == "tab-remote":
+            self.query_one(RemoteView).live()
 
     # -- administration form (Figure 5) ---------------------------------------------------------
     def on_button_pressed(self, event: Button.Pressed) -> None:

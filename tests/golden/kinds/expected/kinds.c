@@ -176,6 +176,36 @@ const ub_catalogue_t kinds_catalogue = {
     13563u,
 };
 
+/* The bind table: by instance index, the address of every catalogued instance this program defines
+ * (addresses are known at link time: no code runs, nothing is copied). With gcc and clang the
+ * references are weak, so an instance no object file of the program defines reads as NULL (not
+ * hosted) and one generated file serves every program of the catalogue. A weak reference does not
+ * pull an object file out of a static library: the program links the file that defines its
+ * directories (as it does to use them). Other compilers get an empty table: bind by hand there. */
+#if defined(__GNUC__) || defined(__clang__)
+#pragma weak hdr1
+#pragma weak kinds
+#pragma weak lattice
+#pragma weak macro_set
+#pragma weak nothing
+#pragma weak waypoints
+void *const kinds_storage[11] = {
+    (void *)&hdr1,
+    (void *)&kinds,
+    (void *)&lattice[0][0],
+    (void *)&lattice[0][1],
+    (void *)&lattice[1][0],
+    (void *)&lattice[1][1],
+    (void *)&macro_set,
+    (void *)&nothing,
+    (void *)&waypoints[0],
+    (void *)&waypoints[1],
+    (void *)&waypoints[2],
+};
+#else
+void *const kinds_storage[11] = {NULL};
+#endif
+
 /* ---- struct all_kinds (all_kinds.h:33) ---- */
 /* name: skipped (string) */
 /* text: skipped (pointer) */

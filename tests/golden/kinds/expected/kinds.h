@@ -109,6 +109,23 @@ UB_CHECK int kinds_unpack_waypoint_t(waypoint_t *obj, const uint8_t *buf, size_t
 /** The catalogue: every type with its codec, every instance sorted by ID. */
 extern const ub_catalogue_t kinds_catalogue;
 
+/** By instance index, the storage of every catalogued instance this program defines (NULL: not
+ *  defined by the program; kinds_N_INSTANCES entries). Read-only; addresses from the linker. */
+extern void *const kinds_storage[];
+
+struct ub_node;
+UB_CHECK int ub_node_bind_table(struct ub_node *node, void *const *table, size_t n); /* ub_node.h */
+/**
+ * Hosts every catalogued instance the program defines on `node` in one call
+ * (ub_node_bind_table() with kinds_storage): no malloc, capacity
+ * kinds_N_INSTANCES. Bindings made with ub_node_bind() still take precedence.
+ * Inline, so a program that never calls it (a codec-only build) needs no node.
+ * @return the number of instances bound, or UB_ERR_INVAL.
+ */
+UB_CHECK static inline int kinds_bind_all(struct ub_node *node) {
+    return ub_node_bind_table(node, kinds_storage, kinds_N_INSTANCES);
+}
+
 #ifdef __cplusplus
 }
 #endif

@@ -93,6 +93,26 @@ const ub_catalogue_t navcat_catalogue = {
     2405u,
 };
 
+/* The bind table: by instance index, the address of every catalogued instance this program defines
+ * (addresses are known at link time: no code runs, nothing is copied). With gcc and clang the
+ * references are weak, so an instance no object file of the program defines reads as NULL (not
+ * hosted) and one generated file serves every program of the catalogue. A weak reference does not
+ * pull an object file out of a static library: the program links the file that defines its
+ * directories (as it does to use them). Other compilers get an empty table: bind by hand there. */
+#if defined(__GNUC__) || defined(__clang__)
+#pragma weak onboardSet
+#pragma weak waypoint
+void *const navcat_storage[5] = {
+    (void *)&onboardSet,
+    (void *)&waypoint[0][0],
+    (void *)&waypoint[0][1],
+    (void *)&waypoint[1][0],
+    (void *)&waypoint[1][1],
+};
+#else
+void *const navcat_storage[5] = {NULL};
+#endif
+
 /* ---- position_t (nav.h:7) ---- */
 
 int navcat_pack_position_t(const position_t *obj, uint8_t *buf, size_t cap) {

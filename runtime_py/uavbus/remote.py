@@ -1,0 +1,191 @@
+"""The variable browser over the bus: read and change any directory and table of a remote entity.
+
+    gcs = Node("flightsw.catalogue.json", "table2.json", node="gcs")
+    fcs = gcs.remote("fcs20")
+    fcs.get("gpsOutBackup")               # the whole directory, read once (dict)
+    fcs.get("onboardSet.mode")            # one field
+    fcs.set("onboardSet.mode", 3)         # writes only the bytes of that field
+    fcs.tables()                          # entities, links, pubsub rows, admin rows of fcs20
+    fcs.set_period(row=0, period_ms=50)   # a publish/subscribe row's rate
+
+Every call is one or more INSPECT requests (ub_inspect.h, docs/inspect.md) made by the C requester
+attached to the node: resent every `retry_ms` until answered; the node is polled meanwhile. A NACK
+raises RefusedError (its `reason`, e.g. "not_authorized"); silence until `timeout` NoAnswerError.
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from typing import TYPE_CHECKING, Any
+
+from uavbus._bindings import ub_inspect
+from uavbus._bindings.ub_error import InvalidArgumentError, NoAnswerError, NotFoundError, RefusedError
+from uavbus.catalogue import Instance, decode_type, encode_type
+
+if TYPE_CHECKING:
+    from uavbus.node import Node
+
+TABLES = tuple(ub_inspect.TABLES)
+_INDEX = re.compile(r"^([^\[\]]+)((?:\[\d+\])*)$")
+
+
+def split_name(catalogue: Any, name: str) -> tuple[Instance, list[str | int]]:
+    """"onboardSet.datum.latitudeDeg" -> (instance onboardSet, ["datum", "latitudeDeg"]): the longest
+    dotted prefix that is a catalogued instance, then the field path (`name[2]` indexes an array)."""
+    parts = name.split(".")
+    for k in range(len(parts), 0, -1):
+        inst = catalogue.find(".".join(parts[:k]))
+        if inst is not None:
+            path: list[str | int] = []
+            for part in parts[k:]:
+                m = _INDEX.match(part)
+                if m is None:
+                    raise InvalidArgumentError(f"{name!r}: '{part}' is not a field name (name or name[i])")
+                path.append(m.group(1))
+                path += [int(i) for i in re.findall(r"\[(\d+)\]", m.group(2))]
+            return inst, path
+    raise NotFoundError(f"{name!r}: no directory of that name in the catalogue (try `uavbus dirs`)")
+
+
+def _walk(value: Any, path: list[str | int], name: str) -> Any:
+    for step in path:
+        try:
+            value = value[step]
+        except (KeyError, IndexError, TypeError):
+            raise NotFoundError(f"{name!r}: no field {step!r} there") from None
+    return value
+
+
+class Remote:
+    """One remote entity, seen from `node` (requests leave from the node's first local entity)."""
+
+    def __init__(self, node: "Node", entity: str, timeout: float = 3.0) -> None:
+        self.node = node
+        self.entity = entity
+        self.timeout = timeout
+        self._c = node._inspector()
+
+    # -- requests -----------------------------------------------------------------------------
+    def _call(self, op: str, what: str, **kw: Any) -> dict[str, Any]:
+        row = ub_inspect.ub_inspect_request(self._c, ub_inspect.spec(op, self.entity, **kw), self.node.now())
+        deadline = time.monotonic() + self.timeout
+        try:
+            while True:
+                self.node.poll(0.002)
+                r = ub_inspect.ub_inspect_result(self._c, row)
+                if r["status"] != "pending":
+                    break
+                if time.monotonic() > deadline:
+                    raise NoAnswerError(f"{self.entity}: {what}: no answer in {self.timeout:g} s "
+                                        f"({r['attempts']} attempts; is there a route to it?)")
+        finally:
+            ub_inspect.ub_inspect_forget(self._c, row)
+        if r["status"] == "failed":
+            if r["reason"] in (None, "none"):
+                raise NoAnswerError(f"{self.entity}: {what}: no answer after {r['attempts']} attempts")
+            raise RefusedError(f"{self.entity}: {what}: refused ({r['reason']})", r["reason"])
+        return r
+
+    def read_raw(self, content: str) -> bytes:
+        """The packed image of directory `content`, read once (in chunks if it is long)."""
+        inst = self.node.catalogue.instance(content)
+        out, offset = b"", 0
+        while True:
+            r = self._call("read", f"read {content}", instance=inst.index, offset=offset)
+            out += r["data"]
+            if r["next"] == ub_inspect.END:
+                return out
+            offset = r["next"]
+
+    def get(self, name: str) -> Any:
+        """A directory (dict) or one field of it ("onboardSet.mode"), as the target holds it now."""
+        inst, path = split_name(self.node.catalogue, name)
+        value = decode_type(inst.type, self.read_raw(inst.name))
+        return _walk(value, path, name)
+
+    def write_raw(self, content: str, offset: int, data: bytes) -> bool:
+        """Writes `data` at `offset` of `content`'s packed image; True if the value changed."""
+        inst = self.node.catalogue.instance(content)
+        changed = False
+        for k in range(0, len(data), ub_inspect.CHUNK):
+            part = data[k:k + ub_inspect.CHUNK]
+            r = self._call("write", f"write {content}", instance=inst.index, offset=offset + k, data=part)
+            changed = changed or r["changed"]
+        return changed
+
+    def set(self, name: str, value: Any) -> bool:
+        """Writes a whole directory (`value` a dict) or one field ("onboardSet.mode", 3). Only the bytes
+        that differ from the value just read travel, so a field write leaves the others as the target
+        has them. Returns True if the target's value changed."""
+        inst, path = split_name(self.node.catalogue, name)
+        before = self.read_raw(inst.name)
+        if path:
+            whole = decode_type(inst.type, before)
+            parent = _walk(whole, path[:-1], name)
+            try:
+                old = parent[path[-1]]
+            except (KeyError, IndexError, TypeError):
+                raise NotFoundError(f"{name!r}: no field {path[-1]!r} there") from None
+            if isinstance(old, dict) or isinstance(old, list) and not isinstance(value, list):
+                raise InvalidArgumentError(f"{name!r} is a structure or array: give a whole value or a leaf field")
+            parent[path[-1]] = value
+        else:
+            whole = value
+        after = encode_type(inst.type, whole)
+        diff = [i for i in range(len(after)) if after[i] != before[i]]
+        if not diff:
+            return False
+        lo, hi = diff[0], diff[-1] + 1
+        return self.write_raw(inst.name, lo, after[lo:hi])
+
+    def table(self, table: str) -> list[dict[str, Any]]:
+        """One table of the entity: "entities" (with its masks), "links" (with counters), "pubsub", "admin"."""
+        if table not in ub_inspect.TABLES:
+            raise InvalidArgumentError(f"table {table!r}: one of {', '.join(TABLES)}")
+        rows: list[dict[str, Any]] = []
+        offset = 0
+        while True:
+            r = self._call("list", f"list {table}", arg=ub_inspect.TABLES[table], offset=offset)
+            rows += ub_inspect.decode_records(table, r["data"], self._dir_name)
+            if r["next"] == ub_inspect.END:
+                return rows
+            offset = r["next"]
+
+    def tables(self) -> dict[str, list[dict[str, Any]]]:
+        """Every table of the entity, as table() reads them."""
+        return {t: self.table(t) for t in TABLES}
+
+    def set_period(self, row: int, period_ms: int) -> bool:
+        """Changes the period of publish/subscribe row `row` (its "row" in table("pubsub"))."""
+        return self._call("set_period", f"set period of pubsub row {row}", offset=row, value=period_ms)["changed"]
+
+    def set_mask(self, dest: str, mask: int | str) -> bool:
+        """Sets (and pins) the entity's link mask toward `dest` ("0x00000011" or an int)."""
+        if isinstance(mask, str):
+            from uavbus._ub import ffi, lib
+            out = ffi.new("uint8_t *")
+            if lib.ub_link_mask_parse(mask.encode("ascii"), out) != 0:
+                raise InvalidArgumentError(f"mask {mask!r}: expected the paper's notation, e.g. 0x00000011")
+            mask = int(out[0])
+        return self._call("set_mask", f"set mask toward {dest}", subject=dest, value=mask)["changed"]
+
+    def set_admin_row(self, row: int, *, period_ms: int | None = None, active: bool | None = None) -> bool:
+        """Changes administration row `row` of the entity in place: its period and/or activation flag."""
+        changed = False
+        if period_ms is not None:
+            changed |= self._call("admin_row", f"set period of admin row {row}", arg=ub_inspect.ADMIN_FIELDS["period"],
+                                  offset=row, value=period_ms)["changed"]
+        if active is not None:
+            changed |= self._call("admin_row", f"set admin row {row} active={active}",
+                                  arg=ub_inspect.ADMIN_FIELDS["active"], offset=row, value=int(active))["changed"]
+        return changed
+
+    def _dir_name(self, dir_id: bytes) -> str:
+        try:
+            return self.node.catalogue.instance_by_id(bytes(dir_id)).name
+        except (KeyError, LookupError, ValueError):
+            return bytes(dir_id).hex()
+
+    def __repr__(self) -> str:
+        return f"Remote({self.entity!r} via {self.node.name!r})"
