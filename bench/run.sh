@@ -190,6 +190,13 @@ cmake --build "$build/fleet-node" --target uavbus_node >/dev/null
 timed fleet "$VPY" bench/fleet_procs.py "$build/fleet-node/examples/node/uavbus_node" 30 --out "$build/fleet-procs" \
   >>"$raw/fleet.txt" 2>"$raw/fleet_procs.log"
 
+# ---- figure 9: the wire for real radios (issue 15): bytes per message, messages/s through a 57,600-baud radio ----
+say "figure 9: bytes on the wire and a simulated 57,600-baud radio, uavbus compact/full beside MAVLink 2 (pymavlink)"
+gcc "${CFLAGS[@]}" bench/src/radio_bench.c "$LIBUB" $SODIUM -o "$bin/radio_bench"
+rm -rf "$build/wire-frames"
+timed wire "$VPY" bench/wire_bench.py "$gen/benchcat.catalogue.json" "$build/wire-frames" >"$raw/wire.txt"
+timed radio "$bin/radio_bench" 5760 255 60 "$build"/wire-frames/*.frames >"$raw/radio.txt"
+
 # ---- figure 10: remote inspection (issue 16): one-shot read over 1 and 2 hops, Table 2 processes ----
 say "figure 10: remote read round trip over 1 and 2 hops"
 [ -d build ] || cmake -S . -B build -G Ninja -DUAVBUS_PYTHON="$VPY" >/dev/null   # the node Hitl runs (sim.build)

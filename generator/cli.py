@@ -57,7 +57,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="catalogue the inputs that parse and list the others; exit 3 when some were left out")
     p.add_argument("--exit-zero", action="store_true", help="with --keep-going: exit 0 even when inputs were left out")
     p.add_argument("--max-payload", type=int, default=model.DEFAULT_MAX_PAYLOAD, metavar="BYTES",
-                   help=f"largest packed type a node carries: the runtime's UB_MAX_PAYLOAD (default {model.DEFAULT_MAX_PAYLOAD})")
+                   help=f"largest packed type a node carries: the runtime's UB_MAX_DIRECTORY (default {model.DEFAULT_MAX_PAYLOAD})")
     p.add_argument("--strings", choices=(model.STRINGS_SKIP, model.STRINGS_BYTES), default=model.STRINGS_SKIP,
                    help="char arrays: skip them (the paper's rule, default) or send their bytes")
     p.add_argument("--string-field", action="append", default=[], metavar="TYPE.MEMBER",

@@ -110,13 +110,14 @@ SKIP_UNSUPPORTED = "unsupported type"
 
 STRINGS_SKIP = "skip"  # the paper's rule: `char` arrays are not sent
 STRINGS_BYTES = "bytes"  # `char` arrays are sent as their bytes (all of them, NULs included)
-DEFAULT_MAX_PAYLOAD = 1024  # UB_MAX_PAYLOAD of the default runtime build (runtime_c/include/ub/ub_config.h)
+DEFAULT_MAX_PAYLOAD = 16384  # UB_MAX_DIRECTORY of the default runtime build (runtime_c/include/ub/ub_config.h)
 
 
 @dataclass(frozen=True)
 class BuildOptions:
-    """What the user chose. `max_payload` is the one number the runtime's frame can carry
-    (UB_MAX_PAYLOAD); a type packing to more is refused (or, with keep_going, left out)."""
+    """What the user chose. `max_payload` is the one number the runtime's node can carry
+    (UB_MAX_DIRECTORY: above UB_MAX_PAYLOAD in fragments); a type packing to more is refused
+    (or, with keep_going, left out)."""
 
     id_scheme: str = "paper"
     strings: str = STRINGS_SKIP
@@ -607,11 +608,11 @@ def _apply_payload_limit(types: dict[str, StructType], fe_instances: list[tuple[
     if not big:
         return fe_instances
     lines = [f"  {t.loc}: {t.name}: {t.packed_size} bytes on the wire" for t in big]
-    fix = ("fix: split the type, skip members, or build the runtime with a larger UB_MAX_PAYLOAD and pass the "
+    fix = ("fix: split the type, skip members, or build the runtime with a larger UB_MAX_DIRECTORY and pass the "
            "same value as --max-payload")
     if not opts.keep_going:
         problems.append(f"error: {len(big)} type(s) pack to more than the payload limit of {opts.max_payload} "
-                        "bytes (--max-payload; the runtime's UB_MAX_PAYLOAD):\n" + "\n".join(lines) + "\n" + fix)
+                        "bytes (--max-payload; the runtime's UB_MAX_DIRECTORY):\n" + "\n".join(lines) + "\n" + fix)
         return fe_instances
     too_big = {t.name for t in big}
     notes.append(Note("warning", f"{len(big)} type(s) pack to more than the payload limit of {opts.max_payload} "

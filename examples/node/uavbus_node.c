@@ -120,6 +120,7 @@ static volatile sig_atomic_t g_stop;
 static ub_nodecfg_t g_cfg;
 static char g_cfg_text[1 << 16];
 static ub_node_t g_node;
+static ub_frag_t g_frag; /* directories above the payload limit or a link's MTU, in fragments (ub_frag.h) */
 static ub_sec_t g_sec;                /* used when the config has a "security" section */
 static ub_counter_file_t g_counter;
 static ub_ports_t g_ports;
@@ -948,6 +949,8 @@ int main(int argc, char **argv) {
     if (node_opt.first_seq == 0) node_opt.first_seq = 1;
     node_opt.random = ub_random_os; /* unguessable request ids (docs/pubsub.md, "Replies bound to their row") */
     if (ub_node_init(&g_node, &flightsw_catalogue, &node_opt) != UB_OK) die("uavbus_node: catalogue refused by the runtime");
+    ub_frag_init(&g_frag, NULL, (uint16_t)node_opt.first_seq);
+    if (ub_node_set_frag(&g_node, &g_frag) != UB_OK) die("uavbus_node: fragment state refused");
     if (ub_nodecfg_apply(&g_cfg, &g_node, err, sizeof err) != UB_OK) die("%s", err);
     /* Keys, counter file and policy of the "security" section (none: the node stays unsigned). */
     char sec_err[UB_NODECFG_ERR_LEN + UB_SECFILE_ERR_LEN];

@@ -4,7 +4,7 @@
 
 #include "ub/ub_config.h"
 
-uint32_t ub_catalogue_payload_limit(void) { return (uint32_t)UB_MAX_PAYLOAD; }
+uint32_t ub_catalogue_payload_limit(void) { return (uint32_t)UB_MAX_DIRECTORY; }
 
 const ub_type_desc_t *ub_catalogue_oversize(const ub_catalogue_t *cat, uint32_t limit) {
     if (cat == NULL) return NULL;

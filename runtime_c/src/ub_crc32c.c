@@ -432,6 +432,15 @@ __attribute__((target("sse4.2"))) static uint32_t header_words_sse42(const uint6
     return ~_mm_crc32_u32((uint32_t)c, (uint32_t)w[7]);
 }
 
+/* Both checks in one call: the message CRC goes on from the header CRC's register (crc32c_sse42 undoes the
+ * final inversion), with one dispatch per frame; both helpers inline into one unbroken instruction chain.
+ * No state is kept between calls. */
+__attribute__((target("sse4.2"))) static uint32_t frame_words_sse42(const uint64_t w[8], const uint8_t *body,
+                                                                    size_t len, uint32_t *header_crc) {
+    *header_crc = header_words_sse42(w);
+    return crc32c_sse42(*header_crc, body, len);
+}
+
 int ub_crc32c_hw_available(void) {
 #if defined(__SSE4_2__)
     return 1;
@@ -460,6 +469,16 @@ uint32_t ub_crc32c_header_words(const uint64_t words[8]) {
 #endif
 }
 
+uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, size_t body_len, uint32_t *header_crc) {
+#if !defined(__SSE4_2__)
+    if (!__builtin_cpu_supports("sse4.2")) {
+        *header_crc = header_words_portable(words);
+        return ub_crc32c_update_portable(*header_crc, body, body_len);
+    }
+#endif
+    return frame_words_sse42(words, body, body_len, header_crc);
+}
+
 #elif defined(UB_CRC32C_ARM)
 static uint32_t crc32c_armv8(uint32_t crc, const uint8_t *data, size_t len) {
     uint32_t c = ~crc;
@@ -486,6 +505,11 @@ uint32_t ub_crc32c_header_words(const uint64_t w[8]) {
     return ~__crc32cw(c, (uint32_t)w[7]);
 }
 
+uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, size_t body_len, uint32_t *header_crc) {
+    *header_crc = ub_crc32c_header_words(words);
+    return crc32c_armv8(*header_crc, body, body_len);
+}
+
 #else
 int ub_crc32c_hw_available(void) { return 0; }
 
@@ -498,6 +522,11 @@ uint32_t ub_crc32c_update(uint32_t crc, const uint8_t *data, size_t len) {
 }
 
 uint32_t ub_crc32c_header_words(const uint64_t words[8]) { return header_words_portable(words); }
+
+uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, size_t body_len, uint32_t *header_crc) {
+    *header_crc = header_words_portable(words);
+    return ub_crc32c_update_portable(*header_crc, body, body_len);
+}
 #endif
 
 uint32_t ub_crc32c(const uint8_t *data, size_t len) { return ub_crc32c_update(0, data, len); }

@@ -38,6 +38,13 @@ uint32_t ub_crc32c_update_hw(uint32_t crc, const uint8_t *data, size_t len);
  */
 uint32_t ub_crc32c_header_words(const uint64_t words[8]);
 
+/**
+ * Both checks of a frame in one call: the header CRC as ub_crc32c_header_words() gives it, in *header_crc,
+ * and, returned, that CRC continued over the frame's `body_len` body bytes (payload, trailer), the message
+ * CRC. ub_frame_finish() builds every frame with it: one dispatch and one unbroken instruction chain.
+ */
+uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, size_t body_len, uint32_t *header_crc);
+
 #ifdef __cplusplus
 }
 #endif

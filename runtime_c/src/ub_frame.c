@@ -29,7 +29,7 @@ static uint8_t fold_crc(uint32_t crc) { return (uint8_t)(crc ^ (crc >> 8) ^ (crc
  * bytes it had just stored one field at a time made every 8-byte load of the CRC wait
  * for those small stores to retire (a store-forwarding stall), which measured at half
  * the cost of the whole build. Checks and msg_crc are left zero here. */
-static void header_words(const ub_frame_header_t *h, size_t trailer_len, uint64_t w[8]) {
+static inline void header_words(const ub_frame_header_t *h, size_t trailer_len, uint64_t w[8]) {
     w[0] = UB_SYNC0 | UB_SYNC1 << 8 | (uint64_t)(UB_WIRE_VERSION | h->flags) << 24 |
            (uint64_t)UB_MSG_TYPE_PUBSUB << 32 | (uint64_t)(UB_FRAME_HEADER_LEN + h->payload_size + trailer_len) << 48;
     w[1] = ub_get_u64le(h->dir_id);
@@ -100,9 +100,10 @@ int ub_frame_finish(uint8_t *frame, size_t cap, const ub_frame_header_t *h) {
     if (cap < frame_len) return UB_ERR_NOSPACE;
     uint64_t w[8];
     header_words(h, body_len - h->payload_size, w);
-    uint32_t header_crc = ub_crc32c_header_words(w);
+    uint32_t header_crc;
+    uint32_t msg_crc = ub_crc32c_frame_words(w, frame + UB_FRAME_HEADER_LEN, body_len, &header_crc);
     w[0] |= (uint64_t)fold_crc(header_crc) << 16;
-    w[7] |= (uint64_t)ub_crc32c_update(header_crc, frame + UB_FRAME_HEADER_LEN, body_len) << 32;
+    w[7] |= (uint64_t)msg_crc << 32;
     for (int k = 0; k < 8; k++) ub_put_u64le(frame + 8 * k, w[k]);
     return (int)frame_len;
 }
@@ -154,6 +155,8 @@ const char *ub_rx_reason_name(ub_rx_reason_t reason) {
     case UB_RX_BAD_LENGTH: return "bad_length";
     case UB_RX_BAD_VERSION: return "bad_version";
     case UB_RX_BAD_SYNC: return "bad_sync";
+    case UB_RX_NO_DICTIONARY: return "no_dictionary";
+    case UB_RX_NO_REFERENCE: return "no_reference";
     case UB_RX_REASON_COUNT: break;
     }
     return "?";
@@ -165,7 +168,8 @@ void ub_decoder_init(ub_decoder_t *d) {
     memset(&d->stats, 0, sizeof d->stats);
 }
 
-size_t ub_decoder_pending(const ub_decoder_t *d) { return d == NULL ? 0 : d->have; }
+/* (A compact link's decoder marks an overlong packet being skipped with a `have` beyond the buffer: nothing pending.) */
+size_t ub_decoder_pending(const ub_decoder_t *d) { return d == NULL || d->have > sizeof d->buf ? 0 : d->have; }
 
 static void deliver(ub_decoder_t *d, const uint8_t *f, size_t frame_len, ub_frame_cb cb, void *user) {
     d->stats.frames_ok++;

@@ -65,6 +65,7 @@ static int inner_send(ub_impair_t *imp, const uint8_t *frame, size_t len, uint64
     int rc = imp->inner_ops != NULL ? imp->inner_ops->send(imp->inner, frame, len, now_ms) : UB_ERR_CLOSED;
     if (rc == UB_OK) {
         imp->stats.passed++;
+        imp->stats.bytes += len;
     } else if (rc == UB_ERR_AGAIN) {
         imp->stats.inner_again++;
     } else {
@@ -151,15 +152,28 @@ static bool enqueue(ub_impair_t *imp, const uint8_t *frame, size_t len, uint64_t
 static int send_copy(ub_impair_t *imp, const uint8_t *frame, size_t len, uint64_t now_ms) {
     uint32_t delay = imp->params.delay_ms + uniform(imp, imp->params.jitter_ms);
     bool held = chance(imp, imp->params.reorder_ppm);
+    uint64_t leaves_ms = now_ms;
+    if (imp->params.rate_Bps != 0) {
+        /* The medium carries one copy after the other: this one starts when it is free and takes len/rate. */
+        if (imp->count >= UB_IMPAIR_DEPTH) { /* the radio's buffer is full: push back before taking the medium */
+            imp->stats.queue_full++;
+            return UB_ERR_AGAIN;
+        }
+        uint64_t now_us = now_ms * 1000u;
+        uint64_t start_us = imp->busy_until_us > now_us ? imp->busy_until_us : now_us;
+        imp->busy_until_us = start_us + ((uint64_t)len * 1000000u + imp->params.rate_Bps - 1) / imp->params.rate_Bps;
+        leaves_ms = (imp->busy_until_us + 999u) / 1000u;
+        if (leaves_ms > now_ms) imp->stats.rate_waits++;
+    }
     if (delay > 0) imp->stats.delayed++;
     if (held) imp->stats.reordered++;
-    if (delay == 0 && !held && imp->count == 0) {
+    if (delay == 0 && !held && imp->count == 0 && leaves_ms == now_ms) {
         /* Straight through: the node sees the inner transport's own answer (backpressure, errors). */
         return inner_send(imp, frame, len, now_ms);
     }
-    if (!enqueue(imp, frame, len, now_ms + delay, held)) return UB_ERR_AGAIN;
+    if (!enqueue(imp, frame, len, leaves_ms + delay, held)) return UB_ERR_AGAIN;
     /* An unheld copy due now leaves at once (with anything ready before it, and held copies it overtakes). */
-    if (delay == 0 && !held) (void)ub_impair_service(imp, now_ms);
+    if (delay == 0 && !held && leaves_ms == now_ms) (void)ub_impair_service(imp, now_ms);
     return UB_OK;
 }
 
@@ -170,6 +184,10 @@ static int impair_send(void *impl, const uint8_t *frame, size_t len, uint64_t no
     if (imp->inner_ops == NULL) {
         imp->stats.inner_errors++;
         return UB_ERR_CLOSED;
+    }
+    if (imp->params.mtu != 0 && len > imp->params.mtu) {
+        imp->stats.too_big++;
+        return UB_ERR_RANGE;
     }
     if (chance(imp, imp->params.loss_ppm)) {
         imp->stats.lost++;
@@ -213,7 +231,7 @@ bool ub_impair_check_balance(const ub_impair_t *imp) {
     if (imp == NULL) return false;
     const ub_impair_stats_t *s = &imp->stats;
     return s->offered + s->duplicated
-           == s->lost + s->queue_full + s->passed + s->inner_again + s->inner_errors + imp->count;
+           == s->too_big + s->lost + s->queue_full + s->passed + s->inner_again + s->inner_errors + imp->count;
 }
 
 /* ---- "loss=0.2,reorder=0.1,delay=5" ------------------------------------------------------------------ */
@@ -275,7 +293,8 @@ int ub_impair_parse(const char *text, ub_impair_params_t *params, uint64_t *seed
         size_t n = end != NULL ? (size_t)(end - s) : strlen(s);
         const char *eq = memchr(s, '=', n);
         if (eq == NULL) {
-            set_err(err, err_cap, "expected KEY=VALUE (keys: loss, dup, reorder, delay, jitter, hold, seed)", s, n);
+            set_err(err, err_cap, "expected KEY=VALUE (keys: loss, dup, reorder, delay, jitter, hold, rate, mtu, seed)",
+                    s, n);
             return UB_ERR_INVAL;
         }
         size_t kn = (size_t)(eq - s);
@@ -301,6 +320,18 @@ int ub_impair_parse(const char *text, ub_impair_params_t *params, uint64_t *seed
             if (KEY_IS("delay")) p.delay_ms = (uint32_t)u;
             else if (KEY_IS("jitter")) p.jitter_ms = (uint32_t)u;
             else p.reorder_hold_ms = (uint32_t)u;
+        } else if (KEY_IS("rate") || KEY_IS("mtu")) {
+            ok = parse_uint(v, vn, KEY_IS("mtu") ? 65535u : 1000000000u, &u);
+            if (!ok) {
+                set_err(err, err_cap,
+                        KEY_IS("mtu") ? "mtu must be whole bytes from 0 (no limit) to 65535"
+                                      : "rate must be whole bytes per second from 0 (no limit) to 1000000000 (a "
+                                        "57,600-baud radio: rate=5760)",
+                        s, n);
+                return UB_ERR_INVAL;
+            }
+            if (KEY_IS("mtu")) p.mtu = (uint32_t)u;
+            else p.rate_Bps = (uint32_t)u;
         } else if (KEY_IS("seed")) {
             ok = parse_uint(v, vn, UINT64_MAX, &u);
             if (!ok) {
@@ -310,7 +341,8 @@ int ub_impair_parse(const char *text, ub_impair_params_t *params, uint64_t *seed
             new_seed = u;
             seed_given = true;
         } else {
-            set_err(err, err_cap, "unknown key (expected one of: loss, dup, reorder, delay, jitter, hold, seed)", s, n);
+            set_err(err, err_cap,
+                    "unknown key (expected one of: loss, dup, reorder, delay, jitter, hold, rate, mtu, seed)", s, n);
             return UB_ERR_INVAL;
         }
 #undef KEY_IS

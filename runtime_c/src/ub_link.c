@@ -21,6 +21,8 @@ static const char *const drop_reason_names[UB_DROP_REASON_COUNT] = {
     [UB_DROP_UNKNOWN_KEY] = "unknown_key",
     [UB_DROP_REPLAY] = "replay",
     [UB_DROP_UNVERIFIED] = "unverified",
+    [UB_DROP_TOO_BIG] = "too_big",
+    [UB_DROP_INCOMPLETE] = "incomplete",
 };
 
 const char *ub_drop_reason_name(ub_drop_reason_t reason) {

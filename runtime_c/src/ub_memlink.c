@@ -17,6 +17,16 @@ static uint32_t random_below(ub_memlink_t *ml, uint32_t bound) {
 
 static bool happens(ub_memlink_t *ml, uint32_t ppm) { return ppm != 0 && random_below(ml, PPM) < ppm; }
 
+/* Empties an end's queue: every slot free. */
+static void reset_queue(ub_memlink_end_t *end) {
+    end->resets++;
+    end->head = 0;
+    end->count = 0;
+    end->unordered = 0;
+    end->n_free = UB_MEMLINK_DEPTH;
+    for (size_t i = 0; i < UB_MEMLINK_DEPTH; i++) end->free_slots[i] = (uint16_t)(UB_MEMLINK_DEPTH - 1 - i);
+}
+
 void ub_memlink_init(ub_memlink_t *ml, const ub_memlink_faults_t *faults, uint64_t seed) {
     memset(ml, 0, sizeof *ml);
     if (faults != NULL) ml->faults = *faults;
@@ -27,6 +37,7 @@ void ub_memlink_init(ub_memlink_t *ml, const ub_memlink_faults_t *faults, uint64
         ml->end[side].ml = ml;
         ml->end[side].side = side;
         ml->end[side].link_id = -1;
+        reset_queue(&ml->end[side]);
     }
 }
 
@@ -38,15 +49,16 @@ void ub_memlink_set_faults(ub_memlink_t *ml, const ub_memlink_faults_t *faults) 
 /* Queues one copy; false when the queue is full. */
 static bool enqueue(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uint64_t now_ms, bool corrupt) {
     ub_memlink_t *ml = end->ml;
-    if (end->count >= UB_MEMLINK_DEPTH) {
+    if (end->n_free == 0) {
         end->stats.overflow++;
         return false;
     }
-    ub_memlink_frame_t *slot = &end->queue[end->count++];
+    uint16_t index = end->free_slots[--end->n_free];
+    ub_memlink_frame_t *slot = &end->queue[index];
     memcpy(slot->bytes, frame, len);
     slot->len = len;
     slot->order = ml->next_order++;
-    slot->due_ms = now_ms + ml->faults.delay_ms + random_below(ml, ml->faults.jitter_ms + 1u);
+    slot->due_ms = now_ms + ml->faults.delay_ms + (ml->faults.jitter_ms != 0 ? random_below(ml, ml->faults.jitter_ms + 1u) : 0u);
     if (happens(ml, ml->faults.reorder_ppm)) {
         end->stats.reordered++;
         slot->due_ms += ml->faults.reorder_delay_ms != 0 ? ml->faults.reorder_delay_ms : DEFAULT_REORDER_DELAY_MS;
@@ -56,6 +68,10 @@ static bool enqueue(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uin
         uint32_t bit = random_below(ml, (uint32_t)(len * 8u));
         slot->bytes[bit / 8u] ^= (uint8_t)(1u << (bit % 8u));
     }
+    if (end->count > 0 && slot->due_ms < end->queue[end->ring[(end->head + end->count - 1) % UB_MEMLINK_DEPTH]].due_ms)
+        end->unordered = 1;
+    end->ring[(end->head + end->count) % UB_MEMLINK_DEPTH] = index;
+    end->count++;
     return true;
 }
 
@@ -101,58 +117,67 @@ void ub_memlink_disconnect(ub_memlink_t *ml) {
             /* cannot happen: the slot was just found */
         }
         end->stats.lost += end->count;
-        end->count = 0;
+        reset_queue(end);
         end->node = NULL;
         end->link_id = -1;
     }
 }
 
-/* Earliest due frame (ties: send order) queued before `order_limit`; false if none is due. */
-static bool earliest_due(const ub_memlink_t *ml, uint64_t now_ms, uint64_t order_limit, int *side, size_t *index) {
-    bool found = false;
-    const ub_memlink_frame_t *best = NULL;
-    for (int s = 0; s < 2; s++) {
-        for (size_t i = 0; i < ml->end[s].count; i++) {
-            const ub_memlink_frame_t *f = &ml->end[s].queue[i];
-            if (f->due_ms > now_ms || f->order >= order_limit) continue;
-            if (best == NULL || f->due_ms < best->due_ms || (f->due_ms == best->due_ms && f->order < best->order)) {
-                best = f;
-                *side = s;
-                *index = i;
-                found = true;
-            }
+/* Position (in send order) of the end's earliest due frame (ties: send order) queued before `order_limit`, or
+ * -1. In send order and due in that order (no delay, jitter or reordering): the head or nothing. */
+static long earliest_at(const ub_memlink_end_t *end, uint64_t now_ms, uint64_t order_limit) {
+    long best = -1;
+    size_t n = end->unordered ? end->count : (end->count > 0 ? 1u : 0u);
+    const ub_memlink_frame_t *b = NULL;
+    for (size_t p = 0; p < n; p++) {
+        const ub_memlink_frame_t *f = &end->queue[end->ring[(end->head + p) % UB_MEMLINK_DEPTH]];
+        if (f->due_ms > now_ms || f->order >= order_limit) continue;
+        if (b == NULL || f->due_ms < b->due_ms || (f->due_ms == b->due_ms && f->order < b->order)) {
+            b = f;
+            best = (long)p;
         }
     }
-    return found;
+    return best;
+}
+
+/* Takes the frame at send position `p` out of the ring; returns its slot (still owned until released). */
+static uint16_t take_at(ub_memlink_end_t *end, size_t p) {
+    uint16_t index = end->ring[(end->head + p) % UB_MEMLINK_DEPTH];
+    if (p == 0) {
+        end->head = (end->head + 1) % UB_MEMLINK_DEPTH;
+    } else {
+        for (size_t i = p; i + 1 < end->count; i++)
+            end->ring[(end->head + i) % UB_MEMLINK_DEPTH] = end->ring[(end->head + i + 1) % UB_MEMLINK_DEPTH];
+    }
+    if (--end->count == 0) end->unordered = 0;
+    return index;
 }
 
 size_t ub_memlink_pump(ub_memlink_t *ml, uint64_t now_ms) {
     uint64_t order_limit = ml->next_order;
     size_t delivered = 0;
-    int side;
-    size_t index;
-    uint8_t frame[UB_FRAME_MAX];
-    while (earliest_due(ml, now_ms, order_limit, &side, &index)) {
+    for (;;) {
+        long p0 = earliest_at(&ml->end[0], now_ms, order_limit);
+        long p1 = earliest_at(&ml->end[1], now_ms, order_limit);
+        if (p0 < 0 && p1 < 0) break;
+        int side = p0 < 0 ? 1 : 0;
+        if (p0 >= 0 && p1 >= 0) {
+            const ub_memlink_frame_t *a = &ml->end[0].queue[ml->end[0].ring[(ml->end[0].head + (size_t)p0) % UB_MEMLINK_DEPTH]];
+            const ub_memlink_frame_t *b = &ml->end[1].queue[ml->end[1].ring[(ml->end[1].head + (size_t)p1) % UB_MEMLINK_DEPTH]];
+            side = b->due_ms < a->due_ms || (b->due_ms == a->due_ms && b->order < a->order) ? 1 : 0;
+        }
         ub_memlink_end_t *from = &ml->end[side];
         ub_memlink_end_t *to = &ml->end[1 - side];
-        size_t len = from->queue[index].len;
-        /* Copy out and free the slot first: delivery may queue replies into this very queue. */
-        memcpy(frame, from->queue[index].bytes, len);
-        /* Fill the hole with the last slot, copying only its used bytes (a slot is UB_FRAME_MAX long;
-         * copying whole slots was a fifth of all instructions in the 3-hop bench). */
-        ub_memlink_frame_t *hole = &from->queue[index];
-        const ub_memlink_frame_t *last = &from->queue[from->count - 1];
-        if (hole != last) {
-            hole->due_ms = last->due_ms;
-            hole->order = last->order;
-            hole->len = last->len;
-            memcpy(hole->bytes, last->bytes, last->len);
-        }
-        from->count--;
+        /* Out of the queue first, but the slot stays taken while the node handles the frame in place: the
+         * delivery may queue replies (into other slots) on this very link. */
+        uint16_t index = take_at(from, (size_t)(side == 0 ? p0 : p1));
         from->stats.delivered++;
         delivered++;
-        if (to->node == NULL) continue;
-        if (ub_node_rx_frame(to->node, to->link_id, frame, len, now_ms) < 0) from->stats.rejected++;
+        const ub_memlink_frame_t *f = &from->queue[index];
+        uint32_t resets = from->resets;
+        if (to->node != NULL && ub_node_rx_frame(to->node, to->link_id, f->bytes, f->len, now_ms) < 0)
+            from->stats.rejected++;
+        if (from->resets == resets) from->free_slots[from->n_free++] = index; /* else: freed by the disconnect */
     }
     return delivered;
 }

@@ -15,9 +15,9 @@ bool ub_priv_id_is_zero(const uint8_t id[UB_ENTITY_ID_LEN]) {
 }
 
 bool ub_entity_id_is_link_local(const uint8_t id[UB_ENTITY_ID_LEN]) {
-    for (size_t i = 0; i < UB_ENTITY_ID_LEN; i++)
-        if (id[i] != UB_LINK_LOCAL_BYTE) return false;
-    return true;
+    static const uint8_t link_local[UB_ENTITY_ID_LEN] = {0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF,
+                                                         0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF};
+    return ub_priv_id_eq(id, link_local);
 }
 
 static bool entity_index_ok(const ub_node_t *node, int entity) {
@@ -49,9 +49,10 @@ static void count_drop(ub_node_t *node, int link_id, ub_drop_reason_t reason) { 
 
 int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt) {
     if (node == NULL || cat == NULL) return UB_ERR_INVAL;
-    /* ub_catalogue_oversize() names the type a caller reports when this refuses. */
-    if (cat->abi_version != UB_CATALOGUE_ABI_VERSION || cat->max_packed_size > UB_MAX_PAYLOAD ||
-        ub_catalogue_oversize(cat, UB_MAX_PAYLOAD) != NULL)
+    /* ub_catalogue_oversize() names the type a caller reports when this refuses. Types above
+     * UB_MAX_PAYLOAD travel as fragments (ub_node_set_frag()), so the limit is UB_MAX_DIRECTORY. */
+    if (cat->abi_version != UB_CATALOGUE_ABI_VERSION || cat->max_packed_size > UB_MAX_DIRECTORY ||
+        ub_catalogue_oversize(cat, UB_MAX_DIRECTORY) != NULL)
         return UB_ERR_INVAL;
     memset(node, 0, sizeof *node);
     node->cat = cat;
@@ -69,7 +70,7 @@ int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_optio
 int ub_node_find_entity(const ub_node_t *node, const uint8_t id[UB_ENTITY_ID_LEN]) {
     if (node == NULL || id == NULL) return UB_ERR_INVAL;
     for (int e = 0; e < UB_MAX_ENTITIES; e++)
-        if (node->entities[e].in_use && memcmp(node->entities[e].id, id, UB_ENTITY_ID_LEN) == 0) return e;
+        if (node->entities[e].in_use && ub_priv_id_eq(node->entities[e].id, id)) return e;
     return UB_ERR_NOTFOUND;
 }
 
@@ -121,6 +122,7 @@ int ub_node_remove_entity(ub_node_t *node, int entity, uint64_t now_ms) {
         loc->pinned[entity] = 0;
     }
     if (node->route != NULL) ub_priv_route_forget_entity(node->route, entity, id, now_ms);
+    ub_frag_forget(node->frag, -1, id);
     memset(&node->entities[entity], 0, sizeof node->entities[entity]);
     node->entities[entity].local = -1;
     node->counters.entities_removed++;
@@ -177,6 +179,7 @@ int ub_node_remove_link(ub_node_t *node, int link_id) {
     }
     loc->link_ids[link->index] = -1;
     if (node->route != NULL) ub_priv_route_forget_link(node->route, link_id, 0);
+    if (link->mtu != 0) node->mtu_links--;
     memset(link, 0, sizeof *link);
     node->counters.links_removed++;
     return UB_OK;
@@ -327,19 +330,60 @@ uint32_t ub_priv_new_request_id(ub_node_t *node) {
 
 /* ---- transmit and routing ---------------------------------------------- */
 
+static void count_refusal(ub_node_t *node, int link_id, int rc) {
+    /* UB_ERR_NOROUTE: the transport has nowhere to send yet (a UDP link that has not learned a peer). */
+    count_drop(node, link_id,
+               rc == UB_ERR_AGAIN     ? UB_DROP_BACKPRESSURE
+               : rc == UB_ERR_NOROUTE ? UB_DROP_NO_ROUTE
+                                      : UB_DROP_TX_ERROR);
+}
+
+/* transmit() for a link with an MTU or the compact encoding: the frame is encoded for the wire, measured
+ * against the MTU, and the counters count wire bytes; the tap still sees the full frame. Out of line, so the
+ * plain path keeps its small stack. */
+static __attribute__((noinline)) bool transmit_shaped(ub_node_t *node, int link_id, const uint8_t *frame, size_t len,
+                                                      uint64_t now_ms) {
+    ub_link_t *link = &node->links[link_id];
+    uint8_t wire[UB_COMPACT_WIRE_MAX];
+    const uint8_t *out = frame;
+    size_t n = len;
+    if (link->compact != NULL) {
+        int w = ub_compact_link_encode(link->compact, frame, len, wire, sizeof wire);
+        if (w < 0) {
+            count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+            return false;
+        }
+        out = wire;
+        n = (size_t)w;
+    }
+    if (link->mtu != 0 && n > link->mtu) {
+        count_drop(node, link_id, UB_DROP_TOO_BIG);
+        if (link->compact != NULL) ub_compact_tx_forget(link->compact, frame + UB_FRAME_OFF_SRC_ID);
+        return false;
+    }
+    int rc = link->ops->send(link->impl, out, n, now_ms);
+    if (rc < 0) {
+        count_refusal(node, link_id, rc);
+        /* Its next frame carries all 32 sequence bits: the peer may not have the reference this one set. */
+        if (link->compact != NULL) ub_compact_tx_forget(link->compact, frame + UB_FRAME_OFF_SRC_ID);
+        return false;
+    }
+    link->counters.frames_out++;
+    link->counters.bytes_out += n;
+    if (node->tap != NULL) node->tap(node->tap_user, link_id, UB_TAP_TX, frame, len, now_ms);
+    return true;
+}
+
 static bool transmit(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms) {
     ub_link_t *link = &node->links[link_id];
     if (link->ops == NULL) {
         count_drop(node, link_id, UB_DROP_DETACHED);
         return false;
     }
+    if (__builtin_expect(link->compact != NULL || link->mtu != 0, 0)) return transmit_shaped(node, link_id, frame, len, now_ms);
     int rc = link->ops->send(link->impl, frame, len, now_ms);
     if (rc < 0) {
-        /* UB_ERR_NOROUTE: the transport has nowhere to send yet (a UDP link that has not learned a peer). */
-        count_drop(node, link_id,
-                   rc == UB_ERR_AGAIN     ? UB_DROP_BACKPRESSURE
-                   : rc == UB_ERR_NOROUTE ? UB_DROP_NO_ROUTE
-                                          : UB_DROP_TX_ERROR);
+        count_refusal(node, link_id, rc);
         return false;
     }
     link->counters.frames_out++;
@@ -387,8 +431,9 @@ static int form_get(ub_node_t *node, tx_forms_t *f, int form) {
 
 static int send_forms(ub_node_t *node, const ub_local_entity_t *loc, uint8_t mask, tx_forms_t *f, uint64_t now_ms) {
     int sent = 0;
-    for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) {
-        if (!(mask & (1u << i)) || loc->link_ids[i] < 0) continue;
+    for (unsigned bits = mask; bits != 0; bits &= bits - 1) { /* the links of the mask, lowest first */
+        unsigned i = (unsigned)__builtin_ctz(bits);
+        if (i >= UB_MAX_LINKS_PER_ENTITY || loc->link_ids[i] < 0) continue;
         int link_id = loc->link_ids[i];
         int form = node->links[link_id].encrypt ? FORM_ENCRYPTED : f->protect ? FORM_SIGNED : FORM_PLAIN;
         if (form == FORM_ENCRYPTED && !f->protect) {
@@ -405,9 +450,25 @@ static int send_forms(ub_node_t *node, const ub_local_entity_t *loc, uint8_t mas
     return sent;
 }
 
-static void deliver_data(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
-                         uint64_t now_ms) {
-    int idx = ub_catalogue_find(node->cat, h->dir_id);
+/* The catalogue index of a content ID: the last one found, else a binary search. */
+static int content_index(ub_node_t *node, const uint8_t dir_id[UB_DIR_ID_LEN]) {
+    uint32_t c = node->last_content;
+    if (c < node->cat->n_instances) {
+        uint64_t a0, a1, b0, b1;
+        memcpy(&a0, node->cat->instances[c].id, 8);
+        memcpy(&a1, node->cat->instances[c].id + 8, 8);
+        memcpy(&b0, dir_id, 8);
+        memcpy(&b1, dir_id + 8, 8);
+        if (((a0 ^ b0) | (a1 ^ b1)) == 0) return (int)c;
+    }
+    int idx = ub_catalogue_find(node->cat, dir_id);
+    if (idx >= 0) node->last_content = (uint32_t)idx;
+    return idx;
+}
+
+void ub_priv_deliver_data(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
+                          uint64_t now_ms) {
+    int idx = content_index(node, h->dir_id);
     if (idx < 0) {
         count_drop(node, link_id, UB_DROP_UNKNOWN_CONTENT);
         return;
@@ -443,7 +504,11 @@ static void deliver_data(ub_node_t *node, int slot, int link_id, const ub_frame_
 static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
                      const ub_priv_rx_t *rx, uint64_t now_ms) {
     if (h->admin == UB_ADMIN_DATA) {
-        deliver_data(node, slot, link_id, h, payload, now_ms);
+        ub_priv_deliver_data(node, slot, link_id, h, payload, now_ms);
+        return;
+    }
+    if (h->admin == UB_ADMIN_FRAGMENT) {
+        ub_priv_frag_on_fragment(node, slot, link_id, h, payload, now_ms);
         return;
     }
     node->counters.admin_handled++;
@@ -553,6 +618,18 @@ int ub_priv_originate(ub_node_t *node, int slot, uint8_t *frame, size_t cap, ub_
     return send_stamped(node, slot, mask, frame, h, now_ms);
 }
 
+int ub_priv_originate_local(ub_node_t *node, int slot, int dest_slot, ub_frame_header_t *h, const uint8_t *payload,
+                            uint64_t now_ms) {
+    uint16_t size = h->payload_size;
+    h->payload_size = 0; /* stamp() guards the frame's payload limit; this one never becomes a frame */
+    int rc = stamp(node, slot, h, node->opt.hop_limit);
+    h->payload_size = size;
+    if (rc < 0) return rc;
+    node->counters.local_direct++;
+    dispatch(node, dest_slot, -1, h, payload, NULL, now_ms);
+    return 0;
+}
+
 /* Per-call context of the stream decoder callback. */
 typedef struct rx_ctx {
     ub_node_t *node;
@@ -594,7 +671,7 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
     if (node->tap != NULL) node->tap(node->tap_user, link_id, UB_TAP_RX, frame, len, now_ms);
     /* A link-local frame (docs/routing.md) is for the ingress link's owner and is never forwarded. */
     bool link_local = ub_entity_id_is_link_local(h->dest_id);
-    if (link_local && h->admin != UB_ADMIN_HELLO && h->admin != UB_ADMIN_ROUTE_UPDATE) {
+    if (link_local && h->admin != UB_ADMIN_HELLO && h->admin != UB_ADMIN_ROUTE_UPDATE && h->admin != UB_ADMIN_LINK_HELLO) {
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
         return UB_VERDICT_REFUSED;
     }
@@ -614,7 +691,13 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
         verdicts->fresh++;
     }
     if (link_local) {
-        route_link_local(node, link_id, h, rx.payload, now_ms);
+        if (h->admin == UB_ADMIN_LINK_HELLO) {
+            node->counters.admin_handled++;
+            if (link->compact == NULL || ub_compact_on_hello(link->compact, rx.payload, h->payload_size, now_ms) < 0)
+                count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+        } else {
+            route_link_local(node, link_id, h, rx.payload, now_ms);
+        }
         return UB_VERDICT_ACCEPTED;
     }
     if (dest_slot >= 0) {
@@ -667,10 +750,51 @@ static void on_stream_frame(void *user, const ub_frame_header_t *h, const uint8_
     (void)route_received(ctx->node, ctx->link_id, h, frame, frame_len, ctx->now_ms, &ctx->verdicts);
 }
 
+/* A frame decoded from a compact link: routed as any, then, if it proved authentic, its sequence becomes the
+ * link's reference for its source (after the security gate, so a forgery cannot move it). */
+typedef struct compact_ctx {
+    rx_ctx_t rx;
+    ub_rx_verdict_t best;
+    size_t frames;
+} compact_ctx_t;
+
+static void on_compact_frame(void *user, const ub_frame_header_t *h, const uint8_t *frame, size_t len, bool seq32) {
+    compact_ctx_t *ctx = user;
+    unsigned authentic = ctx->rx.verdicts.authentic;
+    ub_rx_verdict_t v = route_received(ctx->rx.node, ctx->rx.link_id, h, frame, len, ctx->rx.now_ms, &ctx->rx.verdicts);
+    if (v > ctx->best) ctx->best = v;
+    ctx->frames++;
+    ub_link_t *link = &ctx->rx.node->links[ctx->rx.link_id];
+    if (link->compact != NULL && (ctx->rx.verdicts.authentic != authentic || v == UB_VERDICT_DUPLICATE))
+        ub_compact_rx_note(link->compact, h->src_id, h->seq, seq32);
+}
+
+/* Bytes of a compact link: a stream chunk (`dec` carries an unfinished packet) or, with `dec` NULL, one
+ * datagram of whole packets. */
+static __attribute__((noinline)) size_t rx_compact(ub_node_t *node, int link_id, ub_decoder_t *dec, const uint8_t *data,
+                                                   size_t len, uint64_t now_ms, compact_ctx_t *ctx) {
+    ub_link_t *link = &node->links[link_id];
+    ctx->rx.node = node;
+    ctx->rx.link_id = link_id;
+    ctx->rx.now_ms = now_ms;
+    ctx->rx.verdicts.authentic = ctx->rx.verdicts.fresh = 0;
+    ctx->best = UB_VERDICT_REFUSED;
+    ctx->frames = 0;
+    return ub_compact_feed(link->compact, dec, data, len, now_ms, dec == NULL ? link->counters.bad_datagrams : NULL,
+                           on_compact_frame, ctx);
+}
+
 int ub_node_rx_stream(ub_node_t *node, int link_id, ub_decoder_t *dec, const uint8_t *data, size_t len,
                       uint64_t now_ms, ub_rx_verdicts_t *verdicts) {
     if (node == NULL || !link_id_ok(node, link_id) || (data == NULL && len > 0)) return UB_ERR_INVAL;
     node->links[link_id].counters.bytes_in += len;
+    if (node->links[link_id].compact != NULL) {
+        compact_ctx_t cctx;
+        size_t found = rx_compact(node, link_id, dec != NULL ? dec : &node->links[link_id].decoder, data, len, now_ms,
+                                  &cctx);
+        if (verdicts != NULL) *verdicts = cctx.rx.verdicts;
+        return found > (size_t)INT32_MAX ? INT32_MAX : (int)found;
+    }
     rx_ctx_t ctx = {node, link_id, now_ms, {0, 0}};
     size_t frames = ub_decoder_feed(dec != NULL ? dec : &node->links[link_id].decoder, data, len, on_stream_frame,
                                     &ctx);
@@ -690,6 +814,12 @@ int ub_node_rx_frame_verdict(ub_node_t *node, int link_id, const uint8_t *frame,
     if (node == NULL || !link_id_ok(node, link_id) || frame == NULL) return UB_ERR_INVAL;
     ub_link_t *link = &node->links[link_id];
     link->counters.bytes_in += len;
+    if (link->compact != NULL) {
+        compact_ctx_t cctx;
+        size_t found = rx_compact(node, link_id, NULL, frame, len, now_ms, &cctx);
+        *verdict = cctx.best;
+        return found > 0 ? UB_OK : UB_ERR_CHECKSUM;
+    }
     ub_frame_header_t h;
     ub_rx_reason_t reason = UB_RX_BAD_LENGTH;
     int rc = ub_frame_parse_reason(frame, len, &h, &reason);
@@ -713,6 +843,12 @@ int ub_priv_send_data_from_slot(ub_node_t *node, int slot, uint32_t instance, co
     void *storage = ub_node_binding(node, instance);
     if (storage == NULL) return UB_ERR_NOTFOUND;
     const ub_instance_desc_t *inst = &node->cat->instances[instance];
+    if (inst->type->packed_size > UB_MAX_PAYLOAD || node->mtu_links != 0) {
+        /* Maybe too large for a frame or for the links it leaves on: then in fragments. */
+        bool sent = false;
+        int rc = ub_priv_frag_send(node, slot, instance, storage, dest_id, now_ms, &sent);
+        if (sent) return rc;
+    }
     uint8_t frame[UB_FRAME_MAX];
     int packed;
     if (inst->type->pack == NULL) { /* wire-image storage (ub_type_desc_t) */
@@ -804,4 +940,45 @@ void ub_node_tick(ub_node_t *node, uint64_t now_ms) {
     if (node->member != NULL) ub_priv_member_tick(node->member, now_ms);
     if (node->inspect != NULL) ub_priv_inspect_tick(node->inspect, now_ms);
     ub_priv_sec_tick(node, now_ms);
+    ub_priv_compact_tick(node, now_ms);
+    if (node->frag != NULL) ub_priv_frag_tick(node, now_ms);
 }
+
+/* ---- wire: compact links, MTUs, fragments -------------------------------------------------------- */
+
+int ub_node_link_set_compact(ub_node_t *node, int link_id, ub_compact_t *state, const ub_compact_params_t *params) {
+    if (node == NULL || !link_id_ok(node, link_id)) return UB_ERR_INVAL;
+    ub_link_t *link = &node->links[link_id];
+    if (state != NULL) {
+        /* A random epoch: the peer notices our restart and sends all sequence bits again. */
+        ub_compact_init(state, node->cat, ub_priv_new_request_id(node), params);
+    }
+    link->compact = state;
+    ub_decoder_stats_t kept = link->decoder.stats; /* the carried bytes were the other encoding's */
+    ub_decoder_init(&link->decoder);
+    link->decoder.stats = kept;
+    return UB_OK;
+}
+
+ub_compact_t *ub_node_link_compact(const ub_node_t *node, int link_id) {
+    if (node == NULL || !link_id_ok(node, link_id)) return NULL;
+    return node->links[link_id].compact;
+}
+
+int ub_node_link_set_mtu(ub_node_t *node, int link_id, uint16_t mtu) {
+    if (node == NULL || !link_id_ok(node, link_id)) return UB_ERR_INVAL;
+    if (mtu != 0 && mtu < UB_LINK_MTU_MIN) return UB_ERR_RANGE;
+    ub_link_t *link = &node->links[link_id];
+    if (link->mtu == 0 && mtu != 0) node->mtu_links++;
+    if (link->mtu != 0 && mtu == 0) node->mtu_links--;
+    link->mtu = mtu;
+    return UB_OK;
+}
+
+int ub_node_set_frag(ub_node_t *node, ub_frag_t *frag) {
+    if (node == NULL) return UB_ERR_INVAL;
+    node->frag = frag;
+    return UB_OK;
+}
+
+ub_frag_t *ub_node_frag(const ub_node_t *node) { return node != NULL ? node->frag : NULL; }

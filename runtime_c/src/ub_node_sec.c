@@ -92,7 +92,7 @@ bool ub_priv_sec_gate(ub_node_t *node, int link_id, const ub_frame_header_t *h, 
 static ub_dedup_entry_t *entry_find(ub_local_entity_t *loc, const uint8_t src[UB_ENTITY_ID_LEN]) {
     for (size_t i = 0; i < UB_DEDUP_SOURCES; i++) {
         ub_dedup_entry_t *e = &loc->dedup[i];
-        if (e->in_use && memcmp(e->src, src, UB_ENTITY_ID_LEN) == 0) return e;
+        if (e->in_use && ub_priv_id_eq(e->src, src)) return e;
     }
     return NULL;
 }

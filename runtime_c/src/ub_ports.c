@@ -77,7 +77,7 @@ static bool parse_hostport(const char *value, char host[UB_PORT_HOST_LEN], uint1
 typedef struct spec_builder {
     ub_port_spec_t spec;
     bool is_tcp;
-    bool has_bind, has_peer, has_listen, has_connect, has_device, has_accept;
+    bool has_bind, has_peer, has_listen, has_connect, has_device, has_accept, has_encoding, has_mtu;
 } spec_builder_t;
 
 static int builder_start(spec_builder_t *b, const char *transport, char *err, size_t cap) {
@@ -189,9 +189,34 @@ static int builder_param(spec_builder_t *b, const char *key, const char *value, 
         s->baud = v;
         return UB_OK;
     }
-    const char *expected = s->kind == UB_PORT_UDP      ? "bind, peer, accept"
-                           : b->is_tcp                 ? "listen or connect"
-                           : s->kind == UB_PORT_SERIAL ? "device, baud"
+    if (s->kind != UB_PORT_MEM && strcmp(key, "encoding") == 0) {
+        bool compact = strcmp(value, "compact") == 0;
+        if (b->has_encoding || (!compact && strcmp(value, "full") != 0)) {
+            fail(err, cap, "'encoding=%.20s': %s", value,
+                 b->has_encoding ? "given twice: give it once"
+                                 : "use full (64-byte headers, the default) or compact (both ends of the link alike)");
+            return UB_ERR_INVAL;
+        }
+        s->encoding = compact ? UB_PORT_ENCODING_COMPACT : UB_PORT_ENCODING_FULL;
+        b->has_encoding = true;
+        return UB_OK;
+    }
+    if (s->kind != UB_PORT_MEM && strcmp(key, "mtu") == 0) {
+        uint32_t v = 0;
+        if (b->has_mtu || !parse_u32(value, 65535u, &v) || v < UB_LINK_MTU_MIN) {
+            fail(err, cap, "'mtu=%.20s': %s", value,
+                 b->has_mtu ? "given twice: give it once"
+                            : "give the largest frame the link carries, in bytes, from 64 to 65535 (e.g. mtu=255 for "
+                              "a radio's packets)");
+            return UB_ERR_INVAL;
+        }
+        s->mtu = (uint16_t)v;
+        b->has_mtu = true;
+        return UB_OK;
+    }
+    const char *expected = s->kind == UB_PORT_UDP      ? "bind, peer, accept, encoding, mtu"
+                           : b->is_tcp                 ? "listen or connect, encoding, mtu"
+                           : s->kind == UB_PORT_SERIAL ? "device, baud, encoding, mtu"
                                                        : "none";
     fail(err, cap, "unknown parameter '%.20s' for %s (expected: %s)", key,
          b->is_tcp ? "tcp" : ub_port_kind_transport(s->kind), expected);
@@ -332,6 +357,9 @@ void ub_port_spec_format(const ub_port_spec_t *spec, char *out, size_t cap) {
     case UB_PORT_MEM: n = snprintf(out, cap, "mem"); break;
     default: n = snprintf(out, cap, "none"); break;
     }
+    if (n >= 0 && (size_t)n < cap && spec->encoding == UB_PORT_ENCODING_COMPACT)
+        n += snprintf(out + n, cap - (size_t)n, ",encoding=compact");
+    if (n >= 0 && (size_t)n < cap && spec->mtu != 0) n += snprintf(out + n, cap - (size_t)n, ",mtu=%u", (unsigned)spec->mtu);
     /* A cut text ends in "..." so it cannot be mistaken for a whole spec (diagnostics only). */
     if ((n < 0 || (size_t)n >= cap) && cap >= 4) memcpy(out + cap - 4, "...", 4);
 }
@@ -433,7 +461,22 @@ static ub_port_t *port_of_link(ub_ports_t *ports, int link_id) {
 }
 
 static bool params_active(const ub_impair_params_t *p) {
-    return p->loss_ppm != 0 || p->dup_ppm != 0 || p->reorder_ppm != 0 || p->delay_ms != 0 || p->jitter_ms != 0;
+    return p->loss_ppm != 0 || p->dup_ppm != 0 || p->reorder_ppm != 0 || p->delay_ms != 0 || p->jitter_ms != 0 ||
+           p->rate_Bps != 0 || p->mtu != 0;
+}
+
+/* The link's wire settings from the spec: the compact encoding (state in the port) and the MTU. */
+static void apply_wire(ub_ports_t *ports, ub_port_t *p, const ub_port_spec_t *spec) {
+    ub_compact_t *now = ub_node_link_compact(ports->node, p->link_id);
+    if (spec->encoding == UB_PORT_ENCODING_COMPACT && now != &p->compact) {
+        if (ub_node_link_set_compact(ports->node, p->link_id, &p->compact, NULL) != UB_OK) { /* id resolved */ }
+    } else if (spec->encoding != UB_PORT_ENCODING_COMPACT && now == &p->compact) {
+        if (ub_node_link_set_compact(ports->node, p->link_id, NULL, NULL) != UB_OK) { /* id resolved */ }
+    }
+    if (spec->mtu != 0 || p->set_mtu) {
+        if (ub_node_link_set_mtu(ports->node, p->link_id, spec->mtu) != UB_OK) { /* 0 or >= 64: checked */ }
+        p->set_mtu = spec->mtu != 0;
+    }
 }
 
 /* A different PRNG stream per link, all derived from one seed. */
@@ -538,6 +581,7 @@ int ub_ports_open(ub_ports_t *ports, const char *link_name, const ub_port_spec_t
     p->active = slot;
     p->in_use = 1;
     p->spec = *spec;
+    apply_wire(ports, p, spec);
     bool was_impaired = p->impaired;
     p->impaired = 0;
     uint64_t unused_seed;
@@ -599,6 +643,9 @@ static void port_close(ub_ports_t *ports, ub_port_t *p) {
     driver_close(&p->drv[0]);
     driver_close(&p->drv[1]);
     if (ub_node_link_detach(ports->node, p->link_id) != UB_OK) { /* cannot fail: the id was resolved */ }
+    ub_port_spec_t full;
+    memset(&full, 0, sizeof full);
+    apply_wire(ports, p, &full); /* the link forgets the port's compact state and MTU */
     p->in_use = 0;
     p->impaired = 0;
     p->own_impair = 0;

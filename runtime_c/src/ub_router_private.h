@@ -11,6 +11,7 @@
 
 #include <stdbool.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "ub/ub_admin.h"
 #include "ub/ub_frame.h"
@@ -113,6 +114,18 @@ bool ub_priv_admin_routes_to(const ub_admin_t *adm, uint32_t instance, const uin
 
 void ub_priv_admin_tick(ub_admin_t *adm, uint64_t now_ms);
 
+/* Whether two 12-byte entity IDs are equal: two loads each (memcpy into integers), not a byte loop. The router
+ * compares IDs on every frame (destination, window, link-local address). */
+static inline bool ub_priv_id_eq(const uint8_t a[UB_ENTITY_ID_LEN], const uint8_t b[UB_ENTITY_ID_LEN]) {
+    uint64_t a0, b0;
+    uint32_t a1, b1;
+    memcpy(&a0, a, 8);
+    memcpy(&b0, b, 8);
+    memcpy(&a1, a + 8, 4);
+    memcpy(&b1, b + 8, 4);
+    return ((a0 ^ b0) | (uint64_t)(a1 ^ b1)) == 0;
+}
+
 /* Whether an entity ID is all zero (the "no owner" marker). */
 bool ub_priv_id_is_zero(const uint8_t id[UB_ENTITY_ID_LEN]);
 
@@ -128,6 +141,34 @@ void ub_priv_count_drop(ub_node_t *node, int link_id, ub_drop_reason_t reason);
  */
 int ub_priv_originate(ub_node_t *node, int slot, uint8_t *frame, size_t cap, ub_frame_header_t *h, int fallback_link,
                       uint64_t now_ms);
+
+/* ---- wire glue (ub_node.c, ub_node_frag.c) ---- */
+
+/* DATA reached local slot `slot` (link -1: from an entity of this node): content, policy, layout, binding,
+ * unpack, subscription bookkeeping, the delivery hook. */
+void ub_priv_deliver_data(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
+                          uint64_t now_ms);
+
+/* Sends DATA of `instance` (bound at `storage`) when it is larger than a frame carries or than the MTU of a link
+ * it leaves on: in fragments (or, to a local entity, whole). `*sent` false: not needed, the caller sends a plain
+ * frame. Returns as ub_node_send_data(). */
+int ub_priv_frag_send(ub_node_t *node, int slot, uint32_t instance, const void *storage,
+                      const uint8_t dest_id[UB_ENTITY_ID_LEN], uint64_t now_ms, bool *sent);
+
+/* Originates DATA of any size (up to UB_MAX_DIRECTORY) from `slot` to local slot `dest_slot`, never as a frame:
+ * stamped like any originated frame, then handed over. Returns 0 or a negative error. */
+int ub_priv_originate_local(ub_node_t *node, int slot, int dest_slot, ub_frame_header_t *h, const uint8_t *payload,
+                            uint64_t now_ms);
+
+/* A FRAGMENT reached local slot `slot`. */
+void ub_priv_frag_on_fragment(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h,
+                              const uint8_t *payload, uint64_t now_ms);
+
+/* Timeouts of reassemblies; transfers that were pushed back go on. */
+void ub_priv_frag_tick(ub_node_t *node, uint64_t now_ms);
+
+/* Compact links: their dictionaries follow the entity table; LINK_HELLO rounds go out when due. */
+void ub_priv_compact_tick(ub_node_t *node, uint64_t now_ms);
 
 /* ---- security glue (ub_node_sec.c) ---- */
 

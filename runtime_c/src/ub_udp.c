@@ -284,6 +284,11 @@ static ub_rx_verdict_t hand_datagram(ub_udp_t *udp, ub_node_t *node, const uint8
                                      uint64_t now_ms) {
     ub_rx_verdict_t best = UB_VERDICT_REFUSED;
     size_t off = 0;
+    if (ub_node_link_compact(node, udp->link_id) != NULL) { /* compact packets delimit themselves: the node splits */
+        udp->stats.frames_in++;
+        if (ub_node_rx_frame_verdict(node, udp->link_id, data, len, now_ms, &best) < 0) udp->stats.rejected++;
+        return best;
+    }
     while (off < len) {
         size_t rest = len - off, take = rest;
         if (rest > UB_FRAME_HEADER_LEN) {

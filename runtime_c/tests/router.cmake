@@ -36,7 +36,8 @@ add_executable(ub_router_bench ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/router_
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_memlink.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_frame.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_crc32c.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_catalogue.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_error.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_policy.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_json.c)
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_json.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_compact.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_frag.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_node_wire.c)
 target_include_directories(ub_router_bench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/include ${CMAKE_CURRENT_SOURCE_DIR}/src
                                                    ${CMAKE_CURRENT_SOURCE_DIR}/tests)
 target_compile_definitions(ub_router_bench PRIVATE _POSIX_C_SOURCE=200809L)

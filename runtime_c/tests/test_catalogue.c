@@ -36,16 +36,16 @@ static void test_long_name_first8_last8(void **state) {
 static void test_oversize_type_is_named(void **state) {
     (void)state;
     ub_type_desc_t types[2] = {
-        {"struct fits", 1u, UB_MAX_PAYLOAD, 8u, NULL, NULL},
-        {"struct tooBig", 2u, UB_MAX_PAYLOAD + 1u, 8u, NULL, NULL},
+        {"struct fits", 1u, UB_MAX_DIRECTORY, 8u, NULL, NULL},
+        {"struct tooBig", 2u, UB_MAX_DIRECTORY + 1u, 8u, NULL, NULL},
     };
     ub_catalogue_t cat = {"limits", UB_ID_SCHEME_PAPER, UB_CATALOGUE_ABI_VERSION, types, 2, NULL, 0,
-                          UB_MAX_PAYLOAD + 1u, NULL, 0};
-    assert_int_equal(ub_catalogue_payload_limit(), UB_MAX_PAYLOAD);
+                          UB_MAX_DIRECTORY + 1u, NULL, 0};
+    assert_int_equal(ub_catalogue_payload_limit(), UB_MAX_DIRECTORY);
     const ub_type_desc_t *big = ub_catalogue_oversize(&cat, ub_catalogue_payload_limit());
     assert_ptr_equal(big, &types[1]);
     assert_string_equal(big->name, "struct tooBig");
-    assert_null(ub_catalogue_oversize(&cat, UB_MAX_PAYLOAD + 1u));
+    assert_null(ub_catalogue_oversize(&cat, UB_MAX_DIRECTORY + 1u));
     assert_null(ub_catalogue_oversize(NULL, 0));
     static ub_node_t node;
     assert_int_equal(ub_node_init(&node, &cat, NULL), UB_ERR_INVAL);

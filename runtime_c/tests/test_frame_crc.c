@@ -94,6 +94,13 @@ static void test_header_words_equal_byte_crc(void **state) {
             for (int b = 0; b < 8; b++) bytes[8 * k + b] = (uint8_t)(words[k] >> (8 * b));
         }
         assert_int_equal(ub_crc32c_header_words(words), ub_crc32c_update_portable(0, bytes + 4, 56));
+        uint8_t body[40];
+        for (size_t b = 0; b < sizeof body; b++) body[b] = (uint8_t)(rng_next(&rng) >> 56);
+        size_t n = (size_t)trial % sizeof body;
+        uint32_t header_crc = 0;
+        uint32_t msg = ub_crc32c_frame_words(words, body, n, &header_crc);
+        assert_int_equal(header_crc, ub_crc32c_header_words(words));
+        assert_int_equal(msg, ub_crc32c_update_portable(header_crc, body, n));
     }
 }
 

@@ -266,6 +266,46 @@ static void test_parse(void **state) {
     assert_int_equal(ub_impair_parse("loss", &p, NULL, err, sizeof err), UB_ERR_INVAL);
     assert_non_null(strstr(err, "KEY=VALUE"));
     assert_int_equal(ub_impair_parse("loss=0.1,,", &p, NULL, err, sizeof err), UB_ERR_INVAL);
+    assert_int_equal(ub_impair_parse("rate=5760,mtu=255", &p, NULL, err, sizeof err), UB_OK);
+    assert_int_equal(p.rate_Bps, 5760);
+    assert_int_equal(p.mtu, 255);
+    assert_int_equal(ub_impair_parse("mtu=70000", &p, NULL, err, sizeof err), UB_ERR_INVAL);
+    assert_non_null(strstr(err, "mtu must be whole bytes"));
+}
+
+/* A 57,600-baud radio: 5,760 bytes/s, 100-byte frames every ms. The medium carries one after the other at the
+ * byte rate: the n-th frame leaves once n * 100 / 5760 s have passed; the 32-frame buffer pushes back. */
+static void test_byte_rate_and_mtu(void **state) {
+    (void)state;
+    ub_impair_params_t params = {.rate_Bps = 5760, .mtu = 255};
+    fixture_t *f = fixture_new(&params, 1);
+    uint8_t frame[300];
+    memset(frame, 0, sizeof frame);
+    uint32_t accepted = 0, refused = 0;
+    for (uint64_t t = 0; t < 2000; t++) {
+        (void)ub_impair_service(&f->imp, t);
+        memcpy(frame, &accepted, 4);
+        int rc = ub_impair_ops.send(&f->imp, frame, 100, t);
+        if (rc == UB_OK) accepted++;
+        else refused++, assert_int_equal(rc, UB_ERR_AGAIN);
+    }
+    (void)ub_impair_service(&f->imp, 2000);
+    /* 2 s at 57.6 frames/s: 115 carried (the last ones still under way), the rest refused, nothing lost. */
+    assert_true(f->cap.n >= 114 && f->cap.n <= 116);
+    for (size_t k = 0; k < f->cap.n; k++) {
+        assert_int_equal(f->cap.id[k], k); /* in order */
+        uint64_t done_us = (uint64_t)(k + 1) * ((100 * 1000000 + 5759) / 5760); /* each frame's time, to the us */
+        assert_int_equal(f->cap.at[k], (done_us + 999) / 1000); /* when its last byte has gone */
+    }
+    assert_int_equal(accepted, f->cap.n + ub_impair_pending(&f->imp));
+    assert_true(refused > 1800);
+    assert_int_equal(ub_impair_stats(&f->imp)->queue_full, refused);
+    /* A frame longer than the packet MTU is refused with its own count. */
+    assert_int_equal(ub_impair_ops.send(&f->imp, frame, 256, 2000), UB_ERR_RANGE);
+    assert_int_equal(ub_impair_stats(&f->imp)->too_big, 1);
+    (void)ub_impair_service(&f->imp, 100000);
+    assert_true(ub_impair_check_balance(&f->imp));
+    free(f);
 }
 
 int main(void) {
@@ -278,6 +318,7 @@ int main(void) {
         cmocka_unit_test(test_queue_full_is_counted_and_pushed_back),
         cmocka_unit_test(test_inner_refusals_are_counted),
         cmocka_unit_test(test_parse),
+        cmocka_unit_test(test_byte_rate_and_mtu),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

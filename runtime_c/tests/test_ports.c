@@ -55,6 +55,13 @@ static void test_spec_parse_forms(void **state) {
     assert_int_equal(s.baud, 115200);
     assert_int_equal(ub_port_spec_parse("serial:baud=57600,device=/dev/ttyS1", &s, err, sizeof err), UB_OK);
     assert_int_equal(s.baud, 57600);
+    assert_int_equal(ub_port_spec_parse("serial:device=/dev/ttyS1,baud=57600,encoding=compact,mtu=255", &s, err,
+                                        sizeof err),
+                     UB_OK);
+    assert_int_equal(s.encoding, UB_PORT_ENCODING_COMPACT);
+    assert_int_equal(s.mtu, 255);
+    ub_port_spec_format(&s, text, sizeof text);
+    assert_string_equal(text, "serial:device=/dev/ttyS1,baud=57600,encoding=compact,mtu=255");
     assert_int_equal(ub_port_spec_parse("mem", &s, err, sizeof err), UB_OK);
     assert_int_equal(s.kind, UB_PORT_MEM);
     char name[64];
@@ -82,13 +89,16 @@ static void test_spec_parse_errors(void **state) {
         {"udp:bind=example.com:1,peer=127.0.0.1:1", "dotted IPv4"},
         {"udp:bind=127.0.0.1:0,peer=127.0.0.1:0", "peer port must not be 0"},
         {"udp:bind=127.0.0.1:0,bind=127.0.0.1:0,peer=127.0.0.1:1", "'bind' given twice"},
-        {"udp:listen=127.0.0.1:1", "unknown parameter 'listen' for udp (expected: bind, peer, accept)"},
+        {"udp:listen=127.0.0.1:1", "unknown parameter 'listen' for udp (expected: bind, peer, accept, encoding, mtu)"},
         {"tcp", "tcp needs listen=HOST:PORT (server) or connect=HOST:PORT (client)"},
         {"tcp:listen=127.0.0.1:1,connect=127.0.0.1:2", "either listens or connects"},
         {"tcp:connect=127.0.0.1:0", "must not be 0"},
         {"serial:baud=115200", "serial needs device=PATH"},
         {"serial:device=/dev/x,baud=12345", "use one of 1200, 2400"},
         {"tcp:connect", "is not KEY=VALUE"},
+        {"udp:bind=127.0.0.1:0,encoding=tiny", "'encoding=tiny': use full (64-byte headers, the default) or compact"},
+        {"serial:device=/dev/x,mtu=20", "'mtu=20': give the largest frame the link carries, in bytes, from 64"},
+        {"tcp:connect=127.0.0.1:1,mtu=100,mtu=200", "'mtu=200': given twice"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         ub_port_spec_t s;

@@ -32,6 +32,8 @@ from uavbus.enums import catalogue_enums
 Clock = Callable[[], float]
 log = logging.getLogger("uavbus")
 INBOX_MAX = 10000  # messages kept for messages() when no on_data callback consumes them
+FRAG_COUNTERS = ("tx_transfers", "tx_fragments", "tx_busy", "tx_paused", "tx_abandoned", "rx_started", "rx_fragments",
+                 "rx_duplicates", "rx_complete", "rx_timeouts", "rx_evicted", "rx_restarted", "rx_bad")
 
 
 def monotonic_ms() -> float:
@@ -144,6 +146,12 @@ class Node:
             first_seq = (time.time_ns() // 1_000_000) & 0x7FFFFFFF or 1
         # Request ids come from the OS (ub_random_os); random_seed: the seeded, guessable ids of tests.
         self._c = ub_node.ub_node_new(c_catalogue, hop_limit, first_seq, timing, random_seed)
+        # Directories above the payload limit or a link's MTU travel in fragments (ub_frag.h): every Python node
+        # can send and reassemble them (about UB_FRAG_SLOTS + UB_FRAG_TX_SLOTS times UB_MAX_DIRECTORY bytes).
+        self._frag = ffi.new("ub_frag_t *")
+        lib.ub_frag_init(self._frag, ffi.NULL, first_seq & 0xFFFF)
+        ensure(lib.ub_node_set_frag(self._c, self._frag), "ub_node_set_frag")
+        self._compact: dict[int, Any] = {}  # link id -> ub_compact_t the C link points to
         self._sink = _Sink(self)
         self._handle = ffi.new_handle(self._sink)
         ub_node.set_deliver_sink(self._c, self._handle)
@@ -223,6 +231,7 @@ class Node:
             if m._ends_at(self, link_id):
                 m.disconnect()
         ub_node.ub_node_remove_link(self._c, link_id)
+        self._compact.pop(link_id, None)
 
     def mask(self, entity: str, dest: str) -> int:
         """Local `entity`'s current mask toward `dest` (bit i = link[i]), set by hand or by routing."""
@@ -554,15 +563,45 @@ class Node:
         return None if self._ports is None else ub_ports.ub_ports_describe(self._ports, link)
 
     def set_impairment(self, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0, delay: int = 0,
-                       jitter: int = 0, hold: int = 0, seed: int = 0) -> None:
-        """Seeded impairment in front of every socket/serial port, now and later (Contract 4)."""
-        ub_ports.ub_ports_set_impairment(self._ports_obj(), loss, dup, reorder, delay, jitter, hold, seed)
+                       jitter: int = 0, hold: int = 0, seed: int = 0, rate: int = 0, mtu: int = 0) -> None:
+        """Seeded impairment in front of every socket/serial port, now and later (Contract 4). `rate`: bytes
+        per second the medium carries (a 57,600-baud radio: 5760); `mtu`: its longest packet (0: no limit)."""
+        ub_ports.ub_ports_set_impairment(self._ports_obj(), loss, dup, reorder, delay, jitter, hold, seed, rate, mtu)
 
     def set_link_impairment(self, link: str, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0,
-                            delay: int = 0, jitter: int = 0, hold: int = 0, seed: int = 0) -> None:
+                            delay: int = 0, jitter: int = 0, hold: int = 0, seed: int = 0, rate: int = 0,
+                            mtu: int = 0) -> None:
         """The open port of `link` gets its own seeded impairment, over set_impairment()'s (e.g. loss=1: a
-        radio out of range); all zero removes it."""
-        ub_ports.ub_ports_set_link_impairment(self._ports_obj(), link, loss, dup, reorder, delay, jitter, hold, seed)
+        radio out of range; rate=5760: a 57,600-baud radio); all zero removes it."""
+        ub_ports.ub_ports_set_link_impairment(self._ports_obj(), link, loss, dup, reorder, delay, jitter, hold, seed,
+                                              rate, mtu)
+
+    # -- the wire ------------------------------------------------------------------------------
+    def set_link_encoding(self, link: str, encoding: str = "compact") -> None:
+        """Sets `link` to the compact encoding ("compact": short indices agreed with the other end, which must
+        be set alike; docs/wire-format.md) or back to full 64-byte headers ("full"). Ports opened with
+        `encoding=compact` in their spec do this themselves."""
+        if encoding not in ("compact", "full"):
+            raise InvalidArgumentError(f"encoding {encoding!r}: use 'compact' or 'full'")
+        link_id = self.link_id(link)
+        state = ffi.new("ub_compact_t *") if encoding == "compact" else ffi.NULL
+        ensure(lib.ub_node_link_set_compact(self._c, link_id, state, ffi.NULL), f"encoding of link {link!r}")
+        if state == ffi.NULL:
+            self._compact.pop(link_id, None)
+        else:
+            self._compact[link_id] = state  # the C link keeps a pointer: keep the memory alive
+
+    def set_link_mtu(self, link: str, mtu: int) -> None:
+        """The largest frame `link` carries on the wire, in bytes after encoding (0: no limit; else 64..65535).
+        Larger directories are sent in fragments; larger forwarded frames are dropped `too_big`."""
+        if not 0 <= mtu <= 65535:
+            raise InvalidArgumentError(f"mtu {mtu}: give 0 (no limit) or 64..65535 bytes")
+        ensure(lib.ub_node_link_set_mtu(self._c, self.link_id(link), mtu), f"mtu {mtu} of link {link!r} (64..65535)")
+
+    def fragment_counters(self) -> dict[str, int]:
+        """The fragment state's counters (ub_frag.h): transfers sent, reassembled, timed out..."""
+        s = self._frag.stats
+        return {k: int(getattr(s, k)) for k in FRAG_COUNTERS}
 
     def _keep_alive(self, transport: Any) -> None:
         """Keeps a Python transport (uavbus.pylink.PyLink) alive as long as the node: C points at it."""

@@ -59,6 +59,17 @@ def test_a_good_file_becomes_the_model() -> None:
     assert sc.flows[0].name == "gpsOut:a>gcs1" and sc.flows[0].gap_ms == 300
 
 
+def test_bandwidth_and_encoding_of_a_radio_link() -> None:
+    text = GOOD.replace("radio: {range_m: 500, loss: 0.1}", "radio: {range_m: 500, loss: 0.1, bandwidth_bps: 46080}")
+    text = text.replace("- {between: [gcs1, a]}", "- {between: [gcs1, a], transport: serial, encoding: compact}")
+    radio, wire, mesh = parse_scenario(text, "radio.yaml").links
+    assert (radio.bandwidth_bps, radio.encoding, radio.transport) == (46080, "compact", "serial")
+    assert (wire.bandwidth_bps, wire.encoding) == (46080, "full")  # the radio default applies to every link
+    with pytest.raises(ScenarioError, match="memory links have neither"):
+        parse_scenario(text.replace("transport: tcp, model: wire", "transport: memory, model: wire")
+                       .replace("name: a, motion", "name: a, run: python, motion"), "m.yaml")
+
+
 @pytest.mark.parametrize("old, new, line, message", [
     ("duration_s: 10\n", "seed: 3\n", 1, "'duration_s' is required"),
     ("duration_s: 10", "duration_s: ten", 1, "duration_s: 'ten' is not a number"),
@@ -66,7 +77,7 @@ def test_a_good_file_becomes_the_model() -> None:
     ('"static:n=5"', '"static:n=5,q=1"', 9, "c.motion: motion: 'q=1': unknown key"),
     ("[gcs1, a]", "[gcs1, zz]", 11, "'zz' is not a vehicle or ground station of this scenario (known:"),
     ("transport: tcp, model: wire", "transport: memory", 12, "transport memory joins two run: python entities"),
-    ("loss: 0.1}", "loss: 0.1, bandwidth_bps: 9600}", 3, "bandwidth model comes with the wire issue (#15)"),
+    ("loss: 0.1}", "loss: 0.1, bandwidth_bps: 9}", 3, "radio.bandwidth_bps: 9 is out of range (80 .. 8000000000)"),
     ("source: a, destination: gcs1", "source: gcs1, destination: a", 15, "'gcs1' is a ground station"),
     ("period_ms: 100", "period_ms: 0", 15, "flow.period_ms: 0 is out of range"),
     ("{t: 2, kill: a}", "{t: 3.5, kill: a}", 18, "restart a: it is running at t=3; kill it first"),

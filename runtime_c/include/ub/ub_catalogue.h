@@ -90,8 +90,9 @@ UB_CHECK int ub_catalogue_find(const ub_catalogue_t *cat, const uint8_t id[UB_DI
 UB_CHECK int ub_catalogue_find_name(const ub_catalogue_t *cat, const char *name);
 
 /**
- * The payload limit of this runtime build: UB_MAX_PAYLOAD (ub_config.h) as the
- * library was compiled, the largest packed type a node carries. `uavbus gen
+ * The payload limit of this runtime build: UB_MAX_DIRECTORY (ub_config.h) as the
+ * library was compiled, the largest packed type a node carries (types above
+ * UB_MAX_PAYLOAD, one frame's payload, travel in fragments). `uavbus gen
  * --max-payload` checks a catalogue against the same number.
  */
 uint32_t ub_catalogue_payload_limit(void);
@@ -103,7 +104,7 @@ uint32_t ub_catalogue_payload_limit(void);
  *
  *     const ub_type_desc_t *big = ub_catalogue_oversize(&cat, ub_catalogue_payload_limit());
  *     if (big != NULL)
- *         fprintf(stderr, "%s packs to %u bytes; this runtime carries %u (UB_MAX_PAYLOAD)\n",
+ *         fprintf(stderr, "%s packs to %u bytes; this runtime carries %u (UB_MAX_DIRECTORY)\n",
  *                 big->name, (unsigned)big->packed_size, (unsigned)ub_catalogue_payload_limit());
  *
  * @return the type, or NULL when every type fits (or `cat` is NULL).

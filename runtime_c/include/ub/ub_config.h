@@ -18,6 +18,14 @@
 #ifndef UB_MAX_PAYLOAD
 #define UB_MAX_PAYLOAD 1024
 #endif
+/**
+ * Largest directory (packed type) a node carries, in bytes. Types above UB_MAX_PAYLOAD travel in
+ * fragments (ub_frag.h), which needs a ub_frag_t attached to the node; the payload_size field of
+ * the frame is 16 bits, hence at most 65535. `uavbus gen`/`check` accept types up to this size.
+ */
+#ifndef UB_MAX_DIRECTORY
+#define UB_MAX_DIRECTORY 16384
+#endif
 /** Entity-table rows per node: every entity this node knows (local and remote). */
 #ifndef UB_MAX_ENTITIES
 #define UB_MAX_ENTITIES 16
@@ -87,6 +95,9 @@
 
 #if UB_MAX_PAYLOAD < 64 || UB_MAX_PAYLOAD > 65000
 #error "UB_MAX_PAYLOAD must be between 64 and 65000 (the frame's payload size field is 16 bits)"
+#endif
+#if UB_MAX_DIRECTORY < UB_MAX_PAYLOAD || UB_MAX_DIRECTORY > 65535
+#error "UB_MAX_DIRECTORY must be between UB_MAX_PAYLOAD and 65535 (the reassembled payload size is 16 bits)"
 #endif
 #if UB_MAX_LINKS_PER_ENTITY < 1 || UB_MAX_LINKS_PER_ENTITY > 8
 #error "UB_MAX_LINKS_PER_ENTITY must be 1..8: the paper's link masks have one hex digit per link, 8 digits"

@@ -123,7 +123,9 @@ typedef enum ub_admin_code {
     UB_ADMIN_ROUTE_UPDATE = 10, /**< routing: link-local hello + route entries + seqno requests; never forwarded */
     UB_ADMIN_MEMBERSHIP = 11,   /**< an administrator's membership change (ub_member.h); answered by ACK/NACK */
     UB_ADMIN_INSPECT = 12,      /**< remote inspection request (ub_inspect.h); answered by INSPECT_VALUE, ACK or NACK */
-    UB_ADMIN_INSPECT_VALUE = 13 /**< the value or table page answering an INSPECT read or list (docs/inspect.md) */
+    UB_ADMIN_INSPECT_VALUE = 13, /**< the value or table page answering an INSPECT read or list (docs/inspect.md) */
+    UB_ADMIN_LINK_HELLO = 20,   /**< compact links: link-local dictionary announcement (ub_compact.h); never forwarded */
+    UB_ADMIN_FRAGMENT = 21      /**< one numbered fragment of a large DATA directory (ub_frag.h), end to end */
 } ub_admin_code_t;
 
 /**
@@ -198,6 +200,8 @@ typedef enum ub_rx_reason {
     UB_RX_BAD_LENGTH,        /**< msg_size != 64 + payload_size + trailer, or payload above UB_MAX_PAYLOAD; datagram size != msg_size */
     UB_RX_BAD_VERSION,       /**< unknown wire version, reserved or unknown flags, or unknown message type */
     UB_RX_BAD_SYNC,          /**< datagram not starting with the sync bytes (the stream decoder counts these as garbage_bytes) */
+    UB_RX_NO_DICTIONARY,     /**< compact packet with an index this end cannot expand (ub_compact.h): the peer's catalogue or list not held */
+    UB_RX_NO_REFERENCE,      /**< compact packet with a 16-bit sequence from a source this link holds no reference for */
     UB_RX_REASON_COUNT
 } ub_rx_reason_t;
 

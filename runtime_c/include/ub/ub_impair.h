@@ -11,6 +11,9 @@
  * binding (Python uses this same code through cffi).
  *
  * Per frame the node hands to ub_impair_ops.send, in this order:
+ *  0. packet MTU (`mtu`): a frame longer than the medium's packet is not sent;
+ *     counted `too_big`, and refused with UB_ERR_RANGE (the node counts a
+ *     tx_error: the sender learns that its link cannot carry it).
  *  1. loss (`loss_ppm`): the frame is not sent; counted `lost`. The node saw a
  *     successful send (that is what a lossy medium looks like to a sender).
  *  2. duplication (`dup_ppm`): a second copy is sent; counted `duplicated`.
@@ -22,6 +25,14 @@
  *     one"); counted `reordered`. If no other frame leaves within
  *     `reorder_hold_ms` (default UB_IMPAIR_REORDER_HOLD_MS) it leaves alone,
  *     so a held frame is never stuck.
+ *  5. byte rate (`rate_Bps`, bytes per second): the medium carries one copy at a
+ *     time, each for len / rate seconds, in the order they were sent; a copy
+ *     leaves when the one before it has been carried and its own bytes have
+ *     gone (then its delay and jitter): a serial radio's throughput on the
+ *     injected clock, to the microsecond. Copies wait in the same bounded queue
+ *     (the radio's buffer): when it is full the sender is pushed back
+ *     (UB_ERR_AGAIN, counted backpressure by the node), as a modem with flow
+ *     control does. A 57,600-baud UART moves 5,760 bytes/s (10 bits a byte).
  * With nothing queued and a copy due at once, it goes straight to the inner
  * transport and the inner result is returned (so backpressure and errors
  * still reach the node's counters). A copy that does not fit in the queue is
@@ -29,7 +40,7 @@
  * `queue_full` for either. A queued copy the inner transport later refuses is
  * counted `inner_again` / `inner_errors`. Nothing is lost uncounted:
  *
- *     offered + duplicated == lost + queue_full + passed + inner_again + inner_errors + pending
+ *     offered + duplicated == too_big + lost + queue_full + passed + inner_again + inner_errors + pending
  *
  * where `passed` counts copies the inner transport accepted (ub_impair_check_balance()).
  *
@@ -73,6 +84,8 @@ typedef struct ub_impair_params {
     uint32_t delay_ms;        /**< fixed delay of every copy */
     uint32_t jitter_ms;       /**< plus a uniform 0..jitter_ms */
     uint32_t reorder_hold_ms; /**< 0 = UB_IMPAIR_REORDER_HOLD_MS */
+    uint32_t rate_Bps;        /**< bytes per second the medium carries; 0 = no limit */
+    uint32_t mtu;             /**< longest frame the medium carries, bytes; 0 = no limit */
 } ub_impair_params_t;
 
 /** Counters (frames sent by this end). */
@@ -86,6 +99,9 @@ typedef struct ub_impair_stats {
     uint64_t passed;       /**< copies the inner transport accepted */
     uint64_t inner_again;  /**< queued copies the inner transport refused with UB_ERR_AGAIN */
     uint64_t inner_errors; /**< queued copies the inner transport refused otherwise */
+    uint64_t too_big;      /**< frames longer than `mtu`: not sent */
+    uint64_t rate_waits;   /**< copies that waited for the medium (byte rate) */
+    uint64_t bytes;        /**< bytes of the copies handed to the inner transport */
 } ub_impair_stats_t;
 
 typedef struct ub_impair_frame {
@@ -103,6 +119,7 @@ typedef struct ub_impair {
     ub_impair_params_t params;
     uint64_t rng;
     uint64_t next_order;
+    uint64_t busy_until_us; /**< the medium carries the last copy until then (byte rate) */
     size_t count;
     ub_impair_stats_t stats;
     ub_impair_frame_t queue[UB_IMPAIR_DEPTH];
@@ -157,7 +174,8 @@ bool ub_impair_check_balance(const ub_impair_t *imp);
 /**
  * Parses the command-line form "loss=0.2,reorder=0.2,dup=0,delay=5,jitter=0,seed=1"
  * (any subset, any order; probabilities 0..1 as decimals with up to 6
- * fraction digits, times in whole ms; "hold=" sets reorder_hold_ms). Keys not
+ * fraction digits, times in whole ms; "hold=" sets reorder_hold_ms;
+ * "rate=" bytes per second and "mtu=" bytes, whole numbers). Keys not
  * given are zero; `seed` (may be NULL) is left alone when not given.
  * @return UB_OK, or UB_ERR_INVAL with `err` saying which item is wrong and what is expected.
  */

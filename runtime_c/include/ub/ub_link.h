@@ -63,6 +63,10 @@ typedef enum ub_drop_reason {
     UB_DROP_UNKNOWN_KEY,     /**< key id not in the keyring (or no security here); or no key to sign for an encrypting link */
     UB_DROP_REPLAY,          /**< counter behind the replay window, or a challenge reply bound to no outstanding challenge */
     UB_DROP_UNVERIFIED,      /**< authentic, but no freshness state for its source yet: dropped while a challenge runs */
+    /* Wire (docs/wire-format.md, "Compact encoding" and "Fragments"). */
+    UB_DROP_TOO_BIG,         /**< larger than the outgoing link's MTU (forwarders never fragment), or a directory above the
+                                  payload limit at a node without fragment state (ub_node_set_frag()) */
+    UB_DROP_INCOMPLETE,      /**< a fragmented directory given up: fragments missing at its timeout, or its slot taken */
     UB_DROP_REASON_COUNT
 } ub_drop_reason_t;
 
@@ -116,6 +120,8 @@ typedef struct ub_link {
     ub_decoder_t decoder; /**< stream reassembly for ub_node_rx(); reset on attach */
     int8_t require_signed; /**< receive policy: 1 require protected frames, 0 accept unsigned, -1 the node's policy */
     uint8_t encrypt;       /**< send only ENCRYPTED frames; when signing is required, accept only those */
+    uint16_t mtu;          /**< largest frame on the wire (bytes, after encoding); 0: no limit (ub_node_link_set_mtu()) */
+    struct ub_compact *compact; /**< compact encoding state (ub_compact.h), or NULL: full frames */
     ub_link_counters_t counters;
 } ub_link_t;
 

@@ -81,14 +81,29 @@ typedef struct ub_memlink_frame {
 
 struct ub_memlink;
 
-/** One end: the slot it serves and the queue of frames sent from it. Private. */
+#if UB_MEMLINK_DEPTH < 1 || UB_MEMLINK_DEPTH > 65535
+#error "UB_MEMLINK_DEPTH must be 1..65535"
+#endif
+
+/**
+ * One end: the slot it serves and the queue of frames sent from it. Private. Frames sit in `queue[]`
+ * slots; `ring` lists the queued slots in send order, so a link without delay, jitter or reordering
+ * delivers from the head without searching, and a frame is handed to the node from its slot without
+ * being copied out (the slot is freed after the delivery, which may queue replies on the same link).
+ */
 typedef struct ub_memlink_end {
     struct ub_memlink *ml;
     int side;
     ub_node_t *node;
     int link_id;
     ub_memlink_frame_t queue[UB_MEMLINK_DEPTH];
-    size_t count;
+    uint16_t ring[UB_MEMLINK_DEPTH];       /**< queued slots in send order, from `head` */
+    uint16_t free_slots[UB_MEMLINK_DEPTH]; /**< a stack of the free slots */
+    size_t head;
+    size_t count;                          /**< frames queued */
+    size_t n_free;
+    uint8_t unordered;                     /**< a queued frame is due before one queued ahead of it */
+    uint32_t resets;                       /**< queue emptied by a disconnect (a slot out for delivery is not given back) */
     ub_memlink_stats_t stats;
 } ub_memlink_end_t;
 

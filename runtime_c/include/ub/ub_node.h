@@ -71,6 +71,15 @@
  * evict the least recently seen source (`dedup_evictions`). That reset is for
  * unsigned traffic only: see "Security" below.
  *
+ * Wire (docs/wire-format.md): a link may use the compact encoding (ub_compact.h,
+ * ub_node_link_set_compact()): frames are encoded on send and decoded back to the full frame on
+ * receive, so routing, security, the tap and logs only ever see full frames; LINK_HELLO frames
+ * (link-local, admin code 20) agree the dictionaries. A link may have an MTU
+ * (ub_node_link_set_mtu()): a frame larger on the wire is dropped `too_big`. A directory larger
+ * than UB_MAX_PAYLOAD or than the smallest MTU of the links it leaves on goes in fragments
+ * (ub_frag.h; needs ub_node_set_frag()), reassembled at its destination and delivered whole or not
+ * at all; forwarders relay fragments like any frame and never fragment again.
+ *
  * Security (optional; docs/security.md): with a context attached
  * (ub_node_set_security(), ub_sec.h) the node
  *  - **originates** with counters from the context (48-bit: the header's seq
@@ -104,8 +113,10 @@
 #include <stdint.h>
 #include "ub_admin.h"
 #include "ub_catalogue.h"
+#include "ub_compact.h"
 #include "ub_config.h"
 #include "ub_error.h"
+#include "ub_frag.h"
 #include "ub_frame.h"
 #include "ub_link.h"
 #include "ub_policy.h"
@@ -260,6 +271,9 @@ struct ub_node {
     void *deliver_user;
     struct ub_route *route;   /**< routing engine (ub_route_attach()), or NULL: manual masks only */
     struct ub_member *member; /**< membership requester (ub_member_init()), or NULL */
+    ub_frag_t *frag;          /**< fragment state (ub_node_set_frag()), or NULL: no directory above the payload limit */
+    uint16_t mtu_links;       /**< links with an MTU set: only then does a send compare frame sizes with MTUs */
+    uint32_t last_content;    /**< catalogue index of the last DATA delivered: checked before a search */
     struct ub_inspect *inspect; /**< inspection requester (ub_inspect_init()), or NULL */
     ub_node_counters_t counters;
 };
@@ -267,8 +281,9 @@ struct ub_node {
 /**
  * Initialises an empty node over `cat` (which must outlive the node).
  * @return UB_OK, or UB_ERR_INVAL (NULL node/catalogue, catalogue ABI version
- *         mismatch, or a catalogue type larger than UB_MAX_PAYLOAD: which one,
- *         ub_catalogue_oversize(cat, ub_catalogue_payload_limit()) says).
+ *         mismatch, or a catalogue type larger than UB_MAX_DIRECTORY: which one,
+ *         ub_catalogue_oversize(cat, ub_catalogue_payload_limit()) says; types above
+ *         UB_MAX_PAYLOAD travel in fragments, ub_node_set_frag()).
  */
 UB_CHECK int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt);
 
@@ -564,6 +579,47 @@ UB_CHECK int ub_node_link_set_security(ub_node_t *node, int link_id, int require
 
 /** @return whether frames received on the link must be signed (its own setting, else the node's). */
 bool ub_node_link_requires_signed(const ub_node_t *node, int link_id);
+
+/**
+ * Sets link `link_id` to the compact encoding with `state` (caller-owned, must outlive the
+ * setting; initialised here with the node's catalogue, `params` (may be NULL) and a random
+ * epoch), or back to full frames with NULL. Both ends of a link must be set alike. The slot's
+ * stream decoder restarts (its bytes belonged to the other encoding); the first LINK_HELLO round
+ * goes out at the next ub_node_tick().
+ * @return UB_OK or UB_ERR_INVAL (bad link id).
+ */
+UB_CHECK int ub_node_link_set_compact(ub_node_t *node, int link_id, ub_compact_t *state,
+                                      const ub_compact_params_t *params);
+
+/** @return the compact state of a link, or NULL (full frames, or a bad id). */
+ub_compact_t *ub_node_link_compact(const ub_node_t *node, int link_id);
+
+/**
+ * Sets the MTU of a link: the largest frame it carries on the wire, in bytes after encoding (0:
+ * no limit). A larger frame is dropped `too_big`; directories that do not fit the links they
+ * leave on are sent in fragments (ub_node_set_frag()).
+ * @return UB_OK; UB_ERR_INVAL (bad id); UB_ERR_RANGE (1..UB_LINK_MTU_MIN - 1).
+ */
+UB_CHECK int ub_node_link_set_mtu(ub_node_t *node, int link_id, uint16_t mtu);
+
+/** Smallest MTU a link accepts (a fragment must still carry some bytes). */
+#define UB_LINK_MTU_MIN 64u
+
+/**
+ * Attaches fragment state (ub_frag.h, caller-owned, large: static storage), or with NULL detaches
+ * it. Without it a node neither sends nor reassembles directories above the payload limit or
+ * the path MTU (`too_big`).
+ * @return UB_OK or UB_ERR_INVAL.
+ */
+UB_CHECK int ub_node_set_frag(ub_node_t *node, ub_frag_t *frag);
+
+/** @return the attached fragment state, or NULL. */
+ub_frag_t *ub_node_frag(const ub_node_t *node);
+
+/** @return a number that changes whenever the entity table changes (compact links rebuild their dictionary). */
+static inline uint64_t ub_node_table_version(const ub_node_t *node) {
+    return node->counters.entities_added + node->counters.entities_removed;
+}
 
 #ifdef __cplusplus
 }

@@ -88,7 +88,7 @@ extern "C" {
 #endif
 /** Parameters per port besides "transport". */
 #ifndef UB_NODECFG_MAX_PORT_PARAMS
-#define UB_NODECFG_MAX_PORT_PARAMS 4
+#define UB_NODECFG_MAX_PORT_PARAMS 6
 #endif
 /** Recommended size of the error-message buffers passed to this API. */
 #define UB_NODECFG_ERR_LEN 256

@@ -16,6 +16,10 @@
  * | `serial` | `device=PATH`, optional `baud=` one of ub_serial's rates (default 115200) |
  * | `mem`    | none: the program attaches a ub_memlink itself; ub_ports skips it |
  *
+ * Every socket and serial port also takes `encoding=full|compact` (the link's wire encoding,
+ * ub_compact.h; both ends alike) and `mtu=BYTES` (64..65535: the largest frame the link carries on
+ * the wire; larger directories go in fragments, larger forwarded frames are dropped `too_big`).
+ *
  * HOST is a dotted IPv4 address (127.0.0.1), or `localhost`.
  *
  * Opening a link that is already open is the **runtime software switch**
@@ -52,6 +56,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "ub_compact.h"
 #include "ub_config.h"
 #include "ub_error.h"
 #include "ub_impair.h"
@@ -98,7 +103,12 @@ typedef struct ub_port_spec {
     uint8_t accept;                   /**< udp: ub_udp_accept_t */
     char device[UB_PORT_DEVICE_LEN];  /**< serial device */
     uint32_t baud;                    /**< serial rate */
+    uint8_t encoding;                 /**< UB_PORT_ENCODING_FULL or UB_PORT_ENCODING_COMPACT */
+    uint16_t mtu;                     /**< 0: no limit */
 } ub_port_spec_t;
+
+#define UB_PORT_ENCODING_FULL 0u
+#define UB_PORT_ENCODING_COMPACT 1u
 
 /** @return the transport word of a kind: "udp", "tcp", "serial", "mem", or "none". */
 const char *ub_port_kind_transport(ub_port_kind_t kind);
@@ -155,6 +165,8 @@ typedef struct ub_port {
     ub_port_driver_t drv[2];
     ub_impair_t impair;
     uint8_t own_impair;       /**< this port's own impairment overrides the node-wide one */
+    uint8_t set_mtu;          /**< the spec set the link's MTU (cleared again when the port closes) */
+    ub_compact_t compact;     /**< the link's compact state while the spec asks for encoding=compact */
     ub_impair_params_t own_params;
     uint64_t own_seed;
 } ub_port_t;

@@ -65,8 +65,8 @@ def ub_node_new(c_catalogue: Any, hop_limit: int = 0, first_seq: int = 0,
             raise InvalidArgumentError(
                 f"catalogue {ffi.string(c_catalogue.name).decode('utf-8', 'replace')!r}: type "
                 f"{ffi.string(big.name).decode('utf-8', 'replace')!r} packs to {big.packed_size} bytes, more than this "
-                f"runtime's payload limit of {lib.ub_catalogue_payload_limit()} bytes (UB_MAX_PAYLOAD); rebuild the "
-                "runtime with a larger -DUB_MAX_PAYLOAD, or split the type (uavbus gen --max-payload names them all)")
+                f"runtime's payload limit of {lib.ub_catalogue_payload_limit()} bytes (UB_MAX_DIRECTORY); rebuild the "
+                "runtime with a larger -DUB_MAX_DIRECTORY, or split the type (uavbus gen --max-payload names them all)")
     ensure(rc, "ub_node_init")
     return node
 
@@ -166,10 +166,25 @@ def link_counters(node: Any, link_id: int, link: Any) -> dict[str, Any]:
         "frames_out": int(c.frames_out), "bytes_out": int(c.bytes_out),
         "frames_accepted": int(c.frames_accepted),
         "require_signed": bool(lib.ub_node_link_requires_signed(node, link_id)), "encrypt": bool(link.encrypt),
+        "mtu": int(link.mtu), **compact_info(lib.ub_node_link_compact(node, link_id)),
         "drops": {DROP_REASONS[r]: int(c.drops[r]) for r in range(len(DROP_REASONS))},
         "bad_frames": {RX_REASONS[r]: int(lib.ub_node_link_bad_frames(node, link_id, r))
                        for r in range(len(RX_REASONS))},
     }
+
+
+COMPACT_STATS = ("tx_frames", "tx_bytes", "tx_full_bytes", "tx_full_ids", "tx_seq32", "rx_frames", "rx_bytes",
+                 "garbage_bytes", "hello_tx", "hello_rx", "hello_bad", "peer_restarts", "peer_lists")
+
+
+def compact_info(state: Any) -> dict[str, Any]:
+    """A link's encoding, and for a compact one its counters and whether the dictionaries are agreed."""
+    if state == ffi.NULL:
+        return {"encoding": "full"}
+    s = state.stats
+    stats: dict[str, Any] = {k: int(getattr(s, k)) for k in COMPACT_STATS}
+    stats["rejected"] = {RX_REASONS[r]: int(s.rejected[r]) for r in range(len(RX_REASONS))}
+    return {"encoding": "compact", "agreed": bool(lib.ub_compact_agreed(state)), "compact": stats}
 
 
 def ub_node_entities(node: Any) -> list[dict[str, Any]]:

@@ -83,7 +83,8 @@ def ub_ports_describe(ports: Any, link: str) -> dict[str, Any] | None:
     if p.impaired:
         s = lib.ub_impair_stats(ffi.addressof(p.impair))
         out["impair"] = {k: int(getattr(s, k)) for k in ("offered", "lost", "duplicated", "reordered", "delayed",
-                                                        "queue_full", "passed", "inner_again", "inner_errors")}
+                                                        "queue_full", "passed", "inner_again", "inner_errors",
+                                                        "too_big", "rate_waits", "bytes")}
     return out
 
 
@@ -111,27 +112,34 @@ def ub_ports_notices(ports: Any) -> list[str]:
     return out
 
 
-def _impair_params(loss: float, dup: float, reorder: float, delay_ms: int, jitter_ms: int, hold_ms: int) -> Any:
+def _impair_params(loss: float, dup: float, reorder: float, delay_ms: int, jitter_ms: int, hold_ms: int,
+                   rate: int = 0, mtu: int = 0) -> Any:
     params = ffi.new("ub_impair_params_t *")
     for name, p in (("loss", loss), ("dup", dup), ("reorder", reorder)):
         if not 0.0 <= p <= 1.0:
             raise InvalidArgumentError(f"impairment {name}={p}: give a probability between 0 and 1")
+    if not 0 <= rate <= 1_000_000_000 or not 0 <= mtu <= 65535:
+        raise InvalidArgumentError(f"impairment rate={rate}, mtu={mtu}: give bytes per second (0..10^9) and bytes "
+                                   "(0..65535); 0 is no limit")
     params.loss_ppm, params.dup_ppm = round(loss * PPM), round(dup * PPM)
     params.reorder_ppm, params.delay_ms, params.jitter_ms = round(reorder * PPM), delay_ms, jitter_ms
-    params.reorder_hold_ms = hold_ms
+    params.reorder_hold_ms, params.rate_Bps, params.mtu = hold_ms, rate, mtu
     return params
 
 
 def ub_ports_set_impairment(ports: Any, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0,
-                            delay_ms: int = 0, jitter_ms: int = 0, hold_ms: int = 0, seed: int = 0) -> None:
-    """Probabilities in 0..1 (converted to parts per million); all zero removes the impairment."""
-    params = _impair_params(loss, dup, reorder, delay_ms, jitter_ms, hold_ms)
+                            delay_ms: int = 0, jitter_ms: int = 0, hold_ms: int = 0, seed: int = 0,
+                            rate: int = 0, mtu: int = 0) -> None:
+    """Probabilities in 0..1 (converted to parts per million), rate in bytes/s, mtu in bytes; all zero removes
+    the impairment."""
+    params = _impair_params(loss, dup, reorder, delay_ms, jitter_ms, hold_ms, rate, mtu)
     ensure(lib.ub_ports_set_impairment(ports, params, seed), "ub_ports_set_impairment")
 
 
 def ub_ports_set_link_impairment(ports: Any, link: str, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0,
-                                 delay_ms: int = 0, jitter_ms: int = 0, hold_ms: int = 0, seed: int = 0) -> None:
+                                 delay_ms: int = 0, jitter_ms: int = 0, hold_ms: int = 0, seed: int = 0,
+                                 rate: int = 0, mtu: int = 0) -> None:
     """One open port's own impairment, over the node-wide one; all zero removes it."""
-    params = _impair_params(loss, dup, reorder, delay_ms, jitter_ms, hold_ms)
+    params = _impair_params(loss, dup, reorder, delay_ms, jitter_ms, hold_ms, rate, mtu)
     ensure(lib.ub_ports_set_link_impairment(ports, link.encode("utf-8"), params, seed),
            f"port {link!r} is not open")

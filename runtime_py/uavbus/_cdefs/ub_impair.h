@@ -9,6 +9,8 @@ typedef struct ub_impair_params {
     uint32_t delay_ms;
     uint32_t jitter_ms;
     uint32_t reorder_hold_ms;
+    uint32_t rate_Bps;
+    uint32_t mtu;
     ...;
 } ub_impair_params_t;
 
@@ -22,6 +24,9 @@ typedef struct ub_impair_stats {
     uint64_t passed;
     uint64_t inner_again;
     uint64_t inner_errors;
+    uint64_t too_big;
+    uint64_t rate_waits;
+    uint64_t bytes;
     ...;
 } ub_impair_stats_t;
 

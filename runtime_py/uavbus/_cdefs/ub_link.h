@@ -9,6 +9,7 @@ typedef enum ub_drop_reason {
     UB_DROP_UNBOUND, UB_DROP_BAD_PAYLOAD, UB_DROP_TX_ERROR, UB_DROP_BACKPRESSURE, UB_DROP_DETACHED,
     UB_DROP_NOT_ALLOWED, UB_DROP_NOT_AUTHORIZED, UB_DROP_ROUTING_OFF,
     UB_DROP_UNSIGNED, UB_DROP_BAD_TAG, UB_DROP_UNKNOWN_KEY, UB_DROP_REPLAY, UB_DROP_UNVERIFIED,
+    UB_DROP_TOO_BIG, UB_DROP_INCOMPLETE,
     UB_DROP_REASON_COUNT, ...
 } ub_drop_reason_t;
 
@@ -42,6 +43,7 @@ typedef struct ub_link {
     const ub_link_ops_t *ops;
     int8_t require_signed;
     uint8_t encrypt;
+    uint16_t mtu;
     ub_link_counters_t counters;
     ...;
 } ub_link_t;

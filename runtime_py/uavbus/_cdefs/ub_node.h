@@ -123,6 +123,17 @@ int ub_node_set_require_signed(ub_node_t *node, bool on);
 int ub_node_link_set_security(ub_node_t *node, int link_id, int require_signed, bool encrypt);
 bool ub_node_link_requires_signed(const ub_node_t *node, int link_id);
 
+/* Wire: compact links, MTUs, fragments (ub_node.h "Wire"; ub_compact.h, ub_frag.h). */
+int ub_node_link_set_compact(ub_node_t *node, int link_id, ub_compact_t *state, const ub_compact_params_t *params);
+ub_compact_t *ub_node_link_compact(const ub_node_t *node, int link_id);
+int ub_node_link_set_mtu(ub_node_t *node, int link_id, uint16_t mtu);
+int ub_node_set_frag(ub_node_t *node, ub_frag_t *frag);
+ub_frag_t *ub_node_frag(const ub_node_t *node);
+
+/* From ub_compact.h: the functions over frame headers, decoders and rx reasons (declared after ub_frame.h). */
+int ub_compact_decode(const ub_compact_codec_t *c, const uint8_t *pkt, size_t n, const ub_compact_refs_t *refs,
+                      uint8_t *frame, size_t cap, ub_frame_header_t *h, ub_rx_reason_t *why);
+
 extern "Python" void ub_py_deliver(void *user, int entity, uint32_t instance, const ub_frame_header_t *h,
                                    uint64_t now_ms);
 extern "Python" void ub_py_tap(void *user, int link_id, ub_tap_dir_t dir, const uint8_t *frame, size_t len,

@@ -180,6 +180,9 @@ class FleetRun:
                 self._modems.append(link.modem)
                 link.ends[0].spec = f"serial:device={link.modem.path_a},baud=115200"
                 link.ends[1].spec = f"serial:device={link.modem.path_b},baud=115200"
+            if spec.encoding == "compact" and spec.transport != "memory":
+                for e in link.ends:
+                    e.spec += ",encoding=compact"
             self.links.append(link)
         joins = self.sc.joins()
         for m in self.members.values():
@@ -328,12 +331,14 @@ class FleetRun:
             seed = link.seed + k
             if s.transport == "memory":
                 continue
+            rate = s.bandwidth_bps // 8  # bytes per second the medium carries (ub_impair.h)
             if m.proc is not None:
-                text = "off" if not (loss or s.delay_ms or s.jitter_ms) else (
-                    f"loss={loss:.6f},delay={s.delay_ms},jitter={s.jitter_ms},seed={seed}")
+                text = "off" if not (loss or s.delay_ms or s.jitter_ms or rate) else (
+                    f"loss={loss:.6f},delay={s.delay_ms},jitter={s.jitter_ms},rate={rate},seed={seed}")
                 m.proc.send(f"link impair {e.name} {text}")
             elif m.node is not None:
-                m.node.set_link_impairment(e.name, loss=loss, delay=s.delay_ms, jitter=s.jitter_ms, seed=seed)
+                m.node.set_link_impairment(e.name, loss=loss, delay=s.delay_ms, jitter=s.jitter_ms, seed=seed,
+                                           rate=rate)
         if link.memlink is not None:
             link.memlink.set_faults({"loss_ppm": round(loss * 1e6), "delay_ms": s.delay_ms, "jitter_ms": s.jitter_ms})
 

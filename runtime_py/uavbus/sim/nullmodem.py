@@ -10,6 +10,11 @@ no open descriptor fails with EIO, so a node killed with -9 would otherwise brea
 slave's termios (set raw here) persist across a node restart. Nothing is dropped silently: bytes that
 cannot be written because a side's input queue is full (its node is dead or stalled) are counted in
 `dropped`.
+
+`byte_rate` makes the pair a slow radio (a 57,600-baud serial radio moves 5,760 bytes/s): each direction
+carries at most that many bytes per second, in order. What a node writes faster waits in the relay's buffer
+(`buffer_bytes`, a radio's transmit buffer) and, when that is full, in the pty, whose writer then gets EAGAIN:
+flow control pushes back on the sending node (its serial driver counts it), as RTS/CTS does on a radio.
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ import random
 import select
 import termios
 import threading
+import time
 import tty
 from dataclasses import dataclass, field
 
@@ -66,9 +72,15 @@ class NullModem:
     Use as a context manager, or call ``start()`` / ``close()``.
     """
 
-    def __init__(self, name: str = "serial", faults: RelayFaults | None = None) -> None:
+    def __init__(self, name: str = "serial", faults: RelayFaults | None = None, byte_rate: int = 0,
+                 buffer_bytes: int = 2048) -> None:
+        if byte_rate < 0 or buffer_bytes < 1:
+            raise ValueError(f"byte_rate {byte_rate}, buffer_bytes {buffer_bytes}: give bytes per second >= 0 "
+                             "(0: as fast as the ptys go) and a buffer of at least one byte")
         self.name = name
         self.faults = faults or RelayFaults()
+        self.byte_rate = byte_rate
+        self.buffer_bytes = buffer_bytes
         self._rng = random.Random(self.faults.seed)
         self.counters = RelayCounters()
         self._master_a, self._slave_a, self.path_a = _open_pty()
@@ -179,6 +191,9 @@ class NullModem:
 
     def _run(self) -> None:
         pairs = {self._master_a: (self._master_b, "a>b"), self._master_b: (self._master_a, "b>a")}
+        if self.byte_rate > 0:
+            self._run_paced(pairs)
+            return
         while not self._stop.is_set():
             try:
                 ready, _, _ = select.select([self._master_a, self._master_b, self._wake_r], [], [], 0.5)
@@ -198,3 +213,41 @@ class NullModem:
                 if data:
                     dst, key = pairs[fd]
                     self._write(dst, key, data)
+
+    def _run_paced(self, pairs: dict[int, tuple[int, str]]) -> None:
+        """The relay at `byte_rate`: each direction's bytes wait in a buffer and leave at the rate; a full
+        buffer stops reading that side, so its pty fills and the node's writes are pushed back."""
+        backlog = {fd: bytearray() for fd in pairs}
+        sent = {fd: 0 for fd in pairs}           # bytes sent since `since`
+        since = {fd: time.monotonic() for fd in pairs}
+        while not self._stop.is_set():
+            readable = [fd for fd in pairs if len(backlog[fd]) < self.buffer_bytes]
+            waiting = any(backlog.values())
+            try:
+                ready, _, _ = select.select(readable + [self._wake_r], [], [], 0.002 if waiting else 0.5)
+            except (OSError, ValueError):
+                return
+            if self._wake_r in ready:
+                return
+            for fd in ready:
+                try:
+                    data = os.read(fd, self.buffer_bytes - len(backlog[fd]))
+                except (BlockingIOError, InterruptedError):
+                    continue
+                except OSError as e:
+                    if e.errno == errno.EIO:
+                        continue
+                    return
+                if data:
+                    if not backlog[fd]:  # the medium was idle: its clock starts now
+                        since[fd], sent[fd] = time.monotonic(), 0
+                    backlog[fd] += data
+            now = time.monotonic()
+            for fd, (dst, key) in pairs.items():
+                allowed = int((now - since[fd]) * self.byte_rate) - sent[fd]
+                if allowed <= 0 or not backlog[fd]:
+                    continue
+                chunk = bytes(backlog[fd][:allowed])
+                del backlog[fd][:allowed]
+                sent[fd] += len(chunk)
+                self._write(dst, key, chunk)

@@ -76,6 +76,8 @@ class LinkSpec:
     delay_ms: int
     jitter_ms: int
     line: int
+    bandwidth_bps: int = 0       # bits/s the link carries (the impairment's byte rate, bandwidth_bps / 8); 0: no limit
+    encoding: str = "full"       # the ports' wire encoding: "full" or "compact" (docs/wire-format.md)
 
     @property
     def pair(self) -> frozenset[str]:
@@ -257,7 +259,7 @@ def _routing(src: _Src, node: Any) -> RoutingSpec:
 
 
 def _radio(src: _Src, node: Any | None) -> dict[str, float]:
-    out = {"range_m": math.inf, "loss": 0.0, "delay_ms": 0, "jitter_ms": 0}
+    out = {"range_m": math.inf, "loss": 0.0, "delay_ms": 0, "jitter_ms": 0, "bandwidth_bps": 0}
     if node is None:
         return out
     m = _mapping(src, node, "radio", {"range_m": False, "loss": False, "delay_ms": False, "jitter_ms": False,
@@ -267,9 +269,8 @@ def _radio(src: _Src, node: Any | None) -> dict[str, float]:
 
 
 def _link_model_values(src: _Src, m: dict[str, Any], what: str, out: dict[str, float]) -> None:
-    if "bandwidth_bps" in m:
-        raise src.fail(m["bandwidth_bps"], f"{what}.bandwidth_bps: the bandwidth model comes with the wire "
-                                           "issue (#15) and is not implemented yet; remove the key")
+    if "bandwidth_bps" in m:  # the impairment's byte rate (ub_impair.h): bandwidth_bps / 8 bytes per second
+        out["bandwidth_bps"] = _number(src, m["bandwidth_bps"], f"{what}.bandwidth_bps", 80, 8_000_000_000, True)
     if "range_m" in m:
         out["range_m"] = _number(src, m["range_m"], f"{what}.range_m", 1.0)
     if "loss" in m:
@@ -332,7 +333,7 @@ def _links(src: _Src, node: Any, names: dict[str, int], radio: dict[str, float],
     for item in _seq(src, node, "links"):
         m = _mapping(src, item, "link", {"between": False, "mesh": False, "transport": False, "model": False,
                                          "range_m": False, "loss": False, "delay_ms": False, "jitter_ms": False,
-                                         "bandwidth_bps": False})
+                                         "bandwidth_bps": False, "encoding": False})
         if ("between" in m) == ("mesh" in m):
             raise src.fail(item, "link: give either 'between: [a, b]' or 'mesh: [names...]' (or mesh: all)")
         values = dict(radio)
@@ -341,6 +342,7 @@ def _links(src: _Src, node: Any, names: dict[str, int], radio: dict[str, float],
             values["range_m"] = math.inf
         _link_model_values(src, m, "link", values)
         transport = _choice(src, m["transport"], "link.transport", TRANSPORTS) if "transport" in m else "udp"
+        encoding = _choice(src, m["encoding"], "link.encoding", ("full", "compact")) if "encoding" in m else "full"
         if "between" in m:
             pairs = [_two_names(src, m["between"], "link.between", names)]
         else:
@@ -357,8 +359,11 @@ def _links(src: _Src, node: Any, names: dict[str, int], radio: dict[str, float],
             if transport == "memory" and (stations[a].run != "python" or stations[b].run != "python"):
                 raise src.fail(item, f"link [{a}, {b}]: transport memory joins two run: python entities "
                                      "(one process); use udp, tcp or serial for a process")
+            if transport == "memory" and (values["bandwidth_bps"] or encoding != "full"):
+                raise src.fail(item, f"link [{a}, {b}]: bandwidth_bps and encoding need a udp, tcp or serial "
+                                     "transport (a port's impairment and encoding); memory links have neither")
             out.append(LinkSpec(a, b, transport, model, values["range_m"], values["loss"], int(values["delay_ms"]),
-                                int(values["jitter_ms"]), _line(item)))
+                                int(values["jitter_ms"]), _line(item), int(values["bandwidth_bps"]), encoding))
     counts: dict[str, int] = {}
     for link in out:
         for end in (link.a, link.b):

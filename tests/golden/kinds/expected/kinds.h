@@ -32,8 +32,8 @@ extern "C" {
 #define kinds_N_INSTANCES 11u
 #define kinds_MAX_PACKED_SIZE 302u
 /* The payload limit the catalogue was checked against at generation (uavbus gen --max-payload):
- * every type packs to at most this. A node refuses a type above its UB_MAX_PAYLOAD. */
-#define kinds_PAYLOAD_LIMIT 1024u
+ * every type packs to at most this. A node refuses a type above its UB_MAX_DIRECTORY. */
+#define kinds_PAYLOAD_LIMIT 16384u
 
 /* struct all_kinds (all_kinds.h:33): 302 bytes on the wire, sizeof 416. */
 #define kinds_TYPE_all_kinds 0u

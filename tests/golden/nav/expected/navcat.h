@@ -32,8 +32,8 @@ extern "C" {
 #define navcat_N_INSTANCES 5u
 #define navcat_MAX_PACKED_SIZE 34u
 /* The payload limit the catalogue was checked against at generation (uavbus gen --max-payload):
- * every type packs to at most this. A node refuses a type above its UB_MAX_PAYLOAD. */
-#define navcat_PAYLOAD_LIMIT 1024u
+ * every type packs to at most this. A node refuses a type above its UB_MAX_DIRECTORY. */
+#define navcat_PAYLOAD_LIMIT 16384u
 
 /* position_t (nav.h:7): 20 bytes on the wire, sizeof 24. */
 #define navcat_TYPE_position_t 0u

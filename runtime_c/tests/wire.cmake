@@ -1,0 +1,14 @@
+# Wire test extras (included by runtime_c/CMakeLists.txt after the test_*.c targets exist): the compact-frame
+# and fragment vectors are read at run time with the runtime's private JSON reader (src/ub_json.h); the node
+# tests use the shared test support (memlink worlds, hand-written catalogues).
+if(TARGET test_compact_vectors)
+  target_include_directories(test_compact_vectors PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
+endif()
+foreach(t test_compact test_frag test_wire_paths)
+  if(TARGET ${t})
+    target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_fig9.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_pair.c)
+    target_include_directories(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests ${CMAKE_CURRENT_SOURCE_DIR}/src)
+  endif()
+endforeach()
