@@ -91,7 +91,15 @@ static int pack_current(const ub_node_t *node, uint32_t instance, uint8_t *buf) 
     return type->pack(storage, buf, UB_MAX_PAYLOAD);
 }
 
+/* Inspection packs a whole value into one UB_MAX_PAYLOAD image (on the stack, so a microcontroller's stack
+ * stays bounded); a type above that (up to UB_MAX_DIRECTORY, carried in fragments by subscriptions) is
+ * refused UNSUPPORTED rather than overrun the image. */
+static bool inspectable(const ub_node_t *node, int instance) {
+    return node->cat->instances[instance].type->packed_size <= UB_MAX_PAYLOAD;
+}
+
 static uint8_t serve_read(ub_node_t *node, int slot, const request_t *r, int instance, uint64_t now_ms) {
+    if (!inspectable(node, instance)) return UB_NACK_UNSUPPORTED;
     uint8_t image[UB_MAX_PAYLOAD];
     int n = pack_current(node, (uint32_t)instance, image);
     if (n < 0) return UB_NACK_BAD_VALUE; /* the stored value cannot be packed (e.g. a bool out of range) */
@@ -105,6 +113,7 @@ static uint8_t serve_read(ub_node_t *node, int slot, const request_t *r, int ins
 
 static uint8_t serve_write(ub_node_t *node, int slot, const request_t *r, int instance, uint64_t now_ms, bool *changed) {
     const ub_type_desc_t *type = node->cat->instances[instance].type;
+    if (!inspectable(node, instance)) return UB_NACK_UNSUPPORTED;
     if (r->len == 0 || (size_t)r->offset + r->len > type->packed_size) return UB_NACK_INVALID;
     uint8_t image[UB_MAX_PAYLOAD], before[UB_MAX_PAYLOAD];
     int n = pack_current(node, (uint32_t)instance, image);

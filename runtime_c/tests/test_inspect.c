@@ -28,7 +28,7 @@ typedef struct chain {
     ub_inspect_t in;              /* gcs's requester */
     struct test_imu imu;          /* fcs's imuOut: only in the bind table */
     struct test_gps gps_table, gps_hand;
-    void *table[2];
+    void *table[3];          /* one entry per catalogue instance; NULL: not defined by this program */
     ub_policy_t policy;
 } chain_t;
 
@@ -38,15 +38,15 @@ static int add(ub_node_t *n, const uint8_t id[UB_ENTITY_ID_LEN], bool local) {
     return e;
 }
 
-static chain_t *chain_new(uint32_t retry_ms, uint32_t max_retries) {
+static chain_t *chain_on(const ub_catalogue_t *cat, uint32_t retry_ms, uint32_t max_retries) {
     chain_t *c = test_calloc(1, sizeof *c);
     c->w = world_new();
     test_eid("gcs", c->gcs_id);
     test_eid("relay", c->relay_id);
     test_eid("fcs", c->fcs_id);
-    c->gcs_node = world_node(c->w, &ub_test_cat, NULL);
-    c->relay_node = world_node(c->w, &ub_test_cat, NULL);
-    c->fcs_node = world_node(c->w, &ub_test_cat, NULL);
+    c->gcs_node = world_node(c->w, cat, NULL);
+    c->relay_node = world_node(c->w, cat, NULL);
+    c->fcs_node = world_node(c->w, cat, NULL);
     /* gcs: link[0] to the relay, which carries everything */
     c->gcs = add(c->gcs_node, c->gcs_id, true);
     int g_relay = add(c->gcs_node, c->relay_id, false), g_fcs = add(c->gcs_node, c->fcs_id, false);
@@ -73,10 +73,14 @@ static chain_t *chain_new(uint32_t retry_ms, uint32_t max_retries) {
     c->gps_table = (struct test_gps){33.78, -84.40, 300.0f, 3};
     c->table[TEST_GPS] = &c->gps_table;
     c->table[TEST_IMU] = &c->imu;
-    assert_int_equal(ub_node_bind_table(c->fcs_node, c->table, 2), 2); /* both hosted */
+    assert_int_equal(ub_node_bind_table(c->fcs_node, c->table, cat->n_instances), 2); /* both hosted */
     ub_inspect_options_t opt = {.retry_ms = retry_ms, .max_retries = max_retries};
     assert_int_equal(ub_inspect_init(&c->in, c->gcs_node, c->gcs, &opt), UB_OK);
     return c;
+}
+
+static chain_t *chain_new(uint32_t retry_ms, uint32_t max_retries) {
+    return chain_on(&ub_test_cat, retry_ms, max_retries);
 }
 
 static void chain_free(chain_t *c) {
@@ -130,6 +134,49 @@ static void test_read_through_bind_table_and_hand_binding_first(void **state) {
     packed(c->fcs_node, TEST_GPS, &c->gps_hand, want, &len);
     assert_memory_equal(r.data, want, len);
     assert_int_equal(ub_node_counters(c->fcs_node)->inspect_served, 2);
+    chain_free(c);
+}
+
+/* The test catalogue plus a directory above UB_MAX_PAYLOAD (what fragments carry, up to UB_MAX_DIRECTORY):
+ * its ID sorts last, so gpsOut and imuOut keep their indices. Wire-image storage (pack == NULL). */
+#define BIG_SIZE (UB_MAX_PAYLOAD + 976u)
+#define TEST_BIG 2
+static const ub_type_desc_t big_types[] = {
+    {"struct big", 0x0B16B16Bu, BIG_SIZE, BIG_SIZE, NULL, NULL},
+};
+static ub_instance_desc_t big_instances[3];
+static ub_catalogue_t big_cat;
+
+static const ub_catalogue_t *catalogue_with_big(void) {
+    big_instances[0] = ub_test_cat.instances[0];
+    big_instances[1] = ub_test_cat.instances[1];
+    big_instances[2] = (ub_instance_desc_t){"zBigBlobzBigBlob", "zBigBlob", &big_types[0]}; /* paper rule */
+    big_cat = ub_test_cat;
+    big_cat.instances = big_instances;
+    big_cat.n_instances = 3;
+    big_cat.max_packed_size = BIG_SIZE;
+    return &big_cat;
+}
+
+static void test_a_directory_above_the_payload_limit_is_refused_not_overrun(void **state) {
+    (void)state;
+    chain_t *c = chain_on(catalogue_with_big(), 0, 0);
+    static uint8_t big[BIG_SIZE];
+    memset(big, 0xA5, sizeof big);
+    assert_int_equal(ub_node_bind(c->fcs_node, TEST_BIG, big), UB_OK);
+    ub_inspect_result_t r = ask(c, (ub_inspect_spec_t){.op = UB_INSPECT_READ, .instance = TEST_BIG}, 1000);
+    assert_int_equal(r.status, UB_INSPECT_FAILED);
+    assert_int_equal(r.nack_reason, UB_NACK_UNSUPPORTED);
+    /* a write at an offset past UB_MAX_PAYLOAD (inside the type) is refused the same way, storage untouched */
+    ub_inspect_spec_t s = {.op = UB_INSPECT_WRITE, .instance = TEST_BIG, .offset = BIG_SIZE - 4, .len = 4};
+    memset(s.data, 0x11, 4);
+    r = ask(c, s, 1000);
+    assert_int_equal(r.status, UB_INSPECT_FAILED);
+    assert_int_equal(r.nack_reason, UB_NACK_UNSUPPORTED);
+    assert_int_equal(big[BIG_SIZE - 1], 0xA5);
+    /* the small directories of the same node stay readable */
+    r = ask(c, (ub_inspect_spec_t){.op = UB_INSPECT_READ, .instance = TEST_IMU}, 1000);
+    assert_int_equal(r.status, UB_INSPECT_DONE);
     chain_free(c);
 }
 
@@ -262,6 +309,7 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_read_through_bind_table_and_hand_binding_first),
         cmocka_unit_test(test_write_one_field_leaves_the_others),
+        cmocka_unit_test(test_a_directory_above_the_payload_limit_is_refused_not_overrun),
         cmocka_unit_test(test_list_tables_and_set_period),
         cmocka_unit_test(test_policy_refusal_has_its_reason),
         cmocka_unit_test(test_retry_after_loss_and_silence),

@@ -93,7 +93,8 @@ typedef enum ub_nack_reason {
     UB_NACK_INVALID = 5,         /**< period 0, or a payload the target cannot read */
     UB_NACK_NOT_AUTHORIZED = 6,  /**< the target's policy refuses the request to its source (ub_policy.h) */
     UB_NACK_LIMIT = 7,           /**< the request exceeds the requester's limits (period, rows, bytes/s) */
-    UB_NACK_UNSUPPORTED = 8,     /**< the target cannot do this membership operation (e.g. links: no handler) */
+    UB_NACK_UNSUPPORTED = 8,     /**< the target cannot do this: a membership operation (e.g. links: no handler),
+                                      or inspecting a directory above UB_MAX_PAYLOAD bytes */
     UB_NACK_OTHER_ADMIN = 9,     /**< another administrator keeps this row alive (or, under an exclusive-administrator
                                       policy, holds rows at this node): the request changed nothing */
     UB_NACK_NO_SUCH_ROW = 10,    /**< inspection: no such table row, entity, or offset past the value's end */
