@@ -18,6 +18,7 @@ of half the inputs libFuzzer makes, so damage inside records reaches the frame a
 
     python fuzz/python/fuzz_logtools_atheris.py --seconds 60      # fuzz/run.sh interface
     python fuzz/python/fuzz_logtools_atheris.py --seconds 5 --corpus DIR
+    python fuzz/python/fuzz_logtools_atheris.py --replay ARTIFACT           # a finding, run once
 
 The run happens in a child process (libFuzzer ends the process when the time is up); this process
 prints the summary line. A finding (an oracle failure, which atheris reports as an uncaught exception
@@ -164,6 +165,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--corpus", type=Path, default=None, help="working corpus, kept between runs (default: "
                     "$UAVBUS_FUZZ_OUT/corpus/" + NAME + " under fuzz/run.sh, else a temporary directory)")
     ap.add_argument("--seed", type=int, default=0, help="libFuzzer's -seed (0: from the clock)")
+    ap.add_argument("--replay", nargs="+", type=Path, default=None, metavar="FILE",
+                    help="run these inputs once each (a finding's artifact) instead of fuzzing")
     ap.add_argument("--child", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child is not None:
@@ -189,6 +192,8 @@ def main(argv: list[str] | None = None) -> int:
         lf = [f"-max_total_time={max(1, round(args.seconds))}", "-print_final_stats=1", "-timeout=20",
               "-rss_limit_mb=2048", f"-seed={args.seed}", f"-artifact_prefix={artifacts}/{NAME}-",
               str(corpus), str(seeds)]
+        if args.replay:  # libFuzzer runs file arguments once each
+            lf = ["-print_final_stats=1", *(str(f.resolve()) for f in args.replay)]
         started = time.monotonic()
         child = subprocess.run([sys.executable, __file__, "--child", str(tmpd), str(counter), *lf],
                                capture_output=True, text=True, env={**os.environ, "UAVBUS_DEBUG": ""})
