@@ -73,10 +73,18 @@ fuzz-build: setup
 	  -DUAVBUS_FUZZ=ON "-DCMAKE_C_FLAGS=$(FUZZ_FLAGS)" >/dev/null
 	cmake --build $(BUILD_FUZZ) --target fuzz_all
 
-test-fuzz: fuzz-build
+# atheris (the `fuzz` extra of pyproject.toml) for the coverage-guided Python harness; only the fuzz targets
+# need it, so `make demo` does not install it.
+FUZZ_PY_STAMP := $(VENV)/.uavbus-fuzz-stamp
+$(FUZZ_PY_STAMP): $(SETUP_STAMP)
+	$(VPY) -m pip install -q $$($(VPY) -c 'import tomllib; \
+	  print(*tomllib.load(open("pyproject.toml", "rb"))["project"]["optional-dependencies"]["fuzz"])')
+	@touch $@
+
+test-fuzz: fuzz-build $(FUZZ_PY_STAMP)
 	UAVBUS_PYTHON=$(abspath $(VPY)) fuzz/run.sh $(BUILD_FUZZ) $(FUZZ_SMOKE_SECONDS)
 
-fuzz: fuzz-build
+fuzz: fuzz-build $(FUZZ_PY_STAMP)
 	UAVBUS_PYTHON=$(abspath $(VPY)) fuzz/run.sh $(BUILD_FUZZ) $(FUZZ_SECONDS)
 
 # Regenerates the checked-in seeds (fuzz/corpus/) from our own encoders; review the diff before committing.

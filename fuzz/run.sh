@@ -50,7 +50,8 @@ for h in $harnesses; do
 done
 
 # Python harnesses under fuzz/python/ (the command line and the log tools; docs/tools.md): each takes
-# --seconds N and ends with "<runs> runs in <t> s ...; <k> finding(s)", exit status 1 on a finding.
+# --seconds N and ends with "<runs> runs in <t> s ...; <k> finding(s)", exit status 1 on a finding, 2 when
+# it cannot run (atheris missing). $UAVBUS_FUZZ_OUT tells them where to keep a corpus and put artifacts.
 py=${UAVBUS_PYTHON:-$here/../.venv/bin/python}
 shopt -s nullglob
 pyh=("$here"/python/fuzz_*.py)
@@ -59,14 +60,17 @@ if [ ${#pyh[@]} -gt 0 ] && [ $# -eq 0 ]; then
     name=$(basename "$f" .py)
     log=$out/$name.log
     echo "fuzz: $name (python) for ${secs} s"
-    "$py" "$f" --seconds "$secs" > "$log" 2>&1
+    UAVBUS_FUZZ_OUT=$out "$py" "$f" --seconds "$secs" > "$log" 2>&1
     rc=$?
     runs=$(sed -n 's/.*: \([0-9]*\) runs in \([0-9.]*\) s.*/\1/p' "$log" | tail -1)
     took=$(sed -n 's/.*: \([0-9]*\) runs in \([0-9.]*\) s.*/\2/p' "$log" | tail -1)
     rate=$( [ -n "$runs" ] && [ -n "$took" ] && awk -v r="$runs" -v t="$took" 'BEGIN { if (t > 0) printf "%d", r / t }')
     result=ok
     if [ "$rc" -ne 0 ]; then result="FAILED (exit $rc, see $log)"; status=1; tail -30 "$log" >&2; fi
-    echo "| $name (python) | ${runs:-?} | ${rate:-?} | - | - | - | $result |" >> "$report"
+    # A coverage-guided harness (atheris) adds "(libFuzzer: cov C, ft F, corpus K/B)" to its line.
+    cov=$(sed -n 's/.*(libFuzzer: cov \([0-9]*\), ft \([0-9]*\), corpus \([^)]*\)).*/\1|\2|\3/p' "$log" | tail -1)
+    IFS='|' read -r pcov pft pcorp <<< "$cov"
+    echo "| $name (python) | ${runs:-?} | ${rate:-?} | ${pcov:--} | ${pft:--} | ${pcorp:--} | $result |" >> "$report"
   done
 fi
 cat "$report"
