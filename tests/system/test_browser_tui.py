@@ -2,8 +2,8 @@
 
 Table 2 as in test_browser.py: the app's node is the Python GCS (gcs1); fcs20 runs in a `uavbus_node`
 process two hops away (gcs1 -> rmax1ob1 -> fcs20). Through the tree and the edit line the operator
-reads a directory never bound by hand, reads every table, changes a publication rate after a
-confirmation, and sees the reason of a policy's refusal.
+reads a directory never bound by hand and writes one of its fields, reads every table, changes a
+publication rate and a mask after a confirmation, and sees the reason of a policy's refusal.
 """
 
 from __future__ import annotations
@@ -94,6 +94,27 @@ def test_tui_reads_tables_and_changes_a_rate_two_hops(hitl_opts: HitlOptions) ->
                     if view.rows[k]["frames"] > frames:
                         break
                 assert view.rows[k]["frames"] > frames
+
+                # A field of that directory, written only after Confirm; the other fields stay.
+                await open_leaf(pilot, view, "fcs20", "directories", "airData")
+                (k,) = [i for i, r in enumerate(view.rows) if r["field"] == "airData.staticPressurePa"]
+                raw = [r["value"] for r in view.rows if r["field"].startswith("airData.rawCounts")]
+                await edit(pilot, view, k, "90000.5", keep=len("airData.staticPressurePa = "))
+                await pilot.click("#remote-confirm")
+                assert view.message == "fcs20: done", view.message
+                fcs = h.gcs.remote("fcs20")
+                assert fcs.get("airData.staticPressurePa") == pytest.approx(90000.5)
+                assert [r["value"] for r in view.rows if r["field"].startswith("airData.rawCounts")] == raw
+
+                # A mask: fcs20's mask toward rmax1ob2, 0x00000001 -> 0x00000000 (no link toward it), after Confirm.
+                await open_leaf(pilot, view, "fcs20", "tables", "entities")
+                (k,) = [i for i, r in enumerate(view.rows) if r["entity"] == "rmax1ob2"]
+                await edit(pilot, view, k, "0x00000000", keep=len("mask rmax1ob2 = "))
+                await pilot.click("#remote-confirm")
+                assert view.message == "fcs20: done", view.message
+                (after,) = [r for r in view.rows if r["entity"] == "rmax1ob2"]
+                assert after["mask"] == "0x00000000", after
+                assert [e["mask"] for e in fcs.table("entities") if e["entity"] == "rmax1ob2"] == ["0x00000000"]
 
         asyncio.run(scenario())
         t0 = h.mark("fast")
