@@ -148,6 +148,8 @@ class BrowserApp(App[None]):
             table.move_cursor(row=cursor)
 
     def action_refresh(self) -> None:
+        if not self.query("#tabs"):
+            return  # the app is exiting and its screen is gone, but a refresh timer can still fire
         self._fill("pubsub", [(entity, *(str(r.get(c, "")) for c in PUBSUB_COLUMNS))
                               for entity in self.session.config.hosts
                               for r in self.session.node.pubsub_rows(entity)])
