@@ -25,6 +25,10 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+# The CRC, IDs and payload bytes of the independent frame reference, so both generators agree by construction.
+from make_frame_vectors import crc32c, dir_id, entity_id, pattern  # noqa: E402
+
 OUTPUT = Path(__file__).with_name("compact_frames.json")
 HEADER_LEN = 64
 MAX_PAYLOAD = 1024
@@ -37,41 +41,10 @@ DIR_FULL, DEST_FULL, SRC_FULL, SEQ32, ENT_WIDE = 0x01, 0x02, 0x04, 0x08, 0x10
 FRAG_HEADER_LEN = 8
 
 
-def crc32c(data: bytes, crc: int = 0) -> int:
-    """CRC-32C, reflected polynomial 0x82F63B78, continued from a previous result `crc`."""
-    reg = crc ^ 0xFFFFFFFF
-    for byte in data:
-        reg ^= byte
-        for _ in range(8):
-            reg = (reg >> 1) ^ (0x82F63B78 if reg & 1 else 0)
-    return reg ^ 0xFFFFFFFF
-
-
 def fnv1a64(data: bytes, h: int = 0xCBF29CE484222325) -> int:
     for byte in data:
         h = ((h ^ byte) * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
     return h
-
-
-def pattern(n: int, seed: int) -> bytes:
-    out = bytearray()
-    state = seed & 0xFFFFFFFF
-    for _ in range(n):
-        state = (state * 1664525 + 1013904223) & 0xFFFFFFFF
-        out.append(state >> 24)
-    return bytes(out)
-
-
-def entity_id(name: str) -> bytes:
-    return name.encode("ascii").ljust(12, b"\0")
-
-
-def dir_id(name: str) -> bytes:
-    raw = name.encode("ascii")
-    if len(raw) <= 8:
-        half = raw.ljust(8, b"\0")
-        return half + half
-    return raw[:8] + raw[-8:].rjust(8, b"\0")
 
 
 # ---- the catalogue both ends share (instances in ID order = index order) -------------------------------
