@@ -46,7 +46,7 @@ apt-deps:
 
 # The stamp depends on everything that changes what pip installs, the cffi extension (uavbus._ub,
 # compiled from the runtime_c sources) included, so Python never tests a stale build of the C runtime.
-FFI_INPUTS := $(wildcard runtime_c/src/*.c runtime_c/src/*.h runtime_c/include/ub/*.h \
+FFI_INPUTS := $(wildcard runtime_c/src/*/*.c runtime_c/src/*/*.h runtime_c/include/ub/*.h \
                 runtime_py/uavbus/_cdefs/*.h) runtime_py/uavbus/_build_ffi.py
 $(SETUP_STAMP): pyproject.toml setup.py $(FFI_INPUTS)
 	@test -x $(VPY) || $(PYTHON) -m venv $(VENV)

@@ -54,11 +54,11 @@ mkdir -p "$peers/lcmgen" "$peers/lcmpy"
 say "building the runtime (Release) and the bench catalogue"
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DUAVBUS_PYTHON="$VPY" >/dev/null
 cmake --build "$build" --target ub_frame_bench ub_router_bench ub_far >/dev/null
-# The runtime for the bench programs: every runtime_c/src/*.c at -O2 (as the peers are built), in one archive.
+# The runtime for the bench programs: every runtime_c/src/*/*.c at -O2 (as the peers are built), in one archive.
 mkdir -p "$build/bench-lib"
 rm -f "$build"/bench-lib/*
-for f in runtime_c/src/*.c; do
-  gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -DUB_SECURITY=1 -Iruntime_c/include -c "$f" \
+for f in runtime_c/src/*/*.c; do
+  gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -DUB_SECURITY=1 -Iruntime_c/include -Iruntime_c/src -c "$f" \
     -o "$build/bench-lib/$(basename "$f" .c).o"
 done
 ar rcs "$build/bench-lib/libub.a" "$build"/bench-lib/*.o
@@ -145,13 +145,13 @@ say "figure 6: RAM"
 REF=(-DUB_MAX_ENTITIES=16 -DUB_MAX_LINKS_PER_ENTITY=8 -DUB_MAX_NODE_LINKS=8 -DUB_MAX_LOCAL_ENTITIES=4 -DUB_MAX_PUBSUB_ROWS=64)
 mkdir -p "$build/ref-obj"
 rm -f "$build/ref-obj"/*.o
-for f in runtime_c/src/*.c; do
-  gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -DUB_SECURITY=1 "${REF[@]}" -Iruntime_c/include -c "$f" \
+for f in runtime_c/src/*/*.c; do
+  gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -DUB_SECURITY=1 "${REF[@]}" -Iruntime_c/include -Iruntime_c/src -c "$f" \
     -o "$build/ref-obj/$(basename "$f" .c).o"
 done
 gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L "${REF[@]}" -Iruntime_c/include bench/src/ram_bench.c -o "$bin/ram_bench"
 { "$bin/ram_bench"; size -t "$build"/ref-obj/*.o | tail -1 | sed 's/^/size /'; } >"$raw/ram.txt"
-echo "gcc -O2 ${REF[*]} runtime_c/src/*.c; size -t; bench/src/ram_bench.c" >>"$raw/commands.txt"
+echo "gcc -O2 ${REF[*]} runtime_c/src/*/*.c; size -t; bench/src/ram_bench.c" >>"$raw/commands.txt"
 
 # ---- figure 6b: the core on a microcontroller (examples/mcu, Cortex-M4F, arm-none-eabi-gcc -Os) ----
 say "figure 6b: the core cross-compiled for a Cortex-M4F"
@@ -176,8 +176,8 @@ say "figure 8: fleets in process (range model, simulated clock) and 30 vehicles 
 FLEET_CAPS=(-DUB_MAX_ENTITIES=128 -DUB_DEDUP_SOURCES=128 -DUB_MAX_LOCAL_ENTITIES=1)
 mkdir -p "$build/fleet-lib"
 rm -f "$build"/fleet-lib/*
-for f in runtime_c/src/*.c; do
-  gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -DUB_SECURITY=1 "${FLEET_CAPS[@]}" -Iruntime_c/include -c "$f" \
+for f in runtime_c/src/*/*.c; do
+  gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -DUB_SECURITY=1 "${FLEET_CAPS[@]}" -Iruntime_c/include -Iruntime_c/src -c "$f" \
     -o "$build/fleet-lib/$(basename "$f" .c).o"
 done
 ar rcs "$build/fleet-lib/libub.a" "$build"/fleet-lib/*.o

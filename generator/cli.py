@@ -24,7 +24,7 @@ from uavbus._paths import RUNTIME_INCLUDE_DIR as RUNTIME_INCLUDE, RUNTIME_SOURCE
 from . import frontend, model, render
 from .catalogue_json import catalogue_json
 
-RUNTIME_CATALOGUE_C = RUNTIME_SOURCE_DIR / "ub_catalogue.c"
+RUNTIME_CATALOGUE_C = RUNTIME_SOURCE_DIR / "codec" / "ub_catalogue.c"
 SELFTEST_TIMEOUT_S = 300
 EXIT_PARTIAL = 3
 

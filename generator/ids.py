@@ -1,4 +1,4 @@
-"""Content and entity IDs (paper III.C); must agree byte for byte with runtime_c/src/ub_catalogue.c.
+"""Content and entity IDs (paper III.C); must agree byte for byte with runtime_c/src/codec/ub_catalogue.c.
 
 Names are treated as their UTF-8 bytes (C identifiers plus `[i]` element suffixes are ASCII).
 """

@@ -20,14 +20,14 @@ endif()
 
 # The tools compile the codec sources themselves at -O2, so their figures describe an
 # optimised build whatever CMAKE_BUILD_TYPE the library was configured with.
-set(UB_FRAME_CODEC_SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_frame.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_crc32c.c
-                           ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_error.c)
+set(UB_FRAME_CODEC_SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_frame.c ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_crc32c.c
+                           ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_error.c)
 foreach(tool ub_frame_bench ub_far)
   if(NOT EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/tools/${tool}.c)
     continue()
   endif()
   add_executable(${tool} ${CMAKE_CURRENT_SOURCE_DIR}/tools/${tool}.c ${UB_FRAME_CODEC_SOURCES}
-                         ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_compact.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_catalogue.c)
+                         ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_compact.c ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_catalogue.c)
   target_include_directories(${tool} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/include ${CMAKE_CURRENT_SOURCE_DIR}/src)
   target_compile_definitions(${tool} PRIVATE _POSIX_C_SOURCE=200809L)
   target_compile_options(${tool} PRIVATE -O2)

@@ -28,16 +28,16 @@ set_tests_properties(ub_noalloc_nm PROPERTIES TIMEOUT 60)
 # Router cost measurement program (not a test), optimised whatever the build type.
 add_executable(ub_router_bench ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/router_bench.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_node.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_pubsub.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_admin.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_link.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_route.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_member.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_inspect.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_node_sec.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_sec.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_memlink.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_frame.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_crc32c.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_catalogue.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_error.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_policy.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_json.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_compact.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_frag.c ${CMAKE_CURRENT_SOURCE_DIR}/src/ub_node_wire.c)
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/core/ub_node.c ${CMAKE_CURRENT_SOURCE_DIR}/src/svc/ub_pubsub.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/svc/ub_admin.c ${CMAKE_CURRENT_SOURCE_DIR}/src/core/ub_link.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/svc/ub_route.c ${CMAKE_CURRENT_SOURCE_DIR}/src/svc/ub_member.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/svc/ub_inspect.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/core/ub_node_sec.c ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_sec.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/drivers/ub_memlink.c ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_frame.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_crc32c.c ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_catalogue.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_error.c ${CMAKE_CURRENT_SOURCE_DIR}/src/config/ub_policy.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_json.c ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_compact.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_frag.c ${CMAKE_CURRENT_SOURCE_DIR}/src/core/ub_node_wire.c)
 target_include_directories(ub_router_bench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/include ${CMAKE_CURRENT_SOURCE_DIR}/src
                                                    ${CMAKE_CURRENT_SOURCE_DIR}/tests)
 target_compile_definitions(ub_router_bench PRIVATE _POSIX_C_SOURCE=200809L)

@@ -36,7 +36,7 @@ if(UAVBUS_SANITIZE AND TARGET test_sec_noalloc)
 endif()
 
 add_library(ub_nosec STATIC ${UB_SOURCES})
-target_include_directories(ub_nosec PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+target_include_directories(ub_nosec PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
 target_compile_definitions(ub_nosec PUBLIC _POSIX_C_SOURCE=200809L)
 add_executable(test_sec_failclosed ${CMAKE_CURRENT_SOURCE_DIR}/tests/nosec/test_sec_failclosed.c
                                    ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c)

@@ -17,7 +17,7 @@
 #include "ub/ub_frag.h"
 #include "ub/ub_frame.h"
 #include "ub/ub_wire.h"
-#include "ub_json.h"
+#include "codec/ub_json.h"
 
 #define MAX_INST 200
 #define MAX_IDS 32

@@ -7,7 +7,7 @@
 #include <cmocka.h>
 #include <string.h>
 
-#include "../src/ub_crc32c_impl.h"
+#include "../src/codec/ub_crc32c_impl.h"
 #include "test_frame_util.h"
 #include "ub/ub_frame.h"
 

@@ -20,7 +20,7 @@
 #include "support/ub_test_store.h"
 #include "ub/ub_pubsub.h"
 #include "ub/ub_sec.h"
-#include "ub_rng_private.h"
+#include "core/ub_rng_private.h"
 
 static const uint8_t KEY1[UB_SEC_KEY_LEN] = {1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1,
                                              1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 7};

@@ -26,7 +26,7 @@
 #include "ub/ub_frag.h"
 #include "ub/ub_sec.h"
 #include "ub/ub_wire.h"
-#include "ub_rng_private.h"
+#include "core/ub_rng_private.h"
 
 /* ---- a catalogue with large directories (wire-image storage: pack/unpack NULL) ---- */
 #define BIG_LEN 16384u

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Prints the slicing-by-8 CRC-32C tables that runtime_c/src/ub_crc32c.c embeds.
+"""Prints the slicing-by-8 CRC-32C tables that runtime_c/src/codec/ub_crc32c.c embeds.
 
 Run at development time only; the C source holds the output as a `static const`
 table, so the library never fills a table lazily at run time:

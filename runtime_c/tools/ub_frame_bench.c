@@ -14,7 +14,7 @@
 #include <time.h>
 
 #include "ub/ub_frame.h"
-#include "ub_crc32c_impl.h"
+#include "codec/ub_crc32c_impl.h"
 
 #define MAX_RUNS 31
 #define STREAM_FRAMES 256

@@ -1,6 +1,6 @@
 """Node configuration files: the paper's entity table (AIAA 2005-6309 III.D, Tables 1 and 2) as JSON.
 
-There is one configuration loader in uavbus, the C one (``runtime_c/src/ub_nodecfg.c``). This module
+There is one configuration loader in uavbus, the C one (``runtime_c/src/config/ub_nodecfg.c``). This module
 is a thin layer over it: `load_config()` / `parse_config()` hand the file to the C loader through cffi
 and read the parsed table back into frozen dataclasses; `Node(config=...)` applies that same C table to
 the router. So a file that a C flight-software process accepts is exactly the file Python accepts, with

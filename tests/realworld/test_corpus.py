@@ -166,7 +166,7 @@ def test_fsw_generated_c_is_usable_from_cxx(fsw_out: Path, tmp_path: Path) -> No
     common = ["-DMISSION_CPU=1", *(a for d in dirs for a in ("-isystem", d)), "-I", str(RUNTIME_INCLUDE), "-I", str(fsw_out)]
     (tmp_path / "main.cpp").write_text(CXX_MAIN)
     compile_c(["-std=c99", "-Wall", "-Werror", *common, "-c", str(fsw_out / "fsw.c"), "-o", str(tmp_path / "fsw.o")], FSW)
-    compile_c(["-std=c99", "-I", str(RUNTIME_INCLUDE), "-c", str(REPO / "runtime_c/src/ub_catalogue.c"),
+    compile_c(["-std=c99", "-I", str(RUNTIME_INCLUDE), "-c", str(REPO / "runtime_c/src/codec/ub_catalogue.c"),
                "-o", str(tmp_path / "cat.o")], FSW)
     compile_c(["-std=c++11", "-pedantic", "-Wall", "-Wextra", "-Werror", *common, str(tmp_path / "main.cpp"),
                str(tmp_path / "fsw.o"), str(tmp_path / "cat.o"), "-o", str(tmp_path / "main")], FSW, cxx=True)

@@ -100,7 +100,7 @@ def test_generated_c_compiles_with_werror_and_runs(kinds_out: Path, tmp_path: Pa
     if sanitize:
         flags += ["-fsanitize=address,undefined", "-fno-sanitize-recover=all"]
     build = gcc(flags + ["-I", str(RUNTIME_INCLUDE), "-I", str(kinds_out), "-I", str(ALL_KINDS.parent),
-                         str(kinds_out / "kinds.c"), "main.c", str(REPO / "runtime_c/src/ub_catalogue.c"), "-o", "t"],
+                         str(kinds_out / "kinds.c"), "main.c", str(REPO / "runtime_c/src/codec/ub_catalogue.c"), "-o", "t"],
                 tmp_path)
     assert build.returncode == 0, build.stderr
     run = subprocess.run([str(tmp_path / "t")], capture_output=True, text=True, timeout=60, check=False)

@@ -40,7 +40,7 @@ typedef int (*ub_random_fn)(void *user, uint8_t *out, size_t len);
  * POSIX implementation of ub_random_fn: getrandom(2) where the C library has
  * it, else reads /dev/urandom. `user` is unused. Never blocks once the kernel
  * pool is initialised. Not part of the core: builds without an OS leave
- * src/ub_random_os.c out and supply their own function.
+ * src/drivers/ub_random_os.c out and supply their own function.
  * @return UB_OK or UB_ERR_IO.
  */
 UB_CHECK int ub_random_os(void *user, uint8_t *out, size_t len);

@@ -10,8 +10,8 @@
 #include <unistd.h>
 
 #include "ub/ub_node.h"
-#include "ub_sock_private.h"
-#include "ub_stream_tx_private.h"
+#include "drivers/ub_sock_private.h"
+#include "drivers/ub_stream_tx_private.h"
 
 #define DEFAULT_BACKOFF_INITIAL_MS 100u
 #define DEFAULT_BACKOFF_MAX_MS 5000u

@@ -4,7 +4,7 @@
 
 #include "ub/ub_node.h"
 #include "ub/ub_wire.h"
-#include "ub_router_private.h"
+#include "core/ub_router_private.h"
 
 static const char *const status_names[] = {
     [UB_ADMIN_INACTIVE] = "inactive",         [UB_ADMIN_PENDING] = "pending", [UB_ADMIN_ACKNOWLEDGED] = "acknowledged",

@@ -10,8 +10,8 @@
 #include <string.h>
 
 #include "ub/ub_wire.h"
-#include "ub_fleet_private.h"
-#include "ub_router_private.h"
+#include "core/ub_fleet_private.h"
+#include "core/ub_router_private.h"
 
 #define INF UB_ROUTE_INFINITY
 #define DEFAULT_HELLO_MS 1000u

@@ -11,7 +11,7 @@
 
 #include "ub/ub_node.h"
 #include "ub/ub_wire.h"
-#include "ub_sock_private.h"
+#include "drivers/ub_sock_private.h"
 
 int ub_udp_open(ub_udp_t *udp, const char *bind_addr, uint16_t bind_port, const char *peer_addr,
                 uint16_t peer_port) {

@@ -9,7 +9,7 @@
 #include <string.h>
 
 #include "ub/ub_wire.h"
-#include "ub_crc32c_impl.h"
+#include "codec/ub_crc32c_impl.h"
 
 /* Result of judging a candidate's 64 header bytes: accepted, or a rejection reason. */
 #define HEADER_OK UB_RX_REASON_COUNT

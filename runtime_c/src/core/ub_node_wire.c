@@ -5,7 +5,7 @@
 
 #include "ub/ub_node.h"
 #include "ub/ub_wire.h"
-#include "ub_router_private.h"
+#include "core/ub_router_private.h"
 
 /* ---- compact links ------------------------------------------------------------------------------- */
 

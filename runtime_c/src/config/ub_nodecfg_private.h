@@ -13,7 +13,7 @@
 
 #include "ub/ub_nodecfg.h"
 #include "ub/ub_policy.h"
-#include "ub_json.h"
+#include "codec/ub_json.h"
 
 typedef struct ub_cfg_error {
     uint32_t line;

@@ -7,9 +7,9 @@
 #include "ub/ub_policy.h"
 #include "ub/ub_pubsub.h"
 #include "ub/ub_wire.h"
-#include "ub_fleet_private.h"
-#include "ub_inspect_private.h"
-#include "ub_router_private.h"
+#include "core/ub_fleet_private.h"
+#include "core/ub_inspect_private.h"
+#include "core/ub_router_private.h"
 
 #define DEFAULT_RETRY_MS 200u
 

@@ -7,7 +7,7 @@
 #include "ub/ub_node.h"
 #include "ub/ub_sec.h"
 #include "ub/ub_wire.h"
-#include "ub_router_private.h"
+#include "core/ub_router_private.h"
 
 static bool link_ok(const ub_node_t *node, int link_id) {
     return link_id >= 0 && link_id < UB_MAX_NODE_LINKS && node->links[link_id].in_use;

@@ -5,7 +5,7 @@
 #include <string.h>
 
 #include "ub/ub_frame.h"
-#include "ub_nodecfg_private.h"
+#include "config/ub_nodecfg_private.h"
 
 /* ---- the policy ---------------------------------------------------------- */
 

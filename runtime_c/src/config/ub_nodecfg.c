@@ -11,8 +11,8 @@
 #include "ub/ub_node.h"
 #include "ub/ub_sec.h"
 #include "ub/ub_secfile.h"
-#include "ub_json.h"
-#include "ub_nodecfg_private.h"
+#include "codec/ub_json.h"
+#include "config/ub_nodecfg_private.h"
 
 /* The one configuration loader of uavbus: Python reaches it through cffi (runtime_py/uavbus/config.py),
  * so every message below is what both languages print (tests/unit/config_cases/ holds one per error). */

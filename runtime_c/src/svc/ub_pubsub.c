@@ -4,7 +4,7 @@
 
 #include "ub/ub_node.h"
 #include "ub/ub_wire.h"
-#include "ub_router_private.h"
+#include "core/ub_router_private.h"
 
 void ub_priv_timing_defaults(ub_pubsub_timing_t *t) {
     if (t->retry_ms == 0) t->retry_ms = UB_PS_DEFAULT_RETRY_MS;

@@ -3,10 +3,10 @@
 #include <string.h>
 
 #include "ub/ub_wire.h"
-#include "ub_rng_private.h"
-#include "ub_fleet_private.h"
-#include "ub_inspect_private.h"
-#include "ub_router_private.h"
+#include "core/ub_rng_private.h"
+#include "core/ub_fleet_private.h"
+#include "core/ub_inspect_private.h"
+#include "core/ub_router_private.h"
 
 bool ub_priv_id_is_zero(const uint8_t id[UB_ENTITY_ID_LEN]) {
     for (size_t i = 0; i < UB_ENTITY_ID_LEN; i++)

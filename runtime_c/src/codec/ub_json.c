@@ -1,4 +1,4 @@
-#include "ub_json.h"
+#include "codec/ub_json.h"
 
 #include <stdarg.h>
 #include <stdio.h>

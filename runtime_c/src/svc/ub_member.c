@@ -4,8 +4,8 @@
 #include <string.h>
 
 #include "ub/ub_wire.h"
-#include "ub_fleet_private.h"
-#include "ub_router_private.h"
+#include "core/ub_fleet_private.h"
+#include "core/ub_router_private.h"
 
 #define DEFAULT_RETRY_MS 200u
 

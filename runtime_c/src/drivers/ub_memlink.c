@@ -4,7 +4,7 @@
 #include <string.h>
 
 #include "ub/ub_node.h"
-#include "ub_rng_private.h"
+#include "core/ub_rng_private.h"
 
 #define PPM 1000000u
 #define DEFAULT_REORDER_DELAY_MS 5u

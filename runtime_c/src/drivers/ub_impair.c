@@ -5,7 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "ub_rng_private.h"
+#include "core/ub_rng_private.h"
 
 static uint64_t rng_next(ub_impair_t *imp) { return ub_rng_next(&imp->rng); }
 

@@ -5,7 +5,7 @@
 
 #include "ub/ub_frame.h"
 #include "ub/ub_wire.h"
-#include "ub_crc32c_impl.h"
+#include "codec/ub_crc32c_impl.h"
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #define UB_CRC32C_X86 1

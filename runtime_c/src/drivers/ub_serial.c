@@ -11,7 +11,7 @@
 #include <unistd.h>
 
 #include "ub/ub_node.h"
-#include "ub_stream_tx_private.h"
+#include "drivers/ub_stream_tx_private.h"
 
 typedef struct baud_entry {
     uint32_t baud;
