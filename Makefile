@@ -117,7 +117,8 @@ demo: setup
 	cmake --build $(BUILD) --target uavbus_node
 	$(VPY) examples/demo/hitl_demo.py --out demo-out --program $(BUILD)/examples/node/uavbus_node
 
-# Measurements, not tests: optimised build of the tools, results in bench/results.md.
+# Measurements, not tests: optimised build of the tools, results in bench/results.md. BENCH_BASE=REF adds
+# figures 1-3 over the runtime of git REF, interleaved in the same run (before and after a core change).
 bench: setup
 	bench/run.sh
 

@@ -5,6 +5,9 @@
 #
 #   bench/run.sh            everything (~8 minutes on 2 vCPUs)
 #   RUNS=3 bench/run.sh     fewer loopback rounds
+#   BENCH_BASE=REF bench/run.sh   also figures 1-3 with the runtime of git REF (e.g. the commit before a core
+#                           change), interleaved with ours in the same run: results.md gains "Before and after"
+#                           (make bench BENCH_BASE=REF)
 #
 # Peers are installed at run time from PyPI into .venv (the `bench` extra: pymavlink, lcm); their
 # generated code goes to build-bench/peers/ and is never committed. valgrind (Debian) is installed
@@ -74,16 +77,47 @@ gcc "${CFLAGS[@]}" bench/src/router_hops.c "$gen/benchcat.c" "$LIBUB" $SODIUM -l
 gcc "${CFLAGS[@]}" bench/src/loop_bench.c "$gen/benchcat.c" "$LIBUB" $SODIUM -o "$bin/loop_bench"
 gcc "${CFLAGS[@]}" -I"$lcm_inc" bench/src/lcm_loop.c -L"$lcm_lib" -llcm -Wl,-rpath,"$lcm_lib" -o "$bin/lcm_loop"
 
+# ---- the same bench programs over the runtime of BENCH_BASE (a git ref), for figures 1-3 before and after ----
+# Only the runtime differs: the bench sources, the generated catalogue and the peers are this tree's, so a
+# difference between the two columns is the runtime's. The base's sources are found wherever its tree put them.
+base_bin=""
+if [ -n "${BENCH_BASE:-}" ]; then
+  base=$build/base
+  base_bin=$bin/base
+  say "building the runtime of BENCH_BASE=$BENCH_BASE for figures 1-3 before and after"
+  rm -rf "$base" && mkdir -p "$base/src" "$base/lib" "$base_bin"
+  git archive "$BENCH_BASE" runtime_c | tar -x -C "$base/src"
+  git rev-parse --short "$BENCH_BASE" >"$raw/base_ref.txt"
+  while IFS= read -r f; do
+    gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -DUB_SECURITY=1 -I"$base/src/runtime_c/include" \
+      -I"$base/src/runtime_c/src" -c "$f" -o "$base/lib/$(basename "$f" .c).o"
+  done < <(find "$base/src/runtime_c/src" -name '*.c' | sort)
+  ar rcs "$base/lib/libub.a" "$base"/lib/*.o
+  BCFLAGS=("${CFLAGS[@]/-Iruntime_c\/include/-I$base/src/runtime_c/include}")
+  gcc "${BCFLAGS[@]}" -Wno-address-of-packed-member -I"$peers/mavlink" -I"$peers/lcmgen" -I"$lcm_inc" \
+    bench/src/codec_bench.c "$gen/benchcat.c" "$peers"/lcmgen/*.c "$base/lib/libub.a" $SODIUM -L"$lcm_lib" -llcm \
+    -Wl,-rpath,"$lcm_lib" -o "$base_bin/codec_bench"
+  gcc "${BCFLAGS[@]}" bench/src/router_hops.c "$gen/benchcat.c" "$base/lib/libub.a" $SODIUM -ldl -o "$base_bin/router_hops"
+  gcc "${BCFLAGS[@]}" bench/src/loop_bench.c "$gen/benchcat.c" "$base/lib/libub.a" $SODIUM -o "$base_bin/loop_bench"
+  echo "BENCH_BASE=$BENCH_BASE: the same bench programs over git archive $BENCH_BASE runtime_c, interleaved" >>"$raw/commands.txt"
+fi
+
 # ---- figure 1: C codecs (3 processes x 11 interleaved samples; callgrind once) ----
 say "figure 1: C codecs"
-for p in 1 2 3; do timed codec taskset -c 0 "$bin/codec_bench" >>"$raw/codec.tsv"; done
+for p in 1 2 3; do
+  timed codec taskset -c 0 "$bin/codec_bench" >>"$raw/codec.tsv"
+  if [ -n "$base_bin" ]; then taskset -c 0 "$base_bin/codec_bench" >>"$raw/base_codec.tsv"; fi
+done
 (mkdir -p "$raw/callgrind" && cd "$raw/callgrind" &&
   valgrind --tool=callgrind --callgrind-out-file=cg.%p "$root/$bin/codec_bench" callgrind 2>/dev/null)
 echo "valgrind --tool=callgrind $bin/codec_bench callgrind" >>"$raw/commands.txt"
 
 # ---- figure 2: router in-process over memlinks ----
 say "figure 2: router, 1 and 3 hops"
-for h in 1 3; do timed router taskset -c 0 "$bin/router_hops" "$h" >>"$raw/router.txt"; done
+for h in 1 3; do
+  timed router taskset -c 0 "$bin/router_hops" "$h" >>"$raw/router.txt"
+  if [ -n "$base_bin" ]; then taskset -c 0 "$base_bin/router_hops" "$h" >>"$raw/base_router.txt"; fi
+done
 
 # ---- figure 3: loopback between 2 processes, in a private network namespace (only lo) ----
 say "figure 3: loopback UDP/TCP/raw UDP/LCM udpm, $RUNS interleaved rounds"
@@ -92,9 +126,13 @@ unshare -rn bash -c '
   ip link set lo up
   ip route add 224.0.0.0/4 dev lo
   if ip -o link | grep -v " lo:" | grep -q .; then echo "bench: namespace has more than lo" >&2; exit 2; fi
-  bin=$1; runs=$2
+  bin=$1; runs=$2; base_bin=$3; raw=$4
   for r in $(seq "$runs"); do
     for pl in split same; do
+      if [ -n "$base_bin" ]; then
+        for t in udp tcp; do "$base_bin/loop_bench" blast $t 1000000 $pl >>"$raw/base_loop.txt"; done
+        for t in udp tcp; do "$base_bin/loop_bench" rtt $t 10000 $pl >>"$raw/base_loop.txt"; done
+      fi
       "$bin/loop_bench" blast udp 1000000 $pl
       "$bin/loop_bench" blast tcp 1000000 $pl
       "$bin/loop_bench" blast udp 300000 $pl nobatch
@@ -105,7 +143,7 @@ unshare -rn bash -c '
       "$bin/loop_bench" rtt raw-udp 10000 $pl
       "$bin/lcm_loop" rtt 10000 $pl
     done
-  done' _ "$bin" "$RUNS" >>"$raw/loop.txt"
+  done' _ "$bin" "$RUNS" "$base_bin" "$raw" >>"$raw/loop.txt"
 echo "unshare -rn: loop_bench blast udp|tcp 1000000, udp 300000 nobatch, raw-udp 300000; lcm_loop blast 200000;" \
   "rtt 10000 each; placements split and same; $RUNS interleaved rounds (see bench/run.sh)" >>"$raw/commands.txt"
 

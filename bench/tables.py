@@ -30,10 +30,10 @@ def kfmt(x: float) -> str:
     return f"{x / 1000:,.0f}k"
 
 
-def read_codec(raw: Path) -> tuple[dict, dict, dict]:
+def read_codec(raw: Path, name: str = "codec.tsv") -> tuple[dict, dict, dict]:
     ns: dict[tuple[str, str], list[float]] = defaultdict(list)
     size: dict[tuple[str, str], int] = {}
-    for line in (raw / "codec.tsv").read_text().splitlines():
+    for line in (raw / name).read_text().splitlines():
         parts = line.split("\t")
         ns[(parts[0], parts[1])] += [float(x) for x in parts[3:]]
         size[(parts[0], parts[1])] = int(parts[2])
@@ -45,6 +45,82 @@ def read_codec(raw: Path) -> tuple[dict, dict, dict]:
         if m and t:
             ir[(m.group(1), m.group(2))] = int(t.group(1)) / 20000
     return ns, size, ir
+
+
+def read_router(path: Path) -> tuple[dict, dict, dict, dict]:
+    """Figure 2's samples: msg/s, p50 and p99 ns by hop count, and allocations after init."""
+    thr: dict[int, list[float]] = defaultdict(list)
+    p50: dict[int, list[float]] = defaultdict(list)
+    p99: dict[int, list[float]] = defaultdict(list)
+    allocs = {}
+    for line in path.read_text().splitlines():
+        kv = dict(x.split("=") for x in line.split()[1:])
+        h = int(kv["hops"])
+        if line.startswith("throughput"):
+            thr[h].append(float(kv["msgs_per_s"]))
+        elif line.startswith("latency"):
+            p50[h].append(float(kv["p50_ns"]))
+            p99[h].append(float(kv["p99_ns"]))
+        else:
+            allocs[h] = int(kv["after_init"])
+    return thr, p50, p99, allocs
+
+
+def read_loop(path: Path) -> tuple[dict, dict]:
+    """Figure 3's samples: blast fields by (transport, batching, placement), RTT p50/p99 by (transport, placement)."""
+    blast: dict[tuple, dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
+    rtt: dict[tuple, dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
+    for line in path.read_text().splitlines():
+        kv = dict((k, v.strip('"')) for k, v in re.findall(r'(\w+)=("[^"]*"|\S+)', line))
+        if not kv:
+            continue
+        if kv["mode"] == "blast":
+            key = (kv["transport"], kv.get("batching", "0"), kv["placement"])
+            for f in ("delivered_per_s", "lost_pct", "offered_per_s", "refused_retried"):
+                blast[key][f].append(float(kv[f]))
+        else:
+            key = (kv["transport"], kv["placement"])
+            rtt[key]["p50"].append(float(kv["p50_us"]))
+            rtt[key]["p99"].append(float(kv["p99_us"]))
+    return blast, rtt
+
+
+def before_after(raw: Path) -> list[str]:
+    """Figures 1-3 with this tree's runtime beside BENCH_BASE's, from the same run (bench/run.sh). A ratio
+    above 1 for a time (or below 1 for a rate) is a slowdown; the bands say how far the runs spread."""
+    if not (raw / "base_codec.tsv").exists():
+        return []
+    ref = (raw / "base_ref.txt").read_text().strip()
+    out = [f"## Before and after: figures 1-3 with this tree's runtime and with {ref}'s", "",
+           f"`make bench BENCH_BASE={ref}`: the same bench programs, catalogue and peers, linked once with this tree's "
+           "runtime and once with the runtime of that commit, run interleaved (figure 1: 3 processes each, figure 2: "
+           "7 samples each, figure 3: the uavbus UDP/TCP rows in every round). Median [min - max]; "
+           "ratio = this tree / base.", "",
+           "| figure | case | this tree | base | ratio |", "|---|---|---:|---:|---:|"]
+    new_ns, _, _ = read_codec(raw)
+    old_ns, _, _ = read_codec(raw, "base_codec.tsv")
+    for case, title in (("ub_frame_build", "frame build ns"), ("ub_frame_parse", "streaming parse ns")):
+        for m in MSGS:
+            a, b = new_ns[(case, m)], old_ns[(case, m)]
+            out.append(f"| 1 | {title}, {m} | {band(a)} | {band(b)} | "
+                       f"{statistics.median(a) / statistics.median(b):.3f} |")
+    new_r, old_r = read_router(raw / "router.txt"), read_router(raw / "base_router.txt")
+    for i, title, fmt in ((0, "delivered msg/s", "{:,.0f}"), (1, "latency p50 ns", "{:.0f}")):
+        for h in sorted(new_r[i]):
+            a, b = new_r[i][h], old_r[i][h]
+            out.append(f"| 2 | {title}, {h} hop(s) | {band(a, fmt)} | {band(b, fmt)} | "
+                       f"{statistics.median(a) / statistics.median(b):.3f} |")
+    new_bl, new_rtt = read_loop(raw / "loop.txt")
+    old_bl, old_rtt = read_loop(raw / "base_loop.txt")
+    for key, v in sorted(old_bl.items()):
+        a, b = new_bl[key]["delivered_per_s"], v["delivered_per_s"]
+        out.append(f"| 3 | blast {key[0]}, {key[2]}: delivered msg/s | {band(a, '{:,.0f}')} | {band(b, '{:,.0f}')} | "
+                   f"{statistics.median(a) / statistics.median(b):.3f} |")
+    for key, v in sorted(old_rtt.items()):
+        a, b = new_rtt[key]["p50"], v["p50"]
+        out.append(f"| 3 | RTT {key[0]}, {key[1]}: p50 us | {band(a)} | {band(b)} | "
+                   f"{statistics.median(a) / statistics.median(b):.3f} |")
+    return out + [""]
 
 
 def machine() -> str:
@@ -207,20 +283,7 @@ def main() -> None:
                       max(r_sp) <= 0.5, ""))
 
     # ---- figure 2 ----
-    thr: dict[int, list[float]] = defaultdict(list)
-    p50: dict[int, list[float]] = defaultdict(list)
-    p99: dict[int, list[float]] = defaultdict(list)
-    allocs = {}
-    for line in (raw / "router.txt").read_text().splitlines():
-        kv = dict(x.split("=") for x in line.split()[1:])
-        h = int(kv["hops"])
-        if line.startswith("throughput"):
-            thr[h].append(float(kv["msgs_per_s"]))
-        elif line.startswith("latency"):
-            p50[h].append(float(kv["p50_ns"]))
-            p99[h].append(float(kv["p99_ns"]))
-        else:
-            allocs[h] = int(kv["after_init"])
+    thr, p50, p99, allocs = read_router(raw / "router.txt")
     w("## 2. Router in-process (memlinks, one thread, CPU 0)")
     w("")
     w("Nodes in a line N0 -> ... -> Nh joined by memlinks; N0 originates benchBlob64 (64-byte payload, 128-byte")
@@ -238,20 +301,7 @@ def main() -> None:
                   "see 'What holds a miss back'"))
 
     # ---- figure 3 ----
-    blast: dict[tuple, dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
-    rtt: dict[tuple, dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
-    for line in (raw / "loop.txt").read_text().splitlines():
-        kv = dict((k, v.strip('"')) for k, v in re.findall(r'(\w+)=("[^"]*"|\S+)', line))
-        if not kv:
-            continue
-        if kv["mode"] == "blast":
-            key = (kv["transport"], kv.get("batching", "0"), kv["placement"])
-            for f in ("delivered_per_s", "lost_pct", "offered_per_s", "refused_retried"):
-                blast[key][f].append(float(kv[f]))
-        else:
-            key = (kv["transport"], kv["placement"])
-            rtt[key]["p50"].append(float(kv["p50_us"]))
-            rtt[key]["p99"].append(float(kv["p99_us"]))
+    blast, rtt = read_loop(raw / "loop.txt")
     names = {("udp", "1"): "uavbus UDP (ub_udp, batching: sendmmsg/recvmmsg, multi-frame datagrams)",
              ("tcp", "1"): "uavbus TCP (ub_tcp, batching: multi-frame writes)",
              ("udp", "0"): "uavbus UDP, batching off (one sendto per frame)",
@@ -479,6 +529,8 @@ def main() -> None:
     from inspect_tables import render as inspect_section  # bench/ is the script's own directory
 
     inspect_section(raw, w, goals)
+
+    out.extend(before_after(raw))
 
     # ---- goals ----
     w("## Goals")
