@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from uavbus.sim.build import REPO, node_program
+from uavbus.sim.build import PROGRAM_DIR, REPO, node_program
 from uavbus.sim.metrics import StreamMeter
 from uavbus.sim.nullmodem import RelayFaults
 from uavbus.sim.portalloc import PortAllocator
@@ -36,10 +36,11 @@ C_NODES = ("secondary", "backup", "primary")   # start order: the TCP server bef
 
 def catalogue_for(program: Path) -> Path:
     """The catalogue the program was built with: <build>/examples/uavbus/flightsw/flightsw.catalogue.json
-    ($UAVBUS_CATALOGUE overrides)."""
+    for <build>/programs/node/uavbus_node ($UAVBUS_CATALOGUE overrides)."""
     if os.environ.get("UAVBUS_CATALOGUE"):
         return Path(os.environ["UAVBUS_CATALOGUE"])
-    p = program.resolve().parent.parent / "uavbus" / "flightsw" / "flightsw.catalogue.json"
+    build = program.resolve().parents[len(PROGRAM_DIR.parts)]
+    p = build / "examples" / "uavbus" / "flightsw" / "flightsw.catalogue.json"
     if not p.exists():
         raise FileNotFoundError(f"{p}: no catalogue beside {program}; build the examples with CMake")
     return p

@@ -1,6 +1,6 @@
 """Child processes speaking the `uavbus_node` protocol: JSON lines on stdout, line commands on stdin.
 
-`NodeProcess` starts one program (normally ``uavbus_node``, examples/node/README.md), reads its stdout in
+`NodeProcess` starts one program (normally ``uavbus_node``, programs/node/README.md), reads its stdout in
 a thread (every line a JSON event: ready, stats, rebound, error; a line that is not UTF-8, not JSON or not
 an object is kept as a ``text`` event with the reason, counted in ``bad_lines``, and never stops the
 reader),
