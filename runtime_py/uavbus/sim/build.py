@@ -1,4 +1,5 @@
-"""Finding (and if needed building) the C node program `uavbus_node` (Contract 2).
+"""Finding (and if needed building) the C node program `uavbus_node` (programs/node; its protocol:
+docs/program-protocol.md, uavbus.sim.protocol).
 
 Order: $UAVBUS_NODE (a path to the program); else the build directory $UAVBUS_BUILD_DIR (default
 <repo>/build, the one `make test` builds), configured with CMake + Ninja if needed and brought up to

@@ -27,6 +27,7 @@ from uavbus.sim.metrics import StreamMeter
 from uavbus.sim.nullmodem import RelayFaults
 from uavbus.sim.portalloc import PortAllocator
 from uavbus.sim.process import NodeError, NodeProcess, ProcessGroup, is_addr_in_use
+from uavbus.sim.protocol import ERROR, READY, REBOUND, STATS
 from uavbus.sim.topology import TABLE2_NODES, Topology, table2
 
 __all__ = ["HitlOptions", "Hitl", "catalogue_for", "timetag_latency_ms", "C_NODES"]
@@ -241,7 +242,7 @@ class Hitl:
         proc = self.group[name]
         m = proc.mark()
         proc.send("stats")
-        return self.child_event(name, "stats", timeout, since=m)
+        return self.child_event(name, STATS, timeout, since=m)
 
     def add_row(self, kind: str, content: str, source: str, destination: str, period_ms: int) -> Any:
         row = self.admin.add(content=content, source=source, destination=destination, period_ms=period_ms,
@@ -278,7 +279,7 @@ class Hitl:
                 current.rename(current.with_name(f"{name}.run{proc.starts}.ublog"))
         proc.start()
         run = proc.starts
-        return self.child_event(name, lambda e: e.get("event") == "ready" and e.get("_run") == run,
+        return self.child_event(name, lambda e: e.get("event") == READY and e.get("_run") == run,
                                 self.opts.ready_timeout)
 
     def rebind(self, name: str, link: str, spec: str, timeout: float = 3.0) -> dict[str, Any]:
@@ -287,10 +288,10 @@ class Hitl:
         proc.send(f"rebind {link} {spec}")
 
         def answered(e: dict[str, Any]) -> bool:
-            return e.get("event") in ("rebound", "error")
+            return e.get("event") in (REBOUND, ERROR)
 
         ev = self.child_event(name, answered, timeout, since=m)
-        if ev.get("event") == "error":
+        if ev.get("event") == ERROR:
             raise NodeError(f"{name}: rebind {link} {spec}: {ev.get('message')}")
         return ev
 
