@@ -236,7 +236,10 @@ void ub_app_parse(ub_app_t *app, const ub_app_program_t *prog, int argc, char **
             ub_app_die(app, "%s:argv[%d]: unknown option '%s' (see --help)", name, i - 1, a);
         }
     }
-    if (app->config_path == NULL) ub_app_die(app, "%s: --config FILE is required %s", name, prog->config_hint);
+    if (app->config_path == NULL) {
+        ub_app_die(app, "%s: --config FILE is required%s%s", name, prog->config_hint ? " " : "",
+                   prog->config_hint ? prog->config_hint : "");
+    }
     /* Fully buffered: every event is written whole by ub_app_flush(), never a part of one. */
     setvbuf(stdout, NULL, _IOFBF, 1 << 16);
     signals();
@@ -348,7 +351,8 @@ void ub_app_command(ub_app_t *app, char *line, uint64_t now_ms) {
         if (app->prog->stats != NULL) app->prog->stats(app, now_ms, false);
     } else if (app->prog->command == NULL || !app->prog->command(app, verb, &save, now_ms)) {
         char msg[256];
-        snprintf(msg, sizeof msg, "unknown command '%.40s' (expected: %s)", verb, app->prog->commands);
+        snprintf(msg, sizeof msg, "unknown command '%.40s' (expected: %s)", verb,
+                 app->prog->commands != NULL ? app->prog->commands : "stats, quit");
         ub_app_error(app, msg);
     }
 }
@@ -404,7 +408,8 @@ int ub_app_run(ub_app_t *app) {
             fds[n++] = (struct pollfd){.fd = STDIN_FILENO, .events = POLLIN};
         }
         /* Sleep until the next due time: a port's, the stats', the end's -- and at most
-         * UB_APP_MAX_WAIT_MS, for the node's publications and the program's own timers. */
+         * UB_APP_MAX_WAIT_MS, for the node's publications and the program's own timers (the node
+         * offers no "next due" query yet; with one, this cap becomes that time). */
         uint64_t due = min_u64(next_stats, end);
         int cap = due <= now ? 0 : (int)min_u64(due - now, UB_APP_MAX_WAIT_MS);
         if (poll(fds, (nfds_t)n, ub_ports_poll_timeout(&app->ports, now, cap)) < 0 && errno != EINTR) {
