@@ -136,15 +136,15 @@ static void usage(FILE *f) {
             fleet_usage);
 }
 
-#define MS "a whole number of milliseconds"
-
 /* The node's options (the shell takes its own first). */
 static bool option(ub_app_t *app, const char *a, const char *v, int i) {
     options_t *o = &g_opt;
     if (strcmp(a, "--record-tx") == 0) o->record_tx = true;
     else if (strcmp(a, "--record") == 0) o->record = v;
-    else if (strcmp(a, "--record-max-bytes") == 0) o->rotation.max_bytes = ub_app_parse_uint(app, v, i, UINT64_MAX, "a whole number of bytes");
-    else if (strcmp(a, "--record-max-ms") == 0) o->rotation.max_ms = ub_app_parse_uint(app, v, i, UINT64_MAX, MS);
+    else if (strcmp(a, "--record-max-bytes") == 0)
+        o->rotation.max_bytes = ub_app_parse_uint(app, v, i, UINT64_MAX, "a whole number of bytes");
+    else if (strcmp(a, "--record-max-ms") == 0)
+        o->rotation.max_ms = ub_app_parse_uint(app, v, i, UINT64_MAX, "a whole number of milliseconds");
     else if (strcmp(a, "--record-max-files") == 0) {
         uint64_t n = ub_app_parse_uint(app, v, i, UINT64_MAX, "a whole number of files");
         if (n > UINT32_MAX) ub_app_die(app, "uavbus_node:argv[%d]: '%s' files is too many (at most %u)", i, v, UINT32_MAX);
