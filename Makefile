@@ -111,11 +111,12 @@ coverage: setup
 	runtime_c/tools/coverage.sh $(BUILD_COV)
 
 # The paper's HITL and Table 1 scenarios end to end (examples/demo/hitl_demo.py). The CMake build
-# generates the flightsw catalogue through uavbus_generate() and builds the C node program.
+# generates the flightsw catalogue through uavbus_generate() and builds the C programs (uavbus_node, and
+# uavbus_mavbridge where the build's Python has pymavlink: docs/bridges.md).
 demo: setup
 	cmake -S . -B $(BUILD) -G Ninja -DUAVBUS_PYTHON=$(abspath $(VPY)) >/dev/null
-	cmake --build $(BUILD) --target uavbus_node
-	$(VPY) examples/demo/hitl_demo.py --out demo-out --program $(BUILD)/examples/node/uavbus_node
+	cmake --build $(BUILD) --target uavbus_node $$(test -f $(BUILD)/mavbridge.json && echo uavbus_mavbridge)
+	$(VPY) examples/demo/hitl_demo.py --out demo-out --program $(BUILD)/programs/node/uavbus_node
 
 # Measurements, not tests: optimised build of the tools, results in bench/results.md. BENCH_BASE=REF adds
 # figures 1-3 over the runtime of git REF, interleaved in the same run (before and after a core change).

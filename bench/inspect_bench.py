@@ -8,7 +8,7 @@ INSPECT_VALUE, the C requester polled by the Python node, timed with perf_counte
 is a Python UDP echo on loopback (the same socket path without the router). Reads alternate between the
 targets so load drifts hit both alike. Prints one line per series for bench/inspect_tables.py.
 
-    .venv/bin/python bench/inspect_bench.py [--program build/examples/node/uavbus_node] [--n 300]
+    .venv/bin/python bench/inspect_bench.py [--program build/programs/node/uavbus_node] [--n 300]
 """
 
 from __future__ import annotations

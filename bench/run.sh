@@ -204,7 +204,7 @@ echo "cmake -S examples/mcu -DCMAKE_BUILD_TYPE=MinSizeRel -DCMAKE_TOOLCHAIN_FILE
 
 # ---- figure 7: the bridges (MAVLink, Zenoh) beside the same paths without them ----
 say "figure 7: bridges"
-cmake --build "$build" --target uavbus_mavbridge_prog uavbus_node >/dev/null
+cmake --build "$build" --target uavbus_mavbridge uavbus_node >/dev/null
 timed bridges "$VPY" bench/bridges_bench.py --build "$build" --out "$raw/bridges.json" --runs "${BRIDGE_RUNS:-3}"
 
 # ---- figure 8: fleets (issue 12): 10, 30, 100 vehicles + 2 ground stations in process; 30 as processes ----
@@ -225,7 +225,7 @@ for n in 10 30 100; do timed fleet "$bin/fleet_bench" "$n" >>"$raw/fleet.txt"; d
 cmake -S . -B "$build/fleet-node" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DUAVBUS_BUILD_TESTS=OFF \
   -DUAVBUS_PYTHON="$VPY" "-DCMAKE_C_FLAGS=-DUB_MAX_ENTITIES=64 -DUB_DEDUP_SOURCES=64" >/dev/null
 cmake --build "$build/fleet-node" --target uavbus_node >/dev/null
-timed fleet "$VPY" bench/fleet_procs.py "$build/fleet-node/examples/node/uavbus_node" 30 --out "$build/fleet-procs" \
+timed fleet "$VPY" bench/fleet_procs.py "$build/fleet-node/programs/node/uavbus_node" 30 --out "$build/fleet-procs" \
   >>"$raw/fleet.txt" 2>"$raw/fleet_procs.log"
 
 # ---- figure 9: the wire for real radios (issue 15): bytes per message, messages/s through a 57,600-baud radio ----

@@ -27,12 +27,12 @@ def mavbridge() -> dict[str, str]:
     info = build_dir() / "mavbridge.json"
     if not info.exists():
         pytest.fail(f"{info} is missing: the MAVLink bridge is not built. Run `make test-c` (or "
-                    f"`cmake --build {build_dir()} --target uavbus_mavbridge_prog`) first; it needs pymavlink "
+                    f"`cmake --build {build_dir()} --target uavbus_mavbridge`) first; it needs pymavlink "
                     "in the build's Python (make setup)")
     data = json.loads(info.read_text())
     for key in ("program", "catalogue"):
         if not Path(data[key]).exists():
-            pytest.fail(f"{data[key]} (from {info}) does not exist: build target uavbus_mavbridge_prog")
+            pytest.fail(f"{data[key]} (from {info}) does not exist: build target uavbus_mavbridge")
     return data
 
 

@@ -1,7 +1,7 @@
 """System tests: several processes on 127.0.0.1 (issue 4 acceptance, issue 6 short demo).
 
-They need the C node program (examples/node, built through uavbus_generate()) and the Python GCS
-(uavbus.Node). The program is $UAVBUS_NODE, else <$UAVBUS_BUILD_DIR or build/>/examples/node/uavbus_node,
+They need the C node program (programs/node, on the catalogue uavbus_generate() builds) and the Python
+GCS (uavbus.Node). The program is $UAVBUS_NODE, else <$UAVBUS_BUILD_DIR or build/>/programs/node/uavbus_node,
 which `make test` builds (test-c) before it runs pytest; pytest itself never runs a build. A missing
 program fails the tests (with how to build it) rather than skipping them: a skipped acceptance test
 would look green.

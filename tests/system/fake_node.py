@@ -1,4 +1,4 @@
-"""A stand-in speaking the uavbus_node stdin/stdout protocol (Contract 2), for testing the harness alone.
+"""A stand-in speaking the uavbus_node stdin/stdout protocol (docs/program-protocol.md), for testing the harness alone.
 
     fake_node.py NAME [--fail MESSAGE] [--stats-ms N]
 """

@@ -4,7 +4,7 @@
  *        fixed position, as a pure function of time.
  *
  * One implementation for every simulated vehicle: the C node program
- * (examples/node, through node_motion.c) and Python's in-process vehicles
+ * (programs/node, through node_motion.c) and Python's in-process vehicles
  * and scenario launcher (uavbus.sim.flight, through cffi) sample the same
  * model, so a vehicle moves the same way whichever process hosts it and the
  * launcher knows where every vehicle is (range-based connectivity) without

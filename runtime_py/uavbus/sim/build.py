@@ -1,4 +1,5 @@
-"""Finding (and if needed building) the C node program `uavbus_node` (Contract 2).
+"""Finding (and if needed building) the C node program `uavbus_node` (programs/node; its protocol:
+docs/program-protocol.md, uavbus.sim.protocol).
 
 Order: $UAVBUS_NODE (a path to the program); else the build directory $UAVBUS_BUILD_DIR (default
 <repo>/build, the one `make test` builds), configured with CMake + Ninja if needed and brought up to
@@ -18,10 +19,11 @@ __all__ = ["REPO", "node_program", "NodeProgramMissing"]
 
 REPO = Path(__file__).resolve().parents[3]
 NODE_TARGET = "uavbus_node"
+PROGRAM_DIR = Path("programs") / "node"  # in the source tree and in the build directory (programs/node/CMakeLists.txt)
 
 
 class NodeProgramMissing(RuntimeError):
-    """The program cannot be built here (no cmake/ninja, or room A's examples/node not there yet)."""
+    """The program cannot be built here (no cmake/ninja, or the sources of programs/node are missing)."""
 
 
 def node_program(build_dir: str | Path | None = None, *, build: bool = True, quiet: bool = True) -> Path:
@@ -32,13 +34,13 @@ def node_program(build_dir: str | Path | None = None, *, build: bool = True, qui
             raise NodeProgramMissing(f"UAVBUS_NODE={env_prog}: not an executable file; unset it or fix the path")
         return p
     bdir = Path(build_dir or os.environ.get("UAVBUS_BUILD_DIR") or REPO / "build")
-    prog = bdir / "examples" / "node" / NODE_TARGET
+    prog = bdir / PROGRAM_DIR / NODE_TARGET
     if not build:
         if prog.exists():
             return prog
         raise NodeProgramMissing(f"{prog}: not built; run `make test` or `cmake --build {bdir} --target uavbus_node`")
-    if not (REPO / "examples" / "node").is_dir():
-        raise NodeProgramMissing(f"{REPO / 'examples' / 'node'}: the node program's sources are missing")
+    if not (REPO / PROGRAM_DIR).is_dir():
+        raise NodeProgramMissing(f"{REPO / PROGRAM_DIR}: the node program's sources are missing")
     if shutil.which("cmake") is None or shutil.which("ninja") is None:
         raise NodeProgramMissing("cmake and ninja are needed to build uavbus_node: run `make setup`")
     out = subprocess.DEVNULL if quiet else None

@@ -36,6 +36,7 @@ from uavbus.sim.flight import FlightModel, VehicleDirectories
 from uavbus.sim.nullmodem import NullModem
 from uavbus.sim.portalloc import PortAllocator
 from uavbus.sim.process import NodeError, NodeProcess, ProcessGroup
+from uavbus.sim.protocol import ERROR, FLOWS, READY, ROUTES, STATS
 from uavbus.sim.scenario import FlowSpec, LinkSpec, Scenario, Station
 
 __all__ = ["FleetRun", "FlowTrack"]
@@ -432,14 +433,14 @@ class FleetRun:
     def _on_process_event(self, m: Member, ev: dict[str, Any]) -> None:
         kind = ev.get("event")
         run = int(ev.get("_run", 0))
-        if kind == "ready" and m.starting and run == m.proc.starts:
+        if kind == READY and m.starting and run == m.proc.starts:
             m.starting = False
             m.up = True
             for e in m.links:
                 link = self._link_of(e)
                 if link.created:
                     self._impair(link)
-        elif kind == "flows":
+        elif kind == FLOWS:
             seen = m.flows_seen.setdefault(run, {})
             t = ev["t_ms"] / 1000.0 - self.epoch
             for fl in ev["flows"]:
@@ -458,12 +459,12 @@ class FleetRun:
                 tr.first = first if tr.first is None else min(tr.first, first)
                 for a, b in fl["recent_gaps"]:
                     tr.gaps.add((round(a / 1000.0 - self.epoch, 3), round(b / 1000.0 - self.epoch, 3)))
-        elif kind == "routes":
+        elif kind == ROUTES:
             frames = {name: int(li["frames_out"]) for name, li in ev.get("links", {}).items()}
             m.routes_seen.append((ev["t_ms"] / 1000.0 - self.epoch, run, frames))
-        elif kind == "stats":
+        elif kind == STATS:
             self.final_stats[m.name] = ev
-        elif kind == "error":
+        elif kind == ERROR:
             self.log(f"[{self.sc.name}] {m.name}: {ev.get('message')}")
 
     def _drain(self) -> None:

@@ -1,5 +1,5 @@
 """The simulated vehicles' flight model, from Python: the C runtime's ub_motion (the one uavbus_node flies,
-examples/node/node_motion.c), so a vehicle moves the same way whichever process hosts it.
+programs/node/node_motion.c), so a vehicle moves the same way whichever process hosts it.
 
 `FlightModel(text)` parses the text form ("orbit:r=150,v=12", "waypoints:v=15,pts=0/0;900/0",
 "static:n=-50"); `sample(t_s)` gives position and motion at t seconds after the path's start.

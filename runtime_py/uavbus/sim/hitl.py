@@ -22,11 +22,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from uavbus.sim.build import REPO, node_program
+from uavbus.sim.build import PROGRAM_DIR, REPO, node_program
 from uavbus.sim.metrics import StreamMeter
 from uavbus.sim.nullmodem import RelayFaults
 from uavbus.sim.portalloc import PortAllocator
 from uavbus.sim.process import NodeError, NodeProcess, ProcessGroup, is_addr_in_use
+from uavbus.sim.protocol import ERROR, READY, REBOUND, STATS
 from uavbus.sim.topology import TABLE2_NODES, Topology, table2
 
 __all__ = ["HitlOptions", "Hitl", "catalogue_for", "timetag_latency_ms", "C_NODES"]
@@ -36,10 +37,11 @@ C_NODES = ("secondary", "backup", "primary")   # start order: the TCP server bef
 
 def catalogue_for(program: Path) -> Path:
     """The catalogue the program was built with: <build>/examples/uavbus/flightsw/flightsw.catalogue.json
-    ($UAVBUS_CATALOGUE overrides)."""
+    for <build>/programs/node/uavbus_node ($UAVBUS_CATALOGUE overrides)."""
     if os.environ.get("UAVBUS_CATALOGUE"):
         return Path(os.environ["UAVBUS_CATALOGUE"])
-    p = program.resolve().parent.parent / "uavbus" / "flightsw" / "flightsw.catalogue.json"
+    build = program.resolve().parents[len(PROGRAM_DIR.parts)]
+    p = build / "examples" / "uavbus" / "flightsw" / "flightsw.catalogue.json"
     if not p.exists():
         raise FileNotFoundError(f"{p}: no catalogue beside {program}; build the examples with CMake")
     return p
@@ -240,7 +242,7 @@ class Hitl:
         proc = self.group[name]
         m = proc.mark()
         proc.send("stats")
-        return self.child_event(name, "stats", timeout, since=m)
+        return self.child_event(name, STATS, timeout, since=m)
 
     def add_row(self, kind: str, content: str, source: str, destination: str, period_ms: int) -> Any:
         row = self.admin.add(content=content, source=source, destination=destination, period_ms=period_ms,
@@ -277,7 +279,7 @@ class Hitl:
                 current.rename(current.with_name(f"{name}.run{proc.starts}.ublog"))
         proc.start()
         run = proc.starts
-        return self.child_event(name, lambda e: e.get("event") == "ready" and e.get("_run") == run,
+        return self.child_event(name, lambda e: e.get("event") == READY and e.get("_run") == run,
                                 self.opts.ready_timeout)
 
     def rebind(self, name: str, link: str, spec: str, timeout: float = 3.0) -> dict[str, Any]:
@@ -286,10 +288,10 @@ class Hitl:
         proc.send(f"rebind {link} {spec}")
 
         def answered(e: dict[str, Any]) -> bool:
-            return e.get("event") in ("rebound", "error")
+            return e.get("event") in (REBOUND, ERROR)
 
         ev = self.child_event(name, answered, timeout, since=m)
-        if ev.get("event") == "error":
+        if ev.get("event") == ERROR:
             raise NodeError(f"{name}: rebind {link} {spec}: {ev.get('message')}")
         return ev
 

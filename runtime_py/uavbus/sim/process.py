@@ -1,9 +1,9 @@
 """Child processes speaking the `uavbus_node` protocol: JSON lines on stdout, line commands on stdin.
 
-`NodeProcess` starts one program (normally ``uavbus_node``, examples/node/README.md), reads its stdout in
-a thread (every line a JSON event: ready, stats, rebound, error; a line that is not UTF-8, not JSON or not
-an object is kept as a ``text`` event with the reason, counted in ``bad_lines``, and never stops the
-reader),
+`NodeProcess` starts one program (normally ``uavbus_node``, programs/node/README.md), reads its stdout in
+a thread (every line a JSON event: ready, stats, rebound, error, ... -- docs/program-protocol.md, the names
+from `uavbus.sim.protocol`; a line that is not UTF-8, not JSON or not an object is kept as a ``text``
+event with the reason, counted in ``bad_lines``, and never stops the reader),
 keeps the tail of stderr for error messages, and can be sent commands, killed with -9 and restarted with
 the same arguments. `ProcessGroup` owns several and guarantees that every process it started is gone when
 it closes -- on success, on an exception, on Ctrl-C, and at interpreter exit (atexit). Each child runs in
@@ -27,6 +27,8 @@ import weakref
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
+
+from uavbus.sim.protocol import ERROR, READY, STATS
 
 __all__ = ["NodeError", "NodeProcess", "ProcessGroup", "is_addr_in_use"]
 
@@ -235,7 +237,7 @@ class NodeProcess:
                 while i < len(self.events):
                     ev = self.events[i]
                     i += 1
-                    if ev.get("event") == "error" and what == "ready":
+                    if ev.get("event") == ERROR and what == READY:
                         raise NodeError(f"{self.name}: {ev.get('message')}")
                     if pred(ev):
                         return ev
@@ -251,14 +253,14 @@ class NodeProcess:
 
     def wait_ready(self, timeout: float = 5.0) -> Event:
         run = self.starts
-        return self.wait_event(lambda e: e.get("event") == "ready" and e.get("_run") == run, timeout,
-                               since=0, what="ready")
+        return self.wait_event(lambda e: e.get("event") == READY and e.get("_run") == run, timeout,
+                               since=0, what=READY)
 
     def request_stats(self, timeout: float = 3.0) -> Event:
         """Sends ``stats`` and returns the next stats event."""
         m = self.mark()
         self.send("stats")
-        return self.wait_event("stats", timeout, since=m)
+        return self.wait_event(STATS, timeout, since=m)
 
     def last(self, name: str) -> Event | None:
         with self._cond:

@@ -4,7 +4,7 @@
  * member / announce), a simulated vehicle's flight path (--produce,
  * --motion, --epoch-ms) and per-flow delivery reports (--flows-ms, `flows`).
  * uavbus_node.c calls these hooks; everything here goes through the runtime's
- * public API (ub_route.h, ub_member.h, ub_motion.h).
+ * public API (ub_route.h, ub_member.h, ub_motion.h) and the program shell (ub_app.h).
  */
 #ifndef NODE_FLEET_H
 #define NODE_FLEET_H
@@ -13,6 +13,7 @@
 #include <stdint.h>
 
 #include "node_motion.h"
+#include "ub_app.h"
 #include "ub/ub_node.h"
 #include "ub/ub_ports.h"
 
@@ -21,7 +22,7 @@ extern const char fleet_usage[];
 
 /* Command-line option `opt` with its value `val` (argv[argi]): true if it is one of ours. Exits with a
  * `uavbus_node:argv[i]: ...` message on a bad value. */
-bool fleet_option(const char *opt, const char *val, int argi);
+bool fleet_option(ub_app_t *app, const char *opt, const char *val, int argi);
 
 /* Who produces directory `name` here: with --produce ENTITY, ENTITY for gpsOut, imuOut and navFilterState
  * (a simulated vehicle); otherwise `dflt`. */
@@ -31,8 +32,8 @@ const char *fleet_producer(const char *name, const char *dflt);
 uint64_t fleet_epoch_ms(uint64_t start_ms);
 
 /* Once the node is configured and its directories bound: the motion path, the routing engine, the
- * membership requester with its link handler (over `ports`). Exits on a bad option value. */
-void fleet_setup(ub_node_t *node, ub_ports_t *ports, node_motion_t *motion, uint64_t now_ms);
+ * membership requester with its link handler (over the app's ports). Exits on a bad option value. */
+void fleet_setup(ub_app_t *app, node_motion_t *motion, uint64_t now_ms);
 
 /* A stdin command whose first word is `verb` (`save` continues strtok_r over the line): true if it was
  * ours (answered with an event). */

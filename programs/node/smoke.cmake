@@ -1,4 +1,4 @@
-# Smoke test of uavbus_node (ctest examples_uavbus_node_smoke): one process with a UDP port publishing
+# Smoke test of uavbus_node (ctest programs_uavbus_node_smoke): one process with a UDP port publishing
 # gpsOut for 300 ms exits 0 with a ready event, stats and frames sent; a bad port spec exits 2 with a
 # message naming the argument. The multi-process behaviour is tested from Python (tests/system).
 #   cmake -DNODE=<uavbus_node> -DCONFIG=<table2.json> -P smoke.cmake

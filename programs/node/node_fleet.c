@@ -1,14 +1,12 @@
 /* The fleet features of uavbus_node (node_fleet.h). State is static, as in uavbus_node.c: one node per process. */
 #include "node_fleet.h"
 
-#include <errno.h>
 #include <inttypes.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "flightsw.h"
-#include "node_out.h"
 #include "ub/ub_impair.h"
 #include "ub/ub_link.h"
 #include "ub/ub_member.h"
@@ -49,6 +47,7 @@ static struct {
     uint64_t flow_gap_ms;
 } g_opt = {.flow_gap_ms = 300};
 
+static ub_app_t *g_app; /* the program shell: its JSON-lines output, its node and ports */
 static ub_node_t *g_node_p;
 static ub_ports_t *g_ports_p;
 static ub_route_t g_route;
@@ -63,15 +62,13 @@ static uint64_t g_next_flows_ms;
 /* ---- options ------------------------------------------------------------------------------------------ */
 
 static uint64_t number(const char *s, int argi, const char *what) {
-    char *end = NULL;
-    errno = 0;
-    unsigned long long v = strtoull(s, &end, 10);
-    if (s[0] == '\0' || s[0] == '-' || *end != '\0' || errno != 0)
-        die("uavbus_node:argv[%d]: '%s' is not a whole number (%s)", argi, s, what);
-    return (uint64_t)v;
+    char text[64];
+    snprintf(text, sizeof text, "a whole number (%s)", what);
+    return ub_app_parse_uint(g_app, s, argi, UINT64_MAX, text);
 }
 
-bool fleet_option(const char *opt, const char *val, int argi) {
+bool fleet_option(ub_app_t *app, const char *opt, const char *val, int argi) {
+    g_app = app;
     if (strcmp(opt, "--route") == 0) g_opt.route = val;
     else if (strcmp(opt, "--produce") == 0) g_opt.produce = val;
     else if (strcmp(opt, "--motion") == 0) g_opt.motion = val;
@@ -98,12 +95,12 @@ static void parse_route(const char *text, ub_route_options_t *ro) {
     memset(ro, 0, sizeof *ro);
     if (strcmp(text, "on") == 0) return;
     char buf[256];
-    if (strlen(text) >= sizeof buf) die("uavbus_node: --route '%.40s...': too long", text);
+    if (strlen(text) >= sizeof buf) ub_app_die(g_app, "uavbus_node: --route '%.40s...': too long", text);
     strcpy(buf, text);
     char *save = NULL;
     for (char *kv = strtok_r(buf, ",", &save); kv != NULL; kv = strtok_r(NULL, ",", &save)) {
         char *eq = strchr(kv, '=');
-        if (eq == NULL) die("uavbus_node: --route '%s': expected KEY=VALUE (hello, update, dead, parallel, learn, gap)", kv);
+        if (eq == NULL) ub_app_die(g_app, "uavbus_node: --route '%s': expected KEY=VALUE (hello, update, dead, parallel, learn, gap)", kv);
         *eq = '\0';
         const char *v = eq + 1;
         char *end = NULL;
@@ -112,9 +109,9 @@ static void parse_route(const char *text, ub_route_options_t *ro) {
         if (strcmp(kv, "parallel") == 0) {
             if (strcmp(v, "all") == 0) ro->parallel = UB_ROUTE_PARALLEL_ALL;
             else if (strcmp(v, "best") == 0) ro->parallel = UB_ROUTE_PARALLEL_BEST;
-            else die("uavbus_node: --route parallel=%s: expected all or best", v);
+            else ub_app_die(g_app, "uavbus_node: --route parallel=%s: expected all or best", v);
         } else if (!num) {
-            die("uavbus_node: --route %s=%s: expected a whole number", kv, v);
+            ub_app_die(g_app, "uavbus_node: --route %s=%s: expected a whole number", kv, v);
         } else if (strcmp(kv, "hello") == 0) {
             ro->hello_ms = (uint32_t)n;
         } else if (strcmp(kv, "update") == 0) {
@@ -126,7 +123,7 @@ static void parse_route(const char *text, ub_route_options_t *ro) {
         } else if (strcmp(kv, "learn") == 0 && n <= 1) {
             ro->no_learn = n == 0;
         } else {
-            die("uavbus_node: --route %s=%s: unknown key or value out of range (hello, update, gap: ms; dead: 1..16; "
+            ub_app_die(g_app, "uavbus_node: --route %s=%s: unknown key or value out of range (hello, update, gap: ms; dead: 1..16; "
                 "learn: 0|1; parallel: all|best)",
                 kv, v);
         }
@@ -165,8 +162,8 @@ static int link_handler(void *user, ub_node_t *node, int entity, ub_member_op_t 
         if (id < 0) return id;
         char err[UB_PORTS_ERR_LEN];
         if (spec[0] != '\0' && ub_ports_open_text(g_ports_p, name, spec, now_ms, err, sizeof err) != UB_OK) {
-            event_error(err);
-            if (ub_node_remove_link(node, id) != UB_OK) event_error("link add: could not take the new link back");
+            ub_app_error(g_app, err);
+            if (ub_node_remove_link(node, id) != UB_OK) ub_app_error(g_app, "link add: could not take the new link back");
             return UB_ERR_INVAL;
         }
         return UB_OK;
@@ -179,21 +176,21 @@ static int link_handler(void *user, ub_node_t *node, int entity, ub_member_op_t 
 }
 
 static void answer(const char *command, uint8_t reason, bool changed) {
-    out("{\"event\":\"membership\",\"command\":");
-    out_str(command, SIZE_MAX);
-    out(",\"ok\":%s,\"changed\":%s", reason == 0 ? "true" : "false", changed ? "true" : "false");
-    if (reason != 0) out(",\"reason\":\"%s\"", reason_name(reason));
-    out(",\"entities\":%" PRIu64 ",\"links\":%" PRIu64 "}", ub_node_counters(g_node_p)->entities_added -
+    ub_app_out(g_app, "{\"event\":\"membership\",\"command\":");
+    ub_app_str(g_app, command, SIZE_MAX);
+    ub_app_out(g_app, ",\"ok\":%s,\"changed\":%s", reason == 0 ? "true" : "false", changed ? "true" : "false");
+    if (reason != 0) ub_app_out(g_app, ",\"reason\":\"%s\"", reason_name(reason));
+    ub_app_out(g_app, ",\"entities\":%" PRIu64 ",\"links\":%" PRIu64 "}", ub_node_counters(g_node_p)->entities_added -
                                                                  ub_node_counters(g_node_p)->entities_removed,
         ub_node_counters(g_node_p)->links_added - ub_node_counters(g_node_p)->links_removed);
-    out_flush();
+    ub_app_flush(g_app);
 }
 
 static bool set_id(const char *name, uint8_t id[UB_ENTITY_ID_LEN], const char *what) {
     char msg[320];
     if (name == NULL || ub_entity_id(name, id) != UB_OK) {
         snprintf(msg, sizeof msg, "%s: expected an entity name of 1 to 12 characters", what);
-        event_error(msg);
+        ub_app_error(g_app, msg);
         return false;
     }
     return true;
@@ -203,7 +200,7 @@ static bool parse_mask_arg(const char *text, uint8_t *mask, const char *what) {
     if (text != NULL && ub_link_mask_parse(text, mask) == UB_OK) return true;
     char msg[320];
     snprintf(msg, sizeof msg, "%s: expected a mask in the paper's notation, e.g. 0x00000011 (0x0 unpins)", what);
-    event_error(msg);
+    ub_app_error(g_app, msg);
     return false;
 }
 
@@ -215,26 +212,26 @@ static void link_impair(char **save) {
     uint64_t seed = 1;
     memset(&params, 0, sizeof params);
     if (name == NULL || spec == NULL) {
-        event_error("link impair: expected 'link impair NAME SPEC' (SPEC as --impair, or off)");
+        ub_app_error(g_app, "link impair: expected 'link impair NAME SPEC' (SPEC as --impair, or off)");
         return;
     }
     if (strcmp(spec, "off") != 0 && ub_impair_parse(spec, &params, &seed, err, sizeof err) != UB_OK) {
         snprintf(msg, sizeof msg, "link impair: %s", err);
-        event_error(msg);
+        ub_app_error(g_app, msg);
         return;
     }
     int rc = ub_ports_set_link_impairment(g_ports_p, name, &params, seed);
     if (rc != UB_OK) {
         snprintf(msg, sizeof msg, "link impair: '%s' has no open port", name);
-        event_error(msg);
+        ub_app_error(g_app, msg);
         return;
     }
-    out("{\"event\":\"impaired\",\"link\":");
-    out_str(name, SIZE_MAX);
-    out(",\"spec\":");
-    out_str(spec, SIZE_MAX);
-    out("}");
-    out_flush();
+    ub_app_out(g_app, "{\"event\":\"impaired\",\"link\":");
+    ub_app_str(g_app, name, SIZE_MAX);
+    ub_app_out(g_app, ",\"spec\":");
+    ub_app_str(g_app, spec, SIZE_MAX);
+    ub_app_out(g_app, "}");
+    ub_app_flush(g_app);
 }
 
 /* entity add|remove NAME; link add ENTITY INDEX NAME [SPEC] | link remove NAME; mask ENTITY DEST MASK */
@@ -261,7 +258,7 @@ static void local_change(const char *verb, char **save, uint64_t now_ms) {
         unsigned long index = idx != NULL ? strtoul(idx, &end, 10) : 99;
         if (entity < 0 || name == NULL || end == NULL || *end != '\0' || index >= UB_MAX_LINKS_PER_ENTITY ||
             strlen(name) >= UB_LINK_NAME_LEN || (spec != NULL && strlen(spec) >= UB_MEMBER_SPEC_LEN)) {
-            event_error("link add: expected 'link add ENTITY INDEX NAME [SPEC]' with a hosted ENTITY and INDEX 0..7, "
+            ub_app_error(g_app, "link add: expected 'link add ENTITY INDEX NAME [SPEC]' with a hosted ENTITY and INDEX 0..7, "
                         "e.g. link add uav1 2 radio2 udp:bind=127.0.0.1:0,peer=127.0.0.1:5001");
             return;
         }
@@ -273,7 +270,7 @@ static void local_change(const char *verb, char **save, uint64_t now_ms) {
         const char *name = strtok_r(NULL, SEP, save);
         int id = name != NULL ? ub_node_find_link(g_node_p, name) : -1;
         if (name == NULL || strlen(name) >= UB_LINK_NAME_LEN) {
-            event_error("link remove: expected 'link remove NAME'");
+            ub_app_error(g_app, "link remove: expected 'link remove NAME'");
             return;
         }
         if (id >= 0) entity = g_node_p->locals[ub_node_link(g_node_p, id)->owner].entity;
@@ -284,7 +281,7 @@ static void local_change(const char *verb, char **save, uint64_t now_ms) {
         const char *mask = strtok_r(NULL, SEP, save);
         entity = local_named(ent);
         if (entity < 0) {
-            event_error("mask: expected 'mask ENTITY DEST MASK' with a hosted ENTITY, e.g. mask uav1 gcs1 0x00000011");
+            ub_app_error(g_app, "mask: expected 'mask ENTITY DEST MASK' with a hosted ENTITY, e.g. mask uav1 gcs1 0x00000011");
             return;
         }
         if (!set_id(dest, s.subject, "mask") || !parse_mask_arg(mask, &s.mask, "mask")) return;
@@ -293,7 +290,7 @@ static void local_change(const char *verb, char **save, uint64_t now_ms) {
         char msg[320];
         snprintf(msg, sizeof msg, "%s: expected '%s'", command,
                  strcmp(verb, "entity") == 0 ? "entity add|remove NAME" : "link add ENTITY INDEX NAME [SPEC] | link remove NAME");
-        event_error(msg);
+        ub_app_error(g_app, msg);
         return;
     }
     bool changed = false;
@@ -302,27 +299,27 @@ static void local_change(const char *verb, char **save, uint64_t now_ms) {
 }
 
 static void report_member(int row, const ub_member_info_t *info) {
-    out("{\"event\":\"member\",\"row\":%d,\"op\":\"%s\",\"target\":", row, ub_member_op_name((ub_member_op_t)info->spec.op));
-    out_entity(info->spec.target);
+    ub_app_out(g_app, "{\"event\":\"member\",\"row\":%d,\"op\":\"%s\",\"target\":", row, ub_member_op_name((ub_member_op_t)info->spec.op));
+    ub_app_entity(g_app, info->spec.target);
     if (info->spec.op <= UB_MEMBER_SET_MASK) {
-        out(",\"subject\":");
-        out_entity(info->spec.subject);
+        ub_app_out(g_app, ",\"subject\":");
+        ub_app_entity(g_app, info->spec.subject);
     } else {
-        out(",\"link\":");
-        out_str(info->spec.link_name, sizeof info->spec.link_name);
+        ub_app_out(g_app, ",\"link\":");
+        ub_app_str(g_app, info->spec.link_name, sizeof info->spec.link_name);
     }
-    out(",\"status\":\"%s\",\"attempts\":%" PRIu32, ub_member_status_name((ub_member_status_t)info->status),
+    ub_app_out(g_app, ",\"status\":\"%s\",\"attempts\":%" PRIu32, ub_member_status_name((ub_member_status_t)info->status),
         info->attempts);
-    if (info->status == UB_MEMBER_DONE) out(",\"changed\":%s", info->changed ? "true" : "false");
-    if (info->status == UB_MEMBER_FAILED) out(",\"reason\":\"%s\"", info->nack_reason ? reason_name(info->nack_reason) : "no_answer");
-    out("}");
-    out_flush();
+    if (info->status == UB_MEMBER_DONE) ub_app_out(g_app, ",\"changed\":%s", info->changed ? "true" : "false");
+    if (info->status == UB_MEMBER_FAILED) ub_app_out(g_app, ",\"reason\":\"%s\"", info->nack_reason ? reason_name(info->nack_reason) : "no_answer");
+    ub_app_out(g_app, "}");
+    ub_app_flush(g_app);
 }
 
 static void submit(const ub_member_spec_t *s, uint64_t now_ms) {
     int row = ub_member_request(&g_member, s, now_ms);
     if (row < 0) {
-        event_error(row == UB_ERR_FULL ? "member: too many requests pending (wait for their answers)"
+        ub_app_error(g_app, row == UB_ERR_FULL ? "member: too many requests pending (wait for their answers)"
                                        : "member: invalid request");
         return;
     }
@@ -344,12 +341,12 @@ static void remote_change(const char *verb, char **save, uint64_t now_ms) {
             if (!set_id(t, s.target, "announce")) return;
             submit(&s, now_ms);
         }
-        if (n == 0) event_error("announce: expected 'announce SUBJECT TARGET...'");
+        if (n == 0) ub_app_error(g_app, "announce: expected 'announce SUBJECT TARGET...'");
         return;
     }
     const char *target = strtok_r(NULL, SEP, save), *op = strtok_r(NULL, SEP, save);
     if (!set_id(target, s.target, "member") || op == NULL) {
-        if (target != NULL) event_error("member: expected 'member TARGET OP ...' (see --help)");
+        if (target != NULL) ub_app_error(g_app, "member: expected 'member TARGET OP ...' (see --help)");
         return;
     }
     if (strcmp(op, "add_entity") == 0 || strcmp(op, "remove_entity") == 0 || strcmp(op, "set_mask") == 0) {
@@ -364,13 +361,13 @@ static void remote_change(const char *verb, char **save, uint64_t now_ms) {
         }
         const char *name = strtok_r(NULL, SEP, save), *spec = strtok_r(NULL, SEP, save);
         if (name == NULL || strlen(name) >= UB_LINK_NAME_LEN || (spec != NULL && strlen(spec) >= UB_MEMBER_SPEC_LEN)) {
-            event_error("member: expected 'member TARGET add_link INDEX NAME [SPEC]' or 'member TARGET remove_link NAME'");
+            ub_app_error(g_app, "member: expected 'member TARGET add_link INDEX NAME [SPEC]' or 'member TARGET remove_link NAME'");
             return;
         }
         strcpy(s.link_name, name);
         if (spec != NULL) strcpy(s.port_spec, spec);
     } else {
-        event_error("member: OP is add_entity, remove_entity, set_mask, add_link or remove_link");
+        ub_app_error(g_app, "member: OP is add_entity, remove_entity, set_mask, add_link or remove_link");
         return;
     }
     submit(&s, now_ms);
@@ -381,108 +378,108 @@ static void remote_change(const char *verb, char **save, uint64_t now_ms) {
 static void out_mask(uint8_t mask) {
     char text[11];
     ub_link_mask_format(mask, text);
-    out("\"%s\"", text);
+    ub_app_out(g_app, "\"%s\"", text);
 }
 
 static void event_routes(uint64_t now_ms) {
-    out("{\"event\":\"routes\",\"t_ms\":%" PRIu64 ",\"routing\":%s,\"entities\":{", now_ms, g_route_on ? "true" : "false");
+    ub_app_out(g_app, "{\"event\":\"routes\",\"t_ms\":%" PRIu64 ",\"routing\":%s,\"entities\":{", now_ms, g_route_on ? "true" : "false");
     bool first = true;
     for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) {
         const ub_local_entity_t *le = &g_node_p->locals[s];
         if (!le->in_use) continue;
-        out("%s", first ? "" : ",");
+        ub_app_out(g_app, "%s", first ? "" : ",");
         first = false;
-        out_entity(ub_node_entity_id(g_node_p, le->entity));
-        out(":{");
+        ub_app_entity(g_app, ub_node_entity_id(g_node_p, le->entity));
+        ub_app_out(g_app, ":{");
         bool dfirst = true;
         for (int d = 0; d < UB_MAX_ENTITIES; d++) {
             const uint8_t *id = ub_node_entity_id(g_node_p, d);
             if (id == NULL || d == le->entity) continue;
             uint8_t mask = 0;
             if (ub_node_get_mask(g_node_p, le->entity, d, &mask) != UB_OK) continue;
-            out("%s", dfirst ? "" : ",");
+            ub_app_out(g_app, "%s", dfirst ? "" : ",");
             dfirst = false;
-            out_entity(id);
-            out(":{\"mask\":");
+            ub_app_entity(g_app, id);
+            ub_app_out(g_app, ":{\"mask\":");
             out_mask(mask);
-            out(",\"pinned\":%s", ub_node_mask_pinned(g_node_p, le->entity, d) ? "true" : "false");
+            ub_app_out(g_app, ",\"pinned\":%s", ub_node_mask_pinned(g_node_p, le->entity, d) ? "true" : "false");
             ub_route_info_t ri;
             if (g_route_on && ub_route_get(&g_route, le->entity, d, &ri) == UB_OK) {
-                out(",\"local\":%s,\"reachable\":%s,\"metric\":%u,\"seqno\":%u,\"learned\":%s,\"starving\":%s",
+                ub_app_out(g_app, ",\"local\":%s,\"reachable\":%s,\"metric\":%u,\"seqno\":%u,\"learned\":%s,\"starving\":%s",
                     ri.local ? "true" : "false", ri.reachable ? "true" : "false", ri.metric, ri.seqno,
                     ri.learned ? "true" : "false", ri.starving ? "true" : "false");
                 if (ri.reachable) {
-                    out(",\"via\":");
-                    out_entity(ri.next_hop);
-                    out(",\"link\":");
-                    out_str(ub_node_link(g_node_p, ri.link_id)->name, UB_LINK_NAME_LEN);
+                    ub_app_out(g_app, ",\"via\":");
+                    ub_app_entity(g_app, ri.next_hop);
+                    ub_app_out(g_app, ",\"link\":");
+                    ub_app_str(g_app, ub_node_link(g_node_p, ri.link_id)->name, UB_LINK_NAME_LEN);
                 }
             }
-            out("}");
+            ub_app_out(g_app, "}");
         }
-        out("}");
+        ub_app_out(g_app, "}");
     }
-    out("},\"links\":{");
+    ub_app_out(g_app, "},\"links\":{");
     first = true;
     for (int id = 0; id < UB_MAX_NODE_LINKS; id++) {
         const ub_link_t *l = ub_node_link(g_node_p, id);
         ub_route_link_info_t li;
         if (l == NULL || !g_route_on || ub_route_link_info(&g_route, id, &li) != UB_OK) continue;
-        out("%s", first ? "" : ",");
+        ub_app_out(g_app, "%s", first ? "" : ",");
         first = false;
-        out_str(l->name, UB_LINK_NAME_LEN);
-        out(":{\"neighbour\":");
-        if (li.neighbour) out_entity(li.neighbour_id);
-        else out("null");
-        out(",\"cost\":%u,\"rxcost\":%u,\"txcost\":%u,\"frames_out\":%" PRIu64 ",\"hellos_out\":%" PRIu64
+        ub_app_str(g_app, l->name, UB_LINK_NAME_LEN);
+        ub_app_out(g_app, ":{\"neighbour\":");
+        if (li.neighbour) ub_app_entity(g_app, li.neighbour_id);
+        else ub_app_out(g_app, "null");
+        ub_app_out(g_app, ",\"cost\":%u,\"rxcost\":%u,\"txcost\":%u,\"frames_out\":%" PRIu64 ",\"hellos_out\":%" PRIu64
             ",\"triggered_out\":%" PRIu64 ",\"bytes_out\":%" PRIu64 ",\"frames_in\":%" PRIu64 ",\"bad_in\":%" PRIu64 "}",
             li.cost, li.rxcost, li.txcost, li.stats.frames_out, li.stats.hellos_out, li.stats.triggered_out,
             li.stats.bytes_out, li.stats.frames_in, li.stats.bad_in);
     }
-    out("}");
+    ub_app_out(g_app, "}");
     if (g_route_on) {
         const ub_route_counters_t *c = ub_route_counters(&g_route);
-        out(",\"counters\":{\"route_changes\":%" PRIu64 ",\"routes_found\":%" PRIu64 ",\"routes_lost\":%" PRIu64
+        ub_app_out(g_app, ",\"counters\":{\"route_changes\":%" PRIu64 ",\"routes_found\":%" PRIu64 ",\"routes_lost\":%" PRIu64
             ",\"unfeasible\":%" PRIu64 ",\"expired\":%" PRIu64 ",\"starvation_requests\":%" PRIu64
             ",\"seqno_bumps\":%" PRIu64 ",\"learned\":%" PRIu64 ",\"learn_full\":%" PRIu64 ",\"pinned_skips\":%" PRIu64 "}",
             c->route_changes, c->routes_found, c->routes_lost, c->unfeasible, c->expired, c->starvation_requests,
             c->seqno_bumps, c->learned, c->learn_full, c->pinned_skips);
     }
     const ub_node_counters_t *n = ub_node_counters(g_node_p);
-    out(",\"membership\":{\"entities_added\":%" PRIu64 ",\"entities_removed\":%" PRIu64 ",\"links_added\":%" PRIu64
+    ub_app_out(g_app, ",\"membership\":{\"entities_added\":%" PRIu64 ",\"entities_removed\":%" PRIu64 ",\"links_added\":%" PRIu64
         ",\"links_removed\":%" PRIu64 ",\"rows_stopped\":%" PRIu64 ",\"admin_rows_stopped\":%" PRIu64
         ",\"dedup_cleared\":%" PRIu64 ",\"applied\":%" PRIu64 ",\"refused\":%" PRIu64 "}}",
         n->entities_added, n->entities_removed, n->links_added, n->links_removed, n->rows_stopped, n->admin_rows_stopped,
         n->dedup_cleared, n->membership_applied, n->membership_refused);
-    out_flush();
+    ub_app_flush(g_app);
 }
 
 static void event_flows(uint64_t now_ms) {
-    out("{\"event\":\"flows\",\"t_ms\":%" PRIu64 ",\"gap_ms\":%" PRIu64 ",\"dropped\":%" PRIu64 ",\"flows\":[", now_ms,
+    ub_app_out(g_app, "{\"event\":\"flows\",\"t_ms\":%" PRIu64 ",\"gap_ms\":%" PRIu64 ",\"dropped\":%" PRIu64 ",\"flows\":[", now_ms,
         g_opt.flow_gap_ms, g_flows_dropped);
     bool first = true;
     for (int i = 0; i < MAX_FLOWS; i++) {
         const flow_t *f = &g_flows[i];
         if (!f->in_use) continue;
-        out("%s{\"entity\":", first ? "" : ",");
+        ub_app_out(g_app, "%s{\"entity\":", first ? "" : ",");
         first = false;
-        out_entity(ub_node_entity_id(g_node_p, f->entity));
-        out(",\"content\":");
-        out_str(flightsw_catalogue.instances[f->instance].name, SIZE_MAX);
-        out(",\"source\":");
-        out_entity(f->source);
-        out(",\"count\":%" PRIu64 ",\"hops\":%u,\"first_ms\":%" PRIu64 ",\"last_ms\":%" PRIu64 ",\"gaps\":%" PRIu64
+        ub_app_entity(g_app, ub_node_entity_id(g_node_p, f->entity));
+        ub_app_out(g_app, ",\"content\":");
+        ub_app_str(g_app, flightsw_catalogue.instances[f->instance].name, SIZE_MAX);
+        ub_app_out(g_app, ",\"source\":");
+        ub_app_entity(g_app, f->source);
+        ub_app_out(g_app, ",\"count\":%" PRIu64 ",\"hops\":%u,\"first_ms\":%" PRIu64 ",\"last_ms\":%" PRIu64 ",\"gaps\":%" PRIu64
             ",\"recent_gaps\":[",
             f->count, f->hops, f->first_ms, f->last_ms, f->gaps);
         uint64_t n = f->gaps < FLOW_GAPS ? f->gaps : FLOW_GAPS;
         for (uint64_t k = 0; k < n; k++) {
             uint64_t slot = (f->gaps - n + k) % FLOW_GAPS;
-            out("%s[%" PRIu64 ",%" PRIu64 "]", k ? "," : "", f->gap_from[slot], f->gap_to[slot]);
+            ub_app_out(g_app, "%s[%" PRIu64 ",%" PRIu64 "]", k ? "," : "", f->gap_from[slot], f->gap_to[slot]);
         }
-        out("]}");
+        ub_app_out(g_app, "]}");
     }
-    out("]}");
-    out_flush();
+    ub_app_out(g_app, "]}");
+    ub_app_flush(g_app);
 }
 
 void fleet_on_deliver(int entity, uint32_t instance, const ub_frame_header_t *h, uint64_t now_ms) {
@@ -521,19 +518,21 @@ void fleet_on_deliver(int entity, uint32_t instance, const ub_frame_header_t *h,
 
 /* ---- hooks --------------------------------------------------------------------------------------------- */
 
-void fleet_setup(ub_node_t *node, ub_ports_t *ports, node_motion_t *motion, uint64_t now_ms) {
+void fleet_setup(ub_app_t *app, node_motion_t *motion, uint64_t now_ms) {
+    ub_node_t *node = &app->node;
+    g_app = app;
     g_node_p = node;
-    g_ports_p = ports;
+    g_ports_p = &app->ports;
     char err[200];
     if (g_opt.motion != NULL && ub_motion_parse(g_opt.motion, &motion->path, err, sizeof err) != UB_OK)
-        die("uavbus_node: --motion: %s", err);
+        ub_app_die(g_app, "uavbus_node: --motion: %s", err);
     if (g_opt.produce != NULL && local_named(g_opt.produce) < 0)
-        die("uavbus_node: --produce %s: not an entity hosted by this node", g_opt.produce);
+        ub_app_die(g_app, "uavbus_node: --produce %s: not an entity hosted by this node", g_opt.produce);
     if (g_opt.route != NULL) {
         ub_route_options_t ro;
         parse_route(g_opt.route, &ro);
         if (ub_route_attach(&g_route, node, &ro, now_ms) != UB_OK)
-            die("uavbus_node: --route %s: out of range (hello 10..65535 ms, update >= hello)", g_opt.route);
+            ub_app_die(g_app, "uavbus_node: --route %s: out of range (hello 10..65535 ms, update >= hello)", g_opt.route);
         g_route_on = true;
     }
     int e = first_local();
@@ -549,7 +548,7 @@ bool fleet_command(const char *verb, char **save, uint64_t now_ms) {
         local_change(verb, save, now_ms);
     } else if (strcmp(verb, "member") == 0 || strcmp(verb, "announce") == 0) {
         if (g_member_on) remote_change(verb, save, now_ms);
-        else event_error("member: this node hosts no entity to send requests from");
+        else ub_app_error(g_app, "member: this node hosts no entity to send requests from");
     } else if (strcmp(verb, "routes") == 0) {
         event_routes(now_ms);
     } else if (strcmp(verb, "flows") == 0) {
@@ -567,7 +566,7 @@ void fleet_poll(uint64_t now_ms) {
         if (info.status == UB_MEMBER_PENDING) continue;
         report_member(r, &info);
         g_reported[r] = UB_MEMBER_FREE;
-        if (ub_member_forget(&g_member, r) != UB_OK) event_error("member: row vanished");
+        if (ub_member_forget(&g_member, r) != UB_OK) ub_app_error(g_app, "member: row vanished");
     }
     if (now_ms >= g_next_flows_ms) {
         event_flows(now_ms);
