@@ -1,7 +1,8 @@
 # uavbus top-level build.
 #
 #   make demo    the main job (installs what it needs first)
-#   make test    every test (installs what it needs first)
+#   make test    every test (installs what it needs first), after make lint
+#   make lint    ruff over the Python tree ([tool.ruff] in pyproject.toml: errors, not style)
 #   make setup   idempotent install: Debian packages + .venv with the uavbus package
 #   make fuzz    every fuzz harness for FUZZ_SECONDS (default 600) each; report in build-fuzz/fuzz-out/
 #   make coverage  line and branch coverage of runtime_c from the tests (gcovr); report in build-cov/
@@ -27,7 +28,7 @@ FUZZ_SMOKE_SECONDS ?= 5
 FUZZ_CC     ?= clang-14
 FUZZ_FLAGS  := -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 
-.PHONY: setup test test-c test-py test-fuzz demo bench clean apt-deps fuzz fuzz-build fuzz-corpus coverage
+.PHONY: setup test lint test-c test-py test-fuzz demo bench clean apt-deps fuzz fuzz-build fuzz-corpus coverage
 
 setup: apt-deps $(SETUP_STAMP)
 
@@ -93,7 +94,11 @@ fuzz-corpus: setup
 	cmake --build $(BUILD)
 	fuzz/make_corpus.sh $(BUILD)
 
-test: test-c test-fuzz test-py
+# Cheap, so first: an unused import or an undefined name fails in seconds, not after the C tests.
+lint: setup
+	$(VPY) -m ruff check .
+
+test: lint test-c test-fuzz test-py
 
 # Line and branch coverage of runtime_c/src from the C tests (corpus replay included) and the multi-process
 # tests run against the instrumented uavbus_node (-O0 and the instrumentation make gcc warn about flows and

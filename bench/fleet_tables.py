@@ -86,7 +86,6 @@ def render(raw: Path, w: Callable[[str], None], goals: list[Goal]) -> None:
         goals.append(("8 fleet", "<= 1 routing frame per link per second in steady state",
                       f"{f:.3f} per link end per second (in process, hello 1 s)" +
                       (f"; processes {procs[0]['frames_per_link_end_s']}" if procs else ""), f <= 1.0 + 1e-3, ""))
-        rt = float(big["realtime_factor"])
         cpu_cores = float(big["cpu_ms_per_vehicle_s"]) * (n + 2) / 1000
         goals.append(("8 fleet", f"{n} vehicles + 2 ground stations run on this 2-core machine",
                       f"{cpu_cores:.2f} core for the nodes ({float(big['cpu_ms_per_vehicle_s']):.2f} ms CPU per vehicle "

@@ -163,7 +163,7 @@ class Catalogue:
         self.instances: tuple[Instance, ...] = tuple(instances)
         self._by_name = {i.name: i for i in instances}
         self._by_id = {i.id: i for i in instances}
-        self._c: Any = None
+        self._c_built: Any = None  # the tier-2 CCatalogue (owns the C arrays)
 
     # -- construction --------------------------------------------------------------------------
     @classmethod
@@ -347,11 +347,11 @@ class Catalogue:
     def c_catalogue(self) -> Any:
         """A `const ub_catalogue_t *` for the C router, built once and owned by this object: types
         with pack/unpack NULL (bound storage is the wire image), instances in ID order."""
-        if self._c is None:
+        if self._c_built is None:
             from uavbus._bindings.ub_catalogue import build_c_catalogue
 
-            self._c = build_c_catalogue(self)
-        return self._c.catalogue
+            self._c_built = build_c_catalogue(self)
+        return self._c_built.catalogue
 
     @property
     def named_types(self) -> tuple[Type, ...]:

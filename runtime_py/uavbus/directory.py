@@ -37,11 +37,11 @@ class Directory:
 
     def __init__(self, type_: Type, storage: Any, offset: int = 0, instance: Instance | None = None,
                  enums: Any = None) -> None:
-        from uavbus._ub import ffi
+        from uavbus._bindings.ub_node import storage_buffer
 
         object.__setattr__(self, "_type", type_)
         object.__setattr__(self, "_storage", storage)  # keeps the C memory alive as long as any view
-        object.__setattr__(self, "_buf", ffi.buffer(storage))
+        object.__setattr__(self, "_buf", storage_buffer(storage))
         object.__setattr__(self, "_offset", offset)
         object.__setattr__(self, "instance", instance)
         object.__setattr__(self, "_enums", enums)  # uavbus.enums.CatalogueEnums, or None

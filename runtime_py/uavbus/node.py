@@ -13,27 +13,26 @@ drives the loop (poll/select on the ports' descriptors, then service + tick) and
 from __future__ import annotations
 
 import logging
-import os
 import select
 import time
 from collections import deque
 from pathlib import Path
-from typing import Any, Callable, Iterator
+from typing import TYPE_CHECKING, Any, Callable, Iterator
 
-from uavbus._bindings import (ub_admin, ub_inspect, ub_log, ub_member, ub_memlink, ub_node, ub_nodecfg, ub_ports,
-                              ub_pubsub, ub_route, ub_sec)
-from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, NotFoundError, UbError, ensure
-from uavbus._ub import ffi, lib
+from uavbus._bindings import (ub_admin, ub_frag, ub_frame, ub_inspect, ub_link, ub_log, ub_member, ub_memlink, ub_node,
+                              ub_nodecfg, ub_ports, ub_pubsub, ub_route, ub_sec)
+from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, NotFoundError, UbError
 from uavbus.catalogue import Catalogue, CatalogueError, Instance, refused
 from uavbus.config import Config, load_config
 from uavbus.directory import Directory
 from uavbus.enums import catalogue_enums
 
+if TYPE_CHECKING:
+    from uavbus.remote import Remote
+
 Clock = Callable[[], float]
 log = logging.getLogger("uavbus")
 INBOX_MAX = 10000  # messages kept for messages() when no on_data callback consumes them
-FRAG_COUNTERS = ("tx_transfers", "tx_fragments", "tx_busy", "tx_paused", "tx_abandoned", "rx_started", "rx_fragments",
-                 "rx_duplicates", "rx_complete", "rx_timeouts", "rx_evicted", "rx_restarted", "rx_bad")
 
 
 def monotonic_ms() -> float:
@@ -57,7 +56,8 @@ class Message:
     @property
     def hops(self) -> int:
         """Links the frame crossed, from its hop limit on arrival (senders write UB_DEFAULT_HOP_LIMIT)."""
-        return lib.UB_DEFAULT_HOP_LIMIT - self.hop_limit + 1 if 0 < self.hop_limit <= lib.UB_DEFAULT_HOP_LIMIT else 0
+        top = ub_frame.DEFAULT_HOP_LIMIT
+        return top - self.hop_limit + 1 if 0 < self.hop_limit <= top else 0
 
     @property
     def name(self) -> str:
@@ -106,7 +106,7 @@ class _Sink:
         # a running recording is fed from here too, by the same C writer.
         log = self.node._log
         if log is not None:
-            lib.ub_log_write(log, link_id, direction, frame, len(frame), now_ms)  # counted in its stats
+            ub_log.ub_log_write(log, link_id, direction, frame, now_ms)  # never raises: counted in its stats
         if len(self.frames) < INBOX_MAX:
             self.frames.append((link_id, direction, frame, now_ms))
         else:
@@ -146,14 +146,9 @@ class Node:
             first_seq = (time.time_ns() // 1_000_000) & 0x7FFFFFFF or 1
         # Request ids come from the OS (ub_random_os); random_seed: the seeded, guessable ids of tests.
         self._c = ub_node.ub_node_new(c_catalogue, hop_limit, first_seq, timing, random_seed)
-        # Directories above the payload limit or a link's MTU travel in fragments (ub_frag.h): every Python node
-        # can send and reassemble them (about UB_FRAG_SLOTS + UB_FRAG_TX_SLOTS times UB_MAX_DIRECTORY bytes).
-        self._frag = ffi.new("ub_frag_t *")
-        lib.ub_frag_init(self._frag, ffi.NULL, first_seq & 0xFFFF)
-        ensure(lib.ub_node_set_frag(self._c, self._frag), "ub_node_set_frag")
-        self._compact: dict[int, Any] = {}  # link id -> ub_compact_t the C link points to
+        self.wire = Wire(self, first_seq)  # compact links, MTUs, fragments
         self._sink = _Sink(self)
-        self._handle = ffi.new_handle(self._sink)
+        self._handle = ub_node.new_handle(self._sink)
         ub_node.set_deliver_sink(self._c, self._handle)
         self._dirs: dict[int, Directory] = {}
         self._callbacks: list[Callable[[Message], Any]] = []
@@ -168,17 +163,16 @@ class Node:
         self._memlinks: list[MemLink] = []
         self._kept: list[Any] = []  # Python transports (uavbus.pylink) C holds pointers to
         self._admins: dict[str, Admin] = {}
-        self._route: Any = None
+        self.routing = Routing(self)
         self._membership: Membership | None = None
-        self._inspect: Any = None  # ub_inspect_t of remote() (one per node)
+        self.inspect = Inspection(self)
         self._ports: Any = None
-        self._pollfds = ffi.new("struct pollfd[]", ub_ports.POLLFD_CAP)
+        self._pollfds = ub_ports.pollfd_array()
         self._log: Any = None
         self._closed = False
         self.notices: list[str] = []  # one-time notices of the ports (also logged to the "uavbus" logger)
         self.config: Config | None = None
-        self._sec: Any = None        # ub_sec_t of the config's "security" section (kept alive with the node)
-        self._counter: Any = None
+        self.security = Security(self)
         if config is not None:
             cfg = config if isinstance(config, Config) else load_config(config)
             if node is not None:
@@ -190,7 +184,7 @@ class Node:
             except UbError as exc:
                 raise ConfigError(exc.detail, cfg.path) from None
             if applied is not None:
-                self._sec, self._counter = applied
+                self.security._attach(*applied)
             self.config = cfg
 
     # -- time ----------------------------------------------------------------------------------
@@ -210,9 +204,7 @@ class Node:
     def set_mask(self, entity: str, dest: str, mask: int | str) -> None:
         """Link mask of local `entity` toward `dest`: an int (bit i = link[i]) or the paper's "0x00000110"."""
         if isinstance(mask, str):
-            out = ffi.new("uint8_t *")
-            ensure(lib.ub_link_mask_parse(mask.encode("ascii"), out), f"mask {mask!r}")
-            mask = int(out[0])
+            mask = ub_link.ub_link_mask_parse(mask)
         ub_node.ub_node_set_mask(self._c, self.entity_index(entity), self.entity_index(dest), mask)
 
     def remove_entity(self, name: str) -> None:
@@ -231,7 +223,7 @@ class Node:
             if m._ends_at(self, link_id):
                 m.disconnect()
         ub_node.ub_node_remove_link(self._c, link_id)
-        self._compact.pop(link_id, None)
+        self.wire._forget(link_id)
 
     def mask(self, entity: str, dest: str) -> int:
         """Local `entity`'s current mask toward `dest` (bit i = link[i]), set by hand or by routing."""
@@ -264,7 +256,7 @@ class Node:
         inst = self.catalogue.instance(content)
         d = self._dirs.get(inst.index)
         if d is None:
-            storage = ffi.new("uint8_t[]", max(inst.type.packed_size, 1))
+            storage = ub_node.storage_new(inst.type.packed_size)
             ub_node.ub_node_bind(self._c, inst.index, storage)
             d = Directory(inst.type, storage, 0, inst, self._enums)
             self._dirs[inst.index] = d
@@ -307,9 +299,9 @@ class Node:
         directory = self.bind(content)
         dest = self._dest_ids.get(to)
         if dest is None:
-            dest = self._dest_ids[to] = ffi.new("uint8_t[]", ub_node.entity_id(to))
+            dest = self._dest_ids[to] = ub_node.entity_id_c(to)
         try:
-            local = self._c.entities[self.entity_index(to)].local >= 0
+            local = ub_node.ub_node_entity_is_local(self._c, self.entity_index(to))
         except NotFoundError:
             local = False  # unknown destination: send() reports it (UB_ERR_NOROUTE, counted no_route)
         return Publisher(self, directory, self.entity_index(entity), inst.index, dest, local)
@@ -325,52 +317,12 @@ class Node:
 
     # -- automatic routes and membership -------------------------------------------------------------
     def enable_routing(self, parallel: str = "all", learn: bool = True, **options: int) -> None:
-        """Runs the routing engine (docs/routing.md): every local entity becomes a router over its links and
-        masks fill themselves; masks set by hand stay pinned. Options: hello_ms (default 1000), update_ms,
-        trigger_gap_ms, source_gc_ms, dead_misses, initial_seqno; parallel "all" | "best"; learn."""
-        if self._route is not None:
-            ub_route.ub_route_detach(self._route)
-        self._route = ub_route.ub_route_new(self._c, self.now(), parallel, learn, **options)
-
-    def disable_routing(self) -> None:
-        """Detaches the engine; the masks it wrote are cleared (pinned ones stay)."""
-        if self._route is not None:
-            ub_route.ub_route_detach(self._route)
-            self._route = None
-
-    @property
-    def routing(self) -> bool:
-        """True while the routing engine runs (enable_routing())."""
-        return self._route is not None
-
-    def routes(self, entity: str | None = None) -> dict[str, dict[str, Any]]:
-        """What routing chose for local `entity` (default: the first local one), per known destination:
-        reachable, next_hop, link (name), metric, seqno, mask, pinned, learned, starving, ..."""
-        if self._route is None:
-            raise InvalidArgumentError("routing is not enabled on this node (enable_routing())")
-        entity = entity or self.local_entities[0]
-        me = self.entity_index(entity)
-        out = {}
-        for e in self.entities():
-            if e["index"] == me:
-                continue
-            r = ub_route.ub_route_get(self._route, me, e["index"])
-            r["link"] = ub_node.link_name(self._c, r["link_id"]) if r["link_id"] >= 0 else None
-            out[e["name"]] = r
-        return out
+        """Same as `node.routing.enable()` (kept for callers of the flat API)."""
+        self.routing.enable(parallel, learn, **options)
 
     def route_links(self) -> dict[str, dict[str, Any]]:
-        """Per link: neighbour, costs (rxcost/txcost/cost) and routing frame counters."""
-        if self._route is None:
-            raise InvalidArgumentError("routing is not enabled on this node (enable_routing())")
-        return {ub_node.link_name(self._c, lid): ub_route.ub_route_link_info(self._route, lid)
-                for lid, _ in ub_node.ub_node_links(self._c)}
-
-    def route_counters(self) -> dict[str, int]:
-        """The routing engine's counters (frames, updates, route changes...)."""
-        if self._route is None:
-            raise InvalidArgumentError("routing is not enabled on this node (enable_routing())")
-        return ub_route.ub_route_counters(self._route)
+        """Same as `node.routing.links()` (kept for callers of the flat API)."""
+        return self.routing.links()
 
     def membership(self, entity: str | None = None, **options: int) -> "Membership":
         """The membership requester (one per node), sending from local `entity` (default: the first local
@@ -380,16 +332,12 @@ class Node:
         return self._membership
 
     def remote(self, entity: str, timeout: float = 3.0) -> "Remote":
-        """The variable browser on entity `entity`, anywhere on the bus: get/set its directories, read
-        and change its tables (uavbus.remote; INSPECT requests from this node's first local entity)."""
-        from uavbus.remote import Remote
-        return Remote(self, entity, timeout)
+        """Same as `node.inspect.remote()`: the variable browser on entity `entity`, anywhere on the bus."""
+        return self.inspect.remote(entity, timeout)
 
     def _inspector(self, **options: int) -> Any:
-        self._check_open()
-        if self._inspect is None:
-            self._inspect = ub_inspect.ub_inspect_new(self._c, self.entity_index(self.local_entities[0]), **options)
-        return self._inspect
+        # The C requester (bench/inspect_bench.py reads its counters); node.inspect owns it.
+        return self.inspect._requester(**options)
 
     def admin(self, entity: str, **options: int) -> "Admin":
         """The global administration table hosted by local `entity` (created on first use;
@@ -576,33 +524,6 @@ class Node:
         ub_ports.ub_ports_set_link_impairment(self._ports_obj(), link, loss, dup, reorder, delay, jitter, hold, seed,
                                               rate, mtu)
 
-    # -- the wire ------------------------------------------------------------------------------
-    def set_link_encoding(self, link: str, encoding: str = "compact") -> None:
-        """Sets `link` to the compact encoding ("compact": short indices agreed with the other end, which must
-        be set alike; docs/wire-format.md) or back to full 64-byte headers ("full"). Ports opened with
-        `encoding=compact` in their spec do this themselves."""
-        if encoding not in ("compact", "full"):
-            raise InvalidArgumentError(f"encoding {encoding!r}: use 'compact' or 'full'")
-        link_id = self.link_id(link)
-        state = ffi.new("ub_compact_t *") if encoding == "compact" else ffi.NULL
-        ensure(lib.ub_node_link_set_compact(self._c, link_id, state, ffi.NULL), f"encoding of link {link!r}")
-        if state == ffi.NULL:
-            self._compact.pop(link_id, None)
-        else:
-            self._compact[link_id] = state  # the C link keeps a pointer: keep the memory alive
-
-    def set_link_mtu(self, link: str, mtu: int) -> None:
-        """The largest frame `link` carries on the wire, in bytes after encoding (0: no limit; else 64..65535).
-        Larger directories are sent in fragments; larger forwarded frames are dropped `too_big`."""
-        if not 0 <= mtu <= 65535:
-            raise InvalidArgumentError(f"mtu {mtu}: give 0 (no limit) or 64..65535 bytes")
-        ensure(lib.ub_node_link_set_mtu(self._c, self.link_id(link), mtu), f"mtu {mtu} of link {link!r} (64..65535)")
-
-    def fragment_counters(self) -> dict[str, int]:
-        """The fragment state's counters (ub_frag.h): transfers sent, reassembled, timed out..."""
-        s = self._frag.stats
-        return {k: int(getattr(s, k)) for k in FRAG_COUNTERS}
-
     def _keep_alive(self, transport: Any) -> None:
         """Keeps a Python transport (uavbus.pylink.PyLink) alive as long as the node: C points at it."""
         self._kept.append(transport)
@@ -630,41 +551,25 @@ class Node:
         self._log = None
         return stats
 
-    # -- security (docs/security.md) --------------------------------------------------------------
-    def _need_security(self) -> Any:
-        if self._sec is None:
-            raise InvalidArgumentError("this node runs without security (its config has no \"security\" section)")
-        return self._sec
-
+    # -- security (docs/security.md): node.security ---------------------------------------------------
     def add_key(self, path: str | Path) -> int:
-        """Key rotation, step 1: accept the key in `path` (a key file); returns its id."""
-        key_id, key = ub_sec.ub_keyfile_load(str(path))
-        ub_sec.ub_sec_add_key(self._need_security(), key_id, key)
-        return key_id
+        """Same as `node.security.add_key()` (kept for callers of the flat API)."""
+        return self.security.add_key(path)
 
     def use_key(self, key_id: int) -> None:
-        """Key rotation, step 2: sign with key `key_id` (already accepted by every receiver)."""
-        ub_sec.ub_sec_set_tx_key(self._need_security(), key_id)
+        """Same as `node.security.use_key()`."""
+        self.security.use_key(key_id)
 
     def remove_key(self, key_id: int) -> None:
-        """Key rotation, step 3: retire key `key_id` (not the one that signs)."""
-        ub_sec.ub_sec_remove_key(self._need_security(), key_id)
-
-    def security(self) -> dict[str, Any] | None:
-        """Signing key, accepted keys and the security counters; None without a security section."""
-        if self._sec is None:
-            return None
-        out: dict[str, Any] = {"tx_key": ub_sec.ub_sec_tx_key(self._sec), "keys": ub_sec.ub_sec_key_ids(self._sec)}
-        out.update(ub_sec.ub_sec_stats(self._sec))
-        out["counter_mark"] = int(self._counter.mark)
-        return out
+        """Same as `node.security.remove_key()`."""
+        self.security.remove_key(key_id)
 
     # -- counters ------------------------------------------------------------------------------
     def counters(self) -> dict[str, Any]:
         """The C node counters (drops by reason) plus what the Python layer itself dropped."""
         out = ub_node.ub_node_counters(self._c)
-        if self._sec is not None:
-            out["security"] = self.security()
+        if self.security.enabled:
+            out["security"] = self.security.status()
         out["python"] = {"inbox_dropped": self._inbox_dropped, "callback_errors": self._callback_errors,
                          "frames_dropped": self._frames_dropped, "refused_payloads": self._refused_payloads}
         if self._log is not None:
@@ -674,8 +579,8 @@ class Node:
     def link_counters(self) -> dict[str, dict[str, Any]]:
         """Per link slot: C counters, drops by reason, bad frames by reason, and its port if open."""
         out = {}
-        for link_id, link in ub_node.ub_node_links(self._c):
-            c = ub_node.link_counters(self._c, link_id, link)
+        for link_id in ub_node.ub_node_links(self._c):
+            c = ub_node.link_counters(self._c, link_id)
             c["link_id"] = link_id
             port = self.port_info(c["name"])
             if port is not None:
@@ -700,9 +605,8 @@ class Node:
             adm._detach()
         if self._membership is not None:
             ub_member.ub_member_detach(self._membership._c)
-        if self._inspect is not None:
-            lib.ub_inspect_detach(self._inspect)
-        self.disable_routing()
+        self.inspect._detach()
+        self.routing.disable()
         for transport in self._kept:
             transport.detach()
         ub_node.set_deliver_sink(self._c, None)
@@ -718,8 +622,7 @@ class Node:
 
 
 def _entity_at(node: Node, index: int) -> str:
-    raw = ffi.buffer(node._c.entities[index].id)
-    return ub_node.entity_name(bytes(raw))
+    return ub_node.entity_name(ub_node.ub_node_entity_id(node._c, index))
 
 
 class Publisher:
@@ -734,9 +637,8 @@ class Publisher:
     def send(self) -> int:
         """Returns the links whose transport accepted the frame (0: delivered locally, or every
         transport refused it: counted per link as tx_error/backpressure/detached)."""
-        n = lib.ub_node_send_data(self._c, self._entity, self._instance, self._dest, self.node.now())
-        if n < 0:
-            ensure(n, f"send {self.directory.instance.name if self.directory.instance else ''}")
+        n = ub_node.ub_node_send_data_id(self._c, self._entity, self._instance, self._dest, self.node.now(),
+                                         self.directory.instance.name if self.directory.instance else "")
         if self._local:
             self.node._dispatch()  # a local destination is delivered synchronously
         return n
@@ -790,7 +692,7 @@ class Admin:
         return out
 
     def _detach(self) -> None:
-        lib.ub_admin_detach(self._c)
+        ub_admin.ub_admin_detach(self._c)
 
 
 class Membership:
@@ -807,9 +709,7 @@ class Membership:
         """Queues `op` ("add_entity", "remove_entity", "set_mask", "add_link", "remove_link") for entity
         `target`; returns the request row (it leaves at the next poll)."""
         if isinstance(mask, str):
-            out = ffi.new("uint8_t *")
-            ensure(lib.ub_link_mask_parse(mask.encode("ascii"), out), f"mask {mask!r}")
-            mask = int(out[0])
+            mask = ub_link.ub_link_mask_parse(mask)
         s = ub_member.spec(op, target, subject, mask, link_index, link_name, port_spec)
         return ub_member.ub_member_request(self._c, s, self.node.now())
 
@@ -823,6 +723,186 @@ class Membership:
 
     def forget(self, row: int) -> None:
         ub_member.ub_member_forget(self._c, row)
+
+
+class Routing:
+    """`node.routing`: the routing engine (ub_route.h, docs/routing.md). While it runs, every local entity is a
+    router over its links and masks fill themselves; masks set by hand stay pinned. True while enabled."""
+
+    def __init__(self, node: Node) -> None:
+        self.node = node
+        self._c: Any = None  # ub_route_t while enabled
+
+    def enable(self, parallel: str = "all", learn: bool = True, **options: int) -> None:
+        """Starts (or restarts) the engine. Options: hello_ms (default 1000), update_ms, trigger_gap_ms,
+        source_gc_ms, dead_misses, initial_seqno; parallel "all" | "best"; learn."""
+        if self._c is not None:
+            ub_route.ub_route_detach(self._c)
+        self._c = ub_route.ub_route_new(self.node._c, self.node.now(), parallel, learn, **options)
+
+    def disable(self) -> None:
+        """Detaches the engine; the masks it wrote are cleared (pinned ones stay)."""
+        if self._c is not None:
+            ub_route.ub_route_detach(self._c)
+            self._c = None
+
+    @property
+    def enabled(self) -> bool:
+        """True while the engine runs (enable())."""
+        return self._c is not None
+
+    def __bool__(self) -> bool:
+        return self.enabled
+
+    def _need(self) -> Any:
+        if self._c is None:
+            raise InvalidArgumentError("routing is not enabled on this node (node.routing.enable())")
+        return self._c
+
+    def table(self, entity: str | None = None) -> dict[str, dict[str, Any]]:
+        """What routing chose for local `entity` (default: the first local one), per known destination:
+        reachable, next_hop, link (name), metric, seqno, mask, pinned, learned, starving, ..."""
+        rt, node = self._need(), self.node
+        me = node.entity_index(entity or node.local_entities[0])
+        out = {}
+        for e in node.entities():
+            if e["index"] == me:
+                continue
+            r = ub_route.ub_route_get(rt, me, e["index"])
+            r["link"] = ub_node.link_name(node._c, r["link_id"]) if r["link_id"] >= 0 else None
+            out[e["name"]] = r
+        return out
+
+    def links(self) -> dict[str, dict[str, Any]]:
+        """Per link: neighbour, costs (rxcost/txcost/cost) and routing frame counters."""
+        rt, c = self._need(), self.node._c
+        return {ub_node.link_name(c, lid): ub_route.ub_route_link_info(rt, lid) for lid in ub_node.ub_node_links(c)}
+
+    def counters(self) -> dict[str, int]:
+        """The engine's counters (frames, updates, route changes...)."""
+        return ub_route.ub_route_counters(self._need())
+
+
+class Wire:
+    """`node.wire`: how frames look on each link (ub_node.h "Wire", docs/wire-format.md): the compact encoding,
+    MTUs, and the fragments that carry directories above the payload limit or a link's MTU."""
+
+    def __init__(self, node: Node, first_transfer: int) -> None:
+        self.node = node
+        # Every Python node can send and reassemble fragments (about UB_FRAG_SLOTS + UB_FRAG_TX_SLOTS times
+        # UB_MAX_DIRECTORY bytes); transfers are numbered from the node's first sequence number.
+        self._frag = ub_frag.ub_frag_new(first_transfer)
+        ub_frag.ub_node_set_frag(node._c, self._frag)
+        self._compact: dict[int, Any] = {}  # link id -> ub_compact_t the C link points to
+
+    def set_encoding(self, link: str, encoding: str = "compact") -> None:
+        """Sets `link` to the compact encoding ("compact": short indices agreed with the other end, which must
+        be set alike; docs/wire-format.md) or back to full 64-byte headers ("full"). Ports opened with
+        `encoding=compact` in their spec do this themselves."""
+        if encoding not in ("compact", "full"):
+            raise InvalidArgumentError(f"encoding {encoding!r}: use 'compact' or 'full'")
+        link_id = self.node.link_id(link)
+        state = ub_node.ub_node_link_set_compact(self.node._c, link_id, encoding == "compact",
+                                                 f"encoding of link {link!r}")
+        if state is None:
+            self._compact.pop(link_id, None)
+        else:
+            self._compact[link_id] = state  # the C link keeps a pointer: keep the memory alive
+
+    def set_mtu(self, link: str, mtu: int) -> None:
+        """The largest frame `link` carries on the wire, in bytes after encoding (0: no limit; else 64..65535).
+        Larger directories are sent in fragments; larger forwarded frames are dropped `too_big`."""
+        if not 0 <= mtu <= 65535:
+            raise InvalidArgumentError(f"mtu {mtu}: give 0 (no limit) or 64..65535 bytes")
+        ub_node.ub_node_link_set_mtu(self.node._c, self.node.link_id(link), mtu,
+                                     f"mtu {mtu} of link {link!r} (64..65535)")
+
+    def fragment_counters(self) -> dict[str, int]:
+        """The fragment state's counters (ub_frag.h): transfers sent, reassembled, timed out..."""
+        return ub_frag.ub_node_frag_stats(self.node._c)
+
+    def _forget(self, link_id: int) -> None:
+        self._compact.pop(link_id, None)
+
+
+class Security:
+    """`node.security`: the frame security of the config's "security" section (docs/security.md): key rotation
+    and counters. Calling it, `node.security()`, is status()."""
+
+    def __init__(self, node: Node) -> None:
+        self.node = node
+        self._sec: Any = None      # ub_sec_t (kept alive with the node)
+        self._counter: Any = None  # ub_counter_file_t
+
+    def _attach(self, sec: Any, counter: Any) -> None:
+        self._sec, self._counter = sec, counter
+
+    @property
+    def enabled(self) -> bool:
+        """True when the node's config has a "security" section."""
+        return self._sec is not None
+
+    def _need(self) -> Any:
+        if self._sec is None:
+            raise InvalidArgumentError("this node runs without security (its config has no \"security\" section)")
+        return self._sec
+
+    def add_key(self, path: str | Path) -> int:
+        """Key rotation, step 1: accept the key in `path` (a key file); returns its id."""
+        key_id, key = ub_sec.ub_keyfile_load(str(path))
+        ub_sec.ub_sec_add_key(self._need(), key_id, key)
+        return key_id
+
+    def use_key(self, key_id: int) -> None:
+        """Key rotation, step 2: sign with key `key_id` (already accepted by every receiver)."""
+        ub_sec.ub_sec_set_tx_key(self._need(), key_id)
+
+    def remove_key(self, key_id: int) -> None:
+        """Key rotation, step 3: retire key `key_id` (not the one that signs)."""
+        ub_sec.ub_sec_remove_key(self._need(), key_id)
+
+    def status(self) -> dict[str, Any] | None:
+        """Signing key, accepted keys and the security counters; None without a security section."""
+        if self._sec is None:
+            return None
+        out: dict[str, Any] = {"tx_key": ub_sec.ub_sec_tx_key(self._sec), "keys": ub_sec.ub_sec_key_ids(self._sec)}
+        out.update(ub_sec.ub_sec_stats(self._sec))
+        out["counter_mark"] = ub_nodecfg.counter_mark(self._counter)
+        return out
+
+    __call__ = status  # node.security(): the flat API's spelling
+
+
+class Inspection:
+    """`node.inspect`: the INSPECT requester (ub_inspect.h, docs/inspect.md), one per node, sending from the
+    node's first local entity; remote() browses one entity through it (uavbus.remote)."""
+
+    def __init__(self, node: Node) -> None:
+        self.node = node
+        self._c: Any = None  # ub_inspect_t, created on first use
+
+    def _requester(self, **options: int) -> Any:
+        node = self.node
+        node._check_open()
+        if self._c is None:
+            self._c = ub_inspect.ub_inspect_new(node._c, node.entity_index(node.local_entities[0]), **options)
+        return self._c
+
+    def remote(self, entity: str, timeout: float = 3.0) -> "Remote":
+        """The variable browser on entity `entity`, anywhere on the bus: get/set its directories, read
+        and change its tables (uavbus.remote)."""
+        from uavbus.remote import Remote
+        return Remote(self.node, entity, timeout)
+
+    def counters(self) -> dict[str, int]:
+        """The requester's counters (requests sent, done, failed...); all zero before the first request."""
+        if self._c is None:
+            return {k: 0 for k in ub_inspect.COUNTER_FIELDS}
+        return ub_inspect.ub_inspect_counters(self._c)
+
+    def _detach(self) -> None:
+        if self._c is not None:
+            ub_inspect.ub_inspect_detach(self._c)
 
 
 class MemLink:

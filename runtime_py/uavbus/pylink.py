@@ -18,9 +18,8 @@ from __future__ import annotations
 from collections import deque
 from typing import TYPE_CHECKING
 
-from uavbus._bindings import ub_link
+from uavbus._bindings import ub_link, ub_node
 from uavbus._bindings.ub_error import UbError
-from uavbus._ub import ffi, lib
 
 if TYPE_CHECKING:
     from uavbus.node import Node
@@ -41,7 +40,7 @@ class PyLink:
         self.rejected = 0         # received frames the router refused as invalid (counted by the node too)
         self.send_errors = 0      # send() raised: the node counts tx_error; the last error is kept
         self.last_error: Exception | None = None
-        self._handle = ffi.new_handle(self)
+        self._handle = ub_link.new_handle(self)
         self._ops, self._kind = ub_link.new_ops(kind.encode("ascii"))
         ub_link.ub_node_link_attach(node._c, self.link_id, self._ops, self._handle)
         node._keep_alive(self)    # C holds pointers to our handle and ops until the node is closed
@@ -50,7 +49,7 @@ class PyLink:
         """Called by the router (through C) with one whole, verified frame: queue it."""
         if len(self.outbox) >= self.capacity:
             self.refused += 1
-            return int(lib.UB_ERR_AGAIN)
+            return ub_link.ERR_AGAIN
         self.outbox.append(frame)
         return 0
 
@@ -68,8 +67,9 @@ class PyLink:
         """Hands one frame received from outside to the router, as a datagram transport does. Returns
         False when the router refused it as invalid (counted on the link by decoder reason)."""
         now = self.node.now() if now_ms is None else now_ms
-        rc = lib.ub_node_rx_frame(self.node._c, self.link_id, frame, len(frame), now)
-        if rc < 0:
+        try:
+            ub_node.ub_node_rx_frame(self.node._c, self.link_id, frame, now)
+        except UbError:
             self.rejected += 1
             return False
         return True

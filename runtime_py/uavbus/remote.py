@@ -19,8 +19,8 @@ import re
 import time
 from typing import TYPE_CHECKING, Any
 
-from uavbus._bindings import ub_inspect
-from uavbus._bindings.ub_error import InvalidArgumentError, NoAnswerError, NotFoundError, RefusedError
+from uavbus._bindings import ub_inspect, ub_link
+from uavbus._bindings.ub_error import InvalidArgumentError, NoAnswerError, NotFoundError, RefusedError, UbError
 from uavbus.catalogue import Instance, decode_type, encode_type
 
 if TYPE_CHECKING:
@@ -64,7 +64,7 @@ class Remote:
         self.node = node
         self.entity = entity
         self.timeout = timeout
-        self._c = node._inspector()
+        self._c = node.inspect._requester()
 
     # -- requests -----------------------------------------------------------------------------
     def _call(self, op: str, what: str, **kw: Any) -> dict[str, Any]:
@@ -163,11 +163,10 @@ class Remote:
     def set_mask(self, dest: str, mask: int | str) -> bool:
         """Sets (and pins) the entity's link mask toward `dest` ("0x00000011" or an int)."""
         if isinstance(mask, str):
-            from uavbus._ub import ffi, lib
-            out = ffi.new("uint8_t *")
-            if lib.ub_link_mask_parse(mask.encode("ascii"), out) != 0:
-                raise InvalidArgumentError(f"mask {mask!r}: expected the paper's notation, e.g. 0x00000011")
-            mask = int(out[0])
+            try:
+                mask = ub_link.ub_link_mask_parse(mask)
+            except UbError:
+                raise InvalidArgumentError(f"mask {mask!r}: expected the paper's notation, e.g. 0x00000011") from None
         return self._call("set_mask", f"set mask toward {dest}", subject=dest, value=mask)["changed"]
 
     def set_admin_row(self, row: int, *, period_ms: int | None = None, active: bool | None = None) -> bool:

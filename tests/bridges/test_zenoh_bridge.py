@@ -88,7 +88,7 @@ def test_subscription_crosses_two_zenoh_sessions_at_its_rate(tmp_path, uavbus_no
     zport = ports.port()
     endpoint = f"tcp/127.0.0.1:{zport}"
     with ProcessGroup() as group:
-        uav = group.spawn([str(uavbus_node), "--config", str(cfg), "--node", "primary", "--stats-ms", "0"], "uav")
+        group.spawn([str(uavbus_node), "--config", str(cfg), "--node", "primary", "--stats-ms", "0"], "uav")
         gw_a = group.spawn(bridge_argv(cfg, catalogue, "gwA", "--mode", mode_a, "--listen", endpoint), "gwA",
                            ready_timeout=15)
         gw_b = group.spawn(bridge_argv(cfg, catalogue, "gwB", "--mode", mode_b, "--connect", endpoint), "gwB",

@@ -39,9 +39,9 @@ def line(flightsw: Generated):
 def test_routes_build_themselves_and_carry_data(line) -> None:
     nodes, links, clock = line
     for n in nodes:
-        n.enable_routing(hello_ms=100)
+        n.routing.enable(hello_ms=100)
     run(nodes, clock, 400)
-    r = nodes[0].routes()
+    r = nodes[0].routing.table()
     assert r["u3"]["reachable"] and r["u3"]["next_hop"] == "u1" and r["u3"]["link"] == "u0L1"
     assert r["u3"]["metric"] == 3 * 256 and r["u3"]["learned"] and not r["u3"]["pinned"]
     assert nodes[0].mask("u0", "u3") == 0b10
@@ -53,10 +53,10 @@ def test_routes_build_themselves_and_carry_data(line) -> None:
     run(nodes, clock, 500)
     assert len(got) >= 6 and got[-1].source == "u3" and got[-1].value["latitudeDeg"] == 32.5
     assert got[-1].hops == 3  # from the hop limit on arrival
-    links_info = nodes[1].route_links()
+    links_info = nodes[1].routing.links()
     assert links_info["u1L0"]["neighbour"] == "u0" and links_info["u1L1"]["neighbour"] == "u2"
     assert links_info["u1L0"]["cost"] == 256 and links_info["u1L0"]["frames_out"] >= 5
-    assert nodes[1].route_counters()["learned"] == 3
+    assert nodes[1].routing.counters()["learned"] == 3
 
 
 def test_link_failure_reroutes_and_manual_mask_pins(flightsw: Generated) -> None:
@@ -67,24 +67,24 @@ def test_link_failure_reroutes_and_manual_mask_pins(flightsw: Generated) -> None
     MemLink(a, "raL1", c, "rcL1", seed=3)
     nodes = [a, b, c]
     for n in nodes:
-        n.enable_routing(hello_ms=100, parallel="best")
+        n.routing.enable(hello_ms=100, parallel="best")
     run(nodes, clock, 400)
-    assert a.routes()["rb"]["next_hop"] == "rb"
+    assert a.routing.table()["rb"]["next_hop"] == "rb"
     ab.set_faults({"loss_ppm": 1_000_000})
     run(nodes, clock, 400)  # down after ~2.5 hellos, then via rc
-    assert a.routes()["rb"]["next_hop"] == "rc" and a.routes()["rb"]["metric"] == 512
+    assert a.routing.table()["rb"]["next_hop"] == "rc" and a.routing.table()["rb"]["metric"] == 512
     # A hand-set mask pins the entry: routing leaves it; 0 unpins.
     a.set_mask("ra", "rb", "0x00000001")
-    assert a.mask_pinned("ra", "rb") and a.routes()["rb"]["pinned"]
+    assert a.mask_pinned("ra", "rb") and a.routing.table()["rb"]["pinned"]
     run(nodes, clock, 200)
     assert a.mask("ra", "rb") == 0b001
     a.set_mask("ra", "rb", 0)
     run(nodes, clock, 200)
     assert not a.mask_pinned("ra", "rb") and a.mask("ra", "rb") == 0b010
-    a.disable_routing()
+    a.routing.disable()
     assert a.mask("ra", "rb") == 0
     with pytest.raises(InvalidArgumentError):
-        a.routes()
+        a.routing.table()
     for n in nodes:
         n.close()
 
@@ -120,7 +120,7 @@ def test_remove_entity_and_link_at_run_time(line) -> None:
 def test_membership_over_the_bus(line) -> None:
     nodes, links, clock = line
     for n in nodes:
-        n.enable_routing(hello_ms=100)
+        n.routing.enable(hello_ms=100)
     run(nodes, clock, 400)
     m = nodes[0].membership(retry_ms=50, max_retries=10)
     # The announcement three hops away, then a pinned mask, then the removal.

@@ -67,7 +67,7 @@ def test_signed_subscription_flows_and_counts_in_c(signed_pair) -> None:
     gcs.subscribe("gcs1", "gpsOut", source="rmax1ob1", period_ms=50)
     run([gcs, air], clock, 1000)
     assert len(got) >= 15
-    sec_gcs, sec_air = gcs.security(), air.security()
+    sec_gcs, sec_air = gcs.security.status(), air.security.status()
     assert sec_gcs is not None and sec_air is not None
     assert sec_gcs["tx_key"] == 1 and sec_gcs["keys"] == [1]
     assert sec_gcs["verified_in"] >= len(got) and sec_air["signed_out"] >= len(got)
@@ -97,9 +97,9 @@ def test_unsigned_node_is_refused_by_a_signed_one(flightsw: Generated, tmp_path:
     run([gcs, air], clock, 500)
     assert got == []
     assert gcs.counters()["drops"]["unsigned"] >= 20
-    assert air.security() is None
+    assert air.security.status() is None
     with pytest.raises(InvalidArgumentError):
-        air.use_key(1)
+        air.security.use_key(1)
     gcs.close()
     air.close()
 
@@ -114,19 +114,19 @@ def test_key_rotation_through_node_loses_nothing(signed_pair) -> None:
     run([gcs, air], clock, 300)
     n0, sent0 = len(got), air.pubsub_rows("rmax1ob1")[0]["frames"]
     key2 = new_key(tmp / "keys", 2)
-    assert gcs.add_key(key2) == 2 and air.add_key(key2) == 2      # 1. everyone accepts key 2
+    assert gcs.security.add_key(key2) == 2 and air.security.add_key(key2) == 2        # 1. everyone accepts key 2
     run([gcs, air], clock, 100)
-    gcs.use_key(2)                                                 # 2. everyone signs with it
-    air.use_key(2)
+    gcs.security.use_key(2)                                                           # 2. everyone signs with it
+    air.security.use_key(2)
     run([gcs, air], clock, 100)
     with pytest.raises(UbError):
-        air.remove_key(2)                                          # never the signing key
-    gcs.remove_key(1)                                              # 3. key 1 retired
-    air.remove_key(1)
+        air.security.remove_key(2)                                                    # never the signing key
+    gcs.security.remove_key(1)                                                        # 3. key 1 retired
+    air.security.remove_key(1)
     run([gcs, air], clock, 300)
     sent = air.pubsub_rows("rmax1ob1")[0]["frames"] - sent0
     assert len(got) - n0 == sent and sent >= 24
-    assert gcs.security()["keys"] == [2] and air.security()["tx_key"] == 2
+    assert gcs.security.status()["keys"] == [2] and air.security.status()["tx_key"] == 2
     assert gcs.counters()["drops"]["unknown_key"] == 0
 
 

@@ -36,25 +36,25 @@ def test_routes_converge_with_signing_required(flightsw: Generated, tmp_path: Pa
             MemLink(nodes[i], f"u{i}L1", nodes[i + 1], f"u{i + 1}L0", seed=i + 1)
         MemLink(rogue, "rL0", nodes[0], "u0L0", seed=9)   # an unsigned router next to u0
         for n in nodes + [rogue]:
-            n.enable_routing(hello_ms=HELLO_MS)
+            n.routing.enable(hello_ms=HELLO_MS)
         run_nodes(nodes + [rogue], clock, 6 * HELLO_MS, step=2)
-        routes = nodes[0].routes()
+        routes = nodes[0].routing.table()
         # Three hops learned from signed updates, within a few hello intervals (challenges included).
         assert routes["u3"]["reachable"] and routes["u3"]["next_hop"] == "u1", routes
         assert routes["u3"]["metric"] == 3 * 256 and routes["u3"]["learned"]
-        assert nodes[3].routes()["u0"]["reachable"]
+        assert nodes[3].routing.table()["u0"]["reachable"]
         for n in nodes:
-            sec = n.security()
+            sec = n.security.status()
             assert sec is not None and sec["signed_out"] > 0 and sec["verified_in"] > 0
             assert sec["challenges_completed"] >= 1
             assert n.counters()["drops"]["bad_tag"] == 0
         # The routing frames themselves went out signed: every frame u1 sent was a signed one.
-        assert nodes[1].route_links()["u1L1"]["frames_out"] >= 5
-        assert nodes[1].security()["signed_out"] >= nodes[1].route_links()["u1L1"]["frames_out"]
+        assert nodes[1].routing.links()["u1L1"]["frames_out"] >= 5
+        assert nodes[1].security.status()["signed_out"] >= nodes[1].routing.links()["u1L1"]["frames_out"]
         # The unsigned router is refused: dropped `unsigned`, never a neighbour, never a route.
         assert nodes[0].counters()["drops"]["unsigned"] > 0
-        assert not nodes[0].route_links()["u0L0"]["neighbour"]
-        assert "rogue" not in nodes[0].routes() or not nodes[0].routes()["rogue"]["reachable"]
+        assert not nodes[0].routing.links()["u0L0"]["neighbour"]
+        assert "rogue" not in nodes[0].routing.table() or not nodes[0].routing.table()["rogue"]["reachable"]
         # Data across three signed hops, set up by name only. End to end, u3 and u0 never met: each challenges
         # the other once (a request, then the data, wait one round trip), then the flow runs at its rate.
         nodes[3].bind("gpsOut").latitudeDeg = 32.5

@@ -128,8 +128,8 @@ def test_directory_above_the_payload_limit_in_fragments(bigcat: Generated) -> No
         n.add_entity(other)
         n.add_link(me, 0, "radio")
         n.set_mask(me, other, 1)
-        n.set_link_encoding("radio", "compact")
-        n.set_link_mtu("radio", 255)
+        n.wire.set_encoding("radio", "compact")
+        n.wire.set_mtu("radio", 255)
     MemLink(a, "radio", b, "radio")
     tile = a.bind("mapTile")
     b.bind("mapTile")
@@ -144,13 +144,13 @@ def test_directory_above_the_payload_limit_in_fragments(bigcat: Generated) -> No
         run_nodes([a, b], clock, 100)
     assert [m.value["version"] for m in got] == [1, 2]
     assert got[-1].raw == tile.raw
-    frag = a.fragment_counters()
+    frag = a.wire.fragment_counters()
     assert frag["tx_transfers"] == 2 and frag["tx_fragments"] >= 2 * 9004 // 240
-    assert b.fragment_counters()["rx_complete"] == 2
+    assert b.wire.fragment_counters()["rx_complete"] == 2
     link = a.link_counters()["radio"]
     assert link["bytes_out"] <= 255 * link["frames_out"]
     with pytest.raises(Exception, match="64..65535"):
-        a.set_link_mtu("radio", 10)
+        a.wire.set_mtu("radio", 10)
     a.close()
     b.close()
 

@@ -104,7 +104,7 @@ def test_python_rule_matches_c_runtime(tmp_path: Path) -> None:
         f"int main(void) {{\n{calls}\n    return 0;\n}}\n"
     )
     build = gcc(["-std=c11", "-Wall", "-Wextra", "-Werror", "-I", str(RUNTIME_INCLUDE), str(prog),
-                 str(REPO / "runtime_c" / "src" / "ub_catalogue.c"), "-o", "ids"], tmp_path)
+                 str(REPO / "runtime_c" / "src" / "codec" / "ub_catalogue.c"), "-o", "ids"], tmp_path)
     assert build.returncode == 0, build.stderr
     out = subprocess.run([str(tmp_path / "ids")], capture_output=True, text=True, check=True).stdout.split()
     assert out == [ids.dir_id_paper(n).hex() for n in names]

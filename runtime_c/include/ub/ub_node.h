@@ -621,6 +621,42 @@ static inline uint64_t ub_node_table_version(const ub_node_t *node) {
     return node->counters.entities_added + node->counters.entities_removed;
 }
 
+/* ==== Queries (runtime_c/src/core/ub_node_query.c) ==================================================
+ * Read-only views of the entity table and the link slots for bindings and tools (the Python tier 2 reads
+ * no field of ub_node_t or ub_link_t). Each takes any index: out of range or unused reads as "none". */
+
+/** @return true if entity-table row `entity` is in use. */
+bool ub_node_entity_in_use(const ub_node_t *node, int entity);
+
+/** @return true if `entity` is in use and one of this node's local entities. */
+bool ub_node_entity_is_local(const ub_node_t *node, int entity);
+
+/** @return the link id of link[`index`] of local entity `entity`; UB_ERR_NOTFOUND (no link there);
+ *  UB_ERR_INVAL (not a local entity, or index >= UB_MAX_LINKS_PER_ENTITY). */
+UB_CHECK int ub_node_entity_link(const ub_node_t *node, int entity, unsigned index);
+
+/** @return the name of link slot `link_id`, or NULL if the slot is not in use. */
+const char *ub_node_link_name(const ub_node_t *node, int link_id);
+
+/** @return the kind of the transport attached to `link_id` ("udp", "tcp", ...), or NULL (detached, unused). */
+const char *ub_node_link_kind(const ub_node_t *node, int link_id);
+
+/** @return the counters of link slot `link_id`, or NULL if the slot is not in use. */
+const ub_link_counters_t *ub_node_link_counters(const ub_node_t *node, int link_id);
+
+/** @return true if `link_id` sends only ENCRYPTED frames (ub_node_link_set_security()). */
+bool ub_node_link_encrypts(const ub_node_t *node, int link_id);
+
+/** @return the MTU of `link_id` (ub_node_link_set_mtu()); 0: no limit, or not a link in use. */
+uint16_t ub_node_link_mtu(const ub_node_t *node, int link_id);
+
+/** @return the counters of `link_id`'s compact encoding, or NULL (full frames, or not a link in use). */
+const ub_compact_stats_t *ub_node_link_compact_stats(const ub_node_t *node, int link_id);
+
+/** @return the counters of the attached fragment state (ub_node_set_frag()), or NULL. */
+const ub_frag_stats_t *ub_node_frag_stats(const ub_node_t *node);
+/* ==== end of Queries ================================================================================ */
+
 #ifdef __cplusplus
 }
 #endif

@@ -94,6 +94,9 @@ UB_CHECK int ub_counter_file_open(ub_counter_file_t *cf, const char *path, uint6
 /** ub_sec_reserve_fn over a ub_counter_file_t (`user`): stores `mark` durably. @return UB_OK or UB_ERR_IO. */
 int ub_counter_file_reserve(void *user, uint64_t mark);
 
+/** @return the last mark read or stored (0: none yet, or NULL). */
+uint64_t ub_counter_file_mark(const ub_counter_file_t *cf);
+
 #ifdef __cplusplus
 }
 #endif

@@ -341,3 +341,5 @@ int ub_counter_file_reserve(void *user, uint64_t mark) {
     cf->writes++;
     return UB_OK;
 }
+
+uint64_t ub_counter_file_mark(const ub_counter_file_t *cf) { return cf != NULL ? cf->mark : 0; }

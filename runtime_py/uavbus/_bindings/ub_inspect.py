@@ -66,10 +66,16 @@ def ub_inspect_forget(c: Any, row: int) -> None:
     ensure(lib.ub_inspect_forget(c, row), f"inspection request {row}")
 
 
+def ub_inspect_detach(c: Any) -> None:
+    lib.ub_inspect_detach(c)
+
+
+COUNTER_FIELDS = ("sent", "done", "failed", "unmatched_replies")
+
+
 def ub_inspect_counters(c: Any) -> dict[str, int]:
     k = lib.ub_inspect_counters(c)
-    return {"sent": int(k.sent), "done": int(k.done), "failed": int(k.failed),
-            "unmatched_replies": int(k.unmatched_replies)}
+    return {f: int(getattr(k, f)) for f in COUNTER_FIELDS}
 
 
 def _mask_text(mask: int) -> str:

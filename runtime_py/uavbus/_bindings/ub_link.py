@@ -25,6 +25,21 @@ def new_ops(kind: bytes) -> tuple[Any, Any]:
     return ops, kind_c
 
 
+ERR_AGAIN: int = lib.UB_ERR_AGAIN
+
+
+def ub_link_mask_parse(text: str) -> int:
+    """A mask in the paper's notation ("0x00000110" -> 0x06); InvalidArgumentError/RangeError if malformed."""
+    out = ffi.new("uint8_t *")
+    ensure(lib.ub_link_mask_parse(text.encode("ascii", "replace"), out), f"mask {text!r}")
+    return int(out[0])
+
+
+def new_handle(transport: Any) -> Any:
+    """The `impl` handle of a Python transport for ub_node_link_attach() (keep it alive while attached)."""
+    return ffi.new_handle(transport)
+
+
 def ub_node_link_attach(node: Any, link_id: int, ops: Any, handle: Any) -> None:
     ensure(lib.ub_node_link_attach(node, link_id, ops, handle), f"attaching a transport to link {link_id}")
 

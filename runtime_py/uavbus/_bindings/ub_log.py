@@ -38,6 +38,12 @@ def ub_log_install(node: Any, log: Any) -> None:
     lib.ub_node_set_tap(node, lib.ub_log_tap, log)
 
 
+def ub_log_write(log: Any, link_id: int, direction: int, frame: bytes, now_ms: int) -> int:
+    """Writes one frame record. Never raises (it runs in the node's frame tap): a failure is counted in the
+    writer's stats (ub_log_stats()) and its code returned."""
+    return int(lib.ub_log_write(log, link_id, direction, frame, len(frame), now_ms))
+
+
 def ub_log_stats(log: Any) -> dict[str, int]:
     s = lib.ub_log_stats(log)
     return {"records": int(s.records), "bytes": int(s.bytes), "write_errors": int(s.write_errors),

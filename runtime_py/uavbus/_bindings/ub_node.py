@@ -11,12 +11,13 @@ from __future__ import annotations
 from typing import Any
 
 from uavbus._bindings.ub_catalogue import ENTITY_ID_LEN, _c_name
-from uavbus._bindings.ub_error import InvalidArgumentError, ensure
+from uavbus._bindings.ub_error import InvalidArgumentError, NotFoundError, ensure
 from uavbus._ub import ffi, lib
 
 MAX_ENTITIES: int = lib.UB_MAX_ENTITIES
 MAX_LOCAL_ENTITIES: int = lib.UB_MAX_LOCAL_ENTITIES
 MAX_NODE_LINKS: int = lib.UB_MAX_NODE_LINKS
+MAX_LINKS_PER_ENTITY: int = lib.UB_MAX_LINKS_PER_ENTITY
 DROP_REASONS: tuple[str, ...] = tuple(
     ffi.string(lib.ub_drop_reason_name(r)).decode("ascii") for r in range(lib.UB_DROP_REASON_COUNT))
 RX_REASONS: tuple[str, ...] = tuple(
@@ -125,6 +126,47 @@ def ub_node_send_data(node: Any, entity: int, instance: int, dest: str, now_ms: 
     return ensure(lib.ub_node_send_data(node, entity, instance, entity_id(dest), now_ms), f"send to {dest!r}")
 
 
+def entity_id_c(name: str) -> Any:
+    """`name`'s entity ID as C memory, resolved once for ub_node_send_data_id() (the sender keeps it alive)."""
+    return ffi.new("uint8_t[]", entity_id(name))
+
+
+def ub_node_send_data_id(node: Any, entity: int, instance: int, dest_id: Any, now_ms: int, what: str = "") -> int:
+    """ub_node_send_data() to an ID from entity_id_c(): the pre-resolved path of high-rate senders (no name
+    lookup, no message built unless it fails)."""
+    n = lib.ub_node_send_data(node, entity, instance, dest_id, now_ms)
+    if n < 0:
+        ensure(n, f"send {what}")
+    return n
+
+
+def storage_new(size: int) -> Any:
+    """Zeroed C memory of `size` bytes (at least 1) for ub_node_bind(): a directory's wire image."""
+    return ffi.new("uint8_t[]", max(size, 1))
+
+
+def storage_buffer(storage: Any) -> Any:
+    """A writable buffer over C memory from storage_new()."""
+    return ffi.buffer(storage)
+
+
+def new_handle(obj: Any) -> Any:
+    """A handle on `obj` for set_deliver_sink()/set_tap_sink() (keep both alive as long as C may call)."""
+    return ffi.new_handle(obj)
+
+
+def ub_node_link_set_compact(node: Any, link_id: int, compact: bool, what: str) -> Any:
+    """Sets link `link_id` to the compact encoding (a fresh ub_compact_t, returned: the link points at it,
+    keep it alive) or back to full frames (returns None)."""
+    state = ffi.new("ub_compact_t *") if compact else ffi.NULL
+    ensure(lib.ub_node_link_set_compact(node, link_id, state, ffi.NULL), what)
+    return state if compact else None
+
+
+def ub_node_link_set_mtu(node: Any, link_id: int, mtu: int, what: str) -> None:
+    ensure(lib.ub_node_link_set_mtu(node, link_id, mtu), what)
+
+
 def ub_node_tick(node: Any, now_ms: int) -> None:
     lib.ub_node_tick(node, now_ms)
 
@@ -137,36 +179,33 @@ def ub_node_counters(node: Any) -> dict[str, Any]:
     return out
 
 
-def ub_node_links(node: Any) -> list[tuple[int, Any]]:
-    """(link_id, ub_link_t *) of every link slot in use."""
-    out = []
-    for link_id in range(MAX_NODE_LINKS):
-        link = lib.ub_node_link(node, link_id)
-        if link != ffi.NULL and link.in_use:
-            out.append((link_id, link))
-    return out
+def ub_node_links(node: Any) -> list[int]:
+    """The ids of every link slot in use."""
+    return [link_id for link_id in range(MAX_NODE_LINKS) if lib.ub_node_link_name(node, link_id) != ffi.NULL]
 
 
 def link_name(node: Any, link_id: int) -> str:
     """The name of link slot `link_id` ("link<id>" if there is no such slot)."""
-    link = lib.ub_node_link(node, link_id)
-    if link == ffi.NULL or not link.in_use:
-        return f"link{link_id}"
-    return ffi.string(link.name).decode("utf-8")
+    name = lib.ub_node_link_name(node, link_id)
+    return f"link{link_id}" if name == ffi.NULL else ffi.string(name).decode("utf-8")
 
 
-def link_counters(node: Any, link_id: int, link: Any) -> dict[str, Any]:
+def link_counters(node: Any, link_id: int) -> dict[str, Any]:
     """One slot's counters: frames/bytes in and out, drops by reason, bad frames by decoder reason
     (stream decoder and datagram rejections together, as ub_node_link_bad_frames() adds them)."""
-    c = link.counters
+    c = lib.ub_node_link_counters(node, link_id)
+    if c == ffi.NULL:
+        raise NotFoundError(f"link {link_id} is not a link slot in use")
+    kind = lib.ub_node_link_kind(node, link_id)
     return {
-        "name": ffi.string(link.name).decode("utf-8"),
-        "transport": ffi.string(link.ops.kind).decode("ascii") if link.ops != ffi.NULL else None,
+        "name": link_name(node, link_id),
+        "transport": ffi.string(kind).decode("ascii") if kind != ffi.NULL else None,
         "frames_in": int(c.frames_in), "bytes_in": int(c.bytes_in),
         "frames_out": int(c.frames_out), "bytes_out": int(c.bytes_out),
         "frames_accepted": int(c.frames_accepted),
-        "require_signed": bool(lib.ub_node_link_requires_signed(node, link_id)), "encrypt": bool(link.encrypt),
-        "mtu": int(link.mtu), **compact_info(lib.ub_node_link_compact(node, link_id)),
+        "require_signed": bool(lib.ub_node_link_requires_signed(node, link_id)),
+        "encrypt": bool(lib.ub_node_link_encrypts(node, link_id)),
+        "mtu": int(lib.ub_node_link_mtu(node, link_id)), **compact_info(node, link_id),
         "drops": {DROP_REASONS[r]: int(c.drops[r]) for r in range(len(DROP_REASONS))},
         "bad_frames": {RX_REASONS[r]: int(lib.ub_node_link_bad_frames(node, link_id, r))
                        for r in range(len(RX_REASONS))},
@@ -177,32 +216,41 @@ COMPACT_STATS = ("tx_frames", "tx_bytes", "tx_full_bytes", "tx_full_ids", "tx_se
                  "garbage_bytes", "hello_tx", "hello_rx", "hello_bad", "peer_restarts", "peer_lists")
 
 
-def compact_info(state: Any) -> dict[str, Any]:
+def compact_info(node: Any, link_id: int) -> dict[str, Any]:
     """A link's encoding, and for a compact one its counters and whether the dictionaries are agreed."""
-    if state == ffi.NULL:
+    s = lib.ub_node_link_compact_stats(node, link_id)
+    if s == ffi.NULL:
         return {"encoding": "full"}
-    s = state.stats
     stats: dict[str, Any] = {k: int(getattr(s, k)) for k in COMPACT_STATS}
     stats["rejected"] = {RX_REASONS[r]: int(s.rejected[r]) for r in range(len(RX_REASONS))}
-    return {"encoding": "compact", "agreed": bool(lib.ub_compact_agreed(state)), "compact": stats}
+    agreed = bool(lib.ub_compact_agreed(lib.ub_node_link_compact(node, link_id)))
+    return {"encoding": "compact", "agreed": agreed, "compact": stats}
+
+
+def ub_node_entity_id(node: Any, entity: int) -> bytes:
+    """The 12-byte ID of entity-table row `entity` (NotFoundError if the row is not in use)."""
+    if not lib.ub_node_entity_in_use(node, entity):
+        raise NotFoundError(f"entity {entity} is not in the node's table")
+    return bytes(ffi.buffer(lib.ub_node_entity_id(node, entity), ENTITY_ID_LEN))
+
+
+def ub_node_entity_is_local(node: Any, entity: int) -> bool:
+    return bool(lib.ub_node_entity_is_local(node, entity))
 
 
 def ub_node_entities(node: Any) -> list[dict[str, Any]]:
     """The entity table: index, name, local, and for local entities their links (link[i] names)."""
     out = []
     for index in range(MAX_ENTITIES):
-        row = node.entities[index]
-        if not row.in_use:
+        if not lib.ub_node_entity_in_use(node, index):
             continue
-        entry: dict[str, Any] = {"index": index, "name": entity_name(bytes(row.id)), "local": row.local >= 0}
-        if row.local >= 0:
-            loc = node.locals[row.local]
-            links = []
-            for i, link_id in enumerate(loc.link_ids):
-                if link_id >= 0:
-                    links.append(ffi.string(lib.ub_node_link(node, link_id).name).decode("utf-8"))
-                else:
-                    links.append(None)
+        local = bool(lib.ub_node_entity_is_local(node, index))
+        entry: dict[str, Any] = {"index": index, "name": entity_name(ub_node_entity_id(node, index)), "local": local}
+        if local:
+            links: list[str | None] = []
+            for i in range(MAX_LINKS_PER_ENTITY):
+                link_id = lib.ub_node_entity_link(node, index, i)
+                links.append(link_name(node, link_id) if link_id >= 0 else None)
             while links and links[-1] is None:
                 links.pop()
             entry["links"] = links

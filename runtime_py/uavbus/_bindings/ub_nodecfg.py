@@ -127,3 +127,8 @@ def ub_nodecfg_apply_security(cfg: Any, node: Any) -> tuple[Any, Any] | None:
     rc = lib.ub_nodecfg_apply_security(cfg, node, sec, counter, ffi.NULL, time.time_ns() // 1000, err, cap)
     ensure(rc, text(err) or "ub_nodecfg_apply_security")
     return sec, counter
+
+
+def counter_mark(counter: Any) -> int:
+    """The last counter mark read or stored by the counter file of ub_nodecfg_apply_security()."""
+    return int(lib.ub_counter_file_mark(counter))

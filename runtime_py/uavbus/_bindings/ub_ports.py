@@ -51,6 +51,11 @@ def ub_ports_service(ports: Any, now_ms: int) -> int:
     return int(lib.ub_ports_service(ports, now_ms))
 
 
+def pollfd_array() -> Any:
+    """Room for ub_ports_pollfds(): POLLFD_CAP `struct pollfd` (allocate once per set of ports)."""
+    return ffi.new("struct pollfd[]", POLLFD_CAP)
+
+
 def ub_ports_pollfds(ports: Any, fds: Any) -> list[tuple[int, int]]:
     """(fd, poll events) pairs, using the caller's `struct pollfd[POLLFD_CAP]` scratch array."""
     n = ensure(lib.ub_ports_pollfds(ports, fds, POLLFD_CAP), "ub_ports_pollfds")

@@ -1,6 +1,6 @@
 /* cffi cdef for runtime_c/include/ub/ub_link.h: link slots, their counters and the mask notation.
- * Python reads slots and counters, and can put a transport of its own behind a slot (uavbus.pylink):
- * its `send` is the `extern "Python"` ub_py_link_send below. */
+ * Python reads a slot's counters through ub_node.h's queries, and can put a transport of its own behind a
+ * slot (uavbus.pylink): its `send` is the `extern "Python"` ub_py_link_send below. */
 
 #define UB_LINK_NAME_LEN ...
 
@@ -35,16 +35,8 @@ typedef struct ub_link_ops {
 
 extern "Python" int ub_py_link_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms);
 
+/* Opaque: a slot is read through ub_node.h's queries (ub_node_link_name(), ub_node_link_counters(), ...). */
 typedef struct ub_link {
-    char name[...];
-    uint8_t in_use;
-    uint8_t owner;
-    uint8_t index;
-    const ub_link_ops_t *ops;
-    int8_t require_signed;
-    uint8_t encrypt;
-    uint16_t mtu;
-    ub_link_counters_t counters;
     ...;
 } ub_link_t;
 

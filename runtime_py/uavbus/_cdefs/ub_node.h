@@ -1,6 +1,6 @@
 /* cffi cdef for runtime_c/include/ub/ub_node.h: the router. ub_node_t is opaque (its size comes
- * from the compiler); Python reads it only through the functions. Tap and delivery hook are
- * `extern "Python"` callbacks defined in uavbus._bindings.ub_node. */
+ * from the compiler); Python reads it only through the functions (the queries at the end). Tap and
+ * delivery hook are `extern "Python"` callbacks defined in uavbus._bindings.ub_node. */
 
 #define UB_MAX_ENTITIES ...
 #define UB_MAX_LOCAL_ENTITIES ...
@@ -67,24 +67,8 @@ typedef struct ub_node_counters {
     ...;
 } ub_node_counters_t;
 
-/* Read-only views of the entity table, for Node.entities(); the header documents these fields. */
-typedef struct ub_entity_row {
-    uint8_t id[...];
-    uint8_t in_use;
-    int8_t local;
-    ...;
-} ub_entity_row_t;
-
-typedef struct ub_local_entity {
-    uint8_t in_use;
-    uint8_t entity;
-    int16_t link_ids[...];
-    ...;
-} ub_local_entity_t;
-
+/* Opaque: the size comes from the compiler; the tables are read through the query functions below. */
 struct ub_node {
-    ub_entity_row_t entities[...];
-    ub_local_entity_t locals[...];
     ...;
 };
 
@@ -129,6 +113,18 @@ ub_compact_t *ub_node_link_compact(const ub_node_t *node, int link_id);
 int ub_node_link_set_mtu(ub_node_t *node, int link_id, uint16_t mtu);
 int ub_node_set_frag(ub_node_t *node, ub_frag_t *frag);
 ub_frag_t *ub_node_frag(const ub_node_t *node);
+
+/* Queries (ub_node.h "Queries", ub_node_query.c): read-only views instead of struct fields. */
+bool ub_node_entity_in_use(const ub_node_t *node, int entity);
+bool ub_node_entity_is_local(const ub_node_t *node, int entity);
+int ub_node_entity_link(const ub_node_t *node, int entity, unsigned index);
+const char *ub_node_link_name(const ub_node_t *node, int link_id);
+const char *ub_node_link_kind(const ub_node_t *node, int link_id);
+const ub_link_counters_t *ub_node_link_counters(const ub_node_t *node, int link_id);
+bool ub_node_link_encrypts(const ub_node_t *node, int link_id);
+uint16_t ub_node_link_mtu(const ub_node_t *node, int link_id);
+const ub_compact_stats_t *ub_node_link_compact_stats(const ub_node_t *node, int link_id);
+const ub_frag_stats_t *ub_node_frag_stats(const ub_node_t *node);
 
 /* From ub_compact.h: the functions over frame headers, decoders and rx reasons (declared after ub_frame.h). */
 int ub_compact_decode(const ub_compact_codec_t *c, const uint8_t *pkt, size_t n, const ub_compact_refs_t *refs,

@@ -2,11 +2,8 @@
 
 #define UB_SECFILE_ERR_LEN ...
 
+/* Opaque here: its size comes from the compiler; the mark is read with ub_counter_file_mark(). */
 struct ub_counter_file {
-    uint64_t mark;
-    uint64_t writes;
-    uint64_t failures;
-    int last_errno;
     ...;
 };
 
@@ -17,3 +14,4 @@ int ub_keyfile_write(const char *path, uint8_t id, const uint8_t key[], char *er
 int ub_keyfile_new(const char *path, uint8_t id, uint8_t *id_out, char *err, size_t err_cap);
 int ub_counter_file_open(ub_counter_file_t *cf, const char *path, uint64_t *mark, char *err, size_t err_cap);
 int ub_counter_file_reserve(void *user, uint64_t mark);
+uint64_t ub_counter_file_mark(const ub_counter_file_t *cf);
