@@ -474,7 +474,7 @@ static void out_port(const ub_port_t *p, const char *name) {
     char spec[128];
     uint16_t lp = 0;
     ub_port_spec_format(&p->spec, spec, sizeof spec);
-    out("\"transport\":\"%s\",\"spec\":", ub_port_kind_transport(p->spec.kind));
+    out("\"transport\":\"%s\",\"spec\":", ub_port_spec_transport(&p->spec));
     out_str(spec, SIZE_MAX);
     if (ub_ports_local_port(&g_ports, name, &lp) == UB_OK) out(",\"local_port\":%u", (unsigned)lp);
     else if (p->spec.kind == UB_PORT_TCP_CONNECT) out(",\"local_port\":null,\"connect_port\":%u", (unsigned)p->spec.port);
@@ -533,49 +533,10 @@ static void out_impair(const ub_port_t *p) {
         s->inner_errors, ub_impair_pending(&p->impair));
 }
 
-static void out_driver(const ub_port_t *p) {
-    const ub_port_driver_t *d = &p->drv[p->active];
-    switch (d->kind) {
-    case UB_PORT_UDP: {
-        const ub_udp_stats_t *s = &d->u.udp.stats;
-        out(",\"udp\":{\"datagrams_in\":%" PRIu64 ",\"rejected\":%" PRIu64 ",\"foreign\":%" PRIu64
-            ",\"datagrams_out\":%" PRIu64 ",\"again\":%" PRIu64 ",\"send_errors\":%" PRIu64
-            ",\"no_peer\":%" PRIu64 ",\"peers_learned\":%" PRIu64 ",\"peers\":[",
-            s->datagrams_in, s->rejected, s->foreign, s->datagrams_out, s->again, s->send_errors, s->no_peer,
-            s->peers_learned);
-        char host[16];
-        uint16_t port;
-        for (int i = 0; ub_udp_peer_at(&d->u.udp, i, host, &port) == UB_OK; i++) out("%s\"%s:%u\"", i ? "," : "", host, port);
-        out("]}");
-        break;
-    }
-    case UB_PORT_TCP_LISTEN:
-    case UB_PORT_TCP_CONNECT: {
-        const ub_tcp_stats_t *s = ub_tcp_stats(&d->u.tcp);
-        static const char *const states[] = {"down", "connecting", "up"};
-        out(",\"tcp\":{\"state\":\"%s\",\"connects\":%" PRIu64 ",\"reconnects\":%" PRIu64 ",\"disconnects\":%" PRIu64
-            ",\"failed_attempts\":%" PRIu64 ",\"backpressure\":%" PRIu64 ",\"send_closed\":%" PRIu64
-            ",\"tx_discarded\":%" PRIu64 ",\"candidates\":%" PRIu64 ",\"adopted\":%" PRIu64 ",\"replaced\":%" PRIu64
-            ",\"candidates_refused\":%" PRIu64 ",\"candidates_expired\":%" PRIu64 ",\"candidates_lost\":%" PRIu64
-            ",\"candidate_rejected\":%" PRIu64 ",\"candidates_open\":%d}",
-            states[ub_tcp_state(&d->u.tcp) % 3], s->connects, s->reconnects, s->disconnects, s->failed_attempts,
-            s->backpressure, s->send_closed, s->tx_discarded, s->candidates, s->adopted, s->replaced,
-            s->candidates_refused, s->candidates_expired, s->candidates_lost, s->candidate_rejected,
-            ub_tcp_candidates(&d->u.tcp));
-        break;
-    }
-    case UB_PORT_SERIAL: {
-        const ub_serial_stats_t *s = ub_serial_stats(&d->u.serial);
-        out(",\"serial\":{\"state\":\"%s\",\"bytes_in\":%" PRIu64 ",\"bytes_out\":%" PRIu64 ",\"backpressure\":%" PRIu64
-            ",\"io_errors\":%" PRIu64 ",\"hangups\":%" PRIu64 ",\"reopens\":%" PRIu64 ",\"reopen_failures\":%" PRIu64
-            ",\"send_closed\":%" PRIu64 ",\"tx_discarded\":%" PRIu64 "}",
-            ub_serial_state(&d->u.serial) == UB_SERIAL_UP ? "up" : "down", s->bytes_in, s->bytes_out,
-            s->backpressure, s->io_errors, s->hangups, s->reopens, s->reopen_failures, s->send_closed,
-            s->tx_discarded);
-        break;
-    }
-    default: break;
-    }
+/* The port's driver object ("udp":{...}), written by its driver table (ub_driver.h), built-in or registered. */
+static void out_driver(const char *name) {
+    char text[2048];
+    if (ub_ports_describe(&g_ports, name, text, sizeof text) > 0) out(",%s", text);
 }
 
 static void out_keys(void) {
@@ -645,7 +606,7 @@ static void event_stats(uint64_t now_ms, bool final) {
             out(",\"port\":{");
             out_port(p, l->name);
             out(",\"rebinds\":%" PRIu32 ",\"service_errors\":%" PRIu64 "}", p->rebinds, p->service_errors);
-            out_driver(p);
+            out_driver(l->name);
             if (p->impaired) out_impair(p);
         } else {
             out(",\"port\":null");
