@@ -336,9 +336,9 @@ static void test_ports_contracts_and_serial_ports(void **state) {
     assert_int_equal(ub_ports_service(ports, 1), 0);
     close(master); /* hang-up: the pty slave vanishes */
     assert_int_equal(ub_ports_service(ports, 2), 0);
-    const ub_port_t *sp = ub_ports_find(ports, "subPort");
+    const ub_serial_t *sp = ub_ports_state(ports, "subPort", &ub_serial_driver);
     assert_non_null(sp);
-    assert_int_equal(ub_serial_stats(&sp->drv[sp->active].u.serial)->hangups, 1);
+    assert_int_equal(ub_serial_stats(sp)->hangups, 1);
     assert_int_equal(ub_ports_pollfds(ports, fds, 4), 0); /* nothing to poll while down */
     assert_int_equal(ub_ports_poll_timeout(ports, 2, 1000), UB_SERIAL_RETRY_MIN_MS); /* woken for the retry */
     assert_int_equal(ub_ports_set_impairment(ports, NULL, 3), UB_OK);

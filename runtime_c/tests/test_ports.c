@@ -401,7 +401,7 @@ static void test_impairment_survives_tcp_connects(void **state) {
     assert_true(ub_pubsub_subscribe(p->sub_node, p->sub, TEST_GPS, p->pub_id, 10, 0) >= 0);
     run(&n, 0, 300);
     const ub_port_t *pa = ub_ports_find(n.a, "pubPort");
-    assert_int_equal(ub_tcp_state(&pa->drv[pa->active].u.tcp), UB_TCP_UP);
+    assert_int_equal(ub_tcp_state(ub_ports_state(n.a, "pubPort", &ub_tcp_driver)), UB_TCP_UP);
     assert_string_equal(ub_node_link(p->pub_node, p->pub_link)->ops->kind, "impair");
     const ub_impair_stats_t *s = ub_impair_stats(&pa->impair);
     const ub_link_counters_t *ca = &ub_node_link(p->pub_node, p->pub_link)->counters;

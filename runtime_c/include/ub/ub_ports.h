@@ -15,6 +15,7 @@
  * | `tcp`    | `listen=HOST:PORT` (server; PORT 0 = any) or `connect=HOST:PORT` (client) |
  * | `serial` | `device=PATH`, optional `baud=` one of ub_serial's rates (default 115200) |
  * | `mem`    | none: the program attaches a ub_memlink itself; ub_ports skips it |
+ * | (registered) | what its driver takes (ub_driver.h; ub_ports_register()) |
  *
  * Every socket and serial port also takes `encoding=full|compact` (the link's wire encoding,
  * ub_compact.h; both ends alike) and `mtu=BYTES` (64..65535: the largest frame the link carries on
@@ -28,6 +29,12 @@
  * masks, publish/subscribe tables and link counters are untouched. When the
  * new transport needs the very address the old one holds (same UDP bind or
  * TCP listen port), the old one is closed first and the open retried.
+ *
+ * Drivers: ub_ports names no transport. Each is a driver table (ub_driver.h) in a registry the set
+ * owns: ub_ports_init() registers the built-ins (udp, tcp, serial, mem) and ub_ports_register() adds
+ * one at run time; the spec's transport word chooses it. The functions without a `ports` argument
+ * (ub_port_spec_parse(), ub_port_arg_parse(), ub_port_spec_from_config()) know the built-ins only;
+ * their ub_ports_* twins also know what was registered.
  *
  * Memory: ub_ports_t is caller-owned and large (two driver slots per port so
  * a rebind can hold old and new at once, plus an impairment queue): give it
@@ -58,6 +65,7 @@
 
 #include "ub_compact.h"
 #include "ub_config.h"
+#include "ub_driver.h"
 #include "ub_error.h"
 #include "ub_impair.h"
 #include "ub_link.h"
@@ -83,6 +91,10 @@ extern "C" {
 #define UB_PORTS_ERR_LEN 256
 /** Default serial rate. */
 #define UB_PORT_DEFAULT_BAUD 115200u
+/** Drivers one ports set knows at most: the four built-ins and registered ones. */
+#ifndef UB_PORTS_MAX_DRIVERS
+#define UB_PORTS_MAX_DRIVERS 8
+#endif
 
 typedef enum ub_port_kind {
     UB_PORT_NONE = 0,
@@ -90,12 +102,16 @@ typedef enum ub_port_kind {
     UB_PORT_TCP_LISTEN,  /**< server */
     UB_PORT_TCP_CONNECT, /**< client (reconnects with backoff) */
     UB_PORT_SERIAL,      /**< device + baud */
-    UB_PORT_MEM          /**< attached by the program */
+    UB_PORT_MEM,         /**< attached by the program */
+    UB_PORT_DRIVER       /**< a registered driver's (spec.driver says which) */
 } ub_port_kind_t;
 
-/** A parsed port spec. Plain value; no pointers. */
+/** A parsed port spec. A plain value: its one pointer is to the driver's constant table. A registered
+ *  driver keeps its parameters in these same fields (an address in host/port, a path or name in device,
+ *  a number in baud or port), as its spec_param() and open() agree. */
 typedef struct ub_port_spec {
     ub_port_kind_t kind;
+    const ub_driver_t *driver;        /**< the transport (set by the parsers); NULL: none */
     char host[UB_PORT_HOST_LEN];      /**< udp bind / tcp listen / tcp connect address (dotted) */
     uint16_t port;                    /**< its port */
     char peer_host[UB_PORT_HOST_LEN]; /**< udp peer address (dotted) */
@@ -110,8 +126,12 @@ typedef struct ub_port_spec {
 #define UB_PORT_ENCODING_FULL 0u
 #define UB_PORT_ENCODING_COMPACT 1u
 
-/** @return the transport word of a kind: "udp", "tcp", "serial", "mem", or "none". */
+/** @return the transport word of a kind: "udp", "tcp", "serial", "mem", or "none" (also for
+ *  UB_PORT_DRIVER: use ub_port_spec_transport()). */
 const char *ub_port_kind_transport(ub_port_kind_t kind);
+
+/** @return the transport word of a spec: its driver's name ("udp", "pipe"), or "none". */
+const char *ub_port_spec_transport(const ub_port_spec_t *spec);
 
 /**
  * Parses the spec text of the command-line form: `TRANSPORT[:KEY=VALUE[,KEY=VALUE]...]`,
@@ -142,14 +162,21 @@ UB_CHECK int ub_port_spec_from_config(const ub_nodecfg_port_t *entry, const char
  *  than `cap` is cut and ends in "...". */
 void ub_port_spec_format(const ub_port_spec_t *spec, char *out, size_t cap);
 
-/** One driver instance. Private. */
+/** Storage of one driver instance: as large as the largest built-in one. Private. */
+typedef union ub_port_state {
+    ub_udp_t udp_;
+    ub_tcp_t tcp_;
+    ub_serial_t serial_;
+    max_align_t align_;
+} ub_port_state_t;
+
+/** The largest instance (ub_driver_t.state_size) a driver may have. */
+#define UB_DRIVER_STATE_MAX (sizeof(ub_port_state_t))
+
+/** One driver instance: which driver, and its state. Private (ub_ports_state() reads it). */
 typedef struct ub_port_driver {
-    ub_port_kind_t kind;
-    union {
-        ub_udp_t udp;
-        ub_tcp_t tcp;
-        ub_serial_t serial;
-    } u;
+    const ub_driver_t *driver; /**< NULL: empty */
+    ub_port_state_t state;
 } ub_port_driver_t;
 
 /** One open port. Treat as read-only (use the functions). */
@@ -161,7 +188,7 @@ typedef struct ub_port {
     ub_port_spec_t spec;      /**< the spec now in force */
     uint32_t rebinds;         /**< successful software switches */
     uint64_t service_errors;  /**< driver service calls that failed (e.g. serial device gone) */
-    uint8_t refusal_reported; /**< ub_ports_notice() has reported this port's refused datagrams */
+    uint8_t notice_reported;  /**< ub_ports_notice() has reported this port's driver notice */
     ub_port_driver_t drv[2];
     ub_impair_t impair;
     uint8_t own_impair;       /**< this port's own impairment overrides the node-wide one */
@@ -174,27 +201,50 @@ typedef struct ub_port {
 /** The ports of one node. Caller-owned; large: use static storage. */
 typedef struct ub_ports {
     ub_node_t *node;
+    const ub_driver_t *drivers[UB_PORTS_MAX_DRIVERS]; /**< the registry: built-ins first */
+    uint8_t driver_count;
     uint8_t impair_on;
     ub_impair_params_t impair_params;
     uint64_t impair_seed;
     ub_port_t port[UB_PORTS_MAX];
 } ub_ports_t;
 
-/** Prepares an empty set for `node`. @return UB_OK or UB_ERR_INVAL. */
+/** Prepares an empty set for `node` and registers the built-in drivers. @return UB_OK or UB_ERR_INVAL. */
 UB_CHECK int ub_ports_init(ub_ports_t *ports, ub_node_t *node);
+
+/**
+ * Adds a driver (ub_driver.h) to the set's registry: specs naming its transport word then parse and open
+ * here. The table must outlive the set.
+ * @return UB_OK; UB_ERR_INVAL (NULL, a bad name, an operation missing: spec_param, spec_format, and with
+ *         open: close, attach, link_ops, service, pollfds, counters; state_size above
+ *         UB_DRIVER_STATE_MAX); UB_ERR_EXISTS (the word is taken); UB_ERR_FULL (UB_PORTS_MAX_DRIVERS).
+ */
+UB_CHECK int ub_ports_register(ub_ports_t *ports, const ub_driver_t *driver);
+
+/** ub_port_spec_parse() knowing the drivers registered in `ports` too. */
+UB_CHECK int ub_ports_spec_parse(const ub_ports_t *ports, const char *text, ub_port_spec_t *spec, char *err,
+                                 size_t err_cap);
+
+/** ub_port_arg_parse() knowing the drivers registered in `ports` too. */
+UB_CHECK int ub_ports_arg_parse(const ub_ports_t *ports, const char *arg, char *name, size_t name_cap,
+                                ub_port_spec_t *spec, char *err, size_t err_cap);
+
+/** ub_port_spec_from_config() knowing the drivers registered in `ports` too. */
+UB_CHECK int ub_ports_spec_from_config(const ub_ports_t *ports, const ub_nodecfg_port_t *entry, const char *source,
+                                       ub_port_spec_t *spec, char *err, size_t err_cap);
 
 /**
  * Opens `spec` behind link `link_name` (a link of a hosted entity; "entity:link"
  * also accepted), or switches an open one to it (see the file comment).
  * @return UB_OK; UB_ERR_NOTFOUND (no such link in the node); UB_ERR_INVAL
- *         (bad spec, or kind UB_PORT_MEM); UB_ERR_IO (socket/device could not
+ *         (bad spec, or a transport that cannot be opened from a spec: mem); UB_ERR_IO (socket/device could not
  *         be opened: the old transport, if any, stays in place); UB_ERR_FULL.
  *         `err` says which and what to do.
  */
 UB_CHECK int ub_ports_open(ub_ports_t *ports, const char *link_name, const ub_port_spec_t *spec, uint64_t now_ms,
                            char *err, size_t err_cap);
 
-/** ub_port_spec_parse() + ub_ports_open(). */
+/** ub_ports_spec_parse() + ub_ports_open(). */
 UB_CHECK int ub_ports_open_text(ub_ports_t *ports, const char *link_name, const char *spec_text, uint64_t now_ms,
                                 char *err, size_t err_cap);
 
@@ -255,6 +305,26 @@ int ub_ports_notice(ub_ports_t *ports, char *out, size_t cap);
 /** @return the UDP driver now behind `link_name` (its stats and peers, ub_udp.h), or NULL if that
  *  link has no open UDP port. */
 const ub_udp_t *ub_ports_udp(const ub_ports_t *ports, const char *link_name);
+
+/**
+ * The driver instance now behind `link_name`, for that driver's own functions (ub_tcp_stats()...).
+ * @return its state, or NULL when the link has no open port or (`driver` not NULL) another transport.
+ */
+const void *ub_ports_state(const ub_ports_t *ports, const char *link_name, const ub_driver_t *driver);
+
+/**
+ * The counters of the driver instance behind `link_name` (ub_driver_t.counters: its stats by name).
+ * @return how many it has (may exceed `cap`); UB_ERR_NOTFOUND (no open port); UB_ERR_INVAL.
+ */
+int ub_ports_counters(const ub_ports_t *ports, const char *link_name, ub_driver_counter_t *out, size_t cap);
+
+/**
+ * Describes the driver instance behind `link_name` as one JSON member: its transport word and the
+ * object of its state and counters, e.g. `"tcp":{"state":"up","connects":1,...}` (what the stats event
+ * carries in a link's entry, after "port"). A text longer than `cap` is cut and ends in "...".
+ * @return the length written; UB_ERR_NOTFOUND (no open port); UB_ERR_NOSPACE (cut); UB_ERR_INVAL.
+ */
+int ub_ports_describe(const ub_ports_t *ports, const char *link_name, char *out, size_t cap);
 
 /** @return the open port of `link_name`, or NULL. */
 const ub_port_t *ub_ports_find(const ub_ports_t *ports, const char *link_name);

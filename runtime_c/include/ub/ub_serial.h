@@ -38,6 +38,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "ub_driver.h"
 #include "ub_error.h"
 #include "ub_frame.h"
 #include "ub_link.h"
@@ -113,6 +114,9 @@ typedef struct ub_serial {
 
 /** The transport vtable (kind "serial"); `impl` is the ub_serial_t. */
 extern const ub_link_ops_t ub_serial_ops;
+
+/** The driver entry (ub_driver.h) ub_ports opens "serial:..." specs with; its instance is a ub_serial_t. */
+extern const ub_driver_t ub_serial_driver;
 
 /**
  * Opens `path` (O_RDWR | O_NOCTTY | O_NONBLOCK) and sets it raw, 8 data bits,

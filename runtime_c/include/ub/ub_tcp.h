@@ -52,6 +52,7 @@
 #include <stdint.h>
 #include <netinet/in.h>
 
+#include "ub_driver.h"
 #include "ub_error.h"
 #include "ub_frame.h"
 #include "ub_link.h"
@@ -153,6 +154,9 @@ typedef struct ub_tcp {
 
 /** The transport vtable (kind "tcp"); `impl` is the ub_tcp_t. */
 extern const ub_link_ops_t ub_tcp_ops;
+
+/** The driver entry (ub_driver.h) ub_ports opens "tcp:..." specs with; its instance is a ub_tcp_t. */
+extern const ub_driver_t ub_tcp_driver;
 
 /**
  * Initialises a client for `addr`:`port` (dotted IPv4). Nothing is opened yet:

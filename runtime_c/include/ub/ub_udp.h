@@ -69,6 +69,7 @@
 #include <stdint.h>
 #include <netinet/in.h>
 
+#include "ub_driver.h"
 #include "ub_error.h"
 #include "ub_frame.h"
 #include "ub_link.h"
@@ -175,6 +176,9 @@ typedef struct ub_udp {
 
 /** The transport vtable (kind "udp"); `impl` is the ub_udp_t. */
 extern const ub_link_ops_t ub_udp_ops;
+
+/** The driver entry (ub_driver.h) ub_ports opens "udp:..." specs with; its instance is a ub_udp_t. */
+extern const ub_driver_t ub_udp_driver;
 
 /**
  * Opens a non-blocking UDP socket bound to `bind_addr`:`bind_port` (dotted

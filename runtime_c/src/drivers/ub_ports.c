@@ -1,7 +1,12 @@
-/* Ports: transports behind a node's links, opened from text, serviced from one loop (ub_ports.h). */
+/* Ports: transports behind a node's links, opened from text, serviced from one loop (ub_ports.h).
+ *
+ * A registry: every transport is a driver table (ub_driver.h) and every per-transport step (parse a
+ * parameter, format, open, attach, service, poll, retry time, local port, counters, describe, notice)
+ * goes through the table of the spec or instance at hand. What stays here is what every transport
+ * shares: the spec syntax and its messages, the wire parameters (encoding=, mtu=), the software switch,
+ * the impairment in front of a driver, and the link slot's bookkeeping. */
 #include "ub/ub_ports.h"
 
-#include <arpa/inet.h>
 #include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -25,171 +30,165 @@ static void fail(char *err, size_t cap, const char *fmt, ...) {
     }
 }
 
-const char *ub_port_kind_transport(ub_port_kind_t kind) {
-    switch (kind) {
-    case UB_PORT_UDP: return "udp";
-    case UB_PORT_TCP_LISTEN:
-    case UB_PORT_TCP_CONNECT: return "tcp";
-    case UB_PORT_SERIAL: return "serial";
-    case UB_PORT_MEM: return "mem";
-    default: return "none";
+/* Replaces control bytes and bytes outside printable ASCII by '?' (see fail()): for the text a driver wrote. */
+static void sanitize(char *text) {
+    for (char *c = text; c != NULL && *c != '\0'; c++) {
+        if ((unsigned char)*c < 0x20 || (unsigned char)*c >= 0x7f) *c = '?';
     }
+}
+
+/* ---- the registry -------------------------------------------------------------------------------------- */
+
+/* A spec naming no driver of its own (mem): parsed, and then skipped, because the program attaches a
+ * ub_memlink itself. */
+static void mem_spec_init(ub_port_spec_t *spec) { spec->kind = UB_PORT_MEM; }
+static int mem_spec_param(ub_port_spec_t *spec, uint32_t *seen, const char *key, const char *value, char *err,
+                          size_t cap) {
+    (void)spec, (void)seen, (void)key, (void)value, (void)err, (void)cap;
+    return UB_ERR_NOTFOUND;
+}
+static int mem_spec_format(const ub_port_spec_t *spec, char *out, size_t cap) {
+    (void)spec;
+    return snprintf(out, cap, "mem");
+}
+static const ub_driver_t k_mem_driver = {
+    .name = "mem",
+    .keys = "none",
+    .examples = "mem",
+    .spec_init = mem_spec_init,
+    .spec_param = mem_spec_param,
+    .spec_format = mem_spec_format,
+};
+
+/* The built-in drivers, in the order messages list them. Constant: each set registers them (ub_ports_init()). */
+static const ub_driver_t *const k_builtin[] = {&ub_udp_driver, &ub_tcp_driver, &ub_serial_driver, &k_mem_driver};
+#define BUILTIN_COUNT (sizeof k_builtin / sizeof k_builtin[0])
+
+/* Which drivers a parse knows: a set's registry, or the built-ins alone. */
+typedef struct registry {
+    const ub_driver_t *const *drivers;
+    size_t count;
+} registry_t;
+
+static registry_t registry_of(const ub_ports_t *ports) {
+    registry_t r = {k_builtin, BUILTIN_COUNT};
+    if (ports != NULL && ports->driver_count > 0) {
+        r.drivers = ports->drivers;
+        r.count = ports->driver_count;
+    }
+    return r;
+}
+
+static const ub_driver_t *registry_find(registry_t r, const char *word) {
+    for (size_t i = 0; i < r.count; i++) {
+        if (strcmp(r.drivers[i]->name, word) == 0) return r.drivers[i];
+    }
+    return NULL;
+}
+
+/* Appends to `out` (NUL-terminated, `cap` bytes) what snprintf would, cut at the end. */
+#if defined(__GNUC__) || defined(__clang__)
+__attribute__((format(printf, 3, 4)))
+#endif
+static void append(char *out, size_t cap, const char *fmt, ...) {
+    size_t len = strlen(out);
+    if (len + 1 >= cap) return;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(out + len, cap - len, fmt, ap);
+    va_end(ap);
+}
+
+/* "udp, tcp, serial or mem" and "udp:... | tcp:... | mem": the transports a message offers. */
+static void registry_words(registry_t r, char *out, size_t cap) {
+    out[0] = '\0';
+    for (size_t i = 0; i < r.count; i++) {
+        append(out, cap, "%s%s", i == 0 ? "" : i + 1 == r.count ? " or " : ", ", r.drivers[i]->name);
+    }
+}
+
+static void registry_examples(registry_t r, char *out, size_t cap) {
+    out[0] = '\0';
+    for (size_t i = 0; i < r.count; i++) append(out, cap, "%s%s", i ? " | " : "", r.drivers[i]->examples);
+}
+
+static bool name_ok(const char *name) {
+    size_t n = name != NULL ? strlen(name) : 0;
+    if (n == 0 || n > UB_DRIVER_NAME_MAX) return false;
+    for (size_t i = 0; i < n; i++) {
+        if (!((name[i] >= 'a' && name[i] <= 'z') || (name[i] >= '0' && name[i] <= '9'))) return false;
+    }
+    return true;
+}
+
+static bool driver_ok(const ub_driver_t *d) {
+    if (d == NULL || !name_ok(d->name) || d->keys == NULL || d->examples == NULL || d->spec_param == NULL ||
+        d->spec_format == NULL)
+        return false;
+    if (d->open == NULL) return true; /* parsed only, like mem */
+    return d->close != NULL && d->attach != NULL && d->link_ops != NULL && d->link_ops->send != NULL &&
+           d->service != NULL && d->pollfds != NULL && d->counters != NULL && d->state_size <= UB_DRIVER_STATE_MAX;
+}
+
+int ub_ports_register(ub_ports_t *ports, const ub_driver_t *driver) {
+    if (ports == NULL || !driver_ok(driver)) return UB_ERR_INVAL;
+    registry_t r = registry_of(ports);
+    if (registry_find(r, driver->name) != NULL) return UB_ERR_EXISTS;
+    if (ports->driver_count >= UB_PORTS_MAX_DRIVERS) return UB_ERR_FULL;
+    ports->drivers[ports->driver_count++] = driver;
+    return UB_OK;
+}
+
+const char *ub_port_kind_transport(ub_port_kind_t kind) {
+    static const char *const words[] = {
+        [UB_PORT_NONE] = "none",  [UB_PORT_UDP] = "udp",       [UB_PORT_TCP_LISTEN] = "tcp",
+        [UB_PORT_TCP_CONNECT] = "tcp", [UB_PORT_SERIAL] = "serial", [UB_PORT_MEM] = "mem",
+        [UB_PORT_DRIVER] = "none",
+    };
+    return (unsigned)kind < sizeof words / sizeof words[0] ? words[kind] : "none";
+}
+
+const char *ub_port_spec_transport(const ub_port_spec_t *spec) {
+    return spec != NULL && spec->driver != NULL ? spec->driver->name : "none";
 }
 
 /* ---- spec parsing (shared by the command-line and config forms) -------------------------------------- */
 
-#define EXAMPLES                                                                                            \
-    "udp:bind=127.0.0.1:0,peer=127.0.0.1:5001 | udp:bind=0.0.0.0:5001 (peers learned) | "                 \
-    "tcp:listen=127.0.0.1:5001 | tcp:connect=127.0.0.1:5001 | serial:device=/dev/ttyUSB0,baud=115200 | mem"
-
-static const uint32_t k_bauds[] = {1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400, 460800, 921600};
-
-static bool parse_u32(const char *s, uint32_t max, uint32_t *out) {
-    if (*s == '\0') return false;
-    uint64_t v = 0;
-    for (; *s != '\0'; s++) {
-        if (*s < '0' || *s > '9') return false;
-        v = v * 10 + (uint64_t)(*s - '0');
-        if (v > max) return false;
-    }
-    *out = (uint32_t)v;
-    return true;
-}
-
-/* "HOST:PORT" -> dotted host + port. "localhost" means 127.0.0.1 (the drivers take dotted IPv4 only). */
-static bool parse_hostport(const char *value, char host[UB_PORT_HOST_LEN], uint16_t *port) {
-    const char *colon = strrchr(value, ':');
-    if (colon == NULL || colon == value || (size_t)(colon - value) >= UB_PORT_HOST_LEN) return false;
-    char h[UB_PORT_HOST_LEN];
-    memcpy(h, value, (size_t)(colon - value));
-    h[colon - value] = '\0';
-    if (strcmp(h, "localhost") == 0) snprintf(h, sizeof h, "127.0.0.1");
-    struct in_addr a;
-    if (inet_pton(AF_INET, h, &a) != 1) return false;
-    uint32_t p;
-    if (!parse_u32(colon + 1, 65535u, &p)) return false;
-    memcpy(host, h, sizeof h);
-    *port = (uint16_t)p;
-    return true;
-}
-
-/* Spec being built: which transport word, and which parameters were seen. */
+/* Spec being built: its driver, the driver's bits of what it has seen, and the wire parameters seen. */
 typedef struct spec_builder {
     ub_port_spec_t spec;
-    bool is_tcp;
-    bool has_bind, has_peer, has_listen, has_connect, has_device, has_accept, has_encoding, has_mtu;
+    uint32_t seen;
+    bool has_encoding, has_mtu;
 } spec_builder_t;
 
-static int builder_start(spec_builder_t *b, const char *transport, char *err, size_t cap) {
+static int builder_start(spec_builder_t *b, registry_t r, const char *transport, char *err, size_t cap) {
     memset(b, 0, sizeof *b);
-    if (strcmp(transport, "udp") == 0) {
-        b->spec.kind = UB_PORT_UDP;
-    } else if (strcmp(transport, "tcp") == 0) {
-        b->is_tcp = true;
-    } else if (strcmp(transport, "serial") == 0) {
-        b->spec.kind = UB_PORT_SERIAL;
-        b->spec.baud = UB_PORT_DEFAULT_BAUD;
-    } else if (strcmp(transport, "mem") == 0) {
-        b->spec.kind = UB_PORT_MEM;
-    } else {
-        fail(err, cap, "unknown transport '%.20s' (expected udp, tcp, serial or mem, e.g. " EXAMPLES ")", transport);
+    const ub_driver_t *d = registry_find(r, transport);
+    if (d == NULL) {
+        char words[160], examples[UB_PORTS_ERR_LEN];
+        registry_words(r, words, sizeof words);
+        registry_examples(r, examples, sizeof examples);
+        fail(err, cap, "unknown transport '%.20s' (expected %s, e.g. %s)", transport, words, examples);
         return UB_ERR_INVAL;
     }
+    b->spec.driver = d;
+    b->spec.kind = UB_PORT_DRIVER;
+    if (d->spec_init != NULL) d->spec_init(&b->spec);
     return UB_OK;
 }
 
-/* One KEY=VALUE; messages name the key so the caller can prefix where it came from. */
+/* One KEY=VALUE: the driver's own keys first, then the link's wire parameters. Messages name the key so
+ * the caller can prefix where it came from. */
 static int builder_param(spec_builder_t *b, const char *key, const char *value, char *err, size_t cap) {
     ub_port_spec_t *s = &b->spec;
-    const char *hp_help = "expected HOST:PORT with a dotted IPv4 host and a port 0..65535, e.g. 127.0.0.1:5001";
-    if (s->kind == UB_PORT_UDP && (strcmp(key, "bind") == 0 || strcmp(key, "peer") == 0)) {
-        bool bind = key[0] == 'b';
-        if (bind ? b->has_bind : b->has_peer) {
-            fail(err, cap, "'%s' given twice: give it once", key);
-            return UB_ERR_INVAL;
-        }
-        if (!parse_hostport(value, bind ? s->host : s->peer_host, bind ? &s->port : &s->peer_port)) {
-            fail(err, cap, "'%s=%.40s': %s", key, value, hp_help);
-            return UB_ERR_INVAL;
-        }
-        if (!bind && s->peer_port == 0) {
-            fail(err, cap, "'peer=%.40s': the peer port must not be 0 (it is where frames are sent)", value);
-            return UB_ERR_INVAL;
-        }
-        if (bind) b->has_bind = true;
-        else b->has_peer = true;
-        return UB_OK;
+    const ub_driver_t *d = s->driver;
+    char msg[UB_PORTS_ERR_LEN] = "";
+    int rc = d->spec_param(s, &b->seen, key, value, msg, sizeof msg);
+    if (rc != UB_ERR_NOTFOUND) {
+        if (rc != UB_OK) fail(err, cap, "%s", msg);
+        return rc == UB_OK ? UB_OK : UB_ERR_INVAL;
     }
-    if (s->kind == UB_PORT_UDP && strcmp(key, "accept") == 0) {
-        static const char *const modes[] = {"peer", "learn", "any"};
-        size_t m = 0;
-        while (m < 3 && strcmp(value, modes[m]) != 0) m++;
-        if (m == 3 || b->has_accept) {
-            fail(err, cap, "'accept=%.20s': %s", value,
-                 b->has_accept ? "given twice: give it once"
-                               : "use peer (the peer only), learn (one peer: the last sender the node accepted) or "
-                                 "any (every sender of a genuine frame, up to UB_UDP_MAX_PEERS)");
-            return UB_ERR_INVAL;
-        }
-        s->accept = (uint8_t)m;
-        b->has_accept = true;
-        return UB_OK;
-    }
-    if (b->is_tcp && (strcmp(key, "listen") == 0 || strcmp(key, "connect") == 0)) {
-        if (b->has_listen || b->has_connect) {
-            fail(err, cap, "'%s': a tcp port either listens or connects: give exactly one of listen=, connect=", key);
-            return UB_ERR_INVAL;
-        }
-        if (!parse_hostport(value, s->host, &s->port)) {
-            fail(err, cap, "'%s=%.40s': %s", key, value, hp_help);
-            return UB_ERR_INVAL;
-        }
-        if (key[0] == 'c') {
-            if (s->port == 0) {
-                fail(err, cap, "'connect=%.40s': the port to connect to must not be 0", value);
-                return UB_ERR_INVAL;
-            }
-            s->kind = UB_PORT_TCP_CONNECT;
-            b->has_connect = true;
-        } else {
-            s->kind = UB_PORT_TCP_LISTEN;
-            b->has_listen = true;
-        }
-        return UB_OK;
-    }
-    if (s->kind == UB_PORT_SERIAL && strcmp(key, "device") == 0) {
-        size_t n = strlen(value);
-        if (n == 0 || n >= UB_PORT_DEVICE_LEN) {
-            fail(err, cap, "'device': give a device path of 1 to %d characters, e.g. /dev/ttyUSB0",
-                 UB_PORT_DEVICE_LEN - 1);
-            return UB_ERR_INVAL;
-        }
-        /* A config file could name one, but the spec text (--port, rebind, the "ready" event) could not say it. */
-        if (strchr(value, ',') != NULL) {
-            fail(err, cap, "'device=%.40s': a device path cannot contain ',' (it separates a spec's parameters); "
-                 "use a symlink without one", value);
-            return UB_ERR_INVAL;
-        }
-        memcpy(s->device, value, n + 1);
-        b->has_device = true;
-        return UB_OK;
-    }
-    if (s->kind == UB_PORT_SERIAL && strcmp(key, "baud") == 0) {
-        uint32_t v = 0;
-        bool ok = parse_u32(value, 10000000u, &v);
-        bool known = false;
-        for (size_t i = 0; ok && i < sizeof k_bauds / sizeof k_bauds[0]; i++) known = known || k_bauds[i] == v;
-        if (!known) {
-            fail(err, cap,
-                 "'baud=%.20s': use one of 1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400, 460800, "
-                 "921600",
-                 value);
-            return UB_ERR_INVAL;
-        }
-        s->baud = v;
-        return UB_OK;
-    }
-    if (s->kind != UB_PORT_MEM && strcmp(key, "encoding") == 0) {
+    if (d->wire_params && strcmp(key, "encoding") == 0) {
         bool compact = strcmp(value, "compact") == 0;
         if (b->has_encoding || (!compact && strcmp(value, "full") != 0)) {
             fail(err, cap, "'encoding=%.20s': %s", value,
@@ -201,9 +200,9 @@ static int builder_param(spec_builder_t *b, const char *key, const char *value, 
         b->has_encoding = true;
         return UB_OK;
     }
-    if (s->kind != UB_PORT_MEM && strcmp(key, "mtu") == 0) {
+    if (d->wire_params && strcmp(key, "mtu") == 0) {
         uint32_t v = 0;
-        if (b->has_mtu || !parse_u32(value, 65535u, &v) || v < UB_LINK_MTU_MIN) {
+        if (b->has_mtu || !ub_driver_parse_u32(value, 65535u, &v) || v < UB_LINK_MTU_MIN) {
             fail(err, cap, "'mtu=%.20s': %s", value,
                  b->has_mtu ? "given twice: give it once"
                             : "give the largest frame the link carries, in bytes, from 64 to 65535 (e.g. mtu=255 for "
@@ -214,59 +213,47 @@ static int builder_param(spec_builder_t *b, const char *key, const char *value, 
         b->has_mtu = true;
         return UB_OK;
     }
-    const char *expected = s->kind == UB_PORT_UDP      ? "bind, peer, accept, encoding, mtu"
-                           : b->is_tcp                 ? "listen or connect, encoding, mtu"
-                           : s->kind == UB_PORT_SERIAL ? "device, baud, encoding, mtu"
-                                                       : "none";
-    fail(err, cap, "unknown parameter '%.20s' for %s (expected: %s)", key,
-         b->is_tcp ? "tcp" : ub_port_kind_transport(s->kind), expected);
+    fail(err, cap, "unknown parameter '%.20s' for %s (expected: %s%s)", key, d->name, d->keys,
+         d->wire_params ? ", encoding, mtu" : "");
     return UB_ERR_INVAL;
 }
 
 static int builder_finish(spec_builder_t *b, ub_port_spec_t *out, char *err, size_t cap) {
-    if (b->spec.kind == UB_PORT_UDP && !b->has_bind) {
-        fail(err, cap, "udp needs bind=HOST:PORT, e.g. udp:bind=127.0.0.1:0,peer=127.0.0.1:5001 (or, to learn its "
-                       "peers, udp:bind=0.0.0.0:5001)");
-        return UB_ERR_INVAL;
-    }
-    if (b->spec.kind == UB_PORT_UDP && !b->has_accept) b->spec.accept = b->has_peer ? UB_UDP_ACCEPT_PEER : UB_UDP_ACCEPT_ANY;
-    if (b->spec.kind == UB_PORT_UDP && b->spec.accept == UB_UDP_ACCEPT_PEER && !b->has_peer) {
-        fail(err, cap, "udp with accept=peer needs peer=HOST:PORT, e.g. udp:bind=127.0.0.1:0,peer=127.0.0.1:5001");
-        return UB_ERR_INVAL;
-    }
-    if (b->is_tcp && b->spec.kind == UB_PORT_NONE) {
-        fail(err, cap, "tcp needs listen=HOST:PORT (server) or connect=HOST:PORT (client), e.g. tcp:connect=127.0.0.1:5001");
-        return UB_ERR_INVAL;
-    }
-    if (b->spec.kind == UB_PORT_SERIAL && !b->has_device) {
-        fail(err, cap, "serial needs device=PATH, e.g. serial:device=/dev/ttyUSB0,baud=115200");
+    const ub_driver_t *d = b->spec.driver;
+    char msg[UB_PORTS_ERR_LEN] = "";
+    if (d->spec_finish != NULL && d->spec_finish(&b->spec, b->seen, msg, sizeof msg) != UB_OK) {
+        fail(err, cap, "%s", msg);
         return UB_ERR_INVAL;
     }
     *out = b->spec;
     return UB_OK;
 }
 
-int ub_port_spec_parse(const char *text, ub_port_spec_t *spec, char *err, size_t err_cap) {
+static int spec_parse(registry_t r, const char *text, ub_port_spec_t *spec, char *err, size_t err_cap) {
     if (text == NULL || spec == NULL) return UB_ERR_INVAL;
     char buf[256];
     size_t n = strlen(text);
     if (n == 0 || n >= sizeof buf) {
-        fail(err, err_cap, "port spec must be 1 to %zu characters: TRANSPORT[:KEY=VALUE,...], e.g. " EXAMPLES,
-             sizeof buf - 1);
+        char examples[UB_PORTS_ERR_LEN];
+        registry_examples(r, examples, sizeof examples);
+        fail(err, err_cap, "port spec must be 1 to %zu characters: TRANSPORT[:KEY=VALUE,...], e.g. %s",
+             sizeof buf - 1, examples);
         return UB_ERR_INVAL;
     }
     memcpy(buf, text, n + 1);
     char *params = strchr(buf, ':');
     if (params != NULL) *params++ = '\0';
     spec_builder_t b;
-    int rc = builder_start(&b, buf, err, err_cap);
+    int rc = builder_start(&b, r, buf, err, err_cap);
     if (rc != UB_OK) return rc;
     while (params != NULL && *params != '\0') {
         char *next = strchr(params, ',');
         if (next != NULL) *next++ = '\0';
         char *eq = strchr(params, '=');
         if (eq == NULL || eq == params) {
-            fail(err, err_cap, "'%.40s' is not KEY=VALUE (e.g. " EXAMPLES ")", params);
+            char examples[UB_PORTS_ERR_LEN];
+            registry_examples(r, examples, sizeof examples);
+            fail(err, err_cap, "'%.40s' is not KEY=VALUE (e.g. %s)", params, examples);
             return UB_ERR_INVAL;
         }
         *eq = '\0';
@@ -277,16 +264,26 @@ int ub_port_spec_parse(const char *text, ub_port_spec_t *spec, char *err, size_t
     return builder_finish(&b, spec, err, err_cap);
 }
 
-int ub_port_arg_parse(const char *arg, char *name, size_t name_cap, ub_port_spec_t *spec, char *err,
-                      size_t err_cap) {
+int ub_port_spec_parse(const char *text, ub_port_spec_t *spec, char *err, size_t err_cap) {
+    return spec_parse(registry_of(NULL), text, spec, err, err_cap);
+}
+
+int ub_ports_spec_parse(const ub_ports_t *ports, const char *text, ub_port_spec_t *spec, char *err, size_t err_cap) {
+    if (ports == NULL) return UB_ERR_INVAL;
+    return spec_parse(registry_of(ports), text, spec, err, err_cap);
+}
+
+static int arg_parse(registry_t r, const char *arg, char *name, size_t name_cap, ub_port_spec_t *spec, char *err,
+                     size_t err_cap) {
     if (arg == NULL || name == NULL || name_cap == 0 || spec == NULL) return UB_ERR_INVAL;
     const char *eq = strchr(arg, '=');
     size_t n = eq != NULL ? (size_t)(eq - arg) : 0;
     /* "tcp:connect=..." without a link name would otherwise read as link "tcp:connect" (entity:link form). */
     bool spec_only = false;
-    static const char *const words[] = {"udp:", "tcp:", "serial:"};
-    for (size_t i = 0; i < sizeof words / sizeof words[0]; i++) {
-        spec_only = spec_only || strncmp(arg, words[i], strlen(words[i])) == 0;
+    for (size_t i = 0; i < r.count; i++) {
+        size_t w = strlen(r.drivers[i]->name);
+        spec_only = spec_only || (r.drivers[i]->open != NULL && strncmp(arg, r.drivers[i]->name, w) == 0 &&
+                                  arg[w] == ':');
     }
     if (eq == NULL || n == 0 || spec_only) {
         fail(err, err_cap, "'%.60s': expected LINK=SPEC, e.g. onboardPortIPC=tcp:connect=127.0.0.1:5001", arg);
@@ -298,7 +295,7 @@ int ub_port_arg_parse(const char *arg, char *name, size_t name_cap, ub_port_spec
         return UB_ERR_INVAL;
     }
     char msg[UB_PORTS_ERR_LEN];
-    if (ub_port_spec_parse(eq + 1, spec, msg, sizeof msg) != UB_OK) {
+    if (spec_parse(r, eq + 1, spec, msg, sizeof msg) != UB_OK) {
         fail(err, err_cap, "port '%.*s': %s", (int)n, arg, msg);
         return UB_ERR_INVAL;
     }
@@ -307,13 +304,24 @@ int ub_port_arg_parse(const char *arg, char *name, size_t name_cap, ub_port_spec
     return UB_OK;
 }
 
-int ub_port_spec_from_config(const ub_nodecfg_port_t *entry, const char *source, ub_port_spec_t *spec, char *err,
-                             size_t err_cap) {
+int ub_port_arg_parse(const char *arg, char *name, size_t name_cap, ub_port_spec_t *spec, char *err,
+                      size_t err_cap) {
+    return arg_parse(registry_of(NULL), arg, name, name_cap, spec, err, err_cap);
+}
+
+int ub_ports_arg_parse(const ub_ports_t *ports, const char *arg, char *name, size_t name_cap, ub_port_spec_t *spec,
+                       char *err, size_t err_cap) {
+    if (ports == NULL) return UB_ERR_INVAL;
+    return arg_parse(registry_of(ports), arg, name, name_cap, spec, err, err_cap);
+}
+
+static int spec_from_config(registry_t r, const ub_nodecfg_port_t *entry, const char *source, ub_port_spec_t *spec,
+                            char *err, size_t err_cap) {
     if (entry == NULL || spec == NULL) return UB_ERR_INVAL;
     if (source == NULL) source = "<config>";
     char msg[UB_PORTS_ERR_LEN];
     spec_builder_t b;
-    if (builder_start(&b, entry->transport, msg, sizeof msg) != UB_OK) {
+    if (builder_start(&b, r, entry->transport, msg, sizeof msg) != UB_OK) {
         fail(err, err_cap, "%s:%u: port '%s', field 'transport': %s", source, (unsigned)entry->line, entry->name, msg);
         return UB_ERR_CONFIG;
     }
@@ -332,31 +340,24 @@ int ub_port_spec_from_config(const ub_nodecfg_port_t *entry, const char *source,
     return UB_OK;
 }
 
+int ub_port_spec_from_config(const ub_nodecfg_port_t *entry, const char *source, ub_port_spec_t *spec, char *err,
+                             size_t err_cap) {
+    return spec_from_config(registry_of(NULL), entry, source, spec, err, err_cap);
+}
+
+int ub_ports_spec_from_config(const ub_ports_t *ports, const ub_nodecfg_port_t *entry, const char *source,
+                              ub_port_spec_t *spec, char *err, size_t err_cap) {
+    if (ports == NULL) return UB_ERR_INVAL;
+    return spec_from_config(registry_of(ports), entry, source, spec, err, err_cap);
+}
+
 void ub_port_spec_format(const ub_port_spec_t *spec, char *out, size_t cap) {
     if (out == NULL || cap == 0) return;
     if (spec == NULL) {
         out[0] = '\0';
         return;
     }
-    int n;
-    switch (spec->kind) {
-    case UB_PORT_UDP: {
-        /* accept= only when it is not what the other parameters imply (peer given: peer; none: any). */
-        bool peer = spec->peer_port != 0;
-        unsigned implied = peer ? UB_UDP_ACCEPT_PEER : UB_UDP_ACCEPT_ANY;
-        static const char *const modes[] = {"peer", "learn", "any"};
-        char peer_text[UB_PORT_HOST_LEN + 16] = "";
-        if (peer) snprintf(peer_text, sizeof peer_text, ",peer=%s:%u", spec->peer_host, (unsigned)spec->peer_port);
-        n = snprintf(out, cap, "udp:bind=%s:%u%s%s%s", spec->host, (unsigned)spec->port, peer_text,
-                     spec->accept != implied ? ",accept=" : "", spec->accept != implied ? modes[spec->accept % 3] : "");
-        break;
-    }
-    case UB_PORT_TCP_LISTEN: n = snprintf(out, cap, "tcp:listen=%s:%u", spec->host, (unsigned)spec->port); break;
-    case UB_PORT_TCP_CONNECT: n = snprintf(out, cap, "tcp:connect=%s:%u", spec->host, (unsigned)spec->port); break;
-    case UB_PORT_SERIAL: n = snprintf(out, cap, "serial:device=%s,baud=%u", spec->device, (unsigned)spec->baud); break;
-    case UB_PORT_MEM: n = snprintf(out, cap, "mem"); break;
-    default: n = snprintf(out, cap, "none"); break;
-    }
+    int n = spec->driver != NULL ? spec->driver->spec_format(spec, out, cap) : snprintf(out, cap, "none");
     if (n >= 0 && (size_t)n < cap && spec->encoding == UB_PORT_ENCODING_COMPACT)
         n += snprintf(out + n, cap - (size_t)n, ",encoding=compact");
     if (n >= 0 && (size_t)n < cap && spec->mtu != 0) n += snprintf(out + n, cap - (size_t)n, ",mtu=%u", (unsigned)spec->mtu);
@@ -364,67 +365,37 @@ void ub_port_spec_format(const ub_port_spec_t *spec, char *out, size_t cap) {
     if ((n < 0 || (size_t)n >= cap) && cap >= 4) memcpy(out + cap - 4, "...", 4);
 }
 
-/* ---- drivers ----------------------------------------------------------------------------------------- */
+/* Counters the default description (a driver without describe()) writes at most. */
+#define UB_PORTS_DESCRIBE_COUNTERS 32
+
+/* ---- driver instances: every call goes through the instance's driver table ------------------------------ */
 
 static const ub_link_ops_t *driver_ops(ub_port_driver_t *d, void **impl) {
-    switch (d->kind) {
-    case UB_PORT_UDP: *impl = &d->u.udp; return &ub_udp_ops;
-    case UB_PORT_TCP_LISTEN:
-    case UB_PORT_TCP_CONNECT: *impl = &d->u.tcp; return &ub_tcp_ops;
-    case UB_PORT_SERIAL: *impl = &d->u.serial; return &ub_serial_ops;
-    default: *impl = NULL; return NULL;
-    }
+    *impl = d->driver != NULL ? &d->state : NULL;
+    return d->driver != NULL ? d->driver->link_ops : NULL;
 }
 
 static void driver_close(ub_port_driver_t *d) {
-    switch (d->kind) {
-    case UB_PORT_UDP: ub_udp_close(&d->u.udp); break;
-    case UB_PORT_TCP_LISTEN:
-    case UB_PORT_TCP_CONNECT: ub_tcp_close(&d->u.tcp); break;
-    case UB_PORT_SERIAL: ub_serial_close(&d->u.serial); break;
-    default: break;
-    }
-    d->kind = UB_PORT_NONE;
+    if (d->driver != NULL) d->driver->close(&d->state);
+    d->driver = NULL;
 }
 
 /* Opens the socket/device of `spec` into `d` (not attached yet). errno is kept for the caller. */
 static int driver_open(ub_port_driver_t *d, const ub_port_spec_t *spec) {
-    int rc;
     memset(d, 0, sizeof *d);
-    switch (spec->kind) {
-    case UB_PORT_UDP:
-        rc = ub_udp_open(&d->u.udp, spec->host, spec->port, spec->peer_port != 0 ? spec->peer_host : NULL,
-                         spec->peer_port);
-        if (rc == UB_OK) rc = ub_udp_set_accept(&d->u.udp, (ub_udp_accept_t)spec->accept);
-        if (rc != UB_OK) ub_udp_close(&d->u.udp);
-        break;
-    case UB_PORT_TCP_LISTEN: rc = ub_tcp_server_open(&d->u.tcp, spec->host, spec->port, NULL); break;
-    case UB_PORT_TCP_CONNECT: rc = ub_tcp_client_init(&d->u.tcp, spec->host, spec->port, NULL); break;
-    case UB_PORT_SERIAL: rc = ub_serial_open(&d->u.serial, spec->device, spec->baud); break;
-    default: return UB_ERR_INVAL;
-    }
-    if (rc == UB_OK) d->kind = spec->kind;
+    const ub_driver_t *drv = spec->driver;
+    if (drv == NULL || drv->open == NULL || drv->state_size > sizeof d->state) return UB_ERR_INVAL;
+    int rc = drv->open(&d->state, spec);
+    if (rc == UB_OK) d->driver = drv;
     return rc;
 }
 
 static int driver_attach(ub_port_driver_t *d, ub_node_t *node, int link_id) {
-    switch (d->kind) {
-    case UB_PORT_UDP: return ub_udp_attach(&d->u.udp, node, link_id);
-    case UB_PORT_TCP_LISTEN:
-    case UB_PORT_TCP_CONNECT: return ub_tcp_attach(&d->u.tcp, node, link_id);
-    case UB_PORT_SERIAL: return ub_serial_attach(&d->u.serial, node, link_id);
-    default: return UB_ERR_INVAL;
-    }
+    return d->driver != NULL ? d->driver->attach(&d->state, node, link_id) : UB_ERR_INVAL;
 }
 
 static int driver_service(ub_port_driver_t *d, ub_node_t *node, uint64_t now_ms) {
-    switch (d->kind) {
-    case UB_PORT_UDP: return ub_udp_service(&d->u.udp, node, now_ms);
-    case UB_PORT_TCP_LISTEN:
-    case UB_PORT_TCP_CONNECT: return ub_tcp_service(&d->u.tcp, node, now_ms);
-    case UB_PORT_SERIAL: return ub_serial_service(&d->u.serial, node, now_ms);
-    default: return 0;
-    }
+    return d->driver != NULL ? d->driver->service(&d->state, node, now_ms) : 0;
 }
 
 /* ---- the set ----------------------------------------------------------------------------------------- */
@@ -433,6 +404,7 @@ int ub_ports_init(ub_ports_t *ports, ub_node_t *node) {
     if (ports == NULL || node == NULL) return UB_ERR_INVAL;
     memset(ports, 0, sizeof *ports);
     ports->node = node;
+    for (size_t i = 0; i < BUILTIN_COUNT; i++) ports->drivers[ports->driver_count++] = k_builtin[i];
     return UB_OK;
 }
 
@@ -529,9 +501,9 @@ int ub_ports_open(ub_ports_t *ports, const char *link_name, const ub_port_spec_t
              link_name);
         return UB_ERR_NOTFOUND;
     }
-    if (spec->kind == UB_PORT_MEM || spec->kind == UB_PORT_NONE) {
+    if (spec->driver == NULL || spec->driver->open == NULL) {
         fail(err, err_cap, "port '%s': transport '%s' cannot be opened from a spec (attach a ub_memlink in the program)",
-             link_name, ub_port_kind_transport(spec->kind));
+             link_name, ub_port_spec_transport(spec));
         return UB_ERR_INVAL;
     }
     ub_port_t *p = port_of_link(ports, link_id);
@@ -561,8 +533,8 @@ int ub_ports_open(ub_ports_t *ports, const char *link_name, const ub_port_spec_t
         ub_port_spec_format(spec, text, sizeof text);
         fail(err, err_cap, "port '%s': cannot open %s: %s (%s)%s", link_name, text, ub_strerror(rc),
              rc == UB_ERR_IO ? strerror(e) : "check the parameters",
-             rebind && p->drv[p->active].kind != UB_PORT_NONE ? "; the previous transport stays in place" : "");
-        if (rebind && p->drv[p->active].kind == UB_PORT_NONE) {
+             rebind && p->drv[p->active].driver != NULL ? "; the previous transport stays in place" : "");
+        if (rebind && p->drv[p->active].driver == NULL) {
             /* The old transport was closed to free its address and the new one failed: the slot is detached. */
             if (ub_node_link_detach(ports->node, link_id) != UB_OK) { /* cannot fail: link_id was resolved */ }
             p->in_use = 0;
@@ -594,8 +566,9 @@ int ub_ports_open(ub_ports_t *ports, const char *link_name, const ub_port_spec_t
         driver_close(&p->drv[old]);
         p->rebinds++;
     }
-    /* A TCP client starts its first connection attempt now rather than at the first service. */
-    if (spec->kind == UB_PORT_TCP_CONNECT) (void)driver_service(&p->drv[slot], ports->node, now_ms);
+    /* E.g. a TCP client starts its first connection attempt now rather than at the first service. */
+    ub_port_driver_t *d = &p->drv[slot];
+    if (d->driver->start != NULL) d->driver->start(&d->state, ports->node, now_ms);
     return UB_OK;
 }
 
@@ -603,7 +576,8 @@ int ub_ports_open_text(ub_ports_t *ports, const char *link_name, const char *spe
                        size_t err_cap) {
     ub_port_spec_t spec;
     char msg[UB_PORTS_ERR_LEN];
-    if (ub_port_spec_parse(spec_text, &spec, msg, sizeof msg) != UB_OK) {
+    if (ports == NULL) return UB_ERR_INVAL;
+    if (ub_ports_spec_parse(ports, spec_text, &spec, msg, sizeof msg) != UB_OK) {
         fail(err, err_cap, "port '%s': %s", link_name != NULL ? link_name : "?", msg);
         return UB_ERR_INVAL;
     }
@@ -616,12 +590,12 @@ int ub_ports_open_config(ub_ports_t *ports, const ub_nodecfg_t *cfg, uint64_t no
     /* Check every entry first, so a bad entry fails before anything is opened. */
     ub_port_spec_t specs[UB_NODECFG_MAX_PORTS];
     for (unsigned i = 0; i < cfg->port_count; i++) {
-        int rc = ub_port_spec_from_config(&cfg->ports[i], cfg->source, &specs[i], err, err_cap);
+        int rc = ub_ports_spec_from_config(ports, &cfg->ports[i], cfg->source, &specs[i], err, err_cap);
         if (rc != UB_OK) return rc;
     }
     for (unsigned i = 0; i < cfg->port_count; i++) {
         const ub_nodecfg_port_t *e = &cfg->ports[i];
-        if (specs[i].kind == UB_PORT_MEM) continue;
+        if (specs[i].driver->open == NULL) continue; /* mem: the program attaches it */
         if (resolve_link(ports->node, e->name) < 0) continue; /* a link of an entity hosted elsewhere */
         char msg[UB_PORTS_ERR_LEN];
         int rc = ub_ports_open(ports, e->name, &specs[i], now_ms, msg, sizeof msg);
@@ -689,44 +663,16 @@ int ub_ports_service(ub_ports_t *ports, uint64_t now_ms) {
     return total;
 }
 
-static int add_fd(struct pollfd *fds, int cap, int *n, int fd, short events) {
-    if (fd < 0) return UB_OK;
-    if (*n >= cap) return UB_ERR_NOSPACE;
-    fds[*n].fd = fd;
-    fds[*n].events = events;
-    fds[*n].revents = 0;
-    (*n)++;
-    return UB_OK;
-}
-
 int ub_ports_pollfds(const ub_ports_t *ports, struct pollfd *fds, int cap) {
     if (ports == NULL || (fds == NULL && cap > 0) || cap < 0) return UB_ERR_INVAL;
     int n = 0;
     for (size_t i = 0; i < UB_PORTS_MAX; i++) {
         const ub_port_t *p = &ports->port[i];
-        if (!p->in_use) continue;
         const ub_port_driver_t *d = &p->drv[p->active];
-        int rc = UB_OK;
-        switch (d->kind) {
-        case UB_PORT_UDP:
-            rc = add_fd(fds, cap, &n, ub_udp_fileno(&d->u.udp),
-                        (short)(POLLIN | (ub_udp_tx_pending(&d->u.udp) > 0 ? POLLOUT : 0)));
-            break;
-        case UB_PORT_TCP_LISTEN:
-        case UB_PORT_TCP_CONNECT: {
-            const ub_tcp_t *t = &d->u.tcp;
-            rc = add_fd(fds, cap, &n, ub_tcp_listen_fileno(t), POLLIN);
-            bool out = ub_tcp_tx_pending(t) > 0 || ub_tcp_state(t) == UB_TCP_CONNECTING;
-            if (rc == UB_OK) rc = add_fd(fds, cap, &n, ub_tcp_fileno(t), (short)(POLLIN | (out ? POLLOUT : 0)));
-            break;
-        }
-        case UB_PORT_SERIAL:
-            rc = add_fd(fds, cap, &n, ub_serial_fileno(&d->u.serial),
-                        (short)(POLLIN | (ub_serial_tx_pending(&d->u.serial) > 0 ? POLLOUT : 0)));
-            break;
-        default: break;
-        }
-        if (rc != UB_OK) return rc;
+        if (!p->in_use || d->driver == NULL) continue;
+        int rc = d->driver->pollfds(&d->state, fds + n, cap - n);
+        if (rc < 0) return rc;
+        n += rc;
     }
     return n;
 }
@@ -740,13 +686,11 @@ int ub_ports_poll_timeout(const ub_ports_t *ports, uint64_t now_ms, int max_ms) 
         if (!p->in_use) continue;
         uint64_t due;
         if (p->impaired && ub_impair_next_due(&p->impair, &due) && due < best) best = due;
+        /* A driver with nothing to poll while it waits (a TCP client's retry, a serial device's reopen) must
+         * still be serviced in time: its due time wakes the loop. */
         const ub_port_driver_t *d = &p->drv[p->active];
-        /* A client waiting to retry has no descriptor to wake the loop: its retry time must. */
-        if (d->kind == UB_PORT_TCP_CONNECT && ub_tcp_state(&d->u.tcp) == UB_TCP_DOWN
-            && d->u.tcp.next_attempt_ms < best)
-            best = d->u.tcp.next_attempt_ms;
-        /* So must a serial device that hung up and waits to be reopened. */
-        if (d->kind == UB_PORT_SERIAL && ub_serial_next_retry(&d->u.serial, &due) && due < best) best = due;
+        if (d->driver != NULL && d->driver->next_due != NULL && d->driver->next_due(&d->state, &due) && due < best)
+            best = due;
     }
     return best <= now_ms ? 0 : (int)(best - now_ms);
 }
@@ -757,10 +701,17 @@ const ub_port_t *ub_ports_find(const ub_ports_t *ports, const char *link_name) {
     return id >= 0 ? port_of_link((ub_ports_t *)ports, id) : NULL;
 }
 
-const ub_udp_t *ub_ports_udp(const ub_ports_t *ports, const char *link_name) {
+const void *ub_ports_state(const ub_ports_t *ports, const char *link_name, const ub_driver_t *driver) {
     const ub_port_t *p = ub_ports_find(ports, link_name);
-    if (p == NULL || p->drv[p->active].kind != UB_PORT_UDP) return NULL;
-    return &p->drv[p->active].u.udp;
+    if (p == NULL) return NULL;
+    const ub_port_driver_t *d = &p->drv[p->active];
+    if (d->driver == NULL || (driver != NULL && d->driver != driver)) return NULL;
+    return &d->state;
+}
+
+/* Kept for the programs that read a UDP port's peers and stats (ub_udp.h). */
+const ub_udp_t *ub_ports_udp(const ub_ports_t *ports, const char *link_name) {
+    return ub_ports_state(ports, link_name, &ub_udp_driver);
 }
 
 int ub_ports_local_port(const ub_ports_t *ports, const char *link_name, uint16_t *port) {
@@ -768,11 +719,46 @@ int ub_ports_local_port(const ub_ports_t *ports, const char *link_name, uint16_t
     const ub_port_t *p = ub_ports_find(ports, link_name);
     if (p == NULL) return UB_ERR_NOTFOUND;
     const ub_port_driver_t *d = &p->drv[p->active];
-    switch (d->kind) {
-    case UB_PORT_UDP: return ub_udp_local_port(&d->u.udp, port);
-    case UB_PORT_TCP_LISTEN: return ub_tcp_local_port(&d->u.tcp, port);
-    default: return UB_ERR_INVAL;
+    if (d->driver == NULL || d->driver->local_port == NULL) return UB_ERR_INVAL;
+    return d->driver->local_port(&d->state, port);
+}
+
+int ub_ports_counters(const ub_ports_t *ports, const char *link_name, ub_driver_counter_t *out, size_t cap) {
+    if (ports == NULL || (out == NULL && cap > 0)) return UB_ERR_INVAL;
+    const ub_port_t *p = ub_ports_find(ports, link_name);
+    if (p == NULL || p->drv[p->active].driver == NULL) return UB_ERR_NOTFOUND;
+    const ub_port_driver_t *d = &p->drv[p->active];
+    size_t n = d->driver->counters(&d->state, out, cap);
+    return n > INT32_MAX ? INT32_MAX : (int)n;
+}
+
+int ub_ports_describe(const ub_ports_t *ports, const char *link_name, char *out, size_t cap) {
+    if (ports == NULL || out == NULL || cap == 0) return UB_ERR_INVAL;
+    out[0] = '\0';
+    const ub_port_t *p = ub_ports_find(ports, link_name);
+    if (p == NULL || p->drv[p->active].driver == NULL) return UB_ERR_NOTFOUND;
+    const ub_port_driver_t *d = &p->drv[p->active];
+    int n = snprintf(out, cap, "\"%s\":{", d->driver->name);
+    size_t at = n >= 0 && (size_t)n < cap ? (size_t)n : cap - 1;
+    int k;
+    if (d->driver->describe != NULL) {
+        k = d->driver->describe(&d->state, out + at, cap - at);
+    } else {
+        ub_driver_counter_t c[UB_PORTS_DESCRIBE_COUNTERS];
+        size_t m = d->driver->counters(&d->state, c, UB_PORTS_DESCRIBE_COUNTERS);
+        k = ub_driver_format_counters(c, m < UB_PORTS_DESCRIBE_COUNTERS ? m : UB_PORTS_DESCRIBE_COUNTERS, out + at,
+                                      cap - at);
     }
+    if (n < 0 || k < 0) return UB_ERR_INVAL;
+    n += k;
+    at = (size_t)n < cap ? (size_t)n : cap - 1;
+    n += snprintf(out + at, cap - at, "}");
+    sanitize(out); /* one clean line, whatever a driver wrote */
+    if ((size_t)n >= cap) {
+        if (cap >= 4) memcpy(out + cap - 4, "...", 4);
+        return UB_ERR_NOSPACE;
+    }
+    return n;
 }
 
 int ub_ports_set_impairment(ub_ports_t *ports, const ub_impair_params_t *params, uint64_t seed) {
@@ -823,22 +809,12 @@ int ub_ports_notice(ub_ports_t *ports, char *out, size_t cap) {
     if (ports == NULL || ports->node == NULL || out == NULL || cap == 0) return UB_ERR_INVAL;
     for (size_t i = 0; i < UB_PORTS_MAX; i++) {
         ub_port_t *p = &ports->port[i];
-        if (!p->in_use || p->refusal_reported) continue;
         const ub_port_driver_t *d = &p->drv[p->active];
-        if (d->kind != UB_PORT_UDP || d->u.udp.stats.foreign == 0) continue;
-        p->refusal_reported = 1;
+        if (!p->in_use || p->notice_reported || d->driver == NULL || d->driver->notice == NULL) continue;
         const ub_link_t *link = ub_node_link(ports->node, p->link_id);
-        char from[INET_ADDRSTRLEN] = "?", peer[INET_ADDRSTRLEN + 8] = "?";
-        const struct sockaddr_in *r = &d->u.udp.refused_from;
-        if (r->sin_port != 0) (void)inet_ntop(AF_INET, &r->sin_addr, from, sizeof from);
-        char host[16];
-        uint16_t port = 0;
-        if (ub_udp_peer_at(&d->u.udp, 0, host, &port) == UB_OK) snprintf(peer, sizeof peer, "%s:%u", host, port);
-        fail(out, cap,
-             "port '%s': refused a datagram from %s:%u: not this link's peer (%s); it is counted as 'foreign' and "
-             "not reported again. To accept other senders too, open the port with accept=any (several peers, e.g. "
-             "a GCS on an ephemeral port and a monitor) or accept=learn (docs/config-format.md#ports)",
-             link != NULL ? link->name : "?", from, (unsigned)ntohs(r->sin_port), peer);
+        if (d->driver->notice(&d->state, link != NULL ? link->name : "?", out, cap) != 1) continue;
+        p->notice_reported = 1;
+        sanitize(out);
         return 1;
     }
     return 0;

@@ -6,11 +6,13 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <poll.h>
+#include <stdio.h>
 #include <string.h>
 #include <termios.h>
 #include <unistd.h>
 
 #include "ub/ub_node.h"
+#include "ub/ub_ports.h"
 #include "drivers/ub_stream_tx_private.h"
 
 typedef struct baud_entry {
@@ -137,7 +139,7 @@ static void try_reopen(ub_serial_t *serial, uint64_t now_ms) {
     serial->backoff_ms = UB_SERIAL_RETRY_MIN_MS;
     serial->stats.reopens++;
     if (serial->node != NULL) {
-        int attached = ub_node_link_attach(serial->node, serial->link_id, &ub_serial_ops, serial);
+        int attached = ub_driver_reattach(serial->node, serial->link_id, &ub_serial_ops, serial);
         (void)attached; /* cannot fail: ub_serial_attach() succeeded with these arguments */
     }
 }
@@ -174,11 +176,7 @@ const ub_link_ops_t ub_serial_ops = {.kind = "serial", .send = serial_send, .fil
 
 int ub_serial_attach(ub_serial_t *serial, ub_node_t *node, int link_id) {
     if (serial == NULL) return UB_ERR_INVAL;
-    int rc = ub_node_link_attach(node, link_id, &ub_serial_ops, serial);
-    if (rc < 0) return rc;
-    serial->node = node;
-    serial->link_id = link_id;
-    return UB_OK;
+    return ub_driver_attach(node, link_id, &ub_serial_ops, serial, &serial->node, &serial->link_id);
 }
 
 /* read() returned 0. With VMIN = VTIME = 0 that is also "no data now", so ask poll(): a hung-up tty
@@ -250,3 +248,129 @@ void ub_serial_close(ub_serial_t *serial) {
     serial->state = UB_SERIAL_DOWN;
     serial->hung = 0; /* an explicit close ends reopening */
 }
+
+/* ---- the driver entry (ub_driver.h): "serial:device=PATH[,baud=RATE]" ---- */
+
+enum { SEEN_DEVICE = 1u };
+
+static void serial_spec_init(ub_port_spec_t *spec) {
+    spec->kind = UB_PORT_SERIAL;
+    spec->baud = UB_PORT_DEFAULT_BAUD;
+}
+
+static int serial_spec_param(ub_port_spec_t *s, uint32_t *seen, const char *key, const char *value, char *err,
+                             size_t cap) {
+    if (strcmp(key, "device") == 0) {
+        size_t n = strlen(value);
+        if (n == 0 || n >= UB_PORT_DEVICE_LEN) {
+            snprintf(err, cap, "'device': give a device path of 1 to %d characters, e.g. /dev/ttyUSB0",
+                     UB_PORT_DEVICE_LEN - 1);
+            return UB_ERR_INVAL;
+        }
+        /* A config file could name one, but the spec text (--port, rebind, the "ready" event) could not say it. */
+        if (strchr(value, ',') != NULL) {
+            snprintf(err, cap, "'device=%.40s': a device path cannot contain ',' (it separates a spec's parameters); "
+                     "use a symlink without one", value);
+            return UB_ERR_INVAL;
+        }
+        memcpy(s->device, value, n + 1);
+        *seen |= SEEN_DEVICE;
+        return UB_OK;
+    }
+    if (strcmp(key, "baud") == 0) {
+        uint32_t v = 0;
+        speed_t speed;
+        if (!ub_driver_parse_u32(value, 10000000u, &v) || find_speed(v, &speed) != UB_OK) {
+            snprintf(err, cap,
+                     "'baud=%.20s': use one of 1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400, 460800, "
+                     "921600",
+                     value);
+            return UB_ERR_INVAL;
+        }
+        s->baud = v;
+        return UB_OK;
+    }
+    return UB_ERR_NOTFOUND;
+}
+
+static int serial_spec_finish(ub_port_spec_t *s, uint32_t seen, char *err, size_t cap) {
+    (void)s;
+    if (!(seen & SEEN_DEVICE)) {
+        snprintf(err, cap, "serial needs device=PATH, e.g. serial:device=/dev/ttyUSB0,baud=115200");
+        return UB_ERR_INVAL;
+    }
+    return UB_OK;
+}
+
+static int serial_spec_format(const ub_port_spec_t *spec, char *out, size_t cap) {
+    return snprintf(out, cap, "serial:device=%s,baud=%u", spec->device, (unsigned)spec->baud);
+}
+
+static int serial_open(void *state, const ub_port_spec_t *spec) { return ub_serial_open(state, spec->device, spec->baud); }
+static void serial_close(void *state) { ub_serial_close(state); }
+static int serial_attach_op(void *state, ub_node_t *node, int link_id) { return ub_serial_attach(state, node, link_id); }
+static int serial_service_op(void *state, ub_node_t *node, uint64_t now_ms) {
+    return ub_serial_service(state, node, now_ms);
+}
+
+static int serial_pollfds(const void *state, struct pollfd *fds, int cap) {
+    const ub_serial_t *serial = state;
+    if (serial->fd < 0) return 0; /* down: the retry time wakes the loop (serial_next_due) */
+    if (cap < 1) return UB_ERR_NOSPACE;
+    fds[0].fd = serial->fd;
+    fds[0].events = (short)(POLLIN | (serial->tx_len > 0 ? POLLOUT : 0));
+    fds[0].revents = 0;
+    return 1;
+}
+
+/* A device that hung up and waits to be reopened has no descriptor to wake the loop: its retry time must. */
+static bool serial_next_due(const void *state, uint64_t *due_ms) { return ub_serial_next_retry(state, due_ms); }
+
+static size_t serial_counters(const void *state, ub_driver_counter_t *out, size_t cap) {
+    const ub_serial_stats_t *s = &((const ub_serial_t *)state)->stats;
+    const ub_driver_counter_t all[] = {
+        {"bytes_in", s->bytes_in},         {"bytes_out", s->bytes_out},
+        {"frames_out", s->frames_out},     {"backpressure", s->backpressure},
+        {"io_errors", s->io_errors},       {"hangups", s->hangups},
+        {"reopens", s->reopens},           {"reopen_failures", s->reopen_failures},
+        {"send_closed", s->send_closed},   {"tx_discarded", s->tx_discarded},
+    };
+    size_t n = sizeof all / sizeof all[0];
+    for (size_t i = 0; i < n && i < cap && out != NULL; i++) out[i] = all[i];
+    return n;
+}
+
+static int serial_describe(const void *state, char *out, size_t cap) {
+    const ub_serial_t *serial = state;
+    const ub_serial_stats_t *s = &serial->stats;
+    return snprintf(out, cap,
+                    "\"state\":\"%s\",\"bytes_in\":%llu,\"bytes_out\":%llu,\"backpressure\":%llu,\"io_errors\":%llu,"
+                    "\"hangups\":%llu,\"reopens\":%llu,\"reopen_failures\":%llu,\"send_closed\":%llu,"
+                    "\"tx_discarded\":%llu",
+                    serial->state == UB_SERIAL_UP ? "up" : "down", (unsigned long long)s->bytes_in,
+                    (unsigned long long)s->bytes_out, (unsigned long long)s->backpressure,
+                    (unsigned long long)s->io_errors, (unsigned long long)s->hangups, (unsigned long long)s->reopens,
+                    (unsigned long long)s->reopen_failures, (unsigned long long)s->send_closed,
+                    (unsigned long long)s->tx_discarded);
+}
+
+const ub_driver_t ub_serial_driver = {
+    .name = "serial",
+    .keys = "device, baud",
+    .examples = "serial:device=/dev/ttyUSB0,baud=115200",
+    .wire_params = true,
+    .state_size = sizeof(ub_serial_t),
+    .spec_init = serial_spec_init,
+    .spec_param = serial_spec_param,
+    .spec_finish = serial_spec_finish,
+    .spec_format = serial_spec_format,
+    .open = serial_open,
+    .close = serial_close,
+    .attach = serial_attach_op,
+    .link_ops = &ub_serial_ops,
+    .service = serial_service_op,
+    .pollfds = serial_pollfds,
+    .next_due = serial_next_due,
+    .counters = serial_counters,
+    .describe = serial_describe,
+};

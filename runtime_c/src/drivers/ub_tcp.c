@@ -5,11 +5,13 @@
 #include <netinet/tcp.h>
 #include <poll.h>
 #include <stdbool.h>
+#include <stdio.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include "ub/ub_node.h"
+#include "ub/ub_ports.h"
 #include "drivers/ub_sock_private.h"
 #include "drivers/ub_stream_tx_private.h"
 
@@ -127,11 +129,7 @@ const ub_link_ops_t ub_tcp_ops = {.kind = "tcp", .send = tcp_send, .fileno = tcp
 
 int ub_tcp_attach(ub_tcp_t *tcp, ub_node_t *node, int link_id) {
     if (tcp == NULL) return UB_ERR_INVAL;
-    int rc = ub_node_link_attach(node, link_id, &ub_tcp_ops, tcp);
-    if (rc < 0) return rc;
-    tcp->node = node;
-    tcp->link_id = link_id;
-    return UB_OK;
+    return ub_driver_attach(node, link_id, &ub_tcp_ops, tcp, &tcp->node, &tcp->link_id);
 }
 
 /* A new stream starts: re-attaching resets the slot's decoder (no half frame from the old stream survives). */
@@ -146,7 +144,7 @@ static void connection_up(ub_tcp_t *tcp, int fd, uint64_t now_ms) {
     tcp->had_connection = 1;
     set_nodelay(fd);
     /* Cannot fail: ub_tcp_attach() succeeded with these same arguments. */
-    int attached = ub_node_link_attach(tcp->node, tcp->link_id, &ub_tcp_ops, tcp);
+    int attached = ub_driver_reattach(tcp->node, tcp->link_id, &ub_tcp_ops, tcp);
     (void)attached;
 }
 
@@ -366,3 +364,162 @@ void ub_tcp_close(ub_tcp_t *tcp) {
     tcp->listen_fd = -1;
     tcp->state = UB_TCP_DOWN;
 }
+
+/* ---- the driver entry (ub_driver.h): "tcp:listen=HOST:PORT" (server) or "tcp:connect=HOST:PORT" (client) ---- */
+
+static int tcp_spec_param(ub_port_spec_t *s, uint32_t *seen, const char *key, const char *value, char *err,
+                          size_t cap) {
+    if (strcmp(key, "listen") != 0 && strcmp(key, "connect") != 0) return UB_ERR_NOTFOUND;
+    if (*seen != 0) {
+        snprintf(err, cap, "'%s': a tcp port either listens or connects: give exactly one of listen=, connect=", key);
+        return UB_ERR_INVAL;
+    }
+    if (!ub_sock_parse_hostport(value, s->host, UB_PORT_HOST_LEN, &s->port)) {
+        snprintf(err, cap, "'%s=%.40s': %s", key, value, UB_SOCK_HOSTPORT_HELP);
+        return UB_ERR_INVAL;
+    }
+    if (key[0] == 'c') {
+        if (s->port == 0) {
+            snprintf(err, cap, "'connect=%.40s': the port to connect to must not be 0", value);
+            return UB_ERR_INVAL;
+        }
+        s->kind = UB_PORT_TCP_CONNECT;
+    } else {
+        s->kind = UB_PORT_TCP_LISTEN;
+    }
+    *seen = 1;
+    return UB_OK;
+}
+
+static int tcp_spec_finish(ub_port_spec_t *s, uint32_t seen, char *err, size_t cap) {
+    (void)s;
+    if (seen == 0) {
+        snprintf(err, cap,
+                 "tcp needs listen=HOST:PORT (server) or connect=HOST:PORT (client), e.g. tcp:connect=127.0.0.1:5001");
+        return UB_ERR_INVAL;
+    }
+    return UB_OK;
+}
+
+static int tcp_spec_format(const ub_port_spec_t *spec, char *out, size_t cap) {
+    return snprintf(out, cap, "tcp:%s=%s:%u", spec->kind == UB_PORT_TCP_CONNECT ? "connect" : "listen", spec->host,
+                    (unsigned)spec->port);
+}
+
+static int tcp_open(void *state, const ub_port_spec_t *spec) {
+    return spec->kind == UB_PORT_TCP_CONNECT ? ub_tcp_client_init(state, spec->host, spec->port, NULL)
+                                             : ub_tcp_server_open(state, spec->host, spec->port, NULL);
+}
+
+static void tcp_close(void *state) { ub_tcp_close(state); }
+static int tcp_attach(void *state, ub_node_t *node, int link_id) { return ub_tcp_attach(state, node, link_id); }
+static int tcp_service(void *state, ub_node_t *node, uint64_t now_ms) { return ub_tcp_service(state, node, now_ms); }
+
+/* A client starts its first connection attempt when it is opened rather than at the first service. */
+static void tcp_start(void *state, ub_node_t *node, uint64_t now_ms) {
+    ub_tcp_t *tcp = state;
+    if (tcp->role != UB_TCP_CLIENT) return;
+    int frames = ub_tcp_service(tcp, node, now_ms); /* none yet: the attempt has only started */
+    (void)frames;
+}
+
+static int tcp_pollfds(const void *state, struct pollfd *fds, int cap) {
+    const ub_tcp_t *tcp = state;
+    int n = 0;
+    bool out = tcp->tx_len > 0 || tcp->state == UB_TCP_CONNECTING;
+    const int fd[2] = {tcp->listen_fd, tcp->fd};
+    const short events[2] = {POLLIN, (short)(POLLIN | (out ? POLLOUT : 0))};
+    for (int i = 0; i < 2; i++) {
+        if (fd[i] < 0) continue;
+        if (n >= cap) return UB_ERR_NOSPACE;
+        fds[n].fd = fd[i];
+        fds[n].events = events[i];
+        fds[n].revents = 0;
+        n++;
+    }
+    return n;
+}
+
+/* A client waiting to retry has no descriptor to wake the loop: its retry time must. */
+static bool tcp_next_due(const void *state, uint64_t *due_ms) {
+    const ub_tcp_t *tcp = state;
+    if (tcp->role != UB_TCP_CLIENT || tcp->state != UB_TCP_DOWN) return false;
+    *due_ms = tcp->next_attempt_ms;
+    return true;
+}
+
+static int tcp_local_port(const void *state, uint16_t *port) {
+    const ub_tcp_t *tcp = state;
+    return tcp->role == UB_TCP_SERVER ? ub_tcp_local_port(tcp, port) : UB_ERR_INVAL;
+}
+
+static size_t tcp_counters(const void *state, ub_driver_counter_t *out, size_t cap) {
+    const ub_tcp_stats_t *s = &((const ub_tcp_t *)state)->stats;
+    const ub_driver_counter_t all[] = {
+        {"connects", s->connects},
+        {"reconnects", s->reconnects},
+        {"disconnects", s->disconnects},
+        {"attempts", s->attempts},
+        {"failed_attempts", s->failed_attempts},
+        {"replaced", s->replaced},
+        {"candidates", s->candidates},
+        {"adopted", s->adopted},
+        {"candidates_refused", s->candidates_refused},
+        {"candidates_expired", s->candidates_expired},
+        {"candidates_lost", s->candidates_lost},
+        {"candidate_rejected", s->candidate_rejected},
+        {"candidate_garbage", s->candidate_garbage},
+        {"bytes_in", s->bytes_in},
+        {"bytes_out", s->bytes_out},
+        {"frames_out", s->frames_out},
+        {"backpressure", s->backpressure},
+        {"send_closed", s->send_closed},
+        {"tx_discarded", s->tx_discarded},
+    };
+    size_t n = sizeof all / sizeof all[0];
+    for (size_t i = 0; i < n && i < cap && out != NULL; i++) out[i] = all[i];
+    return n;
+}
+
+static int tcp_describe(const void *state, char *out, size_t cap) {
+    const ub_tcp_t *tcp = state;
+    const ub_tcp_stats_t *s = &tcp->stats;
+    static const char *const states[] = {"down", "connecting", "up"};
+    return snprintf(out, cap,
+                    "\"state\":\"%s\",\"connects\":%llu,\"reconnects\":%llu,\"disconnects\":%llu,"
+                    "\"failed_attempts\":%llu,\"backpressure\":%llu,\"send_closed\":%llu,\"tx_discarded\":%llu,"
+                    "\"candidates\":%llu,\"adopted\":%llu,\"replaced\":%llu,\"candidates_refused\":%llu,"
+                    "\"candidates_expired\":%llu,\"candidates_lost\":%llu,\"candidate_rejected\":%llu,"
+                    "\"candidates_open\":%d",
+                    states[tcp->state % 3], (unsigned long long)s->connects, (unsigned long long)s->reconnects,
+                    (unsigned long long)s->disconnects, (unsigned long long)s->failed_attempts,
+                    (unsigned long long)s->backpressure, (unsigned long long)s->send_closed,
+                    (unsigned long long)s->tx_discarded, (unsigned long long)s->candidates,
+                    (unsigned long long)s->adopted, (unsigned long long)s->replaced,
+                    (unsigned long long)s->candidates_refused, (unsigned long long)s->candidates_expired,
+                    (unsigned long long)s->candidates_lost, (unsigned long long)s->candidate_rejected,
+                    ub_tcp_candidates(tcp));
+}
+
+const ub_driver_t ub_tcp_driver = {
+    .name = "tcp",
+    .keys = "listen or connect",
+    .examples = "tcp:listen=127.0.0.1:5001 | tcp:connect=127.0.0.1:5001",
+    .wire_params = true,
+    .state_size = sizeof(ub_tcp_t),
+    .spec_init = NULL, /* the kind comes with listen= or connect= */
+    .spec_param = tcp_spec_param,
+    .spec_finish = tcp_spec_finish,
+    .spec_format = tcp_spec_format,
+    .open = tcp_open,
+    .close = tcp_close,
+    .attach = tcp_attach,
+    .link_ops = &ub_tcp_ops,
+    .start = tcp_start,
+    .service = tcp_service,
+    .pollfds = tcp_pollfds,
+    .next_due = tcp_next_due,
+    .local_port = tcp_local_port,
+    .counters = tcp_counters,
+    .describe = tcp_describe,
+};

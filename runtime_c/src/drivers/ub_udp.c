@@ -9,7 +9,11 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <poll.h>
+#include <stdio.h>
+
 #include "ub/ub_node.h"
+#include "ub/ub_ports.h"
 #include "ub/ub_wire.h"
 #include "drivers/ub_sock_private.h"
 
@@ -239,11 +243,7 @@ const ub_link_ops_t ub_udp_ops = {.kind = "udp", .send = udp_send, .fileno = udp
 
 int ub_udp_attach(ub_udp_t *udp, ub_node_t *node, int link_id) {
     if (udp == NULL) return UB_ERR_INVAL;
-    int rc = ub_node_link_attach(node, link_id, &ub_udp_ops, udp);
-    if (rc < 0) return rc;
-    udp->node = node;
-    udp->link_id = link_id;
-    return UB_OK;
+    return ub_driver_attach(node, link_id, &ub_udp_ops, udp, &udp->node, &udp->link_id);
 }
 
 static int same_address(const struct sockaddr_in *a, const struct sockaddr_in *b) {
@@ -440,3 +440,180 @@ void ub_udp_close(ub_udp_t *udp) {
     close(udp->fd);
     udp->fd = -1;
 }
+
+/* ---- the driver entry (ub_driver.h): "udp:bind=HOST:PORT[,peer=HOST:PORT][,accept=peer|learn|any]" ---- */
+
+enum { SEEN_BIND = 1u, SEEN_PEER = 2u, SEEN_ACCEPT = 4u };
+static const char *const k_accept_words[] = {"peer", "learn", "any"};
+
+static void udp_spec_init(ub_port_spec_t *spec) { spec->kind = UB_PORT_UDP; }
+
+static int udp_spec_param(ub_port_spec_t *s, uint32_t *seen, const char *key, const char *value, char *err,
+                          size_t cap) {
+    if (strcmp(key, "bind") == 0 || strcmp(key, "peer") == 0) {
+        bool bind = key[0] == 'b';
+        if (*seen & (bind ? SEEN_BIND : SEEN_PEER)) {
+            snprintf(err, cap, "'%s' given twice: give it once", key);
+            return UB_ERR_INVAL;
+        }
+        if (!ub_sock_parse_hostport(value, bind ? s->host : s->peer_host, UB_PORT_HOST_LEN,
+                                    bind ? &s->port : &s->peer_port)) {
+            snprintf(err, cap, "'%s=%.40s': %s", key, value, UB_SOCK_HOSTPORT_HELP);
+            return UB_ERR_INVAL;
+        }
+        if (!bind && s->peer_port == 0) {
+            snprintf(err, cap, "'peer=%.40s': the peer port must not be 0 (it is where frames are sent)", value);
+            return UB_ERR_INVAL;
+        }
+        *seen |= bind ? SEEN_BIND : SEEN_PEER;
+        return UB_OK;
+    }
+    if (strcmp(key, "accept") == 0) {
+        size_t m = 0;
+        while (m < 3 && strcmp(value, k_accept_words[m]) != 0) m++;
+        if (m == 3 || (*seen & SEEN_ACCEPT)) {
+            snprintf(err, cap, "'accept=%.20s': %s", value,
+                     (*seen & SEEN_ACCEPT) ? "given twice: give it once"
+                                           : "use peer (the peer only), learn (one peer: the last sender the node "
+                                             "accepted) or any (every sender of a genuine frame, up to "
+                                             "UB_UDP_MAX_PEERS)");
+            return UB_ERR_INVAL;
+        }
+        s->accept = (uint8_t)m;
+        *seen |= SEEN_ACCEPT;
+        return UB_OK;
+    }
+    return UB_ERR_NOTFOUND;
+}
+
+static int udp_spec_finish(ub_port_spec_t *s, uint32_t seen, char *err, size_t cap) {
+    if (!(seen & SEEN_BIND)) {
+        snprintf(err, cap, "udp needs bind=HOST:PORT, e.g. udp:bind=127.0.0.1:0,peer=127.0.0.1:5001 (or, to learn "
+                           "its peers, udp:bind=0.0.0.0:5001)");
+        return UB_ERR_INVAL;
+    }
+    if (!(seen & SEEN_ACCEPT)) s->accept = (seen & SEEN_PEER) ? UB_UDP_ACCEPT_PEER : UB_UDP_ACCEPT_ANY;
+    if (s->accept == UB_UDP_ACCEPT_PEER && !(seen & SEEN_PEER)) {
+        snprintf(err, cap, "udp with accept=peer needs peer=HOST:PORT, e.g. udp:bind=127.0.0.1:0,peer=127.0.0.1:5001");
+        return UB_ERR_INVAL;
+    }
+    return UB_OK;
+}
+
+static int udp_spec_format(const ub_port_spec_t *spec, char *out, size_t cap) {
+    /* accept= only when it is not what the other parameters imply (peer given: peer; none: any). */
+    bool peer = spec->peer_port != 0;
+    unsigned implied = peer ? UB_UDP_ACCEPT_PEER : UB_UDP_ACCEPT_ANY;
+    char peer_text[UB_PORT_HOST_LEN + 16] = "";
+    if (peer) snprintf(peer_text, sizeof peer_text, ",peer=%s:%u", spec->peer_host, (unsigned)spec->peer_port);
+    return snprintf(out, cap, "udp:bind=%s:%u%s%s%s", spec->host, (unsigned)spec->port, peer_text,
+                    spec->accept != implied ? ",accept=" : "",
+                    spec->accept != implied ? k_accept_words[spec->accept % 3] : "");
+}
+
+static int udp_open(void *state, const ub_port_spec_t *spec) {
+    ub_udp_t *udp = state;
+    int rc = ub_udp_open(udp, spec->host, spec->port, spec->peer_port != 0 ? spec->peer_host : NULL, spec->peer_port);
+    if (rc == UB_OK) rc = ub_udp_set_accept(udp, (ub_udp_accept_t)spec->accept);
+    if (rc != UB_OK) ub_udp_close(udp);
+    return rc;
+}
+
+static void udp_close(void *state) { ub_udp_close(state); }
+static int udp_attach(void *state, ub_node_t *node, int link_id) { return ub_udp_attach(state, node, link_id); }
+static int udp_service(void *state, ub_node_t *node, uint64_t now_ms) { return ub_udp_service(state, node, now_ms); }
+
+static int udp_pollfds(const void *state, struct pollfd *fds, int cap) {
+    const ub_udp_t *udp = state;
+    if (udp->fd < 0) return 0;
+    if (cap < 1) return UB_ERR_NOSPACE;
+    fds[0].fd = udp->fd;
+    fds[0].events = (short)(POLLIN | (ub_udp_tx_pending(udp) > 0 ? POLLOUT : 0));
+    fds[0].revents = 0;
+    return 1;
+}
+
+static int udp_local_port(const void *state, uint16_t *port) { return ub_udp_local_port(state, port); }
+
+static size_t udp_counters(const void *state, ub_driver_counter_t *out, size_t cap) {
+    const ub_udp_stats_t *s = &((const ub_udp_t *)state)->stats;
+    const ub_driver_counter_t all[] = {
+        {"datagrams_in", s->datagrams_in},   {"rejected", s->rejected},
+        {"foreign", s->foreign},             {"datagrams_out", s->datagrams_out},
+        {"again", s->again},                 {"send_errors", s->send_errors},
+        {"frames_in", s->frames_in},         {"frames_out", s->frames_out},
+        {"rx_calls", s->rx_calls},           {"tx_calls", s->tx_calls},
+        {"tx_discarded", s->tx_discarded},   {"peers_learned", s->peers_learned},
+        {"peers_forgotten", s->peers_forgotten}, {"no_peer", s->no_peer},
+        {"copy_errors", s->copy_errors},
+    };
+    size_t n = sizeof all / sizeof all[0];
+    for (size_t i = 0; i < n && i < cap && out != NULL; i++) out[i] = all[i];
+    return n;
+}
+
+/* The stats event's "udp" object: the counters a user reads first, then the peers in sending order. */
+static int udp_describe(const void *state, char *out, size_t cap) {
+    const ub_udp_t *udp = state;
+    const ub_udp_stats_t *s = &udp->stats;
+    int n = snprintf(out, cap,
+                     "\"datagrams_in\":%llu,\"rejected\":%llu,\"foreign\":%llu,\"datagrams_out\":%llu,\"again\":%llu,"
+                     "\"send_errors\":%llu,\"no_peer\":%llu,\"peers_learned\":%llu,\"peers\":[",
+                     (unsigned long long)s->datagrams_in, (unsigned long long)s->rejected,
+                     (unsigned long long)s->foreign, (unsigned long long)s->datagrams_out,
+                     (unsigned long long)s->again, (unsigned long long)s->send_errors, (unsigned long long)s->no_peer,
+                     (unsigned long long)s->peers_learned);
+    char host[16];
+    uint16_t port;
+    for (int i = 0; n >= 0 && ub_udp_peer_at(udp, i, host, &port) == UB_OK; i++) {
+        size_t at = (size_t)n < cap ? (size_t)n : cap;
+        int k = snprintf(out + at, cap - at, "%s\"%s:%u\"", i ? "," : "", host, (unsigned)port);
+        n = k < 0 ? k : n + k;
+    }
+    if (n >= 0) {
+        size_t at = (size_t)n < cap ? (size_t)n : cap;
+        int k = snprintf(out + at, cap - at, "]");
+        n = k < 0 ? k : n + k;
+    }
+    return n;
+}
+
+/* The first datagram refused from a sender that is not the peer: the user likely wants accept=any/learn. */
+static int udp_notice(const void *state, const char *link_name, char *out, size_t cap) {
+    const ub_udp_t *udp = state;
+    if (udp->stats.foreign == 0) return 0;
+    char from[INET_ADDRSTRLEN] = "?", peer[INET_ADDRSTRLEN + 8] = "?";
+    const struct sockaddr_in *r = &udp->refused_from;
+    if (r->sin_port != 0) (void)inet_ntop(AF_INET, &r->sin_addr, from, sizeof from);
+    char host[16];
+    uint16_t port = 0;
+    if (ub_udp_peer_at(udp, 0, host, &port) == UB_OK) snprintf(peer, sizeof peer, "%s:%u", host, port);
+    snprintf(out, cap,
+             "port '%s': refused a datagram from %s:%u: not this link's peer (%s); it is counted as 'foreign' and "
+             "not reported again. To accept other senders too, open the port with accept=any (several peers, e.g. "
+             "a GCS on an ephemeral port and a monitor) or accept=learn (docs/config-format.md#ports)",
+             link_name, from, (unsigned)ntohs(r->sin_port), peer);
+    return 1;
+}
+
+const ub_driver_t ub_udp_driver = {
+    .name = "udp",
+    .keys = "bind, peer, accept",
+    .examples = "udp:bind=127.0.0.1:0,peer=127.0.0.1:5001 | udp:bind=0.0.0.0:5001 (peers learned)",
+    .wire_params = true,
+    .state_size = sizeof(ub_udp_t),
+    .spec_init = udp_spec_init,
+    .spec_param = udp_spec_param,
+    .spec_finish = udp_spec_finish,
+    .spec_format = udp_spec_format,
+    .open = udp_open,
+    .close = udp_close,
+    .attach = udp_attach,
+    .link_ops = &ub_udp_ops,
+    .service = udp_service,
+    .pollfds = udp_pollfds,
+    .local_port = udp_local_port,
+    .counters = udp_counters,
+    .describe = udp_describe,
+    .notice = udp_notice,
+};
