@@ -43,7 +43,7 @@
 #include "ub/ub_nodecfg.h"
 #include "ub/ub_pubsub.h"
 #include "ub/ub_wire.h"
-#include "core/ub_router_private.h"
+#include "ub/ub_admin_wire.h"
 
 #ifndef UB_FUZZ_CONFIG_DIR
 #define UB_FUZZ_CONFIG_DIR "examples/configs"

@@ -695,7 +695,7 @@ static void test_options_checked(void **state) {
     ub_route_options_t bad[] = {{.hello_ms = 5}, {.hello_ms = 100, .update_ms = 50}, {.dead_misses = 17}, {.parallel = 2},
                                 {.hello_ms = 70000}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) assert_int_equal(ub_route_attach(rt, n, &bad[i], 0), UB_ERR_INVAL);
-    assert_null(n->route);
+    assert_null(ub_node_service_for(n, UB_SVC_LINK_LOCAL, UB_ADMIN_HELLO));
     assert_int_equal(ub_route_attach(rt, n, NULL, 0), UB_OK);
     assert_int_equal(rt->opt.hello_ms, 1000);
     assert_int_equal(rt->opt.update_ms, 4000);

@@ -51,6 +51,12 @@
 #define UB_MAX_ADMIN_ROWS 32
 #endif
 /** Directory instances one node binds to local storage. */
+/** Services a node can register (ub_service.h): the built-in ones take 7 (publish/subscribe, routing,
+ *  membership, inspection, freshness challenges, compact links, fragments). */
+#ifndef UB_MAX_SERVICES
+#define UB_MAX_SERVICES 12
+#endif
+
 #ifndef UB_MAX_BINDINGS
 #define UB_MAX_BINDINGS 64
 #endif

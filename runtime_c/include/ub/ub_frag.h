@@ -31,7 +31,9 @@
  * larger than an outgoing link's MTU is dropped `too_big`, so the MTU of a path is configured on
  * the links its originators send on.
  *
- * The node calls this concern through a narrow interface (ub_node_set_frag(); src/ub_node_frag.c).
+ * The node attaches this state with ub_node_set_frag(); src/core/ub_node_wire.c connects it to the
+ * send path (fragmenting) and, as the core's "fragments" service (ub_service.h), to FRAGMENT frames,
+ * the tick and entity removal (reassembly).
  */
 #ifndef UB_FRAG_H
 #define UB_FRAG_H

@@ -220,6 +220,7 @@ typedef struct ub_inspect {
     ub_inspect_options_t opt;
     ub_inspect_row_t rows[UB_MAX_INSPECT_REQUESTS];
     ub_inspect_counters_t counters;
+    ub_service_t svc; /**< its registration with the node (ub_service.h): serves requests, takes the answers */
 } ub_inspect_t;
 
 /**

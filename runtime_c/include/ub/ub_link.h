@@ -54,7 +54,8 @@ typedef enum ub_drop_reason {
     UB_DROP_DETACHED,        /**< the slot has no transport attached */
     UB_DROP_NOT_ALLOWED,     /**< DATA the destination's write policy refuses (ub_policy.h), storage untouched */
     UB_DROP_NOT_AUTHORIZED,  /**< admin request or STOP the policy refuses to its source (NACK NOT_AUTHORIZED sent) */
-    UB_DROP_ROUTING_OFF,     /**< a routing frame (HELLO, ROUTE_UPDATE) reached a node not running ub_route */
+    UB_DROP_ROUTING_OFF,     /**< a routing frame (HELLO, ROUTE_UPDATE) reached a node not running ub_route (no service
+                                  registered for the code link-local) */
     /* Security (docs/security.md). Received frames are checked in this order, before any state is touched. */
     UB_DROP_UNSIGNED,        /**< not protected as the node/link requires (no trailer where signing is required,
                                   SIGNED where ENCRYPTED is required, unsigned from a source already seen signed),

@@ -145,6 +145,7 @@ typedef struct ub_member {
     void *link_user;
     ub_member_row_t rows[UB_MAX_MEMBER_REQUESTS];
     ub_member_counters_t counters;
+    ub_service_t svc; /**< its registration with the node (ub_service.h): serves requests, takes their replies */
 } ub_member_t;
 
 /**

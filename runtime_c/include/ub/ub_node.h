@@ -40,17 +40,20 @@
  *    ub_policy.h), fingerprint and payload size check (`layout_mismatch`,
  *    storage never written), binding (`unbound`), unpack, then the
  *    subscription bookkeeping and the delivery hook. Admin frames go to the
- *    entity's publish/subscribe table or its administration table, which
- *    apply the policy to requests and STOPs and bind replies to their rows.
+ *    service registered for their code (ub_service.h): an ACK/NACK to the one
+ *    taking replies to the code it answers (the publish/subscribe tables and
+ *    their administration tables apply the policy to requests and STOPs and
+ *    bind replies to their rows); a code nobody takes is dropped `bad_payload`.
  *
  * Link-local frames (docs/routing.md): a frame whose destination ID is
  * UB_LINK_LOCAL_ID (twelve 0xFF bytes, never an entity) is addressed to
  * "whichever entity is at the other end of this link". It is originated on
  * exactly one link with ub_node_send_link_local() (hop limit 1), handled by
  * the owner of the link it arrived on, and never forwarded, whatever its hop
- * limit. Only the routing codes (HELLO, ROUTE_UPDATE) use it; anything else
- * sent link-local is dropped `bad_payload`, and routing frames reaching a node
- * without a routing engine are dropped `routing_off`.
+ * limit. The routing codes (HELLO, ROUTE_UPDATE), LINK_HELLO and codes a
+ * service registered link-local use it; anything else sent link-local is
+ * dropped `bad_payload`, and routing frames reaching a node without a routing
+ * engine are dropped `routing_off`.
  *
  * Membership at run time: entities, links and masks can be added and removed
  * while the node runs. ub_node_remove_entity() clears everything that named
@@ -123,6 +126,7 @@
 #include "ub_pubsub.h"
 #include "ub_random.h"
 #include "ub_sec.h"
+#include "ub_service.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -136,9 +140,6 @@ extern "C" {
 
 /** @return true if `id` is the link-local destination (UB_ENTITY_ID_LEN bytes of UB_LINK_LOCAL_BYTE). */
 bool ub_entity_id_is_link_local(const uint8_t id[UB_ENTITY_ID_LEN]);
-
-struct ub_route;
-struct ub_member;
 
 /** Direction of a tapped frame. */
 typedef enum ub_tap_dir { UB_TAP_RX = 0, UB_TAP_TX = 1 } ub_tap_dir_t;
@@ -239,8 +240,7 @@ typedef struct ub_local_entity {
     uint8_t masks[UB_MAX_ENTITIES];              /**< per destination entity-table index */
     uint8_t pinned[UB_MAX_ENTITIES];             /**< 1: the mask was set by hand (routing leaves it alone) */
     ub_dedup_entry_t dedup[UB_DEDUP_SOURCES];
-    ub_pubsub_table_t ps;
-    ub_admin_t *admin;                           /**< attached administration table, or NULL */
+    ub_pubsub_table_t ps;                        /**< kept for the publish/subscribe service (ub_pubsub.h) */
 } ub_local_entity_t;
 
 typedef struct ub_binding {
@@ -249,7 +249,12 @@ typedef struct ub_binding {
     uint8_t on_update; /**< published on update, not on a timer (ub_pubsub_set_on_update()) */
 } ub_binding_t;
 
-/** The node. Caller-owned; treat the fields as private (use the functions). */
+/**
+ * The node. Caller-owned; treat the fields as private (use the functions; services use ub_node_svc.h).
+ * UB_NODE_OPAQUE hides them: the build defines it for the service layer (src/svc/), so a service that
+ * reaches into the struct does not compile (docs/architecture.md, "Layers").
+ */
+#ifndef UB_NODE_OPAQUE
 struct ub_node {
     const ub_catalogue_t *cat;
     ub_node_options_t opt;
@@ -269,17 +274,24 @@ struct ub_node {
     void *tap_user;
     ub_deliver_fn deliver;
     void *deliver_user;
-    struct ub_route *route;   /**< routing engine (ub_route_attach()), or NULL: manual masks only */
-    struct ub_member *member; /**< membership requester (ub_member_init()), or NULL */
     ub_frag_t *frag;          /**< fragment state (ub_node_set_frag()), or NULL: no directory above the payload limit */
     uint16_t mtu_links;       /**< links with an MTU set: only then does a send compare frame sizes with MTUs */
     uint32_t last_content;    /**< catalogue index of the last DATA delivered: checked before a search */
-    struct ub_inspect *inspect; /**< inspection requester (ub_inspect_init()), or NULL */
     ub_node_counters_t counters;
+    /* Registered services (ub_service.h), in tick order, and per admin code the index + 1 of the one
+     * taking it as a code, as a reply, link-local (0: none): a lookup on the admin path, never on DATA's. */
+    const ub_service_t *services[UB_MAX_SERVICES];
+    uint8_t n_services;
+    uint8_t svc_by_code[3][256];
+    const ub_service_t *data_svc; /**< the service observing DATA (ub_service_t.on_data), or NULL */
 };
+#endif /* UB_NODE_OPAQUE */
 
 /**
- * Initialises an empty node over `cat` (which must outlive the node).
+ * Initialises an empty node over `cat` (which must outlive the node), with the
+ * services every node runs: publish/subscribe (and administration tables) and
+ * the serving side of membership and inspection (ub_node_core_init(),
+ * ub_node_svc.h, is the core without them).
  * @return UB_OK, or UB_ERR_INVAL (NULL node/catalogue, catalogue ABI version
  *         mismatch, or a catalogue type larger than UB_MAX_DIRECTORY: which one,
  *         ub_catalogue_oversize(cat, ub_catalogue_payload_limit()) says; types above
@@ -529,10 +541,12 @@ UB_CHECK int ub_node_send_link_local(ub_node_t *node, int link_id, ub_admin_code
 bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src_id[UB_ENTITY_ID_LEN], bool verified);
 
 /**
- * Advances every local entity's publish/subscribe table (and attached
- * administration table) to `now_ms`: due DATA, requests, renewals, timeouts,
- * lease expiry; then the routing engine and the membership requester, if
- * attached. Time must not go backwards.
+ * Advances every registered service to `now_ms`, in their order (ub_service.h):
+ * the publish/subscribe tables (and attached administration tables: due DATA,
+ * requests, renewals, timeouts, lease expiry), the routing engine, the
+ * membership and inspection requesters when attached, then the frame path's
+ * own (challenges, compact links, fragments), then the application's.
+ * Time must not go backwards.
  */
 void ub_node_tick(ub_node_t *node, uint64_t now_ms);
 
@@ -617,9 +631,11 @@ UB_CHECK int ub_node_set_frag(ub_node_t *node, ub_frag_t *frag);
 ub_frag_t *ub_node_frag(const ub_node_t *node);
 
 /** @return a number that changes whenever the entity table changes (compact links rebuild their dictionary). */
+#ifndef UB_NODE_OPAQUE
 static inline uint64_t ub_node_table_version(const ub_node_t *node) {
     return node->counters.entities_added + node->counters.entities_removed;
 }
+#endif
 
 /* ==== Queries (runtime_c/src/core/ub_node_query.c) ==================================================
  * Read-only views of the entity table and the link slots for bindings and tools (the Python tier 2 reads

@@ -129,6 +129,7 @@ typedef struct ub_ps_row {
 /** The table of one local entity (part of ub_node_t). */
 typedef struct ub_pubsub_table {
     ub_ps_row_t rows[UB_MAX_PUBSUB_ROWS];
+    struct ub_admin *admin; /**< the administration table attached to the entity (ub_admin.h), or NULL */
 } ub_pubsub_table_t;
 
 /**

@@ -212,6 +212,7 @@ typedef struct ub_route {
     ub_route_entry_t routes[UB_MAX_ENTITIES][UB_MAX_NODE_LINKS];
     ub_route_dest_t dests[UB_MAX_LOCAL_ENTITIES][UB_MAX_ENTITIES];
     ub_route_counters_t counters;
+    ub_service_t svc; /* its registration with the node (ub_service.h): HELLO and ROUTE_UPDATE, link-local */
 } ub_route_t;
 
 /**

@@ -4,11 +4,15 @@
 
 #include "ub/ub_wire.h"
 #include "core/ub_rng_private.h"
-#include "core/ub_fleet_private.h"
-#include "core/ub_inspect_private.h"
-#include "core/ub_router_private.h"
+#include "core/ub_node_private.h"
 
-bool ub_priv_id_is_zero(const uint8_t id[UB_ENTITY_ID_LEN]) {
+/*
+ * The node core: set-up, and the frame path of every received and originated frame. It names no
+ * protocol engine: admin frames go to the service registered for their code (ub_service.h, table in
+ * ub_node_svc.c), ticks and forgetting are loops over the registered services.
+ */
+
+bool ub_entity_id_is_zero(const uint8_t id[UB_ENTITY_ID_LEN]) {
     for (size_t i = 0; i < UB_ENTITY_ID_LEN; i++)
         if (id[i] != 0) return false;
     return true;
@@ -24,12 +28,12 @@ static bool entity_index_ok(const ub_node_t *node, int entity) {
     return entity >= 0 && entity < UB_MAX_ENTITIES && node->entities[entity].in_use;
 }
 
-int ub_priv_local_slot(const ub_node_t *node, int entity) {
+int ub_node_entity_slot(const ub_node_t *node, int entity) {
     if (!entity_index_ok(node, entity)) return -1;
     return node->entities[entity].local;
 }
 
-int ub_priv_slot_entity(const ub_node_t *node, int slot) {
+int ub_node_slot_entity(const ub_node_t *node, int slot) {
     if (slot < 0 || slot >= UB_MAX_LOCAL_ENTITIES || !node->locals[slot].in_use) return -1;
     return node->locals[slot].entity;
 }
@@ -38,7 +42,7 @@ static bool link_id_ok(const ub_node_t *node, int link_id) {
     return link_id >= 0 && link_id < UB_MAX_NODE_LINKS && node->links[link_id].in_use;
 }
 
-void ub_priv_count_drop(ub_node_t *node, int link_id, ub_drop_reason_t reason) {
+void ub_node_svc_count_drop(ub_node_t *node, int link_id, ub_drop_reason_t reason) {
     node->counters.drops[reason]++;
     if (link_id_ok(node, link_id)) node->links[link_id].counters.drops[reason]++;
 }
@@ -47,7 +51,7 @@ static void count_drop(ub_node_t *node, int link_id, ub_drop_reason_t reason) { 
 
 /* ---- set-up ------------------------------------------------------------ */
 
-int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt) {
+int ub_node_core_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt) {
     if (node == NULL || cat == NULL) return UB_ERR_INVAL;
     /* ub_catalogue_oversize() names the type a caller reports when this refuses. Types above
      * UB_MAX_PAYLOAD travel as fragments (ub_node_set_frag()), so the limit is UB_MAX_DIRECTORY. */
@@ -58,13 +62,16 @@ int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_optio
     node->cat = cat;
     if (opt != NULL) node->opt = *opt;
     if (node->opt.hop_limit == 0) node->opt.hop_limit = UB_DEFAULT_HOP_LIMIT;
-    ub_priv_timing_defaults(&node->opt.timing);
     node->next_seq = node->opt.first_seq != 0 ? node->opt.first_seq : 1u;
     node->rng_state = node->opt.random_seed != 0 ? node->opt.random_seed : 0x9E3779B97F4A7C15ull;
     for (size_t e = 0; e < UB_MAX_ENTITIES; e++) node->entities[e].local = -1;
     for (size_t s = 0; s < UB_MAX_LOCAL_ENTITIES; s++)
         for (size_t i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) node->locals[s].link_ids[i] = -1;
-    return UB_OK;
+    /* The frame path's own services: freshness challenges, compact links' dictionaries, fragments. */
+    int rc = ub_node_add_service(node, &ub_priv_sec_service);
+    if (rc == UB_OK) rc = ub_node_add_service(node, &ub_priv_compact_service);
+    if (rc == UB_OK) rc = ub_node_add_service(node, &ub_priv_frag_service);
+    return rc;
 }
 
 int ub_node_find_entity(const ub_node_t *node, const uint8_t id[UB_ENTITY_ID_LEN]) {
@@ -105,13 +112,15 @@ int ub_node_remove_entity(ub_node_t *node, int entity, uint64_t now_ms) {
     if (node == NULL || !entity_index_ok(node, entity) || node->entities[entity].local >= 0) return UB_ERR_INVAL;
     uint8_t id[UB_ENTITY_ID_LEN];
     memcpy(id, node->entities[entity].id, UB_ENTITY_ID_LEN);
+    /* The services apply their own rules (publish/subscribe, docs/pubsub.md: rows with nobody left to talk
+     * to go at once, rows the entity merely administered live on under their keeper; routing; fragments). */
+    for (int i = 0; i < node->n_services; i++) {
+        const ub_service_t *svc = node->services[i];
+        if (svc->forget_entity != NULL) svc->forget_entity(svc, node, entity, id, now_ms);
+    }
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
         ub_local_entity_t *loc = &node->locals[slot];
         if (!loc->in_use) continue;
-        /* The tables apply their own rules (docs/pubsub.md): rows with nobody left to talk to go at once,
-         * rows the entity merely administered live on under their keeper; we count. */
-        node->counters.rows_stopped += (uint64_t)ub_priv_pubsub_forget(node, slot, id, now_ms);
-        if (loc->admin != NULL) node->counters.admin_rows_stopped += (uint64_t)ub_priv_admin_forget(loc->admin, id, now_ms);
         for (size_t i = 0; i < UB_DEDUP_SOURCES; i++) {
             ub_dedup_entry_t *d = &loc->dedup[i];
             if (!d->in_use || memcmp(d->src, id, UB_ENTITY_ID_LEN) != 0) continue;
@@ -121,8 +130,6 @@ int ub_node_remove_entity(ub_node_t *node, int entity, uint64_t now_ms) {
         loc->masks[entity] = 0;
         loc->pinned[entity] = 0;
     }
-    if (node->route != NULL) ub_priv_route_forget_entity(node->route, entity, id, now_ms);
-    ub_frag_forget(node->frag, -1, id);
     memset(&node->entities[entity], 0, sizeof node->entities[entity]);
     node->entities[entity].local = -1;
     node->counters.entities_removed++;
@@ -146,7 +153,7 @@ int ub_node_find_link(const ub_node_t *node, const char *name) {
 
 int ub_node_add_link(ub_node_t *node, int entity, unsigned index, const char *name) {
     if (node == NULL || name == NULL) return UB_ERR_INVAL;
-    int slot = ub_priv_local_slot(node, entity);
+    int slot = ub_node_entity_slot(node, entity);
     size_t name_len = strlen(name);
     if (slot < 0 || index >= UB_MAX_LINKS_PER_ENTITY || name_len == 0 || name_len >= UB_LINK_NAME_LEN)
         return UB_ERR_INVAL;
@@ -178,7 +185,10 @@ int ub_node_remove_link(ub_node_t *node, int link_id) {
         if (loc->masks[d] == 0) loc->pinned[d] = 0;
     }
     loc->link_ids[link->index] = -1;
-    if (node->route != NULL) ub_priv_route_forget_link(node->route, link_id, 0);
+    for (int i = 0; i < node->n_services; i++) {
+        const ub_service_t *svc = node->services[i];
+        if (svc->forget_link != NULL) svc->forget_link(svc, node, link_id, 0);
+    }
     if (link->mtu != 0) node->mtu_links--;
     memset(link, 0, sizeof *link);
     node->counters.links_removed++;
@@ -192,7 +202,7 @@ const ub_link_t *ub_node_link(const ub_node_t *node, int link_id) {
 
 static int write_mask(ub_node_t *node, int entity, int dest, uint8_t mask, bool manual) {
     if (node == NULL) return UB_ERR_INVAL;
-    int slot = ub_priv_local_slot(node, entity);
+    int slot = ub_node_entity_slot(node, entity);
     if (slot < 0 || !entity_index_ok(node, dest) || (dest == entity && mask != 0)) return UB_ERR_INVAL;
     for (unsigned i = 0; i < 8; i++) {
         if (!(mask & (1u << i))) continue;
@@ -203,7 +213,10 @@ static int write_mask(ub_node_t *node, int entity, int dest, uint8_t mask, bool 
     loc->masks[dest] = mask;
     if (manual) {
         loc->pinned[dest] = mask != 0;
-        if (node->route != NULL) ub_priv_route_mask_set(node->route, slot);
+        for (int i = 0; i < node->n_services; i++) {
+            const ub_service_t *svc = node->services[i];
+            if (svc->mask_set != NULL) svc->mask_set(svc, node, slot);
+        }
     }
     return UB_OK;
 }
@@ -218,14 +231,14 @@ int ub_node_set_auto_mask(ub_node_t *node, int entity, int dest, uint8_t mask) {
 
 bool ub_node_mask_pinned(const ub_node_t *node, int entity, int dest) {
     if (node == NULL) return false;
-    int slot = ub_priv_local_slot(node, entity);
+    int slot = ub_node_entity_slot(node, entity);
     if (slot < 0 || !entity_index_ok(node, dest)) return false;
     return node->locals[slot].pinned[dest] != 0;
 }
 
 int ub_node_get_mask(const ub_node_t *node, int entity, int dest, uint8_t *mask) {
     if (node == NULL || mask == NULL) return UB_ERR_INVAL;
-    int slot = ub_priv_local_slot(node, entity);
+    int slot = ub_node_entity_slot(node, entity);
     if (slot < 0 || !entity_index_ok(node, dest)) return UB_ERR_INVAL;
     *mask = node->locals[slot].masks[dest];
     return UB_OK;
@@ -314,7 +327,7 @@ void ub_node_set_policy(ub_node_t *node, const ub_policy_t *policy) {
 
 const ub_node_counters_t *ub_node_counters(const ub_node_t *node) { return &node->counters; }
 
-uint32_t ub_priv_new_request_id(ub_node_t *node) {
+uint32_t ub_node_svc_new_request_id(ub_node_t *node) {
     for (;;) {
         uint8_t b[4];
         uint32_t id;
@@ -474,7 +487,7 @@ void ub_priv_deliver_data(ub_node_t *node, int slot, int link_id, const ub_frame
         return;
     }
     /* Authorization before anything else about the content: a refused writer learns nothing more. */
-    if (link_id >= 0 && !ub_priv_pubsub_may_write(node, slot, (uint32_t)idx, h->src_id)) {
+    if (link_id >= 0 && node->policy != NULL && !ub_priv_may_write(node, slot, (uint32_t)idx, h->src_id)) {
         count_drop(node, link_id, UB_DROP_NOT_ALLOWED);
         return;
     }
@@ -495,52 +508,55 @@ void ub_priv_deliver_data(ub_node_t *node, int slot, int link_id, const ub_frame
         return;
     }
     node->counters.delivered++;
-    ub_priv_pubsub_on_data(node, slot, (uint32_t)idx, h->src_id, now_ms);
+    const ub_service_t *observer = node->data_svc;
+    if (observer != NULL && observer->on_data != NULL) observer->on_data(observer, node, slot, (uint32_t)idx, h->src_id, now_ms);
     if (node->deliver != NULL) node->deliver(node->deliver_user, node->locals[slot].entity, (uint32_t)idx, h, now_ms);
 }
 
+bool ub_priv_may_write(const ub_node_t *node, int slot, uint32_t instance, const uint8_t src_id[UB_ENTITY_ID_LEN]) {
+    const ub_service_t *svc = node->data_svc;
+    return svc != NULL && svc->may_write != NULL && svc->may_write(svc, node, slot, instance, src_id);
+}
+
+/* Hands an admin frame to the service registered for it (ub_service.h): an ACK/NACK to the service taking
+ * replies to the code it answers, anything else to the service of its code. Unclaimed: `bad_payload`. */
+static __attribute__((noinline)) void dispatch_admin(ub_node_t *node, int slot, int link_id,
+                                                     const ub_frame_header_t *h, const uint8_t *payload,
+                                                     const ub_priv_rx_t *rx, uint64_t now_ms) {
+    /* Fragments are DATA in pieces: counted as delivered once whole, not as admin frames. */
+    if (h->admin != UB_ADMIN_FRAGMENT) node->counters.admin_handled++;
+    ub_service_rx_t srx = {slot, link_id, false, 0};
+    if (rx != NULL && link_id >= 0) {
+        srx.secured = rx->secured;
+        srx.counter = rx->counter;
+    }
+    ub_drop_reason_t drop = UB_DROP_BAD_PAYLOAD;
+    bool ok = false;
+    unsigned idx = 0;
+    if ((h->admin == UB_ADMIN_ACK || h->admin == UB_ADMIN_NACK) && h->payload_size >= UB_PL_REPLY_LEN)
+        idx = node->svc_by_code[UB_SVC_REPLY][payload[UB_PL_REPLY_CODE]];
+    if (idx != 0) {
+        const ub_service_t *svc = node->services[idx - 1];
+        ub_service_reply_t r = {ub_get_u32le(payload + UB_PL_REPLY_ID), payload[UB_PL_REPLY_CODE],
+                                h->admin == UB_ADMIN_NACK, payload[UB_PL_REPLY_DETAIL], payload[UB_PL_REPLY_FLAGS]};
+        ok = svc->on_reply != NULL && svc->on_reply(svc, node, &srx, h, &r, now_ms, &drop);
+    } else if ((idx = node->svc_by_code[UB_SVC_CODE][h->admin]) != 0) {
+        const ub_service_t *svc = node->services[idx - 1];
+        ok = svc->on_frame != NULL && svc->on_frame(svc, node, &srx, h, payload, now_ms, &drop);
+    }
+    if (!ok) count_drop(node, link_id, drop);
+}
+
 /* A frame reached its destination, local slot `slot`, with its plaintext payload; `link_id` is -1 for
- * a node-local hand-over (then `rx` is NULL: it never left the process). */
+ * a node-local hand-over (then `rx` is NULL: it never left the process). DATA first: the hot path
+ * pays one comparison for the services. */
 static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
                      const ub_priv_rx_t *rx, uint64_t now_ms) {
     if (h->admin == UB_ADMIN_DATA) {
         ub_priv_deliver_data(node, slot, link_id, h, payload, now_ms);
         return;
     }
-    if (h->admin == UB_ADMIN_FRAGMENT) {
-        ub_priv_frag_on_fragment(node, slot, link_id, h, payload, now_ms);
-        return;
-    }
-    node->counters.admin_handled++;
-    if (h->admin == UB_ADMIN_CHALLENGE || h->admin == UB_ADMIN_CHALLENGE_REPLY) {
-        ub_priv_sec_on_admin(node, slot, link_id, h, payload, rx, now_ms);
-        return;
-    }
-    bool ok;
-    ub_drop_reason_t drop = UB_DROP_BAD_PAYLOAD;
-    if (h->admin == UB_ADMIN_MEMBERSHIP) {
-        ok = ub_priv_member_on_request(node, slot, h, payload, link_id >= 0 ? rx : NULL, now_ms, &drop);
-    } else if (h->admin == UB_ADMIN_INSPECT) {
-        ok = ub_priv_inspect_on_request(node, slot, h, payload, link_id >= 0, rx != NULL && rx->secured, now_ms, &drop);
-    } else if (h->admin == UB_ADMIN_INSPECT_VALUE) {
-        ok = ub_priv_inspect_on_value(node, slot, h, payload, now_ms);
-    } else if ((h->admin == UB_ADMIN_ACK || h->admin == UB_ADMIN_NACK) && h->payload_size >= UB_PL_REPLY_LEN &&
-               payload[UB_PL_REPLY_CODE] == UB_ADMIN_INSPECT) {
-        ub_priv_inspect_on_reply(node, slot, h->src_id, ub_get_u32le(payload + UB_PL_REPLY_ID),
-                                 h->admin == UB_ADMIN_NACK, payload[UB_PL_REPLY_DETAIL], now_ms);
-        ok = true;
-    } else if ((h->admin == UB_ADMIN_ACK || h->admin == UB_ADMIN_NACK) && h->payload_size >= UB_PL_REPLY_LEN &&
-               payload[UB_PL_REPLY_CODE] == UB_ADMIN_MEMBERSHIP) {
-        /* Replies to membership requests belong to the requester, not to the publish/subscribe tables. */
-        ub_priv_member_on_reply(node, slot, h->src_id, ub_get_u32le(payload + UB_PL_REPLY_ID),
-                                h->admin == UB_ADMIN_NACK, payload[UB_PL_REPLY_DETAIL], now_ms);
-        ok = true;
-    } else if (h->admin == UB_ADMIN_HELLO || h->admin == UB_ADMIN_ROUTE_UPDATE) {
-        ok = false; /* routing frames are link-local only */
-    } else {
-        ok = ub_priv_pubsub_on_admin(node, slot, h, payload, link_id >= 0 ? rx : NULL, now_ms, &drop);
-    }
-    if (!ok) count_drop(node, link_id, drop);
+    dispatch_admin(node, slot, link_id, h, payload, rx, now_ms);
 }
 
 static int local_destination(const ub_node_t *node, const uint8_t dest_id[UB_ENTITY_ID_LEN], int *dest_row) {
@@ -638,15 +654,24 @@ typedef struct rx_ctx {
     ub_rx_verdicts_t verdicts;
 } rx_ctx_t;
 
-/* A routing frame that passed the security gate and the window of the ingress link's owner. */
-static void route_link_local(ub_node_t *node, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
-                             uint64_t now_ms) {
-    if (node->route == NULL) {
+/* Link-local codes the wire format reserves (docs/routing.md): accepted link-local even when no service
+ * takes them here, then dropped `routing_off` past the window (the peer runs routing, this node does not). */
+static bool link_local_reserved(uint8_t code) { return code == UB_ADMIN_HELLO || code == UB_ADMIN_ROUTE_UPDATE; }
+
+/* A link-local frame that passed the security gate and the window of the ingress link's owner. */
+static __attribute__((noinline)) void on_link_local(ub_node_t *node, int link_id, const ub_frame_header_t *h,
+                                                    const ub_priv_rx_t *rx, uint64_t now_ms) {
+    unsigned idx = node->svc_by_code[UB_SVC_LINK_LOCAL][h->admin];
+    if (idx == 0) {
         count_drop(node, link_id, UB_DROP_ROUTING_OFF);
         return;
     }
+    const ub_service_t *svc = node->services[idx - 1];
     node->counters.admin_handled++;
-    if (ub_priv_route_on_frame(node->route, link_id, h, payload, now_ms) < 0) count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+    ub_service_rx_t srx = {node->links[link_id].owner, link_id, rx->secured, rx->counter};
+    ub_drop_reason_t drop = UB_DROP_BAD_PAYLOAD;
+    if (svc->on_frame == NULL || !svc->on_frame(svc, node, &srx, h, rx->payload, now_ms, &drop))
+        count_drop(node, link_id, drop);
 }
 
 /* Routes one verified frame received on `link_id`. Returns the verdict (ub_rx_verdict_t, ub_node.h): a
@@ -671,7 +696,7 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
     if (node->tap != NULL) node->tap(node->tap_user, link_id, UB_TAP_RX, frame, len, now_ms);
     /* A link-local frame (docs/routing.md) is for the ingress link's owner and is never forwarded. */
     bool link_local = ub_entity_id_is_link_local(h->dest_id);
-    if (link_local && h->admin != UB_ADMIN_HELLO && h->admin != UB_ADMIN_ROUTE_UPDATE && h->admin != UB_ADMIN_LINK_HELLO) {
+    if (link_local && node->svc_by_code[UB_SVC_LINK_LOCAL][h->admin] == 0 && !link_local_reserved(h->admin)) {
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
         return UB_VERDICT_REFUSED;
     }
@@ -691,13 +716,7 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
         verdicts->fresh++;
     }
     if (link_local) {
-        if (h->admin == UB_ADMIN_LINK_HELLO) {
-            node->counters.admin_handled++;
-            if (link->compact == NULL || ub_compact_on_hello(link->compact, rx.payload, h->payload_size, now_ms) < 0)
-                count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
-        } else {
-            route_link_local(node, link_id, h, rx.payload, now_ms);
-        }
+        on_link_local(node, link_id, h, &rx, now_ms);
         return UB_VERDICT_ACCEPTED;
     }
     if (dest_slot >= 0) {
@@ -837,7 +856,7 @@ int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t 
 
 /* ---- originating ------------------------------------------------------- */
 
-int ub_priv_send_data_from_slot(ub_node_t *node, int slot, uint32_t instance, const uint8_t dest_id[UB_ENTITY_ID_LEN],
+int ub_node_svc_send_data(ub_node_t *node, int slot, uint32_t instance, const uint8_t dest_id[UB_ENTITY_ID_LEN],
                                 uint64_t now_ms) {
     if (instance >= node->cat->n_instances) return UB_ERR_INVAL;
     void *storage = ub_node_binding(node, instance);
@@ -871,12 +890,12 @@ int ub_priv_send_data_from_slot(ub_node_t *node, int slot, uint32_t instance, co
 int ub_node_send_data(ub_node_t *node, int entity, uint32_t instance, const uint8_t dest_id[UB_ENTITY_ID_LEN],
                       uint64_t now_ms) {
     if (node == NULL || dest_id == NULL) return UB_ERR_INVAL;
-    int slot = ub_priv_local_slot(node, entity);
+    int slot = ub_node_entity_slot(node, entity);
     if (slot < 0) return UB_ERR_INVAL;
-    return ub_priv_send_data_from_slot(node, slot, instance, dest_id, now_ms);
+    return ub_node_svc_send_data(node, slot, instance, dest_id, now_ms);
 }
 
-int ub_priv_send_admin(ub_node_t *node, int slot, ub_admin_code_t code, const uint8_t dir_id[UB_DIR_ID_LEN],
+int ub_node_svc_send_admin(ub_node_t *node, int slot, ub_admin_code_t code, const uint8_t dir_id[UB_DIR_ID_LEN],
                        uint32_t fingerprint, const uint8_t dest_id[UB_ENTITY_ID_LEN], const uint8_t *payload,
                        uint16_t len, uint64_t now_ms) {
     if (len > UB_MAX_PAYLOAD) return UB_ERR_RANGE;
@@ -892,7 +911,7 @@ int ub_priv_send_admin(ub_node_t *node, int slot, ub_admin_code_t code, const ui
     return ub_priv_originate(node, slot, frame, sizeof frame, &h, -1, now_ms);
 }
 
-int ub_priv_send_reply(ub_node_t *node, int slot, bool nack, const uint8_t dir_id[UB_DIR_ID_LEN],
+int ub_node_svc_send_reply(ub_node_t *node, int slot, bool nack, const uint8_t dir_id[UB_DIR_ID_LEN],
                        const uint8_t dest_id[UB_ENTITY_ID_LEN], uint32_t request_id, uint8_t code, uint8_t detail,
                        uint8_t origin, uint64_t now_ms) {
     uint8_t payload[UB_PL_REPLY_LEN] = {0};
@@ -900,7 +919,7 @@ int ub_priv_send_reply(ub_node_t *node, int slot, bool nack, const uint8_t dir_i
     ub_put_u8(payload + UB_PL_REPLY_CODE, code);
     ub_put_u8(payload + UB_PL_REPLY_DETAIL, detail);
     ub_put_u8(payload + UB_PL_REPLY_FLAGS, nack ? origin : 0);
-    return ub_priv_send_admin(node, slot, nack ? UB_ADMIN_NACK : UB_ADMIN_ACK, dir_id, 0, dest_id, payload,
+    return ub_node_svc_send_admin(node, slot, nack ? UB_ADMIN_NACK : UB_ADMIN_ACK, dir_id, 0, dest_id, payload,
                               UB_PL_REPLY_LEN, now_ms);
 }
 
@@ -931,17 +950,12 @@ bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src
 }
 
 void ub_node_tick(ub_node_t *node, uint64_t now_ms) {
-    for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
-        if (!node->locals[slot].in_use) continue;
-        ub_priv_pubsub_tick(node, slot, now_ms);
-        if (node->locals[slot].admin != NULL) ub_priv_admin_tick(node->locals[slot].admin, now_ms);
+    /* In ascending order (ub_service.h): publish/subscribe, routing, membership, inspection, then the
+     * frame path's own (challenges, compact links, fragments), then the application's. */
+    for (int i = 0; i < node->n_services; i++) {
+        const ub_service_t *svc = node->services[i];
+        if (svc->tick != NULL) svc->tick(svc, node, now_ms);
     }
-    if (node->route != NULL) ub_priv_route_tick(node->route, now_ms);
-    if (node->member != NULL) ub_priv_member_tick(node->member, now_ms);
-    if (node->inspect != NULL) ub_priv_inspect_tick(node->inspect, now_ms);
-    ub_priv_sec_tick(node, now_ms);
-    ub_priv_compact_tick(node, now_ms);
-    if (node->frag != NULL) ub_priv_frag_tick(node, now_ms);
 }
 
 /* ---- wire: compact links, MTUs, fragments -------------------------------------------------------- */
@@ -951,7 +965,7 @@ int ub_node_link_set_compact(ub_node_t *node, int link_id, ub_compact_t *state, 
     ub_link_t *link = &node->links[link_id];
     if (state != NULL) {
         /* A random epoch: the peer notices our restart and sends all sequence bits again. */
-        ub_compact_init(state, node->cat, ub_priv_new_request_id(node), params);
+        ub_compact_init(state, node->cat, ub_node_svc_new_request_id(node), params);
     }
     link->compact = state;
     ub_decoder_stats_t kept = link->decoder.stats; /* the carried bytes were the other encoding's */
@@ -977,7 +991,7 @@ int ub_node_link_set_mtu(ub_node_t *node, int link_id, uint16_t mtu) {
 
 int ub_node_set_frag(ub_node_t *node, ub_frag_t *frag) {
     if (node == NULL) return UB_ERR_INVAL;
-    node->frag = frag;
+    node->frag = frag; /* its service (ub_node_wire.c) is always registered: without state it refuses fragments */
     return UB_OK;
 }
 

@@ -7,7 +7,7 @@
 #include "ub/ub_node.h"
 #include "ub/ub_sec.h"
 #include "ub/ub_wire.h"
-#include "core/ub_router_private.h"
+#include "core/ub_node_private.h"
 
 static bool link_ok(const ub_node_t *node, int link_id) {
     return link_id >= 0 && link_id < UB_MAX_NODE_LINKS && node->links[link_id].in_use;
@@ -299,23 +299,31 @@ static void on_reply(ub_node_t *node, int slot, int link_id, const ub_frame_head
     if (node->sec != NULL) node->sec->stats.challenges_completed++;
 }
 
-void ub_priv_sec_on_admin(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
-                          const ub_priv_rx_t *rx, uint64_t now_ms) {
-    if (rx != NULL && !rx->secured) { /* an unsigned challenge proves nothing and is never answered */
+/* CHALLENGE / CHALLENGE_REPLY reached local slot `rx->slot` (link -1: from an entity of this node). Drops are
+ * counted here (unsigned, bad_payload, replay), so the frame is always "handled". */
+static bool sec_on_frame(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx, const ub_frame_header_t *h,
+                         const uint8_t *payload, uint64_t now_ms, ub_drop_reason_t *drop) {
+    (void)svc;
+    (void)drop;
+    int slot = rx->slot, link_id = rx->link_id;
+    if (link_id >= 0 && !rx->secured) { /* an unsigned challenge proves nothing and is never answered */
         ub_priv_count_drop(node, link_id, UB_DROP_UNSIGNED);
-        return;
+        return true;
     }
     if (h->payload_size != UB_SEC_NONCE_LEN) {
         ub_priv_count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
-        return;
+        return true;
     }
     if (h->admin == UB_ADMIN_CHALLENGE)
         on_challenge(node, slot, link_id, h, payload, now_ms);
     else
         on_reply(node, slot, link_id, h, payload);
+    return true;
 }
 
-void ub_priv_sec_tick(ub_node_t *node, uint64_t now_ms) {
+/* Resends unanswered challenges (at most UB_SEC_CHALLENGE_TRIES per frame of their source). */
+static void sec_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms) {
+    (void)svc;
     ub_sec_t *sec = node->sec;
     if (sec == NULL || ub_sec_tx_key(sec) == 0) return;
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
@@ -330,3 +338,16 @@ void ub_priv_sec_tick(ub_node_t *node, uint64_t now_ms) {
         }
     }
 }
+
+static const uint8_t sec_codes[] = {UB_ADMIN_CHALLENGE, UB_ADMIN_CHALLENGE_REPLY};
+
+/* Freshness challenges (docs/security.md) as a service of the core: the window (ub_priv_window_pass())
+ * starts them, this answers and completes them. Ticks after the protocol engines, as before services. */
+const ub_service_t ub_priv_sec_service = {
+    .name = "challenge",
+    .codes = sec_codes,
+    .n_codes = sizeof sec_codes,
+    .order = 50,
+    .on_frame = sec_on_frame,
+    .tick = sec_tick,
+};

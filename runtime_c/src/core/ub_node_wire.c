@@ -5,11 +5,13 @@
 
 #include "ub/ub_node.h"
 #include "ub/ub_wire.h"
-#include "core/ub_router_private.h"
+#include "core/ub_node_private.h"
 
 /* ---- compact links ------------------------------------------------------------------------------- */
 
-void ub_priv_compact_tick(ub_node_t *node, uint64_t now_ms) {
+/* LINK_HELLO rounds go out when due; dictionaries follow the entity table. */
+static void compact_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms) {
+    (void)svc;
     uint64_t version = ub_node_table_version(node);
     for (int l = 0; l < UB_MAX_NODE_LINKS; l++) {
         ub_link_t *link = &node->links[l];
@@ -30,6 +32,27 @@ void ub_priv_compact_tick(ub_node_t *node, uint64_t now_ms) {
         }
     }
 }
+
+/* A LINK_HELLO (link-local) arrived on `rx->link_id`: the peer's dictionary page. */
+static bool compact_on_frame(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
+                             const ub_frame_header_t *h, const uint8_t *payload, uint64_t now_ms, ub_drop_reason_t *drop) {
+    (void)svc;
+    (void)drop; /* bad_payload: a LINK_HELLO on a full-frame link, or an unusable one */
+    ub_compact_t *c = node->links[rx->link_id].compact;
+    return c != NULL && ub_compact_on_hello(c, payload, h->payload_size, now_ms) >= 0;
+}
+
+static const uint8_t compact_codes[] = {UB_ADMIN_LINK_HELLO};
+
+/* Compact links' dictionaries as a service of the core (the encoding itself is frame shaping, ub_node.c). */
+const ub_service_t ub_priv_compact_service = {
+    .name = "compact",
+    .link_local_codes = compact_codes,
+    .n_link_local_codes = sizeof compact_codes,
+    .order = 55,
+    .on_frame = compact_on_frame,
+    .tick = compact_tick,
+};
 
 /* ---- fragments ----------------------------------------------------------------------------------- */
 
@@ -173,8 +196,20 @@ int ub_priv_frag_send(ub_node_t *node, int slot, uint32_t instance, const void *
     return pump(node, t, now_ms);
 }
 
-void ub_priv_frag_on_fragment(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h,
-                              const uint8_t *payload, uint64_t now_ms) {
+static void frag_on_fragment(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h,
+                             const uint8_t *payload, uint64_t now_ms);
+
+/* A FRAGMENT reached local slot `rx->slot`. Drops are counted here, by reason. */
+static bool frag_on_frame(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
+                          const ub_frame_header_t *h, const uint8_t *payload, uint64_t now_ms, ub_drop_reason_t *drop) {
+    (void)svc;
+    (void)drop;
+    frag_on_fragment(node, rx->slot, rx->link_id, h, payload, now_ms);
+    return true;
+}
+
+static void frag_on_fragment(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h,
+                             const uint8_t *payload, uint64_t now_ms) {
     ub_frag_t *f = node->frag;
     if (f == NULL) {
         ub_priv_count_drop(node, link_id, UB_DROP_TOO_BIG);
@@ -186,7 +221,7 @@ void ub_priv_frag_on_fragment(ub_node_t *node, int slot, int link_id, const ub_f
         ub_priv_count_drop(node, link_id, UB_DROP_UNKNOWN_CONTENT);
         return;
     }
-    if (link_id >= 0 && !ub_priv_pubsub_may_write(node, slot, (uint32_t)idx, h->src_id)) {
+    if (link_id >= 0 && node->policy != NULL && !ub_priv_may_write(node, slot, (uint32_t)idx, h->src_id)) {
         ub_priv_count_drop(node, link_id, UB_DROP_NOT_ALLOWED);
         return;
     }
@@ -224,8 +259,11 @@ void ub_priv_frag_on_fragment(ub_node_t *node, int slot, int link_id, const ub_f
     }
 }
 
-void ub_priv_frag_tick(ub_node_t *node, uint64_t now_ms) {
+/* Timeouts of reassemblies; transfers that were pushed back go on. */
+static void frag_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms) {
+    (void)svc;
     ub_frag_t *f = node->frag;
+    if (f == NULL) return;
     for (size_t n = ub_frag_expire(f, now_ms); n > 0; n--) ub_priv_count_drop(node, -1, UB_DROP_INCOMPLETE);
     for (size_t i = 0; i < UB_FRAG_TX_SLOTS; i++) {
         ub_frag_tx_t *t = &f->tx[i];
@@ -238,3 +276,25 @@ void ub_priv_frag_tick(ub_node_t *node, uint64_t now_ms) {
         (void)pump(node, t, now_ms);
     }
 }
+
+static void frag_forget_entity(const ub_service_t *svc, ub_node_t *node, int entity, const uint8_t id[UB_ENTITY_ID_LEN],
+                               uint64_t now_ms) {
+    (void)svc;
+    (void)entity;
+    (void)now_ms;
+    ub_frag_forget(node->frag, -1, id);
+}
+
+static const uint8_t frag_codes[] = {UB_ADMIN_FRAGMENT};
+
+/* Reassembly as a service of the core: always registered, so a node without fragment state
+ * (ub_node_set_frag()) refuses fragments `too_big` rather than as unknown admin frames. */
+const ub_service_t ub_priv_frag_service = {
+    .name = "fragments",
+    .codes = frag_codes,
+    .n_codes = sizeof frag_codes,
+    .order = 60,
+    .on_frame = frag_on_frame,
+    .tick = frag_tick,
+    .forget_entity = frag_forget_entity,
+};

@@ -4,7 +4,7 @@
 
 #include "ub/ub_node.h"
 #include "ub/ub_wire.h"
-#include "core/ub_router_private.h"
+#include "svc/ub_svc_private.h"
 
 static const char *const status_names[] = {
     [UB_ADMIN_INACTIVE] = "inactive",         [UB_ADMIN_PENDING] = "pending", [UB_ADMIN_ACKNOWLEDGED] = "acknowledged",
@@ -38,7 +38,7 @@ const char *ub_nack_reason_name(ub_nack_reason_t reason) {
 
 int ub_admin_init(ub_admin_t *adm, ub_node_t *node, int entity, const ub_admin_options_t *opt) {
     if (adm == NULL || node == NULL) return UB_ERR_INVAL;
-    int slot = ub_priv_local_slot(node, entity);
+    int slot = ub_node_entity_slot(node, entity);
     if (slot < 0) return UB_ERR_INVAL;
     memset(adm, 0, sizeof *adm);
     if (opt != NULL) adm->opt = *opt;
@@ -48,14 +48,14 @@ int ub_admin_init(ub_admin_t *adm, ub_node_t *node, int entity, const ub_admin_o
     if (adm->opt.max_stop_retries == 0) adm->opt.max_stop_retries = UB_PS_DEFAULT_STOP_RETRIES;
     adm->node = node;
     adm->entity = entity;
-    node->locals[slot].admin = adm;
+    ub_node_svc_pubsub_table(node, slot)->admin = adm;
     return UB_OK;
 }
 
 void ub_admin_detach(ub_admin_t *adm) {
     if (adm == NULL || adm->node == NULL) return;
-    int slot = ub_priv_local_slot(adm->node, adm->entity);
-    if (slot >= 0 && adm->node->locals[slot].admin == adm) adm->node->locals[slot].admin = NULL;
+    int slot = ub_node_entity_slot(adm->node, adm->entity);
+    if (slot >= 0 && ub_node_svc_pubsub_table(adm->node, slot)->admin == adm) ub_node_svc_pubsub_table(adm->node, slot)->admin = NULL;
     adm->node = NULL;
 }
 
@@ -66,7 +66,7 @@ static ub_admin_row_t *row_at(const ub_admin_t *adm, int row) {
 
 int ub_admin_add_row(ub_admin_t *adm, const ub_admin_row_spec_t *spec) {
     if (adm == NULL || adm->node == NULL || spec == NULL) return UB_ERR_INVAL;
-    if (spec->instance >= adm->node->cat->n_instances || spec->period_ms == 0) return UB_ERR_INVAL;
+    if (spec->instance >= ub_node_catalogue(adm->node)->n_instances || spec->period_ms == 0) return UB_ERR_INVAL;
     if (memcmp(spec->source, spec->destination, UB_ENTITY_ID_LEN) == 0) return UB_ERR_INVAL;
     if (spec->type != UB_ADMIN_ROW_PUBLICATION && spec->type != UB_ADMIN_ROW_SUBSCRIPTION) return UB_ERR_INVAL;
     /* One flow, one row: two rows of one table for the same flow would renew one target row in turns, each
@@ -100,7 +100,7 @@ int ub_admin_set_active(ub_admin_t *adm, int row, bool active, uint64_t now_ms) 
     ub_admin_status_t st = r->info.status;
     if (active && (!r->info.active_flag || st == UB_ADMIN_FAILED)) {
         /* A fresh request id, so late replies to an earlier activation are not mistaken for this one. */
-        r->info.request_id = ub_priv_new_request_id(adm->node);
+        r->info.request_id = ub_node_svc_new_request_id(adm->node);
         r->info.nack_reason = UB_NACK_NONE;
         r->info.nack_relayed = false;
         r->info.acked_at_ms = 0;
@@ -150,7 +150,7 @@ static ub_admin_code_t stop_code(const ub_admin_row_spec_t *spec) {
 static void send_row(ub_admin_t *adm, const ub_admin_row_t *row, bool stop, uint64_t now_ms) {
     ub_node_t *node = adm->node;
     const ub_admin_row_spec_t *spec = &row->info.spec;
-    const ub_instance_desc_t *inst = &node->cat->instances[spec->instance];
+    const ub_instance_desc_t *inst = &ub_node_catalogue(node)->instances[spec->instance];
     uint8_t payload[UB_PL_REQUEST_LEN];
     uint16_t len;
     if (stop) {
@@ -164,8 +164,8 @@ static void send_row(ub_admin_t *adm, const ub_admin_row_t *row, bool stop, uint
         memcpy(payload + UB_PL_REQUEST_PEER, peer_of(spec), UB_ENTITY_ID_LEN);
         len = UB_PL_REQUEST_LEN;
     }
-    int slot = ub_priv_local_slot(node, adm->entity);
-    (void)ub_priv_send_admin(node, slot, stop ? stop_code(spec) : request_code(spec), inst->id,
+    int slot = ub_node_entity_slot(node, adm->entity);
+    (void)ub_node_svc_send_admin(node, slot, stop ? stop_code(spec) : request_code(spec), inst->id,
                              inst->type->fingerprint, target_of(spec), payload, len, now_ms);
 }
 
@@ -176,7 +176,7 @@ static bool reply_is_for(const ub_admin_t *adm, const ub_admin_row_t *row, const
     const ub_admin_row_spec_t *spec = &row->info.spec;
     return row->in_use && row->info.request_id == request_id &&
            memcmp(h->src_id, target_of(spec), UB_ENTITY_ID_LEN) == 0 &&
-           memcmp(h->dir_id, adm->node->cat->instances[spec->instance].id, UB_DIR_ID_LEN) == 0;
+           memcmp(h->dir_id, ub_node_catalogue(adm->node)->instances[spec->instance].id, UB_DIR_ID_LEN) == 0;
 }
 
 bool ub_priv_admin_on_reply(ub_admin_t *adm, const ub_frame_header_t *h, uint32_t request_id, uint8_t code, bool nack,

@@ -7,9 +7,7 @@
 #include "ub/ub_policy.h"
 #include "ub/ub_pubsub.h"
 #include "ub/ub_wire.h"
-#include "core/ub_fleet_private.h"
-#include "core/ub_inspect_private.h"
-#include "core/ub_router_private.h"
+#include "svc/ub_svc_private.h"
 
 #define DEFAULT_RETRY_MS 200u
 
@@ -51,15 +49,15 @@ typedef struct request {
 static bool permitted(const ub_node_t *node, int slot, const request_t *r, bool from_link, bool secured,
                       ub_policy_dir_t dir, bool admin_only, int instance) {
     if (!from_link) return true;
-    int entity = ub_priv_slot_entity(node, slot);
+    int entity = ub_node_slot_entity(node, slot);
     if (ub_node_may_administer(node, entity, r->h->src_id, secured)) return true;
     if (admin_only) return false;
     /* Not an administrator: the content's read or write rule. Without a policy, reads are as open as
      * subscriptions and a write needs the administrator (there is no rule to grant it). */
-    if (node->policy == NULL) return dir == UB_POLICY_READ;
-    if (dir == UB_POLICY_READ && !node->policy->read_restricted) return true;
-    const char *name = node->cat->instances[instance].name;
-    return ub_policy_rule_matches(node->policy, dir, node->entities[entity].id, r->h->src_id, name ? name : "");
+    if (ub_node_policy(node) == NULL) return dir == UB_POLICY_READ;
+    if (dir == UB_POLICY_READ && !ub_node_policy(node)->read_restricted) return true;
+    const char *name = ub_node_catalogue(node)->instances[instance].name;
+    return ub_policy_rule_matches(ub_node_policy(node), dir, ub_node_entity_id(node, entity), r->h->src_id, name ? name : "");
 }
 
 static void send_value(ub_node_t *node, int slot, const request_t *r, uint16_t total, uint16_t next,
@@ -67,22 +65,22 @@ static void send_value(ub_node_t *node, int slot, const request_t *r, uint16_t t
     uint8_t p[UB_MAX_PAYLOAD];
     ub_inspect_put_value_head(p, r->id, r->op, r->arg, r->offset, total, next);
     memcpy(p + UB_INSPECT_VAL_DATA, data, len);
-    (void)ub_priv_send_admin(node, slot, UB_ADMIN_INSPECT_VALUE, r->h->dir_id, r->h->fingerprint, r->h->src_id, p,
+    (void)ub_node_svc_send_admin(node, slot, UB_ADMIN_INSPECT_VALUE, r->h->dir_id, r->h->fingerprint, r->h->src_id, p,
                              (uint16_t)(UB_INSPECT_VAL_DATA + len), now_ms);
 }
 
 /* The content of a READ/WRITE: its instance, or -(NACK reason). */
 static int content_of(const ub_node_t *node, const ub_frame_header_t *h) {
-    int idx = ub_catalogue_find(node->cat, h->dir_id);
+    int idx = ub_catalogue_find(ub_node_catalogue(node), h->dir_id);
     if (idx < 0) return -UB_NACK_UNKNOWN_CONTENT;
-    const ub_type_desc_t *type = node->cat->instances[idx].type;
+    const ub_type_desc_t *type = ub_node_catalogue(node)->instances[idx].type;
     if (type->fingerprint != h->fingerprint) return -UB_NACK_LAYOUT;
     if (ub_node_binding(node, (uint32_t)idx) == NULL) return -UB_NACK_UNBOUND;
     return idx;
 }
 
 static int pack_current(const ub_node_t *node, uint32_t instance, uint8_t *buf) {
-    const ub_type_desc_t *type = node->cat->instances[instance].type;
+    const ub_type_desc_t *type = ub_node_catalogue(node)->instances[instance].type;
     const void *storage = ub_node_binding(node, instance);
     if (type->pack == NULL) {
         memcpy(buf, storage, type->packed_size); /* wire-image storage (ub_type_desc_t) */
@@ -95,7 +93,7 @@ static int pack_current(const ub_node_t *node, uint32_t instance, uint8_t *buf) 
  * stays bounded); a type above that (up to UB_MAX_DIRECTORY, carried in fragments by subscriptions) is
  * refused UNSUPPORTED rather than overrun the image. */
 static bool inspectable(const ub_node_t *node, int instance) {
-    return node->cat->instances[instance].type->packed_size <= UB_MAX_PAYLOAD;
+    return ub_node_catalogue(node)->instances[instance].type->packed_size <= UB_MAX_PAYLOAD;
 }
 
 static uint8_t serve_read(ub_node_t *node, int slot, const request_t *r, int instance, uint64_t now_ms) {
@@ -112,7 +110,7 @@ static uint8_t serve_read(ub_node_t *node, int slot, const request_t *r, int ins
 }
 
 static uint8_t serve_write(ub_node_t *node, int slot, const request_t *r, int instance, uint64_t now_ms, bool *changed) {
-    const ub_type_desc_t *type = node->cat->instances[instance].type;
+    const ub_type_desc_t *type = ub_node_catalogue(node)->instances[instance].type;
     if (!inspectable(node, instance)) return UB_NACK_UNSUPPORTED;
     if (r->len == 0 || (size_t)r->offset + r->len > type->packed_size) return UB_NACK_INVALID;
     uint8_t image[UB_MAX_PAYLOAD], before[UB_MAX_PAYLOAD];
@@ -130,7 +128,7 @@ static uint8_t serve_write(ub_node_t *node, int slot, const request_t *r, int in
         return UB_NACK_BAD_VALUE;
     }
     /* A publication on update sends the new value (ub_pubsub_set_on_update()); a timed one at its turn. */
-    if (ub_pubsub_updated(node, ub_priv_slot_entity(node, slot), (uint32_t)instance, now_ms) < 0) {
+    if (ub_pubsub_updated(node, ub_node_slot_entity(node, slot), (uint32_t)instance, now_ms) < 0) {
         /* not published on update here: timed publications carry the new value at their turn */
     }
     return UB_NACK_NONE;
@@ -205,15 +203,15 @@ size_t ub_inspect_put_request(uint8_t *p, size_t cap, uint32_t request_id, const
 /* ---- records of the node's tables ------------------------------------------------------------------ */
 
 static size_t put_entity(const ub_node_t *node, int slot, int e, uint8_t *p) {
-    ub_inspect_entity_rec_t r = {.local = node->entities[e].local >= 0, .mask = node->locals[slot].masks[e],
-                                 .pinned = node->locals[slot].pinned[e]};
-    memcpy(r.id, node->entities[e].id, UB_ENTITY_ID_LEN);
+    ub_inspect_entity_rec_t r = {.local = ub_node_entity_slot(node, e) >= 0, .mask = ub_node_slot_mask(node, slot, e),
+                                 .pinned = ub_node_slot_pinned(node, slot, e)};
+    memcpy(r.id, ub_node_entity_id(node, e), UB_ENTITY_ID_LEN);
     ub_inspect_put_entity_rec(p, &r);
     return UB_INSPECT_ENTITY_REC;
 }
 
 static size_t put_link(const ub_node_t *node, int link_id, uint8_t *p) {
-    const ub_link_t *l = &node->links[link_id];
+    const ub_link_t *l = ub_node_link(node, link_id);
     uint64_t drops = 0;
     for (int d = 0; d < UB_DROP_REASON_COUNT; d++) drops += l->counters.drops[d];
     ub_inspect_link_rec_t r = {.index = l->index, .attached = l->ops != NULL,
@@ -229,7 +227,7 @@ static size_t put_pubsub(const ub_node_t *node, int r, const ub_ps_row_t *row, u
     ub_inspect_pubsub_rec_t rec = {.row = (uint16_t)r, .kind = row->kind,
                                    .state = row->kind == UB_PS_SUBSCRIPTION ? row->state : row->reported_flowing,
                                    .period_ms = row->period_ms, .frames = sat32(row->frames)};
-    memcpy(rec.dir_id, node->cat->instances[row->instance].id, UB_DIR_ID_LEN);
+    memcpy(rec.dir_id, ub_node_catalogue(node)->instances[row->instance].id, UB_DIR_ID_LEN);
     memcpy(rec.peer, row->peer, UB_ENTITY_ID_LEN);
     memcpy(rec.owner, row->owner, UB_ENTITY_ID_LEN);
     ub_inspect_put_pubsub_rec(p, &rec);
@@ -240,7 +238,7 @@ static size_t put_admin(const ub_node_t *node, int r, const ub_admin_row_info_t 
     ub_inspect_admin_rec_t rec = {.row = (uint16_t)r, .type = (uint8_t)info->spec.type, .status = (uint8_t)info->status,
                                   .period_ms = info->spec.period_ms, .active = info->active_flag,
                                   .nack_reason = (uint8_t)info->nack_reason};
-    memcpy(rec.dir_id, node->cat->instances[info->spec.instance].id, UB_DIR_ID_LEN);
+    memcpy(rec.dir_id, ub_node_catalogue(node)->instances[info->spec.instance].id, UB_DIR_ID_LEN);
     memcpy(rec.source, info->spec.source, UB_ENTITY_ID_LEN);
     memcpy(rec.destination, info->spec.destination, UB_ENTITY_ID_LEN);
     ub_inspect_put_admin_rec(p, &rec);
@@ -254,7 +252,7 @@ static uint8_t serve_list(ub_node_t *node, int slot, const request_t *r, uint64_
     uint8_t data[UB_INSPECT_CHUNK];
     size_t len = 0, rec = 0;
     unsigned total = 0, next = UB_INSPECT_END;
-    const ub_admin_t *adm = node->locals[slot].admin;
+    const ub_admin_t *adm = ub_node_svc_pubsub_table(node, slot)->admin;
     unsigned cap;
     switch (r->arg) {
     case UB_INSPECT_ENTITIES: rec = UB_INSPECT_ENTITY_REC; cap = UB_MAX_ENTITIES; break;
@@ -266,9 +264,9 @@ static uint8_t serve_list(ub_node_t *node, int slot, const request_t *r, uint64_
     for (unsigned i = 0; i < cap; i++) {
         bool used;
         switch (r->arg) {
-        case UB_INSPECT_ENTITIES: used = node->entities[i].in_use; break;
-        case UB_INSPECT_LINKS: used = node->links[i].in_use && node->links[i].owner == slot; break;
-        case UB_INSPECT_PUBSUB: used = node->locals[slot].ps.rows[i].kind != UB_PS_FREE; break;
+        case UB_INSPECT_ENTITIES: used = (ub_node_entity_id(node, i) != NULL); break;
+        case UB_INSPECT_LINKS: used = ub_node_link(node, (int)i) != NULL && ub_node_link(node, (int)i)->owner == slot; break;
+        case UB_INSPECT_PUBSUB: used = (*ub_node_svc_pubsub_table(node, slot)).rows[i].kind != UB_PS_FREE; break;
         default: used = adm != NULL && adm->rows[i].in_use; break;
         }
         if (!used) continue;
@@ -283,7 +281,7 @@ static uint8_t serve_list(ub_node_t *node, int slot, const request_t *r, uint64_
         switch (r->arg) {
         case UB_INSPECT_ENTITIES: len += put_entity(node, slot, (int)i, p); break;
         case UB_INSPECT_LINKS: len += put_link(node, (int)i, p); break;
-        case UB_INSPECT_PUBSUB: len += put_pubsub(node, (int)i, &node->locals[slot].ps.rows[i], p); break;
+        case UB_INSPECT_PUBSUB: len += put_pubsub(node, (int)i, &(*ub_node_svc_pubsub_table(node, slot)).rows[i], p); break;
         default: len += put_admin(node, (int)i, &adm->rows[i].info, p); break;
         }
     }
@@ -294,7 +292,7 @@ static uint8_t serve_list(ub_node_t *node, int slot, const request_t *r, uint64_
 static uint8_t serve_set_period(ub_node_t *node, int slot, const request_t *r, uint64_t now_ms, bool *changed) {
     if (r->value == 0) return UB_NACK_INVALID;
     if (r->offset >= UB_MAX_PUBSUB_ROWS) return UB_NACK_NO_SUCH_ROW;
-    ub_ps_row_t *row = &node->locals[slot].ps.rows[r->offset];
+    ub_ps_row_t *row = &(*ub_node_svc_pubsub_table(node, slot)).rows[r->offset];
     if (row->kind == UB_PS_FREE) return UB_NACK_NO_SUCH_ROW;
     *changed = row->period_ms != r->value;
     row->period_ms = r->value;
@@ -306,7 +304,7 @@ static uint8_t serve_set_period(ub_node_t *node, int slot, const request_t *r, u
 
 static uint8_t serve_set_mask(ub_node_t *node, int slot, const request_t *r, bool *changed) {
     if (r->len < UB_ENTITY_ID_LEN || r->value > 0xFFu) return UB_NACK_INVALID;
-    int entity = ub_priv_slot_entity(node, slot);
+    int entity = ub_node_slot_entity(node, slot);
     int dest = ub_node_find_entity(node, r->data);
     if (dest < 0) return UB_NACK_NO_SUCH_ROW;
     uint8_t before = 0;
@@ -317,7 +315,7 @@ static uint8_t serve_set_mask(ub_node_t *node, int slot, const request_t *r, boo
 }
 
 static uint8_t serve_admin_row(ub_node_t *node, int slot, const request_t *r, uint64_t now_ms, bool *changed) {
-    ub_admin_t *adm = node->locals[slot].admin;
+    ub_admin_t *adm = ub_node_svc_pubsub_table(node, slot)->admin;
     if (adm == NULL || r->offset >= UB_MAX_ADMIN_ROWS || !adm->rows[r->offset].in_use) return UB_NACK_NO_SUCH_ROW;
     ub_admin_row_t *row = &adm->rows[r->offset];
     if (r->arg == UB_INSPECT_ADMIN_PERIOD) {
@@ -336,8 +334,13 @@ static uint8_t serve_admin_row(ub_node_t *node, int slot, const request_t *r, ui
     return UB_NACK_INVALID;
 }
 
-bool ub_priv_inspect_on_request(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
-                                bool from_link, bool secured, uint64_t now_ms, ub_drop_reason_t *drop) {
+/* An INSPECT request reached local slot `rx->slot` (over a link: the policy judges it). Answers it (value, ACK
+ * or NACK). Returns false when the node must count a drop of reason `*drop`: an unusable payload (bad_payload,
+ * nothing answered) or a refused requester (not_authorized, NACK sent). */
+static bool inspect_on_request(ub_node_t *node, const ub_service_rx_t *rx, const ub_frame_header_t *h,
+                               const uint8_t *payload, uint64_t now_ms, ub_drop_reason_t *drop) {
+    int slot = rx->slot;
+    bool from_link = rx->link_id >= 0, secured = rx->secured;
     *drop = UB_DROP_BAD_PAYLOAD;
     if (h->payload_size < UB_INSPECT_REQ_DATA) return false;
     request_t r = {h,
@@ -372,10 +375,10 @@ bool ub_priv_inspect_on_request(ub_node_t *node, int slot, const ub_frame_header
         default: reason = UB_NACK_INVALID; break;
         }
     }
-    if (reason != UB_NACK_NONE) node->counters.inspect_refused++;
-    else node->counters.inspect_served++;
+    if (reason != UB_NACK_NONE) ub_node_svc_counters(node)->inspect_refused++;
+    else ub_node_svc_counters(node)->inspect_served++;
     if (!value_sent) {
-        (void)ub_priv_send_reply(node, slot, reason != UB_NACK_NONE, h->dir_id, h->src_id, r.id, UB_ADMIN_INSPECT,
+        (void)ub_node_svc_send_reply(node, slot, reason != UB_NACK_NONE, h->dir_id, h->src_id, r.id, UB_ADMIN_INSPECT,
                                  reason != UB_NACK_NONE ? reason : (changed ? 1u : 0u), 0, now_ms);
     }
     if (!authorized) {
@@ -388,14 +391,14 @@ bool ub_priv_inspect_on_request(ub_node_t *node, int slot, const ub_frame_header
 /* ---- requesting ------------------------------------------------------------------------------------- */
 
 static bool id_usable(const uint8_t id[UB_ENTITY_ID_LEN]) {
-    return !ub_priv_id_is_zero(id) && !ub_entity_id_is_link_local(id);
+    return !ub_entity_id_is_zero(id) && !ub_entity_id_is_link_local(id);
 }
 
 static bool spec_ok(const ub_node_t *node, const ub_inspect_spec_t *s) {
     if (!id_usable(s->target)) return false;
     switch (s->op) {
-    case UB_INSPECT_READ: return s->instance < node->cat->n_instances;
-    case UB_INSPECT_WRITE: return s->instance < node->cat->n_instances && s->len > 0 && s->len <= UB_INSPECT_CHUNK;
+    case UB_INSPECT_READ: return s->instance < ub_node_catalogue(node)->n_instances;
+    case UB_INSPECT_WRITE: return s->instance < ub_node_catalogue(node)->n_instances && s->len > 0 && s->len <= UB_INSPECT_CHUNK;
     case UB_INSPECT_LIST: return s->arg >= UB_INSPECT_ENTITIES && s->arg <= UB_INSPECT_ADMIN;
     case UB_INSPECT_SET_PERIOD: return s->value > 0;
     case UB_INSPECT_SET_MASK: return id_usable(s->subject) && s->value <= 0xFFu;
@@ -404,20 +407,32 @@ static bool spec_ok(const ub_node_t *node, const ub_inspect_spec_t *s) {
     }
 }
 
+static void inspect_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms);
+
 int ub_inspect_init(ub_inspect_t *in, ub_node_t *node, int entity, const ub_inspect_options_t *opt) {
-    if (in == NULL || node == NULL || ub_priv_local_slot(node, entity) < 0) return UB_ERR_INVAL;
+    if (in == NULL || node == NULL || ub_node_entity_slot(node, entity) < 0) return UB_ERR_INVAL;
+    /* The requester takes the inspection registration over (from the server, or from a requester attached
+     * before: the last one attached gets the answers, as it always did). */
+    const ub_service_t *prev = ub_node_service_for(node, UB_SVC_CODE, UB_ADMIN_INSPECT);
+    if (prev != NULL && ub_node_remove_service(node, prev) != UB_OK) return UB_ERR_INVAL;
     memset(in, 0, sizeof *in);
     if (opt != NULL) in->opt = *opt;
     if (in->opt.retry_ms == 0) in->opt.retry_ms = DEFAULT_RETRY_MS;
     in->node = node;
     in->entity = entity;
-    node->inspect = in;
-    return UB_OK;
+    in->svc = ub_priv_inspect_server;
+    in->svc.tick = inspect_tick;
+    in->svc.user = in;
+    return ub_node_add_service(node, &in->svc);
 }
 
 void ub_inspect_detach(ub_inspect_t *in) {
     if (in == NULL || in->node == NULL) return;
-    if (in->node->inspect == in) in->node->inspect = NULL;
+    /* Serving goes on without it. */
+    if (ub_node_remove_service(in->node, &in->svc) == UB_OK &&
+        ub_node_add_service(in->node, &ub_priv_inspect_server) != UB_OK) {
+        /* cannot fail: the codes were just freed */
+    }
     in->node = NULL;
 }
 
@@ -430,7 +445,7 @@ int ub_inspect_request(ub_inspect_t *in, const ub_inspect_spec_t *spec, uint64_t
         row->in_use = 1;
         row->spec = *spec;
         row->result.status = UB_INSPECT_PENDING;
-        row->result.request_id = ub_priv_new_request_id(in->node);
+        row->result.request_id = ub_node_svc_new_request_id(in->node);
         row->result.sent_ms = now_ms;
         row->next_send_ms = now_ms;
         return r;
@@ -460,16 +475,18 @@ static void send_request(ub_inspect_t *in, const ub_inspect_row_t *row, uint64_t
     uint8_t dir[UB_DIR_ID_LEN] = {0};
     uint32_t fingerprint = 0;
     if (s->op == UB_INSPECT_READ || s->op == UB_INSPECT_WRITE) {
-        const ub_instance_desc_t *inst = &in->node->cat->instances[s->instance];
+        const ub_instance_desc_t *inst = &ub_node_catalogue(in->node)->instances[s->instance];
         memcpy(dir, inst->id, UB_DIR_ID_LEN);
         fingerprint = inst->type->fingerprint;
     }
-    int slot = ub_priv_local_slot(in->node, in->entity);
-    (void)ub_priv_send_admin(in->node, slot, UB_ADMIN_INSPECT, dir, fingerprint, s->target, p, len, now_ms);
+    int slot = ub_node_entity_slot(in->node, in->entity);
+    (void)ub_node_svc_send_admin(in->node, slot, UB_ADMIN_INSPECT, dir, fingerprint, s->target, p, len, now_ms);
     in->counters.sent++;
 }
 
-void ub_priv_inspect_tick(ub_inspect_t *in, uint64_t now_ms) {
+static void inspect_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms) {
+    (void)node;
+    ub_inspect_t *in = svc->user;
     for (int r = 0; r < UB_MAX_INSPECT_REQUESTS; r++) {
         ub_inspect_row_t *row = &in->rows[r];
         if (!row->in_use || row->result.status != UB_INSPECT_PENDING || now_ms < row->next_send_ms) continue;
@@ -485,52 +502,59 @@ void ub_priv_inspect_tick(ub_inspect_t *in, uint64_t now_ms) {
     }
 }
 
-/* The pending row a reply answers: same request id, from the row's target, to the requesting entity. */
-static ub_inspect_row_t *row_for(ub_node_t *node, int slot, const uint8_t src_id[UB_ENTITY_ID_LEN], uint32_t id) {
-    ub_inspect_t *in = node->inspect;
+/* The pending row of requester `in` (NULL: none attached) a reply answers: same request id, from the row's
+ * target, to the requesting entity. */
+static ub_inspect_row_t *row_for(ub_inspect_t *in, ub_node_t *node, int slot, const uint8_t src_id[UB_ENTITY_ID_LEN],
+                                 uint32_t id) {
     if (in == NULL) return NULL;
     for (int r = 0; r < UB_MAX_INSPECT_REQUESTS; r++) {
         ub_inspect_row_t *row = &in->rows[r];
         if (!row->in_use || row->result.request_id != id) continue;
         if (row->result.status != UB_INSPECT_PENDING || memcmp(src_id, row->spec.target, UB_ENTITY_ID_LEN) != 0 ||
-            ub_priv_local_slot(node, in->entity) != slot)
+            ub_node_entity_slot(node, in->entity) != slot)
             return NULL;
         return row;
     }
     return NULL;
 }
 
-static void unmatched(ub_node_t *node) {
-    if (node->inspect != NULL) node->inspect->counters.unmatched_replies++;
-    else node->counters.drops[UB_DROP_BAD_PAYLOAD]++; /* nobody asked: counted, as any unusable admin frame */
+static void unmatched(ub_inspect_t *in, ub_node_t *node) {
+    if (in != NULL) in->counters.unmatched_replies++;
+    else ub_node_svc_count_drop(node, -1, UB_DROP_BAD_PAYLOAD); /* nobody asked: counted, as any unusable admin frame */
 }
 
-void ub_priv_inspect_on_reply(ub_node_t *node, int slot, const uint8_t src_id[UB_ENTITY_ID_LEN], uint32_t request_id,
-                              bool nack, uint8_t detail, uint64_t now_ms) {
-    ub_inspect_row_t *row = row_for(node, slot, src_id, request_id);
+/* An ACK/NACK answering an INSPECT request reached local slot `rx->slot`. */
+static bool inspect_on_reply(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
+                             const ub_frame_header_t *h, const ub_service_reply_t *rep, uint64_t now_ms,
+                             ub_drop_reason_t *drop) {
+    (void)drop;
+    ub_inspect_t *in = svc->user;
+    ub_inspect_row_t *row = row_for(in, node, rx->slot, h->src_id, rep->request_id);
     if (row == NULL) {
-        unmatched(node);
-        return;
+        unmatched(in, node);
+        return true;
     }
     row->result.done_ms = now_ms;
-    if (nack) {
+    if (rep->nack) {
         row->result.status = UB_INSPECT_FAILED;
-        row->result.nack_reason = detail;
-        node->inspect->counters.failed++;
+        row->result.nack_reason = rep->detail;
+        in->counters.failed++;
     } else {
         row->result.status = UB_INSPECT_DONE;
-        row->result.changed = (detail & 1u) != 0;
-        node->inspect->counters.done++;
+        row->result.changed = (rep->detail & 1u) != 0;
+        in->counters.done++;
     }
+    return true;
 }
 
-bool ub_priv_inspect_on_value(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
-                              uint64_t now_ms) {
+/* An INSPECT_VALUE reached local slot `slot`. Returns false for an unusable payload (bad_payload). */
+static bool inspect_on_value(ub_inspect_t *in, ub_node_t *node, int slot, const ub_frame_header_t *h,
+                             const uint8_t *payload, uint64_t now_ms) {
     if (h->payload_size < UB_INSPECT_VAL_DATA) return false;
-    ub_inspect_row_t *row = row_for(node, slot, h->src_id, ub_get_u32le(payload + UB_INSPECT_VAL_ID));
+    ub_inspect_row_t *row = row_for(in, node, slot, h->src_id, ub_get_u32le(payload + UB_INSPECT_VAL_ID));
     if (row == NULL || payload[UB_INSPECT_VAL_OP] != row->spec.op ||
         ub_get_u16le(payload + UB_INSPECT_VAL_OFFSET) != row->spec.offset) {
-        unmatched(node);
+        unmatched(in, node);
         return true;
     }
     ub_inspect_result_t *res = &row->result;
@@ -540,6 +564,28 @@ bool ub_priv_inspect_on_value(ub_node_t *node, int slot, const ub_frame_header_t
     res->next = ub_get_u16le(payload + UB_INSPECT_VAL_NEXT);
     res->len = (uint16_t)(h->payload_size - UB_INSPECT_VAL_DATA);
     memcpy(res->data, payload + UB_INSPECT_VAL_DATA, res->len);
-    node->inspect->counters.done++;
+    in->counters.done++;
     return true;
 }
+
+static bool inspect_on_frame(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
+                             const ub_frame_header_t *h, const uint8_t *payload, uint64_t now_ms, ub_drop_reason_t *drop) {
+    if (h->admin == UB_ADMIN_INSPECT) return inspect_on_request(node, rx, h, payload, now_ms, drop);
+    return inspect_on_value(svc->user, node, rx->slot, h, payload, now_ms);
+}
+
+static const uint8_t inspect_codes[] = {UB_ADMIN_INSPECT, UB_ADMIN_INSPECT_VALUE};
+static const uint8_t inspect_reply_codes[] = {UB_ADMIN_INSPECT};
+
+/* Every node serves INSPECT requests; without a requester attached (user NULL), values and replies are unasked
+ * for. ub_inspect_init() takes the registration over with a copy whose user is the requester. */
+const ub_service_t ub_priv_inspect_server = {
+    .name = "inspect",
+    .codes = inspect_codes,
+    .n_codes = sizeof inspect_codes,
+    .reply_codes = inspect_reply_codes,
+    .n_reply_codes = sizeof inspect_reply_codes,
+    .order = UB_SVC_ORDER_INSPECT,
+    .on_frame = inspect_on_frame,
+    .on_reply = inspect_on_reply,
+};

@@ -4,8 +4,7 @@
 #include <string.h>
 
 #include "ub/ub_wire.h"
-#include "core/ub_fleet_private.h"
-#include "core/ub_router_private.h"
+#include "svc/ub_svc_private.h"
 
 #define DEFAULT_RETRY_MS 200u
 
@@ -32,7 +31,7 @@ const char *ub_member_status_name(ub_member_status_t status) {
 static bool is_link_op(uint8_t op) { return op == UB_MEMBER_ADD_LINK || op == UB_MEMBER_REMOVE_LINK; }
 
 static bool id_usable(const uint8_t id[UB_ENTITY_ID_LEN]) {
-    return !ub_priv_id_is_zero(id) && !ub_entity_id_is_link_local(id);
+    return !ub_entity_id_is_zero(id) && !ub_entity_id_is_link_local(id);
 }
 
 static bool name_ok(const char *name, size_t cap) {
@@ -61,7 +60,9 @@ static bool spec_ok(const ub_member_spec_t *s) {
 /* ---- applying (the target) ------------------------------------------------------------------------- */
 
 static uint8_t apply_link(ub_node_t *node, int entity, const ub_member_spec_t *s, uint64_t now_ms, bool *changed) {
-    ub_member_t *m = node->member;
+    /* The link handler is the requester's (ub_member_set_link_handler()): found through its registration. */
+    const ub_service_t *svc = ub_node_service_for(node, UB_SVC_CODE, UB_ADMIN_MEMBERSHIP);
+    ub_member_t *m = svc != NULL ? svc->user : NULL;
     if (m == NULL || m->link_fn == NULL) return UB_NACK_UNSUPPORTED;
     int rc = m->link_fn(m->link_user, node, entity, (ub_member_op_t)s->op, s->link_index, s->link_name,
                         s->port_spec, now_ms);
@@ -76,7 +77,7 @@ static uint8_t apply_link(ub_node_t *node, int entity, const ub_member_spec_t *s
 
 uint8_t ub_member_apply(ub_node_t *node, int entity, const ub_member_spec_t *s, uint64_t now_ms, bool *changed) {
     *changed = false;
-    if (node == NULL || s == NULL || ub_priv_local_slot(node, entity) < 0 || !spec_ok(s)) return UB_NACK_INVALID;
+    if (node == NULL || s == NULL || ub_node_entity_slot(node, entity) < 0 || !spec_ok(s)) return UB_NACK_INVALID;
     int row = is_link_op(s->op) ? -1 : ub_node_find_entity(node, s->subject);
     switch (s->op) {
     case UB_MEMBER_ADD_ENTITY: {
@@ -121,18 +122,23 @@ static void decode(const ub_frame_header_t *h, const uint8_t *p, ub_member_spec_
     }
 }
 
-bool ub_priv_member_on_request(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
-                               const ub_priv_rx_t *rx, uint64_t now_ms, ub_drop_reason_t *drop) {
+/* A MEMBERSHIP request reached local slot `rx->slot` over a link (the policy judges it, ub_node_may_administer())
+ * or from a local entity. Returns false when the node must count a drop, of reason `*drop`: an unusable payload
+ * (bad_payload, nothing answered) or a refused requester (not_authorized, NACK sent). */
+static bool member_on_request(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
+                              const ub_frame_header_t *h, const uint8_t *payload, uint64_t now_ms, ub_drop_reason_t *drop) {
+    (void)svc;
+    int slot = rx->slot;
     *drop = UB_DROP_BAD_PAYLOAD;
     if (h->payload_size < UB_MEMBER_ENTITY_LEN) return false;
     uint32_t id = ub_get_u32le(payload + UB_MEMBER_OFF_ID);
     uint8_t op = payload[UB_MEMBER_OFF_OP];
     if (is_link_op(op) && h->payload_size < UB_MEMBER_LINK_LEN) return false;
-    int entity = ub_priv_slot_entity(node, slot);
+    int entity = ub_node_slot_entity(node, slot);
     uint8_t reason;
     bool changed = false;
     /* Entities of one node share its process: only requests that came over a link are judged. */
-    bool authorized = rx == NULL || ub_node_may_administer(node, entity, h->src_id, rx->secured);
+    bool authorized = rx->link_id < 0 || ub_node_may_administer(node, entity, h->src_id, rx->secured);
     if (!authorized) {
         reason = UB_NACK_NOT_AUTHORIZED;
     } else {
@@ -141,9 +147,9 @@ bool ub_priv_member_on_request(ub_node_t *node, int slot, const ub_frame_header_
         reason = ub_member_apply(node, entity, &spec, now_ms, &changed);
     }
     static const uint8_t zero_dir[UB_DIR_ID_LEN] = {0};
-    if (reason != UB_NACK_NONE) node->counters.membership_refused++;
-    else node->counters.membership_applied++;
-    (void)ub_priv_send_reply(node, slot, reason != UB_NACK_NONE, zero_dir, h->src_id, id, UB_ADMIN_MEMBERSHIP,
+    if (reason != UB_NACK_NONE) ub_node_svc_counters(node)->membership_refused++;
+    else ub_node_svc_counters(node)->membership_applied++;
+    (void)ub_node_svc_send_reply(node, slot, reason != UB_NACK_NONE, zero_dir, h->src_id, id, UB_ADMIN_MEMBERSHIP,
                              reason != UB_NACK_NONE ? reason : (changed ? UB_MEMBER_CHANGED : 0), 0, now_ms);
     if (!authorized) {
         *drop = UB_DROP_NOT_AUTHORIZED;
@@ -154,20 +160,51 @@ bool ub_priv_member_on_request(ub_node_t *node, int slot, const ub_frame_header_
 
 /* ---- requesting ------------------------------------------------------------------------------------- */
 
+static bool member_on_reply(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
+                            const ub_frame_header_t *h, const ub_service_reply_t *r, uint64_t now_ms,
+                            ub_drop_reason_t *drop);
+static bool nobody_asked(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
+                         const ub_frame_header_t *h, const ub_service_reply_t *r, uint64_t now_ms, ub_drop_reason_t *drop);
+static void member_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms);
+
+static const uint8_t member_codes[] = {UB_ADMIN_MEMBERSHIP};
+
+/* Every node serves MEMBERSHIP requests; without a requester attached, replies to them are unasked for. */
+const ub_service_t ub_priv_member_server = {
+    .name = "membership",
+    .codes = member_codes,
+    .n_codes = sizeof member_codes,
+    .reply_codes = member_codes,
+    .n_reply_codes = sizeof member_codes,
+    .order = UB_SVC_ORDER_MEMBER,
+    .on_frame = member_on_request,
+    .on_reply = nobody_asked,
+};
+
 int ub_member_init(ub_member_t *m, ub_node_t *node, int entity, const ub_member_options_t *opt) {
-    if (m == NULL || node == NULL || ub_priv_local_slot(node, entity) < 0) return UB_ERR_INVAL;
+    if (m == NULL || node == NULL || ub_node_entity_slot(node, entity) < 0) return UB_ERR_INVAL;
+    /* The requester takes the membership registration over (from the server, or from a requester attached
+     * before: the last one attached answers, as it always did). */
+    const ub_service_t *prev = ub_node_service_for(node, UB_SVC_CODE, UB_ADMIN_MEMBERSHIP);
+    if (prev != NULL && ub_node_remove_service(node, prev) != UB_OK) return UB_ERR_INVAL;
     memset(m, 0, sizeof *m);
     if (opt != NULL) m->opt = *opt;
     if (m->opt.retry_ms == 0) m->opt.retry_ms = DEFAULT_RETRY_MS;
     m->node = node;
     m->entity = entity;
-    node->member = m;
-    return UB_OK;
+    m->svc = ub_priv_member_server;
+    m->svc.on_reply = member_on_reply;
+    m->svc.tick = member_tick;
+    m->svc.user = m;
+    return ub_node_add_service(node, &m->svc);
 }
 
 void ub_member_detach(ub_member_t *m) {
     if (m == NULL || m->node == NULL) return;
-    if (m->node->member == m) m->node->member = NULL;
+    /* Serving goes on without it. */
+    if (ub_node_remove_service(m->node, &m->svc) == UB_OK && ub_node_add_service(m->node, &ub_priv_member_server) != UB_OK) {
+        /* cannot fail: the code was just freed */
+    }
     m->node = NULL;
 }
 
@@ -186,7 +223,7 @@ int ub_member_request(ub_member_t *m, const ub_member_spec_t *spec, uint64_t now
         row->in_use = 1;
         row->info.spec = *spec;
         row->info.status = UB_MEMBER_PENDING;
-        row->info.request_id = ub_priv_new_request_id(m->node);
+        row->info.request_id = ub_node_svc_new_request_id(m->node);
         row->next_send_ms = now_ms;
         return r;
     }
@@ -227,12 +264,14 @@ static void send_request(ub_member_t *m, const ub_member_row_t *row, uint64_t no
         }
     }
     static const uint8_t zero_dir[UB_DIR_ID_LEN] = {0};
-    int slot = ub_priv_local_slot(m->node, m->entity);
-    (void)ub_priv_send_admin(m->node, slot, UB_ADMIN_MEMBERSHIP, zero_dir, 0, s->target, p, len, now_ms);
+    int slot = ub_node_entity_slot(m->node, m->entity);
+    (void)ub_node_svc_send_admin(m->node, slot, UB_ADMIN_MEMBERSHIP, zero_dir, 0, s->target, p, len, now_ms);
     m->counters.sent++;
 }
 
-void ub_priv_member_tick(ub_member_t *m, uint64_t now_ms) {
+static void member_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms) {
+    (void)node;
+    ub_member_t *m = svc->user;
     for (int r = 0; r < UB_MAX_MEMBER_REQUESTS; r++) {
         ub_member_row_t *row = &m->rows[r];
         if (!row->in_use || row->info.status != UB_MEMBER_PENDING || now_ms < row->next_send_ms) continue;
@@ -248,19 +287,31 @@ void ub_priv_member_tick(ub_member_t *m, uint64_t now_ms) {
     }
 }
 
-void ub_priv_member_on_reply(ub_node_t *node, int slot, const uint8_t src_id[UB_ENTITY_ID_LEN], uint32_t request_id,
-                             bool nack, uint8_t detail, uint64_t now_ms) {
-    ub_member_t *m = node->member;
-    if (m == NULL) {
-        node->counters.drops[UB_DROP_BAD_PAYLOAD]++; /* nobody asked: counted, as any unusable admin frame */
-        return;
-    }
+/* Nobody here asked (no requester attached): counted on the node, as any unusable admin frame. */
+static bool nobody_asked(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
+                         const ub_frame_header_t *h, const ub_service_reply_t *r, uint64_t now_ms, ub_drop_reason_t *drop) {
+    (void)svc, (void)rx, (void)h, (void)r, (void)now_ms, (void)drop;
+    ub_node_svc_count_drop(node, -1, UB_DROP_BAD_PAYLOAD);
+    return true;
+}
+
+/* An ACK/NACK answering a MEMBERSHIP request reached local slot `rx->slot`. */
+static bool member_on_reply(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
+                            const ub_frame_header_t *h, const ub_service_reply_t *rep, uint64_t now_ms,
+                            ub_drop_reason_t *drop) {
+    (void)drop;
+    ub_member_t *m = svc->user;
+    int slot = rx->slot;
+    const uint8_t *src_id = h->src_id;
+    uint32_t request_id = rep->request_id;
+    bool nack = rep->nack;
+    uint8_t detail = rep->detail;
     for (int r = 0; r < UB_MAX_MEMBER_REQUESTS; r++) {
         ub_member_row_t *row = &m->rows[r];
         if (!row->in_use || row->info.request_id != request_id) continue;
         /* Bound to the row: the answer must come from the target, to the requesting entity. */
         if (row->info.status != UB_MEMBER_PENDING || memcmp(src_id, row->info.spec.target, UB_ENTITY_ID_LEN) != 0 ||
-            ub_priv_local_slot(node, m->entity) != slot)
+            ub_node_entity_slot(node, m->entity) != slot)
             break;
         row->info.done_ms = now_ms;
         if (nack) {
@@ -272,7 +323,8 @@ void ub_priv_member_on_reply(ub_node_t *node, int slot, const uint8_t src_id[UB_
             row->info.changed = (detail & UB_MEMBER_CHANGED) != 0;
             m->counters.done++;
         }
-        return;
+        return true;
     }
     m->counters.unmatched_replies++;
+    return true;
 }

@@ -4,7 +4,7 @@
 
 #include "ub/ub_node.h"
 #include "ub/ub_wire.h"
-#include "core/ub_router_private.h"
+#include "svc/ub_svc_private.h"
 
 void ub_priv_timing_defaults(ub_pubsub_timing_t *t) {
     if (t->retry_ms == 0) t->retry_ms = UB_PS_DEFAULT_RETRY_MS;
@@ -20,10 +20,10 @@ uint64_t ub_pubsub_data_timeout_ms(const ub_pubsub_timing_t *timing, uint32_t pe
     return three_periods > timing->timeout_min_ms ? three_periods : timing->timeout_min_ms;
 }
 
-static ub_pubsub_table_t *table_of(ub_node_t *node, int slot) { return &node->locals[slot].ps; }
+static ub_pubsub_table_t *table_of(ub_node_t *node, int slot) { return ub_node_svc_pubsub_table(node, slot); }
 
 static const uint8_t *self_id(const ub_node_t *node, int slot) {
-    return node->entities[node->locals[slot].entity].id;
+    return ub_node_entity_id(node, ub_node_slot_entity(node, slot));
 }
 
 /* Live = not free and not on its way out; stopping rows are found only when `with_stopping`. */
@@ -66,13 +66,13 @@ static int row_index(const ub_pubsub_table_t *t, const ub_ps_row_t *row) { retur
  * reclaimed `expiry_ms` after the last one. */
 
 static bool third_party(const ub_ps_row_t *row) {
-    if (ub_priv_id_is_zero(row->owner)) return false; /* local */
+    if (ub_entity_id_is_zero(row->owner)) return false; /* local */
     return row->kind == UB_PS_SUBSCRIPTION || memcmp(row->owner, row->peer, UB_ENTITY_ID_LEN) != 0;
 }
 
 /* The owner renews its lease: it is still around (as far as this node can tell). Local rows have no owner. */
 static bool owner_live(const ub_ps_row_t *row, uint64_t now_ms) {
-    return !ub_priv_id_is_zero(row->owner) && (row->lease_until_ms == 0 || now_ms < row->lease_until_ms);
+    return !ub_entity_id_is_zero(row->owner) && (row->lease_until_ms == 0 || now_ms < row->lease_until_ms);
 }
 
 static void keeper_alive(ub_ps_row_t *row, uint64_t now_ms) {
@@ -81,18 +81,18 @@ static void keeper_alive(ub_ps_row_t *row, uint64_t now_ms) {
 }
 
 static bool keeper_lives(const ub_node_t *node, const ub_ps_row_t *row, uint64_t now_ms) {
-    return row->keeper_seen && now_ms - row->keeper_ms < node->opt.timing.expiry_ms;
+    return row->keeper_seen && now_ms - row->keeper_ms < ub_node_options(node)->timing.expiry_ms;
 }
 
 /* The owner's lease ran out at `now_ms`: true when the row must go, false when it is (or stays) handed over. */
 static bool lease_lapsed_reclaims(ub_node_t *node, ub_ps_row_t *row, uint64_t now_ms) {
     if (!third_party(row) || !keeper_lives(node, row, now_ms)) {
-        node->counters.leases_expired++;
+        ub_node_svc_counters(node)->leases_expired++;
         return true;
     }
     if (!row->handed_over) {
         row->handed_over = 1;
-        node->counters.handovers++;
+        ub_node_svc_counters(node)->handovers++;
     }
     return false;
 }
@@ -113,8 +113,8 @@ static void start_stopping(ub_ps_row_t *row, uint64_t now_ms) {
 
 static int checked_slot(const ub_node_t *node, int entity, uint32_t instance, const uint8_t *peer,
                         uint32_t period_ms) {
-    if (node == NULL || peer == NULL || period_ms == 0 || instance >= node->cat->n_instances) return UB_ERR_INVAL;
-    int slot = ub_priv_local_slot(node, entity);
+    if (node == NULL || peer == NULL || period_ms == 0 || instance >= ub_node_catalogue(node)->n_instances) return UB_ERR_INVAL;
+    int slot = ub_node_entity_slot(node, entity);
     return slot < 0 ? UB_ERR_INVAL : slot;
 }
 
@@ -142,7 +142,7 @@ int ub_pubsub_subscribe(ub_node_t *node, int entity, uint32_t instance, const ui
     int r = find_row(t, UB_PS_SUBSCRIPTION, instance, source_id, true);
     ub_ps_row_t *row = r >= 0 ? &t->rows[r] : new_row(t, UB_PS_SUBSCRIPTION, instance, source_id);
     if (row == NULL) return UB_ERR_FULL;
-    if (r < 0) row->request_id = ub_priv_new_request_id(node);
+    if (r < 0) row->request_id = ub_node_svc_new_request_id(node);
     memset(row->owner, 0, UB_ENTITY_ID_LEN);
     row->lease_until_ms = 0;
     row->handed_over = 0;
@@ -153,7 +153,7 @@ int ub_pubsub_subscribe(ub_node_t *node, int entity, uint32_t instance, const ui
 
 int ub_pubsub_stop(ub_node_t *node, int entity, int row, uint64_t now_ms) {
     if (node == NULL || row < 0 || row >= UB_MAX_PUBSUB_ROWS) return UB_ERR_INVAL;
-    int slot = ub_priv_local_slot(node, entity);
+    int slot = ub_node_entity_slot(node, entity);
     if (slot < 0) return UB_ERR_INVAL;
     ub_ps_row_t *r = &table_of(node, slot)->rows[row];
     if (r->kind == UB_PS_FREE) return UB_ERR_NOTFOUND;
@@ -165,23 +165,23 @@ int ub_pubsub_stop(ub_node_t *node, int entity, int row, uint64_t now_ms) {
 int ub_pubsub_find(const ub_node_t *node, int entity, ub_ps_kind_t kind, uint32_t instance,
                    const uint8_t peer[UB_ENTITY_ID_LEN]) {
     if (node == NULL || peer == NULL) return UB_ERR_INVAL;
-    int slot = ub_priv_local_slot(node, entity);
+    int slot = ub_node_entity_slot(node, entity);
     if (slot < 0) return UB_ERR_INVAL;
-    return find_row(&node->locals[slot].ps, kind, instance, peer, false);
+    return find_row(&(*ub_node_svc_pubsub_table(node, slot)), kind, instance, peer, false);
 }
 
 const ub_ps_row_t *ub_pubsub_row(const ub_node_t *node, int entity, int row) {
     if (node == NULL || row < 0 || row >= UB_MAX_PUBSUB_ROWS) return NULL;
-    int slot = ub_priv_local_slot(node, entity);
-    return slot < 0 ? NULL : &node->locals[slot].ps.rows[row];
+    int slot = ub_node_entity_slot(node, entity);
+    return slot < 0 ? NULL : &(*ub_node_svc_pubsub_table(node, slot)).rows[row];
 }
 
 int ub_pubsub_count(const ub_node_t *node, int entity, ub_ps_kind_t kind) {
     if (node == NULL) return UB_ERR_INVAL;
-    int slot = ub_priv_local_slot(node, entity);
+    int slot = ub_node_entity_slot(node, entity);
     if (slot < 0) return UB_ERR_INVAL;
     int n = 0;
-    for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) n += node->locals[slot].ps.rows[r].kind == kind;
+    for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) n += (*ub_node_svc_pubsub_table(node, slot)).rows[r].kind == kind;
     return n;
 }
 
@@ -212,13 +212,13 @@ static bool is_self(const uint8_t *peer, const ub_frame_header_t *h) {
 
 static void reply(ub_node_t *node, int slot, const ub_frame_header_t *h, uint32_t request_id, bool nack,
                   uint8_t detail, uint64_t now_ms) {
-    (void)ub_priv_send_reply(node, slot, nack, h->dir_id, h->src_id, request_id, h->admin, detail, 0, now_ms);
+    (void)ub_node_svc_send_reply(node, slot, nack, h->dir_id, h->src_id, request_id, h->admin, detail, 0, now_ms);
 }
 
 /* Another administrator keeps this row (or, under an exclusive policy, this node): the request changes nothing,
  * and the requester is told so instead of being acknowledged into a status that is not its own. */
 static bool other_admin(ub_node_t *node, int slot, const ub_frame_header_t *h, uint32_t request_id, uint64_t now_ms) {
-    node->counters.other_admin++;
+    ub_node_svc_counters(node)->other_admin++;
     reply(node, slot, h, request_id, true, UB_NACK_OTHER_ADMIN, now_ms);
     return true;
 }
@@ -227,12 +227,12 @@ static bool other_admin(ub_node_t *node, int slot, const ub_frame_header_t *h, u
  * table of this node. */
 static bool node_held_by_other(const ub_node_t *node, const uint8_t requester[UB_ENTITY_ID_LEN], uint64_t now_ms) {
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
-        if (!node->locals[slot].in_use) continue;
+        if (!(ub_node_slot_entity(node, slot) >= 0)) continue;
         for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
-            const ub_ps_row_t *row = &node->locals[slot].ps.rows[r];
+            const ub_ps_row_t *row = &(*ub_node_svc_pubsub_table(node, slot)).rows[r];
             if (row->kind == UB_PS_FREE || !owner_live(row, now_ms)) continue;
             if (row->kind == UB_PS_SUBSCRIPTION && row->state == UB_SUB_STOPPING) continue;
-            if (memcmp(row->owner, requester, UB_ENTITY_ID_LEN) != 0 && ub_policy_is_admin(node->policy, row->owner))
+            if (memcmp(row->owner, requester, UB_ENTITY_ID_LEN) != 0 && ub_policy_is_admin(ub_node_policy(node), row->owner))
                 return true;
         }
     }
@@ -240,7 +240,7 @@ static bool node_held_by_other(const ub_node_t *node, const uint8_t requester[UB
 }
 
 static bool exclusive_refuses(const ub_node_t *node, const sender_t *s, uint64_t now_ms) {
-    return s->policed && s->admin && node->policy->exclusive_admin && node_held_by_other(node, s->h->src_id, now_ms);
+    return s->policed && s->admin && ub_node_policy(node)->exclusive_admin && node_held_by_other(node, s->h->src_id, now_ms);
 }
 
 /* The policy refuses this sender: tell it why; the caller's `false` makes the node count the drop. */
@@ -251,26 +251,26 @@ static bool refuse(ub_node_t *node, int slot, const ub_frame_header_t *h, uint32
 
 /* Resolves and checks the content of a request; returns the instance or -(nack reason). */
 static int requested_instance(const ub_node_t *node, const ub_frame_header_t *h, bool needs_binding) {
-    int idx = ub_catalogue_find(node->cat, h->dir_id);
+    int idx = ub_catalogue_find(ub_node_catalogue(node), h->dir_id);
     if (idx < 0) return -UB_NACK_UNKNOWN_CONTENT;
-    if (node->cat->instances[idx].type->fingerprint != h->fingerprint) return -UB_NACK_LAYOUT;
+    if (ub_node_catalogue(node)->instances[idx].type->fingerprint != h->fingerprint) return -UB_NACK_LAYOUT;
     if (needs_binding && ub_node_binding(node, (uint32_t)idx) == NULL) return -UB_NACK_UNBOUND;
     return idx;
 }
 
 static const char *instance_name(const ub_node_t *node, uint32_t instance) {
-    const char *name = node->cat->instances[instance].name;
+    const char *name = ub_node_catalogue(node)->instances[instance].name;
     return name != NULL ? name : "";
 }
 
 static bool may_read(const ub_node_t *node, int slot, const sender_t *s, uint32_t instance) {
-    if (!s->policed || s->admin || !node->policy->read_restricted) return true;
-    return ub_policy_rule_matches(node->policy, UB_POLICY_READ, self_id(node, slot), s->h->src_id,
+    if (!s->policed || s->admin || !ub_node_policy(node)->read_restricted) return true;
+    return ub_policy_rule_matches(ub_node_policy(node), UB_POLICY_READ, self_id(node, slot), s->h->src_id,
                                   instance_name(node, instance));
 }
 
 static uint64_t row_cost(const ub_node_t *node, uint32_t instance, uint32_t period_ms) {
-    return ub_policy_row_bytes_per_s(node->cat->instances[instance].type->packed_size, period_ms);
+    return ub_policy_row_bytes_per_s(ub_node_catalogue(node)->instances[instance].type->packed_size, period_ms);
 }
 
 /*
@@ -279,13 +279,13 @@ static uint64_t row_cost(const ub_node_t *node, uint32_t instance, uint32_t peri
  */
 static bool within_limits(const ub_node_t *node, const uint8_t requester[UB_ENTITY_ID_LEN], uint32_t instance,
                           uint32_t period_ms, const ub_ps_row_t *replacing) {
-    const ub_policy_limits_t *lim = &node->policy->limits;
+    const ub_policy_limits_t *lim = &ub_node_policy(node)->limits;
     if (period_ms < lim->min_period_ms) return false;
     uint64_t rows = 1, bytes = row_cost(node, instance, period_ms);
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
-        if (!node->locals[slot].in_use) continue;
+        if (!(ub_node_slot_entity(node, slot) >= 0)) continue;
         for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
-            const ub_ps_row_t *row = &node->locals[slot].ps.rows[r];
+            const ub_ps_row_t *row = &(*ub_node_svc_pubsub_table(node, slot)).rows[r];
             if (row == replacing || row->kind == UB_PS_FREE || memcmp(row->owner, requester, UB_ENTITY_ID_LEN) != 0)
                 continue;
             rows++;
@@ -298,9 +298,9 @@ static bool within_limits(const ub_node_t *node, const uint8_t requester[UB_ENTI
 /* A non-administrator's lease: never "no lease", never longer than max_lease_ms. */
 static uint32_t granted_lease(ub_node_t *node, const sender_t *s, uint32_t lease_ms) {
     if (!s->policed || s->admin) return lease_ms;
-    uint32_t max = node->policy->limits.max_lease_ms;
+    uint32_t max = ub_node_policy(node)->limits.max_lease_ms;
     if (lease_ms != 0 && lease_ms <= max) return lease_ms;
-    node->counters.leases_clamped++;
+    ub_node_svc_counters(node)->leases_clamped++;
     return max;
 }
 
@@ -314,7 +314,7 @@ static ub_ps_row_t *evict_for_admin(ub_node_t *node, ub_pubsub_table_t *t, const
     ub_ps_row_t *victim = NULL;
     for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
         ub_ps_row_t *row = &t->rows[r];
-        if (row->kind == UB_PS_FREE || ub_priv_id_is_zero(row->owner) || ub_policy_is_admin(node->policy, row->owner))
+        if (row->kind == UB_PS_FREE || ub_entity_id_is_zero(row->owner) || ub_policy_is_admin(ub_node_policy(node), row->owner))
             continue;
         uint64_t end = row->lease_until_ms != 0 ? row->lease_until_ms : UINT64_MAX;
         uint64_t best = victim == NULL ? 0 : victim->lease_until_ms != 0 ? victim->lease_until_ms : UINT64_MAX;
@@ -322,7 +322,7 @@ static ub_ps_row_t *evict_for_admin(ub_node_t *node, ub_pubsub_table_t *t, const
     }
     if (victim == NULL) return NULL;
     victim->kind = UB_PS_FREE; /* its owner's next renewal finds no row and asks again */
-    node->counters.rows_evicted++;
+    ub_node_svc_counters(node)->rows_evicted++;
     return victim;
 }
 
@@ -352,7 +352,7 @@ typedef enum claim {
 
 static claim_t claim_of(const ub_ps_row_t *row, const ub_frame_header_t *h, uint64_t now_ms) {
     if (row == NULL) return CLAIM_NEW;
-    if (ub_priv_id_is_zero(row->owner)) return CLAIM_LOCAL;
+    if (ub_entity_id_is_zero(row->owner)) return CLAIM_LOCAL;
     if (memcmp(row->owner, h->src_id, UB_ENTITY_ID_LEN) == 0) return CLAIM_MINE;
     return owner_live(row, now_ms) ? CLAIM_TAKEN : CLAIM_FREE;
 }
@@ -381,7 +381,7 @@ static bool on_pub_request(ub_node_t *node, int slot, const sender_t *s, const r
     bool keep = claim == CLAIM_LOCAL || (!s->admin && claim != CLAIM_MINE && claim != CLAIM_NEW);
     if (!keep && s->policed && !s->admin &&
         !within_limits(node, h->src_id, (uint32_t)idx, req->period_ms, existing)) {
-        node->counters.requests_limited++;
+        ub_node_svc_counters(node)->requests_limited++;
         reply(node, slot, h, req->id, true, UB_NACK_LIMIT, now_ms);
         return true;
     }
@@ -440,7 +440,7 @@ static bool on_sub_request(ub_node_t *node, int slot, const sender_t *s, const r
         return true;
     }
     bool activation = claim != CLAIM_MINE || row->owner_request_id != req->id;
-    if (existing == NULL) row->request_id = ub_priv_new_request_id(node);
+    if (existing == NULL) row->request_id = ub_node_svc_new_request_id(node);
     if (existing == NULL || stopping || row->period_ms != req->period_ms) {
         row->period_ms = req->period_ms;
         start_requesting(row, now_ms);
@@ -456,8 +456,8 @@ static bool on_sub_request(ub_node_t *node, int slot, const sender_t *s, const r
     take_ownership(row, h, req->id, req->lease_ms, now_ms);
     if (row->source_nack != 0) {
         /* A renewal while the source refuses: the refusal is the row's status, not an ACK. */
-        node->counters.nacks_relayed++;
-        (void)ub_priv_send_reply(node, slot, true, h->dir_id, h->src_id, req->id, h->admin, row->source_nack,
+        ub_node_svc_counters(node)->nacks_relayed++;
+        (void)ub_node_svc_send_reply(node, slot, true, h->dir_id, h->src_id, req->id, h->admin, row->source_nack,
                                  UB_NACK_RELAYED, now_ms);
         return true;
     }
@@ -473,7 +473,7 @@ static bool on_stop(ub_node_t *node, int slot, const sender_t *s, uint32_t reque
     bool pub = h->admin == UB_ADMIN_PUB_STOP;
     /* Without exclusive rights one may only stop data sent to oneself. */
     if (!s->admin && (!pub || !is_self(peer, h))) return refuse(node, slot, h, request_id, now_ms);
-    int idx = ub_catalogue_find(node->cat, h->dir_id);
+    int idx = ub_catalogue_find(ub_node_catalogue(node), h->dir_id);
     if (idx >= 0) {
         ub_pubsub_table_t *t = table_of(node, slot);
         int r = find_row(t, pub ? UB_PS_PUBLICATION : UB_PS_SUBSCRIPTION, (uint32_t)idx, peer, false);
@@ -498,9 +498,9 @@ static bool on_stop(ub_node_t *node, int slot, const sender_t *s, uint32_t reque
 }
 
 static void report_flowing(ub_node_t *node, int slot, ub_ps_row_t *row, uint8_t code, uint64_t now_ms) {
-    if (ub_priv_id_is_zero(row->owner) || row->reported_flowing || !owner_live(row, now_ms)) return;
+    if (ub_entity_id_is_zero(row->owner) || row->reported_flowing || !owner_live(row, now_ms)) return;
     row->reported_flowing = 1;
-    (void)ub_priv_send_reply(node, slot, false, node->cat->instances[row->instance].id, row->owner,
+    (void)ub_node_svc_send_reply(node, slot, false, ub_node_catalogue(node)->instances[row->instance].id, row->owner,
                              row->owner_request_id, code, UB_ACK_FLOWING, 0, now_ms);
 }
 
@@ -513,7 +513,7 @@ static bool on_reply_to_subscription(ub_node_t *node, int slot, const ub_frame_h
         ub_ps_row_t *row = &t->rows[r];
         if (row->kind != UB_PS_SUBSCRIPTION || row->request_id != request_id ||
             memcmp(row->peer, h->src_id, UB_ENTITY_ID_LEN) != 0 ||
-            memcmp(node->cat->instances[row->instance].id, h->dir_id, UB_DIR_ID_LEN) != 0)
+            memcmp(ub_node_catalogue(node)->instances[row->instance].id, h->dir_id, UB_DIR_ID_LEN) != 0)
             continue;
         if (code == UB_ADMIN_PUB_STOP && row->state == UB_SUB_STOPPING) {
             row->kind = UB_PS_FREE;
@@ -526,8 +526,8 @@ static bool on_reply_to_subscription(ub_node_t *node, int slot, const ub_frame_h
                 row->source_nack = detail;
                 row->source_acked = 0;
                 if (third_party(row) && owner_live(row, now_ms)) {
-                    node->counters.nacks_relayed++;
-                    (void)ub_priv_send_reply(node, slot, true, h->dir_id, row->owner, row->owner_request_id,
+                    ub_node_svc_counters(node)->nacks_relayed++;
+                    (void)ub_node_svc_send_reply(node, slot, true, h->dir_id, row->owner, row->owner_request_id,
                                              UB_ADMIN_SUB_REQUEST, detail, UB_NACK_RELAYED, now_ms);
                 }
             } else {
@@ -538,10 +538,10 @@ static bool on_reply_to_subscription(ub_node_t *node, int slot, const ub_frame_h
             }
             if (nack || row->state == UB_SUB_RECEIVING) {
                 /* Renewal done (or refused, which will not change soon): next one at the renewal pace. */
-                row->next_due_ms = now_ms + node->opt.timing.renew_ms;
+                row->next_due_ms = now_ms + ub_node_options(node)->timing.renew_ms;
             } else {
                 /* The source publishes now: give its data one timeout to arrive before asking again. */
-                row->next_due_ms = now_ms + ub_pubsub_data_timeout_ms(&node->opt.timing, row->period_ms);
+                row->next_due_ms = now_ms + ub_pubsub_data_timeout_ms(&ub_node_options(node)->timing, row->period_ms);
             }
         }
         return true;
@@ -549,11 +549,15 @@ static bool on_reply_to_subscription(ub_node_t *node, int slot, const ub_frame_h
     return false;
 }
 
-bool ub_priv_pubsub_on_admin(ub_node_t *node, int slot, const ub_frame_header_t *h, const uint8_t *payload,
-                             const ub_priv_rx_t *rx, uint64_t now_ms, ub_drop_reason_t *drop) {
+/* A publish/subscribe request, STOP or reply reached local slot `rx->slot` (over a link: the policy judges it). */
+static bool pubsub_on_frame(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
+                            const ub_frame_header_t *h, const uint8_t *payload, uint64_t now_ms, ub_drop_reason_t *drop) {
+    (void)svc;
+    int slot = rx->slot;
+    bool from_link = rx->link_id >= 0;
     uint16_t len = h->payload_size;
-    sender_t s = {h, node->policy != NULL && rx != NULL, true};
-    if (rx != NULL) s.admin = ub_node_may_administer(node, node->locals[slot].entity, h->src_id, rx->secured);
+    sender_t s = {h, ub_node_policy(node) != NULL && from_link, true};
+    if (from_link) s.admin = ub_node_may_administer(node, ub_node_slot_entity(node, slot), h->src_id, rx->secured);
     *drop = UB_DROP_BAD_PAYLOAD;
     switch (h->admin) {
     case UB_ADMIN_PUB_REQUEST:
@@ -578,10 +582,10 @@ bool ub_priv_pubsub_on_admin(ub_node_t *node, int slot, const ub_frame_header_t 
         uint8_t detail = ub_get_u8(payload + UB_PL_REPLY_DETAIL);
         uint8_t flags = ub_get_u8(payload + UB_PL_REPLY_FLAGS);
         bool nack = h->admin == UB_ADMIN_NACK;
-        ub_admin_t *adm = node->locals[slot].admin;
+        ub_admin_t *adm = ub_node_svc_pubsub_table(node, slot)->admin;
         if (adm != NULL && ub_priv_admin_on_reply(adm, h, id, code, nack, detail, flags, now_ms)) return true;
         /* Never applied to a row it is not bound to; counted, since it is either late or forged. */
-        if (!on_reply_to_subscription(node, slot, h, id, code, nack, detail, now_ms)) node->counters.replies_unmatched++;
+        if (!on_reply_to_subscription(node, slot, h, id, code, nack, detail, now_ms)) ub_node_svc_counters(node)->replies_unmatched++;
         return true;
     }
     default:
@@ -589,17 +593,20 @@ bool ub_priv_pubsub_on_admin(ub_node_t *node, int slot, const ub_frame_header_t 
     }
 }
 
-bool ub_priv_pubsub_may_write(const ub_node_t *node, int slot, uint32_t instance,
-                              const uint8_t src_id[UB_ENTITY_ID_LEN]) {
-    const ub_policy_t *pol = node->policy;
+/* Write policy (ub_policy.h): may DATA of `instance` from `src_id`, received over a link, be stored for
+ * local slot `slot`? True without a policy. */
+static bool pubsub_may_write(const ub_service_t *svc, const ub_node_t *node, int slot, uint32_t instance,
+                             const uint8_t src_id[UB_ENTITY_ID_LEN]) {
+    (void)svc;
+    const ub_policy_t *pol = ub_node_policy(node);
     if (pol == NULL) return true;
     /* What the entity subscribed to (a row on its way out still admits the data under way) ... */
-    if (find_row(&node->locals[slot].ps, UB_PS_SUBSCRIPTION, instance, src_id, true) >= 0) return true;
+    if (find_row(&(*ub_node_svc_pubsub_table(node, slot)), UB_PS_SUBSCRIPTION, instance, src_id, true) >= 0) return true;
     /* ... what an administration table of this node set up to arrive at it ... */
     const uint8_t *self = self_id(node, slot);
     for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) {
-        const ub_admin_t *adm = node->locals[s].admin;
-        if (node->locals[s].in_use && adm != NULL && ub_priv_admin_routes_to(adm, instance, src_id, self)) return true;
+        const ub_admin_t *adm = ub_node_svc_pubsub_table(node, s)->admin;
+        if ((ub_node_slot_entity(node, s) >= 0) && adm != NULL && ub_priv_admin_routes_to(adm, instance, src_id, self)) return true;
     }
     /* ... or what the policy's write rules name. */
     return ub_policy_rule_matches(pol, UB_POLICY_WRITE, self, src_id, instance_name(node, instance));
@@ -607,8 +614,10 @@ bool ub_priv_pubsub_may_write(const ub_node_t *node, int slot, uint32_t instance
 
 /* ---- data and time ----------------------------------------------------- */
 
-void ub_priv_pubsub_on_data(ub_node_t *node, int slot, uint32_t instance, const uint8_t src_id[UB_ENTITY_ID_LEN],
-                            uint64_t now_ms) {
+/* DATA of `instance` from `src_id` was unpacked for local slot `slot`: the subscription bookkeeping. */
+static void pubsub_on_data(const ub_service_t *svc, ub_node_t *node, int slot, uint32_t instance,
+                           const uint8_t src_id[UB_ENTITY_ID_LEN], uint64_t now_ms) {
+    (void)svc;
     ub_pubsub_table_t *t = table_of(node, slot);
     int r = find_row(t, UB_PS_SUBSCRIPTION, instance, src_id, false);
     if (r < 0) return;
@@ -619,37 +628,35 @@ void ub_priv_pubsub_on_data(ub_node_t *node, int slot, uint32_t instance, const 
     if (row->source_nack == 0) keeper_alive(row, now_ms);
     if (row->state == UB_SUB_REQUESTING) {
         row->state = UB_SUB_RECEIVING;
-        row->next_due_ms = now_ms + node->opt.timing.renew_ms;
+        row->next_due_ms = now_ms + ub_node_options(node)->timing.renew_ms;
     }
     if (subscription_flowing(row)) report_flowing(node, slot, row, UB_ADMIN_SUB_REQUEST, now_ms);
 }
 
 static void send_pub_request(ub_node_t *node, int slot, const ub_ps_row_t *row, uint64_t now_ms) {
-    const ub_instance_desc_t *inst = &node->cat->instances[row->instance];
+    const ub_instance_desc_t *inst = &ub_node_catalogue(node)->instances[row->instance];
     uint8_t payload[UB_PL_REQUEST_LEN];
     ub_put_u32le(payload + UB_PL_REQUEST_ID, row->request_id);
     ub_put_u32le(payload + UB_PL_REQUEST_PERIOD, row->period_ms);
-    ub_put_u32le(payload + UB_PL_REQUEST_LEASE, node->opt.timing.lease_ms);
+    ub_put_u32le(payload + UB_PL_REQUEST_LEASE, ub_node_options(node)->timing.lease_ms);
     memcpy(payload + UB_PL_REQUEST_PEER, self_id(node, slot), UB_ENTITY_ID_LEN);
-    (void)ub_priv_send_admin(node, slot, UB_ADMIN_PUB_REQUEST, inst->id, inst->type->fingerprint, row->peer, payload,
+    (void)ub_node_svc_send_admin(node, slot, UB_ADMIN_PUB_REQUEST, inst->id, inst->type->fingerprint, row->peer, payload,
                              UB_PL_REQUEST_LEN, now_ms);
 }
 
 static void send_pub_stop(ub_node_t *node, int slot, const ub_ps_row_t *row, uint64_t now_ms) {
-    const ub_instance_desc_t *inst = &node->cat->instances[row->instance];
+    const ub_instance_desc_t *inst = &ub_node_catalogue(node)->instances[row->instance];
     uint8_t payload[UB_PL_STOP_LEN];
     ub_put_u32le(payload + UB_PL_STOP_ID, row->request_id);
     memcpy(payload + UB_PL_STOP_PEER, self_id(node, slot), UB_ENTITY_ID_LEN);
-    (void)ub_priv_send_admin(node, slot, UB_ADMIN_PUB_STOP, inst->id, inst->type->fingerprint, row->peer, payload,
+    (void)ub_node_svc_send_admin(node, slot, UB_ADMIN_PUB_STOP, inst->id, inst->type->fingerprint, row->peer, payload,
                              UB_PL_STOP_LEN, now_ms);
 }
 
 /* ---- publication on update (ub_pubsub_set_on_update) --------------------- */
 
 static const ub_binding_t *binding_of(const ub_node_t *node, uint32_t instance) {
-    for (size_t b = 0; b < node->n_bindings; b++)
-        if (node->bindings[b].instance == instance) return &node->bindings[b];
-    return NULL;
+    return ub_node_svc_binding_row(node, instance);
 }
 
 static bool on_update(const ub_node_t *node, uint32_t instance) {
@@ -678,7 +685,7 @@ static bool send_update(ub_node_t *node, int slot, ub_ps_row_t *row, uint64_t no
     uint64_t half = row->period_ms / 2u;
     if (!row->update_pending || now_ms + half < row->next_due_ms) return false;
     row->update_pending = 0;
-    bool sent = ub_priv_send_data_from_slot(node, slot, row->instance, row->peer, now_ms) >= 0;
+    bool sent = ub_node_svc_send_data(node, slot, row->instance, row->peer, now_ms) >= 0;
     if (sent) {
         row->frames++;
         keeper_alive(row, now_ms);
@@ -691,7 +698,7 @@ static bool send_update(ub_node_t *node, int slot, ub_ps_row_t *row, uint64_t no
 
 int ub_pubsub_updated(ub_node_t *node, int entity, uint32_t instance, uint64_t now_ms) {
     if (node == NULL) return UB_ERR_INVAL;
-    int slot = ub_priv_local_slot(node, entity);
+    int slot = ub_node_entity_slot(node, entity);
     if (slot < 0 || !on_update(node, instance)) return UB_ERR_INVAL;
     ub_pubsub_table_t *t = table_of(node, slot);
     int sent = 0;
@@ -708,7 +715,7 @@ int ub_pubsub_updated(ub_node_t *node, int entity, uint32_t instance, uint64_t n
  * routes the route goes when the destination does; a manual mask never tells). */
 static bool route_to(const ub_node_t *node, int slot, const uint8_t id[UB_ENTITY_ID_LEN]) {
     int e = ub_node_find_entity(node, id);
-    return e >= 0 && (node->entities[e].local >= 0 || node->locals[slot].masks[e] != 0);
+    return e >= 0 && (ub_node_entity_slot(node, e) >= 0 || ub_node_slot_mask(node, slot, e) != 0);
 }
 
 static void tick_publication(ub_node_t *node, int slot, ub_ps_row_t *row, uint64_t now_ms) {
@@ -726,7 +733,7 @@ static void tick_publication(ub_node_t *node, int slot, ub_ps_row_t *row, uint64
         return;
     }
     if (now_ms < row->next_due_ms) return;
-    if (ub_priv_send_data_from_slot(node, slot, row->instance, row->peer, now_ms) >= 0) {
+    if (ub_node_svc_send_data(node, slot, row->instance, row->peer, now_ms) >= 0) {
         row->frames++;
         keeper_alive(row, now_ms);
         report_flowing(node, slot, row, UB_ADMIN_PUB_REQUEST, now_ms);
@@ -737,7 +744,7 @@ static void tick_publication(ub_node_t *node, int slot, ub_ps_row_t *row, uint64
 }
 
 static void tick_subscription(ub_node_t *node, int slot, ub_ps_row_t *row, uint64_t now_ms) {
-    const ub_pubsub_timing_t *timing = &node->opt.timing;
+    const ub_pubsub_timing_t *timing = &ub_node_options(node)->timing;
     if (row->state != UB_SUB_STOPPING && row->lease_until_ms != 0 && now_ms >= row->lease_until_ms &&
         lease_lapsed_reclaims(node, row, now_ms))
         start_stopping(row, now_ms);
@@ -765,7 +772,7 @@ static void tick_subscription(ub_node_t *node, int slot, ub_ps_row_t *row, uint6
     }
 }
 
-void ub_priv_pubsub_tick(ub_node_t *node, int slot, uint64_t now_ms) {
+static void pubsub_tick_slot(ub_node_t *node, int slot, uint64_t now_ms) {
     ub_pubsub_table_t *t = table_of(node, slot);
     for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
         ub_ps_row_t *row = &t->rows[r];
@@ -774,7 +781,7 @@ void ub_priv_pubsub_tick(ub_node_t *node, int slot, uint64_t now_ms) {
     }
 }
 
-int ub_priv_pubsub_forget(ub_node_t *node, int slot, const uint8_t id[UB_ENTITY_ID_LEN], uint64_t now_ms) {
+static int pubsub_forget_slot(ub_node_t *node, int slot, const uint8_t id[UB_ENTITY_ID_LEN], uint64_t now_ms) {
     ub_pubsub_table_t *t = table_of(node, slot);
     int freed = 0;
     for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
@@ -793,3 +800,48 @@ int ub_priv_pubsub_forget(ub_node_t *node, int slot, const uint8_t id[UB_ENTITY_
     }
     return freed;
 }
+
+/* ---- the service ------------------------------------------------------------------------------------- */
+
+/* Every local entity's table, then its administration table, slot by slot (the order before services). */
+static void pubsub_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms) {
+    (void)svc;
+    for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
+        if (ub_node_slot_entity(node, slot) < 0) continue;
+        pubsub_tick_slot(node, slot, now_ms);
+        ub_admin_t *adm = table_of(node, slot)->admin;
+        if (adm != NULL) ub_priv_admin_tick(adm, now_ms);
+    }
+}
+
+/* The tables apply their own rules (docs/pubsub.md): rows with nobody left to talk to go at once, rows the
+ * entity merely administered live on under their keeper; the node counts. */
+static void pubsub_forget_entity(const ub_service_t *svc, ub_node_t *node, int entity, const uint8_t id[UB_ENTITY_ID_LEN],
+                                 uint64_t now_ms) {
+    (void)svc;
+    (void)entity;
+    ub_node_counters_t *c = ub_node_svc_counters(node);
+    for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
+        if (ub_node_slot_entity(node, slot) < 0) continue;
+        c->rows_stopped += (uint64_t)pubsub_forget_slot(node, slot, id, now_ms);
+        ub_admin_t *adm = table_of(node, slot)->admin;
+        if (adm != NULL) c->admin_rows_stopped += (uint64_t)ub_priv_admin_forget(adm, id, now_ms);
+    }
+}
+
+/* ACK and NACK as codes: the replies no other service claims (docs/pubsub.md: bound to a row, else counted
+ * `replies_unmatched`). */
+static const uint8_t pubsub_codes[] = {UB_ADMIN_PUB_REQUEST, UB_ADMIN_SUB_REQUEST, UB_ADMIN_PUB_STOP,
+                                       UB_ADMIN_SUB_STOP,    UB_ADMIN_ACK,         UB_ADMIN_NACK};
+
+const ub_service_t ub_priv_pubsub_service = {
+    .name = "pubsub",
+    .codes = pubsub_codes,
+    .n_codes = sizeof pubsub_codes,
+    .order = UB_SVC_ORDER_PUBSUB,
+    .on_frame = pubsub_on_frame,
+    .tick = pubsub_tick,
+    .forget_entity = pubsub_forget_entity,
+    .may_write = pubsub_may_write,
+    .on_data = pubsub_on_data,
+};

@@ -2,16 +2,17 @@
  * Babel-like routing (ub_route.h, docs/routing.md). Every local entity of the
  * node is a router over its own links; its state is the row [slot] of
  * `dests`, the route entries of its links, and the per-link neighbour state.
- * The node calls the ub_priv_route_* hooks; this file acts on the node only
- * through its public API and ub_node_send_link_local().
+ * A service of the node (ub_service.h, registered by ub_route_attach()): the node
+ * hands it HELLO and ROUTE_UPDATE frames and calls its tick and forget hooks; this
+ * file acts on the node only through its public API (ub_node.h, ub_node_svc.h)
+ * and ub_node_send_link_local().
  */
 #include "ub/ub_route.h"
 
 #include <string.h>
 
 #include "ub/ub_wire.h"
-#include "core/ub_fleet_private.h"
-#include "core/ub_router_private.h"
+#include "ub/ub_node_svc.h"
 
 #define INF UB_ROUTE_INFINITY
 #define DEFAULT_HELLO_MS 1000u
@@ -56,14 +57,14 @@ static unsigned popcount16(uint16_t v) {
 static const ub_link_t *node_link(const ub_route_t *rt, int link_id) { return ub_node_link(rt->node, link_id); }
 
 static const uint8_t *slot_id(const ub_route_t *rt, int slot) {
-    return ub_node_entity_id(rt->node, ub_priv_slot_entity(rt->node, slot));
+    return ub_node_entity_id(rt->node, ub_node_slot_entity(rt->node, slot));
 }
 
 /* Link id of link[i] of local slot `slot`, or -1. */
-static int slot_link(const ub_route_t *rt, int slot, unsigned i) { return rt->node->locals[slot].link_ids[i]; }
+static int slot_link(const ub_route_t *rt, int slot, unsigned i) { return ub_node_slot_link(rt->node, slot, i); }
 
 static bool entity_local(const ub_route_t *rt, int e) {
-    return rt->node->entities[e].in_use && rt->node->entities[e].local >= 0;
+    return (ub_node_entity_id(rt->node, e) != NULL) && ub_node_entity_slot(rt->node, e) >= 0;
 }
 
 static uint8_t all_link_bits(const ub_route_t *rt, int slot) {
@@ -197,7 +198,7 @@ static uint8_t compute_mask(const ub_route_t *rt, int slot, int e) {
 }
 
 static void install_mask(ub_route_t *rt, int slot, int e) {
-    int self = ub_priv_slot_entity(rt->node, slot);
+    int self = ub_node_slot_entity(rt->node, slot);
     uint8_t want = compute_mask(rt, slot, e);
     uint8_t before = rt->dests[slot][e].mask;
     rt->dests[slot][e].mask = want;
@@ -270,7 +271,7 @@ static void select_route(ub_route_t *rt, int slot, int e, uint64_t now_ms) {
 static void reselect_slot(ub_route_t *rt, int slot, uint64_t now_ms) {
     rt->reselect[slot] = 0;
     for (int e = 0; e < UB_MAX_ENTITIES; e++) {
-        if (!rt->node->entities[e].in_use || entity_local(rt, e)) continue;
+        if (!(ub_node_entity_id(rt->node, e) != NULL) || entity_local(rt, e)) continue;
         select_route(rt, slot, e, now_ms);
     }
 }
@@ -285,7 +286,7 @@ static bool tombstoned(ub_route_t *rt, const uint8_t id[UB_ENTITY_ID_LEN], uint6
 
 /* Entity-table index for an advertised destination, learning it if allowed; -1 to ignore the entry. */
 static int destination(ub_route_t *rt, const uint8_t id[UB_ENTITY_ID_LEN], uint16_t metric, uint64_t now_ms) {
-    if (ub_priv_id_is_zero(id) || ub_entity_id_is_link_local(id)) return -1;
+    if (ub_entity_id_is_zero(id) || ub_entity_id_is_link_local(id)) return -1;
     int e = ub_node_find_entity(rt->node, id);
     if (e >= 0) return e;
     if (metric == INF) return -1; /* a retraction of something we never knew */
@@ -333,7 +334,7 @@ static void on_request(ub_route_t *rt, int slot, int link_id, const uint8_t *fro
         rt->counters.requests_dropped++;
         return;
     }
-    int here = rt->node->entities[e].local;
+    int here = ub_node_entity_slot(rt->node, e);
     if (here >= 0) {
         /* We are the source: raise the seqno (RFC 8966 3.8.1.2) and tell everyone. */
         if (seq_newer(seqno, rt->seqno[here])) {
@@ -341,7 +342,7 @@ static void on_request(ub_route_t *rt, int slot, int link_id, const uint8_t *fro
             rt->counters.seqno_bumps++;
         }
         for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++)
-            if (rt->node->locals[s].in_use) make_dirty(rt, s, e);
+            if ((ub_node_slot_entity(rt->node, s) >= 0)) make_dirty(rt, s, e);
         rt->counters.requests_answered++;
         return;
     }
@@ -368,8 +369,10 @@ static void on_request(ub_route_t *rt, int slot, int link_id, const uint8_t *fro
     }
 }
 
-int ub_priv_route_on_frame(ub_route_t *rt, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
-                           uint64_t now_ms) {
+/* A link-local routing frame (HELLO or ROUTE_UPDATE) arrived on `link_id`, past the duplicate window.
+ * Returns UB_OK, or a negative error when the payload is unusable (the node counts bad_payload). */
+static int route_on_frame(ub_route_t *rt, int link_id, const ub_frame_header_t *h, const uint8_t *payload,
+                          uint64_t now_ms) {
     const ub_link_t *link = node_link(rt, link_id);
     if (link == NULL) return UB_ERR_INVAL;
     ub_route_link_t *l = activate(rt, link_id, now_ms);
@@ -440,10 +443,10 @@ int ub_priv_route_on_frame(ub_route_t *rt, int link_id, const ub_frame_header_t 
 
 /* Whether local slot `slot` advertises destination `e` now, and with what. */
 static bool advertised(const ub_route_t *rt, int slot, int e, uint16_t *seqno, uint16_t *metric) {
-    const ub_entity_row_t *row = &rt->node->entities[e];
-    if (!row->in_use) return false;
-    if (row->local >= 0) { /* an entity of this node: the source itself */
-        *seqno = rt->seqno[row->local];
+    if (ub_node_entity_id(rt->node, e) == NULL) return false;
+    int local = ub_node_entity_slot(rt->node, e);
+    if (local >= 0) { /* an entity of this node: the source itself */
+        *seqno = rt->seqno[local];
         *metric = 0;
         return true;
     }
@@ -459,7 +462,7 @@ static bool advertised(const ub_route_t *rt, int slot, int e, uint16_t *seqno, u
 /* Writes one update entry; advertising a finite metric sets the feasibility distance (RFC 8966 3.7.3). */
 static void put_update(ub_route_t *rt, int slot, int e, uint8_t *ent, uint16_t seqno, uint16_t metric,
                        uint64_t now_ms) {
-    memcpy(ent + ENT_ID, rt->node->entities[e].id, UB_ENTITY_ID_LEN);
+    memcpy(ent + ENT_ID, ub_node_entity_id(rt->node, e), UB_ENTITY_ID_LEN);
     ub_put_u16le(ent + ENT_SEQNO, seqno);
     ub_put_u16le(ent + ENT_METRIC, metric);
     if (entity_local(rt, e) || metric == INF) return;
@@ -489,8 +492,8 @@ static void send_frame(ub_route_t *rt, int link_id, bool triggered, uint64_t now
         ub_route_dest_t *ds = &rt->dests[slot][e];
         if (!(ds->req_links & bit)) continue;
         ds->req_links &= (uint8_t)~bit;
-        if (!rt->node->entities[e].in_use) continue;
-        memcpy(reqs[n_req] + ENT_ID, rt->node->entities[e].id, UB_ENTITY_ID_LEN);
+        if (!(ub_node_entity_id(rt->node, e) != NULL)) continue;
+        memcpy(reqs[n_req] + ENT_ID, ub_node_entity_id(rt->node, e), UB_ENTITY_ID_LEN);
         ub_put_u16le(reqs[n_req] + ENT_SEQNO, ds->req_seqno);
         reqs[n_req][ENT_HOPS] = ds->req_hops;
         reqs[n_req][ENT_HOPS + 1] = 0;
@@ -595,7 +598,7 @@ static void route_timers(ub_route_t *rt, uint64_t now_ms) {
         }
     }
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
-        if (!rt->node->locals[slot].in_use) continue;
+        if (!(ub_node_slot_entity(rt->node, slot) >= 0)) continue;
         for (int e = 0; e < UB_MAX_ENTITIES; e++) {
             ub_route_dest_t *ds = &rt->dests[slot][e];
             if (ds->retracting && now_ms >= ds->retract_until_ms) ds->retracting = 0;
@@ -610,7 +613,10 @@ static void route_timers(ub_route_t *rt, uint64_t now_ms) {
     }
 }
 
-void ub_priv_route_tick(ub_route_t *rt, uint64_t now_ms) {
+/* Timers and sending; called from ub_node_tick(). */
+static void route_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms) {
+    (void)node;
+    ub_route_t *rt = svc->user;
     for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) {
         const ub_link_t *link = node_link(rt, lid);
         if (link == NULL) continue;
@@ -619,7 +625,7 @@ void ub_priv_route_tick(ub_route_t *rt, uint64_t now_ms) {
     }
     route_timers(rt, now_ms);
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++)
-        if (rt->node->locals[slot].in_use && rt->reselect[slot]) reselect_slot(rt, slot, now_ms);
+        if ((ub_node_slot_entity(rt->node, slot) >= 0) && rt->reselect[slot]) reselect_slot(rt, slot, now_ms);
     for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) {
         const ub_link_t *link = node_link(rt, lid);
         if (link == NULL || link->ops == NULL) continue; /* detached: the neighbour will time us out */
@@ -633,7 +639,12 @@ void ub_priv_route_tick(ub_route_t *rt, uint64_t now_ms) {
 
 /* ---- membership hooks -------------------------------------------------------------------------------- */
 
-void ub_priv_route_forget_entity(ub_route_t *rt, int entity, const uint8_t id[UB_ENTITY_ID_LEN], uint64_t now_ms) {
+/* Entity-table row `entity` is being removed, with this ID: forget every route, feasibility distance and
+ * request about it, and do not learn it again for a while. */
+static void route_forget_entity(const ub_service_t *svc, ub_node_t *node, int entity,
+                                const uint8_t id[UB_ENTITY_ID_LEN], uint64_t now_ms) {
+    (void)node;
+    ub_route_t *rt = svc->user;
     if (entity < 0 || entity >= UB_MAX_ENTITIES) return;
     for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) memset(&rt->routes[entity][lid], 0, sizeof(ub_route_entry_t));
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
@@ -649,11 +660,18 @@ void ub_priv_route_forget_entity(ub_route_t *rt, int entity, const uint8_t id[UB
     rt->tomb[victim].until_ms = now_ms + 4u * (uint64_t)rt->opt.update_ms;
 }
 
-void ub_priv_route_mask_set(ub_route_t *rt, int slot) {
+/* Local slot `slot` set a mask by hand (pinned or unpinned): choose its routes again at the next tick, so an
+ * unpinned entry is filled at once. */
+static void route_mask_set(const ub_service_t *svc, ub_node_t *node, int slot) {
+    (void)node;
+    ub_route_t *rt = svc->user;
     if (slot >= 0 && slot < UB_MAX_LOCAL_ENTITIES) rt->reselect[slot] = 1;
 }
 
-void ub_priv_route_forget_link(ub_route_t *rt, int link_id, uint64_t now_ms) {
+/* Link slot `link_id` is being removed: forget its neighbour and the routes through it. */
+static void route_forget_link(const ub_service_t *svc, ub_node_t *node, int link_id, uint64_t now_ms) {
+    (void)node;
+    ub_route_t *rt = svc->user;
     (void)now_ms;
     if (link_id < 0 || link_id >= UB_MAX_NODE_LINKS) return;
     const ub_link_t *link = node_link(rt, link_id);
@@ -667,6 +685,16 @@ void ub_priv_route_forget_link(ub_route_t *rt, int link_id, uint64_t now_ms) {
     }
     memset(&rt->links[link_id], 0, sizeof rt->links[link_id]);
 }
+
+static bool route_on_service_frame(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
+                                   const ub_frame_header_t *h, const uint8_t *payload, uint64_t now_ms,
+                                   ub_drop_reason_t *drop) {
+    (void)node;
+    (void)drop; /* bad_payload */
+    return route_on_frame(svc->user, rx->link_id, h, payload, now_ms) >= 0;
+}
+
+static const uint8_t route_codes[] = {UB_ADMIN_HELLO, UB_ADMIN_ROUTE_UPDATE};
 
 /* ---- API --------------------------------------------------------------------------------------------- */
 
@@ -683,6 +711,9 @@ int ub_route_attach(ub_route_t *rt, ub_node_t *node, const ub_route_options_t *o
     if (o.hello_ms < 10u || o.hello_ms > 0xFFFFu || o.update_ms < o.hello_ms || o.update_ms > 0xFFFFu ||
         o.dead_misses > HISTORY_BITS || o.parallel > UB_ROUTE_PARALLEL_BEST)
         return UB_ERR_INVAL;
+    /* One routing engine per node: a second attach takes the routing codes over, as it always did. */
+    const ub_service_t *prev = ub_node_service_for(node, UB_SVC_LINK_LOCAL, UB_ADMIN_HELLO);
+    if (prev != NULL && ub_node_remove_service(node, prev) != UB_OK) return UB_ERR_INVAL;
     memset(rt, 0, sizeof *rt);
     rt->node = node;
     rt->opt = o;
@@ -690,29 +721,40 @@ int ub_route_attach(ub_route_t *rt, ub_node_t *node, const ub_route_options_t *o
         rt->seqno[s] = o.initial_seqno;
         for (int e = 0; e < UB_MAX_ENTITIES; e++) rt->dests[s][e].sel_link = -1;
     }
-    node->route = rt;
-    return UB_OK;
+    rt->svc = (ub_service_t){.name = "route",
+                             .link_local_codes = route_codes,
+                             .n_link_local_codes = sizeof route_codes,
+                             .order = UB_SVC_ORDER_ROUTE,
+                             .on_frame = route_on_service_frame,
+                             .tick = route_tick,
+                             .forget_entity = route_forget_entity,
+                             .forget_link = route_forget_link,
+                             .mask_set = route_mask_set,
+                             .user = rt};
+    return ub_node_add_service(node, &rt->svc);
 }
 
 void ub_route_detach(ub_route_t *rt) {
     if (rt == NULL || rt->node == NULL) return;
     ub_node_t *node = rt->node;
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
-        int self = ub_priv_slot_entity(node, slot);
+        int self = ub_node_slot_entity(node, slot);
         if (self < 0) continue;
         for (int e = 0; e < UB_MAX_ENTITIES; e++)
-            if (node->entities[e].in_use && !ub_node_mask_pinned(node, self, e) && e != self &&
+            if ((ub_node_entity_id(node, e) != NULL) && !ub_node_mask_pinned(node, self, e) && e != self &&
                 ub_node_set_auto_mask(node, self, e, 0) != UB_OK) {
                 /* cannot fail: an unpinned entry toward a known entity */
             }
     }
-    if (node->route == rt) node->route = NULL;
+    if (ub_node_remove_service(node, &rt->svc) != UB_OK) {
+        /* another engine took over (ub_route_attach() again): nothing of ours to remove */
+    }
     rt->node = NULL;
 }
 
 int ub_route_get(const ub_route_t *rt, int entity, int dest, ub_route_info_t *out) {
     if (rt == NULL || rt->node == NULL || out == NULL) return UB_ERR_INVAL;
-    int slot = ub_priv_local_slot(rt->node, entity);
+    int slot = ub_node_entity_slot(rt->node, entity);
     if (slot < 0 || ub_node_entity_id(rt->node, dest) == NULL) return UB_ERR_INVAL;
     memset(out, 0, sizeof *out);
     const ub_route_dest_t *ds = &rt->dests[slot][dest];
@@ -723,7 +765,7 @@ int ub_route_get(const ub_route_t *rt, int entity, int dest, ub_route_info_t *ou
     out->reachable = !out->local && ds->sel_link >= 0;
     out->retracting = ds->retracting != 0;
     out->metric = out->local ? 0 : (out->reachable ? ds->metric : (uint16_t)INF);
-    out->seqno = out->local ? rt->seqno[rt->node->entities[dest].local] : ds->seqno;
+    out->seqno = out->local ? rt->seqno[ub_node_entity_slot(rt->node, dest)] : ds->seqno;
     out->mask = out->local ? 0 : ds->mask;
     out->fd_valid = ds->fd_valid != 0;
     out->fd_seqno = ds->fd_seqno;
@@ -763,6 +805,6 @@ const ub_route_counters_t *ub_route_counters(const ub_route_t *rt) { return rt =
 
 uint16_t ub_route_seqno(const ub_route_t *rt, int entity) {
     if (rt == NULL || rt->node == NULL) return 0;
-    int slot = ub_priv_local_slot(rt->node, entity);
+    int slot = ub_node_entity_slot(rt->node, entity);
     return slot < 0 ? 0 : rt->seqno[slot];
 }

@@ -9,7 +9,7 @@
 #include <string.h>
 
 #include "ub/ub_wire.h"
-#include "core/ub_router_private.h" /* admin payload layouts */
+#include "ub/ub_admin_wire.h" /* admin payload layouts */
 
 /* ---- catalogue: gpsOut, imuOut and the cells ------------------------------------------------ */
 

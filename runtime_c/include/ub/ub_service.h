@@ -1,0 +1,170 @@
+/**
+ * @file ub_service.h
+ * @brief The service contract: how a protocol engine plugs into a node (docs/architecture.md,
+ *        "A new protocol service in five steps").
+ *
+ * The node core (src/core/) carries frames: it verifies them (the security gate), suppresses
+ * duplicates, forwards, delivers DATA into bound storage, shapes frames for compact links and MTUs
+ * and reassembles fragments. Everything else a frame can ask for is a *service*: publish/subscribe,
+ * administration, routing, membership, inspection, freshness challenges, or one of your own. A
+ * service declares
+ *  - the admin codes it handles when they reach one of the node's local entities (`codes`),
+ *  - the replies it takes: ACK/NACK frames whose payload names an admin code it sent
+ *    (`reply_codes`: the answered code, UB_PL_REPLY_CODE of ub_admin_wire.h),
+ *  - the codes it accepts link-local (`link_local_codes`: addressed to "whoever is at the other
+ *    end of this link", never forwarded; docs/routing.md),
+ * and callbacks for a frame, a reply, a tick, an entity or a link being forgotten, and a mask set
+ * by hand. A callback left NULL is not called.
+ *
+ * The record is caller-owned (embed it in the engine's own state, or make it `static const` when
+ * the service keeps no state of its own) and must outlive its registration; the node keeps a
+ * pointer in a fixed table (UB_MAX_SERVICES). ub_node_add_service() refuses a code another
+ * registered service already takes, so two engines can never both answer one request.
+ *
+ * Callbacks may send, change masks and tables, but must not add or remove services (the node is
+ * walking its table). A service acts on the node only through the public headers (ub_node.h, ub_node_svc.h): every
+ * frame it originates takes the node's path (stamp, window, routing, security, tap).
+ *
+ * Ordering: services tick, and hear about forgotten entities and links, in ascending `order`
+ * (ties: registration order). The built-in engines use the UB_SVC_ORDER_* values below, which
+ * reproduce the order the node called them in before it had services; a new service takes
+ * UB_SVC_ORDER_USER unless it must run earlier.
+ */
+#ifndef UB_SERVICE_H
+#define UB_SERVICE_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include "ub_config.h"
+#include "ub_error.h"
+#include "ub_frame.h"
+#include "ub_link.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct ub_node ub_node_t;
+typedef struct ub_service ub_service_t;
+
+/** Tick / forget order of the built-in services (lower first). */
+enum {
+    UB_SVC_ORDER_PUBSUB = 10,  /**< publish/subscribe tables (and their administration tables) */
+    UB_SVC_ORDER_ROUTE = 20,   /**< routing engine (ub_route.h) */
+    UB_SVC_ORDER_MEMBER = 30,  /**< membership (ub_member.h) */
+    UB_SVC_ORDER_INSPECT = 40, /**< inspection (ub_inspect.h) */
+    UB_SVC_ORDER_USER = 100    /**< services of the application */
+};
+
+/** Where a frame handed to a service came from. */
+typedef struct ub_service_rx {
+    int slot;         /**< local slot of the entity it reached (ub_node_slot_entity(), ub_node_svc.h) */
+    int link_id;      /**< the link it arrived on, or -1: from an entity of this node (never left the process) */
+    bool secured;     /**< its tag verified (SIGNED or ENCRYPTED); false for local frames */
+    uint64_t counter; /**< its freshness counter (48-bit secured, else the 32-bit sequence); 0 when local */
+} ub_service_rx_t;
+
+/** An ACK or NACK, decoded (its layout: ub_admin_wire.h). */
+typedef struct ub_service_reply {
+    uint32_t request_id; /**< the request it answers */
+    uint8_t code;        /**< the admin code of that request */
+    bool nack;           /**< NACK (refused) rather than ACK */
+    uint8_t detail;      /**< ACK flags or NACK reason */
+    uint8_t flags;       /**< NACK origin flags (UB_NACK_RELAYED); 0 in ACKs */
+} ub_service_reply_t;
+
+/**
+ * A frame with one of the service's codes reached a local entity (`rx->slot`), or arrived
+ * link-local on `rx->link_id` with one of its link-local codes (then `rx->slot` is the link's
+ * owner). `payload` holds `h->payload_size` plaintext bytes. Return true when handled; false makes
+ * the node count a drop of reason `*drop` (preset to UB_DROP_BAD_PAYLOAD) on the node and the link.
+ */
+typedef bool (*ub_service_frame_fn)(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
+                                    const ub_frame_header_t *h, const uint8_t *payload, uint64_t now_ms,
+                                    ub_drop_reason_t *drop);
+
+/** An ACK/NACK answering one of the service's `reply_codes` reached local slot `rx->slot`. Returns as
+ *  ub_service_frame_fn. */
+typedef bool (*ub_service_reply_fn)(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
+                                    const ub_frame_header_t *h, const ub_service_reply_t *reply, uint64_t now_ms,
+                                    ub_drop_reason_t *drop);
+
+/** Timers and sending; called from ub_node_tick(). */
+typedef void (*ub_service_tick_fn)(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms);
+
+/** Entity-table row `entity` (ID `id`) is being removed (ub_node_remove_entity()): forget it. The row is
+ *  still in the table during the call. */
+typedef void (*ub_service_forget_entity_fn)(const ub_service_t *svc, ub_node_t *node, int entity,
+                                            const uint8_t id[UB_ENTITY_ID_LEN], uint64_t now_ms);
+
+/** Link `link_id` is being removed (ub_node_remove_link()); still readable with ub_node_link() during the call. */
+typedef void (*ub_service_forget_link_fn)(const ub_service_t *svc, ub_node_t *node, int link_id, uint64_t now_ms);
+
+/** Local slot `slot` set a mask by hand (ub_node_set_mask()). */
+typedef void (*ub_service_mask_fn)(const ub_service_t *svc, ub_node_t *node, int slot);
+
+/** DATA write policy (ub_policy.h): may DATA of `instance` from `src_id`, received over a link, be stored
+ *  for local slot `slot`? Asked only when a policy is attached (without a service answering it, such DATA
+ *  is refused: fail closed). */
+typedef bool (*ub_service_may_write_fn)(const ub_service_t *svc, const ub_node_t *node, int slot, uint32_t instance,
+                                        const uint8_t src_id[UB_ENTITY_ID_LEN]);
+
+/** DATA of `instance` from `src_id` was unpacked into its storage for local slot `slot` (before the
+ *  delivery hook, ub_node_set_deliver_hook()). */
+typedef void (*ub_service_data_fn)(const ub_service_t *svc, ub_node_t *node, int slot, uint32_t instance,
+                                   const uint8_t src_id[UB_ENTITY_ID_LEN], uint64_t now_ms);
+
+/** A service's registration record (caller-owned; see the file comment). */
+struct ub_service {
+    const char *name;                /**< for diagnostics ("route", "echo"...) */
+    const uint8_t *codes;            /**< admin codes handled when addressed to a local entity */
+    uint8_t n_codes;
+    const uint8_t *reply_codes;      /**< answered codes of the ACK/NACKs it takes */
+    uint8_t n_reply_codes;
+    const uint8_t *link_local_codes; /**< codes accepted link-local */
+    uint8_t n_link_local_codes;
+    uint8_t order;                   /**< UB_SVC_ORDER_* */
+    ub_service_frame_fn on_frame;
+    ub_service_reply_fn on_reply;
+    ub_service_tick_fn tick;
+    ub_service_forget_entity_fn forget_entity;
+    ub_service_forget_link_fn forget_link;
+    ub_service_mask_fn mask_set;
+    /** DATA observers (publish/subscribe: subscriptions, write policy); at most one registered service has
+     *  them (ub_node_add_service() refuses a second: UB_ERR_EXISTS). */
+    ub_service_may_write_fn may_write;
+    ub_service_data_fn on_data;
+    void *user;                      /**< the engine's state, for the callbacks */
+};
+
+/**
+ * Registers `svc` with `node`. Admin codes DATA and FRAGMENT belong to the core and the ACK/NACK
+ * codes themselves are routed by `reply_codes`, so none of them may appear in `codes` except as the
+ * one default taker of replies no service claims (publish/subscribe).
+ * @return UB_OK; UB_ERR_INVAL (NULL, a core code); UB_ERR_EXISTS (`svc` is registered already, or one
+ *         of its codes, reply codes or link-local codes is taken by another service); UB_ERR_FULL
+ *         (UB_MAX_SERVICES).
+ */
+UB_CHECK int ub_node_add_service(ub_node_t *node, const ub_service_t *svc);
+
+/**
+ * Unregisters `svc`: its codes are free again, its callbacks no longer called.
+ * @return UB_OK; UB_ERR_INVAL (NULL); UB_ERR_NOTFOUND (not registered).
+ */
+UB_CHECK int ub_node_remove_service(ub_node_t *node, const ub_service_t *svc);
+
+/** Which of a service's lists ub_node_service_for() looks in. */
+typedef enum ub_service_kind {
+    UB_SVC_CODE = 0,       /**< `codes` */
+    UB_SVC_REPLY = 1,      /**< `reply_codes` */
+    UB_SVC_LINK_LOCAL = 2  /**< `link_local_codes` */
+} ub_service_kind_t;
+
+/** @return the registered service taking admin code `code` as `kind`, or NULL. */
+const ub_service_t *ub_node_service_for(const ub_node_t *node, ub_service_kind_t kind, uint8_t code);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* UB_SERVICE_H */
