@@ -74,6 +74,7 @@ class FeField:
     offset_bits: int
     bit_width: int | None
     loc: SourceLoc
+    readonly: bool = False  # declared `const` (the member, or each element of an array member)
 
 
 @dataclass(frozen=True)
@@ -592,20 +593,26 @@ class _Walker:
         for inner in self._fields(rec.type, rec, key, 0):
             offset = ctype.get_offset(inner.name) if inner.name else -1
             offset = offset + base_bits if offset >= 0 else base_bits + inner.offset_bits
-            yield FeField(inner.name, inner.type, inner.dims, offset, inner.bit_width, inner.loc)
+            yield FeField(inner.name, inner.type, inner.dims, offset, inner.bit_width, inner.loc, inner.readonly)
 
     def _field(self, ch: ci.Cursor, key: str, base_bits: int) -> FeField:
         ftype = ch.type.get_canonical()
         dims: list[int] = []
+        # clang's canonical array types carry the elements' qualifiers on the array: look at every level.
+        readonly = ftype.is_const_qualified()
         while ftype.kind == ci.TypeKind.CONSTANTARRAY:
             dims.append(ftype.element_count)
             ftype = ftype.element_type.get_canonical()
+            readonly = readonly or ftype.is_const_qualified()
         width = ch.get_bitfield_width() if ch.is_bitfield() else None
         offset = ch.get_field_offsetof() + base_bits
         if ftype.kind == ci.TypeKind.INCOMPLETEARRAY or 0 in dims:
             # `T tail[]` (C99) and GNU's `T tail[0]`: storage past the end of the struct.
             return FeField(ch.spelling, FeOther("flexible", ch.type.spelling), (), offset, None, _loc(ch))
-        return FeField(ch.spelling, self._type(ftype, f"{key}::{ch.spelling}"), tuple(dims), offset, width, _loc(ch))
+        # `const T m;`, `const T m[N]` and a typedef that carries the const all leave the canonical
+        # element type const-qualified: unpack may not assign to such a member (docs/catalogue.md).
+        return FeField(ch.spelling, self._type(ftype, f"{key}::{ch.spelling}"), tuple(dims), offset, width, _loc(ch),
+                       readonly)
 
     def _type(self, ftype: ci.Type, unnamed_key: str) -> FeType:
         kind = ftype.kind

@@ -107,6 +107,8 @@ SKIP_STRING = "string"
 SKIP_FLEXIBLE = "flexible array member"
 SKIP_UNION = "union"
 SKIP_UNSUPPORTED = "unsupported type"
+# A const bitfield has no address, so unpack can neither assign it nor write its bytes.
+SKIP_CONST_BITFIELD = "const bitfield (unpack cannot write it: drop the const to send it)"
 
 STRINGS_SKIP = "skip"  # the paper's rule: `char` arrays are not sent
 STRINGS_BYTES = "bytes"  # `char` arrays are sent as their bytes (all of them, NULs included)
@@ -158,6 +160,7 @@ class Field:
     skipped: str | None = None
     enum: str | None = None
     text: bool = False
+    readonly: bool = False  # declared const: unpack writes its storage bytes instead of assigning
 
     def __post_init__(self) -> None:
         kinds = sum(x is not None for x in (self.wire, self.struct, self.skipped))
@@ -173,6 +176,8 @@ class Field:
             raise ValueError(f"{self.loc}: text field '{self.name}' must be a u8 array")
         if self.enum is not None and (self.wire is None or self.wire.is_float or self.wire.name == "bool"):
             raise ValueError(f"{self.loc}: enum field '{self.name}' must have an integer wire type")
+        if self.readonly and self.bits is not None:
+            raise ValueError(f"{self.loc}: const bitfield '{self.name}' cannot be unpacked (it has no address)")
 
     @property
     def packed(self) -> bool:
@@ -353,6 +358,11 @@ class Catalogue:
     def named_types(self) -> tuple[StructType, ...]:
         """Types with a C spelling: the ones with codecs in C and in the self-test."""
         return tuple(t for t in self.types if t.c_name is not None)
+
+    @property
+    def has_readonly(self) -> bool:
+        """Some packed member is const (unpack then writes storage bytes: docs/catalogue.md, const members)."""
+        return any(f.readonly for t in self.types for f in t.packed_fields)
 
     @property
     def max_packed_size(self) -> int:
@@ -706,7 +716,9 @@ def _make_field(f: FeField, relpath: Callable[[str], str], text: bool = False) -
     t = f.type
     if isinstance(t, (FeOther, FeScalar)):
         t = dataclasses.replace(t, spelling=_spelling(t.spelling, relpath))
-    common = dict(name=f.name, dims=f.dims, offset_bits=f.offset_bits, loc=loc)
+    common = dict(name=f.name, dims=f.dims, offset_bits=f.offset_bits, loc=loc, readonly=f.readonly)
+    if f.readonly and f.bit_width is not None:
+        return Field(**common, c_spelling=getattr(t, "spelling", ""), skipped=SKIP_CONST_BITFIELD)
     if isinstance(t, FeOther):
         reason = {"pointer": SKIP_POINTER, "union": SKIP_UNION, "flexible": SKIP_FLEXIBLE}.get(t.what)
         return Field(**common, c_spelling=t.spelling, skipped=reason or f"{SKIP_UNSUPPORTED} ({t.spelling})")

@@ -76,7 +76,7 @@ class Renderer:
             autoescape=False,
         )
         self.env.filters.update(
-            c_put=c_put, c_get=c_get, c_literal=c_literal, c_bytes=c_bytes, c_string=c_string,
+            c_put=c_put, c_get=c_get, c_get_ro=c_get_ro, c_store_type=c_store_type, c_literal=c_literal, c_bytes=c_bytes, c_string=c_string,
             c_valid=c_valid, c_value_type=c_value_type,
             py_attr=lambda n: self.props.mangle(n, "py"), py_class=self.py_class,
             py_format=self.py_format, py_literal=py_literal, hex8=lambda v: f"0x{v:08x}",
@@ -204,6 +204,7 @@ class LeafGroup:
     dims: tuple[int, ...]  # extent of each loop variable, outermost first
     field: Field
     values: tuple[Any, ...]  # row-major
+    readonly: bool = False  # the member or one around it is const: the test writes its bytes
 
     @property
     def count(self) -> int:
@@ -228,7 +229,8 @@ class SelftestCase:
     @property
     def skipped_paths(self) -> tuple[str, ...]:
         """Top-level skipped members the C test can poison and re-check (unpack must not touch them)."""
-        return tuple(f.name for f in self.type.fields if f.skipped and f.name and f.skipped != model.SKIP_FLEXIBLE)
+        return tuple(f.name for f in self.type.fields if f.skipped and f.name
+                     and f.skipped not in (model.SKIP_FLEXIBLE, model.SKIP_CONST_BITFIELD))  # a bitfield has no offsetof
 
     @property
     def weight(self) -> int:
@@ -247,17 +249,17 @@ def _leaf_groups(cat: Catalogue, t: StructType, leaves: list[model.Leaf]) -> lis
     values = {leaf.path: leaf.value for leaf in leaves}
     out: list[LeafGroup] = []
 
-    def walk(t: StructType, prefix: tuple, dims: tuple[int, ...]) -> None:
+    def walk(t: StructType, prefix: tuple, dims: tuple[int, ...], ro: bool) -> None:
         for f in t.packed_fields:
             var_path = prefix + (f.name,) + tuple(LoopVar(len(dims) + k) for k in range(len(f.dims)))
             all_dims = dims + f.dims
             if f.struct:
-                walk(cat.type(f.struct), var_path, all_dims)
+                walk(cat.type(f.struct), var_path, all_dims, ro or f.readonly)
                 continue
             vals = tuple(values[_concrete(var_path, index)] for index in product(*(range(d) for d in all_dims)))
-            out.append(LeafGroup(var_path, all_dims, f, vals))
+            out.append(LeafGroup(var_path, all_dims, f, vals, ro or f.readonly))
 
-    walk(t, (), ())
+    walk(t, (), (), False)
     return out
 
 
@@ -318,17 +320,44 @@ def c_put(f: Field, acc: str) -> str:
 
 def c_get(f: Field, acc: str) -> str:
     """The statement that reads one scalar at `p` into `acc`."""
+    return f"{acc} = {c_read(f)};"
+
+
+def c_read(f: Field) -> str:
+    """The expression that reads one scalar at `p`."""
     w = f.wire
     assert w is not None
     if w.name == "bool":
-        return f"{acc} = ub_get_u8(p) != 0u;"
+        return "ub_get_u8(p) != 0u"
     if w.name == "f32":
-        return f"{acc} = ub_get_f32le(p);"
+        return "ub_get_f32le(p)"
     if w.name == "f64":
-        return f"{acc} = ub_get_f64le(p);"
+        return "ub_get_f64le(p)"
     suffix = "" if w.size == 1 else "le"
     read = f"ub_get_u{w.bits}{suffix}(p)"
-    return f"{acc} = ({w.c_type}){read};" if w.signed else f"{acc} = {read};"
+    return f"({w.c_type}){read}" if w.signed else read
+
+
+def c_store_type(f: Field) -> str:
+    """A C type with the size and representation of the member's storage (the wire's C type holds the
+    same bits: an int or enum member has its wire type's size, a bool is one byte 0 or 1)."""
+    assert f.wire is not None
+    return "long double" if f.long_double else f.wire.c_type
+
+
+def c_get_ro(f: Field, addr: str) -> str:
+    """Unpack of a const member: the value is built in a local of the member's storage type and its
+    bytes copied to `addr` (the member's address without the const), never assigned through a const lvalue.
+
+    >>> from uavbus_gen.model import PRIMITIVES, Field, SourceLoc
+    >>> c_get_ro(Field("t", (), 0, SourceLoc("x.h", 1), "uint8_t", wire=PRIMITIVES["u8"], readonly=True), "A")
+    '{ const uint8_t v = ub_get_u8(p); memcpy(A, &v, sizeof v); }'
+    """
+    store = c_store_type(f)
+    value = c_read(f)
+    if f.long_double or (f.wire is not None and f.wire.name == "bool"):
+        value = f"({store})({value})"
+    return f"{{ const {store} v = {value}; memcpy({addr}, &v, sizeof v); }}"
 
 
 def c_literal(value: int | float | bool, f: Field) -> str:
