@@ -9,8 +9,12 @@ written (clang errors are printed as `file:line: message`, with their `#include`
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import fnmatch
 import os
+import platform
+import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -50,7 +54,14 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--name", default="catalogue", help="output base name and C/Python prefix; default 'catalogue'")
     p.add_argument("--id-scheme", choices=model.ids.ID_SCHEMES, default="paper",
                    help="content IDs: the paper's first-8+last-8 rule (default) or 'hashed' (7+7+CRC-16)")
-    p.add_argument("--compile-commands", metavar="F", help="take each input's flags from this compile_commands.json")
+    p.add_argument("--compile-commands", metavar="F", help="take each input's flags from this compile_commands.json "
+                   "(a cross compiler named there, e.g. arm-none-eabi-gcc, is used as --target-cc)")
+    p.add_argument("--target-cc", metavar="CC",
+                   help="parse with the ABI and system headers of this (cross) compiler, e.g. arm-none-eabi-gcc "
+                        "(its target, include directories, enum size, char signedness; checked before parsing); "
+                        "selftest builds with it too")
+    p.add_argument("--cc", metavar="CC",
+                   help="selftest: the C compiler that builds the self-test (default: --target-cc, else gcc)")
     p.add_argument("--exclude", action="append", default=[], metavar="GLOB",
                    help="leave out inputs matching GLOB (a pattern with '/' matches the path, else the file name)")
     p.add_argument("-k", "--keep-going", action="store_true",
@@ -89,6 +100,12 @@ class Job:
     exit_zero: bool = False
     jobs: int = 1
     timeout: float = SELFTEST_TIMEOUT_S
+    target_cc: str | None = None
+    cc: str | None = None
+
+    @property
+    def selftest_cc(self) -> str:
+        return self.cc or self.target_cc or "gcc"
 
 
 def parse_args(argv: list[str]) -> Job:
@@ -108,7 +125,7 @@ def parse_args(argv: list[str]) -> Job:
     opts = frontend.ParseOptions(tuple(ns.include_dirs), tuple(ns.defines), ns.std, tuple(clang_args), ns.compile_commands)
     build = model.BuildOptions(ns.id_scheme, ns.strings, tuple(ns.string_field), ns.max_payload, ns.keep_going)
     return Job(ns.command, tuple(ns.files), opts, ns.name, ns.id_scheme, ns.outdir, ns.sanitize, ns.verbose, build,
-               tuple(ns.exclude), ns.keep_going, ns.exit_zero, ns.jobs, ns.timeout)
+               tuple(ns.exclude), ns.keep_going, ns.exit_zero, ns.jobs, ns.timeout, ns.target_cc, ns.cc)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -123,6 +140,8 @@ def main(argv: list[str] | None = None) -> int:
         for note in getattr(exc, "notes", ()):
             _say(str(note))
         return _fail(str(exc), exc.exit_code)
+    except SelftestError as exc:
+        return _fail(f"selftest: error: {exc}", 2)
     except ValueError as exc:  # a model constructor refused the input
         return _fail(f"error: {exc}", 2)
 
@@ -185,6 +204,28 @@ class Loaded:
         return bool(self.failed) or any("payload limit" in s.reason for s in self.cat.skipped_instances)
 
 
+def with_target(job: Job) -> Job:
+    """The job with the target compiler's ABI resolved (--target-cc, or a cross compiler named by
+    --compile-commands) and checked against clang's; unchanged without one."""
+    cc = job.target_cc
+    if cc is None and job.opts.compile_commands:
+        named = frontend.compile_commands_compiler(job.opts.compile_commands)
+        if named and frontend.is_cross_compiler(named):
+            cc = named
+            _say(f"note: parsing with the ABI of {named}, the compiler of {job.opts.compile_commands} (--target-cc)")
+    if cc is None:
+        return job
+    flags = list(job.opts.extra_args)
+    if job.opts.compile_commands:
+        flags = frontend._first_compile_args(job.opts.compile_commands) + flags
+    target = frontend.query_target(cc, frontend.abi_flags(flags))
+    opts = dataclasses.replace(job.opts, target=target)
+    frontend.check_target_abi(opts, flags)
+    if job.verbose:
+        _say(f"note: --target-cc {cc}: {target.triple}, clang {' '.join(target.clang_args)}")
+    return dataclasses.replace(job, opts=opts, target_cc=cc)
+
+
 def load(job: Job) -> Loaded:
     files = expand_inputs(job)
     rel = model.make_relpath(files)
@@ -233,11 +274,14 @@ def _summarise(job: Job, cat: model.Catalogue) -> None:
                 _say(f"{s.loc}: note: instance '{s.name}' not catalogued: {s.reason}")
 
 
-def generate(job: Job, cat: model.Catalogue, with_selftest: bool = False) -> dict[str, str]:
-    if any(inc.strip('"<>').split("/")[-1] == f"{job.name}.h" for inc in cat.includes):
+def generate(job: Job, cat: model.Catalogue, with_selftest: bool = False, outdir: str | None = None) -> dict[str, str]:
+    """Every output file's text; `outdir`: where they go (inputs no -I finds are included relative to it)."""
+    names = [os.path.basename(inc.path) if isinstance(inc, model.IncludeFile) else inc.strip('"<>').split("/")[-1]
+             for inc in cat.includes]
+    if f"{job.name}.h" in names:
         raise UsageError(f"--name {job.name} would make {job.name}.h include itself instead of the input "
                          f"header of that name; choose another --name")
-    renderer = render.Renderer(cat, render.RenderInputs(job.name, catalogue_json(cat, job.name, compact=True)))
+    renderer = render.Renderer(cat, render.RenderInputs(job.name, catalogue_json(cat, job.name, compact=True), outdir))
     out = renderer.render()
     out[f"{job.name}.catalogue.json"] = catalogue_json(cat, job.name)
     if with_selftest:
@@ -254,6 +298,7 @@ def write_files(outdir: str, files: dict[str, str]) -> None:
 
 def run(job: Job) -> int:
     started = time.perf_counter()
+    job = with_target(job)
     loaded = load(job)
     cat = loaded.cat
     done = EXIT_PARTIAL if loaded.partial and not job.exit_zero else 0
@@ -263,7 +308,7 @@ def run(job: Job) -> int:
         _timing(job, "check", started)
         return done
     if job.command == "gen":
-        files = generate(job, cat)
+        files = generate(job, cat, outdir=job.outdir or ".")
         _timing(job, "generation", started)
         write_files(job.outdir or ".", files)
         print(f"gen: {len(cat.instances)} instances of {len(cat.named_types)} types -> "
@@ -288,20 +333,26 @@ class SelftestError(Exception):
 
 def selftest(job: Job, loaded: Loaded, started: float) -> int:
     cat = loaded.cat
-    files = generate(job, cat, with_selftest=True)
-    _timing(job, "generation", started)
     expected = f"{model.expected_digest(cat):08x}"
     n = len(cat.named_types)
     deadline = time.monotonic() + job.timeout
     c_line = py_line = None
+    plan = run_plan(job)
+    if job.sanitize and plan.shim:
+        raise UsageError("--sanitize needs a self-test built for this machine; leave it out with a cross compiler")
     with tempfile.TemporaryDirectory(prefix="uavbus-selftest-") as tmp:
+        files = generate(job, cat, with_selftest=True, outdir=tmp)
+        if plan.shim:
+            renderer = render.Renderer(cat, render.RenderInputs(job.name, "", tmp))
+            files.update(renderer.render_selftest_linux_arm())
+        _timing(job, "generation", started)
         write_files(tmp, files)
         sources = sorted(f for f in files if f.endswith(".c"))
         with ThreadPoolExecutor(max_workers=max(1, job.jobs)) as pool:
             # Python runs beside the C compilers; each compiler gets its own worker.
             py_future = pool.submit(_run_py, job, tmp, deadline)
             try:
-                c_line = _run_c(job, tmp, sources, loaded.files, deadline, pool)
+                c_line = _run_c(job, tmp, sources, plan, deadline, pool, n)
             except SelftestError as exc:
                 _say(f"selftest: error: {exc}")
             try:
@@ -310,51 +361,142 @@ def selftest(job: Job, loaded: Loaded, started: float) -> int:
                 _say(f"selftest: error: {exc}")
     print(c_line or "selftest: C failed")
     print(py_line or "selftest: Python failed")
-    want = [f"selftest: C {n} types ok, digest {expected}", f"selftest: Python {n} types ok, digest {expected}"]
-    ok = [c_line, py_line] == want
+    want_c = f"selftest: C {n} types ok, digest {expected}"
+    want = [want_c, f"selftest: Python {n} types ok, digest {expected}"]
+    if plan.skip and c_line == f"selftest: C {n} types built ({plan.triple}), run skipped: {plan.skip}":
+        ok = py_line == want[1]  # built (every layout assertion held) and stated as not run
+    else:
+        ok = [c_line, py_line] == want
     if not ok:
         _say(f"selftest: FAILED (expected digest {expected} from the model's own encoder)")
     _timing(job, "selftest", started)
     return 0 if ok else 1
 
 
-def _gcc_base(job: Job, tmp: str, inputs: tuple[str, ...]) -> list[str]:
-    # -O0: the self-test is large straight-line code; gcc's optimisers would take most of the time.
-    cmd = ["gcc", f"-std={job.opts.std}", "-Wall", "-Wextra", "-Werror", "-O0", "-g0"]
+@dataclass(frozen=True)
+class RunPlan:
+    """How the C self-test is built and run: by which compiler, for which target, and where."""
+
+    cc: str
+    triple: str
+    runner: tuple[str, ...] = ()  # prefix of the run command (qemu-arm ...); () runs the program directly
+    skip: str | None = None  # why the program cannot run here (it is still built: the layout assertions hold)
+    shim: bool = False  # bare-metal ARM: link the Linux system-call shim and run under qemu-arm
+
+
+# Target architecture (from the compiler's predefined macros) -> qemu user-mode emulator (Debian qemu-user).
+_QEMU = (("__aarch64__", "__AARCH64EB__", "qemu-aarch64", "qemu-aarch64_be"),
+         ("__arm__", "__ARMEB__", "qemu-arm", "qemu-armeb"),
+         ("__powerpc64__", "__LITTLE_ENDIAN__", "qemu-ppc64", "qemu-ppc64le"),
+         ("__powerpc__", None, "qemu-ppc", None),
+         ("__mips64", "__MIPSEL__", "qemu-mips64", "qemu-mips64el"),
+         ("__mips__", "__MIPSEL__", "qemu-mips", "qemu-mipsel"),
+         ("__riscv", None, "qemu-riscv64", None))
+_HOST_ARCH = {"x86_64": ("__x86_64__", "__i386__"), "amd64": ("__x86_64__", "__i386__"),
+              "aarch64": ("__aarch64__",), "arm64": ("__aarch64__",)}
+
+
+def run_plan(job: Job) -> RunPlan:
+    """Where the self-test built by job.selftest_cc with the build's flags can run: on this machine,
+    under a qemu user-mode emulator, or nowhere here (stated, with the reason)."""
+    cc = job.selftest_cc
+    if shutil.which(cc) is None and not os.path.isfile(cc):
+        raise SelftestError(f"cannot run {cc}: not found; install it (e.g. `apt-get install gcc`) or pass --cc")
+    try:
+        triple = subprocess.run([cc, "-dumpmachine"], capture_output=True, text=True, timeout=60,
+                                check=False).stdout.strip() or "unknown"
+        defs = subprocess.run([cc, *frontend.abi_flags(job.opts.extra_args), "-dM", "-E", "-x", "c", os.devnull],
+                              capture_output=True, text=True, timeout=60, check=False, stdin=subprocess.DEVNULL).stdout
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise SelftestError(f"cannot run {cc} ({exc})") from None
+    macros = set(re.findall(r"^#define (\w+)", defs, re.M))
+    host = _HOST_ARCH.get(platform.machine().lower(), ())
+    linux = "__linux__" in macros
+    if linux and any(m in macros for m in host):
+        return RunPlan(cc, triple)
+    for arch, alt_macro, emu, alt_emu in _QEMU:
+        if arch not in macros:
+            continue
+        emulator = alt_emu if alt_macro and alt_macro in macros and alt_emu else emu
+        if not linux and not (arch == "__arm__" and "__ARMEB__" not in macros and "__linux__" not in macros
+                              and _has_newlib(cc, job)):
+            return RunPlan(cc, triple, skip=f"{triple} is bare metal and only bare-metal little-endian ARM with "
+                                            "newlib runs under qemu user mode here")
+        if shutil.which(emulator) is None:
+            return RunPlan(cc, triple, skip=f"{emulator} is not installed (apt-get install qemu-user)")
+        if linux:
+            sysroot = f"/usr/{triple}"
+            return RunPlan(cc, triple, (emulator, "-L", sysroot) if os.path.isdir(sysroot) else (emulator,))
+        return RunPlan(cc, triple, (emulator,), shim=True)
+    return RunPlan(cc, triple, skip=f"no emulator for {triple} on this {platform.machine()} machine")
+
+
+def _has_newlib(cc: str, job: Job) -> bool:
+    """The compiler links newlib's nosys.specs (what the qemu-arm shim builds on)."""
+    try:
+        out = subprocess.run([cc, *frontend.abi_flags(job.opts.extra_args), "-print-file-name=nosys.specs"],
+                             capture_output=True, text=True, timeout=60, check=False).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return False
+    return os.path.isabs(out) and os.path.isfile(out)
+
+
+def _cc_base(job: Job, tmp: str, cc: str) -> list[str]:
+    # -O0: the self-test is large straight-line code; the optimisers would take most of the time. No
+    # -Werror: warnings are judged by where they are (_own_warnings), so an input header's own warnings
+    # do not fail the test, and the inputs' folders need not be system directories (a header named like
+    # a system one, `common/time.h`, would then shadow <time.h>).
+    cmd = [cc, f"-std={job.opts.std}", "-Wall", "-Wextra", "-O0", "-g0"]
     if job.opts.std.startswith("c"):
         cmd.append("-D_POSIX_C_SOURCE=200809L")
     if job.sanitize:
         cmd += ["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"]
     cmd += ["-I", str(RUNTIME_INCLUDE), "-I", tmp]
-    # The inputs' own directories are system directories here: -Werror judges the generated code,
-    # not warnings inside headers we were merely given (MAVLink's, for one).
-    dirs = [*job.opts.include_dirs, *(os.path.dirname(os.path.abspath(f)) for f in inputs)]
-    for d in dict.fromkeys(dirs):
-        cmd += ["-isystem", d]
+    for d in dict.fromkeys(job.opts.include_dirs):
+        cmd += ["-I", d]
     return cmd + [f"-D{d}" for d in job.opts.defines] + list(job.opts.extra_args)
 
 
-def _run_c(job: Job, tmp: str, sources: list[str], inputs: tuple[str, ...], deadline: float,
-           pool: ThreadPoolExecutor) -> str | None:
-    base = _gcc_base(job, tmp, inputs)
+_WARNING = re.compile(r"^(?P<file>[^:\n]+):\d+(?::\d+)?: (?:warning|error): .*$", re.M)
+
+
+def _own_warnings(stderr: str, tmp: str) -> list[str]:
+    """Warnings in the generated files or the runtime (what -Werror would judge), not in the inputs."""
+    ours = (os.path.realpath(tmp), os.path.realpath(RUNTIME_INCLUDE), os.path.realpath(RUNTIME_SOURCE_DIR))
+    return [m.group(0) for m in _WARNING.finditer(stderr)
+            if os.path.realpath(m.group("file")).startswith(ours)]
+
+
+def _run_c(job: Job, tmp: str, sources: list[str], plan: RunPlan, deadline: float,
+           pool: ThreadPoolExecutor, n_types: int) -> str | None:
+    base = _cc_base(job, tmp, plan.cc)
     units = [os.path.join(tmp, s) for s in sources] + [str(RUNTIME_CATALOGUE_C)]
     objects = [os.path.join(tmp, f"{k}_{Path(u).stem}.o") for k, u in enumerate(units)]
     builds = [pool.submit(_tool, base + ["-c", u, "-o", o], deadline, f"C build of {Path(u).name}")
               for u, o in zip(units, objects)]
     for unit, future in zip(units, builds):
         proc = future.result()
-        if proc.returncode != 0:
-            first = next((line for line in proc.stderr.splitlines() if ": error:" in line), "see below")
+        own = _own_warnings(proc.stderr, tmp)
+        if proc.returncode != 0 or own:
+            first = next((line for line in proc.stderr.splitlines() if ": error:" in line), own[0] if own else "see below")
             _say(f"selftest: error: C build failed: {Path(unit).name}: {first.strip()}; check that the inputs "
                  "compile with these flags (pass theirs with -I/-D, after `--`, or --compile-commands)\n"
                  f"{' '.join(base + ['-c', unit])}\n{_tail(proc.stderr)}")
             return None
     exe = os.path.join(tmp, f"{job.name}_selftest")
-    link = _tool(base[:1] + [a for a in base if a.startswith("-fsanitize")] + objects + ["-o", exe], deadline, "C link")
+    # The build's own flags reach the link too (-m32, -mcpu/-mfloat-abi pick the libraries).
+    link_cmd = [plan.cc, *(a for a in base if a.startswith("-fsanitize")), *objects, *job.opts.extra_args]
+    if plan.shim:
+        link_cmd += ["--specs=nosys.specs", "-nostartfiles"]
+    link = _tool(link_cmd + ["-o", exe], deadline, "C link")
     if link.returncode != 0:
-        _say(f"selftest: error: linking the C self-test failed:\n{_tail(link.stderr)}")
+        _say(f"selftest: error: linking the C self-test failed:\n{' '.join(link_cmd)}\n{_tail(link.stderr)}")
         return None
-    return _last_line("C", _tool([exe], deadline, "C self-test run"))
+    if plan.skip:
+        _say(f"selftest: note: the C self-test was built for {plan.triple} with {plan.cc} (every layout assertion "
+             f"held) but not run: {plan.skip}")
+        return f"selftest: C {n_types} types built ({plan.triple}), run skipped: {plan.skip}"
+    return _last_line("C", _tool([*plan.runner, exe], deadline, "C self-test run"))
 
 
 def _run_py(job: Job, tmp: str, deadline: float) -> str | None:

@@ -15,6 +15,7 @@ import re
 import shlex
 import shutil
 import subprocess
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Iterator, Union
@@ -112,7 +113,8 @@ class FeInstance:
 class IncludeRef:
     """One `#include` the generated header can write: the directive's operand and the file it opens."""
 
-    text: str  # '<stdint.h>' or '"nav/nav_msg.h"'
+    text: str  # '<stdint.h>' or '"nav/nav_msg.h"'; '' when no search directory finds the file (the
+    # generated header then includes it by its path relative to the output directory: no extra -I)
     path: str  # the file clang opened
 
 
@@ -172,6 +174,17 @@ class FrontendError(Exception):
 
 
 @dataclass(frozen=True)
+class TargetAbi:
+    """What clang must match to lay types out as a (cross) compiler does: found by query_target()."""
+
+    cc: str  # the compiler as given (`arm-none-eabi-gcc`)
+    triple: str  # its `-dumpmachine`
+    include_dirs: tuple[str, ...]  # its system include directories, in search order
+    clang_args: tuple[str, ...]  # --target, -nostdinc, -isystem of each directory, ABI flags
+    macros: tuple[tuple[str, str], ...] = ()  # its predefined macros (`-dM -E`), sorted
+
+
+@dataclass(frozen=True)
 class ParseOptions:
     include_dirs: tuple[str, ...] = ()
     defines: tuple[str, ...] = ()
@@ -179,6 +192,8 @@ class ParseOptions:
     extra_args: tuple[str, ...] = ()
     compile_commands: str | None = None
     builtin_include: str | None = None  # found by find_builtin_include() when None
+    target: TargetAbi | None = None  # parse with this compiler's ABI and headers (--target-cc)
+    all_types: bool = False  # record every struct type defined outside system headers (handle-based inputs)
 
     def base_args(self) -> list[str]:
         args = [f"-std={self.std}"]
@@ -276,9 +291,11 @@ def _absolute(directory: str, path: str) -> str:
 
 
 def args_for(opts: ParseOptions, source: str) -> list[str]:
-    """Every clang argument for one input file (builtin headers first)."""
-    builtin = opts.builtin_include or find_builtin_include()
-    args = ["-x", "c", "-isystem", builtin]
+    """Every clang argument for one input file (builtin headers first; with a target, its headers)."""
+    if opts.target is not None:
+        args = ["-x", "c", *opts.target.clang_args]
+    else:
+        args = ["-x", "c", "-isystem", opts.builtin_include or find_builtin_include()]
     if opts.compile_commands:
         db_args = _args_from_compile_commands(opts.compile_commands, source)
         # A header has no entry of its own: it takes the first entry's flags (docs/catalogue.md).
@@ -292,13 +309,177 @@ def args_for(opts: ParseOptions, source: str) -> list[str]:
 
 
 # ---------------------------------------------------------------------------------------------
+# Target ABI (--target-cc)
+
+# Flags of the build that change what the compiler predefines or how it lays types out: they go to
+# the compiler when it is asked, as they go to clang when it parses.
+_ABI_FLAG = re.compile(r"^(-m|-f|--specs=|--sysroot|-isysroot|-std=|-ansi$|-nostdinc)")
+_CROSS_CC = re.compile(r"^[A-Za-z0-9_.]+(-[A-Za-z0-9_.]+){1,3}-(gcc|cc|clang)(-[0-9.]+)?$")
+
+
+def abi_flags(args: Iterable[str]) -> list[str]:
+    """The flags among `args` that change the ABI or the predefined macros (machine and -f flags)."""
+    return [a for a in args if _ABI_FLAG.match(a)]
+
+
+def is_cross_compiler(cc: str) -> bool:
+    """A compiler named with a target prefix (`arm-none-eabi-gcc`, `aarch64-linux-gnu-gcc-12`)."""
+    return bool(_CROSS_CC.match(os.path.basename(cc)))
+
+
+def compile_commands_compiler(db_path: str) -> str | None:
+    """The compiler of the first entry of compile_commands.json (None when it cannot be read)."""
+    try:
+        entry = json.loads(Path(db_path).read_text())[0]
+        raw = entry["arguments"] if "arguments" in entry else shlex.split(entry.get("command", ""))
+        return raw[0] if raw else None
+    except (OSError, ValueError, LookupError, TypeError):
+        return None
+
+
+def _ask(cc: str, args: list[str]) -> subprocess.CompletedProcess[str]:
+    try:
+        return subprocess.run([cc, *args], capture_output=True, text=True, timeout=60, check=False,
+                              stdin=subprocess.DEVNULL)
+    except OSError as exc:
+        raise FrontendError(f"error: --target-cc {cc}: cannot run it ({exc.strerror}); install it or give its "
+                            "full path (e.g. `apt-get install gcc-arm-none-eabi`)") from None
+    except subprocess.TimeoutExpired:
+        raise FrontendError(f"error: --target-cc {cc}: no answer within 60 s") from None
+
+
+def query_target(cc: str, flags: Iterable[str] = ()) -> TargetAbi:
+    """Asks a (cross) compiler what clang must match: its target triple (`-dumpmachine`), its system
+    include directories (`-E -v`), and its predefined macros (`-dM -E`: char signedness, the ARM
+    EABI's minimal enum size, wchar_t size). `flags`: the build's machine flags (abi_flags())."""
+    flags = list(flags)
+    triple = _ask(cc, ["-dumpmachine"]).stdout.strip()
+    if not triple:
+        raise FrontendError(f"error: --target-cc {cc}: `{cc} -dumpmachine` printed no target; give a GCC or clang driver")
+    verbose = _ask(cc, [*flags, "-E", "-v", "-x", "c", os.devnull])
+    if verbose.returncode != 0:
+        raise FrontendError(f"error: --target-cc {cc} refuses the build's flags ({' '.join(flags)}): "
+                            f"{_first_error(verbose.stderr)}")
+    dirs: list[str] = []
+    inside = False
+    for line in verbose.stderr.splitlines():
+        if line.startswith("#include <...> search starts here:"):
+            inside = True
+        elif line.startswith("End of search list."):
+            break
+        elif inside and line.startswith(" "):
+            path = line.strip().removesuffix(" (framework directory)")
+            if os.path.isdir(path):
+                dirs.append(os.path.normpath(path))
+    if not dirs:
+        raise FrontendError(f"error: --target-cc {cc}: `{cc} -E -v` listed no system include directory")
+    defs = _ask(cc, [*flags, "-dM", "-E", "-x", "c", os.devnull]).stdout
+    macros = dict(m.groups() for m in re.finditer(r"^#define (\w+) ?(.*)$", defs, re.M))
+    args = [f"--target={triple}", "-nostdinc"]
+    for d in dirs:
+        args += ["-isystem", d]
+    args.append("-funsigned-char" if "__CHAR_UNSIGNED__" in macros else "-fsigned-char")
+    if macros.get("__ARM_SIZEOF_MINIMAL_ENUM") == "1" or macros.get("__SIZEOF_ENUM__") == "1":
+        args.append("-fshort-enums")  # the ARM EABI's variable-size enums (arm-none-eabi-gcc's default)
+    if macros.get("__SIZEOF_WCHAR_T__") == "2":
+        args.append("-fshort-wchar")
+    return TargetAbi(cc, triple, tuple(dirs), tuple(args), tuple(sorted(macros.items())))
+
+
+def _first_error(stderr: str) -> str:
+    return next((ln.strip() for ln in stderr.splitlines() if "error" in ln), stderr.strip()[:200] or "no message")
+
+
+# What clang and the target compiler must agree on, each with the flag that usually decides it. The
+# probe is parsed by clang with the final arguments; the values clang finds become _Static_asserts
+# that the target compiler checks (check_target_abi()).
+_ABI_PROBE_TYPES = """
+enum ub_abi_enum { UB_ABI_ENUM_A = 1 };
+struct ub_abi_ll { char c; long long x; };
+struct ub_abi_d { char c; double x; };
+struct ub_abi_bf { unsigned char a : 3; unsigned int b : 7; };
+"""
+_ABI_CHECKS = (
+    # (C expression, what it is, the flags that change it, the probe variable clang measures, how)
+    ("sizeof(enum ub_abi_enum)", "enum size", "-fshort-enums / -fno-short-enums", "enum ub_abi_enum", "size"),
+    ("sizeof(short)", "short size", "the target (--target-cc)", "short", "size"),
+    ("sizeof(int)", "int size", "the target (--target-cc)", "int", "size"),
+    ("sizeof(long)", "long size", "-m32 / -m64 / -mabi", "long", "size"),
+    ("sizeof(void *)", "pointer size", "-m32 / -m64 / -mabi", "void *", "size"),
+    ("sizeof(long double)", "long double size", "-mlong-double-64/80/128", "long double", "size"),
+    ("sizeof(double)", "double size", "-mdouble / -fshort-double", "double", "size"),
+    ("_Alignof(long long)", "long long alignment", "-malign-double / -m32", "long long", "align"),
+    ("__builtin_offsetof(struct ub_abi_ll, x)", "long long alignment in structs", "-malign-double / -m32",
+     "struct ub_abi_ll", "offset_x"),
+    ("__builtin_offsetof(struct ub_abi_d, x)", "double alignment in structs", "-malign-double / -m32",
+     "struct ub_abi_d", "offset_x"),
+    ("sizeof(struct ub_abi_bf)", "bitfield layout", "-mms-bitfields / -fpack-struct", "struct ub_abi_bf", "size"),
+    ("((char)-1 < 0)", "plain char signedness", "-funsigned-char / -fsigned-char", "char", "signed"),
+)
+
+
+def check_target_abi(opts: ParseOptions, flags: Iterable[str] | None = None) -> None:
+    """Parses a probe with clang exactly as the inputs will be, then has the target compiler check
+    every value clang found (one _Static_assert each): a disagreement that would misplace members is
+    caught here, named with the flag that decides it, before any input is catalogued."""
+    target = opts.target
+    if target is None:
+        return
+    cc_flags = abi_flags(opts.extra_args if flags is None else flags)
+    values = _clang_abi_values(opts, cc_flags)
+    lines = [_ABI_PROBE_TYPES]
+    for (expr, what, flag, _, _), value in zip(_ABI_CHECKS, values):
+        lines.append(f'_Static_assert({expr} == {value}, "uavbus-abi: {what}: clang {value} ({flag})");')
+    with tempfile.NamedTemporaryFile("w", suffix=".c", prefix="uavbus-abi-", delete=False) as fh:
+        fh.write("\n".join(lines) + "\n")
+    try:
+        proc = _ask(target.cc, [*cc_flags, "-std=gnu11", "-fsyntax-only", fh.name])
+    finally:
+        os.unlink(fh.name)
+    wrong = re.findall(r"uavbus-abi: ([^\"]+)", proc.stderr)
+    if wrong:
+        raise FrontendError(
+            f"error: clang and --target-cc {target.cc} lay types out differently: " + "; ".join(dict.fromkeys(wrong))
+            + f". Pass the flag that decides it after `--` (the flags {target.cc} builds the firmware with)")
+    if proc.returncode != 0:
+        raise FrontendError(f"error: --target-cc {target.cc} cannot compile the ABI probe: {_first_error(proc.stderr)}")
+
+
+def _clang_abi_values(opts: ParseOptions, flags: list[str]) -> list[int]:
+    """What clang finds for each _ABI_CHECKS entry, from one probe variable per check."""
+    target = opts.target
+    assert target is not None
+    src = _ABI_PROBE_TYPES + "".join(f"{decl} ub_abi_v{k};\n" for k, (_, _, _, decl, _) in enumerate(_ABI_CHECKS))
+    path = "uavbus_abi_probe.c"
+    args = ["-x", "c", *target.clang_args, *flags, "-std=gnu11"]
+    tu = ci.Index.create().parse(path, args=args, unsaved_files=[(path, src)])
+    errors = [d.spelling for d in tu.diagnostics if d.severity >= ci.Diagnostic.Error]
+    if errors:
+        raise FrontendError(f"error: clang cannot parse for --target-cc {target.cc} (--target={target.triple}): {errors[0]}")
+    types = {cur.spelling: cur.type.get_canonical() for cur in tu.cursor.get_children()
+             if cur.kind == ci.CursorKind.VAR_DECL and cur.spelling.startswith("ub_abi_v")}
+    out = []
+    for k, (_, _, _, _, how) in enumerate(_ABI_CHECKS):
+        t = types[f"ub_abi_v{k}"]
+        if how == "size":
+            out.append(t.get_size())
+        elif how == "align":
+            out.append(t.get_align())
+        elif how == "offset_x":
+            out.append(t.get_offset("x") // 8)
+        else:
+            out.append(1 if t.kind == ci.TypeKind.CHAR_S else 0)
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
 # Parsing
 
 
 def parse_inputs(files: Iterable[str], opts: ParseOptions) -> list[Union[FeUnit, FeFailure]]:
     """Parses every file as its own translation unit, in order: an FeUnit for each input that
     parsed without error, an FeFailure (every error, with its include chain) for each other."""
-    if opts.builtin_include is None:
+    if opts.builtin_include is None and opts.target is None:
         opts = ParseOptions(**{**opts.__dict__, "builtin_include": find_builtin_include()})
     index = ci.Index.create()
     return [_parse_one(index, f, opts) for f in files]
@@ -349,7 +530,7 @@ def _parse_one(index: ci.Index, path: str, opts: ParseOptions) -> Union[FeUnit, 
         enums=tuple(walker.enums.values()),
         defined_types=tuple(walker.defined),
         is_source=source,
-        self_include=None if source else IncludeRef(f'"{_spell_path(path, search)}"', path),
+        self_include=None if source else IncludeRef(_quoted(_spell_path(path, search)), path),
         top_includes=top,
         record_via=via,
     )
@@ -405,16 +586,21 @@ def _include_dirs(args: list[str]) -> tuple[str, ...]:
     return tuple(quote + angle + after)
 
 
-def _spell_path(path: str, search: tuple[str, ...]) -> str:
+def _quoted(spelled: str | None) -> str:
+    return f'"{spelled}"' if spelled else ""
+
+
+def _spell_path(path: str, search: tuple[str, ...]) -> str | None:
     """How `#include "..."` reaches `path` from anywhere: relative to the search directory that
-    finds it first (shortest such spelling), else by its file name (the caller adds its directory)."""
+    finds it first (shortest such spelling), else None (no -I finds it: the generated header then
+    includes it by its path relative to itself)."""
     target = os.path.realpath(path)
     candidates = sorted({os.path.relpath(target, os.path.realpath(d)) for d in search
                          if os.path.commonpath([os.path.realpath(d), target]) == os.path.realpath(d)}, key=len)
     for rel in candidates:
         if _resolve(rel, search) == target:
             return rel.replace(os.sep, "/")
-    return os.path.basename(path)
+    return None
 
 
 def _resolve(spelled: str, search: tuple[str, ...]) -> str | None:
@@ -443,10 +629,10 @@ def _source_includes(tu: ci.TranslationUnit, path: str, records: dict[str, FeRec
         if depth != 1 or src != main:
             continue
         m = _INCLUDE_LINE.match(lines[line - 1]) if 0 < line <= len(lines) else None
-        text = m.group(1) if m else f'"{_spell_path(name, search)}"'
+        text = m.group(1) if m else _quoted(_spell_path(name, search))
         if text.startswith('"') and _resolve(text[1:-1], search) != os.path.realpath(name):
             # Found next to the .c file (or through a macro): spell it so the search path finds it.
-            text = f'"{_spell_path(name, search)}"'
+            text = _quoted(_spell_path(name, search))
         top.append((line, IncludeRef(text, name)))
     top.sort(key=lambda x: x[0])
     index = {ref.path: k for k, (_, ref) in enumerate(top)}

@@ -307,13 +307,26 @@ class Note:
 
 
 @dataclass(frozen=True)
+class IncludeFile:
+    """An input header that no -I directory finds: the generated header includes it by its path
+    relative to the output directory (the renderer spells it), so compiling needs no extra -I."""
+
+    path: str  # absolute, normalised
+
+    def __post_init__(self) -> None:
+        if not os.path.isabs(self.path):
+            raise ValueError(f"include path must be absolute: {self.path}")
+
+
+@dataclass(frozen=True)
 class Catalogue:
     id_scheme: str
     types: tuple[StructType, ...]  # sorted by name
     instances: tuple[Instance, ...]  # sorted by ID
     skipped_instances: tuple[SkippedInstance, ...] = ()
     enums: tuple[EnumType, ...] = ()  # sorted by name
-    includes: tuple[str, ...] = ()  # what the generated C header #includes, in order: '"a.h"', '<b.h>'
+    # What the generated C header #includes, in order: '"a.h"', '<b.h>', or an IncludeFile.
+    includes: tuple[Union[str, IncludeFile], ...] = ()
     notes: tuple[Note, ...] = ()
     max_payload: int = DEFAULT_MAX_PAYLOAD
     _by_name: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
@@ -567,7 +580,8 @@ def _decl_text(inst: FeInstance) -> str:
     return inst.type_key + "".join(f"[{d}]" for d in inst.dims)
 
 
-def _include_plan(units: list[FeUnit], type_keys: set[str]) -> tuple[tuple[str, ...], dict[str, SourceLoc]]:
+def _include_plan(units: list[FeUnit], type_keys: set[str]
+                  ) -> tuple[tuple[Union[str, IncludeFile], ...], dict[str, SourceLoc]]:
     """What the generated header #includes so every instance type is visible, in the context clang
     parsed it in, and the types no header can reach (key -> where the .c defines it).
 
@@ -595,7 +609,7 @@ def _include_plan(units: list[FeUnit], type_keys: set[str]) -> tuple[tuple[str, 
     wanted: dict[int, int] = {}
     for k, via in chosen.values():
         wanted[k] = max(wanted.get(k, -1), via)
-    includes: list[str] = []
+    includes: list[Union[str, IncludeFile]] = []
     opened: set[str] = set()
     for k in sorted(wanted):
         unit = units[k]
@@ -603,9 +617,10 @@ def _include_plan(units: list[FeUnit], type_keys: set[str]) -> tuple[tuple[str, 
         for ref in refs:
             assert ref is not None
             path = os.path.normpath(os.path.abspath(ref.path))
-            if path not in opened and ref.text not in includes:
+            entry: Union[str, IncludeFile] = ref.text or IncludeFile(path)
+            if path not in opened and entry not in includes:
                 opened.add(path)
-                includes.append(ref.text)
+                includes.append(entry)
     return tuple(includes), unreachable
 
 

@@ -9,6 +9,7 @@ driven by `templates/properties.json`. Nothing here writes files; output is dete
 from __future__ import annotations
 
 import json
+import os
 import re
 from dataclasses import dataclass
 from itertools import product
@@ -58,6 +59,21 @@ class Properties:
 class RenderInputs:
     name: str  # NAME: output base name and C/Python prefix
     catalogue_json: str = ""  # compact catalogue JSON, embedded in NAME.c as the catalogue's self-description
+    outdir: str | None = None  # where NAME.h goes: input headers no -I finds are included relative to it
+
+
+def c_include(inc: "str | model.IncludeFile", outdir: str | None) -> str:
+    """An #include operand: as the inputs spell it, or an input header's path relative to the
+    directory of the generated header (a quoted include is looked up there first; no -I needed).
+
+    >>> c_include(model.IncludeFile("/src/fw/nav/nav.h"), "/src/out")
+    '"../fw/nav/nav.h"'
+    """
+    if isinstance(inc, str):
+        return inc
+    if outdir is None:
+        return f'"{os.path.basename(inc.path)}"'
+    return '"' + os.path.relpath(inc.path, os.path.abspath(outdir)).replace(os.sep, "/") + '"'
 
 
 class Renderer:
@@ -80,6 +96,7 @@ class Renderer:
             c_valid=c_valid, c_value_type=c_value_type,
             py_attr=lambda n: self.props.mangle(n, "py"), py_class=self.py_class,
             py_format=self.py_format, py_literal=py_literal, hex8=lambda v: f"0x{v:08x}",
+            c_include=lambda inc: c_include(inc, inputs.outdir),
         )
         self.env.globals.update(
             cat=cat, NAME=inputs.name, abi_version=ABI_VERSION, model=model,
@@ -87,7 +104,7 @@ class Renderer:
             id_scheme_c="UB_ID_SCHEME_" + cat.id_scheme.upper(), catalogue_json=inputs.catalogue_json,
             check_runs=check_runs, json_rows=c_json_rows, wire_checks=lambda t: model.wire_checks(cat, t),
             py_checks=self.py_checks, py_property_checks=self.py_property_checks, indexes=lambda dims: list(product(*(range(d) for d in dims))), concrete=_concrete, LOOP_MIN=LOOP_MIN,
-            rounds=PROPERTY_ROUNDS, bind_bases=lambda: bind_bases(cat),
+            rounds=PROPERTY_ROUNDS, bind_bases=lambda: bind_bases(cat), abi_hint=lambda t: abi_hint(cat, t),
             bindable=lambda i: bindable(i, cat),
         )
         self._py_classes = self._python_class_names()
@@ -112,6 +129,11 @@ class Renderer:
             f"{n}.c": tidy(self.render_node(self.cat, "c", "c")),
             f"{n}.py": tidy(self.render_node(self.cat, "py", "py")),
         }
+
+    def render_selftest_linux_arm(self) -> dict[str, str]:
+        """The system-call shim that lets a bare-metal ARM self-test run under qemu-arm (user mode)."""
+        n = self.inputs.name
+        return {f"{n}_selftest_linux_arm.c": tidy(self.env.get_template("c/SelftestLinuxArm.c.j2").render())}
 
     def render_selftest(self) -> dict[str, str]:
         """The self-test programs with their shared values: C split into translation units of about
@@ -302,6 +324,37 @@ def check_runs(checks: list[model.WireCheck]) -> list[CheckRun]:
 
 
 # -- C filters (pure functions, doctested) --------------------------------------------------------
+
+
+def abi_hint(cat: Catalogue, t: StructType) -> str:
+    """What in `t` a different compiler ABI lays out differently, with the flag that decides it: the
+    text of the layout assertions' messages (a failing one then says where to look, not only
+    "regenerate", which changes nothing while the ABI differs)."""
+    found: dict[str, None] = {}
+
+    def walk(t: StructType, seen: set[str]) -> None:
+        if t.packed_attr:
+            found["packing (#pragma pack, -fpack-struct)"] = None
+        for f in t.fields:
+            spelled = f.c_spelling
+            if f.enum or spelled.startswith("enum "):
+                found["enum size (-fshort-enums)"] = None
+            if f.skipped == model.SKIP_POINTER or re.search(r"(?<!long )\blong\b(?! long| double)|size_t|ptrdiff_t|intptr", spelled):
+                found["long and pointer size (-m32/-m64)"] = None
+            if f.long_double:
+                found["long double size (-mlong-double-*)"] = None
+            elif f.wire is not None and f.wire.size == 8 and f.bits is None:
+                found["8-byte member alignment (-malign-double, -m32)"] = None
+            if f.bits is not None:
+                found["bitfield layout (-mms-bitfields)"] = None
+            if f.struct and f.struct not in seen:
+                seen.add(f.struct)
+                walk(cat.type(f.struct), seen)
+
+    walk(t, {t.name})
+    where = ", ".join(found) if found else "type sizes and alignment"
+    return (f"differs from the catalogue: the ABI of this compiler is not the one the catalogue was parsed with "
+            f"(check: {where}); regenerate with --target-cc <this compiler> and the flags of this build")
 
 
 def c_put(f: Field, acc: str) -> str:
