@@ -73,6 +73,12 @@ def _parser() -> argparse.ArgumentParser:
                    help="char arrays: skip them (the paper's rule, default) or send their bytes")
     p.add_argument("--string-field", action="append", default=[], metavar="TYPE.MEMBER",
                    help="send these char arrays as bytes (fnmatch pattern on '<type name>.<member>', repeatable)")
+    p.add_argument("--instance-per-type", action="append", default=[], metavar="REGEX",
+                   help="handle-based objects (UAVObjects, uORB): one instance per struct type whose name matches "
+                        "REGEX in full, named by its first group (e.g. '(\\w+)Data', 'struct (\\w+)_s'), else by the "
+                        "type name; the application binds its storage at run time (repeatable)")
+    p.add_argument("--instances-from", metavar="FILE",
+                   help="instances to make from types, one per line: `NAME TYPE` ('#' starts a comment)")
     p.add_argument("-o", dest="outdir", metavar="OUTDIR", help="output directory (gen)")
     p.add_argument("--sanitize", action="store_true", help="selftest: build the C program with ASan/UBSan")
     p.add_argument("-j", "--jobs", type=int, default=os.cpu_count() or 1, metavar="N",
@@ -122,10 +128,31 @@ def parse_args(argv: list[str]) -> Job:
         raise UsageError("--exit-zero only applies with --keep-going")
     if ns.max_payload <= 0 or ns.jobs <= 0 or ns.timeout <= 0:
         raise UsageError("--max-payload, --jobs and --timeout must be positive")
-    opts = frontend.ParseOptions(tuple(ns.include_dirs), tuple(ns.defines), ns.std, tuple(clang_args), ns.compile_commands)
-    build = model.BuildOptions(ns.id_scheme, ns.strings, tuple(ns.string_field), ns.max_payload, ns.keep_going)
+    listed = read_instance_list(ns.instances_from) if ns.instances_from else ()
+    handles = bool(ns.instance_per_type or ns.instances_from)
+    opts = frontend.ParseOptions(tuple(ns.include_dirs), tuple(ns.defines), ns.std, tuple(clang_args), ns.compile_commands,
+                                 all_types=handles)
+    build = model.BuildOptions(ns.id_scheme, ns.strings, tuple(ns.string_field), ns.max_payload, ns.keep_going,
+                               tuple(ns.instance_per_type), listed)
     return Job(ns.command, tuple(ns.files), opts, ns.name, ns.id_scheme, ns.outdir, ns.sanitize, ns.verbose, build,
                tuple(ns.exclude), ns.keep_going, ns.exit_zero, ns.jobs, ns.timeout, ns.target_cc, ns.cc)
+
+
+def read_instance_list(path: str) -> tuple[tuple[str, str, model.SourceLoc], ...]:
+    """`NAME TYPE` per line (TYPE may be `struct tag`); blank lines and '#' comments are ignored."""
+    try:
+        lines = Path(path).read_text().splitlines()
+    except OSError as exc:
+        raise UsageError(f"--instances-from {path}: cannot read it ({exc.strerror})") from None
+    out = []
+    for n, line in enumerate(lines, 1):
+        words = line.split("#", 1)[0].split()
+        if not words:
+            continue
+        if len(words) < 2:
+            raise UsageError(f"{path}:{n}: expected `NAME TYPE`, e.g. `AttitudeState AttitudeStateData`")
+        out.append((words[0], " ".join(words[1:]), model.SourceLoc(os.path.abspath(path), n)))
+    return tuple(out)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -197,6 +224,15 @@ class Loaded:
     cat: model.Catalogue
     files: tuple[str, ...]
     failed: tuple[frontend.FeFailure, ...]
+    types_seen: int = 0  # struct types the inputs define (outside system headers)
+
+    def counts(self) -> str:
+        """`N instances of M types`, and when nothing came out, how many types were seen."""
+        text = f"{len(self.cat.instances)} instances of {len(self.cat.named_types)} types"
+        if not self.cat.instances:
+            text += (f" ({self.types_seen} struct types seen in the inputs, none with an instance: see the warning)"
+                     if self.types_seen else " (no struct type in the inputs)")
+        return text
 
     @property
     def partial(self) -> bool:
@@ -247,7 +283,8 @@ def load(job: Job) -> Loaded:
     for note in cat.notes:
         _say(str(note))
     _summarise(job, cat)
-    return Loaded(cat, tuple(files), failed)
+    seen = len({name for unit in units for name, _ in unit.defined_types})
+    return Loaded(cat, tuple(files), failed, seen)
 
 
 def _summarise(job: Job, cat: model.Catalogue) -> None:
@@ -303,7 +340,7 @@ def run(job: Job) -> int:
     cat = loaded.cat
     done = EXIT_PARTIAL if loaded.partial and not job.exit_zero else 0
     if job.command == "check":
-        print(f"check: {len(cat.instances)} instances of {len(cat.named_types)} types, IDs unique ({job.id_scheme} rule)"
+        print(f"check: {loaded.counts()}, IDs unique ({job.id_scheme} rule)"
               + (f"; {len(loaded.failed)} inputs left out" if loaded.failed else ""))
         _timing(job, "check", started)
         return done
@@ -311,7 +348,7 @@ def run(job: Job) -> int:
         files = generate(job, cat, outdir=job.outdir or ".")
         _timing(job, "generation", started)
         write_files(job.outdir or ".", files)
-        print(f"gen: {len(cat.instances)} instances of {len(cat.named_types)} types -> "
+        print(f"gen: {loaded.counts()} -> "
               + ", ".join(os.path.join(job.outdir or ".", f) for f in sorted(files)))
         return done
     code = selftest(job, loaded, started)

@@ -107,6 +107,7 @@ class FeInstance:
     dims: tuple[int, ...]
     loc: SourceLoc
     definition: bool = False  # a definition (with or without initializer), not only `extern`
+    runtime: bool = False  # made from a type by --instance-per-type/--instances-from: no C object to link
 
 
 @dataclass(frozen=True)
@@ -136,6 +137,9 @@ class FeUnit:
     # A `.c` input: record key -> index into top_includes of the #include that brings its
     # definition in (-1: defined in the .c file itself).
     record_via: tuple[tuple[str, int], ...] = ()
+    # With ParseOptions.all_types: every complete struct type defined outside system headers, by each
+    # of its names (`struct tag`, typedef names): (name, record key); its record is in `records`.
+    named_records: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -514,7 +518,7 @@ def _parse_one(index: ci.Index, path: str, opts: ParseOptions) -> Union[FeUnit, 
     if errors:
         parents = _include_parents(tu)
         return FeFailure(path, tuple(_diagnostic(d, parents) for d in errors))
-    walker = _Walker()
+    walker = _Walker(all_types=opts.all_types)
     walker.visit_tu(tu)
     search = _include_dirs(args)
     source = is_source(path)
@@ -533,6 +537,7 @@ def _parse_one(index: ci.Index, path: str, opts: ParseOptions) -> Union[FeUnit, 
         self_include=None if source else IncludeRef(_quoted(_spell_path(path, search)), path),
         top_includes=top,
         record_via=via,
+        named_records=tuple(walker.named),
     )
 
 
@@ -688,6 +693,8 @@ class _Walker:
     instances: list[FeInstance] = field(default_factory=list)
     skipped: list[tuple[str, SourceLoc, str]] = field(default_factory=list)
     defined: list[tuple[str, SourceLoc]] = field(default_factory=list)
+    all_types: bool = False
+    named: list[tuple[str, str]] = field(default_factory=list)
 
     def visit_tu(self, tu: ci.TranslationUnit) -> None:
         for cur in tu.cursor.get_children():
@@ -703,10 +710,19 @@ class _Walker:
             spelling = cur.type.spelling  # "struct tag"; a typedef name for `typedef struct {...} t`
             if cur.is_definition() and spelling.startswith("struct ") and not _is_unnamed(cur):
                 self.defined.append((spelling, _loc(cur)))
+                self._name_record(spelling, cur.type.get_canonical())
             return
         under = cur.underlying_typedef_type.get_canonical()
         if under.kind == ci.TypeKind.RECORD and under.get_declaration().kind == ci.CursorKind.STRUCT_DECL:
             self.defined.append((cur.spelling, _loc(cur)))
+            self._name_record(cur.spelling, under)
+
+    def _name_record(self, name: str, ctype: ci.Type) -> None:
+        """With all_types: records a struct type defined in the inputs under one of its names (the
+        types of handle-based object systems have no global instance to lead to them)."""
+        if not self.all_types or ctype.get_size() < 0 or "(unnamed" in ctype.spelling or "(anonymous" in ctype.spelling:
+            return
+        self.named.append((name, self._record(ctype, None)))
 
     def _visit_var(self, cur: ci.Cursor) -> None:
         ctype = cur.type.get_canonical()

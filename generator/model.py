@@ -126,8 +126,19 @@ class BuildOptions:
     string_fields: tuple[str, ...] = ()  # fnmatch patterns on "<type name>.<member>"
     max_payload: int = DEFAULT_MAX_PAYLOAD
     keep_going: bool = False
+    # Handle-based object systems (UAVObjects, uORB): instances made from types. A pattern is a regex
+    # matched in full against each type name (`struct tag` or typedef); the instance is named by its
+    # first group, else by the type name. A listed instance is (name, type name, where it is listed).
+    instance_patterns: tuple[str, ...] = ()
+    instance_list: tuple[tuple[str, str, SourceLoc], ...] = ()
+    left_out: tuple[str, ...] = ()  # inputs not catalogued (--keep-going failures, --exclude): absolute paths
 
     def __post_init__(self) -> None:
+        for pat in self.instance_patterns:
+            try:
+                re.compile(pat)
+            except re.error as exc:
+                raise ValueError(f"--instance-per-type '{pat}' is not a regular expression: {exc}") from None
         if self.strings not in (STRINGS_SKIP, STRINGS_BYTES):
             raise ValueError(f"strings must be '{STRINGS_SKIP}' or '{STRINGS_BYTES}', not {self.strings!r}")
         if self.max_payload <= 0:
@@ -272,6 +283,7 @@ class Instance:
     base: str
     index: tuple[int, ...]
     qualifier: str | None = None
+    runtime: bool = False  # made from its type (handle-based objects): the application binds its storage
 
     def __post_init__(self) -> None:
         if len(self.id) != ids.DIR_ID_LEN:
@@ -427,6 +439,7 @@ def _build(units: list[FeUnit], id_scheme: str, relpath: Callable[[str], str], o
     records = _merge_records(units, relpath)
     fe_enums = _merge_enums(units, relpath)
     fe_instances, skipped = _merge_instances(units, relpath, notes)
+    fe_instances += [(i, None) for i in _runtime_instances(units, opts, {i.name for i, _ in fe_instances}, relpath, notes)]
     includes, unreachable = _include_plan(units, {i.type_key for i, _ in fe_instances})
     for key, where in sorted(unreachable.items()):
         users = sorted({i.name for i, _ in fe_instances if i.type_key == key})
@@ -561,6 +574,60 @@ def _merge_instances(units: list[FeUnit], relpath: Callable[[str], str], notes: 
     return out, skipped
 
 
+def _runtime_instances(units: list[FeUnit], opts: BuildOptions, taken: set[str], relpath: Callable[[str], str],
+                       notes: list[Note]) -> list[FeInstance]:
+    """Instances of handle-based object systems, made from their types (--instance-per-type,
+    --instances-from): every data type is defined in the headers, but the objects are created at run
+    time behind handles, so no global instance leads to them. Each gets an ID and a NULL entry in the
+    bind table; the application binds its storage (ub_node_bind())."""
+    if not opts.instance_patterns and not opts.instance_list:
+        return []
+    names: dict[str, str] = {}
+    records = {r.key: r for unit in units for r in unit.records}
+    for unit in units:
+        for name, key in unit.named_records:
+            names.setdefault(name, key)
+    out: dict[str, FeInstance] = {}
+    used_keys: set[str] = set()
+
+    def add(name: str, key: str, loc: SourceLoc, origin: str) -> None:
+        if not is_identifier(name):
+            raise ModelError(f"{origin}: error: instance name '{name}' is not a C identifier")
+        if name in taken:
+            notes.append(Note("note", f"'{name}' ({origin}) is also an instance the inputs declare: that one is catalogued"))
+            return
+        if name in out:
+            if out[name].type_key != key:
+                raise ModelError(f"{origin}: error: instance '{name}' is made from two types ({out[name].type_key}, {key})")
+            return
+        out[name] = FeInstance(name, key, (), loc, False, runtime=True)
+        used_keys.add(key)
+
+    for name, type_name, where in opts.instance_list:
+        key = names.get(type_name)
+        if key is None:
+            close = sorted(n for n in names if type_name.lower() in n.lower())[:3]
+            raise ModelError(f"{where}: error: '{type_name}' is not a struct type the inputs define"
+                             + (f" (did you mean {', '.join(close)}?)" if close else f" ({len(names)} types seen)"))
+        add(name, key, where, str(where))
+    for pat in opts.instance_patterns:
+        rx = re.compile(pat)
+        hits = 0
+        for type_name in sorted(names):
+            m = rx.fullmatch(type_name)
+            if m is None or names[type_name] in used_keys:
+                continue
+            hits += 1
+            name = (m.group(1) if rx.groups else type_name.removeprefix("struct ")) or type_name
+            rec = records[names[type_name]]
+            add(name, names[type_name], rec.loc, f"--instance-per-type '{pat}' ({type_name})")
+        if not hits:
+            sample = ", ".join(sorted(names)[:5]) + (", ..." if len(names) > 5 else "")
+            notes.append(Note("warning", f"--instance-per-type '{pat}' matches no struct type in full "
+                                         f"({len(names)} types seen: {sample})"))
+    return [out[k] for k in sorted(out)]
+
+
 def _qualifiers(files: list[str]) -> dict[str, str]:
     """The shortest trailing path, without the suffix, that tells each file from the others:
     `apps/sc/tables/sc_rts001.c` -> `sc_rts001`; `a/tbl.c`, `b/tbl.c` -> `a/tbl`, `b/tbl`."""
@@ -666,7 +733,9 @@ def _hints(units: list[FeUnit], instances: list[Instance], skipped: dict[str, Sk
             out.append(Note("warning", f"no instance to catalogue: the inputs define {len(defined)} struct type(s){more} "
                                        "but declare no instance of one with external linkage; declare each directory "
                                        f"the system shares, e.g. `extern {example} {var};` in a header the inputs "
-                                       "include (docs/catalogue.md, what is catalogued)"))
+                                       "include, or, for objects created at run time behind handles (UAVObjects, "
+                                       "uORB topics), make one instance per type with --instance-per-type 'REGEX' "
+                                       "or --instances-from FILE (docs/catalogue.md, what is catalogued)"))
         elif not skipped:
             out.append(Note("warning", "no instance to catalogue: the inputs define no struct type and declare no "
                                        "instance (docs/catalogue.md, what is catalogued)"))
@@ -798,7 +867,7 @@ def _expand_instances(fe: list[tuple[FeInstance, str | None]], scheme: str, relp
                 ident = ids.dir_id(name, scheme)
             except ids.IdError as exc:
                 raise ModelError(f"{loc}: error: {exc}") from exc
-            out.append(Instance(name, inst.type_key, ident, loc, inst.name, tuple(index), qual))
+            out.append(Instance(name, inst.type_key, ident, loc, inst.name, tuple(index), qual, inst.runtime))
     return out
 
 

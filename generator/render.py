@@ -564,6 +564,7 @@ def bind_bases(cat: Catalogue) -> list[BindBase]:
 def bindable(inst: "model.Instance", cat: Catalogue) -> bool:
     # Catalogued from a `.c` input: its declaration in NAME.h (if any) may differ (const, bounds), and
     # redeclaring it could conflict, so it is bound by hand. Header-declared instances are marked weak.
-    return (inst.qualifier is None and cat.type(inst.type).c_name is not None
+    # Made from a type (handle-based objects): there is no C object to refer to; the application binds it.
+    return (inst.qualifier is None and not inst.runtime and cat.type(inst.type).c_name is not None
             and not str(inst.loc.file).endswith(".c"))
 
