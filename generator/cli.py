@@ -63,7 +63,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--cc", metavar="CC",
                    help="selftest: the C compiler that builds the self-test (default: --target-cc, else gcc)")
     p.add_argument("--exclude", action="append", default=[], metavar="GLOB",
-                   help="leave out inputs matching GLOB (a pattern with '/' matches the path, else the file name)")
+                   help="leave out inputs matching GLOB: a pattern with '/' matches the path as given, relative "
+                        "to the current folder or to the directory input it is under (a trailing '/' takes the "
+                        "whole folder); else the file name")
     p.add_argument("-k", "--keep-going", action="store_true",
                    help="catalogue the inputs that parse and list the others; exit 3 when some were left out")
     p.add_argument("--exit-zero", action="store_true", help="with --keep-going: exit 0 even when inputs were left out")
@@ -190,22 +192,20 @@ def _say(message: str) -> None:
 
 def expand_inputs(job: Job) -> list[str]:
     """The inputs in order: directories replaced by every .h and .c below them (sorted), then
-    --exclude applied (a pattern with '/' matches the path as given, else the file name)."""
-    files: list[str] = []
+    --exclude applied (exclude_hit())."""
+    files: list[tuple[str, str | None]] = []  # (file, the directory input it was found under)
     for f in job.files:
         if os.path.isdir(f):
             found = sorted(str(p) for p in Path(f).rglob("*") if p.suffix in (".h", ".c") and p.is_file())
             if not found:
                 raise UsageError(f"{f}: directory holds no .h or .c file")
-            files += found
+            files += [(x, f) for x in found]
         else:
-            files.append(f)
+            files.append((f, None))
     kept = []
     used: set[str] = set()
-    for f in files:
-        posix = os.path.normpath(f).replace(os.sep, "/")
-        hit = [pat for pat in job.exclude
-               if fnmatch.fnmatchcase(posix if "/" in pat else os.path.basename(posix), pat.rstrip("/"))]
+    for f, root in files:
+        hit = [pat for pat in job.exclude if exclude_hit(pat, f, root)]
         used.update(hit)
         if not hit:
             kept.append(f)
@@ -217,6 +217,40 @@ def expand_inputs(job: Job) -> list[str]:
     if not kept:
         raise UsageError("every input is excluded")
     return kept
+
+
+def excluded_inputs(job: Job) -> list[str]:
+    """The files --exclude leaves out of the directory inputs (for the left-out-header rule)."""
+    if not job.exclude:
+        return []
+    out = []
+    for f in job.files:
+        if os.path.isdir(f):
+            out += [str(p) for p in Path(f).rglob("*") if p.suffix in (".h", ".c") and p.is_file()
+                    and any(exclude_hit(pat, str(p), f) for pat in job.exclude)]
+    return out
+
+
+def exclude_hit(pattern: str, path: str, root: str | None, cwd: str | None = None) -> bool:
+    """Whether --exclude `pattern` leaves out `path`. A pattern without '/' matches the file name; one
+    with '/' matches the path as given, relative to the current folder, or relative to the directory
+    input it was found under (`lib/*` for `fw/lib/x.h` of input `fw`); a trailing '/' means everything
+    below that folder.
+
+    >>> exclude_hit("lib/", "fw/lib/a/x.h", "fw"), exclude_hit("*.c", "fw/x.h", "fw")
+    (True, False)
+    """
+    pat = pattern[:-1] + "/*" if pattern.endswith("/") else pattern
+    posix = os.path.normpath(path).replace(os.sep, "/")
+    if "/" not in pat:
+        return fnmatch.fnmatchcase(posix.rsplit("/", 1)[-1], pat)
+    pat = os.path.normpath(pat).replace(os.sep, "/") if not pat.startswith("/") else pat
+    here = os.path.abspath(cwd or os.getcwd())
+    candidates = {posix, os.path.abspath(path).replace(os.sep, "/"),
+                  os.path.relpath(os.path.abspath(path), here).replace(os.sep, "/")}
+    if root is not None:
+        candidates.add(os.path.relpath(os.path.abspath(path), os.path.abspath(root)).replace(os.sep, "/"))
+    return any(fnmatch.fnmatchcase(c, pat) for c in candidates)
 
 
 @dataclass(frozen=True)
@@ -279,7 +313,11 @@ def load(job: Job) -> Loaded:
              + ", ".join(rel(f.file) for f in failed))
     if not units:
         raise frontend.FrontendError("error: no input could be parsed; nothing to catalogue")
-    cat = model.build_catalogue(units, job.id_scheme, rel, job.build)
+    # Instances declared only in inputs left out (unparsable, excluded) cannot be referred to by the
+    # generated C: the model leaves them out (or catalogues them from another place) and says so.
+    left_out = tuple(os.path.abspath(f) for f in [*(x.file for x in failed), *excluded_inputs(job)])
+    build = dataclasses.replace(job.build, left_out=left_out)
+    cat = model.build_catalogue(units, job.id_scheme, rel, build)
     for note in cat.notes:
         _say(str(note))
     _summarise(job, cat)

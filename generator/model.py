@@ -113,6 +113,7 @@ SKIP_CONST_BITFIELD = "const bitfield (unpack cannot write it: drop the const to
 STRINGS_SKIP = "skip"  # the paper's rule: `char` arrays are not sent
 STRINGS_BYTES = "bytes"  # `char` arrays are sent as their bytes (all of them, NULs included)
 DEFAULT_MAX_PAYLOAD = 16384  # UB_MAX_DIRECTORY of the default runtime build (runtime_c/include/ub/ub_config.h)
+MAX_DIRECTORY_LIMIT = 65535  # the largest UB_MAX_DIRECTORY a runtime accepts (16-bit reassembled size)
 
 
 @dataclass(frozen=True)
@@ -438,7 +439,7 @@ def _build(units: list[FeUnit], id_scheme: str, relpath: Callable[[str], str], o
     opts = dataclasses.replace(options or BuildOptions(), id_scheme=id_scheme)
     records = _merge_records(units, relpath)
     fe_enums = _merge_enums(units, relpath)
-    fe_instances, skipped = _merge_instances(units, relpath, notes)
+    fe_instances, skipped = _merge_instances(units, relpath, notes, frozenset(opts.left_out))
     fe_instances += [(i, None) for i in _runtime_instances(units, opts, {i.name for i, _ in fe_instances}, relpath, notes)]
     includes, unreachable = _include_plan(units, {i.type_key for i, _ in fe_instances})
     for key, where in sorted(unreachable.items()):
@@ -526,7 +527,8 @@ def _merge_enums(units: list[FeUnit], relpath: Callable[[str], str]) -> dict[str
     return merged
 
 
-def _merge_instances(units: list[FeUnit], relpath: Callable[[str], str], notes: list[Note]
+def _merge_instances(units: list[FeUnit], relpath: Callable[[str], str], notes: list[Note],
+                     left_out: frozenset[str] = frozenset()
                      ) -> tuple[list[tuple[FeInstance, str | None]], dict[str, SkippedInstance]]:
     """The instances of the union, as (record, qualifier), and the skipped ones by name.
 
@@ -539,8 +541,24 @@ def _merge_instances(units: list[FeUnit], relpath: Callable[[str], str], notes: 
         for inst in unit.instances:
             seen.setdefault(inst.name, []).append((k, inst))
     out: list[tuple[FeInstance, str | None]] = []
+    gone: dict[str, SkippedInstance] = {}
     for name in sorted(seen):
         places = seen[name]
+        # A declaration in an input that was left out (it did not parse, or --exclude) is seen through
+        # another input that includes it, but the generated C cannot include it: use another place.
+        usable = [(k, i) for k, i in places if os.path.abspath(i.loc.file) not in left_out]
+        if len(usable) < len(places):
+            hidden = min((i for _, i in places if (_, i) not in usable), key=lambda i: _loc_key(i.loc, relpath))
+            where = SourceLoc(relpath(hidden.loc.file), hidden.loc.line)
+            if not usable:
+                gone[name] = SkippedInstance(name, where, f"declared in {where.file}, an input left out "
+                                                          "(it does not parse, or --exclude): the generated C "
+                                                          "could not refer to it")
+                continue
+            notes.append(Note("note", f"'{name}' is declared in {where.file}, an input left out; catalogued from "
+                                      f"{_fmt(min((i for _, i in usable), key=lambda i: _loc_key(i.loc, relpath)).loc, relpath)}",
+                              where))
+            places = usable
         first = min((inst for _, inst in places), key=lambda i: _loc_key(i.loc, relpath))
         for _, inst in places:
             if (first.type_key, first.dims) != (inst.type_key, inst.dims):
@@ -565,8 +583,8 @@ def _merge_instances(units: list[FeUnit], relpath: Callable[[str], str], notes: 
                                   f"{', '.join(names)} (docs/catalogue.md, duplicate definitions)",
                           SourceLoc(relpath(first.loc.file), first.loc.line)))
         out += [(definitions[f], quals[f]) for f in sorted(definitions)]
-    catalogued = set(seen)
-    skipped: dict[str, SkippedInstance] = {}
+    catalogued = set(seen) - set(gone)
+    skipped: dict[str, SkippedInstance] = dict(gone)
     for unit in units:
         for name, loc, reason in unit.skipped_instances:
             if name not in catalogued:
@@ -700,11 +718,19 @@ def _apply_payload_limit(types: dict[str, StructType], fe_instances: list[tuple[
     if not big:
         return fe_instances
     lines = [f"  {t.loc}: {t.name}: {t.packed_size} bytes on the wire" for t in big]
-    fix = ("fix: split the type, skip members, or build the runtime with a larger UB_MAX_DIRECTORY and pass the "
-           "same value as --max-payload")
+    largest = max(t.packed_size for t in big)
+    # What a user must know to choose: one frame carries UB_MAX_PAYLOAD; larger types already travel
+    # in fragments, up to UB_MAX_DIRECTORY, which a runtime can raise to 65535 (16-bit reassembled size).
+    raise_it = (f"build the runtime with -DUB_MAX_DIRECTORY={largest} and pass --max-payload {largest}"
+                if largest <= MAX_DIRECTORY_LIMIT else
+                f"no runtime carries more than {MAX_DIRECTORY_LIMIT} bytes (the reassembled size is 16 bits)")
+    fix = ("note: a type above one frame (UB_MAX_PAYLOAD, 1024 bytes by default) travels in fragments, up to the "
+           f"fragment limit UB_MAX_DIRECTORY ({opts.max_payload} here, --max-payload; at most {MAX_DIRECTORY_LIMIT})\n"
+           f"fix: split the type, skip members, leave its instances out with --keep-going, or {raise_it}")
     if not opts.keep_going:
         problems.append(f"error: {len(big)} type(s) pack to more than the payload limit of {opts.max_payload} "
-                        "bytes (--max-payload; the runtime's UB_MAX_DIRECTORY):\n" + "\n".join(lines) + "\n" + fix)
+                        "bytes (--max-payload; the runtime's fragment limit UB_MAX_DIRECTORY):\n" + "\n".join(lines)
+                        + "\n" + fix)
         return fe_instances
     too_big = {t.name for t in big}
     notes.append(Note("warning", f"{len(big)} type(s) pack to more than the payload limit of {opts.max_payload} "
