@@ -291,3 +291,29 @@ def test_instances_from_a_list_and_its_errors(tmp_path: Path) -> None:
            "(did you mean GPSPositionSensorData?)" in proc.stderr
     nomatch = uavbus("check", ".", "--instance-per-type", r"(\w+)State", cwd=UAVO)
     assert "--instance-per-type '(\\w+)State' matches no struct type in full (7 types seen" in nomatch.stderr
+
+
+# ---------------------------------------------------------------------------------------------
+# Heterogeneous fleets (docs/catalogue.md): fingerprints differ across ABIs unless widths are fixed
+
+
+@needs_gcc
+def test_fleet_fingerprints_differ_for_long_and_agree_for_fixed_width(tmp_path: Path) -> None:
+    if run(["gcc", "-m32", "-E", "-x", "c", os.devnull], tmp_path).returncode != 0:
+        pytest.skip("gcc -m32 not available (gcc-multilib)")
+    (tmp_path / "fleet.h").write_text(
+        "#include <stdint.h>\n"
+        "struct portable { int32_t a; uint64_t t; double d; uint8_t mode; };\n"
+        "struct native { long a; uint64_t t; double d; };\n"
+        "extern struct portable fleet_portable;\nextern struct native fleet_native;\n")
+
+    def fingerprints(*extra: str) -> dict[str, str]:
+        out = tmp_path / ("o" + "".join(extra).replace("-", "_"))
+        proc = uavbus("gen", "fleet.h", "-o", str(out), *extra, cwd=tmp_path)
+        assert proc.returncode == 0, describe(proc)
+        doc = json.loads((out / "catalogue.catalogue.json").read_text())
+        return {t["name"]: t["fingerprint"] for t in doc["types"]}
+
+    host, i386 = fingerprints(), fingerprints("--target-cc", "gcc", "--", "-m32")
+    assert host["struct portable"] == i386["struct portable"]
+    assert host["struct native"] != i386["struct native"]
