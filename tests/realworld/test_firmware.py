@@ -317,3 +317,56 @@ def test_fleet_fingerprints_differ_for_long_and_agree_for_fixed_width(tmp_path: 
     host, i386 = fingerprints(), fingerprints("--target-cc", "gcc", "--", "-m32")
     assert host["struct portable"] == i386["struct portable"]
     assert host["struct native"] != i386["struct native"]
+
+
+# ---------------------------------------------------------------------------------------------
+# The compiler is chosen
+
+
+@needs_gcc
+def test_selftest_builds_and_links_with_the_chosen_compiler(tmp_path: Path) -> None:
+    log = tmp_path / "cc.log"
+    wrapper = tmp_path / "mycc"
+    wrapper.write_text(f'#!/bin/sh\necho "$@" >> {log}\nexec gcc "$@"\n')
+    wrapper.chmod(0o755)
+    proc = uavbus("selftest", ".", "--name", "cst", "-j", "2", "--cc", str(wrapper), "--", "-DUB_SELFTEST_MARK=1",
+                  cwd=CONST)
+    assert_selftest_passed(proc, 5)
+    calls = log.read_text().splitlines()
+    compiles = [c for c in calls if " -c " in f" {c} "]
+    links = [c for c in calls if " -c " not in f" {c} " and "-o" in c.split() and "-dM" not in c]
+    assert len(compiles) >= 3 and len(links) == 1, calls
+    assert all("-DUB_SELFTEST_MARK=1" in c for c in compiles + links)  # `--` arguments reach the link too
+    assert not any("-isystem" in c for c in compiles)
+
+
+@needs_arm
+def test_cross_compiler_named_by_compile_commands_is_the_target(tmp_path: Path) -> None:
+    db = tmp_path / "compile_commands.json"
+    db.write_text(json.dumps([{"directory": str(M4), "file": "flight/flight.c",
+                               "arguments": [ARM_CC, *M4_FLAGS, "-c", "flight/flight.c", "-o", "flight.o"]}]))
+    proc = uavbus("check", ".", "--compile-commands", str(db), cwd=M4)
+    assert proc.returncode == 0, describe(proc)
+    assert f"note: parsing with the ABI of {ARM_CC}, the compiler of {db} (--target-cc)" in proc.stderr
+    assert "check: 5 instances of 5 types" in proc.stdout
+
+
+@needs_gcc
+def test_target_no_emulator_runs_is_built_and_its_run_stated_as_skipped(tmp_path: Path) -> None:
+    # A compiler that says it targets bare-metal AArch64 (it builds with gcc underneath): nothing here
+    # can run that, so the self-test is built (layout assertions checked) and the run skipped, saying why.
+    wrapper = tmp_path / "aarch64-none-elf-gcc"
+    wrapper.write_text('#!/bin/sh\n'
+                       'case "$*" in\n'
+                       '  -dumpmachine) echo aarch64-none-elf; exit 0;;\n'
+                       '  *-dM*) gcc "$@" | grep -v -e __linux__ -e __x86_64__ -e __i386__; echo "#define __aarch64__ 1";'
+                       ' exit 0;;\n'
+                       'esac\n'
+                       'exec gcc "$@"\n')
+    wrapper.chmod(0o755)
+    proc = uavbus("selftest", ".", "--name", "cst", "-j", "2", "--cc", str(wrapper), cwd=CONST)
+    assert proc.returncode == 0, describe(proc)
+    assert ("selftest: C 5 types built (aarch64-none-elf), run skipped: aarch64-none-elf is bare metal and only "
+            "bare-metal little-endian ARM with newlib runs under qemu user mode here") in proc.stdout
+    assert re.search(r"^selftest: Python 5 types ok, digest [0-9a-f]{8}$", proc.stdout, re.M)
+    assert "every layout assertion held" in proc.stderr
