@@ -290,6 +290,11 @@ def with_target(job: Job) -> Job:
         flags = frontend._first_compile_args(job.opts.compile_commands) + flags
     target = frontend.query_target(cc, frontend.abi_flags(flags))
     opts = dataclasses.replace(job.opts, target=target)
+    skip = frontend.clang_unknown_args(opts, flags)
+    if skip:
+        _say(f"note: clang does not know {', '.join(skip)} (flags of {cc}): left out of parsing; they still "
+             "reach the compiler in selftest")
+        opts = dataclasses.replace(opts, clang_skip=skip)
     frontend.check_target_abi(opts, flags)
     if job.verbose:
         _say(f"note: --target-cc {cc}: {target.triple}, clang {' '.join(target.clang_args)}")

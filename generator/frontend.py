@@ -197,6 +197,7 @@ class ParseOptions:
     compile_commands: str | None = None
     builtin_include: str | None = None  # found by find_builtin_include() when None
     target: TargetAbi | None = None  # parse with this compiler's ABI and headers (--target-cc)
+    clang_skip: tuple[str, ...] = ()  # the build's flags clang does not know (found by clang_unknown_args())
     all_types: bool = False  # record every struct type defined outside system headers (handle-based inputs)
 
     def base_args(self) -> list[str]:
@@ -309,7 +310,7 @@ def args_for(opts: ParseOptions, source: str) -> list[str]:
         args += [f"-I{d}" for d in opts.include_dirs] + [f"-D{d}" for d in opts.defines]
     else:
         args += opts.base_args()
-    return args + list(opts.extra_args)
+    return args + [a for a in opts.extra_args if a not in opts.clang_skip]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -341,10 +342,10 @@ def compile_commands_compiler(db_path: str) -> str | None:
         return None
 
 
-def _ask(cc: str, args: list[str]) -> subprocess.CompletedProcess[str]:
+def _ask(cc: str, args: list[str], cwd: str | None = None) -> subprocess.CompletedProcess[str]:
     try:
         return subprocess.run([cc, *args], capture_output=True, text=True, timeout=60, check=False,
-                              stdin=subprocess.DEVNULL)
+                              stdin=subprocess.DEVNULL, cwd=cwd)
     except OSError as exc:
         raise FrontendError(f"error: --target-cc {cc}: cannot run it ({exc.strerror}); install it or give its "
                             "full path (e.g. `apt-get install gcc-arm-none-eabi`)") from None
@@ -434,12 +435,11 @@ def check_target_abi(opts: ParseOptions, flags: Iterable[str] | None = None) -> 
     lines = [_ABI_PROBE_TYPES]
     for (expr, what, flag, _, _), value in zip(_ABI_CHECKS, values):
         lines.append(f'_Static_assert({expr} == {value}, "uavbus-abi: {what}: clang {value} ({flag})");')
-    with tempfile.NamedTemporaryFile("w", suffix=".c", prefix="uavbus-abi-", delete=False) as fh:
-        fh.write("\n".join(lines) + "\n")
-    try:
-        proc = _ask(target.cc, [*cc_flags, "-std=gnu11", "-fsyntax-only", fh.name])
-    finally:
-        os.unlink(fh.name)
+    # In a folder of its own: the build's flags may make the compiler write files (-fstack-usage, -save-temps).
+    with tempfile.TemporaryDirectory(prefix="uavbus-abi-") as tmp:
+        probe = os.path.join(tmp, "probe.c")
+        Path(probe).write_text("\n".join(lines) + "\n")
+        proc = _ask(target.cc, [*cc_flags, "-std=gnu11", "-fsyntax-only", probe], cwd=tmp)
     wrong = re.findall(r"uavbus-abi: ([^\"]+)", proc.stderr)
     if wrong:
         raise FrontendError(
@@ -449,13 +449,30 @@ def check_target_abi(opts: ParseOptions, flags: Iterable[str] | None = None) -> 
         raise FrontendError(f"error: --target-cc {target.cc} cannot compile the ABI probe: {_first_error(proc.stderr)}")
 
 
+_UNKNOWN_ARG = re.compile(r"^(?:unknown argument|unsupported option|unknown target CPU|unknown warning option|"
+                          r"the clang compiler does not support):? '([^']+)'")
+
+
+def clang_unknown_args(opts: ParseOptions, flags: Iterable[str]) -> tuple[str, ...]:
+    """The build's flags that clang refuses (a GCC-only `-mno-thumb-interwork`, `--specs=nano.specs`):
+    a cross build's command line is GCC's, and one unknown flag would fail every input. They change
+    no layout clang must match (the ABI probe checks that), so parsing leaves them out."""
+    target = opts.target
+    base = ["-x", "c", *(target.clang_args if target else ("-isystem", opts.builtin_include or find_builtin_include()))]
+    flags = list(flags)
+    path = "uavbus_flags_probe.c"
+    tu = ci.Index.create().parse(path, args=[*base, *flags], unsaved_files=[(path, "int uavbus_flags_probe;\n")])
+    unknown = [m.group(1) for d in tu.diagnostics if (m := _UNKNOWN_ARG.match(d.spelling))]
+    return tuple(a for a in dict.fromkeys(unknown) if a in flags)
+
+
 def _clang_abi_values(opts: ParseOptions, flags: list[str]) -> list[int]:
     """What clang finds for each _ABI_CHECKS entry, from one probe variable per check."""
     target = opts.target
     assert target is not None
     src = _ABI_PROBE_TYPES + "".join(f"{decl} ub_abi_v{k};\n" for k, (_, _, _, decl, _) in enumerate(_ABI_CHECKS))
     path = "uavbus_abi_probe.c"
-    args = ["-x", "c", *target.clang_args, *flags, "-std=gnu11"]
+    args = ["-x", "c", *target.clang_args, *(f for f in flags if f not in opts.clang_skip), "-std=gnu11"]
     tu = ci.Index.create().parse(path, args=args, unsaved_files=[(path, src)])
     errors = [d.spelling for d in tu.diagnostics if d.severity >= ci.Diagnostic.Error]
     if errors:

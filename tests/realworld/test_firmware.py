@@ -370,3 +370,14 @@ def test_target_no_emulator_runs_is_built_and_its_run_stated_as_skipped(tmp_path
             "bare-metal little-endian ARM with newlib runs under qemu user mode here") in proc.stdout
     assert re.search(r"^selftest: Python 5 types ok, digest [0-9a-f]{8}$", proc.stdout, re.M)
     assert "every layout assertion held" in proc.stderr
+
+
+@needs_arm
+def test_gcc_only_flags_of_the_firmware_build_are_left_out_of_parsing_only() -> None:
+    gcc_only = ["-mno-thumb-interwork", "-fno-tree-loop-distribute-patterns"]
+    before = sorted(M4.rglob("*"))
+    # -fstack-usage makes the compiler write a .su file: never into the user's tree.
+    proc = uavbus("check", ".", "--target-cc", ARM_CC, "--", *M4_FLAGS, *gcc_only, "-fstack-usage", cwd=M4)
+    assert proc.returncode == 0, describe(proc)
+    assert sorted(M4.rglob("*")) == before
+    assert f"note: clang does not know {', '.join(gcc_only)} (flags of {ARM_CC}): left out of parsing" in proc.stderr
