@@ -356,8 +356,9 @@ def _summarise(job: Job, cat: model.Catalogue) -> None:
 
 def generate(job: Job, cat: model.Catalogue, with_selftest: bool = False, outdir: str | None = None) -> dict[str, str]:
     """Every output file's text; `outdir`: where they go (inputs no -I finds are included relative to it)."""
-    names = [os.path.basename(inc.path) if isinstance(inc, model.IncludeFile) else inc.strip('"<>').split("/")[-1]
-             for inc in cat.includes]
+    # An input header included by its path relative to the output is only shadowed when it lies there.
+    names = [render.c_include(inc, outdir).strip('"') if isinstance(inc, model.IncludeFile)
+             else inc.strip('"<>').split("/")[-1] for inc in cat.includes]
     if f"{job.name}.h" in names:
         raise UsageError(f"--name {job.name} would make {job.name}.h include itself instead of the input "
                          f"header of that name; choose another --name")

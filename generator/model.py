@@ -439,9 +439,12 @@ def _build(units: list[FeUnit], id_scheme: str, relpath: Callable[[str], str], o
     opts = dataclasses.replace(options or BuildOptions(), id_scheme=id_scheme)
     records = _merge_records(units, relpath)
     fe_enums = _merge_enums(units, relpath)
-    fe_instances, skipped = _merge_instances(units, relpath, notes, frozenset(opts.left_out))
+    # A left-out input that the generated header includes anyway (a .c input's #include line brings it,
+    # in the context it needs) still declares its instances there: only the others are really left out.
+    _, _, reached = _include_plan(units, {i.type_key for unit in units for i in unit.instances})
+    fe_instances, skipped = _merge_instances(units, relpath, notes, frozenset(opts.left_out) - reached)
     fe_instances += [(i, None) for i in _runtime_instances(units, opts, {i.name for i, _ in fe_instances}, relpath, notes)]
-    includes, unreachable = _include_plan(units, {i.type_key for i, _ in fe_instances})
+    includes, unreachable, _ = _include_plan(units, {i.type_key for i, _ in fe_instances})
     for key, where in sorted(unreachable.items()):
         users = sorted({i.name for i, _ in fe_instances if i.type_key == key})
         notes.append(Note("warning", f"'{key}' is defined in {relpath(where.file)}, a .c file the generated C cannot "
@@ -666,14 +669,15 @@ def _decl_text(inst: FeInstance) -> str:
 
 
 def _include_plan(units: list[FeUnit], type_keys: set[str]
-                  ) -> tuple[tuple[Union[str, IncludeFile], ...], dict[str, SourceLoc]]:
+                  ) -> tuple[tuple[Union[str, IncludeFile], ...], dict[str, SourceLoc], frozenset[str]]:
     """What the generated header #includes so every instance type is visible, in the context clang
     parsed it in, and the types no header can reach (key -> where the .c defines it).
 
     A type seen through a header input: that header (it parsed on its own, so it is self-contained).
     A type seen only through `.c` inputs: the first such input's own #include lines, in order, up to
     the one that brings the type in; the headers before it are what a non-self-contained header
-    needs. A type defined inside a `.c` file cannot be reached."""
+    needs. A type defined inside a `.c` file cannot be reached. Also returns the files included
+    (absolute paths)."""
     chosen: dict[str, tuple[int, int]] = {}  # key -> (unit, index into top_includes; -1 = self_include)
     defined_in_c: dict[str, SourceLoc] = {}
     seen = [{r.key: r.loc for r in unit.records} for unit in units]
@@ -706,7 +710,7 @@ def _include_plan(units: list[FeUnit], type_keys: set[str]
             if path not in opened and entry not in includes:
                 opened.add(path)
                 includes.append(entry)
-    return tuple(includes), unreachable
+    return tuple(includes), unreachable, frozenset(opened)
 
 
 def _apply_payload_limit(types: dict[str, StructType], fe_instances: list[tuple[FeInstance, str | None]],

@@ -92,3 +92,21 @@ def test_instance_declared_in_a_left_out_header(tmp_path: Path, capsys: pytest.C
     # The generated C never refers to what it cannot declare.
     proc = gcc(["-std=c11", *PEDANTIC, "-I", str(RUNTIME_INCLUDE), "-I", "out", "-c", "out/usr.c", "-o", "u.o"], tmp_path)
     assert proc.returncode == 0, proc.stderr
+
+
+@needs_gcc
+def test_left_out_header_the_generated_header_includes_anyway_keeps_its_instances(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    write(tmp_path, "fw/inc/types.h", "#ifndef TYPES_H\n#define TYPES_H\ntypedef struct { int a; } usr_t;\n#endif\n")
+    # Fails alone (needs types.h first), but defines a catalogued type: NAME.h includes it in usr.c's
+    # context (types.h first), so what it declares is declared in the generated C too.
+    write(tmp_path, "fw/inc/usr.h", "typedef struct { usr_t u; int c; } usr_stat_t;\n"
+                                    "extern usr_stat_t USR_stat;\nextern usr_t USR_desc;\n")
+    write(tmp_path, "fw/src/usr.c", '#include "../inc/types.h"\n#include "../inc/usr.h"\nint usr_count;\n')
+    code, _, err = run_cli(["gen", "fw", "-k", "--name", "usr", "-o", "out"], tmp_path, capsys)
+    assert code == 3, err
+    doc = json.loads((tmp_path / "out" / "usr.catalogue.json").read_text())
+    assert {i["name"] for i in doc["instances"]} == {"USR_desc", "USR_stat"}
+    assert "left out" not in err.split("warning: 1 of 3 inputs cannot be parsed")[-1]
+    proc = gcc(["-std=c11", *PEDANTIC, "-I", str(RUNTIME_INCLUDE), "-I", "out", "-c", "out/usr.c", "-o", "u.o"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
