@@ -287,7 +287,7 @@ def with_target(job: Job) -> Job:
         return job
     flags = list(job.opts.extra_args)
     if job.opts.compile_commands:
-        flags = frontend._first_compile_args(job.opts.compile_commands) + flags
+        flags = frontend.first_compile_args(job.opts.compile_commands) + flags
     target = frontend.query_target(cc, frontend.abi_flags(flags))
     opts = dataclasses.replace(job.opts, target=target)
     skip = frontend.clang_unknown_args(opts, flags)

@@ -254,7 +254,12 @@ def _args_from_compile_commands(db_path: str, source: str) -> list[str] | None:
     return _clean_compile_args(chosen)
 
 
-def _first_compile_args(db_path: str) -> list[str]:
+_LAUNCHERS = ("ccache", "sccache", "distcc")  # compiler launchers a compile command may start with
+
+
+def first_compile_args(db_path: str) -> list[str]:
+    """The first entry's flags: what a header (no entry of its own) is parsed with, and the build's
+    flags that --target-cc's compiler is asked with."""
     entries = json.loads(Path(db_path).read_text())
     return _clean_compile_args(entries[0])
 
@@ -266,7 +271,9 @@ def _clean_compile_args(entry: dict) -> list[str]:
     raw = entry["arguments"] if "arguments" in entry else shlex.split(entry.get("command", ""))
     src = entry.get("file", "")
     out: list[str] = []
-    i = 1  # skip the compiler
+    i = 1  # skip the compiler (and a launcher before it: `ccache arm-none-eabi-gcc ...`)
+    while i < len(raw) and os.path.basename(raw[i - 1]) in _LAUNCHERS:
+        i += 1
     while i < len(raw):
         arg = raw[i]
         if arg == "-c" or arg == src:
@@ -304,7 +311,7 @@ def args_for(opts: ParseOptions, source: str) -> list[str]:
     if opts.compile_commands:
         db_args = _args_from_compile_commands(opts.compile_commands, source)
         # A header has no entry of its own: it takes the first entry's flags (docs/catalogue.md).
-        args += db_args if db_args is not None else _first_compile_args(opts.compile_commands)
+        args += db_args if db_args is not None else first_compile_args(opts.compile_commands)
         if not any(a.startswith("-std=") for a in args):
             args.append(f"-std={opts.std}")
         args += [f"-I{d}" for d in opts.include_dirs] + [f"-D{d}" for d in opts.defines]
@@ -337,6 +344,8 @@ def compile_commands_compiler(db_path: str) -> str | None:
     try:
         entry = json.loads(Path(db_path).read_text())[0]
         raw = entry["arguments"] if "arguments" in entry else shlex.split(entry.get("command", ""))
+        while raw and os.path.basename(raw[0]) in _LAUNCHERS:
+            raw = raw[1:]  # a compiler launcher: the compiler follows
         return raw[0] if raw else None
     except (OSError, ValueError, LookupError, TypeError):
         return None
