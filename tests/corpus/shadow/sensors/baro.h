@@ -11,6 +11,7 @@ typedef struct {
     float temperature_c;
     os_time_t at;
     struct timespec wall;
+    struct tm calendar; /* only the C library's <time.h> defines it */
 } baro_sample_t;
 
 extern baro_sample_t baro_latest;
