@@ -132,8 +132,8 @@ def parse_args(argv: list[str]) -> Job:
         raise UsageError("--max-payload, --jobs and --timeout must be positive")
     listed = read_instance_list(ns.instances_from) if ns.instances_from else ()
     handles = bool(ns.instance_per_type or ns.instances_from)
-    opts = frontend.ParseOptions(tuple(ns.include_dirs), tuple(ns.defines), ns.std, tuple(clang_args), ns.compile_commands,
-                                 all_types=handles)
+    opts = frontend.ParseOptions(tuple(ns.include_dirs), tuple(ns.defines), ns.std, tuple(clang_args),
+                                 ns.compile_commands, all_types=handles)
     build = model.BuildOptions(ns.id_scheme, ns.strings, tuple(ns.string_field), ns.max_payload, ns.keep_going,
                                tuple(ns.instance_per_type), listed)
     return Job(ns.command, tuple(ns.files), opts, ns.name, ns.id_scheme, ns.outdir, ns.sanitize, ns.verbose, build,
@@ -559,7 +559,8 @@ def _run_c(job: Job, tmp: str, sources: list[str], plan: RunPlan, deadline: floa
         proc = future.result()
         own = _own_warnings(proc.stderr, tmp)
         if proc.returncode != 0 or own:
-            first = next((line for line in proc.stderr.splitlines() if ": error:" in line), own[0] if own else "see below")
+            first = next((line for line in proc.stderr.splitlines() if ": error:" in line),
+                         own[0] if own else "see below")
             _say(f"selftest: error: C build failed: {Path(unit).name}: {first.strip()}; check that the inputs "
                  "compile with these flags (pass theirs with -I/-D, after `--`, or --compile-commands)\n"
                  f"{' '.join(base + ['-c', unit])}\n{_tail(proc.stderr)}")

@@ -369,7 +369,8 @@ def query_target(cc: str, flags: Iterable[str] = ()) -> TargetAbi:
     flags = list(flags)
     triple = _ask(cc, ["-dumpmachine"]).stdout.strip()
     if not triple:
-        raise FrontendError(f"error: --target-cc {cc}: `{cc} -dumpmachine` printed no target; give a GCC or clang driver")
+        raise FrontendError(f"error: --target-cc {cc}: `{cc} -dumpmachine` printed no target; "
+                            "give a GCC or clang driver")
     verbose = _ask(cc, [*flags, "-E", "-v", "-x", "c", os.devnull])
     if verbose.returncode != 0:
         raise FrontendError(f"error: --target-cc {cc} refuses the build's flags ({' '.join(flags)}): "
@@ -485,7 +486,8 @@ def _clang_abi_values(opts: ParseOptions, flags: list[str]) -> list[int]:
     tu = ci.Index.create().parse(path, args=args, unsaved_files=[(path, src)])
     errors = [d.spelling for d in tu.diagnostics if d.severity >= ci.Diagnostic.Error]
     if errors:
-        raise FrontendError(f"error: clang cannot parse for --target-cc {target.cc} (--target={target.triple}): {errors[0]}")
+        raise FrontendError(f"error: clang cannot parse for --target-cc {target.cc} (--target={target.triple}): "
+                            f"{errors[0]}")
     types = {cur.spelling: cur.type.get_canonical() for cur in tu.cursor.get_children()
              if cur.kind == ci.CursorKind.VAR_DECL and cur.spelling.startswith("ub_abi_v")}
     out = []

@@ -443,7 +443,8 @@ def _build(units: list[FeUnit], id_scheme: str, relpath: Callable[[str], str], o
     # in the context it needs) still declares its instances there: only the others are really left out.
     _, _, reached = _include_plan(units, {i.type_key for unit in units for i in unit.instances})
     fe_instances, skipped = _merge_instances(units, relpath, notes, frozenset(opts.left_out) - reached)
-    fe_instances += [(i, None) for i in _runtime_instances(units, opts, {i.name for i, _ in fe_instances}, relpath, notes)]
+    made = _runtime_instances(units, opts, {i.name for i, _ in fe_instances}, relpath, notes)
+    fe_instances += [(i, None) for i in made]
     includes, unreachable, _ = _include_plan(units, {i.type_key for i, _ in fe_instances})
     for key, where in sorted(unreachable.items()):
         users = sorted({i.name for i, _ in fe_instances if i.type_key == key})
@@ -558,9 +559,9 @@ def _merge_instances(units: list[FeUnit], relpath: Callable[[str], str], notes: 
                                                           "(it does not parse, or --exclude): the generated C "
                                                           "could not refer to it")
                 continue
+            other = min((i for _, i in usable), key=lambda i: _loc_key(i.loc, relpath))
             notes.append(Note("note", f"'{name}' is declared in {where.file}, an input left out; catalogued from "
-                                      f"{_fmt(min((i for _, i in usable), key=lambda i: _loc_key(i.loc, relpath)).loc, relpath)}",
-                              where))
+                                      f"{_fmt(other.loc, relpath)}", where))
             places = usable
         first = min((inst for _, inst in places), key=lambda i: _loc_key(i.loc, relpath))
         for _, inst in places:
@@ -615,11 +616,13 @@ def _runtime_instances(units: list[FeUnit], opts: BuildOptions, taken: set[str],
         if not is_identifier(name):
             raise ModelError(f"{origin}: error: instance name '{name}' is not a C identifier")
         if name in taken:
-            notes.append(Note("note", f"'{name}' ({origin}) is also an instance the inputs declare: that one is catalogued"))
+            notes.append(Note("note", f"'{name}' ({origin}) is also an instance the inputs declare: "
+                                      "that one is catalogued"))
             return
         if name in out:
             if out[name].type_key != key:
-                raise ModelError(f"{origin}: error: instance '{name}' is made from two types ({out[name].type_key}, {key})")
+                raise ModelError(f"{origin}: error: instance '{name}' is made from two types "
+                                 f"({out[name].type_key}, {key})")
             return
         out[name] = FeInstance(name, key, (), loc, False, runtime=True)
         used_keys.add(key)

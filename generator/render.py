@@ -92,7 +92,8 @@ class Renderer:
             autoescape=False,
         )
         self.env.filters.update(
-            c_put=c_put, c_get=c_get, c_get_ro=c_get_ro, c_store_type=c_store_type, c_literal=c_literal, c_bytes=c_bytes, c_string=c_string,
+            c_put=c_put, c_get=c_get, c_get_ro=c_get_ro, c_store_type=c_store_type, c_literal=c_literal,
+            c_bytes=c_bytes, c_string=c_string,
             c_valid=c_valid, c_value_type=c_value_type,
             py_attr=lambda n: self.props.mangle(n, "py"), py_class=self.py_class,
             py_format=self.py_format, py_literal=py_literal, hex8=lambda v: f"0x{v:08x}",
@@ -251,8 +252,9 @@ class SelftestCase:
     @property
     def skipped_paths(self) -> tuple[str, ...]:
         """Top-level skipped members the C test can poison and re-check (unpack must not touch them)."""
+        # A flexible array has no size and a bitfield no offsetof: neither can be poisoned.
         return tuple(f.name for f in self.type.fields if f.skipped and f.name
-                     and f.skipped not in (model.SKIP_FLEXIBLE, model.SKIP_CONST_BITFIELD))  # a bitfield has no offsetof
+                     and f.skipped not in (model.SKIP_FLEXIBLE, model.SKIP_CONST_BITFIELD))
 
     @property
     def weight(self) -> int:
@@ -326,6 +328,9 @@ def check_runs(checks: list[model.WireCheck]) -> list[CheckRun]:
 # -- C filters (pure functions, doctested) --------------------------------------------------------
 
 
+_ABI_SIZED = re.compile(r"(?<!long )\blong\b(?! long| double)|size_t|ptrdiff_t|intptr")  # long and pointer-sized
+
+
 def abi_hint(cat: Catalogue, t: StructType) -> str:
     """What in `t` a different compiler ABI lays out differently, with the flag that decides it: the
     text of the layout assertions' messages (a failing one then says where to look, not only
@@ -339,7 +344,7 @@ def abi_hint(cat: Catalogue, t: StructType) -> str:
             spelled = f.c_spelling
             if f.enum or spelled.startswith("enum "):
                 found["enum size (-fshort-enums)"] = None
-            if f.skipped == model.SKIP_POINTER or re.search(r"(?<!long )\blong\b(?! long| double)|size_t|ptrdiff_t|intptr", spelled):
+            if f.skipped == model.SKIP_POINTER or _ABI_SIZED.search(spelled):
                 found["long and pointer size (-m32/-m64)"] = None
             if f.long_double:
                 found["long double size (-mlong-double-*)"] = None
