@@ -321,7 +321,9 @@ def load(job: Job) -> Loaded:
     # Instances declared only in inputs left out (unparsable, excluded) cannot be referred to by the
     # generated C: the model leaves them out (or catalogues them from another place) and says so.
     left_out = tuple(os.path.abspath(f) for f in [*(x.file for x in failed), *excluded_inputs(job)])
-    build = dataclasses.replace(job.build, left_out=left_out)
+    target = job.opts.target
+    build = dataclasses.replace(job.build, left_out=left_out,
+                                abi=f"{os.path.basename(target.cc)} ({target.triple})" if target else "")
     cat = model.build_catalogue(units, job.id_scheme, rel, build)
     for note in cat.notes:
         _say(str(note))

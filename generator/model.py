@@ -133,6 +133,7 @@ class BuildOptions:
     instance_patterns: tuple[str, ...] = ()
     instance_list: tuple[tuple[str, str, SourceLoc], ...] = ()
     left_out: tuple[str, ...] = ()  # inputs not catalogued (--keep-going failures, --exclude): absolute paths
+    abi: str = ""  # whose layout clang matched: `arm-none-eabi-gcc (arm-none-eabi)`; '' for the host's default
 
     def __post_init__(self) -> None:
         for pat in self.instance_patterns:
@@ -342,6 +343,7 @@ class Catalogue:
     includes: tuple[Union[str, IncludeFile], ...] = ()
     notes: tuple[Note, ...] = ()
     max_payload: int = DEFAULT_MAX_PAYLOAD
+    abi: str = ""  # BuildOptions.abi: the compiler whose layout the sizes and offsets are
     _by_name: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
     _checks: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)  # has_checks() memo
 
@@ -477,7 +479,8 @@ def _build(units: list[FeUnit], id_scheme: str, relpath: Callable[[str], str], o
                   for k, e in sorted(fe_enums.items()) if k in used_enums)
     notes += _hints(units, instances, skipped, types, opts, relpath)
     return Catalogue(id_scheme, tuple(types[k] for k in sorted(types)), tuple(sorted(instances, key=lambda i: i.id)),
-                     tuple(skipped[k] for k in sorted(skipped)), enums, includes, tuple(notes), opts.max_payload)
+                     tuple(skipped[k] for k in sorted(skipped)), enums, includes, tuple(notes), opts.max_payload,
+                     opts.abi)
 
 
 def _loc_key(loc: SourceLoc, relpath: Callable[[str], str]) -> tuple[str, int]:

@@ -358,8 +358,9 @@ def abi_hint(cat: Catalogue, t: StructType) -> str:
 
     walk(t, {t.name})
     where = ", ".join(found) if found else "type sizes and alignment"
+    parsed = cat.abi or "clang's default for the generating machine"
     return (f"differs from the catalogue: the ABI of this compiler is not the one the catalogue was parsed with "
-            f"(check: {where}); regenerate with --target-cc <this compiler> and the flags of this build")
+            f"({parsed}; check: {where}); regenerate with --target-cc <this compiler> and the flags of this build")
 
 
 def c_put(f: Field, acc: str) -> str:

@@ -168,6 +168,7 @@ def test_m4_layout_mismatch_names_the_abi_flag(m4_out: Path) -> None:
     assert proc.returncode != 0
     assert "attitude_state_t.armed: offset differs from the catalogue" in proc.stderr
     assert "enum size (-fshort-enums)" in proc.stderr and "--target-cc" in proc.stderr
+    assert "parsed with (arm-none-eabi-gcc (arm-none-eabi); check:" in proc.stderr  # whose layout it holds
     assert "; regenerate\"" not in proc.stderr
 
 
