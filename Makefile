@@ -19,7 +19,9 @@ BUILD_FUZZ  := build-fuzz
 BUILD_COV   := build-cov
 # clang + libFuzzer: `make test` runs every fuzz harness for a few seconds (make fuzz for longer).
 FUZZ_APT_PKGS := clang-14 libclang-rt-14-dev
+# qemu-user runs the generator's cross-built self-tests (qemu-arm); gcc-multilib links its -m32 self-test.
 APT_PKGS    := libcmocka-dev cmake ninja-build pkg-config libsodium-dev gcc-arm-none-eabi libnewlib-arm-none-eabi g++ \
+               qemu-user gcc-multilib \
                $(FUZZ_APT_PKGS)
 COV_APT_PKGS := gcovr
 SETUP_STAMP := $(VENV)/.uavbus-setup-stamp

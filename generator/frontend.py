@@ -15,6 +15,7 @@ import re
 import shlex
 import shutil
 import subprocess
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Iterator, Union
@@ -74,6 +75,7 @@ class FeField:
     offset_bits: int
     bit_width: int | None
     loc: SourceLoc
+    readonly: bool = False  # declared `const` (the member, or each element of an array member)
 
 
 @dataclass(frozen=True)
@@ -105,13 +107,15 @@ class FeInstance:
     dims: tuple[int, ...]
     loc: SourceLoc
     definition: bool = False  # a definition (with or without initializer), not only `extern`
+    runtime: bool = False  # made from a type by --instance-per-type/--instances-from: no C object to link
 
 
 @dataclass(frozen=True)
 class IncludeRef:
     """One `#include` the generated header can write: the directive's operand and the file it opens."""
 
-    text: str  # '<stdint.h>' or '"nav/nav_msg.h"'
+    text: str  # '<stdint.h>' or '"nav/nav_msg.h"'; '' when no search directory finds the file (the
+    # generated header then includes it by its path relative to the output directory: no extra -I)
     path: str  # the file clang opened
 
 
@@ -133,6 +137,9 @@ class FeUnit:
     # A `.c` input: record key -> index into top_includes of the #include that brings its
     # definition in (-1: defined in the .c file itself).
     record_via: tuple[tuple[str, int], ...] = ()
+    # With ParseOptions.all_types: every complete struct type defined outside system headers, by each
+    # of its names (`struct tag`, typedef names): (name, record key); its record is in `records`.
+    named_records: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -171,6 +178,17 @@ class FrontendError(Exception):
 
 
 @dataclass(frozen=True)
+class TargetAbi:
+    """What clang must match to lay types out as a (cross) compiler does: found by query_target()."""
+
+    cc: str  # the compiler as given (`arm-none-eabi-gcc`)
+    triple: str  # its `-dumpmachine`
+    include_dirs: tuple[str, ...]  # its system include directories, in search order
+    clang_args: tuple[str, ...]  # --target, -nostdinc, -isystem of each directory, ABI flags
+    macros: tuple[tuple[str, str], ...] = ()  # its predefined macros (`-dM -E`), sorted
+
+
+@dataclass(frozen=True)
 class ParseOptions:
     include_dirs: tuple[str, ...] = ()
     defines: tuple[str, ...] = ()
@@ -178,6 +196,9 @@ class ParseOptions:
     extra_args: tuple[str, ...] = ()
     compile_commands: str | None = None
     builtin_include: str | None = None  # found by find_builtin_include() when None
+    target: TargetAbi | None = None  # parse with this compiler's ABI and headers (--target-cc)
+    clang_skip: tuple[str, ...] = ()  # the build's flags clang does not know (found by clang_unknown_args())
+    all_types: bool = False  # record every struct type defined outside system headers (handle-based inputs)
 
     def base_args(self) -> list[str]:
         args = [f"-std={self.std}"]
@@ -233,7 +254,12 @@ def _args_from_compile_commands(db_path: str, source: str) -> list[str] | None:
     return _clean_compile_args(chosen)
 
 
-def _first_compile_args(db_path: str) -> list[str]:
+_LAUNCHERS = ("ccache", "sccache", "distcc")  # compiler launchers a compile command may start with
+
+
+def first_compile_args(db_path: str) -> list[str]:
+    """The first entry's flags: what a header (no entry of its own) is parsed with, and the build's
+    flags that --target-cc's compiler is asked with."""
     entries = json.loads(Path(db_path).read_text())
     return _clean_compile_args(entries[0])
 
@@ -245,7 +271,9 @@ def _clean_compile_args(entry: dict) -> list[str]:
     raw = entry["arguments"] if "arguments" in entry else shlex.split(entry.get("command", ""))
     src = entry.get("file", "")
     out: list[str] = []
-    i = 1  # skip the compiler
+    i = 1  # skip the compiler (and a launcher before it: `ccache arm-none-eabi-gcc ...`)
+    while i < len(raw) and os.path.basename(raw[i - 1]) in _LAUNCHERS:
+        i += 1
     while i < len(raw):
         arg = raw[i]
         if arg == "-c" or arg == src:
@@ -275,19 +303,205 @@ def _absolute(directory: str, path: str) -> str:
 
 
 def args_for(opts: ParseOptions, source: str) -> list[str]:
-    """Every clang argument for one input file (builtin headers first)."""
-    builtin = opts.builtin_include or find_builtin_include()
-    args = ["-x", "c", "-isystem", builtin]
+    """Every clang argument for one input file (builtin headers first; with a target, its headers)."""
+    if opts.target is not None:
+        args = ["-x", "c", *opts.target.clang_args]
+    else:
+        args = ["-x", "c", "-isystem", opts.builtin_include or find_builtin_include()]
     if opts.compile_commands:
         db_args = _args_from_compile_commands(opts.compile_commands, source)
         # A header has no entry of its own: it takes the first entry's flags (docs/catalogue.md).
-        args += db_args if db_args is not None else _first_compile_args(opts.compile_commands)
+        args += db_args if db_args is not None else first_compile_args(opts.compile_commands)
         if not any(a.startswith("-std=") for a in args):
             args.append(f"-std={opts.std}")
         args += [f"-I{d}" for d in opts.include_dirs] + [f"-D{d}" for d in opts.defines]
     else:
         args += opts.base_args()
-    return args + list(opts.extra_args)
+    return args + [a for a in opts.extra_args if a not in opts.clang_skip]
+
+
+# ---------------------------------------------------------------------------------------------
+# Target ABI (--target-cc)
+
+# Flags of the build that change what the compiler predefines or how it lays types out: they go to
+# the compiler when it is asked, as they go to clang when it parses.
+_ABI_FLAG = re.compile(r"^(-m|-f|--specs=|--sysroot|-isysroot|-std=|-ansi$|-nostdinc)")
+_CROSS_CC = re.compile(r"^[A-Za-z0-9_.]+(-[A-Za-z0-9_.]+){1,3}-(gcc|cc|clang)(-[0-9.]+)?$")
+
+
+def abi_flags(args: Iterable[str]) -> list[str]:
+    """The flags among `args` that change the ABI or the predefined macros (machine and -f flags)."""
+    return [a for a in args if _ABI_FLAG.match(a)]
+
+
+def is_cross_compiler(cc: str) -> bool:
+    """A compiler named with a target prefix (`arm-none-eabi-gcc`, `aarch64-linux-gnu-gcc-12`)."""
+    return bool(_CROSS_CC.match(os.path.basename(cc)))
+
+
+def compile_commands_compiler(db_path: str) -> str | None:
+    """The compiler of the first entry of compile_commands.json (None when it cannot be read)."""
+    try:
+        entry = json.loads(Path(db_path).read_text())[0]
+        raw = entry["arguments"] if "arguments" in entry else shlex.split(entry.get("command", ""))
+        while raw and os.path.basename(raw[0]) in _LAUNCHERS:
+            raw = raw[1:]  # a compiler launcher: the compiler follows
+        return raw[0] if raw else None
+    except (OSError, ValueError, LookupError, TypeError):
+        return None
+
+
+def _ask(cc: str, args: list[str], cwd: str | None = None) -> subprocess.CompletedProcess[str]:
+    try:
+        return subprocess.run([cc, *args], capture_output=True, text=True, timeout=60, check=False,
+                              stdin=subprocess.DEVNULL, cwd=cwd)
+    except OSError as exc:
+        raise FrontendError(f"error: --target-cc {cc}: cannot run it ({exc.strerror}); install it or give its "
+                            "full path (e.g. `apt-get install gcc-arm-none-eabi`)") from None
+    except subprocess.TimeoutExpired:
+        raise FrontendError(f"error: --target-cc {cc}: no answer within 60 s") from None
+
+
+def query_target(cc: str, flags: Iterable[str] = ()) -> TargetAbi:
+    """Asks a (cross) compiler what clang must match: its target triple (`-dumpmachine`), its system
+    include directories (`-E -v`), and its predefined macros (`-dM -E`: char signedness, the ARM
+    EABI's minimal enum size, wchar_t size). `flags`: the build's machine flags (abi_flags())."""
+    flags = list(flags)
+    triple = _ask(cc, ["-dumpmachine"]).stdout.strip()
+    if not triple:
+        raise FrontendError(f"error: --target-cc {cc}: `{cc} -dumpmachine` printed no target; "
+                            "give a GCC or clang driver")
+    verbose = _ask(cc, [*flags, "-E", "-v", "-x", "c", os.devnull])
+    if verbose.returncode != 0:
+        raise FrontendError(f"error: --target-cc {cc} refuses the build's flags ({' '.join(flags)}): "
+                            f"{_first_error(verbose.stderr)}")
+    dirs: list[str] = []
+    inside = False
+    for line in verbose.stderr.splitlines():
+        if line.startswith("#include <...> search starts here:"):
+            inside = True
+        elif line.startswith("End of search list."):
+            break
+        elif inside and line.startswith(" "):
+            path = line.strip().removesuffix(" (framework directory)")
+            if os.path.isdir(path):
+                dirs.append(os.path.normpath(path))
+    if not dirs:
+        raise FrontendError(f"error: --target-cc {cc}: `{cc} -E -v` listed no system include directory")
+    defs = _ask(cc, [*flags, "-dM", "-E", "-x", "c", os.devnull]).stdout
+    macros = dict(m.groups() for m in re.finditer(r"^#define (\w+) ?(.*)$", defs, re.M))
+    args = [f"--target={triple}", "-nostdinc"]
+    for d in dirs:
+        args += ["-isystem", d]
+    args.append("-funsigned-char" if "__CHAR_UNSIGNED__" in macros else "-fsigned-char")
+    if macros.get("__ARM_SIZEOF_MINIMAL_ENUM") == "1" or macros.get("__SIZEOF_ENUM__") == "1":
+        args.append("-fshort-enums")  # the ARM EABI's variable-size enums (arm-none-eabi-gcc's default)
+    if macros.get("__SIZEOF_WCHAR_T__") == "2":
+        args.append("-fshort-wchar")
+    return TargetAbi(cc, triple, tuple(dirs), tuple(args), tuple(sorted(macros.items())))
+
+
+def _first_error(stderr: str) -> str:
+    return next((ln.strip() for ln in stderr.splitlines() if "error" in ln), stderr.strip()[:200] or "no message")
+
+
+# What clang and the target compiler must agree on, each with the flag that usually decides it. The
+# probe is parsed by clang with the final arguments; the values clang finds become _Static_asserts
+# that the target compiler checks (check_target_abi()).
+_ABI_PROBE_TYPES = """
+enum ub_abi_enum { UB_ABI_ENUM_A = 1 };
+struct ub_abi_ll { char c; long long x; };
+struct ub_abi_d { char c; double x; };
+struct ub_abi_bf { unsigned char a : 3; unsigned int b : 7; };
+"""
+_ABI_CHECKS = (
+    # (C expression, what it is, the flags that change it, the probe variable clang measures, how)
+    ("sizeof(enum ub_abi_enum)", "enum size", "-fshort-enums / -fno-short-enums", "enum ub_abi_enum", "size"),
+    ("sizeof(short)", "short size", "the target (--target-cc)", "short", "size"),
+    ("sizeof(int)", "int size", "the target (--target-cc)", "int", "size"),
+    ("sizeof(long)", "long size", "-m32 / -m64 / -mabi", "long", "size"),
+    ("sizeof(void *)", "pointer size", "-m32 / -m64 / -mabi", "void *", "size"),
+    ("sizeof(long double)", "long double size", "-mlong-double-64/80/128", "long double", "size"),
+    ("sizeof(double)", "double size", "-mdouble / -fshort-double", "double", "size"),
+    ("_Alignof(long long)", "long long alignment", "-malign-double / -m32", "long long", "align"),
+    ("__builtin_offsetof(struct ub_abi_ll, x)", "long long alignment in structs", "-malign-double / -m32",
+     "struct ub_abi_ll", "offset_x"),
+    ("__builtin_offsetof(struct ub_abi_d, x)", "double alignment in structs", "-malign-double / -m32",
+     "struct ub_abi_d", "offset_x"),
+    ("sizeof(struct ub_abi_bf)", "bitfield layout", "-mms-bitfields / -fpack-struct", "struct ub_abi_bf", "size"),
+    ("((char)-1 < 0)", "plain char signedness", "-funsigned-char / -fsigned-char", "char", "signed"),
+)
+
+
+def check_target_abi(opts: ParseOptions, flags: Iterable[str] | None = None) -> None:
+    """Parses a probe with clang exactly as the inputs will be, then has the target compiler check
+    every value clang found (one _Static_assert each): a disagreement that would misplace members is
+    caught here, named with the flag that decides it, before any input is catalogued."""
+    target = opts.target
+    if target is None:
+        return
+    cc_flags = abi_flags(opts.extra_args if flags is None else flags)
+    values = _clang_abi_values(opts, cc_flags)
+    lines = [_ABI_PROBE_TYPES]
+    for (expr, what, flag, _, _), value in zip(_ABI_CHECKS, values):
+        lines.append(f'_Static_assert({expr} == {value}, "uavbus-abi: {what}: clang {value} ({flag})");')
+    # In a folder of its own: the build's flags may make the compiler write files (-fstack-usage, -save-temps).
+    with tempfile.TemporaryDirectory(prefix="uavbus-abi-") as tmp:
+        probe = os.path.join(tmp, "probe.c")
+        Path(probe).write_text("\n".join(lines) + "\n")
+        proc = _ask(target.cc, [*cc_flags, "-std=gnu11", "-fsyntax-only", probe], cwd=tmp)
+    wrong = re.findall(r"uavbus-abi: ([^\"]+)", proc.stderr)
+    if wrong:
+        raise FrontendError(
+            f"error: clang and --target-cc {target.cc} lay types out differently: " + "; ".join(dict.fromkeys(wrong))
+            + f". Pass the flag that decides it after `--` (the flags {target.cc} builds the firmware with)")
+    if proc.returncode != 0:
+        raise FrontendError(f"error: --target-cc {target.cc} cannot compile the ABI probe: {_first_error(proc.stderr)}")
+
+
+_UNKNOWN_ARG = re.compile(r"^(?:unknown argument|unsupported option|unknown target CPU|unknown warning option|"
+                          r"the clang compiler does not support):? '([^']+)'")
+
+
+def clang_unknown_args(opts: ParseOptions, flags: Iterable[str]) -> tuple[str, ...]:
+    """The build's flags that clang refuses (a GCC-only `-mno-thumb-interwork`, `--specs=nano.specs`):
+    a cross build's command line is GCC's, and one unknown flag would fail every input. They change
+    no layout clang must match (the ABI probe checks that), so parsing leaves them out."""
+    target = opts.target
+    base = ["-x", "c", *(target.clang_args if target else ("-isystem", opts.builtin_include or find_builtin_include()))]
+    flags = list(flags)
+    path = "uavbus_flags_probe.c"
+    tu = ci.Index.create().parse(path, args=[*base, *flags], unsaved_files=[(path, "int uavbus_flags_probe;\n")])
+    unknown = [m.group(1) for d in tu.diagnostics if (m := _UNKNOWN_ARG.match(d.spelling))]
+    return tuple(a for a in dict.fromkeys(unknown) if a in flags)
+
+
+def _clang_abi_values(opts: ParseOptions, flags: list[str]) -> list[int]:
+    """What clang finds for each _ABI_CHECKS entry, from one probe variable per check."""
+    target = opts.target
+    assert target is not None
+    src = _ABI_PROBE_TYPES + "".join(f"{decl} ub_abi_v{k};\n" for k, (_, _, _, decl, _) in enumerate(_ABI_CHECKS))
+    path = "uavbus_abi_probe.c"
+    args = ["-x", "c", *target.clang_args, *(f for f in flags if f not in opts.clang_skip), "-std=gnu11"]
+    tu = ci.Index.create().parse(path, args=args, unsaved_files=[(path, src)])
+    errors = [d.spelling for d in tu.diagnostics if d.severity >= ci.Diagnostic.Error]
+    if errors:
+        raise FrontendError(f"error: clang cannot parse for --target-cc {target.cc} (--target={target.triple}): "
+                            f"{errors[0]}")
+    types = {cur.spelling: cur.type.get_canonical() for cur in tu.cursor.get_children()
+             if cur.kind == ci.CursorKind.VAR_DECL and cur.spelling.startswith("ub_abi_v")}
+    out = []
+    for k, (_, _, _, _, how) in enumerate(_ABI_CHECKS):
+        t = types[f"ub_abi_v{k}"]
+        if how == "size":
+            out.append(t.get_size())
+        elif how == "align":
+            out.append(t.get_align())
+        elif how == "offset_x":
+            out.append(t.get_offset("x") // 8)
+        else:
+            out.append(1 if t.kind == ci.TypeKind.CHAR_S else 0)
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -297,7 +511,7 @@ def args_for(opts: ParseOptions, source: str) -> list[str]:
 def parse_inputs(files: Iterable[str], opts: ParseOptions) -> list[Union[FeUnit, FeFailure]]:
     """Parses every file as its own translation unit, in order: an FeUnit for each input that
     parsed without error, an FeFailure (every error, with its include chain) for each other."""
-    if opts.builtin_include is None:
+    if opts.builtin_include is None and opts.target is None:
         opts = ParseOptions(**{**opts.__dict__, "builtin_include": find_builtin_include()})
     index = ci.Index.create()
     return [_parse_one(index, f, opts) for f in files]
@@ -332,7 +546,7 @@ def _parse_one(index: ci.Index, path: str, opts: ParseOptions) -> Union[FeUnit, 
     if errors:
         parents = _include_parents(tu)
         return FeFailure(path, tuple(_diagnostic(d, parents) for d in errors))
-    walker = _Walker()
+    walker = _Walker(all_types=opts.all_types)
     walker.visit_tu(tu)
     search = _include_dirs(args)
     source = is_source(path)
@@ -348,9 +562,10 @@ def _parse_one(index: ci.Index, path: str, opts: ParseOptions) -> Union[FeUnit, 
         enums=tuple(walker.enums.values()),
         defined_types=tuple(walker.defined),
         is_source=source,
-        self_include=None if source else IncludeRef(f'"{_spell_path(path, search)}"', path),
+        self_include=None if source else IncludeRef(_quoted(_spell_path(path, search)), path),
         top_includes=top,
         record_via=via,
+        named_records=tuple(walker.named),
     )
 
 
@@ -404,16 +619,21 @@ def _include_dirs(args: list[str]) -> tuple[str, ...]:
     return tuple(quote + angle + after)
 
 
-def _spell_path(path: str, search: tuple[str, ...]) -> str:
+def _quoted(spelled: str | None) -> str:
+    return f'"{spelled}"' if spelled else ""
+
+
+def _spell_path(path: str, search: tuple[str, ...]) -> str | None:
     """How `#include "..."` reaches `path` from anywhere: relative to the search directory that
-    finds it first (shortest such spelling), else by its file name (the caller adds its directory)."""
+    finds it first (shortest such spelling), else None (no -I finds it: the generated header then
+    includes it by its path relative to itself)."""
     target = os.path.realpath(path)
     candidates = sorted({os.path.relpath(target, os.path.realpath(d)) for d in search
                          if os.path.commonpath([os.path.realpath(d), target]) == os.path.realpath(d)}, key=len)
     for rel in candidates:
         if _resolve(rel, search) == target:
             return rel.replace(os.sep, "/")
-    return os.path.basename(path)
+    return None
 
 
 def _resolve(spelled: str, search: tuple[str, ...]) -> str | None:
@@ -442,10 +662,10 @@ def _source_includes(tu: ci.TranslationUnit, path: str, records: dict[str, FeRec
         if depth != 1 or src != main:
             continue
         m = _INCLUDE_LINE.match(lines[line - 1]) if 0 < line <= len(lines) else None
-        text = m.group(1) if m else f'"{_spell_path(name, search)}"'
+        text = m.group(1) if m else _quoted(_spell_path(name, search))
         if text.startswith('"') and _resolve(text[1:-1], search) != os.path.realpath(name):
             # Found next to the .c file (or through a macro): spell it so the search path finds it.
-            text = f'"{_spell_path(name, search)}"'
+            text = _quoted(_spell_path(name, search))
         top.append((line, IncludeRef(text, name)))
     top.sort(key=lambda x: x[0])
     index = {ref.path: k for k, (_, ref) in enumerate(top)}
@@ -501,6 +721,8 @@ class _Walker:
     instances: list[FeInstance] = field(default_factory=list)
     skipped: list[tuple[str, SourceLoc, str]] = field(default_factory=list)
     defined: list[tuple[str, SourceLoc]] = field(default_factory=list)
+    all_types: bool = False
+    named: list[tuple[str, str]] = field(default_factory=list)
 
     def visit_tu(self, tu: ci.TranslationUnit) -> None:
         for cur in tu.cursor.get_children():
@@ -516,10 +738,19 @@ class _Walker:
             spelling = cur.type.spelling  # "struct tag"; a typedef name for `typedef struct {...} t`
             if cur.is_definition() and spelling.startswith("struct ") and not _is_unnamed(cur):
                 self.defined.append((spelling, _loc(cur)))
+                self._name_record(spelling, cur.type.get_canonical())
             return
         under = cur.underlying_typedef_type.get_canonical()
         if under.kind == ci.TypeKind.RECORD and under.get_declaration().kind == ci.CursorKind.STRUCT_DECL:
             self.defined.append((cur.spelling, _loc(cur)))
+            self._name_record(cur.spelling, under)
+
+    def _name_record(self, name: str, ctype: ci.Type) -> None:
+        """With all_types: records a struct type defined in the inputs under one of its names (the
+        types of handle-based object systems have no global instance to lead to them)."""
+        if not self.all_types or ctype.get_size() < 0 or "(unnamed" in ctype.spelling or "(anonymous" in ctype.spelling:
+            return
+        self.named.append((name, self._record(ctype, None)))
 
     def _visit_var(self, cur: ci.Cursor) -> None:
         ctype = cur.type.get_canonical()
@@ -592,20 +823,26 @@ class _Walker:
         for inner in self._fields(rec.type, rec, key, 0):
             offset = ctype.get_offset(inner.name) if inner.name else -1
             offset = offset + base_bits if offset >= 0 else base_bits + inner.offset_bits
-            yield FeField(inner.name, inner.type, inner.dims, offset, inner.bit_width, inner.loc)
+            yield FeField(inner.name, inner.type, inner.dims, offset, inner.bit_width, inner.loc, inner.readonly)
 
     def _field(self, ch: ci.Cursor, key: str, base_bits: int) -> FeField:
         ftype = ch.type.get_canonical()
         dims: list[int] = []
+        # clang's canonical array types carry the elements' qualifiers on the array: look at every level.
+        readonly = ftype.is_const_qualified()
         while ftype.kind == ci.TypeKind.CONSTANTARRAY:
             dims.append(ftype.element_count)
             ftype = ftype.element_type.get_canonical()
+            readonly = readonly or ftype.is_const_qualified()
         width = ch.get_bitfield_width() if ch.is_bitfield() else None
         offset = ch.get_field_offsetof() + base_bits
         if ftype.kind == ci.TypeKind.INCOMPLETEARRAY or 0 in dims:
             # `T tail[]` (C99) and GNU's `T tail[0]`: storage past the end of the struct.
             return FeField(ch.spelling, FeOther("flexible", ch.type.spelling), (), offset, None, _loc(ch))
-        return FeField(ch.spelling, self._type(ftype, f"{key}::{ch.spelling}"), tuple(dims), offset, width, _loc(ch))
+        # `const T m;`, `const T m[N]` and a typedef that carries the const all leave the canonical
+        # element type const-qualified: unpack may not assign to such a member (docs/catalogue.md).
+        return FeField(ch.spelling, self._type(ftype, f"{key}::{ch.spelling}"), tuple(dims), offset, width, _loc(ch),
+                       readonly)
 
     def _type(self, ftype: ci.Type, unnamed_key: str) -> FeType:
         kind = ftype.kind

@@ -107,10 +107,13 @@ SKIP_STRING = "string"
 SKIP_FLEXIBLE = "flexible array member"
 SKIP_UNION = "union"
 SKIP_UNSUPPORTED = "unsupported type"
+# A const bitfield has no address, so unpack can neither assign it nor write its bytes.
+SKIP_CONST_BITFIELD = "const bitfield (unpack cannot write it: drop the const to send it)"
 
 STRINGS_SKIP = "skip"  # the paper's rule: `char` arrays are not sent
 STRINGS_BYTES = "bytes"  # `char` arrays are sent as their bytes (all of them, NULs included)
 DEFAULT_MAX_PAYLOAD = 16384  # UB_MAX_DIRECTORY of the default runtime build (runtime_c/include/ub/ub_config.h)
+MAX_DIRECTORY_LIMIT = 65535  # the largest UB_MAX_DIRECTORY a runtime accepts (16-bit reassembled size)
 
 
 @dataclass(frozen=True)
@@ -124,8 +127,20 @@ class BuildOptions:
     string_fields: tuple[str, ...] = ()  # fnmatch patterns on "<type name>.<member>"
     max_payload: int = DEFAULT_MAX_PAYLOAD
     keep_going: bool = False
+    # Handle-based object systems (UAVObjects, uORB): instances made from types. A pattern is a regex
+    # matched in full against each type name (`struct tag` or typedef); the instance is named by its
+    # first group, else by the type name. A listed instance is (name, type name, where it is listed).
+    instance_patterns: tuple[str, ...] = ()
+    instance_list: tuple[tuple[str, str, SourceLoc], ...] = ()
+    left_out: tuple[str, ...] = ()  # inputs not catalogued (--keep-going failures, --exclude): absolute paths
+    abi: str = ""  # whose layout clang matched: `arm-none-eabi-gcc (arm-none-eabi)`; '' for the host's default
 
     def __post_init__(self) -> None:
+        for pat in self.instance_patterns:
+            try:
+                re.compile(pat)
+            except re.error as exc:
+                raise ValueError(f"--instance-per-type '{pat}' is not a regular expression: {exc}") from None
         if self.strings not in (STRINGS_SKIP, STRINGS_BYTES):
             raise ValueError(f"strings must be '{STRINGS_SKIP}' or '{STRINGS_BYTES}', not {self.strings!r}")
         if self.max_payload <= 0:
@@ -158,6 +173,7 @@ class Field:
     skipped: str | None = None
     enum: str | None = None
     text: bool = False
+    readonly: bool = False  # declared const: unpack writes its storage bytes instead of assigning
 
     def __post_init__(self) -> None:
         kinds = sum(x is not None for x in (self.wire, self.struct, self.skipped))
@@ -173,6 +189,8 @@ class Field:
             raise ValueError(f"{self.loc}: text field '{self.name}' must be a u8 array")
         if self.enum is not None and (self.wire is None or self.wire.is_float or self.wire.name == "bool"):
             raise ValueError(f"{self.loc}: enum field '{self.name}' must have an integer wire type")
+        if self.readonly and self.bits is not None:
+            raise ValueError(f"{self.loc}: const bitfield '{self.name}' cannot be unpacked (it has no address)")
 
     @property
     def packed(self) -> bool:
@@ -267,6 +285,7 @@ class Instance:
     base: str
     index: tuple[int, ...]
     qualifier: str | None = None
+    runtime: bool = False  # made from its type (handle-based objects): the application binds its storage
 
     def __post_init__(self) -> None:
         if len(self.id) != ids.DIR_ID_LEN:
@@ -302,15 +321,29 @@ class Note:
 
 
 @dataclass(frozen=True)
+class IncludeFile:
+    """An input header that no -I directory finds: the generated header includes it by its path
+    relative to the output directory (the renderer spells it), so compiling needs no extra -I."""
+
+    path: str  # absolute, normalised
+
+    def __post_init__(self) -> None:
+        if not os.path.isabs(self.path):
+            raise ValueError(f"include path must be absolute: {self.path}")
+
+
+@dataclass(frozen=True)
 class Catalogue:
     id_scheme: str
     types: tuple[StructType, ...]  # sorted by name
     instances: tuple[Instance, ...]  # sorted by ID
     skipped_instances: tuple[SkippedInstance, ...] = ()
     enums: tuple[EnumType, ...] = ()  # sorted by name
-    includes: tuple[str, ...] = ()  # what the generated C header #includes, in order: '"a.h"', '<b.h>'
+    # What the generated C header #includes, in order: '"a.h"', '<b.h>', or an IncludeFile.
+    includes: tuple[Union[str, IncludeFile], ...] = ()
     notes: tuple[Note, ...] = ()
     max_payload: int = DEFAULT_MAX_PAYLOAD
+    abi: str = ""  # BuildOptions.abi: the compiler whose layout the sizes and offsets are
     _by_name: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
     _checks: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)  # has_checks() memo
 
@@ -353,6 +386,11 @@ class Catalogue:
     def named_types(self) -> tuple[StructType, ...]:
         """Types with a C spelling: the ones with codecs in C and in the self-test."""
         return tuple(t for t in self.types if t.c_name is not None)
+
+    @property
+    def has_readonly(self) -> bool:
+        """Some packed member is const (unpack then writes storage bytes: docs/catalogue.md, const members)."""
+        return any(f.readonly for t in self.types for f in t.packed_fields)
 
     @property
     def max_packed_size(self) -> int:
@@ -403,8 +441,13 @@ def _build(units: list[FeUnit], id_scheme: str, relpath: Callable[[str], str], o
     opts = dataclasses.replace(options or BuildOptions(), id_scheme=id_scheme)
     records = _merge_records(units, relpath)
     fe_enums = _merge_enums(units, relpath)
-    fe_instances, skipped = _merge_instances(units, relpath, notes)
-    includes, unreachable = _include_plan(units, {i.type_key for i, _ in fe_instances})
+    # A left-out input that the generated header includes anyway (a .c input's #include line brings it,
+    # in the context it needs) still declares its instances there: only the others are really left out.
+    _, _, reached = _include_plan(units, {i.type_key for unit in units for i in unit.instances})
+    fe_instances, skipped = _merge_instances(units, relpath, notes, frozenset(opts.left_out) - reached)
+    made = _runtime_instances(units, opts, {i.name for i, _ in fe_instances}, relpath, notes)
+    fe_instances += [(i, None) for i in made]
+    includes, unreachable, _ = _include_plan(units, {i.type_key for i, _ in fe_instances})
     for key, where in sorted(unreachable.items()):
         users = sorted({i.name for i, _ in fe_instances if i.type_key == key})
         notes.append(Note("warning", f"'{key}' is defined in {relpath(where.file)}, a .c file the generated C cannot "
@@ -436,7 +479,8 @@ def _build(units: list[FeUnit], id_scheme: str, relpath: Callable[[str], str], o
                   for k, e in sorted(fe_enums.items()) if k in used_enums)
     notes += _hints(units, instances, skipped, types, opts, relpath)
     return Catalogue(id_scheme, tuple(types[k] for k in sorted(types)), tuple(sorted(instances, key=lambda i: i.id)),
-                     tuple(skipped[k] for k in sorted(skipped)), enums, includes, tuple(notes), opts.max_payload)
+                     tuple(skipped[k] for k in sorted(skipped)), enums, includes, tuple(notes), opts.max_payload,
+                     opts.abi)
 
 
 def _loc_key(loc: SourceLoc, relpath: Callable[[str], str]) -> tuple[str, int]:
@@ -490,7 +534,8 @@ def _merge_enums(units: list[FeUnit], relpath: Callable[[str], str]) -> dict[str
     return merged
 
 
-def _merge_instances(units: list[FeUnit], relpath: Callable[[str], str], notes: list[Note]
+def _merge_instances(units: list[FeUnit], relpath: Callable[[str], str], notes: list[Note],
+                     left_out: frozenset[str] = frozenset()
                      ) -> tuple[list[tuple[FeInstance, str | None]], dict[str, SkippedInstance]]:
     """The instances of the union, as (record, qualifier), and the skipped ones by name.
 
@@ -503,8 +548,24 @@ def _merge_instances(units: list[FeUnit], relpath: Callable[[str], str], notes: 
         for inst in unit.instances:
             seen.setdefault(inst.name, []).append((k, inst))
     out: list[tuple[FeInstance, str | None]] = []
+    gone: dict[str, SkippedInstance] = {}
     for name in sorted(seen):
         places = seen[name]
+        # A declaration in an input that was left out (it did not parse, or --exclude) is seen through
+        # another input that includes it, but the generated C cannot include it: use another place.
+        usable = [(k, i) for k, i in places if os.path.abspath(i.loc.file) not in left_out]
+        if len(usable) < len(places):
+            hidden = min((i for _, i in places if (_, i) not in usable), key=lambda i: _loc_key(i.loc, relpath))
+            where = SourceLoc(relpath(hidden.loc.file), hidden.loc.line)
+            if not usable:
+                gone[name] = SkippedInstance(name, where, f"declared in {where.file}, an input left out "
+                                                          "(it does not parse, or --exclude): the generated C "
+                                                          "could not refer to it")
+                continue
+            other = min((i for _, i in usable), key=lambda i: _loc_key(i.loc, relpath))
+            notes.append(Note("note", f"'{name}' is declared in {where.file}, an input left out; catalogued from "
+                                      f"{_fmt(other.loc, relpath)}", where))
+            places = usable
         first = min((inst for _, inst in places), key=lambda i: _loc_key(i.loc, relpath))
         for _, inst in places:
             if (first.type_key, first.dims) != (inst.type_key, inst.dims):
@@ -529,13 +590,69 @@ def _merge_instances(units: list[FeUnit], relpath: Callable[[str], str], notes: 
                                   f"{', '.join(names)} (docs/catalogue.md, duplicate definitions)",
                           SourceLoc(relpath(first.loc.file), first.loc.line)))
         out += [(definitions[f], quals[f]) for f in sorted(definitions)]
-    catalogued = set(seen)
-    skipped: dict[str, SkippedInstance] = {}
+    catalogued = set(seen) - set(gone)
+    skipped: dict[str, SkippedInstance] = dict(gone)
     for unit in units:
         for name, loc, reason in unit.skipped_instances:
             if name not in catalogued:
                 skipped.setdefault(name, SkippedInstance(name, SourceLoc(relpath(loc.file), loc.line), reason))
     return out, skipped
+
+
+def _runtime_instances(units: list[FeUnit], opts: BuildOptions, taken: set[str], relpath: Callable[[str], str],
+                       notes: list[Note]) -> list[FeInstance]:
+    """Instances of handle-based object systems, made from their types (--instance-per-type,
+    --instances-from): every data type is defined in the headers, but the objects are created at run
+    time behind handles, so no global instance leads to them. Each gets an ID and a NULL entry in the
+    bind table; the application binds its storage (ub_node_bind())."""
+    if not opts.instance_patterns and not opts.instance_list:
+        return []
+    names: dict[str, str] = {}
+    records = {r.key: r for unit in units for r in unit.records}
+    for unit in units:
+        for name, key in unit.named_records:
+            names.setdefault(name, key)
+    out: dict[str, FeInstance] = {}
+    used_keys: set[str] = set()
+
+    def add(name: str, key: str, loc: SourceLoc, origin: str) -> None:
+        if not is_identifier(name):
+            raise ModelError(f"{origin}: error: instance name '{name}' is not a C identifier")
+        if name in taken:
+            notes.append(Note("note", f"'{name}' ({origin}) is also an instance the inputs declare: "
+                                      "that one is catalogued"))
+            return
+        if name in out:
+            if out[name].type_key != key:
+                raise ModelError(f"{origin}: error: instance '{name}' is made from two types "
+                                 f"({out[name].type_key}, {key})")
+            return
+        out[name] = FeInstance(name, key, (), loc, False, runtime=True)
+        used_keys.add(key)
+
+    for name, type_name, where in opts.instance_list:
+        key = names.get(type_name)
+        if key is None:
+            close = sorted(n for n in names if type_name.lower() in n.lower())[:3]
+            raise ModelError(f"{where}: error: '{type_name}' is not a struct type the inputs define"
+                             + (f" (did you mean {', '.join(close)}?)" if close else f" ({len(names)} types seen)"))
+        add(name, key, where, str(where))
+    for pat in opts.instance_patterns:
+        rx = re.compile(pat)
+        hits = 0
+        for type_name in sorted(names):
+            m = rx.fullmatch(type_name)
+            if m is None or names[type_name] in used_keys:
+                continue
+            hits += 1
+            name = (m.group(1) if rx.groups else type_name.removeprefix("struct ")) or type_name
+            rec = records[names[type_name]]
+            add(name, names[type_name], rec.loc, f"--instance-per-type '{pat}' ({type_name})")
+        if not hits:
+            sample = ", ".join(sorted(names)[:5]) + (", ..." if len(names) > 5 else "")
+            notes.append(Note("warning", f"--instance-per-type '{pat}' matches no struct type in full "
+                                         f"({len(names)} types seen: {sample})"))
+    return [out[k] for k in sorted(out)]
 
 
 def _qualifiers(files: list[str]) -> dict[str, str]:
@@ -557,14 +674,16 @@ def _decl_text(inst: FeInstance) -> str:
     return inst.type_key + "".join(f"[{d}]" for d in inst.dims)
 
 
-def _include_plan(units: list[FeUnit], type_keys: set[str]) -> tuple[tuple[str, ...], dict[str, SourceLoc]]:
+def _include_plan(units: list[FeUnit], type_keys: set[str]
+                  ) -> tuple[tuple[Union[str, IncludeFile], ...], dict[str, SourceLoc], frozenset[str]]:
     """What the generated header #includes so every instance type is visible, in the context clang
     parsed it in, and the types no header can reach (key -> where the .c defines it).
 
     A type seen through a header input: that header (it parsed on its own, so it is self-contained).
     A type seen only through `.c` inputs: the first such input's own #include lines, in order, up to
     the one that brings the type in; the headers before it are what a non-self-contained header
-    needs. A type defined inside a `.c` file cannot be reached."""
+    needs. A type defined inside a `.c` file cannot be reached. Also returns the files included
+    (absolute paths)."""
     chosen: dict[str, tuple[int, int]] = {}  # key -> (unit, index into top_includes; -1 = self_include)
     defined_in_c: dict[str, SourceLoc] = {}
     seen = [{r.key: r.loc for r in unit.records} for unit in units]
@@ -585,7 +704,7 @@ def _include_plan(units: list[FeUnit], type_keys: set[str]) -> tuple[tuple[str, 
     wanted: dict[int, int] = {}
     for k, via in chosen.values():
         wanted[k] = max(wanted.get(k, -1), via)
-    includes: list[str] = []
+    includes: list[Union[str, IncludeFile]] = []
     opened: set[str] = set()
     for k in sorted(wanted):
         unit = units[k]
@@ -593,10 +712,11 @@ def _include_plan(units: list[FeUnit], type_keys: set[str]) -> tuple[tuple[str, 
         for ref in refs:
             assert ref is not None
             path = os.path.normpath(os.path.abspath(ref.path))
-            if path not in opened and ref.text not in includes:
+            entry: Union[str, IncludeFile] = ref.text or IncludeFile(path)
+            if path not in opened and entry not in includes:
                 opened.add(path)
-                includes.append(ref.text)
-    return tuple(includes), unreachable
+                includes.append(entry)
+    return tuple(includes), unreachable, frozenset(opened)
 
 
 def _apply_payload_limit(types: dict[str, StructType], fe_instances: list[tuple[FeInstance, str | None]],
@@ -608,11 +728,19 @@ def _apply_payload_limit(types: dict[str, StructType], fe_instances: list[tuple[
     if not big:
         return fe_instances
     lines = [f"  {t.loc}: {t.name}: {t.packed_size} bytes on the wire" for t in big]
-    fix = ("fix: split the type, skip members, or build the runtime with a larger UB_MAX_DIRECTORY and pass the "
-           "same value as --max-payload")
+    largest = max(t.packed_size for t in big)
+    # What a user must know to choose: one frame carries UB_MAX_PAYLOAD; larger types already travel
+    # in fragments, up to UB_MAX_DIRECTORY, which a runtime can raise to 65535 (16-bit reassembled size).
+    raise_it = (f"build the runtime with -DUB_MAX_DIRECTORY={largest} and pass --max-payload {largest}"
+                if largest <= MAX_DIRECTORY_LIMIT else
+                f"no runtime carries more than {MAX_DIRECTORY_LIMIT} bytes (the reassembled size is 16 bits)")
+    fix = ("note: a type above one frame (UB_MAX_PAYLOAD, 1024 bytes by default) travels in fragments, up to the "
+           f"fragment limit UB_MAX_DIRECTORY ({opts.max_payload} here, --max-payload; at most {MAX_DIRECTORY_LIMIT})\n"
+           f"fix: split the type, skip members, leave its instances out with --keep-going, or {raise_it}")
     if not opts.keep_going:
         problems.append(f"error: {len(big)} type(s) pack to more than the payload limit of {opts.max_payload} "
-                        "bytes (--max-payload; the runtime's UB_MAX_DIRECTORY):\n" + "\n".join(lines) + "\n" + fix)
+                        "bytes (--max-payload; the runtime's fragment limit UB_MAX_DIRECTORY):\n" + "\n".join(lines)
+                        + "\n" + fix)
         return fe_instances
     too_big = {t.name for t in big}
     notes.append(Note("warning", f"{len(big)} type(s) pack to more than the payload limit of {opts.max_payload} "
@@ -641,7 +769,9 @@ def _hints(units: list[FeUnit], instances: list[Instance], skipped: dict[str, Sk
             out.append(Note("warning", f"no instance to catalogue: the inputs define {len(defined)} struct type(s){more} "
                                        "but declare no instance of one with external linkage; declare each directory "
                                        f"the system shares, e.g. `extern {example} {var};` in a header the inputs "
-                                       "include (docs/catalogue.md, what is catalogued)"))
+                                       "include, or, for objects created at run time behind handles (UAVObjects, "
+                                       "uORB topics), make one instance per type with --instance-per-type 'REGEX' "
+                                       "or --instances-from FILE (docs/catalogue.md, what is catalogued)"))
         elif not skipped:
             out.append(Note("warning", "no instance to catalogue: the inputs define no struct type and declare no "
                                        "instance (docs/catalogue.md, what is catalogued)"))
@@ -706,7 +836,9 @@ def _make_field(f: FeField, relpath: Callable[[str], str], text: bool = False) -
     t = f.type
     if isinstance(t, (FeOther, FeScalar)):
         t = dataclasses.replace(t, spelling=_spelling(t.spelling, relpath))
-    common = dict(name=f.name, dims=f.dims, offset_bits=f.offset_bits, loc=loc)
+    common = dict(name=f.name, dims=f.dims, offset_bits=f.offset_bits, loc=loc, readonly=f.readonly)
+    if f.readonly and f.bit_width is not None:
+        return Field(**common, c_spelling=getattr(t, "spelling", ""), skipped=SKIP_CONST_BITFIELD)
     if isinstance(t, FeOther):
         reason = {"pointer": SKIP_POINTER, "union": SKIP_UNION, "flexible": SKIP_FLEXIBLE}.get(t.what)
         return Field(**common, c_spelling=t.spelling, skipped=reason or f"{SKIP_UNSUPPORTED} ({t.spelling})")
@@ -771,7 +903,7 @@ def _expand_instances(fe: list[tuple[FeInstance, str | None]], scheme: str, relp
                 ident = ids.dir_id(name, scheme)
             except ids.IdError as exc:
                 raise ModelError(f"{loc}: error: {exc}") from exc
-            out.append(Instance(name, inst.type_key, ident, loc, inst.name, tuple(index), qual))
+            out.append(Instance(name, inst.type_key, ident, loc, inst.name, tuple(index), qual, inst.runtime))
     return out
 
 

@@ -9,6 +9,7 @@ driven by `templates/properties.json`. Nothing here writes files; output is dete
 from __future__ import annotations
 
 import json
+import os
 import re
 from dataclasses import dataclass
 from itertools import product
@@ -58,6 +59,21 @@ class Properties:
 class RenderInputs:
     name: str  # NAME: output base name and C/Python prefix
     catalogue_json: str = ""  # compact catalogue JSON, embedded in NAME.c as the catalogue's self-description
+    outdir: str | None = None  # where NAME.h goes: input headers no -I finds are included relative to it
+
+
+def c_include(inc: "str | model.IncludeFile", outdir: str | None) -> str:
+    """An #include operand: as the inputs spell it, or an input header's path relative to the
+    directory of the generated header (a quoted include is looked up there first; no -I needed).
+
+    >>> c_include(model.IncludeFile("/src/fw/nav/nav.h"), "/src/out")
+    '"../fw/nav/nav.h"'
+    """
+    if isinstance(inc, str):
+        return inc
+    if outdir is None:
+        return f'"{os.path.basename(inc.path)}"'
+    return '"' + os.path.relpath(inc.path, os.path.abspath(outdir)).replace(os.sep, "/") + '"'
 
 
 class Renderer:
@@ -76,10 +92,12 @@ class Renderer:
             autoescape=False,
         )
         self.env.filters.update(
-            c_put=c_put, c_get=c_get, c_literal=c_literal, c_bytes=c_bytes, c_string=c_string,
+            c_put=c_put, c_get=c_get, c_get_ro=c_get_ro, c_store_type=c_store_type, c_literal=c_literal,
+            c_bytes=c_bytes, c_string=c_string,
             c_valid=c_valid, c_value_type=c_value_type,
             py_attr=lambda n: self.props.mangle(n, "py"), py_class=self.py_class,
             py_format=self.py_format, py_literal=py_literal, hex8=lambda v: f"0x{v:08x}",
+            c_include=lambda inc: c_include(inc, inputs.outdir),
         )
         self.env.globals.update(
             cat=cat, NAME=inputs.name, abi_version=ABI_VERSION, model=model,
@@ -87,7 +105,7 @@ class Renderer:
             id_scheme_c="UB_ID_SCHEME_" + cat.id_scheme.upper(), catalogue_json=inputs.catalogue_json,
             check_runs=check_runs, json_rows=c_json_rows, wire_checks=lambda t: model.wire_checks(cat, t),
             py_checks=self.py_checks, py_property_checks=self.py_property_checks, indexes=lambda dims: list(product(*(range(d) for d in dims))), concrete=_concrete, LOOP_MIN=LOOP_MIN,
-            rounds=PROPERTY_ROUNDS, bind_bases=lambda: bind_bases(cat),
+            rounds=PROPERTY_ROUNDS, bind_bases=lambda: bind_bases(cat), abi_hint=lambda t: abi_hint(cat, t),
             bindable=lambda i: bindable(i, cat),
         )
         self._py_classes = self._python_class_names()
@@ -112,6 +130,11 @@ class Renderer:
             f"{n}.c": tidy(self.render_node(self.cat, "c", "c")),
             f"{n}.py": tidy(self.render_node(self.cat, "py", "py")),
         }
+
+    def render_selftest_linux_arm(self) -> dict[str, str]:
+        """The system-call shim that lets a bare-metal ARM self-test run under qemu-arm (user mode)."""
+        n = self.inputs.name
+        return {f"{n}_selftest_linux_arm.c": tidy(self.env.get_template("c/SelftestLinuxArm.c.j2").render())}
 
     def render_selftest(self) -> dict[str, str]:
         """The self-test programs with their shared values: C split into translation units of about
@@ -204,6 +227,7 @@ class LeafGroup:
     dims: tuple[int, ...]  # extent of each loop variable, outermost first
     field: Field
     values: tuple[Any, ...]  # row-major
+    readonly: bool = False  # the member or one around it is const: the test writes its bytes
 
     @property
     def count(self) -> int:
@@ -228,7 +252,9 @@ class SelftestCase:
     @property
     def skipped_paths(self) -> tuple[str, ...]:
         """Top-level skipped members the C test can poison and re-check (unpack must not touch them)."""
-        return tuple(f.name for f in self.type.fields if f.skipped and f.name and f.skipped != model.SKIP_FLEXIBLE)
+        # A flexible array has no size and a bitfield no offsetof: neither can be poisoned.
+        return tuple(f.name for f in self.type.fields if f.skipped and f.name
+                     and f.skipped not in (model.SKIP_FLEXIBLE, model.SKIP_CONST_BITFIELD))
 
     @property
     def weight(self) -> int:
@@ -247,17 +273,17 @@ def _leaf_groups(cat: Catalogue, t: StructType, leaves: list[model.Leaf]) -> lis
     values = {leaf.path: leaf.value for leaf in leaves}
     out: list[LeafGroup] = []
 
-    def walk(t: StructType, prefix: tuple, dims: tuple[int, ...]) -> None:
+    def walk(t: StructType, prefix: tuple, dims: tuple[int, ...], ro: bool) -> None:
         for f in t.packed_fields:
             var_path = prefix + (f.name,) + tuple(LoopVar(len(dims) + k) for k in range(len(f.dims)))
             all_dims = dims + f.dims
             if f.struct:
-                walk(cat.type(f.struct), var_path, all_dims)
+                walk(cat.type(f.struct), var_path, all_dims, ro or f.readonly)
                 continue
             vals = tuple(values[_concrete(var_path, index)] for index in product(*(range(d) for d in all_dims)))
-            out.append(LeafGroup(var_path, all_dims, f, vals))
+            out.append(LeafGroup(var_path, all_dims, f, vals, ro or f.readonly))
 
-    walk(t, (), ())
+    walk(t, (), (), False)
     return out
 
 
@@ -302,6 +328,41 @@ def check_runs(checks: list[model.WireCheck]) -> list[CheckRun]:
 # -- C filters (pure functions, doctested) --------------------------------------------------------
 
 
+_ABI_SIZED = re.compile(r"(?<!long )\blong\b(?! long| double)|size_t|ptrdiff_t|intptr")  # long and pointer-sized
+
+
+def abi_hint(cat: Catalogue, t: StructType) -> str:
+    """What in `t` a different compiler ABI lays out differently, with the flag that decides it: the
+    text of the layout assertions' messages (a failing one then says where to look, not only
+    "regenerate", which changes nothing while the ABI differs)."""
+    found: dict[str, None] = {}
+
+    def walk(t: StructType, seen: set[str]) -> None:
+        if t.packed_attr:
+            found["packing (#pragma pack, -fpack-struct)"] = None
+        for f in t.fields:
+            spelled = f.c_spelling
+            if f.enum or spelled.startswith("enum "):
+                found["enum size (-fshort-enums)"] = None
+            if f.skipped == model.SKIP_POINTER or _ABI_SIZED.search(spelled):
+                found["long and pointer size (-m32/-m64)"] = None
+            if f.long_double:
+                found["long double size (-mlong-double-*)"] = None
+            elif f.wire is not None and f.wire.size == 8 and f.bits is None:
+                found["8-byte member alignment (-malign-double, -m32)"] = None
+            if f.bits is not None:
+                found["bitfield layout (-mms-bitfields)"] = None
+            if f.struct and f.struct not in seen:
+                seen.add(f.struct)
+                walk(cat.type(f.struct), seen)
+
+    walk(t, {t.name})
+    where = ", ".join(found) if found else "type sizes and alignment"
+    parsed = cat.abi or "clang's default for the generating machine"
+    return (f"differs from the catalogue: the ABI of this compiler is not the one the catalogue was parsed with "
+            f"({parsed}; check: {where}); regenerate with --target-cc <this compiler> and the flags of this build")
+
+
 def c_put(f: Field, acc: str) -> str:
     """The statement that writes one scalar at `p` (signed values travel as their two's-complement bits)."""
     w = f.wire
@@ -318,17 +379,44 @@ def c_put(f: Field, acc: str) -> str:
 
 def c_get(f: Field, acc: str) -> str:
     """The statement that reads one scalar at `p` into `acc`."""
+    return f"{acc} = {c_read(f)};"
+
+
+def c_read(f: Field) -> str:
+    """The expression that reads one scalar at `p`."""
     w = f.wire
     assert w is not None
     if w.name == "bool":
-        return f"{acc} = ub_get_u8(p) != 0u;"
+        return "ub_get_u8(p) != 0u"
     if w.name == "f32":
-        return f"{acc} = ub_get_f32le(p);"
+        return "ub_get_f32le(p)"
     if w.name == "f64":
-        return f"{acc} = ub_get_f64le(p);"
+        return "ub_get_f64le(p)"
     suffix = "" if w.size == 1 else "le"
     read = f"ub_get_u{w.bits}{suffix}(p)"
-    return f"{acc} = ({w.c_type}){read};" if w.signed else f"{acc} = {read};"
+    return f"({w.c_type}){read}" if w.signed else read
+
+
+def c_store_type(f: Field) -> str:
+    """A C type with the size and representation of the member's storage (the wire's C type holds the
+    same bits: an int or enum member has its wire type's size, a bool is one byte 0 or 1)."""
+    assert f.wire is not None
+    return "long double" if f.long_double else f.wire.c_type
+
+
+def c_get_ro(f: Field, addr: str) -> str:
+    """Unpack of a const member: the value is built in a local of the member's storage type and its
+    bytes copied to `addr` (the member's address without the const), never assigned through a const lvalue.
+
+    >>> from uavbus_gen.model import PRIMITIVES, Field, SourceLoc
+    >>> c_get_ro(Field("t", (), 0, SourceLoc("x.h", 1), "uint8_t", wire=PRIMITIVES["u8"], readonly=True), "A")
+    '{ const uint8_t v = ub_get_u8(p); memcpy(A, &v, sizeof v); }'
+    """
+    store = c_store_type(f)
+    value = c_read(f)
+    if f.long_double or (f.wire is not None and f.wire.name == "bool"):
+        value = f"({store})({value})"
+    return f"{{ const {store} v = {value}; memcpy({addr}, &v, sizeof v); }}"
 
 
 def c_literal(value: int | float | bool, f: Field) -> str:
@@ -482,6 +570,7 @@ def bind_bases(cat: Catalogue) -> list[BindBase]:
 def bindable(inst: "model.Instance", cat: Catalogue) -> bool:
     # Catalogued from a `.c` input: its declaration in NAME.h (if any) may differ (const, bounds), and
     # redeclaring it could conflict, so it is bound by hand. Header-declared instances are marked weak.
-    return (inst.qualifier is None and cat.type(inst.type).c_name is not None
+    # Made from a type (handle-based objects): there is no C object to refer to; the application binds it.
+    return (inst.qualifier is None and not inst.runtime and cat.type(inst.type).c_name is not None
             and not str(inst.loc.file).endswith(".c"))
 

@@ -179,5 +179,10 @@ def test_verbose_prints_generation_time(tmp_path: Path, capsys: pytest.CaptureFi
 
 def test_name_that_shadows_an_input_header_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     write(tmp_path, "nav.h", "struct s { int x; };\nextern struct s one;\n")
-    code, _, err = run_cli(["gen", "nav.h", "--name", "nav", "-o", "out"], tmp_path, capsys)
+    # Found through -I, the input is included as "nav.h": out/nav.h would include itself.
+    code, _, err = run_cli(["gen", "nav.h", "-I", ".", "--name", "nav", "-o", "out"], tmp_path, capsys)
     assert code == 2 and "include itself" in err
+    # Without -I it is included by its path relative to the output ("../nav.h"): no clash.
+    code, _, err = run_cli(["gen", "nav.h", "--name", "nav", "-o", "out"], tmp_path, capsys)
+    assert code == 0, err
+    assert '#include "../nav.h"' in (tmp_path / "out" / "nav.h").read_text()

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import os
+import re
 import struct
 import subprocess
 import sys
@@ -63,8 +65,9 @@ def test_generated_code_has_banner_abi_check_and_static_asserts(kinds_out: Path)
     assert "kinds_LAYOUT_ASSERT(sizeof(struct vec3) == 12u" in c
     assert "kinds_LAYOUT_ASSERT(offsetof(struct all_kinds, roll)" in c
     assert "offsetof(struct all_kinds, bf_u3)" not in c  # bitfields have no offsetof
-    assert "#include \"all_kinds.h\"" in h
-    assert str(REPO) not in h + c
+    # No -I finds the input: it is included by its path relative to the output directory.
+    assert f'#include "{os.path.relpath(ALL_KINDS, kinds_out)}"' in h
+    assert not re.search(r'["(\s]' + re.escape(str(REPO)), h + c)  # no absolute path (the include is relative)
 
 
 C_MAIN = r"""

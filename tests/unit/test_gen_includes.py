@@ -37,7 +37,8 @@ def test_c_inputs_get_their_own_include_lines_in_order(tmp_path: Path, capsys: p
     code, _, err = run_cli(["gen", "src/app.c", "-I", "inc", "-o", "out"], tmp_path, capsys)
     assert code == 0, err
     # Up to local.h (the last one a catalogued type needs), in app.c's order; late.h is not needed.
-    assert includes_of(tmp_path / "out") == ["<string.h>", '"base.h"', '"msg.h"', '"local.h"']
+    # local.h is found next to app.c, not through -I: by its path relative to the generated header.
+    assert includes_of(tmp_path / "out") == ["<string.h>", '"base.h"', '"msg.h"', '"../src/local.h"']
     compiles(tmp_path, tmp_path / "out", ["-std=c11", "-Iinc", "-Isrc"])
     compiles(tmp_path, tmp_path / "out", ["-std=c99", "-pedantic", "-Iinc", "-Isrc"])
 
@@ -67,7 +68,8 @@ def test_header_inputs_are_included_by_their_search_path_spelling(tmp_path: Path
     assert run_cli(["gen", "inc/nav/nav.h", "-I", "inc", "-o", "out"], tmp_path, capsys)[0] == 0
     assert includes_of(tmp_path / "out") == ['"nav/nav.h"']
     assert run_cli(["gen", "inc/nav/nav.h", "-o", "out2"], tmp_path, capsys)[0] == 0
-    assert includes_of(tmp_path / "out2") == ['"nav.h"']  # compile with -I of the input's directory
+    # No -I finds it: by its path relative to the generated header, so compiling needs no extra -I.
+    assert includes_of(tmp_path / "out2") == ['"../inc/nav/nav.h"']
 
 
 def test_embedded_catalogue_rows_stay_within_c99_limits() -> None:
@@ -92,9 +94,11 @@ def test_large_catalogue_is_clean_under_c99_pedantic(tmp_path: Path, capsys: pyt
 
 @needs_gcc
 def test_all_kinds_c99_and_cxx(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert run_cli(["gen", str(ALL_KINDS), "--name", "kinds", "-o", "out"], tmp_path, capsys)[0] == 0
+    # Generated with -I of its folder, so kinds.h includes it by name and the folder can be a system
+    # directory when compiling: all_kinds.h itself is C11 (anonymous members), -pedantic judges ours.
+    assert run_cli(["gen", str(ALL_KINDS), "-I", str(ALL_KINDS.parent), "--name", "kinds", "-o", "out"],
+                   tmp_path, capsys)[0] == 0
     out = tmp_path / "out"
-    # all_kinds.h itself is C11 (anonymous members): a system header here, so -pedantic judges ours.
     compiles(tmp_path, out, ["-std=c99", "-pedantic", "-isystem", str(ALL_KINDS.parent)], "kinds")
     (tmp_path / "use.cpp").write_text('#include "kinds.h"\nint main() { struct vec3 v = {1, 2, 3}; uint8_t b[12];\n'
                                       '  return kinds_pack_vec3(&v, b, sizeof b) == 12 ? 0 : 1; }\n')

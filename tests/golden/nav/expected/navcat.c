@@ -28,16 +28,16 @@
  *
  * A compiler or ABI that lays a type out differently from clang at generation time fails here. */
 /* position_t (nav.h:7) */
-navcat_LAYOUT_ASSERT(sizeof(position_t) == 24u, position_t_size, "position_t: sizeof differs from the catalogue; regenerate");
-navcat_LAYOUT_ASSERT(offsetof(position_t, lat) == 0u, position_t_lat, "position_t.lat: offset differs from the catalogue; regenerate");
-navcat_LAYOUT_ASSERT(offsetof(position_t, lon) == 8u, position_t_lon, "position_t.lon: offset differs from the catalogue; regenerate");
-navcat_LAYOUT_ASSERT(offsetof(position_t, alt) == 16u, position_t_alt, "position_t.alt: offset differs from the catalogue; regenerate");
+navcat_LAYOUT_ASSERT(sizeof(position_t) == 24u, position_t_size, "position_t: sizeof differs from the catalogue: the ABI of this compiler is not the one the catalogue was parsed with (clang's default for the generating machine; check: 8-byte member alignment (-malign-double, -m32)); regenerate with --target-cc <this compiler> and the flags of this build");
+navcat_LAYOUT_ASSERT(offsetof(position_t, lat) == 0u, position_t_lat, "position_t.lat: offset differs from the catalogue: the ABI of this compiler is not the one the catalogue was parsed with (clang's default for the generating machine; check: 8-byte member alignment (-malign-double, -m32)); regenerate with --target-cc <this compiler> and the flags of this build");
+navcat_LAYOUT_ASSERT(offsetof(position_t, lon) == 8u, position_t_lon, "position_t.lon: offset differs from the catalogue: the ABI of this compiler is not the one the catalogue was parsed with (clang's default for the generating machine; check: 8-byte member alignment (-malign-double, -m32)); regenerate with --target-cc <this compiler> and the flags of this build");
+navcat_LAYOUT_ASSERT(offsetof(position_t, alt) == 16u, position_t_alt, "position_t.alt: offset differs from the catalogue: the ABI of this compiler is not the one the catalogue was parsed with (clang's default for the generating machine; check: 8-byte member alignment (-malign-double, -m32)); regenerate with --target-cc <this compiler> and the flags of this build");
 
 /* struct nav_state (nav.h:12) */
-navcat_LAYOUT_ASSERT(sizeof(struct nav_state) == 48u, nav_state_size, "struct nav_state: sizeof differs from the catalogue; regenerate");
-navcat_LAYOUT_ASSERT(offsetof(struct nav_state, pos) == 0u, nav_state_pos, "struct nav_state.pos: offset differs from the catalogue; regenerate");
-navcat_LAYOUT_ASSERT(offsetof(struct nav_state, vel) == 24u, nav_state_vel, "struct nav_state.vel: offset differs from the catalogue; regenerate");
-navcat_LAYOUT_ASSERT(offsetof(struct nav_state, label) == 40u, nav_state_label, "struct nav_state.label: offset differs from the catalogue; regenerate");
+navcat_LAYOUT_ASSERT(sizeof(struct nav_state) == 48u, nav_state_size, "struct nav_state: sizeof differs from the catalogue: the ABI of this compiler is not the one the catalogue was parsed with (clang's default for the generating machine; check: 8-byte member alignment (-malign-double, -m32), bitfield layout (-mms-bitfields), long and pointer size (-m32/-m64)); regenerate with --target-cc <this compiler> and the flags of this build");
+navcat_LAYOUT_ASSERT(offsetof(struct nav_state, pos) == 0u, nav_state_pos, "struct nav_state.pos: offset differs from the catalogue: the ABI of this compiler is not the one the catalogue was parsed with (clang's default for the generating machine; check: 8-byte member alignment (-malign-double, -m32), bitfield layout (-mms-bitfields), long and pointer size (-m32/-m64)); regenerate with --target-cc <this compiler> and the flags of this build");
+navcat_LAYOUT_ASSERT(offsetof(struct nav_state, vel) == 24u, nav_state_vel, "struct nav_state.vel: offset differs from the catalogue: the ABI of this compiler is not the one the catalogue was parsed with (clang's default for the generating machine; check: 8-byte member alignment (-malign-double, -m32), bitfield layout (-mms-bitfields), long and pointer size (-m32/-m64)); regenerate with --target-cc <this compiler> and the flags of this build");
+navcat_LAYOUT_ASSERT(offsetof(struct nav_state, label) == 40u, nav_state_label, "struct nav_state.label: offset differs from the catalogue: the ABI of this compiler is not the one the catalogue was parsed with (clang's default for the generating machine; check: 8-byte member alignment (-malign-double, -m32), bitfield layout (-mms-bitfields), long and pointer size (-m32/-m64)); regenerate with --target-cc <this compiler> and the flags of this build");
 
 /* ub_pack_fn/ub_unpack_fn signatures for the catalogue table (no function-pointer casts). */
 static int navcat_pack_position_t_any(const void *obj, uint8_t *buf, size_t cap);

@@ -16,8 +16,9 @@
 
 /* The headers that define the catalogued types, included as the inputs include them (for a `.c`
  * input: its own #include lines up to the one that brings the type in, so a header that needs
- * others first still compiles). Compile with the inputs' flags and -I of each input's directory. */
-#include "nav.h"
+ * others first still compiles). A header that no -I directory of the generation finds is included
+ * by its path relative to this file. Compile with the inputs' flags. */
+#include "../nav.h"
 
 #if UB_CATALOGUE_ABI_VERSION != 2
 #error "navcat.h was generated for catalogue ABI 2; regenerate it with this runtime's uavbus gen"
