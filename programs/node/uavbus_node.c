@@ -231,7 +231,7 @@ static void out_port(ub_app_t *app, const ub_port_t *p, const char *name) {
     char spec[128];
     uint16_t lp = 0;
     ub_port_spec_format(&p->spec, spec, sizeof spec);
-    ub_app_out(app, "\"transport\":\"%s\",\"spec\":", ub_port_kind_transport(p->spec.kind));
+    ub_app_out(app, "\"transport\":\"%s\",\"spec\":", ub_port_spec_transport(&p->spec));
     ub_app_str(app, spec, SIZE_MAX);
     if (ub_ports_local_port(&app->ports, name, &lp) == UB_OK) ub_app_out(app, ",\"local_port\":%u", (unsigned)lp);
     else if (p->spec.kind == UB_PORT_TCP_CONNECT) ub_app_out(app, ",\"local_port\":null,\"connect_port\":%u", (unsigned)p->spec.port);
@@ -276,49 +276,10 @@ static void out_impair(ub_app_t *app, const ub_port_t *p) {
         s->inner_errors, ub_impair_pending(&p->impair));
 }
 
-static void out_driver(ub_app_t *app, const ub_port_t *p) {
-    const ub_port_driver_t *d = &p->drv[p->active];
-    switch (d->kind) {
-    case UB_PORT_UDP: {
-        const ub_udp_stats_t *s = &d->u.udp.stats;
-        ub_app_out(app, ",\"udp\":{\"datagrams_in\":%" PRIu64 ",\"rejected\":%" PRIu64 ",\"foreign\":%" PRIu64
-            ",\"datagrams_out\":%" PRIu64 ",\"again\":%" PRIu64 ",\"send_errors\":%" PRIu64
-            ",\"no_peer\":%" PRIu64 ",\"peers_learned\":%" PRIu64 ",\"peers\":[",
-            s->datagrams_in, s->rejected, s->foreign, s->datagrams_out, s->again, s->send_errors, s->no_peer,
-            s->peers_learned);
-        char host[16];
-        uint16_t port;
-        for (int i = 0; ub_udp_peer_at(&d->u.udp, i, host, &port) == UB_OK; i++) ub_app_out(app, "%s\"%s:%u\"", i ? "," : "", host, port);
-        ub_app_out(app, "]}");
-        break;
-    }
-    case UB_PORT_TCP_LISTEN:
-    case UB_PORT_TCP_CONNECT: {
-        const ub_tcp_stats_t *s = ub_tcp_stats(&d->u.tcp);
-        static const char *const states[] = {"down", "connecting", "up"};
-        ub_app_out(app, ",\"tcp\":{\"state\":\"%s\",\"connects\":%" PRIu64 ",\"reconnects\":%" PRIu64 ",\"disconnects\":%" PRIu64
-            ",\"failed_attempts\":%" PRIu64 ",\"backpressure\":%" PRIu64 ",\"send_closed\":%" PRIu64
-            ",\"tx_discarded\":%" PRIu64 ",\"candidates\":%" PRIu64 ",\"adopted\":%" PRIu64 ",\"replaced\":%" PRIu64
-            ",\"candidates_refused\":%" PRIu64 ",\"candidates_expired\":%" PRIu64 ",\"candidates_lost\":%" PRIu64
-            ",\"candidate_rejected\":%" PRIu64 ",\"candidates_open\":%d}",
-            states[ub_tcp_state(&d->u.tcp) % 3], s->connects, s->reconnects, s->disconnects, s->failed_attempts,
-            s->backpressure, s->send_closed, s->tx_discarded, s->candidates, s->adopted, s->replaced,
-            s->candidates_refused, s->candidates_expired, s->candidates_lost, s->candidate_rejected,
-            ub_tcp_candidates(&d->u.tcp));
-        break;
-    }
-    case UB_PORT_SERIAL: {
-        const ub_serial_stats_t *s = ub_serial_stats(&d->u.serial);
-        ub_app_out(app, ",\"serial\":{\"state\":\"%s\",\"bytes_in\":%" PRIu64 ",\"bytes_out\":%" PRIu64 ",\"backpressure\":%" PRIu64
-            ",\"io_errors\":%" PRIu64 ",\"hangups\":%" PRIu64 ",\"reopens\":%" PRIu64 ",\"reopen_failures\":%" PRIu64
-            ",\"send_closed\":%" PRIu64 ",\"tx_discarded\":%" PRIu64 "}",
-            ub_serial_state(&d->u.serial) == UB_SERIAL_UP ? "up" : "down", s->bytes_in, s->bytes_out,
-            s->backpressure, s->io_errors, s->hangups, s->reopens, s->reopen_failures, s->send_closed,
-            s->tx_discarded);
-        break;
-    }
-    default: break;
-    }
+/* The port's driver object ("udp":{...}), written by its driver table (ub_driver.h), built-in or registered. */
+static void out_driver(ub_app_t *app, const char *name) {
+    char text[2048];
+    if (ub_ports_describe(&app->ports, name, text, sizeof text) > 0) ub_app_out(app, ",%s", text);
 }
 
 static void out_keys(ub_app_t *app) {
@@ -365,7 +326,7 @@ static void link_stats(ub_app_t *app, int id, const ub_link_t *l, const ub_port_
         ub_app_out(app, ",\"port\":{");
         out_port(app, p, l->name);
         ub_app_out(app, ",\"rebinds\":%" PRIu32 ",\"service_errors\":%" PRIu64 "}", p->rebinds, p->service_errors);
-        out_driver(app, p);
+        out_driver(app, l->name);
         if (p->impaired) out_impair(app, p);
     } else {
         ub_app_out(app, ",\"port\":null");
