@@ -18,7 +18,10 @@ BUILD_FUZZ  := build-fuzz
 BUILD_COV   := build-cov
 # clang + libFuzzer: `make test` runs every fuzz harness for a few seconds (make fuzz for longer).
 FUZZ_APT_PKGS := clang-14 libclang-rt-14-dev
+# QEMU's system emulator: `make test` and `make demo` boot the Cortex-M4 firmware (examples/mcu) on mps2-an386.
+HITL_APT_PKGS := qemu-system-arm
 APT_PKGS    := libcmocka-dev cmake ninja-build pkg-config libsodium-dev gcc-arm-none-eabi libnewlib-arm-none-eabi g++ \
+               $(HITL_APT_PKGS) \
                $(FUZZ_APT_PKGS)
 COV_APT_PKGS := gcovr
 SETUP_STAMP := $(VENV)/.uavbus-setup-stamp
