@@ -108,3 +108,21 @@ def test_board_is_inspected_and_written_over_the_bus(board: QemuBoard, gcs: Node
     (uart,) = fcs.table("links")
     assert uart["link"] == "onboardPortDatalink1" and uart["attached"], uart
     assert uart["frames_in"] > 0 and uart["frames_out"] > 50 and uart["drops"] == 0, uart
+
+
+def test_stm32f4_board_support_builds_and_fits(tmp_path: Path) -> None:
+    """The second board support (bsp/stm32f4) is built, not run: the same firmware links for flash at
+    0x08000000 with its USART2 vector, inside the same budget."""
+    import subprocess
+
+    from uavbus.sim.qemu import build_firmware
+
+    elf = build_firmware(tmp_path / "stm32f4", board="stm32f4")
+    size = firmware_size(elf)
+    assert size.fits(), str(size)
+    sections = subprocess.run(["arm-none-eabi-objdump", "-h", str(elf)], check=True, stdout=subprocess.PIPE,
+                              text=True).stdout
+    text = [line.split() for line in sections.splitlines() if " .text " in line][0]
+    assert text[3] == "08000000", text   # VMA of .text: the vector table at the start of the STM32's flash
+    symbols = subprocess.run(["arm-none-eabi-nm", str(elf)], check=True, stdout=subprocess.PIPE, text=True).stdout
+    assert " USART2_IRQHandler" in symbols and " UART0_RX_Handler" not in symbols

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from uavbus.sim.build import REPO
 
-__all__ = ["MACHINE", "FirmwareMissing", "FirmwareSize", "QemuBoard", "firmware_elf", "firmware_size",
+__all__ = ["MACHINE", "FirmwareMissing", "FirmwareSize", "QemuBoard", "build_firmware", "firmware_elf", "firmware_size",
            "qemu_missing"]
 
 MACHINE = "mps2-an386"
@@ -59,6 +59,12 @@ def firmware_elf(build_dir: str | Path | None = None, *, build: bool = False, bo
         if elf.exists():
             return elf
         raise FirmwareMissing(f"{elf}: not built; run `make firmware` (make test and make demo build it)")
+    return build_firmware(bdir, board)
+
+
+def build_firmware(bdir: Path, board: str = "mps2-an386") -> Path:
+    """Configures (once) and builds examples/mcu for `board` in `bdir`; returns the ELF."""
+    elf = bdir / "firmware.elf"
     if shutil.which("arm-none-eabi-gcc") is None:
         raise FirmwareMissing("arm-none-eabi-gcc not installed: run `make setup` (gcc-arm-none-eabi)")
     if not (bdir / "CMakeCache.txt").exists():
