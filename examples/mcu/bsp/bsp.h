@@ -5,7 +5,7 @@
  * firmware.c or the uavbus core touches a register.
  *
  * Contract:
- *  - bsp_init() runs once, first thing in main(): FPU, clocks, the 1 kHz tick, the UART at `baud`
+ *  - bsp_init() runs once, first thing in main(): clocks, the 1 kHz wake-up tick, the UART at `baud`
  *    (8N1, no flow control) with its receive interrupt on.
  *  - The UART is interrupt-driven on receive (bytes go into a ring the main loop empties with
  *    bsp_uart_read(); a byte arriving with the ring full is counted in bsp_uart_rx_overruns(), never
@@ -25,7 +25,8 @@ extern const char bsp_board_name[];
 
 void bsp_init(uint32_t baud);
 
-/** Milliseconds since bsp_init(), from the 1 kHz tick (never wraps in practice: 64 bits). */
+/** Milliseconds since bsp_init() (64 bits: never wraps in practice). From a hardware counter where the board
+ *  has one, so that a late tick interrupt loses no time. Main loop only (not reentrant). */
 uint64_t bsp_millis(void);
 
 /** Moves up to `cap` received bytes into `buf`. @return how many. */

@@ -1,6 +1,13 @@
 /*
- * Board support of the MPS2 AN386 (QEMU mps2-an386): the 1 kHz SysTick and UART0, an Arm CMSDK APB
- * UART (Cortex-M System Design Kit TRM, "APB UART"), as the uavbus link of the firmware.
+ * Board support of the MPS2 AN386 (QEMU mps2-an386): the clock (CMSDK APB timer 0), the 1 kHz SysTick
+ * that wakes the main loop, and UART0, an Arm CMSDK APB UART (Cortex-M System Design Kit TRM, "APB
+ * UART"), as the uavbus link of the firmware.
+ *
+ * Time is read from a free-running hardware counter, not counted in the tick interrupt: a tick
+ * interrupt that is late loses milliseconds for good (interrupts masked too long on silicon; the
+ * emulator's vCPU not scheduled on a loaded host, where QEMU folds overdue SysTick periods into one:
+ * the board's clock then ran at 65 % of real time and a 50 Hz row published at 33 Hz). The counter
+ * keeps counting whatever the CPU does.
  *
  * The CMSDK UART holds one received byte: the receive interrupt moves it into a ring at once (QEMU
  * does not offer the next byte until DATA was read, so nothing is lost on the emulator; on silicon a
@@ -16,6 +23,12 @@
 const char bsp_board_name[] = "mps2-an386";
 
 #define SYSCLK_HZ 25000000u /* MPS2 FPGA system clock (the CPU and the APB peripherals) */
+
+#define TIMER0_BASE 0x40000000u /* CMSDK APB timer: 32-bit down-counter at SYSCLK */
+#define TIMER_CTRL REG32(TIMER0_BASE + 0x00u)
+#define TIMER_VALUE REG32(TIMER0_BASE + 0x04u)
+#define TIMER_RELOAD REG32(TIMER0_BASE + 0x08u)
+#define TIMER_CTRL_EN (1u << 0)
 
 #define UART0_BASE 0x40004000u
 #define UART0_RX_IRQ 0u
@@ -35,9 +48,11 @@ const char bsp_board_name[] = "mps2-an386";
 
 static bsp_ring_t rx_ring, tx_ring;
 static volatile uint32_t rx_overruns;
-static volatile uint64_t millis;
+static uint32_t clock_last = 0xFFFFFFFFu; /* last counter value read (main loop only) */
+static uint64_t clock_ticks;                /* SYSCLK periods since bsp_init() */
 
-void SysTick_Handler(void) { millis = millis + 1u; }
+/* Only wakes the CPU from WFI once a millisecond: the clock is TIMER0 (above). */
+void SysTick_Handler(void) {}
 
 void UART0_RX_Handler(void) {
     while (UART_STATE & STATE_RXFULL) {
@@ -55,19 +70,21 @@ void bsp_init(uint32_t baud) {
     UART_BAUDDIV = SYSCLK_HZ / baud; /* >= 16 for every rate up to 1.5 Mbit/s */
     UART_CTRL = CTRL_TXEN | CTRL_RXEN | CTRL_RXINTEN;
     cm_nvic_enable(UART0_RX_IRQ);
+    TIMER_RELOAD = 0xFFFFFFFFu; /* wraps every 171 s at 25 MHz; bsp_millis() is called far more often */
+    TIMER_VALUE = 0xFFFFFFFFu;
+    TIMER_CTRL = TIMER_CTRL_EN;
     SYST_RVR = SYSCLK_HZ / 1000u - 1u;
     SYST_CVR = 0;
     SYST_CSR = SYST_CSR_ENABLE | SYST_CSR_TICKINT | SYST_CSR_CLKSOURCE_CPU;
 }
 
 uint64_t bsp_millis(void) {
-    /* A 64-bit read is two loads: read until two agree, so a tick between them is not half-seen. */
-    uint64_t a, b;
-    do {
-        a = millis;
-        b = millis;
-    } while (a != b);
-    return a;
+    /* Extends the 32-bit down-counter to 64 bits: the periods since the last read, modulo 2^32, are
+     * right as long as reads come less than one wrap (171 s) apart; the main loop reads every tick. */
+    uint32_t now = TIMER_VALUE;
+    clock_ticks += (uint32_t)(clock_last - now);
+    clock_last = now;
+    return clock_ticks / (SYSCLK_HZ / 1000u);
 }
 
 size_t bsp_uart_read(uint8_t *buf, size_t cap) {
