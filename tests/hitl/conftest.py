@@ -31,3 +31,14 @@ def board(firmware: Path) -> Iterator[QemuBoard]:
         pytest.skip(why)
     with QemuBoard(firmware) as b:
         yield b
+
+
+@pytest.fixture(scope="session")
+def program() -> Path:
+    """uavbus_node (the simulated members of a scenario), as tests/system finds it: built by `make test`."""
+    from uavbus.sim.build import NodeProgramMissing, node_program
+
+    try:
+        return node_program(build=False)
+    except NodeProgramMissing as e:
+        pytest.fail(f"uavbus_node not available: {e}")

@@ -19,8 +19,10 @@ import shutil
 import signal
 import subprocess
 import sys
+import termios
 import threading
 import time
+import tty
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -132,6 +134,12 @@ class QemuBoard:
         self.proc = subprocess.Popen(self.argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                                      stderr=subprocess.STDOUT, text=True, start_new_session=True)
         self.pty = self._wait_pty(timeout)
+        # QEMU's pty backend drops what the board sends while no one holds the pty open, and notices a new
+        # opener only by polling (once a second): a node that closes and reopens the device (a ground station
+        # killed and restarted) could find the board's output cut off for good. Holding a descriptor of our
+        # own keeps the line "connected" whoever comes and goes; it is never read, so it takes no bytes.
+        self._hold = os.open(self.pty, os.O_RDWR | os.O_NOCTTY)
+        tty.setraw(self._hold, termios.TCSANOW)
         self.started = time.monotonic()
         # Keep draining QEMU's output so it never blocks on a full pipe (guest errors, warnings).
         self._reader = threading.Thread(target=self._drain, daemon=True)
@@ -161,6 +169,9 @@ class QemuBoard:
         return self.proc.poll() is None
 
     def close(self) -> int | None:
+        if getattr(self, "_hold", None) is not None:
+            os.close(self._hold)
+            self._hold = None
         if self.proc.poll() is None:
             try:
                 os.killpg(self.proc.pid, signal.SIGTERM)
