@@ -76,15 +76,15 @@ def test_board_answers_a_subscription(board: QemuBoard, gcs: Node) -> None:
     while not first and time.monotonic() < deadline:
         first = collect(gcs, "imuOut", 0.5)
     assert first, f"no imuOut from the board in 20 s; QEMU output: {board.output[-5:]}; {gcs.link_counters()}"
-    values = collect(gcs, "imuOut", 2.0)
-    assert len(values) >= 20, f"{len(values)} imuOut in 2 s for a {IMU_MS} ms subscription"
+    values = collect(gcs, "imuOut", 3.0)
+    assert len(values) >= 30, f"{len(values)} imuOut in 3 s for a {IMU_MS} ms subscription"
     counts = [v["sampleCount"] for v in values]
     assert counts == sorted(counts) and counts[-1] > counts[0], counts
     # What the flight model computes: a coordinated turn at 0.2 rad/s, lift along -z.
     assert all(abs(v["r"] - TURN_R) < 0.02 for v in values), [v["r"] for v in values[:5]]
     assert all(-10.4 < v["specificForce"]["z"] < -9.8 for v in values)
     (row,) = [r for r in gcs.pubsub_rows("gcs1") if r["content"] == "imuOut"]
-    assert row["state"] == "receiving" and row["acked"], row
+    assert row["state"] == "receiving" and row["frames"] >= len(values), row
     # The board's own table says it publishes to gcs1 at the period asked for.
     fcs = gcs.remote("fcs20", timeout=5.0)
     pubs = [r for r in fcs.table("pubsub") if r["content"] == "imuOut" and r["peer"] == "gcs1"]
@@ -126,3 +126,17 @@ def test_stm32f4_board_support_builds_and_fits(tmp_path: Path) -> None:
     assert text[3] == "08000000", text   # VMA of .text: the vector table at the start of the STM32's flash
     symbols = subprocess.run(["arm-none-eabi-nm", str(elf)], check=True, stdout=subprocess.PIPE, text=True).stdout
     assert " USART2_IRQHandler" in symbols and " UART0_RX_Handler" not in symbols
+
+
+def test_board_keeps_answering_under_sustained_traffic(board: QemuBoard, gcs: Node) -> None:
+    """Back-to-back requests for several seconds while the subscription runs: the UART's receive path must
+    not lose an interrupt (it did: the board went deaf after a few seconds of traffic)."""
+    fcs = gcs.remote("fcs20", timeout=5.0)
+    end = time.monotonic() + 4.0
+    reads = 0
+    while time.monotonic() < end:
+        assert fcs.get("imuOut.health") == 0
+        reads += 1
+    assert reads >= 20, f"{reads} reads in 4 s"
+    (uart,) = fcs.table("links")
+    assert uart["drops"] == 0 and uart["frames_in"] >= reads, uart
