@@ -36,6 +36,8 @@ def gcs(board: QemuBoard, firmware: Path) -> Iterator[Node]:
     node.add_link("gcs1", 0, "uart")
     node.set_mask("gcs1", "fcs20", 1)
     node.bind("imuOut")
+    node.inbox = []   # (name, source, value) of every DATA delivered
+    node.on_data(lambda msg: node.inbox.append((msg.name, msg.source, msg.value)))
     node.open_port("uart", f"serial:device={board.pty},baud=115200")
     yield node
     node.close()
@@ -47,19 +49,11 @@ def pump(node: Node, seconds: float) -> None:
         node.poll(0.02)
 
 
-def collect(node: Node, content: str, seconds: float) -> list[dict[str, Any]]:
-    got: list[dict[str, Any]] = []
-
-    def on(msg: Any) -> None:
-        if msg.name == content and msg.source == "fcs20":
-            got.append(msg.value)
-
-    node.on_data(on)
-    try:
-        pump(node, seconds)
-    finally:
-        node._callbacks.remove(on)
-    return got
+def collect(node: Any, content: str, seconds: float) -> list[dict[str, Any]]:
+    """What the board sent of `content` during the next `seconds`."""
+    start = len(node.inbox)
+    pump(node, seconds)
+    return [value for name, source, value in node.inbox[start:] if name == content and source == "fcs20"]
 
 
 def test_firmware_fits_a_flight_controller(firmware: Path) -> None:
