@@ -34,7 +34,10 @@ def describe_external(sc: Any) -> list[str]:
 
 def render(summary: dict[str, Any]) -> str:
     lines = [f"scenario {summary['scenario']}: {summary['vehicles']} vehicles, {summary['ground_stations']} ground "
-             f"stations, {summary['duration_s']:g} s, hello {summary['routing']['hello_ms']} ms", "", "events:"]
+             f"stations, {summary['duration_s']:g} s, hello {summary['routing']['hello_ms']} ms"]
+    for name, ext in sorted(summary.get("external", {}).items()):
+        lines.append(f"  {name}: external on {ext['port']}{'' if ext['routing'] else ' (no routing)'}")
+    lines += ["", "events:"]
     for e in summary["events"]:
         rec = "did not recover: " + ", ".join(e["unrecovered"]) if e["reconverged_s"] is None else (
             f"reconverged in {e['reconverged_s']:.2f} s" + (f" ({', '.join(sorted(e['affected']))})"
