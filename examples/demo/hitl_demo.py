@@ -387,15 +387,21 @@ def main(argv: list[str] | None = None) -> int:
             from fleet_step import fleet_part
 
             extra["fleet"] = fleet_part(args.out, args.program, check, say)
-        if args.firmware:
-            from firmware_step import firmware_part
-
-            extra["firmware"] = firmware_part(args.program, rows, check, say, short=args.short)
     except KeyboardInterrupt:
         say("\ninterrupted: every process the demo started has been stopped")
         return 130
     except Exception as e:  # noqa: BLE001 - a crash is a failed check with its reason
         check("demo ran to the end", False, f"{type(e).__name__}: {e}")
+    if args.firmware:   # its own board and network: it runs whatever happened to the steps before
+        from firmware_step import firmware_part
+
+        try:
+            extra["firmware"] = firmware_part(args.program, rows, check, say, short=args.short)
+        except KeyboardInterrupt:
+            say("\ninterrupted: every process the demo started has been stopped")
+            return 130
+        except Exception as e:  # noqa: BLE001
+            check("firmware step ran to the end", False, f"{type(e).__name__}: {e}")
     if rows:
         write_summary(args.out / "summary.json", rows, {"checks": [c.__dict__ for c in check.items],
                                                         "short": args.short, **extra})
