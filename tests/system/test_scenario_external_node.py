@@ -41,8 +41,9 @@ def test_an_external_node_with_routes_in_a_scenario(program: Path, tmp_path: Pat
     cfg = tmp_path / "ext1.json"
     cfg.write_text(json.dumps({"system": "elsewhere", "nodes": {"ext1": ["ext1"]},
                                "entities": [{"name": "ext1", "links": ["radio"]}, {"name": "gcs1"}]}))
-    ext = NodeProcess([str(program), "--config", str(cfg), "--node", "ext1", "--port", f"radio=udp:bind={mine},peer={theirs}",
-                       "--route", "hello=200,dead=3", "--produce", "ext1", "--motion", "orbit:r=50,v=5"], "ext1")
+    ext = NodeProcess([str(program), "--config", str(cfg), "--node", "ext1",
+                       "--port", f"radio=udp:bind={mine},peer={theirs}", "--route", "hello=200,dead=3",
+                       "--produce", "ext1", "--motion", "orbit:r=50,v=5"], "ext1")
     ext.start()
     try:
         ext.wait_ready(8.0)

@@ -306,8 +306,8 @@ def _stations(src: _Src, node: Any, kind: str, seen: dict[str, int]) -> list[Sta
         if run == "external":
             if "port" not in m:
                 raise src.fail(item, f"{name}: run: external needs 'port': the member's own end of its link, e.g. "
-                                     "port: \"serial:device=/dev/pts/5\" (a board's UART), \"tcp:listen=10.0.0.2:5001\" "
-                                     "or \"udp:bind=127.0.0.1:6001,peer=127.0.0.1:6002\"")
+                                     "port: \"serial:device=/dev/pts/5\" (a board's UART), "
+                                     "\"tcp:listen=10.0.0.2:5001\" or \"udp:bind=127.0.0.1:6001,peer=127.0.0.1:6002\"")
             port = _external_port(src, m["port"], f"{name}.port")
             if "routing" in m:
                 routing = _choice(src, m["routing"], f"{name}.routing", ("true", "false")) == "true"
