@@ -67,11 +67,13 @@ SLACK_S = 0.1  # launcher to process command latency
 
 def outage_cause(run: FleetRun, name: str, a: float) -> dict[str, Any] | None:
     """The event that began an outage whose last delivery before it was at `a`: the data stops at the event,
-    so the last delivery is at most one period (plus the command's latency) before it. An event that came
-    later did not cause it, whatever happened to the flow afterwards. None: nothing the launcher did."""
-    period = run.flows[name].spec.period_ms / 1000.0
+    so the event comes after the last delivery (give or take the command's latency) and before the silence
+    counts as an outage (the flow's gap: 3 periods, at least 300 ms; a frame or two lost to load just before
+    the event does not hide the cause). An event that came later did not cause it, whatever happened to the
+    flow afterwards. None: nothing the launcher did."""
+    gap = run.flows[name].spec.gap_ms / 1000.0
     for ev in run.timeline:
-        if a - SLACK_S <= ev["t"] <= a + period + SLACK_S:
+        if a - SLACK_S <= ev["t"] <= a + gap:
             return ev
     return None
 
