@@ -66,13 +66,58 @@ def recording(program: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     return d / "gcs1.ublog"
 
 
-def estimator(program: Path, tmp: Path, *, signed_with: Path | None = None) -> tuple[NodeProcess, str, str, Path]:
+@pytest.fixture(scope="module")
+def two_sources(program: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """gcs1's log of imuOut from fcs20 and gpsOut from rmax1ob1 (each its own node and UDP link), 30 of each."""
+    from uavbus import Catalogue, Node
+
+    d = tmp_path_factory.mktemp("rec2")
+    cat = Catalogue.load(str(catalogue_for(program)))
+    alloc = PortAllocator()
+    dst = Node(cat, node="gcs")
+    srcs = {"fcs20": Node(cat, node="fcs"), "rmax1ob1": Node(cat, node="primary")}
+    try:
+        dst.add_entity("gcs1", local=True)
+        for k, (name, src) in enumerate(srcs.items()):
+            here, there = alloc.addr(), alloc.addr()
+            src.add_entity(name, local=True)
+            src.add_entity("gcs1")
+            src.add_link(name, 0, "l")
+            src.set_mask(name, "gcs1", 1)
+            src.open_port("l", f"udp:bind={here},peer={there}")
+            dst.add_entity(name)
+            dst.add_link("gcs1", k, f"l{k}")
+            dst.set_mask("gcs1", name, 1 << k)
+            dst.open_port(f"l{k}", f"udp:bind={there},peer={here}")
+        dst.bind("imuOut")
+        dst.bind("gpsOut")
+        dst.record(str(d / "gcs1.ublog"))
+        t = time.monotonic()
+        for _ in range(30):
+            srcs["fcs20"].send("fcs20", "imuOut", "gcs1")
+            srcs["rmax1ob1"].send("rmax1ob1", "gpsOut", "gcs1")
+            t += PERIOD_MS / 1000.0
+            while time.monotonic() < t:
+                dst.poll(0.002)
+        end = time.monotonic() + 0.2
+        while time.monotonic() < end:
+            dst.poll(0.01)
+        dst.stop_recording()
+    finally:
+        for n in (dst, *srcs.values()):
+            n.close()
+    return d / "gcs1.ublog"
+
+
+def estimator(program: Path, tmp: Path, *, signed_with: Path | None = None,
+              knows: tuple[str, ...] = ("fcs20",)) -> tuple[NodeProcess, str, str, Path]:
     """A new estimator process hosting est1; it knows fcs20 (its configuration says so), not gcs1."""
     alloc = PortAllocator()
     mine, player = alloc.addr(), alloc.addr()
     cfg = tmp / "est.json"
     cfg.write_text(json.dumps({"system": "replay", "nodes": {"est": ["est1"]}, "entities": [
-        {"name": "est1", "links": ["in"], "linktoentity": {"fcs20": "0x00000001"}}, {"name": "fcs20"}]}))
+        {"name": "est1", "links": ["in"], "linktoentity": {k: "0x00000001" for k in knows}},
+        *({"name": k} for k in knows)]}))
     if signed_with is not None:
         cfg = signed_config(cfg, tmp, keys_dir=signed_with)
     log = tmp / "est1.ublog"
@@ -152,3 +197,21 @@ def test_an_entity_that_does_not_know_the_player_gets_a_reason(recording: Path, 
     assert r.returncode != 0
     line = r.stderr.strip().splitlines()[-1]
     assert "no answer from est1" in line and "does not know stranger" in line, line
+
+
+def test_recorded_sources_mapped_to_new_entities(two_sources: Path, program: Path, tmp_path: Path) -> None:
+    """Two recorded sources, each played by an entity of its own (--map): the estimator tells them apart."""
+    assert len(arrivals(two_sources, "fcs20", "gcs1")) == 30 and len(arrivals(two_sources, "rmax1ob1", "gcs1")) == 30
+    proc, mine, player, log = estimator(program, tmp_path, knows=("imusim", "gpssim"))
+    try:
+        r = play(two_sources, "--to", "est1", "--into", f"udp:bind={player},peer={mine}", "--fast",
+                 "--map", "fcs20=imusim", "--map", "rmax1ob1=gpssim")
+        assert r.returncode == 0, r.stderr
+        report = json.loads(r.stdout.strip().splitlines()[-1])
+        assert report["plays_as"] == {"fcs20": "imusim", "rmax1ob1": "gpssim"} and report["frames"] == 60, report
+        time.sleep(0.3)
+    finally:
+        proc.stop()
+    assert len(arrivals(log, "imusim", "est1")) == 30 and len(arrivals(log, "gpssim", "est1")) == 30
+    bad = play(two_sources, "--to", "est1", "--into", f"udp:bind={player},peer={mine}", "--map", "uav9=x")
+    assert bad.returncode != 0 and "--map uav9: no such source in the selection" in bad.stderr, bad.stderr

@@ -251,9 +251,10 @@ def build_parser() -> argparse.ArgumentParser:
                            "each DATA record again, from itself to ENTITY, at the recorded time; --into is then its "
                            "port (udp:bind=H:P,peer=H:P | tcp:connect=H:P | serial:device=PATH), as a node's")
     play.add_argument("--as", dest="as_name", metavar="NAME",
-                      help="with --to: the player's entity name (default: the recorded source, if there is one)")
+                      help="with --to: play every recorded source as this one entity (default: each as itself)")
     play.add_argument("--map", action="append", metavar="SRC=NAME",
-                      help="with --to: play the records of recorded source SRC as entity NAME (repeatable)")
+                      help="with --to: play the records of recorded source SRC as entity NAME (repeatable; several "
+                           "identities need a udp port: each gets its own local port, at most 4)")
     play.add_argument("--key", metavar="FILE",
                       help="with --to on a signed network: sign with this key file as the player's own identity "
                            "(never the recorded tags); its counter is kept in FILE's folder, play-state/")

@@ -1,8 +1,10 @@
 """`uavbus log play FILE --to ENTITY --into SPEC`: recorded directories delivered to the entity you choose.
 
 The plain `log play` sends the recorded frames as they are: they reach only their original destination.
-With `--to`, the player is a node of its own (an entity, `--as NAME`, by default the recorded source):
-every selected DATA record is sent again as a new frame from the player to ENTITY, with the recorded payload,
+With `--to`, the player is a node of its own: each recorded source is played by an entity of the player (by
+default of the same name; `--map SRC=NAME` renames one, `--as NAME` plays them all as one; over UDP up to four
+identities, each with its own local port), and every selected DATA record is sent again as a new frame from
+that entity to ENTITY, with the recorded payload,
 at the recorded time (or scaled, `--speed`), over the port SPEC (any transport a node has: udp, tcp,
 serial). The receiving node treats it as any frame from that entity: its routes, its duplicate window, its
 write policy decide.
@@ -37,25 +39,41 @@ class PlayError(SystemExit):
         super().__init__(f"uavbus log play: {message}")
 
 
-def _identity(sources: set[str], as_name: str | None, mapping: dict[str, str]) -> str:
-    if as_name:
-        return as_name
-    names = {mapping.get(s, s) for s in sources}
-    if len(names) != 1:
-        raise PlayError(f"the selection has {len(sources)} sources ({', '.join(sorted(sources))}), mapped to "
-                        f"{', '.join(sorted(names))}: the player is one entity; give --as NAME, map them to one "
-                        "name with --map SRC=NAME, or pick one source's contents with --only")
-    return names.pop()
+MAX_IDENTITIES = 4   # UB_MAX_LOCAL_ENTITIES of the host runtime: the player's entities are one node's
 
 
-def _config(identity: str, to: str, spec: str, key: str | None, work: Path) -> Path:
-    """The player's node: `identity` with one link ("play") toward `to` on `spec`; with a key, signed."""
-    doc: dict[str, Any] = {
-        "system": "uavbus-log-play",
-        "entities": [{"name": identity, "links": ["play"], "linktoentity": {to: "0x00000001"}}, {"name": to}],
-        "hosts": [identity],
-        "ports": {"play": _port(spec)},
-    }
+def _identities(sources: list[str], as_name: str | None, mapping: dict[str, str], spec: str) -> dict[str, str]:
+    """Recorded source -> the player's entity that sends its records (--as: all of them; --map: renamed)."""
+    unknown = sorted(set(mapping) - set(sources))
+    if unknown:
+        raise PlayError(f"--map {', '.join(unknown)}: no such source in the selection (its sources: "
+                        f"{', '.join(sources)})")
+    out = {s: as_name or mapping.get(s, s) for s in sources}
+    names = sorted(set(out.values()))
+    if len(names) > 1 and not spec.startswith("udp:"):
+        raise PlayError(f"{len(names)} identities ({', '.join(names)}) need one port each: over udp the player "
+                        f"binds one per identity; with {spec.partition(':')[0]} give --as NAME (one identity) or "
+                        "pick one source with --only")
+    if len(names) > MAX_IDENTITIES:
+        raise PlayError(f"{len(names)} identities ({', '.join(names)}): at most {MAX_IDENTITIES}; map several "
+                        "sources to one name with --map, or play in several runs with --only")
+    return out
+
+
+def _config(names: list[str], to: str, spec: str, key: str | None, work: Path) -> Path:
+    """The player's node: each identity with one link toward `to`: the port `spec` for the first, the same
+    with a free local port (bind HOST:0) for the others (udp); with a key, signed."""
+    entities: list[dict[str, Any]] = []
+    ports: dict[str, Any] = {}
+    for k, name in enumerate(names):
+        link = f"play{k}" if len(names) > 1 else "play"
+        entities.append({"name": name, "links": [link], "linktoentity": {to: "0x00000001"}})
+        port = _port(spec)
+        if k > 0 and "bind" in port:
+            port["bind"] = port["bind"].rsplit(":", 1)[0] + ":0"
+        ports[link] = port
+    doc: dict[str, Any] = {"system": "uavbus-log-play", "entities": [*entities, {"name": to}], "hosts": names,
+                           "ports": ports}
     if key:
         kp = Path(key).resolve()
         state = kp.parent / "play-state"
@@ -82,19 +100,27 @@ def _port(spec: str) -> dict[str, Any]:
 def play_to(log: Any, contents: Any, records: list[Any], args: Any, out: IO[str],
             sleep: Callable[[float], None] = time.sleep, clock: Callable[[], float] = time.monotonic) -> int:
     from uavbus import Node
-    from uavbus._bindings.ub_error import NoAnswerError, RefusedError, UbError
-    from uavbus._bindings.ub_error import ConfigError
+    from uavbus._bindings.ub_error import ConfigError, NoAnswerError, RefusedError, UbError
     from uavbus._bindings.ub_frame import FLAG_ENCRYPTED
 
     data = [r for r in records if contents.name(r.header) and _is_data(r)]
     if not data:
         raise PlayError(f"{args.file}: no recorded DATA frames in the selection (admin frames are not replayed "
                         "to another entity); check --only and --dir")
+    bad = [m for m in (args.map or []) if "=" not in m or not all(m.split("=", 1))]
+    if bad:
+        raise PlayError(f"--map {bad[0]}: give SRC=NAME (a recorded source and the entity that plays it)")
     mapping = dict(m.split("=", 1) for m in (args.map or []))
-    sources = {r.header.src_id.rstrip(b"\0").decode("ascii", "replace") for r in data}
-    identity = _identity(sources, args.as_name, mapping)
-    if identity == args.to:
-        raise PlayError(f"--to {args.to} is the player's own identity; give the player another name with --as")
+
+    def src_of(r: Any) -> str:
+        return str(r.header.src_id.rstrip(b"\0").decode("ascii", "replace"))
+
+    sources = list(dict.fromkeys(src_of(r) for r in data))
+    plays_as = _identities(sources, args.as_name, mapping, args.into)
+    names = list(dict.fromkeys(plays_as.values()))
+    identity = names[0]
+    if args.to in names:
+        raise PlayError(f"--to {args.to} is one of the player's own identities; give them other names (--as, --map)")
     encrypted = [r for r in data if r.header.flags == FLAG_ENCRYPTED]
     data = [r for r in data if r.header.flags != FLAG_ENCRYPTED]
     if not data:
@@ -102,17 +128,17 @@ def play_to(log: Any, contents: Any, records: list[Any], args: Any, out: IO[str]
                         "or on a signing-only link")
     with tempfile.TemporaryDirectory(prefix="uavbus-play-") as work:
         try:
-            node = Node(contents.catalogue, config=_config(identity, args.to, args.into, args.key, Path(work)))
+            node = Node(contents.catalogue, config=_config(names, args.to, args.into, args.key, Path(work)))
         except (ConfigError, UbError, OSError) as exc:
-            raise PlayError(f"cannot be {identity} on {args.into}: {exc}") from None
+            raise PlayError(f"cannot be {', '.join(names)} on {args.into}: {exc}") from None
         try:
             try:
                 node.open_ports_from_config()
             except (UbError, OSError) as exc:
                 raise PlayError(f"cannot open {args.into}: {exc}") from None
-            names = {contents.name(r.header) for r in data}
-            dirs = {n: node.bind(n) for n in names}
-            _probe(node, args, identity, sorted(names)[0], NoAnswerError, RefusedError)
+            played = sorted({contents.name(r.header) for r in data})
+            dirs = {n: node.bind(n) for n in played}
+            _probe(node, args, identity, played[0], NoAnswerError, RefusedError)
             sent = failed = 0
             start = clock()
             t0 = data[0].t_ms
@@ -125,7 +151,7 @@ def play_to(log: Any, contents: Any, records: list[Any], args: Any, out: IO[str]
                         pass
                 name = contents.name(rec.header)
                 dirs[name].raw = rec.payload
-                if node.send(identity, name, args.to) > 0:
+                if node.send(plays_as[src_of(rec)], name, args.to) > 0:
                     sent += 1
                 else:
                     failed += 1
@@ -133,9 +159,10 @@ def play_to(log: Any, contents: Any, records: list[Any], args: Any, out: IO[str]
             while clock() < end:
                 node.poll(0.01)
             drops = {k: v for k, v in node.counters()["drops"].items() if v}
-            report = {"event": "played", "file": args.file, "to": args.to, "as": identity, "into": args.into,
+            report = {"event": "played", "file": args.file, "to": args.to,
+                      "as": identity if len(names) == 1 else names, "plays_as": plays_as, "into": args.into,
                       "signed": bool(args.key), "frames": sent, "not_sent": failed, "encrypted_skipped": len(encrypted),
-                      "drops": drops, "sources": sorted(sources)}
+                      "drops": drops, "sources": sources}
         finally:
             node.close()
     print(json.dumps(report), file=out)
