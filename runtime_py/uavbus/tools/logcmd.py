@@ -188,7 +188,7 @@ def cmd_play(args: argparse.Namespace, out: IO[str], sleep: Callable[[float], No
     if args.to:
         from uavbus.tools.playto import play_to
 
-        return play_to(log, contents, chosen, args, out, sleep=sleep, clock=clock)
+        return play_to(log, contents, chosen, args, out, clock=clock)
     if args.as_name or args.map or args.key:
         raise SystemExit("uavbus log play: --as, --map and --key go with --to ENTITY (the player as an entity); "
                          "without --to the recorded frames are sent as they are")

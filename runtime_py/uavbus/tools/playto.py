@@ -98,7 +98,9 @@ def _port(spec: str) -> dict[str, Any]:
 
 
 def play_to(log: Any, contents: Any, records: list[Any], args: Any, out: IO[str],
-            sleep: Callable[[float], None] = time.sleep, clock: Callable[[], float] = time.monotonic) -> int:
+            clock: Callable[[], float] = time.monotonic) -> int:
+    """Plays `records` (the selection of `log`) to args.to; the waits poll the player's node (a signed target
+    challenges the new source, and the port must be drained), so there is no sleep to inject."""
     from uavbus import Node
     from uavbus._bindings.ub_error import ConfigError, NoAnswerError, RefusedError, UbError
     from uavbus._bindings.ub_frame import FLAG_ENCRYPTED
