@@ -20,8 +20,10 @@ BUILD_COV   := build-cov
 # clang + libFuzzer: `make test` runs every fuzz harness for a few seconds (make fuzz for longer).
 FUZZ_APT_PKGS := clang-14 libclang-rt-14-dev
 # qemu-user runs the generator's cross-built self-tests (qemu-arm); gcc-multilib links its -m32 self-test.
+# QEMU's system emulator: `make test` and `make demo` boot the Cortex-M4 firmware (examples/mcu) on mps2-an386.
+HITL_APT_PKGS := qemu-system-arm
 APT_PKGS    := libcmocka-dev cmake ninja-build pkg-config libsodium-dev gcc-arm-none-eabi libnewlib-arm-none-eabi g++ \
-               qemu-user gcc-multilib \
+               qemu-user gcc-multilib $(HITL_APT_PKGS) \
                $(FUZZ_APT_PKGS)
 COV_APT_PKGS := gcovr
 SETUP_STAMP := $(VENV)/.uavbus-setup-stamp
@@ -30,7 +32,7 @@ FUZZ_SMOKE_SECONDS ?= 5
 FUZZ_CC     ?= clang-14
 FUZZ_FLAGS  := -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 
-.PHONY: setup test lint test-c test-py test-fuzz demo bench clean apt-deps fuzz fuzz-build fuzz-corpus coverage
+.PHONY: setup test lint test-c test-py test-fuzz demo bench clean apt-deps fuzz fuzz-build fuzz-corpus coverage firmware
 
 setup: apt-deps $(SETUP_STAMP)
 
@@ -67,7 +69,15 @@ test-c: setup
 	cmake --build $(BUILD_ASAN)
 	ctest --test-dir $(BUILD_ASAN) --output-on-failure
 
-test-py: setup
+# The flight-controller firmware (examples/mcu) for QEMU's mps2-an386 board: tests/hitl and the demo's HITL
+# step boot it (uavbus.sim.qemu); the linker script fails the build if it outgrows 128 KiB flash / 64 KiB RAM.
+BUILD_MCU   := build-mcu
+firmware: setup
+	cmake -S examples/mcu -B $(BUILD_MCU) -G Ninja -DCMAKE_BUILD_TYPE=MinSizeRel -DUAVBUS_PYTHON=$(abspath $(VPY)) \
+	  -DCMAKE_TOOLCHAIN_FILE=$(abspath cmake/toolchains/arm-none-eabi-cortex-m4.cmake) >/dev/null
+	cmake --build $(BUILD_MCU)
+
+test-py: setup firmware
 	$(VPY) -m pytest -q tests
 
 # The libFuzzer harnesses (fuzz/README.md), clang with ASan and UBSan. The corpus replay runs in test-c.
@@ -119,8 +129,9 @@ coverage: setup
 
 # The paper's HITL and Table 1 scenarios end to end (examples/demo/hitl_demo.py). The CMake build
 # generates the flightsw catalogue through uavbus_generate() and builds the C programs (uavbus_node, and
-# uavbus_mavbridge where the build's Python has pymavlink: docs/bridges.md).
-demo: setup
+# uavbus_mavbridge where the build's Python has pymavlink: docs/bridges.md); `firmware` is the Cortex-M4
+# board the HITL step boots in QEMU.
+demo: setup firmware
 	cmake -S . -B $(BUILD) -G Ninja -DUAVBUS_PYTHON=$(abspath $(VPY)) >/dev/null
 	cmake --build $(BUILD) --target uavbus_node $$(test -f $(BUILD)/mavbridge.json && echo uavbus_mavbridge)
 	$(VPY) examples/demo/hitl_demo.py --out demo-out --program $(BUILD)/programs/node/uavbus_node

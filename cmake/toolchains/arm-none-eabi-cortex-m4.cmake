@@ -11,8 +11,14 @@ set(CMAKE_RANLIB arm-none-eabi-ranlib CACHE FILEPATH "")
 set(CMAKE_SIZE arm-none-eabi-size CACHE FILEPATH "")
 set(CMAKE_TRY_COMPILE_TARGET_TYPE STATIC_LIBRARY)
 
-set(CMAKE_C_FLAGS_INIT "-mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16 -ffunction-sections -fdata-sections")
-set(CMAKE_EXE_LINKER_FLAGS_INIT "--specs=nano.specs --specs=nosys.specs -Wl,--gc-sections")
+# -fno-short-enums: arm-none-eabi-gcc makes an enum as small as its values (1 byte for most), the host's
+# compilers make it an int. A catalogue generated on the host records 4-byte enums (the layout its
+# content fingerprints and generated static asserts check), so the target must lay them out the same;
+# an enum declared __attribute__((packed)) stays one byte on both.
+set(CMAKE_C_FLAGS_INIT "-mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16 -fno-short-enums -ffunction-sections -fdata-sections")
+# --no-enum-size-warning: newlib's prebuilt objects were built with short enums; none of their enums
+# cross into our code (the core uses no newlib function taking or returning an enum).
+set(CMAKE_EXE_LINKER_FLAGS_INIT "--specs=nano.specs --specs=nosys.specs -Wl,--gc-sections -Wl,--no-enum-size-warning")
 
 set(CMAKE_FIND_ROOT_PATH_MODE_PROGRAM NEVER)
 set(CMAKE_FIND_ROOT_PATH_MODE_LIBRARY ONLY)

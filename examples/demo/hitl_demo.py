@@ -14,6 +14,9 @@
 5. The attacker step (attack_step.py): issue 11's attacks against the signed Table 2; each is a check.
 6. A fleet: twelve vehicles and two ground stations with automatic routes (examples/demo/fleet_step.py;
    skipped by --short unless --fleet).
+7. Hardware in the loop (examples/demo/firmware_step.py): the Cortex-M4 firmware boots in QEMU and is fcs20
+   in an unsigned Table 2 over its emulated UART; gcs1 subscribes to its imuOut 2 hops away, reads and
+   writes its directories, changes its rate; flash and RAM from the ELF (skipped by --short unless --firmware).
 
 Prints a summary table and writes demo-out/summary.json (with "security": {"attacks": [...]}), demo-out/gcs1.ublog (the GCS's binary log)
 and demo-out/imu.png. Exits 0 only if every check held; each failed check names itself and says why.
@@ -361,8 +364,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--program", type=Path, default=None, help="uavbus_node (default: build/ or $UAVBUS_NODE)")
     ap.add_argument("--fleet", action=argparse.BooleanOptionalAction, default=None,
                     help="run the fleet step (default: yes, except with --short)")
+    ap.add_argument("--firmware", action=argparse.BooleanOptionalAction, default=None,
+                    help="run the firmware-in-QEMU step (default: yes, except with --short)")
     args = ap.parse_args(argv)
     args.fleet = not args.short if args.fleet is None else args.fleet
+    args.firmware = not args.short if args.firmware is None else args.firmware
     args.out.mkdir(parents=True, exist_ok=True)
     # SIGTERM (e.g. from make or a CI timeout) unwinds like Ctrl-C, so every `with` stops its processes.
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
@@ -386,6 +392,16 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except Exception as e:  # noqa: BLE001 - a crash is a failed check with its reason
         check("demo ran to the end", False, f"{type(e).__name__}: {e}")
+    if args.firmware:   # its own board and network: it runs whatever happened to the steps before
+        from firmware_step import firmware_part
+
+        try:
+            extra["firmware"] = firmware_part(args.program, rows, check, say, short=args.short)
+        except KeyboardInterrupt:
+            say("\ninterrupted: every process the demo started has been stopped")
+            return 130
+        except Exception as e:  # noqa: BLE001
+            check("firmware step ran to the end", False, f"{type(e).__name__}: {e}")
     if rows:
         write_summary(args.out / "summary.json", rows, {"checks": [c.__dict__ for c in check.items],
                                                         "short": args.short, **extra})

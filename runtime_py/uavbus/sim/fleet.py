@@ -144,6 +144,7 @@ class FleetRun:
         self.admin_rows: dict[str, tuple[Any, int]] = {}  # flow name -> (Admin of its ground station, row)
         self.final_stats: dict[str, dict[str, Any]] = {}  # process name -> its last `stats` event
         self._calls: list[tuple[float, Callable[[FleetRun, float], None]]] = []
+        self.connectivity0: dict[str, bool] = {}  # per flow, a path at t = 0 (before any event)
         self._modems: list[NullModem] = []
 
     # ---- time ------------------------------------------------------------------------------------------
@@ -169,6 +170,17 @@ class FleetRun:
                 member.links.append(end)
                 ends.append(end)
             link = RunLink(spec, (ends[0], ends[1]), seed=self.sc.seed * 1000 + 2 * k)
+            ext = [e for e in link.ends if self.members[e.station].station.external]
+            if ext:
+                # The external member's port is its own; the launcher's end faces it (the same serial device,
+                # TCP the other way round, UDP mirrored). Nothing is relayed: the bytes go straight to it.
+                from uavbus.sim.scenario import peer_port
+
+                mine = next(e for e in link.ends if e is not ext[0])
+                port = self.members[ext[0].station].station.port
+                mine.spec, ext[0].spec = peer_port(port), ""
+                self.links.append(link)
+                continue
             if spec.transport == "udp":
                 pa, pb = self.alloc.addr(), self.alloc.addr()
                 link.ends[0].spec, link.ends[1].spec = f"udp:bind={pa},peer={pb}", f"udp:bind={pb},peer={pa}"
@@ -211,7 +223,16 @@ class FleetRun:
             # Indexes have holes (links added at run time, then a restart): keep positions with placeholders.
             by_index = {e.index: e.name for e in m.links}
             links = [by_index.get(i, f"unused{i}") for i in range(max(by_index) + 1)]
-        doc = {"system": self.sc.name, "entities": [{"name": m.name, "links": links}] + [{"name": p} for p in peers],
+        me: dict[str, Any] = {"name": m.name, "links": links}
+        fixed = {}   # external neighbours without routing: no HELLO will teach the route, so it is pinned here
+        for e in m.links:
+            other = self.members[self._peer_of(e)].station
+            if other.external and not other.routing:
+                fixed[other.name] = fixed.get(other.name, 0) | (1 << e.index)
+        if fixed:
+            me["linktoentity"] = {name: f"0x{mask:08x}" for name, mask in sorted(fixed.items())}
+            peers = sorted(set(peers) | set(fixed))
+        doc = {"system": self.sc.name, "entities": [me] + [{"name": p} for p in peers],
                "nodes": {m.name: [m.name]}}
         path = self.out / "configs" / f"{m.name}.json"
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -290,7 +311,9 @@ class FleetRun:
         for m in self.members.values():
             if m.name in joins:
                 continue
-            if m.station.run == "process":
+            if m.station.external:
+                m.up = True   # there already (the scenario says so); measured, never started
+            elif m.station.run == "process":
                 self._start_process(m)
             else:
                 self._start_python(m)
@@ -301,6 +324,7 @@ class FleetRun:
         for link in self.links:
             link.out_of_range = pos[link.spec.a].distance(pos[link.spec.b]) > link.spec.range_m
         self._connect_memory()
+        self.connectivity0 = self._connectivity()
         deadline = time.monotonic() + 15.0
         while any(m.starting for m in self.members.values()):
             self._service()
@@ -368,10 +392,22 @@ class FleetRun:
     def _fire(self, kind: str, target: tuple[str, ...], t: float) -> None:
         if kind == "kill":
             m = self.members[target[0]]
-            m.proc.kill(signal.SIGKILL)
+            if m.proc is not None:
+                m.proc.kill(signal.SIGKILL)
+            else:
+                self._kill_python(m)
             m.up = False
         elif kind == "restart":
-            self._start_process(self.members[target[0]])
+            m = self.members[target[0]]
+            if m.station.run == "process":
+                self._start_process(m)
+            else:
+                self._start_python(m)
+                self._connect_memory()
+                self._restore_admin_rows(m)
+                for e in m.links:
+                    if self._link_of(e).created:
+                        self._impair(self._link_of(e))
         elif kind in ("fail_link", "restore_link"):
             for link in self.links:
                 if link.spec.pair == frozenset(target):
@@ -380,6 +416,24 @@ class FleetRun:
         elif kind == "add":
             self._join(self.members[target[0]])
         self._mark(t, kind, target, f"{kind} {' '.join(target)}")
+
+    def _kill_python(self, m: Member) -> None:
+        """A ground station in the launcher dies: its node goes with its tables, sockets and administration
+        rows, as a GCS process killed with -9 would (what it administered lives on at its keepers)."""
+        if m.node is not None:
+            m.node.close()
+            m.node = None
+        m.dirs = None
+
+    def _restore_admin_rows(self, m: Member) -> None:
+        """A restarted ground station's operator fills its administration table again (it was lost with the
+        process): rows of the flows it administers, activated."""
+        for f in self.sc.admin_flows:
+            if f.admin == m.name:
+                adm = m.node.admin(f.admin)
+                row = adm.add(f.content, f.source, f.destination, f.period_ms, kind=f.kind)
+                adm.activate(row)
+                self.admin_rows[f.name] = (adm, row)
 
     def _move(self, name: str, motion: str, t: float) -> None:
         m = self.members[name]
@@ -410,7 +464,8 @@ class FleetRun:
             self._connect_memory()
         for g in self.sc.ground_stations:
             gm = self.members[g.name]
-            targets = [n for n, o in self.members.items() if o.up and n not in (m.name, g.name)]
+            targets = [n for n, o in self.members.items() if o.up and n not in (m.name, g.name)
+                       and not (o.station.external and not o.station.routing)]
             if gm.node is not None:
                 ms = gm.node.membership(max_retries=25)
                 self.announcements += [(ms, row) for row in ms.announce(m.name, targets)]

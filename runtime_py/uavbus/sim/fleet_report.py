@@ -9,7 +9,11 @@
   delivered again are listed `unrecovered`;
 - **routing frames per link per second**, per link end from the routing engines' counters (sampled every
   2 s): over the whole run, and `steady_*` over sampling windows with no event in them or in the 2 s before;
-- **hops** of the last delivery of each flow (from its hop limit).
+- **hops** of the last delivery of each flow (from its hop limit);
+- **every outage with its cause** (`outages_explained`): the event that began it (link down, source gone,
+  route change), start-up, no path since an event, or no event at all (loss or load);
+- **stale flows**: a flow whose source is gone for good is `status: stale`, and so is its administration
+  row's `admin_status` whatever the row last heard (`admin_row_status` keeps that).
 """
 
 from __future__ import annotations
@@ -20,7 +24,8 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from uavbus.sim.fleet import FleetRun, FlowTrack
 
-__all__ = ["summarize", "plot_timeline", "flow_gaps", "window_delivery"]
+__all__ = ["summarize", "plot_timeline", "flow_gaps", "window_delivery", "explained_outages", "outage_cause",
+           "source_gone"]
 
 SETTLE_S = 2.0
 
@@ -57,23 +62,81 @@ def window_delivery(tr: FlowTrack, t0: float, t1: float) -> float | None:
 COUNTERS = ("handovers", "leases_expired", "nacks_relayed", "other_admin", "replies_unmatched")
 
 
+SLACK_S = 0.1  # launcher to process command latency
+
+
+def outage_cause(run: FleetRun, name: str, a: float) -> dict[str, Any] | None:
+    """The event that began an outage whose last delivery before it was at `a`: the data stops at the event,
+    so the event comes after the last delivery (give or take the command's latency) and before the silence
+    counts as an outage (the flow's gap: 3 periods, at least 300 ms; a frame or two lost to load just before
+    the event does not hide the cause). An event that came later did not cause it, whatever happened to the
+    flow afterwards. None: nothing the launcher did."""
+    gap = run.flows[name].spec.gap_ms / 1000.0
+    for ev in run.timeline:
+        if a - SLACK_S <= ev["t"] <= a + gap:
+            return ev
+    return None
+
+
+def _explain(run: FleetRun, name: str, a: float, b: float, cause: dict[str, Any] | None) -> str:
+    """One line: why a flow was silent from a to b."""
+    f = run.flows[name].spec
+    if a == 0.0 and (run.flows[name].first is None or b <= run.flows[name].first):
+        joins = run.sc.joins()
+        late = [x for x in (f.source, f.destination) if x in joins]
+        return f"start-up: {late[0]} joins at t={joins[late[0]]:g}" if late else "start-up (no delivery yet)"
+    if cause is not None:
+        kinds = {"kill": "source gone" if f.source in cause["target"] else "member gone",
+                 "fail_link": "link down", "out_of_range": "link down (out of range)", "move": "route change",
+                 "restart": "route change", "restore_link": "route change", "in_range": "route change",
+                 "add": "route change"}
+        return f"{kinds.get(cause['event'], cause['event'])}: {cause['text']} at t={cause['t']:g}"
+    before = [ev for ev in run.timeline if ev["t"] <= a]
+    if before and not before[-1]["connectivity"].get(name, True):
+        return f"no path since {before[-1]['text']} at t={before[-1]['t']:g}"
+    return "no event: loss or load (a path existed)"
+
+
+def explained_outages(run: FleetRun, end: float) -> dict[str, list[dict[str, Any]]]:
+    """Per flow, every outage (silence longer than the flow's gap) with its cause."""
+    out: dict[str, list[dict[str, Any]]] = {}
+    for name, tr in run.flows.items():
+        rows = []
+        for a, b, is_open in flow_gaps(tr, end):
+            cause = outage_cause(run, name, a) if a > 0.0 else None
+            rows.append({"from": round(a, 3), "to": round(b, 3), "open": is_open, "length_s": round(b - a, 3),
+                         "cause": _explain(run, name, a, b, cause),
+                         "event": None if cause is None else {"t": cause["t"], "event": cause["event"],
+                                                              "target": cause["target"]}})
+        out[name] = rows
+    return out
+
+
 def _reconvergence(run: FleetRun, end: float) -> list[dict[str, Any]]:
-    """Each outage of a flow is charged to one event: the first, in time, after which the flow had a path
-    and that happened while the outage was going on (a restart, a link back in range) or as it began (a cut
-    or a kill stops the data at once: the last delivery before the outage is at most a period earlier)."""
-    slack = 0.1  # launcher to process command latency
+    """Each outage of a flow is charged to at most one event: the event that began it (`outage_cause`) when
+    the flow still had a path after it (the network had to find another way: rerouting), or else the event
+    that gave the flow its path back while the outage went on (a restart after the kill, a link restored or
+    back in range, the flow's end joining). An outage that began before an event is never charged to an
+    event that neither began it nor gave it its path back (a slow start, a loss burst, another link's
+    failure)."""
     gaps = {name: flow_gaps(tr, end) for name, tr in run.flows.items()}
+    causes = {(name, k): (outage_cause(run, name, a) if a > 0.0 else None)
+              for name, gs in gaps.items() for k, (a, _, _) in enumerate(gs)}
     charged: set[tuple[str, int]] = set()
     out = []
+    had_path = dict(run.connectivity0)   # at t = 0: who had a path before any event
     for ev in run.timeline:
         t = ev["t"]
         recovered: dict[str, float] = {}
         unrecovered = []
         for name, expected in ev["connectivity"].items():
+            restored, had_path[name] = expected and not had_path.get(name, True), expected
             if not expected:
                 continue
             for k, (a, b, is_open) in enumerate(gaps[name]):
-                if (name, k) in charged or b < t or a > t + slack:
+                if (name, k) in charged or b < t:
+                    continue
+                if not (causes[(name, k)] is ev or (restored and a <= t + SLACK_S)):
                     continue
                 charged.add((name, k))
                 if is_open:
@@ -121,12 +184,24 @@ def _routing_rates(run: FleetRun) -> dict[str, Any]:
     }
 
 
+def source_gone(run: FleetRun, f: Any, end: float) -> bool:
+    """The flow's source is gone for good: killed and not restarted, or an external member silent at the
+    end (the launcher cannot see it; its last outage is still open)."""
+    m = run.members[f.source]
+    if m.station.external:
+        tr = run.flows[f.name]
+        return tr.last is None or end - tr.last > f.gap_ms / 1000.0
+    return not (m.up or m.starting)
+
+
 def summarize(run: FleetRun) -> dict[str, Any]:
     end = run.sc.duration_s
     flows = []
+    explained = explained_outages(run, end)
     for name, tr in run.flows.items():
         f = tr.spec
         gaps = flow_gaps(tr, end)
+        gone = source_gone(run, f, end)
         flows.append({
             "name": name, "content": f.content, "source": f.source, "destination": f.destination,
             "period_ms": f.period_ms, "delivered": tr.count, "expected": round(tr.expected, 1),
@@ -135,17 +210,31 @@ def summarize(run: FleetRun) -> dict[str, Any]:
                                          if tr.expected_connected > 0 else None),
             "hops": tr.hops,
             "outages": [[round(a, 3), round(b, 3)] + (["open"] if o else []) for a, b, o in gaps],
+            "outages_explained": explained[name],
+            # stale: the source is gone for good; what the destination holds is its last value, not a live one
+            "status": "stale" if gone else ("flowing" if tr.last is not None and end - tr.last <= f.gap_ms / 1000.0
+                                            else "silent"),
+            "external": [x for x in (f.source, f.destination) if run.members[x].station.external],
         })
         if f.admin is not None:
+            admin_member = run.members[f.admin]
             adm, row = run.admin_rows[name]
-            st = adm.status(row)
-            flows[-1].update({"admin": f.admin, "kind": f.kind, "admin_status": st["status"],
+            if admin_member.node is None:
+                st = {"status": "gone", "nack_reason": None, "nack_relayed": None}  # administrator killed for good
+            else:
+                st = adm.status(row)
+            # The row's own status says what its last exchange was (`acknowledged`, `active`...); a source gone
+            # for good makes it stale whatever it says (the C table has no such status; the report decides).
+            flows[-1].update({"admin": f.admin, "kind": f.kind,
+                              "admin_status": "stale" if gone and st["status"] != "gone" else st["status"],
+                              "admin_row_status": st["status"],
                               "nack_reason": st["nack_reason"], "nack_relayed": st["nack_relayed"]})
     return {
         "scenario": run.sc.name, "file": run.sc.source, "duration_s": end, "seed": run.sc.seed,
         "routing": {"hello_ms": run.sc.routing.hello_ms, "dead_misses": run.sc.routing.dead_misses,
                     "parallel": run.sc.routing.parallel},
         "vehicles": len(run.sc.vehicles), "ground_stations": len(run.sc.ground_stations),
+        "external": {s.name: {"port": s.port, "routing": s.routing} for s in run.sc.stations if s.external},
         "events": _reconvergence(run, end),
         "flows": flows,
         "routing_frames_per_link_s": _routing_rates(run),

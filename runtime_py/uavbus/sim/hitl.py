@@ -74,6 +74,10 @@ class HitlOptions:
     gcs_links: tuple[str, ...] | None = None  # open only these GCS links (None = both)
     gcs_binds: tuple[str, ...] = ("gpsOut", "imuOut", "navFilterState")   # storage for what gcs1 receives
     start_gcs: bool = True
+    # Nodes the harness does not start (an emulated board, a real flight computer): node -> {its link:
+    # the serial device of that link} (e.g. {"backup": {"onboardPortDatalink1": board.pty}}). The other
+    # end opens the device directly; the member cannot be killed or restarted from here.
+    external: dict[str, dict[str, str]] = field(default_factory=dict)
     ready_timeout: float = 8.0
     start_attempts: int = 3
 
@@ -129,9 +133,14 @@ class Hitl:
 
     def _start_once(self) -> None:
         self.topo = table2(self.opts.config, self.alloc, serial_faults=self.opts.serial_faults)
+        for node, ends in self.opts.external.items():
+            for link, device in ends.items():
+                self.topo.external(node, link, device)
         if self.on_topology is not None:
             self.on_topology(self.topo)
         for name in C_NODES:
+            if name in self.opts.external:
+                continue
             self.group.spawn(self.node_argv(name), name, ready_timeout=self.opts.ready_timeout, cwd=REPO)
         if self.opts.start_gcs:
             self._start_gcs()
@@ -263,6 +272,8 @@ class Hitl:
 
     # -- faults -------------------------------------------------------------------------------------------
     def kill(self, name: str) -> None:
+        if name in self.opts.external:
+            raise NodeError(f"{name}: an external member (not started by this harness): it cannot be killed here")
         self.group[name].kill()
 
     def restart(self, name: str) -> dict[str, Any]:

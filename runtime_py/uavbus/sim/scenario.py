@@ -56,13 +56,21 @@ class Station:
 
     name: str
     kind: str                    # "vehicle" | "gcs"
-    run: str                     # "process" (uavbus_node) | "python" (a Node in the launcher)
+    run: str                     # "process" (uavbus_node) | "python" (a Node in the launcher) | "external"
     motion: str                  # ub_motion text ("orbit:...", "waypoints:...", "static:...")
     line: int
+    port: str = ""               # run: external: the member's own port (its end of its one link)
+    routing: bool = True         # run: external: it runs automatic routes (False: a fixed table, e.g. firmware)
 
     @property
     def is_vehicle(self) -> bool:
         return self.kind == "vehicle"
+
+    @property
+    def external(self) -> bool:
+        """A node the launcher did not start (an emulated board, a real flight computer, a node elsewhere):
+        connected to, measured, never started, killed or restarted."""
+        return self.run == "external"
 
 
 @dataclass(frozen=True)
@@ -286,13 +294,28 @@ def _stations(src: _Src, node: Any, kind: str, seen: dict[str, int]) -> list[Sta
     what = "vehicles" if kind == "vehicle" else "ground_stations"
     for item in _seq(src, node, what):
         m = _mapping(src, item, what[:-1] if kind == "vehicle" else "ground station",
-                     {"name": True, "run": False, "motion": False, "position": False})
+                     {"name": True, "run": False, "motion": False, "position": False, "port": False,
+                      "routing": False})
         name = _name(src, m["name"], "name")
         if name in seen:
             raise src.fail(m["name"], f"'{name}' is already used on line {seen[name]}; names are unique")
         seen[name] = _line(m["name"])
-        run = _choice(src, m["run"], f"{name}.run", ("process", "python")) if "run" in m else (
+        run = _choice(src, m["run"], f"{name}.run", ("process", "python", "external")) if "run" in m else (
             "process" if kind == "vehicle" else "python")
+        port, routing = "", True
+        if run == "external":
+            if "port" not in m:
+                raise src.fail(item, f"{name}: run: external needs 'port': the member's own end of its link, e.g. "
+                                     "port: \"serial:device=/dev/pts/5\" (a board's UART), "
+                                     "\"tcp:listen=10.0.0.2:5001\" or \"udp:bind=127.0.0.1:6001,peer=127.0.0.1:6002\"")
+            port = _external_port(src, m["port"], f"{name}.port")
+            if "routing" in m:
+                routing = _choice(src, m["routing"], f"{name}.routing", ("true", "false")) == "true"
+        else:
+            for k in ("port", "routing"):
+                if k in m:
+                    raise src.fail(m[k], f"{name}.{k}: only for run: external (the launcher makes the ports of "
+                                         "the members it starts)")
         if "motion" in m and "position" in m:
             raise src.fail(m["position"], f"{name}: give motion or position, not both")
         if "position" in m:
@@ -301,12 +324,39 @@ def _stations(src: _Src, node: Any, kind: str, seen: dict[str, int]) -> list[Sta
             motion = f"static:n={coords['n']:g},e={coords['e']:g},alt={coords['alt']:g}"
         elif "motion" in m:
             motion = _motion(src, m["motion"], f"{name}.motion")
-        elif kind == "vehicle":
+        elif kind == "vehicle" and run != "external":
             raise src.fail(item, f"vehicle {name}: 'motion' is required (e.g. motion: \"orbit:r=150,v=12\")")
         else:
-            motion = "static:n=0,e=0"
-        out.append(Station(name, kind, run, motion, _line(m["name"])))
+            motion = "static:n=0,e=0"   # an external member flies its own model; this one is for range only
+        out.append(Station(name, kind, run, motion, _line(m["name"]), port, routing))
     return out
+
+
+def _external_port(src: _Src, node: Any, what: str) -> str:
+    """An external member's own port spec: serial:device=PATH, tcp:listen=|connect=H:P, udp:bind=H:P,peer=H:P.
+    The launcher's end of the link is its mirror (peer_port())."""
+    text = _scalar(src, node, what)
+    try:
+        peer_port(text)
+    except ValueError as e:
+        raise src.fail(node, f"{what}: {e}") from None
+    return text
+
+
+def peer_port(port: str, baud: int = 115200) -> str:
+    """The port spec of the launcher's end facing an external member whose own port is `port`: the same serial
+    device (the other side of a board's UART, e.g. QEMU's pty), TCP connect for listen and listen for connect,
+    UDP with bind and peer swapped."""
+    kind, _, rest = port.partition(":")
+    fields = dict(kv.partition("=")[::2] for kv in rest.split(",") if kv)
+    if kind == "serial" and fields.get("device"):
+        return f"serial:device={fields['device']},baud={fields.get('baud', baud)}"
+    if kind == "tcp" and ("listen" in fields) != ("connect" in fields):
+        return f"tcp:connect={fields['listen']}" if "listen" in fields else f"tcp:listen={fields['connect']}"
+    if kind == "udp" and fields.get("bind") and fields.get("peer"):
+        return f"udp:bind={fields['peer']},peer={fields['bind']}"
+    raise ValueError(f"'{port}' is not a port the launcher can face: give serial:device=PATH, tcp:listen=HOST:PORT, "
+                     "tcp:connect=HOST:PORT or udp:bind=HOST:PORT,peer=HOST:PORT (the member's own end)")
 
 
 def _two_names(src: _Src, node: Any, what: str, names: dict[str, int]) -> tuple[str, str]:
@@ -356,6 +406,23 @@ def _links(src: _Src, node: Any, names: dict[str, int], radio: dict[str, float],
                 members = [_known(src, n, "link.mesh", names) for n in _seq(src, m["mesh"], "link.mesh")]
             pairs = [(a, b) for i, a in enumerate(members) for b in members[i + 1:]]
         for a, b in pairs:
+            ext = [x for x in (a, b) if stations[x].external]
+            if len(ext) == 2:
+                raise src.fail(item, f"link [{a}, {b}]: both ends are external; the launcher connects its own "
+                                     "members to external ones, not two external members to each other")
+            if ext:
+                kind = stations[ext[0]].port.partition(":")[0]
+                if "transport" in m and transport != kind:
+                    raise src.fail(m["transport"], f"link [{a}, {b}]: {ext[0]} is external on a {kind} port "
+                                                   f"('{stations[ext[0]].port}'); leave transport out or say {kind}")
+                if any(ext[0] in (link.a, link.b) for link in out):
+                    raise src.fail(item, f"link [{a}, {b}]: {ext[0]} is external with one port: one link to it")
+                if values["bandwidth_bps"] or encoding != "full":
+                    raise src.fail(item, f"link [{a}, {b}]: bandwidth_bps and encoding are not for a link to an "
+                                         "external member (its own end is not the launcher's)")
+                out.append(LinkSpec(a, b, kind, model, values["range_m"], values["loss"], int(values["delay_ms"]),
+                                    int(values["jitter_ms"]), _line(item), 0, "full"))
+                continue
             if transport == "memory" and (stations[a].run != "python" or stations[b].run != "python"):
                 raise src.fail(item, f"link [{a}, {b}]: transport memory joins two run: python entities "
                                      "(one process); use udp, tcp or serial for a process")
@@ -424,9 +491,20 @@ def _events(src: _Src, node: Any, names: dict[str, int], stations: dict[str, Sta
         else:
             target = (_known(src, m[kind], kind, names),)
             st = stations[target[0]]
-            if kind in ("kill", "restart") and st.run != "process":
-                raise src.fail(m[kind], f"{kind}: '{st.name}' runs in the launcher (run: python); only "
-                                        "processes (run: process) can be killed and restarted")
+            if kind in ("kill", "restart") and st.external:
+                raise src.fail(m[kind], f"{kind}: '{st.name}' is external (not started by the launcher): it cannot "
+                                        "be killed or restarted from here; cut its link (fail_link) instead")
+            if kind in ("kill", "restart") and st.run == "python" and any(
+                    link.transport == "memory" and st.name in (link.a, link.b) for link in links):
+                raise src.fail(m[kind], f"{kind}: '{st.name}' has a memory link (inside the launcher's process); "
+                                        "a ground station that is killed and restarted needs udp, tcp or serial links")
+            if kind in ("kill", "restart") and st.run == "python" and st.is_vehicle:
+                raise src.fail(m[kind], f"{kind}: '{st.name}' runs in the launcher (run: python) as a vehicle; "
+                                        "only processes (run: process) and ground stations can be killed and "
+                                        "restarted")
+            if kind in ("add", "move") and st.external:
+                raise src.fail(m[kind], f"{kind}: '{st.name}' is external: it is there when the run starts and "
+                                        "moves by itself")
             if kind == "add" and not st.is_vehicle:
                 raise src.fail(m[kind], "add: only vehicles join during a run; start ground stations at t=0")
             if kind == "move" and st.is_vehicle:
@@ -468,6 +546,27 @@ def _events(src: _Src, node: Any, names: dict[str, int], stations: dict[str, Sta
     return out
 
 
+def _check_external(src: _Src, stations: dict[str, Station], links: list[LinkSpec], flows: list[FlowSpec]) -> None:
+    """An external member needs its one link; one without routing (a fixed entity table, as the firmware has)
+    is reached only from the member it is linked to, whose mask toward it the launcher pins."""
+    for st in stations.values():
+        if not st.external:
+            continue
+        peers = [link.b if link.a == st.name else link.a for link in links if st.name in (link.a, link.b)]
+        if not peers:
+            raise ScenarioError(f"{src.source}:{st.line}: {st.name} is external but no link reaches it; add "
+                                f"{{between: [SOMEONE, {st.name}]}} to links")
+        if st.routing:
+            continue
+        for f in flows:
+            if st.name in (f.source, f.destination):
+                other = f.destination if f.source == st.name else f.source
+                if other not in peers:
+                    raise ScenarioError(f"{src.source}:{f.line}: flow {f.name}: {st.name} is external with "
+                                        f"routing: false, reached only through {peers[0]} (no route is learned "
+                                        f"to it); make {peers[0]} the other end, or give it routing")
+
+
 def parse_scenario(text: str, source: str = "<scenario>") -> Scenario:
     import yaml
 
@@ -506,6 +605,7 @@ def parse_scenario(text: str, source: str = "<scenario>") -> Scenario:
     links = _links(src, m["links"], seen, radio, by_name) if "links" in m else []
     flows = _flows(src, m["flows"], seen, by_name) if "flows" in m else []
     events = _events(src, m["events"], seen, by_name, duration, links) if "events" in m else []
+    _check_external(src, by_name, links, flows)
     if datum != DATUM:
         events = [EventSpec(e.t, e.kind, e.target, e.line, e.motion + suffix) if e.motion else e for e in events]
     name = _scalar(src, m["name"], "name") if "name" in m else Path(source).stem

@@ -102,6 +102,24 @@ class Topology:
             raise KeyError(f"topology: no path between {a!r} and {b!r}")
         return n
 
+    def external(self, node: str, link: str, device: str) -> Connection:
+        """Node `node` is not started by the harness (an emulated board, a real flight computer): its end
+        of the serial connection at `link` is `device` (e.g. QEMU's pty of the board's UART), which the
+        other end opens directly; the null-modem planned there is closed."""
+        c = self.find(node, link)
+        if c.transport != "serial":
+            raise ValueError(f"topology: {node}:{link} is {c.transport}; an external member is reached over a "
+                             f"serial device here (give the {c.transport} address to the other end instead)")
+        if c.modem is not None:
+            c.modem.close()
+            c.modem = None
+        far = f"serial:device={device},baud={self.baud}"
+        if c.a == (node, link):
+            c.spec_a, c.spec_b = f"external:{device}", far
+        else:
+            c.spec_a, c.spec_b = far, f"external:{device}"
+        return c
+
     def modems(self) -> list[NullModem]:
         return [c.modem for c in self.connections if c.modem is not None]
 

@@ -4,6 +4,7 @@
     uavbus log export FILE (--csv | --jsonl) [--only NAME[,NAME...]]... [--admin] [--numeric] [-o OUT]
     uavbus log export FILE --mcap OUT [--only NAME[,NAME...]]...
     uavbus log play FILE --into SPEC [--only NAME[,NAME...]]... [--speed X | --fast] [--dir rx|tx|all]
+    uavbus log play FILE --to ENTITY --into PORTSPEC [--as NAME | --map SRC=NAME...] [--key FILE] [--only ...]
 """
 
 from __future__ import annotations
@@ -184,6 +185,13 @@ def cmd_play(args: argparse.Namespace, out: IO[str], sleep: Callable[[float], No
     dirs = {"rx": ("rx",), "tx": ("tx",), "all": ("rx", "tx")}[args.dir]
     chosen = [r for r in log.records()
               if r.dir in dirs and (only is None or contents.name(r.header) in only)]
+    if args.to:
+        from uavbus.tools.playto import play_to
+
+        return play_to(log, contents, chosen, args, out, clock=clock)
+    if args.as_name or args.map or args.key:
+        raise SystemExit("uavbus log play: --as, --map and --key go with --to ENTITY (the player as an entity); "
+                         "without --to the recorded frames are sent as they are")
     try:
         sink = open_sink(args.into)
     except SpecError as exc:
@@ -238,6 +246,18 @@ def build_parser() -> argparse.ArgumentParser:
     pace.add_argument("--fast", action="store_true", help="as fast as possible, no pacing")
     play.add_argument("--dir", choices=("rx", "tx", "all"), default="rx",
                       help="which recorded direction to send (default rx: what the node received)")
+    play.add_argument("--to", metavar="ENTITY",
+                      help="deliver the recorded directories to ENTITY: the player is an entity of its own and sends "
+                           "each DATA record again, from itself to ENTITY, at the recorded time; --into is then its "
+                           "port (udp:bind=H:P,peer=H:P | tcp:connect=H:P | serial:device=PATH), as a node's")
+    play.add_argument("--as", dest="as_name", metavar="NAME",
+                      help="with --to: play every recorded source as this one entity (default: each as itself)")
+    play.add_argument("--map", action="append", metavar="SRC=NAME",
+                      help="with --to: play the records of recorded source SRC as entity NAME (repeatable; several "
+                           "identities need a udp port: each gets its own local port, at most 4)")
+    play.add_argument("--key", metavar="FILE",
+                      help="with --to on a signed network: sign with this key file as the player's own identity "
+                           "(never the recorded tags); its counter is kept in FILE's folder, play-state/")
     return p
 
 

@@ -1,0 +1,78 @@
+"""Scenario reporting you can trust (issue 25, item 5), on a hand-built run: outages are charged to the event
+that began them or gave the flow its path back, never to an unrelated event that happened during them; every
+outage is listed with its cause; a flow whose source is gone for good is `stale`."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+from uavbus.sim.fleet import FlowTrack
+from uavbus.sim.fleet_report import _reconvergence, explained_outages, source_gone
+from uavbus.sim.scenario import FlowSpec, Station
+
+PERIOD_MS = 100
+
+
+def track(name: str, source: str, times: list[float]) -> FlowTrack:
+    tr = FlowTrack(FlowSpec(name, "gpsOut", source, "gcs1", PERIOD_MS, 1))
+    for t in times:
+        tr.add(t)
+        tr.times.append(t)
+    tr.first, tr.last = (times[0], times[-1]) if times else (None, None)
+    return tr
+
+
+def steady(t0: float, t1: float) -> list[float]:
+    return [round(t0 + k * PERIOD_MS / 1000.0, 3) for k in range(int((t1 - t0) * 1000 / PERIOD_MS) + 1)]
+
+
+def event(t: float, kind: str, target: list[str], conn: dict[str, bool]) -> dict:
+    return {"t": t, "event": kind, "target": target, "text": f"{kind} {' '.join(target)}", "connectivity": conn}
+
+
+def fake_run(flows: dict[str, FlowTrack], timeline: list[dict], up: dict[str, bool]) -> SimpleNamespace:
+    members = {n: SimpleNamespace(up=u, starting=False, station=Station(n, "vehicle", "process", "static:", 1))
+               for n, u in up.items()}
+    sc = SimpleNamespace(duration_s=10.0, joins=lambda: {})
+    return SimpleNamespace(flows=flows, timeline=timeline, members=members, sc=sc,
+                           connectivity0={name: True for name in flows})
+
+
+def test_an_outage_that_began_before_an_event_is_not_charged_to_it() -> None:
+    # gps1 goes silent at t=2.0 with nothing the launcher did (loss, load); at t=3 an unrelated link fails
+    # (gps1 keeps its path); gps1 comes back at t=5. The old rule charged 2 s of "reconvergence" to fail_link.
+    flows = {"gps1": track("gps1", "uav1", steady(0.0, 2.0) + steady(5.0, 10.0))}
+    timeline = [event(3.0, "fail_link", ["uav2", "uav3"], {"gps1": True})]
+    run = fake_run(flows, timeline, {"uav1": True, "uav2": True, "uav3": True, "gcs1": True})
+    (fail,) = _reconvergence(run, 10.0)
+    assert fail["affected"] == {} and fail["reconverged_s"] == 0.0, fail
+    (outage,) = explained_outages(run, 10.0)["gps1"]
+    assert (outage["from"], outage["to"]) == (2.0, 5.0) and outage["event"] is None
+    assert outage["cause"] == "no event: loss or load (a path existed)", outage
+
+
+def test_outages_go_to_the_event_that_began_them_or_gave_the_path_back() -> None:
+    # gps1's relay is killed at t=4.05 (another path: rerouted by t=4.8); gps2's source is killed at t=4.05
+    # too and restarted at t=6 (back at t=6.7): the kill is not charged gps2's outage (no path after it), the
+    # restart is, with the time from the restart.
+    flows = {"gps1": track("gps1", "uav1", steady(0.0, 4.0) + steady(4.8, 10.0)),
+             "gps2": track("gps2", "uav2", steady(0.0, 4.0) + steady(6.7, 10.0))}
+    timeline = [event(4.05, "kill", ["uav2"], {"gps1": True, "gps2": False}),
+                event(6.0, "restart", ["uav2"], {"gps1": True, "gps2": True})]
+    timeline[0]["text"] = "kill uav2"
+    run = fake_run(flows, timeline, {"uav1": True, "uav2": True, "gcs1": True})
+    kill, restart = _reconvergence(run, 10.0)
+    assert kill["affected"] == {"gps1": 0.75} and "gps2" not in kill["affected"], kill
+    assert restart["affected"] == {"gps2": 0.7}, restart
+    why = explained_outages(run, 10.0)
+    assert why["gps1"][0]["cause"].startswith("member gone: kill uav2"), why["gps1"]
+    assert why["gps2"][0]["cause"].startswith("source gone: kill uav2"), why["gps2"]
+
+
+def test_a_source_killed_for_good_makes_its_flow_stale() -> None:
+    flows = {"gps2": track("gps2", "uav2", steady(0.0, 4.0)), "gps1": track("gps1", "uav1", steady(0.0, 10.0))}
+    timeline = [event(4.05, "kill", ["uav2"], {"gps1": True, "gps2": False})]
+    run = fake_run(flows, timeline, {"uav1": True, "uav2": False, "gcs1": True})
+    assert source_gone(run, flows["gps2"].spec, 10.0) and not source_gone(run, flows["gps1"].spec, 10.0)
+    (kill,) = _reconvergence(run, 10.0)
+    assert kill["unrecovered"] == [] and kill["reconverged_s"] == 0.0   # no path after it: not its to fix
