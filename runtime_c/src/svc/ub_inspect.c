@@ -1,4 +1,6 @@
-/* Remote inspection and change over the bus (ub_inspect.h, docs/inspect.md). */
+/* Remote inspection and change over the bus (ub_inspect.h, docs/inspect.md): a service of the node
+ * (ub_service.h). Every node serves INSPECT requests (ub_priv_inspect_server, registered by ub_node_init());
+ * a requester (ub_inspect_init()) takes the registration over while attached. Public headers only. */
 #include "ub/ub_inspect.h"
 
 #include <string.h>

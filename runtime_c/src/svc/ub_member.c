@@ -1,4 +1,6 @@
-/* Membership over the bus (ub_member.h, docs/routing.md "MEMBERSHIP"). */
+/* Membership over the bus (ub_member.h, docs/routing.md "MEMBERSHIP"): a service of the node (ub_service.h).
+ * Every node serves MEMBERSHIP requests (ub_priv_member_server, registered by ub_node_init()); a requester
+ * (ub_member_init()) takes the registration over while attached. Public headers only. */
 #include "ub/ub_member.h"
 
 #include <string.h>
