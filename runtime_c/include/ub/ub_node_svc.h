@@ -4,7 +4,7 @@
  *        read access to its tables without reaching into ub_node_t.
  *
  * Services (src/svc/ and any of your own) include this header and ub_node.h, never the core's
- * private headers, and never read or write ub_node_t fields: a check in ctest (layer_check,
+ * private headers, and never read or write ub_node_t fields: a check in ctest (ub_layer_check,
  * runtime_c/tools/check_layers.cmake) keeps it so. Everything a service originates goes through
  * the node's path (stamp, duplicate window, routing, security forms, tap, counters).
  *

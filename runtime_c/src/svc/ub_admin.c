@@ -1,3 +1,5 @@
+/* The administration table (ub_admin.h, docs/pubsub.md): part of the publish/subscribe service, which
+ * hands it replies and ticks it (svc/ub_svc_private.h). Public headers only. */
 #include "ub/ub_admin.h"
 
 #include <string.h>

@@ -1,4 +1,6 @@
-/* Remote inspection and change over the bus (ub_inspect.h, docs/inspect.md). */
+/* Remote inspection and change over the bus (ub_inspect.h, docs/inspect.md): a service of the node
+ * (ub_service.h). Every node serves INSPECT requests (ub_priv_inspect_server, registered by ub_node_init());
+ * a requester (ub_inspect_init()) takes the registration over while attached. Public headers only. */
 #include "ub/ub_inspect.h"
 
 #include <string.h>
@@ -7,6 +9,7 @@
 #include "ub/ub_policy.h"
 #include "ub/ub_pubsub.h"
 #include "ub/ub_wire.h"
+#include "svc/ub_requester.h"
 #include "svc/ub_svc_private.h"
 
 #define DEFAULT_RETRY_MS 200u
@@ -489,16 +492,16 @@ static void inspect_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_
     ub_inspect_t *in = svc->user;
     for (int r = 0; r < UB_MAX_INSPECT_REQUESTS; r++) {
         ub_inspect_row_t *row = &in->rows[r];
-        if (!row->in_use || row->result.status != UB_INSPECT_PENDING || now_ms < row->next_send_ms) continue;
-        if (in->opt.max_retries != 0 && row->result.attempts >= in->opt.max_retries) {
+        if (!row->in_use || row->result.status != UB_INSPECT_PENDING) continue;
+        ub_req_step_t step =
+            ub_req_step(&row->next_send_ms, &row->result.attempts, in->opt.retry_ms, in->opt.max_retries, now_ms);
+        if (step == UB_REQ_GIVE_UP) {
             row->result.status = UB_INSPECT_FAILED;
             row->result.done_ms = now_ms;
             in->counters.failed++;
-            continue;
+        } else if (step == UB_REQ_SEND) {
+            send_request(in, row, now_ms); /* last: a local target answers synchronously */
         }
-        row->result.attempts++;
-        row->next_send_ms = now_ms + in->opt.retry_ms;
-        send_request(in, row, now_ms); /* last: a local target answers synchronously */
     }
 }
 
@@ -510,8 +513,7 @@ static ub_inspect_row_t *row_for(ub_inspect_t *in, ub_node_t *node, int slot, co
     for (int r = 0; r < UB_MAX_INSPECT_REQUESTS; r++) {
         ub_inspect_row_t *row = &in->rows[r];
         if (!row->in_use || row->result.request_id != id) continue;
-        if (row->result.status != UB_INSPECT_PENDING || memcmp(src_id, row->spec.target, UB_ENTITY_ID_LEN) != 0 ||
-            ub_node_entity_slot(node, in->entity) != slot)
+        if (row->result.status != UB_INSPECT_PENDING || !ub_req_bound(node, slot, in->entity, src_id, row->spec.target))
             return NULL;
         return row;
     }

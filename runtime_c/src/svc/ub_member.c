@@ -1,9 +1,12 @@
-/* Membership over the bus (ub_member.h, docs/routing.md "MEMBERSHIP"). */
+/* Membership over the bus (ub_member.h, docs/routing.md "MEMBERSHIP"): a service of the node (ub_service.h).
+ * Every node serves MEMBERSHIP requests (ub_priv_member_server, registered by ub_node_init()); a requester
+ * (ub_member_init()) takes the registration over while attached. Public headers only. */
 #include "ub/ub_member.h"
 
 #include <string.h>
 
 #include "ub/ub_wire.h"
+#include "svc/ub_requester.h"
 #include "svc/ub_svc_private.h"
 
 #define DEFAULT_RETRY_MS 200u
@@ -274,16 +277,15 @@ static void member_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_m
     ub_member_t *m = svc->user;
     for (int r = 0; r < UB_MAX_MEMBER_REQUESTS; r++) {
         ub_member_row_t *row = &m->rows[r];
-        if (!row->in_use || row->info.status != UB_MEMBER_PENDING || now_ms < row->next_send_ms) continue;
-        if (m->opt.max_retries != 0 && row->info.attempts >= m->opt.max_retries) {
+        if (!row->in_use || row->info.status != UB_MEMBER_PENDING) continue;
+        ub_req_step_t step = ub_req_step(&row->next_send_ms, &row->info.attempts, m->opt.retry_ms, m->opt.max_retries, now_ms);
+        if (step == UB_REQ_GIVE_UP) {
             row->info.status = UB_MEMBER_FAILED;
             row->info.done_ms = now_ms;
             m->counters.failed++;
-            continue;
+        } else if (step == UB_REQ_SEND) {
+            send_request(m, row, now_ms); /* last: a local target answers synchronously */
         }
-        row->info.attempts++;
-        row->next_send_ms = now_ms + m->opt.retry_ms;
-        send_request(m, row, now_ms); /* last: a local target answers synchronously */
     }
 }
 
@@ -310,8 +312,7 @@ static bool member_on_reply(const ub_service_t *svc, ub_node_t *node, const ub_s
         ub_member_row_t *row = &m->rows[r];
         if (!row->in_use || row->info.request_id != request_id) continue;
         /* Bound to the row: the answer must come from the target, to the requesting entity. */
-        if (row->info.status != UB_MEMBER_PENDING || memcmp(src_id, row->info.spec.target, UB_ENTITY_ID_LEN) != 0 ||
-            ub_node_entity_slot(node, m->entity) != slot)
+        if (row->info.status != UB_MEMBER_PENDING || !ub_req_bound(node, slot, m->entity, src_id, row->info.spec.target))
             break;
         row->info.done_ms = now_ms;
         if (nack) {

@@ -1,3 +1,7 @@
+/* Publish/subscribe tables (ub_pubsub.h, docs/pubsub.md): the service every node runs (ub_node_init(),
+ * ub_priv_pubsub_service below). It takes the request/STOP codes and the replies no other service claims,
+ * carries the administration tables of its entities (ub_admin.c: their replies and ticks come through
+ * here), and observes DATA (subscription bookkeeping, the write policy). Public headers only. */
 #include "ub/ub_pubsub.h"
 
 #include <string.h>
