@@ -187,6 +187,10 @@ static bool is_flag(const ub_app_program_t *prog, const char *opt) {
     return false;
 }
 
+static void usage(const ub_app_program_t *prog, FILE *f) {
+    if (prog->usage != NULL) prog->usage(f);
+}
+
 static void signals(void) {
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
@@ -207,7 +211,7 @@ void ub_app_parse(ub_app_t *app, const ub_app_program_t *prog, int argc, char **
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            prog->usage(stdout);
+            usage(prog, stdout);
             exit(0);
         }
         if (is_flag(prog, a)) {
@@ -215,7 +219,7 @@ void ub_app_parse(ub_app_t *app, const ub_app_program_t *prog, int argc, char **
             continue;
         }
         if (i + 1 >= argc) {
-            prog->usage(stderr);
+            usage(prog, stderr);
             ub_app_die(app, "%s:argv[%d]: '%s' needs a value (or is unknown: see --help)", name, i, a);
         }
         const char *v = argv[++i];
@@ -232,7 +236,7 @@ void ub_app_parse(ub_app_t *app, const ub_app_program_t *prog, int argc, char **
             app->port_argi[app->n_ports] = i;
             app->port_args[app->n_ports++] = v;
         } else if (prog->option == NULL || !prog->option(app, a, v, i)) {
-            prog->usage(stderr);
+            usage(prog, stderr);
             ub_app_die(app, "%s:argv[%d]: unknown option '%s' (see --help)", name, i - 1, a);
         }
     }
