@@ -18,8 +18,10 @@ BUILD_FUZZ  := build-fuzz
 BUILD_COV   := build-cov
 # clang + libFuzzer: `make test` runs every fuzz harness for a few seconds (make fuzz for longer).
 FUZZ_APT_PKGS := clang-14 libclang-rt-14-dev
+# The console's browser tests and the demo's screenshots: headless Chromium driven by Selenium (tests/web).
+WEB_APT_PKGS := chromium chromium-driver
 APT_PKGS    := libcmocka-dev cmake ninja-build pkg-config libsodium-dev gcc-arm-none-eabi libnewlib-arm-none-eabi g++ \
-               $(FUZZ_APT_PKGS)
+               $(FUZZ_APT_PKGS) $(WEB_APT_PKGS)
 COV_APT_PKGS := gcovr
 SETUP_STAMP := $(VENV)/.uavbus-setup-stamp
 FUZZ_SECONDS ?= 600
@@ -51,7 +53,7 @@ FFI_INPUTS := $(wildcard runtime_c/src/*.c runtime_c/src/*.h runtime_c/include/u
 $(SETUP_STAMP): pyproject.toml setup.py $(FFI_INPUTS)
 	@test -x $(VPY) || $(PYTHON) -m venv $(VENV)
 	$(VPY) -m pip install -q --upgrade pip setuptools wheel
-	$(VPY) -m pip install -q -e '.[test,demo]'
+	$(VPY) -m pip install -q -e '.[test,demo,web]'
 	@touch $@
 
 # C runtime + generated-code tests, plain (Release: -O3 as the bench and most users build it; its inlining

@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from uavbus.node import Node
 
 TABLES = tuple(ub_inspect.TABLES)
+PROBE_OFFSET = 0xFFFE  # past the end of any inspectable value (UB_MAX_PAYLOAD), below UB_INSPECT_END
 _INDEX = re.compile(r"^([^\[\]]+)((?:\[\d+\])*)$")
 
 
@@ -118,12 +119,21 @@ class Remote:
     # Each operation is a generator that yields while a request is unanswered: the blocking methods poll
     # the node between steps; begin() hands the generator to the caller's loop instead.
     def begin(self, method: str, *args: Any, **kw: Any) -> RemoteCall:
-        """Starts `method` ("get", "set", "read_raw", "write_raw", "table", "tables", "set_period",
-        "set_mask", "set_admin_row") without waiting; step the returned call after each node poll."""
+        """Starts `method` ("get", "set", "probe", "read_raw", "write_raw", "table", "tables",
+        "set_period", "set_mask", "set_admin_row") without waiting; step the returned call after each node poll."""
         gen = getattr(self, "_g_" + method, None)
         if gen is None:
             raise InvalidArgumentError(f"Remote.begin({method!r}): not an operation of Remote")
         return RemoteCall(gen(*args, **kw))
+
+    @staticmethod
+    def all(calls: list[RemoteCall]) -> RemoteCall:
+        """One call that is done when every one of `calls` is (their requests overlap); its result is `calls`."""
+        def wait() -> Generator[None, None, list[RemoteCall]]:
+            while not all([c.step() for c in calls]):
+                yield
+            return calls
+        return RemoteCall(wait())
 
     def _run(self, gen: Generator[None, None, Any]) -> Any:
         call = RemoteCall(gen)
@@ -182,6 +192,22 @@ class Remote:
     def get(self, name: str) -> Any:
         """A directory (dict) or one field of it ("onboardSet.mode"), as the target holds it now."""
         return self._run(self._g_get(name))
+
+    def _g_probe(self, content: str) -> Generator[None, None, str]:
+        inst = self.node.catalogue.instance(content)
+        try:
+            # A READ past the end of any value: the target answers NO_SUCH_ROW only after it found the
+            # directory hosted and the read permitted, so one short NACK tells without moving the value.
+            yield from self._g_call("read", f"probe {content}", instance=inst.index, offset=PROBE_OFFSET)
+        except RefusedError as exc:
+            return "hosted" if exc.reason == "no_such_row" else str(exc.reason)
+        return "hosted"
+
+    def probe(self, content: str) -> str:
+        """Whether the entity hosts directory `content` and lets this node read it, without reading it:
+        "hosted", or the target's reason ("unbound": not hosted there, "not_authorized", "unknown_content",
+        "layout": another layout of that name, "unsupported": too large to inspect)."""
+        return self._run(self._g_probe(content))
 
     def _g_write_raw(self, content: str, offset: int, data: bytes) -> Generator[None, None, bool]:
         inst = self.node.catalogue.instance(content)
