@@ -68,15 +68,25 @@ class Flow:
             self.samples.popleft()
 
     def stats(self, now: float, window_s: float, started: float) -> dict[str, Any]:
-        """Rate, bandwidth and jitter over the last `window_s`, divided by the time actually observed
-        (since the console started listening, when that is shorter than the window)."""
+        """Rate, bandwidth and jitter over the last `window_s`, divided by the time actually observed: from
+        the first to the last message in the window (a flow younger than the window is not diluted by the
+        time before it started), or up to now once the flow has gone quiet (so a stopped flow decays)."""
         since = max(now - window_s, started)
         ts = [(t, n) for t, n, _ in self.samples if t >= since]
-        span = max(now - since, 1e-3)
         gaps = [b[0] - a[0] for a, b in zip(ts, ts[1:])]
+        rate = bw = None
+        if len(ts) >= 2:
+            mean = statistics.fmean(gaps)
+            if now - ts[-1][0] <= 2.0 * mean + 0.5:
+                span = ts[-1][0] - ts[0][0]
+                rate, bw = (len(ts) - 1) / span, sum(n for _, n in ts[1:]) / span
+            else:
+                span = max(now - ts[0][0], 1e-3)
+                rate, bw = len(ts) / span, sum(n for _, n in ts) / span
         jitter = statistics.pstdev(gaps) * 1000.0 if len(gaps) >= 2 else None
         return {"content": self.content, "source": self.source, "messages": self.total,
-                "rate_hz": round(len(ts) / span, 2), "bytes_per_s": round(sum(n for _, n in ts) / span, 1),
+                "rate_hz": round(rate, 2) if rate is not None else None,
+                "bytes_per_s": round(bw, 1) if bw is not None else None,
                 "jitter_ms": round(jitter, 2) if jitter is not None else None,
                 "mean_gap_ms": round(statistics.fmean(gaps) * 1000.0, 2) if gaps else None,
                 "last_age_s": round(now - self.samples[-1][0], 2) if self.samples else None}
@@ -357,7 +367,7 @@ class Console:
         for r in self.admin.rows():
             rows.append({"row": r.get("row"), "content": r["content"], "source": r.get("source"),
                          "destination": r.get("destination"), "period_ms": r.get("period_ms"),
-                         "type": r.get("type"), "status": r.get("status"), "active": r.get("active"),
+                         "type": r.get("kind"), "status": r.get("status"), "active": r.get("active"),
                          "reason": r.get("nack_reason"), "relayed": r.get("nack_relayed"),
                          "attempts": r.get("attempts")})
         policy = _policy_of(self.node)

@@ -278,6 +278,8 @@ def plan(console: Any, body: dict[str, Any]) -> tuple[str, Any]:
         activate = bool(body.get("activate", True))
 
         def add() -> dict[str, Any]:
+            if dest in node.local_entities:
+                node.bind(content)  # storage for what arrives here: deliveries, plots, rates
             row = adm.add(content, source, dest, period, kind)
             if activate:
                 adm.activate(row)

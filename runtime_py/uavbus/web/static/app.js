@@ -8,6 +8,13 @@ const state = { view: "fleet", info: null, fleet: null, catalogue: null, varLeaf
 const COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#8c564b", "#e377c2"];
 
 // ---- small helpers ---------------------------------------------------------------------------------
+const shown = new Map();
+function unchanged(key, data) {  // tables are rebuilt only when what they show changed (keeps focus, selection)
+  const text = JSON.stringify(data);
+  if (shown.get(key) === text) return true;
+  shown.set(key, text);
+  return false;
+}
 function $(sel) { return document.querySelector(sel); }
 function el(tag, attrs, ...children) {
   const e = document.createElement(tag);
@@ -198,6 +205,8 @@ function renderFleet(fleet) {
 
 // ---- administration table -------------------------------------------------------------------------------
 function renderAdmin(a) {
+  if (unchanged("admin", [a.rows.map(r => [r.row, r.content, r.source, r.destination, r.period_ms, r.type, r.status,
+    r.active, r.reason, r.relayed]), a.administrators])) return;
   const admins = a.administrators;
   $("#admin-policy").textContent = admins === null ? "No administrator list in the configuration: every target decides by its own policy."
     : `Administrators by the configuration: ${admins.join(", ") || "none"}` + (admins.includes(a.me) ? "" :
@@ -305,6 +314,15 @@ function renderOffer(leaf, d) {
 // ---- plots ---------------------------------------------------------------------------------------------------
 function renderFlows(flows) {
   const tb = $("#flows-table tbody");
+  const known = Array.from(tb.querySelectorAll("tr")).map(tr => tr.dataset.flow);
+  if (known.join() === flows.map(f => f.content + "@" + f.source).join()) {  // same flows: update the numbers in place
+    flows.forEach((f, i) => {
+      const tds = tb.children[i].children;
+      tds[2].textContent = f.messages; tds[3].textContent = fmt(f.rate_hz, 2);
+      tds[4].textContent = fmt(f.bytes_per_s, 0); tds[5].textContent = fmt(f.jitter_ms, 2);
+    });
+    return;
+  }
   const keep = new Map(Array.from(tb.querySelectorAll("select")).map(s => [s.dataset.key, s.value]));
   tb.replaceChildren();
   for (const f of flows) {
@@ -443,6 +461,7 @@ async function start() {
     $("#contents").replaceChildren(...state.catalogue.instances.map(i => el("option", { value: i.name })));
   } catch (e) { say(e.message, "error"); }
   show(location.hash ? location.hash.slice(1) : "fleet");
+  document.body.dataset.ready = "1";  // the page is wired (tests wait for it)
   setInterval(refresh, 500);
   setInterval(refreshLeaf, 1000);
   setInterval(pollSeries, 200);
