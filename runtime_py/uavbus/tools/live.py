@@ -51,6 +51,9 @@ class Tool:
 
     def run(self) -> int:
         src = self.source = open_source(self.args, self.stopped)
+        if self.args.duration:  # --duration counts from when the tool listens, not from before its node opened
+            self.deadline = self.clock() + self.args.duration
+        self.opened(src)
         name = getattr(self.args, "name", None)
         if name and not src.contents.known(name):
             src.close()
@@ -79,6 +82,9 @@ class Tool:
             print(f"{src.log.path}: ignored {src.log.stats.ignored_bytes} bytes: "
                   f"{src.log.stats.ignored_reason}", file=sys.stderr)
         return 0
+
+    def opened(self, src: Source) -> None:
+        """Called once the source is open, before the first frame."""
 
     def on_frame(self, contents: Contents, seen: Seen) -> None:
         raise NotImplementedError
@@ -238,6 +244,7 @@ class Bw(Tool):
         self.streams: dict[tuple[str, str], Stream] = {}
         self.first_ms: int | None = None
         self.last_ms = 0
+        self.listen_ms: float | None = None  # the node clock when a live node started listening
 
     def on_frame(self, contents: Contents, seen: Seen) -> None:
         name = contents.name(seen.header)
@@ -253,15 +260,28 @@ class Bw(Tool):
         self.last_ms = max(self.last_ms, seen.t_ms)
         self.matched += 1
 
+    def opened(self, src: Source) -> None:
+        if src.session is not None:
+            self.listen_ms = float(src.session.node.now())
+
+    def _now_ms(self) -> float:
+        session = self.source.session if self.source is not None else None
+        return float(session.node.now()) if session is not None else float(self.last_ms)
+
     def _span_ms(self) -> float:
+        """The time the rates divide by: what was actually observed. Live, the window once it is full, and
+        before that the time since the tool started listening (a 3 s run at 10 msg/s shows 10, not 30
+        messages over a 5 s window); a log: its span."""
         if self.source is not None and self.source.live:
-            return self.args.window * 1000.0
+            now = self._now_ms()
+            start = self.listen_ms if self.listen_ms is not None else float(self.first_ms or now)
+            return max(min(self.args.window * 1000.0, now - start), 1.0)
         return float(self.last_ms - (self.first_ms or 0)) or 1.0
 
     def _trim(self) -> None:
         if self.source is None or not self.source.live:
             return
-        horizon = self.last_ms - self.args.window * 1000.0
+        horizon = self._now_ms() - self.args.window * 1000.0
         for q in (*self.by_content.values(), *self.by_link.values()):
             while q and q[0][0] < horizon:
                 q.popleft()
