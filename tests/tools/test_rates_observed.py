@@ -60,3 +60,24 @@ def test_hz_reports_the_rate_on_a_3_s_run(table2: Hitl, name: str, source: str, 
     line = next(x for x in out.splitlines() if x.startswith(f"{name} from {source}:"))
     hz = float(line.split(":")[1].split()[0])
     assert within(hz, want), out
+
+
+def test_list_shows_what_an_entity_offers_before_subscribing(table2: Hitl) -> None:
+    """`uavbus list ENTITY`: the directories fcs20 hosts (one short probe each) and its flows now."""
+    assert table2.topo is not None
+    spec = table2.topo.specs("gcs")["gcsPortDatalink1"]
+    cmd = [sys.executable, "-m", "uavbus.cli", "list", "fcs20", "--config", str(table2.opts.config), "--node", "gcs",
+           "--catalogue", str(table2.catalogue_path), "--port", f"gcsPortDatalink1={spec}", "--json"]
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0, res.stderr
+    import json
+
+    offer = json.loads(res.stdout)
+    by = {r["name"]: r for r in offer["instances"]}
+    assert by["imuOut"]["bound"] and by["imuOut"]["flows"] == ["publication to gcs1 every 20 ms"]
+    assert by["airData"]["bound"] and by["airData"]["flows"] == []  # hosted, published by no flow
+    assert 0 < offer["hosted"] <= len(by)
+    table = subprocess.run(cmd[:-1], capture_output=True, text=True, timeout=60)
+    assert table.returncode == 0 and "imuOut" in table.stdout and "publication to gcs1 every 20 ms" in table.stdout
+    bad = subprocess.run([*cmd[:4], "nosuch", *cmd[5:]], capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 3 and bad.stderr.count("\n") == 1, bad.stderr
