@@ -21,12 +21,12 @@ def _raw_types(json_text: str) -> dict[str, dict[str, Any]]:
 
 def units_of(catalogue: Any, type_: Any) -> dict[str, dict[str, str]]:
     """{leaf path: {"unit": ..., "doc": ...}} for the members of `type_` (a catalogue Type or its name)
-    that have either; nested members inherit nothing (each leaf has its own comment or none)."""
+    that have either; the members of a nested struct take its unit unless they have their own."""
     types = _raw_types(catalogue.json_text)
     name = type_ if isinstance(type_, str) else type_.name
     out: dict[str, dict[str, str]] = {}
 
-    def walk(tname: str, prefix: str, depth: int) -> None:
+    def walk(tname: str, prefix: str, depth: int, inherited: str | None) -> None:
         t = types.get(tname)
         if t is None or depth > 16:
             return
@@ -35,13 +35,16 @@ def units_of(catalogue: Any, type_: Any) -> dict[str, dict[str, str]]:
                 continue
             path = f"{prefix}.{f['name']}" if prefix else f["name"]
             info = {k: f[k] for k in ("unit", "doc") if f.get(k)}
+            if inherited and "unit" not in info:
+                info["unit"] = inherited  # `vector3d_t specificForce; /* m/s^2 */`: x, y and z are in m/s^2
             if info:
                 out[path] = info
             if f.get("struct"):
-                walk(f["struct"], path, depth + 1)
+                walk(f["struct"], path, depth + 1, info.get("unit"))
 
-    walk(name, "", 0)
+    walk(name, "", 0, None)
     return out
+
 
 
 def unit_of(catalogue: Any, content: str, field_path: str) -> str | None:
