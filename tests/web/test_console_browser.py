@@ -215,6 +215,7 @@ def test_plot_of_imu_p_receives_points_at_50_hz(table2: ConsoleTable2, browser: 
     recent = [t for t in ts if t >= ts[-1] - 2.0]
     assert 85 <= len(recent) <= 115, f"{len(recent)} points in the last 2 s (50 Hz: 100)"
     legend = browser.find_element(By.CSS_SELECTOR, f'#plot-legend span[data-series="{key}"]')
+    assert legend.get_attribute("data-unit") == "rad/s" and "[rad/s]" in legend.text  # imu.h's comment
     assert int(legend.get_attribute("data-points")) == len(ts) or int(legend.get_attribute("data-points")) > 100
     browser.save_screenshot(str(shots / "plot.png"))
     # Pause holds the plot still; the CSV export writes what it shows.
@@ -227,7 +228,17 @@ def test_plot_of_imu_p_receives_points_at_50_hz(table2: ConsoleTable2, browser: 
     wait_for(path.exists, 5, "the exported CSV")
     with path.open() as fh:
         rows = [r for r in csv.DictReader(fh) if r["series"] == key]
-    assert len(rows) == n and all(abs(float(r["value"])) < 10 for r in rows)
+    assert len(rows) == n and all(abs(float(r["value"])) < 10 and r["unit"] == "rad/s" for r in rows)
+    # The variable browser shows the unit and the description beside the live value.
+    tab(browser, "vars")
+    Select(browser.find_element(By.ID, "var-entity")).select_by_value("fcs20")
+    field = browser.find_element(By.ID, "var-dir")
+    field.clear()
+    field.send_keys("imuOut")
+    browser.find_element(By.ID, "var-open").click()
+    row = wait_for(lambda: browser.find_element(By.CSS_SELECTOR, '#var-table tr[data-field="imuOut.p"]'), 10, "imuOut.p")
+    assert row.find_element(By.CSS_SELECTOR, "td.unit").text == "rad/s" and "roll rate" in row.text
+    browser.save_screenshot(str(shots / "variables_units.png"))
 
 
 @pytest.fixture(scope="module")

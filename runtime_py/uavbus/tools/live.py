@@ -165,6 +165,7 @@ class Echo(Tool):
         super().__init__(*a, **kw)
         self.seen_seqs: dict[str, Stream] = {}
         self.duplicates = 0
+        self._unit_cache: dict[str, str] | None = None
 
     def on_frame(self, contents: Contents, seen: Seen) -> None:
         if contents.name(seen.header) != self.args.name:
@@ -189,12 +190,31 @@ class Echo(Tool):
         line: dict[str, Any] = {"t_ms": seen.t_ms, "time": iso_time(seen.unix_ms), "name": self.args.name,
                                 "source": seen.source, "seq": seen.header.seq, "link": seen.link,
                                 "value": jsonable(value) if value is not None else None}
+        units = self._units(contents)
+        if units:
+            line["units"] = units  # from the headers' comments (docs/catalogue.md#units)
         if not new:
             line["duplicate"] = True
         print(json.dumps(line, separators=(",", ":")), file=self.out)
         self.out.flush()
         if new:
             self.matched += 1
+
+    def _units(self, contents: Contents) -> dict[str, str]:
+        """{field path: unit} of what is printed: the --field members, or every member that has one."""
+        if self._unit_cache is None:
+            import re
+
+            from uavbus.units import units_of
+
+            inst = contents.catalogue.find(self.args.name)
+            known = {k: v["unit"] for k, v in units_of(contents.catalogue, inst.type).items() if v.get("unit")} \
+                if inst is not None else {}
+            if self.args.field:
+                known = {f: known[re.sub(r"\[\d+\]", "", f)] for f in self.args.field
+                         if re.sub(r"\[\d+\]", "", f) in known}
+            self._unit_cache = known
+        return self._unit_cache
 
     def report(self, contents: Contents, final: bool) -> None:
         if final and self.matched == 0:

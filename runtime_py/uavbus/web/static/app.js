@@ -327,7 +327,8 @@ function renderFlows(flows) {
   tb.replaceChildren();
   for (const f of flows) {
     const key = f.content + "@" + f.source;
-    const sel = el("select", { "data-key": key }, ...(f.fields || []).map(x => el("option", { value: x }, x)));
+    const sel = el("select", { "data-key": key }, ...(f.fields || []).map(x => el("option", { value: x },
+      x + (unitOf(f.content, x) ? ` [${unitOf(f.content, x)}]` : ""))));
     if (keep.has(key)) sel.value = keep.get(key);
     const btn = el("button", { onclick: () => addSeries(f.content, f.source, sel.value) }, "Plot");
     tb.append(el("tr", { "data-flow": key }, el("td", {}, f.content), el("td", {}, f.source), el("td", { class: "num" }, f.messages),
@@ -336,16 +337,24 @@ function renderFlows(flows) {
   }
 }
 
+function unitOf(content, field) {
+  const inst = state.catalogue && state.catalogue.instances.find(i => i.name === content);
+  const u = inst && inst.units[field.replace(/\[\d+\]/g, "")];
+  return u && u.unit ? u.unit : "";
+}
+
 function addSeries(content, source, field) {
   const key = `${content}@${source}:${field}`;
-  if (!state.plot.series.has(key)) state.plot.series.set(key, { points: [], color: COLORS[state.plot.series.size % COLORS.length] });
+  if (!state.plot.series.has(key)) state.plot.series.set(key, { points: [], color: COLORS[state.plot.series.size % COLORS.length],
+    unit: unitOf(content, field) });
   renderLegend();
 }
 
 function renderLegend() {
   const lg = $("#plot-legend");
   lg.replaceChildren(...Array.from(state.plot.series.entries()).map(([k, s]) =>
-    el("span", { "data-series": k, "data-points": s.points.length }, el("b", {}, "■ "), `${k} (${s.points.length} points)`)));
+    el("span", { "data-series": k, "data-points": s.points.length, "data-unit": s.unit },
+      el("b", {}, "■ "), `${k}${s.unit ? " [" + s.unit + "]" : ""} (${s.points.length} points)`)));
   Array.from(lg.children).forEach((c, i) => { c.firstChild.style.color = Array.from(state.plot.series.values())[i].color; });
 }
 
@@ -396,8 +405,8 @@ function drawPlot(now) {
 }
 
 function exportCsv() {
-  const rows = ["series,unix_time_s,value"];
-  for (const [k, s] of state.plot.series) for (const [t, v] of s.points) rows.push(`"${k.replace(/"/g, '""')}",${t},${v}`);
+  const rows = ["series,unit,unix_time_s,value"];
+  for (const [k, s] of state.plot.series) for (const [t, v] of s.points) rows.push(`"${k.replace(/"/g, '""')}",${s.unit},${t},${v}`);
   const blob = new Blob([rows.join("\n") + "\n"], { type: "text/csv" });
   const a = el("a", { href: URL.createObjectURL(blob), download: "uavbus-plot.csv" });
   document.body.append(a); a.click(); a.remove();
