@@ -89,6 +89,29 @@ class RemoteCall:
             self.done, self._error = True, exc
         return self.done
 
+    @classmethod
+    def of_task(cls, task: Generator[Any, Any, Any]) -> RemoteCall:
+        """One call over a task that yields RemoteCalls and gets each one's result back (or its exception
+        thrown in): e.g. read a table, then change a row, then read back. Done when the task returns."""
+        def run() -> Generator[None, None, Any]:
+            try:
+                call = next(task)
+            except StopIteration as stop:
+                return stop.value
+            while True:
+                while not call.step():
+                    yield
+                try:
+                    try:
+                        value = call.result()
+                    except Exception as exc:  # noqa: BLE001 - the task may handle it
+                        call = task.throw(exc)
+                    else:
+                        call = task.send(value)
+                except StopIteration as stop:
+                    return stop.value
+        return cls(run())
+
     def cancel(self) -> None:
         """Drops the operation (its pending request row is forgotten)."""
         if not self.done:

@@ -330,30 +330,9 @@ def plan(console: Any, body: dict[str, Any]) -> tuple[str, Any]:
         entity, row, period = _text(body, "entity"), _int(body, "row", 0, 65535), _int(body, "period_ms", 1)
 
         def set_period() -> Any:
-            r = console.remote(entity)
-            rows = yield r.begin("table", "pubsub")
-            mine = [x for x in rows if x["row"] == row]
-            if not mine:
-                raise ActionError(f"{entity} has no publish/subscribe row {row}")
-            x = mine[0]
-            changed = yield r.begin("set_period", row, period)
-            owner = x.get("owner")
-            if owner and owner != me:
-                return {"changed": changed, "temporary": True, "owner": owner,
-                        "message": f"temporary change: {entity}'s row {row} ({x['content']}) is kept by administrator "
-                                   f"{owner}; its next renewal (about 1 s) restores {x['period_ms']} ms unless {owner} "
-                                   "changes its administration row. Not done."}
-            if owner == me:
-                lasting = [a for a in console.admin.rows() if a["content"] == x["content"] and
-                           entity in (a.get("source"), a.get("destination"))]
-                for a in lasting:
-                    yield console.remote(me).begin("set_admin_row", a["row"], period_ms=period)
-                return {"changed": changed, "temporary": False,
-                        "message": f"{entity}: row {row} every {period} ms; this console's administration row "
-                                   f"{', '.join(str(a['row']) for a in lasting) or '(none found)'} too, so it lasts"}
-            return {"changed": changed, "temporary": False,
-                    "message": f"{entity}: row {row} every {period} ms" if changed else
-                    f"{entity}: row {row} already every {period} ms"}
+            from uavbus.tools.changes import g_set_period
+
+            return g_set_period(node, console.remote(entity), row, period, me, console.admin)
         return f"set {entity}'s publish/subscribe row {row} to every {period} ms", set_period
     if op == "set_mask":
         entity, dest, mask = _text(body, "entity"), _text(body, "dest"), _text(body, "mask")
