@@ -162,24 +162,30 @@ class Console:
                 self.node.poll(self.poll_s)
             except Exception as exc:  # noqa: BLE001 - a callback error must not end the console
                 self.events.append({"t": time.time(), "what": "node", "error": f"{type(exc).__name__}: {exc}"})
-            while True:
-                try:
-                    fn, fut = self._jobs.get_nowait()
-                except queue.Empty:
-                    break
-                if not fut.set_running_or_notify_cancel():
-                    continue
-                try:
-                    out = fn()
-                except Exception as exc:  # noqa: BLE001 - handed to the waiting request
-                    fut.set_exception(exc)
-                    continue
-                if isinstance(out, Generator):
-                    self._tasks.append((out, None, fut))
-                else:
-                    fut.set_result(out)
-            self._step_tasks()
-            self._step_fleet()
+            self.pump()
+
+    def pump(self) -> None:
+        """Everything the node thread does besides polling the node: the pages' jobs, the remote requests in
+        flight, the fleet's refresh. Call it after each poll when the node is driven by another loop (a
+        simulation that polls its nodes itself) instead of start()."""
+        while True:
+            try:
+                fn, fut = self._jobs.get_nowait()
+            except queue.Empty:
+                break
+            if not fut.set_running_or_notify_cancel():
+                continue
+            try:
+                out = fn()
+            except Exception as exc:  # noqa: BLE001 - handed to the waiting request
+                fut.set_exception(exc)
+                continue
+            if isinstance(out, Generator):
+                self._tasks.append((out, None, fut))
+            else:
+                fut.set_result(out)
+        self._step_tasks()
+        self._step_fleet()
 
     def _step_tasks(self) -> None:
         keep = []
@@ -266,9 +272,20 @@ class Console:
             self._fleet_task, self._fleet_call = None, None
             self._fleet_next = time.monotonic() + self.fleet_period_s
 
+    def fixed_position(self, entity: str) -> dict[str, Any] | None:
+        """A position the console's file gives as "@N,E" metres (a ground station that does not move)."""
+        spec = self.positions_spec.get(entity) or ""
+        if not spec.startswith("@"):
+            return None
+        try:
+            n, e = (float(x) for x in spec[1:].split(","))
+        except ValueError:
+            return {"error": f"position {spec!r}: write @NORTH,EAST in metres"}
+        return {"n": n, "e": e, "d": 0.0, "spec": spec}
+
     def position_of(self, entity: str) -> str | None:
         spec = self.positions_spec.get(entity, self.positions_spec.get("*"))
-        return spec or None  # "": this entity has no position of its own
+        return spec if spec and not spec.startswith("@") else None  # "": no position of its own; "@": fixed
 
     def _g_fleet_round(self) -> Generator[RemoteCall, Any, None]:
         """One pass over the remote entities: position, then (every LINKS_S) the link table. An entity that
@@ -335,6 +352,8 @@ class Console:
                 state = "alive"
             elif heard is not None and now - heard.last <= STALE_S:
                 state = "alive"
+            elif (routes.get(name) or {}).get("reachable"):
+                state = "alive"  # its routing updates arrive (the engine declares a silent one dead)
             else:
                 state = "stale"
             r = routes.get(name) or {}
@@ -350,7 +369,8 @@ class Console:
                 "last_heard_s": round(now - heard.last, 2) if heard else None,
                 "frames": heard.frames if heard else 0, "link": heard.link if heard else None, "via": via,
                 "route": {k: r.get(k) for k in ("reachable", "next_hop", "link", "metric", "learned")} if r else None,
-                "position": self.positions.get(name), "position_spec": self.position_of(name),
+                "position": self.fixed_position(name) or self.positions.get(name),
+                "position_spec": self.positions_spec.get(name, self.positions_spec.get("*")),
             }
             if local:
                 item["links"] = own_links

@@ -450,3 +450,63 @@ async def _serve(console: Any, host: str, port: int, token: str | None, url_file
     finally:
         await runner.cleanup()
     print("uavbus web: stopped", file=sys.stderr, flush=True)
+
+
+class ServerThread:
+    """The console's web server on a thread of its own (its own asyncio loop), for a program whose main loop
+    drives the node itself (a simulation): pair it with `Console.pump()` called from that loop.
+
+        srv = ServerThread(console, "127.0.0.1", 0)
+        srv.start()          # srv.url once it listens
+        ...
+        srv.stop()
+    """
+
+    def __init__(self, console: Any, host: str = "127.0.0.1", port: int = 0, token: str | None = None) -> None:
+        import threading
+
+        self.console, self.host, self.port, self.token = console, host, port, token
+        self.url = ""
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._stop: asyncio.Event | None = None
+        self._thread = threading.Thread(target=self._run, name="uavbus-web", daemon=True)
+
+    def start(self, timeout: float = 10.0) -> str:
+        self._thread.start()
+        if not self._ready.wait(timeout):
+            raise RuntimeError("uavbus web: the server did not start")
+        if self._error is not None:
+            raise self._error
+        return self.url
+
+    def _run(self) -> None:
+        asyncio.run(self._main())
+
+    async def _main(self) -> None:
+        from aiohttp import web
+
+        self._loop = asyncio.get_running_loop()
+        self._stop = asyncio.Event()
+        runner = web.AppRunner(make_app(self.console, token=self.token), access_log=None)
+        try:
+            await runner.setup()
+            await web.TCPSite(runner, self.host, self.port).start()
+            port = runner.addresses[0][1]
+            self.url = f"http://{self.host}:{port}/" + (f"?token={self.token}" if self.token else "")
+        except BaseException as exc:  # noqa: BLE001 - reported by start()
+            self._error = exc
+            self._ready.set()
+            await runner.cleanup()
+            return
+        self._ready.set()
+        try:
+            await self._stop.wait()
+        finally:
+            await runner.cleanup()
+
+    def stop(self) -> None:
+        if self._loop is not None and self._stop is not None:
+            self._loop.call_soon_threadsafe(self._stop.set)
+        self._thread.join(5.0)

@@ -104,30 +104,39 @@ function drawMap(fleet) {
   g.clearRect(0, 0, W, H);
   const ents = fleet.entities;
   const placed = new Map();
-  let pts = [];
+  const pts = [[0, 0]];  // the frame's origin stays in view
   for (const e of ents) { const ne = localNE(e.position); if (ne) pts.push(ne); }
-  let span = 50;
-  for (const [n, ee] of pts) span = Math.max(span, Math.abs(n) * 1.15, Math.abs(ee) * 1.15);
-  const scale = (Math.min(W, H) / 2 - 40) / span;
-  const cx = W / 2, cy = H / 2;
-  // grid and scale bar
+  // Fit the box around every position (equal scale north and east), with room for the labels.
+  const nMin = Math.min(...pts.map(p => p[0])), nMax = Math.max(...pts.map(p => p[0]));
+  const eMin = Math.min(...pts.map(p => p[1])), eMax = Math.max(...pts.map(p => p[1]));
+  const spanN = Math.max(nMax - nMin, 50), spanE = Math.max(eMax - eMin, 50);
+  const scale = Math.min((W - 160) / spanE, (H - 80) / spanN);
+  const n0 = (nMin + nMax) / 2, e0 = (eMin + eMax) / 2;
+  const X = e => W / 2 - 40 + (e - e0) * scale, Y = n => H / 2 - (n - n0) * scale;
+  const cx = X(0), cy = Y(0);
+  // grid: one line every power of ten metres that gives a few lines
   g.strokeStyle = "#eef0f4"; g.lineWidth = 1;
-  const step = Math.pow(10, Math.floor(Math.log10(span)));
-  for (let v = -Math.ceil(span / step) * step; v <= span; v += step) {
-    g.beginPath(); g.moveTo(cx + v * scale, 0); g.lineTo(cx + v * scale, H); g.stroke();
-    g.beginPath(); g.moveTo(0, cy - v * scale); g.lineTo(W, cy - v * scale); g.stroke();
+  const widest = Math.max(spanN, spanE);
+  let step = Math.pow(10, Math.floor(Math.log10(widest)));
+  if (widest / step < 4) step /= 2;
+  for (let v = Math.floor((e0 - W / scale) / step) * step; v <= e0 + W / scale; v += step) {
+    g.beginPath(); g.moveTo(X(v), 0); g.lineTo(X(v), H); g.stroke();
+  }
+  for (let v = Math.floor((n0 - H / scale) / step) * step; v <= n0 + H / scale; v += step) {
+    g.beginPath(); g.moveTo(0, Y(v)); g.lineTo(W, Y(v)); g.stroke();
   }
   g.fillStyle = "#4a5468"; g.font = "12px system-ui, sans-serif";
-  g.fillText(`grid ${step} m · north up · local frame (${fleet.me} at origin)`, 10, H - 10);
+  g.fillText(`grid ${step} m · north up · local frame (metres north and east of the origin +)`, 10, H - 10);
+  g.strokeStyle = "#9aa3b2"; g.beginPath(); g.moveTo(cx - 6, cy); g.lineTo(cx + 6, cy); g.moveTo(cx, cy - 6); g.lineTo(cx, cy + 6); g.stroke();
   // entities without a position: on a ring, labelled so
   let k = 0;
   const unplaced = ents.filter(e => !localNE(e.position));
   for (const e of ents) {
     const ne = localNE(e.position);
-    if (ne) placed.set(e.name, [cx + ne[1] * scale, cy - ne[0] * scale, true]);
+    if (ne) placed.set(e.name, [X(ne[1]), Y(ne[0]), true]);
     else {
       const a = 2 * Math.PI * (k++) / Math.max(1, unplaced.length) - Math.PI / 2;
-      placed.set(e.name, [cx + Math.cos(a) * (Math.min(W, H) / 2 - 25), cy + Math.sin(a) * (Math.min(W, H) / 2 - 25), false]);
+      placed.set(e.name, [W / 2 + Math.cos(a) * (W / 2 - 120), H / 2 + Math.sin(a) * (H / 2 - 25), false]);
     }
   }
   // links: the console's own (solid, with neighbour), direct vehicles, and relays (dashed)
