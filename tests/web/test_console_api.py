@@ -4,6 +4,7 @@ period change on a row another administrator owns (in-process nodes over memlink
 from __future__ import annotations
 
 import asyncio
+import json
 import time
 from pathlib import Path
 from typing import Any
@@ -194,3 +195,42 @@ def test_period_change_on_a_row_another_administrator_owns_says_temporary(catalo
     finally:
         for n in nodes:
             n.close()
+
+
+def test_uavbus_web_process_needs_its_token(catalogue: Path, tmp_path: Path) -> None:
+    """The command itself: a token file makes every request need it (beyond localhost one is made when none is
+    given: `_is_loopback` decides; the tests listen on 127.0.0.1 only); a short token is refused in one line."""
+    import subprocess
+    import sys
+    import urllib.error
+    import urllib.request
+
+    from uavbus.web.server import _is_loopback
+
+    assert _is_loopback("127.0.0.1") and _is_loopback("localhost") and _is_loopback("::1")
+    assert not _is_loopback("0.0.0.0") and not _is_loopback("192.168.1.20")
+    token = tmp_path / "token"
+    token.write_text(TOKEN + "\n")
+    url_file = tmp_path / "url"
+    argv = [sys.executable, "-m", "uavbus.cli", "web", "--config", str(TABLE2), "--node", "gcs", "--catalogue",
+            str(catalogue), "--http", "127.0.0.1:0", "--url-file", str(url_file)]
+    proc = subprocess.Popen([*argv, "--token-file", str(token)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    try:
+        deadline = time.monotonic() + 30
+        while not url_file.exists():
+            assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read().decode() if proc.stdout else ""
+            time.sleep(0.05)
+        shown = url_file.read_text().strip()
+        assert shown.endswith(f"?token={TOKEN}")
+        base = shown.split("?")[0]
+        with pytest.raises(urllib.error.HTTPError) as denied:
+            urllib.request.urlopen(base + "api/info", timeout=10)
+        assert denied.value.code == 401
+        req = urllib.request.Request(base + "api/info", headers={"Authorization": f"Bearer {TOKEN}"})
+        assert json.loads(urllib.request.urlopen(req, timeout=10).read())["me"] == "gcs1"
+    finally:
+        proc.terminate()
+        proc.wait(10)
+    token.write_text("short\n")
+    bad = subprocess.run([*argv, "--token-file", str(token)], capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and bad.stderr.strip() == f"uavbus web: {token}:1: the token must be at least 16 characters"
