@@ -2,6 +2,7 @@
 
     uavbus web --config table2.json --node gcs --catalogue flightsw.catalogue.json [--port LINK=SPEC]...
                [--positions console.json] [--route on] [--http 127.0.0.1:8080] [--token-file FILE]
+    uavbus web --log gcs1.ublog [--positions console.json]       (log review: a time slider, plots, map)
 
 One process: the console's node (the C router through uavbus.Node, hosting the config's entities for
 --node) on its own thread (console.py), and an aiohttp server on 127.0.0.1 by default. Every script and
@@ -57,12 +58,12 @@ def _static(name: str) -> bytes:
     return resources.files("uavbus.web").joinpath("static", name).read_bytes()
 
 
-def make_app(console: Any, *, token: str | None, csrf: str | None = None) -> Any:
-    """The aiohttp application over a started Console. `token`: required on every request when set."""
+def make_app(console: Any, *, token: str | None, csrf: str | None = None, review: Any = None) -> Any:
+    """The aiohttp application over a started Console, or over a LogReview (`review`, console None: log
+    review only). `token`: required on every request when set."""
     from aiohttp import web
 
     csrf = csrf or secrets.token_urlsafe(24)
-    cat = console.node.catalogue
 
     async def on_node(fn: Any, *args: Any) -> Any:
         return await asyncio.wrap_future(console.submit(fn, *args))
@@ -116,6 +117,35 @@ def make_app(console: Any, *, token: str | None, csrf: str | None = None) -> Any
     def ok(data: Any) -> web.Response:
         return web.json_response(jsonable(data))
 
+    def keys_of(request: web.Request) -> list[tuple[str, str, str]]:
+        keys = []
+        for k in request.query.getall("k", []):
+            content, _, rest = k.partition("@")
+            source, _, fld = rest.partition(":")
+            if content and source and fld:
+                keys.append((content, source, fld))
+        return keys
+
+    if console is None:  # log review: the pages and the log's data, nothing that writes
+        async def review_info(request: web.Request) -> web.Response:
+            return ok(review.info())
+
+        async def review_series(request: web.Request) -> web.Response:
+            return ok(review.series(keys_of(request), float(request.query.get("t0", review.t0)),
+                                    float(request.query.get("t1", review.t1))))
+
+        async def review_positions(request: web.Request) -> web.Response:
+            return ok(review.positions(float(request.query.get("t", review.t1))))
+
+        app = web.Application(middlewares=[guard])
+        app.router.add_get("/", index)
+        app.router.add_get("/static/{name}", static)
+        app.router.add_get("/api/info", review_info)
+        app.router.add_get("/api/review/series", review_series)
+        app.router.add_get("/api/review/positions", review_positions)
+        return app
+    cat = console.node.catalogue
+
     def fail(exc: BaseException, status: int = 200) -> web.Response:
         from uavbus.errors import UbError
 
@@ -142,14 +172,8 @@ def make_app(console: Any, *, token: str | None, csrf: str | None = None) -> Any
         return ok(await on_node(console.flows_now, window))
 
     async def series(request: web.Request) -> web.Response:
-        keys = []
-        for k in request.query.getall("k", []):
-            content, _, rest = k.partition("@")
-            source, _, fld = rest.partition(":")
-            if content and source and fld:
-                keys.append((content, source, fld))
         since = float(request.query.get("since", "0") or 0)
-        return ok(await on_node(console.series_now, keys, since))
+        return ok(await on_node(console.series_now, keys_of(request), since))
 
     async def catalogue(request: web.Request) -> web.Response:
         from uavbus.units import units_of
@@ -371,7 +395,9 @@ def main(argv: list[str] | None = None) -> int:
     from uavbus.tools.source import add_node_args, open_node
 
     p = ArgumentParser(prog="uavbus web", description="the operator's console in the browser (docs/web.md)")
-    add_node_args(p, required=True)
+    add_node_args(p)
+    p.add_argument("--log", help="review this .ublog instead of joining the bus: a time slider, the same plots "
+                                 "and map (no node, nothing written)")
     p.add_argument("--http", default="127.0.0.1:8080", metavar="HOST:PORT",
                    help="where the console listens (default 127.0.0.1:8080; port 0: any free port)")
     p.add_argument("--token-file", help="the token (first line) every request needs; required to listen beyond "
@@ -403,6 +429,14 @@ def main(argv: list[str] | None = None) -> int:
     except ImportError:
         raise SystemExit("uavbus web needs aiohttp: pip install 'uavbus[web]'") from None
 
+    if args.log:
+        from uavbus.web.review import LogReview
+
+        review = LogReview(args.log, positions)
+        asyncio.run(_serve(None, host, int(port_text), token, args.url_file, review=review))
+        return 0
+    if not (args.config and args.node):
+        raise SystemExit("give --config FILE --node NAME (the console's node), or --log FILE to review a log")
     session = open_node(args)
     if args.route == "on":
         session.node.enable_routing()
@@ -418,10 +452,11 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-async def _serve(console: Any, host: str, port: int, token: str | None, url_file: str | None) -> None:
+async def _serve(console: Any, host: str, port: int, token: str | None, url_file: str | None,
+                 review: Any = None) -> None:
     from aiohttp import web
 
-    app = make_app(console, token=token)
+    app = make_app(console, token=token, review=review)
     runner = web.AppRunner(app, access_log=None)
     await runner.setup()
     site = web.TCPSite(runner, host, port)
@@ -433,7 +468,8 @@ async def _serve(console: Any, host: str, port: int, token: str | None, url_file
     bound = runner.addresses[0][1] if runner.addresses else port
     url = f"http://{host}:{bound}/"
     shown = url + (f"?token={token}" if token else "")
-    print(f"uavbus web: console of {console.me} at {shown}", flush=True)
+    what = f"console of {console.me}" if console is not None else f"review of {review.path.name}"
+    print(f"uavbus web: {what} at {shown}", flush=True)
     if url_file:
         tmp = Path(url_file + ".tmp")
         tmp.write_text(shown + "\n", encoding="utf-8")

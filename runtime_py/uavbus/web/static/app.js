@@ -99,8 +99,8 @@ function localNE(p) {
   return null;
 }
 
-function drawMap(fleet) {
-  const cv = $("#map"), g = cv.getContext("2d"), W = cv.width, H = cv.height;
+function drawMap(fleet, canvas) {
+  const cv = $(canvas || "#map"), g = cv.getContext("2d"), W = cv.width, H = cv.height;
   g.clearRect(0, 0, W, H);
   const ents = fleet.entities;
   const placed = new Map();
@@ -384,12 +384,13 @@ async function pollSeries() {
   drawPlot(d.t);
 }
 
-function drawPlot(now) {
-  const cv = $("#plot"), g = cv.getContext("2d"), W = cv.width, H = cv.height;
-  const win = Number($("#plot-window").value);
+function drawPlot(now, canvas, series, window_s) {
+  const cv = $(canvas || "#plot"), g = cv.getContext("2d"), W = cv.width, H = cv.height;
+  const win = window_s || Number($("#plot-window").value);
+  series = series || state.plot.series;
   g.clearRect(0, 0, W, H);
   let lo = Infinity, hi = -Infinity;
-  for (const s of state.plot.series.values()) for (const [t, v] of s.points) if (t >= now - win) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
+  for (const s of series.values()) for (const [t, v] of s.points) if (t >= now - win && t <= now) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
   if (!isFinite(lo)) { g.fillStyle = "#4a5468"; g.fillText("pick a flow's field and press Plot", 20, 30); return; }
   if (hi === lo) { hi += 1; lo -= 1; }
   const pad = (hi - lo) * 0.08; hi += pad; lo -= pad;
@@ -399,14 +400,14 @@ function drawPlot(now) {
   for (let i = 0; i <= 4; i++) {
     const v = lo + (hi - lo) * i / 4;
     g.beginPath(); g.moveTo(L, y(v)); g.lineTo(W - R, y(v)); g.stroke();
-    g.fillText(v.toPrecision(4), 4, y(v) + 4);
+    g.fillText(String(Number(v.toPrecision(3))), 4, y(v) + 4);
   }
   for (let s = 0; s <= win; s += win / 6) g.fillText(`-${(win - s).toFixed(0)} s`, x(now - win + s) - 10, H - 6);
-  for (const s of state.plot.series.values()) {
+  for (const s of series.values()) {
     g.strokeStyle = s.color; g.lineWidth = 1.5; g.beginPath();
     let first = true;
     for (const [t, v] of s.points) {
-      if (t < now - win) continue;
+      if (t < now - win || t > now) continue;
       if (first) { g.moveTo(x(t), y(v)); first = false; } else g.lineTo(x(t), y(v));
     }
     g.stroke();
@@ -422,10 +423,67 @@ function exportCsv() {
   say(`exported ${rows.length - 1} points`, "ok");
 }
 
+// ---- log review (uavbus web --log FILE): a time slider, the same plots and map ----------------------------
+const review = { info: null, series: new Map() };
+
+function startReview(info) {
+  review.info = info;
+  for (const b of document.querySelectorAll("nav .tab")) b.classList.toggle("hidden", b.dataset.view !== "review");
+  $("#review-log").textContent = `${info.log} (recorded by ${info.node}, catalogue ${info.catalogue}, ` +
+    `${((info.t1 - info.t0)).toFixed(1)} s, ${info.duplicates} duplicates left out)`;
+  const slider = $("#review-t");
+  slider.min = info.t0; slider.max = info.t1; slider.step = 0.05; slider.value = info.t1;
+  slider.addEventListener("input", reviewAt);
+  $("#review-window").addEventListener("change", reviewAt);
+  const tb = $("#review-flows tbody");
+  tb.replaceChildren();
+  for (const f of info.flows) {
+    const key = f.content + "@" + f.source;
+    const sel = el("select", { "data-key": key }, ...f.fields.map(x => el("option", { value: x },
+      x + (f.units[x.replace(/\[\d+\]/g, "")] ? ` [${f.units[x.replace(/\[\d+\]/g, "")]}]` : ""))));
+    const btn = el("button", { onclick: () => {
+      const k = `${key}:${sel.value}`;
+      if (!review.series.has(k)) review.series.set(k, { points: [], color: COLORS[review.series.size % COLORS.length],
+        unit: f.units[sel.value.replace(/\[\d+\]/g, "")] || "" });
+      reviewAt();
+    } }, "Plot");
+    tb.append(el("tr", { "data-flow": key }, el("td", {}, f.content), el("td", {}, f.source), el("td", { class: "num" }, f.messages),
+      el("td", { class: "num" }, fmt(f.rate_hz, 2)), el("td", {}, sel), el("td", {}, btn)));
+  }
+  show("review");
+  reviewAt();
+}
+
+let reviewBusy = false, reviewAgain = false;
+async function reviewAt() {
+  if (reviewBusy) { reviewAgain = true; return; }
+  reviewBusy = true;
+  try {
+    const t = Number($("#review-t").value), win = Number($("#review-window").value);
+    $("#review-time").textContent = `${new Date(t * 1000).toISOString().replace("T", " ").slice(0, 23)} UTC ` +
+      `(+${(t - review.info.t0).toFixed(2)} s)`;
+    const pos = await get(`/api/review/positions?t=${t}`);
+    drawMap({ me: pos.me, entities: pos.entities }, "#review-map");
+    if (review.series.size) {
+      const q = Array.from(review.series.keys()).map(k => "k=" + encodeURIComponent(k)).join("&");
+      const d = await get(`/api/review/series?${q}&t0=${t - win}&t1=${t}`);
+      for (const [k, pts] of Object.entries(d.series)) review.series.get(k).points = pts;
+    }
+    drawPlot(t, "#review-plot", review.series, win);
+    $("#review-legend").replaceChildren(...Array.from(review.series.entries()).map(([k, s]) =>
+      el("span", { "data-series": k, "data-points": s.points.length, "data-unit": s.unit },
+        `■ ${k}${s.unit ? " [" + s.unit + "]" : ""}: ${s.points.length} points in the window `)));
+    document.body.dataset.reviewT = String(t);
+  } finally {
+    reviewBusy = false;
+    if (reviewAgain) { reviewAgain = false; reviewAt(); }
+  }
+}
+
 // ---- refresh loop ------------------------------------------------------------------------------------------
 let busy = false;
 async function refresh() {
-  if (busy) return;
+  if (busy || (state.info && state.info.mode === "review")) return;
   busy = true;
   try {
     if (state.view === "fleet" || !state.fleet) renderFleet(await get("/api/fleet"));
@@ -473,6 +531,13 @@ async function start() {
   $("#plot-clear").addEventListener("click", () => { state.plot.series.clear(); renderLegend(); });
   try {
     state.info = await get("/api/info");
+    if (state.info.mode === "review") {
+      $("#whoami").textContent = `review of ${state.info.log}`;
+      $("#conn").textContent = "log review: no live node, nothing is sent";
+      startReview(state.info);
+      document.body.dataset.ready = "1";
+      return;  // no live node: no refresh loop
+    }
     $("#whoami").textContent = `${state.info.me} · ${state.info.system || ""} · catalogue ${state.info.catalogue}`;
     for (const m of document.querySelectorAll(".me")) m.textContent = state.info.me;
     state.catalogue = await get("/api/catalogue");
