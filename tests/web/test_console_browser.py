@@ -117,6 +117,12 @@ def test_fleet_shows_table2_then_a_late_vehicle_without_reload(table2: ConsoleTa
     links = wait_for(lambda: (x := own_links()) and all(" rmax1ob1 " in t for t in x.values()) and x, 10,
                      "both console links with their neighbour rmax1ob1")
     assert set(links) == {"gcsPortDatalink1", "gcsPortDatalink2"}
+    # ... and every other entity's links with their counters, read over the bus (LIST links).
+    remote = wait_for(lambda: (x := browser.execute_script(
+        "return Array.from(document.querySelectorAll('#links-table tbody tr')).map(r => r.dataset.entity + ':' + "
+        "r.dataset.link)")) and {"fcs20:onboardPortDatalink1", "rmax1ob2:onboard2PortIPC",
+                                 "rmax1ob1:onboardPortRelay"} <= set(x) and x, 10, "the entities' link tables")
+    assert sum(1 for x in remote if x.startswith("rmax1ob1:")) == 5  # its four Table 2 links and the spare
     fcs = browser.find_element(By.CSS_SELECTOR, '#fleet-table tr[data-entity="fcs20"]').text
     assert "rmax1ob1" in fcs and " 2 " in f" {fcs} ", fcs  # two hops, via rmax1ob1
     wait_for(lambda: "N " in browser.find_element(By.CSS_SELECTOR, '#fleet-table tr[data-entity="rmax1ob1"]').text,

@@ -418,8 +418,8 @@ def main(argv: list[str] | None = None) -> int:
     host = host or "127.0.0.1"
     token = None
     if args.token_file:
-        token = Path(args.token_file).read_text(encoding="utf-8").splitlines()[0].strip() if \
-            Path(args.token_file).read_text(encoding="utf-8").strip() else ""
+        lines = Path(args.token_file).read_text(encoding="utf-8").splitlines()
+        token = lines[0].strip() if lines else ""
         if len(token) < 16:
             raise SystemExit(f"{args.token_file}:1: the token must be at least 16 characters")
     elif not _is_loopback(host):
