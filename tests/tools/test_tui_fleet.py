@@ -86,6 +86,15 @@ def test_tui_follows_the_fleet_and_stays_responsive(cat: Catalogue) -> None:
                 units = {r["field"]: r["unit"] for r in view.rows}
                 assert units["imuOut.p"] == "rad/s" and units["imuOut.specificForce.x"] == "m/s^2"
 
+                # Discovery: what rmax1ob1 offers (the Python node hosts only what it bound).
+                view.query_one("#remote-tree").select_node(view.find("rmax1ob1", "what it offers"))
+                await pilot.pause()
+                await until(pilot, lambda: not view.busy and view.rows and "directory" in view.rows[0],
+                            "rmax1ob1's offer", 20.0)
+                offered = {r["directory"]: r["flows now"] for r in view.rows}
+                assert set(offered) == {"gpsOut", "imuOut"}, offered
+                assert offered["gpsOut"] == "publication to rmax1ob2 every 100 ms"
+
                 # A period changed on the row rmax1ob2 keeps: temporary, and said so.
                 view.query_one("#remote-tree").select_node(view.find("rmax1ob1", "tables", "pubsub"))
                 await pilot.pause()

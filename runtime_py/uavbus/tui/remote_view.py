@@ -167,6 +167,7 @@ class RemoteView(Vertical):
                 node.set_label(label)
                 continue
             ent = tree.root.add(label, data=("entity", name))
+            ent.add_leaf("what it offers", data=("offer", name, "offer"))  # discovery (uavbus list ENTITY)
             tables = ent.add("tables", data=("tables", name))
             for t in TABLE_NAMES:
                 tables.add_leaf(t, data=("table", name, t))
@@ -184,7 +185,7 @@ class RemoteView(Vertical):
 
     def on_tree_node_selected(self, event: Tree.NodeSelected) -> None:
         data = event.node.data
-        if data and data[0] in ("table", "dir"):
+        if data and data[0] in ("table", "dir", "offer"):
             if self._call is not None:
                 self._call.cancel()  # the operator moved on: its answer is no longer wanted
                 self._call = self._done = None
@@ -213,7 +214,13 @@ class RemoteView(Vertical):
             return False
         kind, entity, name = self.leaf
         leaf = self.leaf
-        call = self.remote().begin("table", name) if kind == "table" else self.remote().begin("get", name)
+        if kind == "offer":
+            from uavbus.remote import RemoteCall
+            from uavbus.tools.discover import g_offer
+
+            call = RemoteCall.of_task(g_offer(self.remote(), self.session.node.catalogue))
+        else:
+            call = self.remote().begin("table", name) if kind == "table" else self.remote().begin("get", name)
 
         def done(value: Any, error: BaseException | None) -> None:
             self._live_at = time.monotonic()
@@ -223,9 +230,15 @@ class RemoteView(Vertical):
                 self.say(error.detail if isinstance(error, UbError) else str(error))
                 self.failed = True
                 return
-            rows = value if kind == "table" else self._field_rows(name, value)
+            if kind == "offer":  # what it hosts and lets this node read, and its flows now
+                rows = [{"directory": r["name"], "type": r["type"].removeprefix("struct "), "bytes": r["size"],
+                         "flows now": "; ".join(r["flows"]) or "-"} for r in value["instances"] if r["bound"]]
+                title = f"offers: {value['note']}"
+            else:
+                rows = value if kind == "table" else self._field_rows(name, value)
+                title = name
             self.failed = False
-            self.query_one("#remote-title", Label).update(f"{entity}: {name} ({len(rows)} rows, read "
+            self.query_one("#remote-title", Label).update(f"{entity}: {title} ({len(rows)} rows, read "
                                                           f"{time.strftime('%H:%M:%S')})")
             self.show(rows)
 
@@ -264,8 +277,8 @@ class RemoteView(Vertical):
         """Called by the app's refresh timer: follows the entity table, and reads the shown leaf again every
         `live_s` while it answers (one that did not answer is read again only when selected again)."""
         self.sync_entities()
-        if self.leaf is not None and self.pending is None and not self.busy and not self.failed \
-                and time.monotonic() - self._live_at >= self.live_s:
+        if self.leaf is not None and self.leaf[0] != "offer" and self.pending is None and not self.busy \
+                and not self.failed and time.monotonic() - self._live_at >= self.live_s:
             self.load()
 
     # -- editing --------------------------------------------------------------------------------

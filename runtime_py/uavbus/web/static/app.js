@@ -186,7 +186,8 @@ function renderFleet(fleet) {
     tb.append(el("tr", { "data-entity": e.name, "data-state": e.state, "data-origin": e.origin },
       el("td", {}, e.name + (e.local ? " (this console)" : "")), el("td", { class: "state-" + e.state }, e.state),
       el("td", {}, e.origin), el("td", { class: "num" }, fmt(e.hops)), el("td", {}, e.via || (e.route && e.route.next_hop) || "-"),
-      el("td", { class: "num" }, e.last_heard_s === null ? "never" : fmt(e.last_heard_s, 1) + " s ago"), el("td", {}, pos)));
+      el("td", { class: "num" }, e.local ? "-" : e.last_heard_s === null ? "never" : fmt(e.last_heard_s, 1) + " s ago"),
+      el("td", { class: "num" }, e.route && e.route.reachable ? e.route.metric : "-"), el("td", {}, pos)));
   }
   const lb = $("#links-table tbody");
   lb.replaceChildren();
