@@ -15,7 +15,7 @@ from uavbus import MemLink, Node
 from uavbus.remote import RemoteCall
 from uavbus.sim.build import REPO
 from uavbus.sim.hitl import catalogue_for
-from uavbus.tools.discover import g_offer, run_task
+from uavbus.tools.discover import g_offer
 from uavbus.web.console import Console
 from uavbus.web.server import CSRF_HEADER, make_app, plan
 

@@ -9,7 +9,6 @@ with a policy in which gcs1 is not an administrator.
 from __future__ import annotations
 
 import csv
-import json
 import time
 from pathlib import Path
 from typing import Any
