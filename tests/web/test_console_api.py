@@ -192,6 +192,27 @@ def test_period_change_on_a_row_another_administrator_owns_says_temporary(catalo
         by = {r["name"]: r for r in offer["instances"]}
         assert by["gpsOut"]["bound"] and "publication to rmax1ob2 every 100 ms" in by["gpsOut"]["flows"]
         assert not by["imuOut"]["bound"] and by["imuOut"]["probe"] == "unbound"
+
+        # The fleet view's states: an entity learned at run time, then removed (revoked), never silently gone.
+        def fleet_state(name: str) -> tuple[str, str] | None:
+            for e in console.fleet_now()["entities"]:
+                if e["name"] == name:
+                    return e["state"], e["origin"]
+            return None
+
+        def settle(cond: Any) -> None:
+            deadline = time.monotonic() + 5
+            while not cond():
+                for n in nodes:
+                    n.poll(0.002)
+                assert time.monotonic() < deadline
+        member = air.membership("rmax1ob1")
+        member.request("add_entity", "gcs1", "rmax9")
+        settle(lambda: fleet_state("rmax9") is not None)
+        assert fleet_state("rmax9") == ("stale", "learned")  # known, never heard
+        assert fleet_state("rmax1ob1")[0] == "alive" and fleet_state("fcs20") == ("stale", "configured")
+        member.request("remove_entity", "gcs1", "rmax9")
+        settle(lambda: fleet_state("rmax9") == ("revoked", "learned"))
     finally:
         for n in nodes:
             n.close()

@@ -364,7 +364,8 @@ class Console:
                 via = r.get("next_hop")
             item: dict[str, Any] = {
                 "name": name, "state": state, "local": local,
-                "origin": "configured" if name in self.configured else ("learned" if e is not None else "heard"),
+                "origin": "configured" if name in self.configured else
+                          "learned" if e is not None or name in self.removed else "heard",
                 "in_table": e is not None, "hops": 0 if local else (heard.hops if heard else None),
                 "last_heard_s": round(now - heard.last, 2) if heard else None,
                 "frames": heard.frames if heard else 0, "link": heard.link if heard else None, "via": via,
