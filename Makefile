@@ -22,9 +22,11 @@ FUZZ_APT_PKGS := clang-14 libclang-rt-14-dev
 # qemu-user runs the generator's cross-built self-tests (qemu-arm); gcc-multilib links its -m32 self-test.
 # QEMU's system emulator: `make test` and `make demo` boot the Cortex-M4 firmware (examples/mcu) on mps2-an386.
 HITL_APT_PKGS := qemu-system-arm
+# The console's browser tests and the demo's screenshots: headless Chromium driven by Selenium (tests/web).
+WEB_APT_PKGS := chromium chromium-driver
 APT_PKGS    := libcmocka-dev cmake ninja-build pkg-config libsodium-dev gcc-arm-none-eabi libnewlib-arm-none-eabi g++ \
                qemu-user gcc-multilib $(HITL_APT_PKGS) \
-               $(FUZZ_APT_PKGS)
+               $(FUZZ_APT_PKGS) $(WEB_APT_PKGS)
 COV_APT_PKGS := gcovr
 SETUP_STAMP := $(VENV)/.uavbus-setup-stamp
 FUZZ_SECONDS ?= 600
@@ -56,7 +58,7 @@ FFI_INPUTS := $(wildcard runtime_c/src/*/*.c runtime_c/src/*/*.h runtime_c/inclu
 $(SETUP_STAMP): pyproject.toml setup.py $(FFI_INPUTS)
 	@test -x $(VPY) || $(PYTHON) -m venv $(VENV)
 	$(VPY) -m pip install -q --upgrade pip setuptools wheel
-	$(VPY) -m pip install -q -e '.[test,demo]'
+	$(VPY) -m pip install -q -e '.[test,demo,web]'
 	@touch $@
 
 # C runtime + generated-code tests, plain (Release: -O3 as the bench and most users build it; its inlining

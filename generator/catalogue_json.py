@@ -51,7 +51,7 @@ def _type(t: StructType) -> dict[str, Any]:
 
 
 def _field(f: Field) -> dict[str, Any]:
-    return {
+    doc: dict[str, Any] = {
         "name": f.name,
         "wire": f.wire.name if f.wire else ("struct" if f.struct else None),
         "struct": f.struct,
@@ -65,3 +65,9 @@ def _field(f: Field) -> dict[str, Any]:
         "enum": f.enum,
         "text": f.text,
     }
+    # Only members whose header comment says something carry these (older catalogues have neither).
+    if f.unit is not None:
+        doc["unit"] = f.unit
+    if f.doc is not None:
+        doc["doc"] = f.doc
+    return doc

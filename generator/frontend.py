@@ -76,6 +76,7 @@ class FeField:
     bit_width: int | None
     loc: SourceLoc
     readonly: bool = False  # declared `const` (the member, or each element of an array member)
+    comment: str | None = None  # the member's doc comment or trailing comment, as written (model parses units)
 
 
 @dataclass(frozen=True)
@@ -823,7 +824,8 @@ class _Walker:
         for inner in self._fields(rec.type, rec, key, 0):
             offset = ctype.get_offset(inner.name) if inner.name else -1
             offset = offset + base_bits if offset >= 0 else base_bits + inner.offset_bits
-            yield FeField(inner.name, inner.type, inner.dims, offset, inner.bit_width, inner.loc, inner.readonly)
+            yield FeField(inner.name, inner.type, inner.dims, offset, inner.bit_width, inner.loc, inner.readonly,
+                          inner.comment)
 
     def _field(self, ch: ci.Cursor, key: str, base_bits: int) -> FeField:
         ftype = ch.type.get_canonical()
@@ -842,7 +844,7 @@ class _Walker:
         # `const T m;`, `const T m[N]` and a typedef that carries the const all leave the canonical
         # element type const-qualified: unpack may not assign to such a member (docs/catalogue.md).
         return FeField(ch.spelling, self._type(ftype, f"{key}::{ch.spelling}"), tuple(dims), offset, width, _loc(ch),
-                       readonly)
+                       readonly, _member_comment(ch))
 
     def _type(self, ftype: ci.Type, unnamed_key: str) -> FeType:
         kind = ftype.kind
@@ -880,6 +882,45 @@ class _Walker:
                            if c.kind == ci.CursorKind.ENUM_CONSTANT_DECL)
             self.enums[key] = FeEnum(key, consts, _loc(decl))
         return key
+
+
+_TRAILING = re.compile(r"^[^;]*;\s*(?:/\*+<?\s*(.*?)\s*\*+/|//+<?\s*(.*?)\s*$)")
+_LINES: dict[str, list[str]] = {}
+
+
+def _member_comment(ch: ci.Cursor) -> str | None:
+    """What the header says about a member: its doc comment (`/** ... */` above it, `/**< ... */` after it),
+    else a plain comment after it on the same line (`double p; /* rad/s */`). Units and descriptions are
+    the model's business (model.parse_comment); this only finds the text."""
+    raw = ch.raw_comment
+    if raw:
+        return _comment_text(raw)
+    end = ch.extent.end
+    if end.file is None:
+        return None
+    path = end.file.name
+    lines = _LINES.get(path)
+    if lines is None:
+        try:
+            lines = _LINES[path] = Path(path).read_text(encoding="utf-8", errors="replace").splitlines()
+        except OSError:
+            lines = _LINES[path] = []
+    if not 0 < end.line <= len(lines):
+        return None
+    m = _TRAILING.match(lines[end.line - 1][end.column - 1:])
+    if m is None:
+        return None
+    text = (m.group(1) if m.group(1) is not None else m.group(2) or "").strip()
+    return text or None
+
+
+def _comment_text(raw: str) -> str | None:
+    """A doc comment without its markers: `/**< [m/s] speed */` -> `[m/s] speed`."""
+    text = re.sub(r"^\s*(?:/\*+<?|//+<?)", "", raw.strip())
+    text = re.sub(r"\*+/\s*$", "", text)
+    parts = [re.sub(r"^\s*\*?\s?", "", line).strip() for line in text.splitlines()]
+    joined = " ".join(p for p in parts if p)
+    return joined or None
 
 
 def _element_type(t: ci.Type) -> ci.Type:

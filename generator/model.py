@@ -174,6 +174,8 @@ class Field:
     enum: str | None = None
     text: bool = False
     readonly: bool = False  # declared const: unpack writes its storage bytes instead of assigning
+    unit: str | None = None  # from the header's comment ("m/s"), see parse_comment()
+    doc: str | None = None   # the rest of that comment
 
     def __post_init__(self) -> None:
         kinds = sum(x is not None for x in (self.wire, self.struct, self.skipped))
@@ -831,12 +833,38 @@ def _spelling(text: str, relpath: Callable[[str], str]) -> str:
     return _ANONYMOUS_AT.sub(lambda m: f"({m[1]} at {relpath(m[2])}:{m[3]}:{m[4]})", text)
 
 
+# Units in member comments (docs/catalogue.md#units): `[m/s] speed over ground` anywhere a comment starts, or
+# the convention of the flightsw headers, a unit then a comma: `/* m/s^2, body axes */`. A unit is made of
+# known unit words joined by / * . and raised by ^N; anything else is description only.
+_UNIT_WORDS = {"m", "km", "cm", "mm", "ft", "nmi", "s", "ms", "us", "ns", "min", "h", "Hz", "kHz", "rad", "deg", "g",
+               "kg", "N", "Pa", "hPa", "kPa", "bar", "K", "C", "degC", "V", "mV", "A", "mA", "W", "J", "T", "G",
+               "gauss", "Gauss", "rpm", "%", "dB", "dBm", "B", "kB", "bit", "m/s", "kt", "lsb", "counts", "ppm"}
+_UNIT = re.compile(r"^[A-Za-z%°]+(?:\^-?\d+)?(?:[/*.·][A-Za-z%°]+(?:\^-?\d+)?)*$")
+_BRACKETED = re.compile(r"^\[([^\]\s][^\]]*)\]\s*(.*)$", re.S)
+
+
+def parse_comment(comment: str | None) -> tuple[str | None, str | None]:
+    """(unit, description) from a member's comment; (None, the comment) when it names no unit."""
+    if not comment:
+        return None, None
+    text = " ".join(comment.split())
+    m = _BRACKETED.match(text)
+    if m:
+        return m.group(1).strip(), (m.group(2).strip() or None)
+    head, sep, rest = text.partition(",")
+    head = head.strip()
+    if (sep or head == text) and _UNIT.match(head) and all(w in _UNIT_WORDS for w in re.split(r"[/*.·]", re.sub(r"\^-?\d+", "", head))):
+        return head, rest.strip() or None
+    return None, text
+
+
 def _make_field(f: FeField, relpath: Callable[[str], str], text: bool = False) -> Field:
     loc = SourceLoc(relpath(f.loc.file), f.loc.line)
     t = f.type
     if isinstance(t, (FeOther, FeScalar)):
         t = dataclasses.replace(t, spelling=_spelling(t.spelling, relpath))
-    common = dict(name=f.name, dims=f.dims, offset_bits=f.offset_bits, loc=loc, readonly=f.readonly)
+    unit, doc = parse_comment(f.comment)
+    common = dict(name=f.name, dims=f.dims, offset_bits=f.offset_bits, loc=loc, readonly=f.readonly, unit=unit, doc=doc)
     if f.readonly and f.bit_width is not None:
         return Field(**common, c_spelling=getattr(t, "spelling", ""), skipped=SKIP_CONST_BITFIELD)
     if isinstance(t, FeOther):

@@ -8,7 +8,9 @@ What it shows, each as a check:
  - two administrators ask for the same flow at 100 ms and 500 ms: the first keeps it at its rate and says
    active, the second is told other_admin (no status is silently wrong);
  - the ground station that set up the vehicle-to-vehicle flows drives out of everyone's range: those flows
-   go on at their rate without it (flows outlive the operator), while its own flows have nowhere to go.
+   go on at their rate without it (flows outlive the operator), while its own flows have nowhere to go;
+ - the operator's console (`uavbus web`'s pages) on gcs1 while the fleet flies: screenshots of its map and its
+   administration table in demo-out/ (console_step.py).
 
 Returns the `"fleet"` section of demo-out/summary.json; writes demo-out/fleet/ (the launcher's summary.json,
 timeline.png, configs).
@@ -39,7 +41,7 @@ Check = Callable[[str, bool, str], bool]
 
 
 def fleet_part(out: Path, program: Path | None, check: Check, say: Callable[[str], None], *,
-               signed: bool = False) -> dict[str, Any]:
+               signed: bool = False, console: bool = True) -> dict[str, Any]:
     sc = load_scenario(SCENARIO)
     if signed:
         sc = dataclasses.replace(sc, signed=True)
@@ -64,7 +66,18 @@ def fleet_part(out: Path, program: Path | None, check: Check, say: Callable[[str
 
     run.call_at(SECOND_ADMIN_T, second_admin)
     run.call_at(SAMPLE_T, sample)
-    summary = run.run()
+    shown = None
+    if console:  # the operator's console on gcs1, its map and administration table photographed (console_step.py)
+        from console_step import attach_console
+
+        shown = attach_console(run, out, say)
+    try:
+        summary = run.run()
+    finally:
+        if shown is not None:
+            from console_step import finish_console
+
+            console_result = finish_console(shown, check)
     flows = {f["name"]: f for f in summary["flows"]}
     events = summary["events"]
     tracks = run.flows
@@ -138,6 +151,7 @@ def fleet_part(out: Path, program: Path | None, check: Check, say: Callable[[str
                                                         "steady_per_hello_max")},
         "two_administrators": {"gcs1": g1.get("status"), "gcs2": g2.get("status"),
                                "gcs2_reason": g2.get("nack_reason")},
+        "console": console_result if shown is not None else None,
         "gcs_out_of_range_t": t_gone,
         "outputs": str(out / "fleet"),
     }

@@ -52,14 +52,14 @@ typedef struct imuTemperatureComp {
 typedef struct imuOut {
     timeTag_t time;
     struct {                         /* C11 anonymous struct: imuOut.p, imuOut.q, imuOut.r */
-        double p;
-        double q;
-        double r;
+        double p;                    /**< [rad/s] roll rate, body x */
+        double q;                    /**< [rad/s] pitch rate, body y */
+        double r;                    /**< [rad/s] yaw rate, body z */
     };
     vector3d_t specificForce;        /* m/s^2, body axes */
     vector3d_t deltaVelocity;        /* integrated over the last frame */
     vector3d_t deltaAngle;
-    float temperatureC;
+    float temperatureC;              /**< [degC] sensor temperature */
     uint32_t sampleCount;
     _Bool saturated;
     healthLevel_t health;

@@ -23,6 +23,8 @@ TOOLS = {
     "bw": ("uavbus.tools.live", "bw_main"),
     "tables": ("uavbus.tools.tables", "main"),
     "tui": ("uavbus.tui.app", "main"),
+    "web": ("uavbus.web.server", "main"),
+    "list": ("uavbus.tools.discover", "main"),
     "get": ("uavbus.tools.browse", "get_main"),
     "set": ("uavbus.tools.browse", "set_main"),
     "sim": ("uavbus.sim.run_scenario", "main"),
@@ -51,7 +53,7 @@ EXIT_CODES = {
     EXIT_BROKEN_PIPE: "the output was closed early (e.g. | head)",
 }
 
-USAGE = """usage: uavbus [--version] {gen,check,selftest,log,spy,echo,hz,bw,tables,tui,get,set,sim,keys,bridge} ...
+USAGE = """usage: uavbus [--version] {gen,check,selftest,log,spy,echo,hz,bw,tables,tui,web,list,get,set,sim,keys,bridge} ...
 
   gen       C headers -> catalogue + C and Python codecs
   check     the same inputs; checks ID uniqueness, writes nothing
@@ -63,6 +65,8 @@ USAGE = """usage: uavbus [--version] {gen,check,selftest,log,spy,echo,hz,bw,tabl
   bw        bytes per second, per content and per link
   tables    entity, publish/subscribe and administration tables
   tui       terminal variable browser (Textual)
+  web       the operator's console in the browser: fleet map, administration table, variables, plots
+  list      ENTITY: what it offers before subscribing (directories it hosts, its flows now)
   get       ENTITY NAME[.FIELD]: read a directory of a remote entity over the bus (C or Python)
   set       ENTITY NAME.FIELD VALUE: write it (docs/inspect.md)
   sim       run a fleet scenario file (vehicles, links, events; docs/scenarios.md)

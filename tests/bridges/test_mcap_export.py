@@ -163,10 +163,19 @@ def test_every_message_validates_and_equals_the_log(recorded, tmp_path):
             jsonschema.Draft202012Validator.check_schema(json.loads(s.data))
             foxglove_readable(json.loads(s.data), s.name)
         n = 0
+        locations = 0
         for schema, channel, message in reader.iter_messages():
             value = json.loads(message.data)
             validators[channel.schema_id].validate(value)
             source, directory = channel.metadata["source"], channel.metadata["directory"]
+            if schema.name == "foxglove.LocationFix":  # the map's channel beside a directory with lat/lon
+                assert channel.topic == f"/{source}/{directory}/location"
+                rec, inst = expected[(source, message.sequence)]
+                decoded = cat.decode(inst, rec.payload)
+                assert value["latitude"] == decoded["latitudeDeg"] and value["longitude"] == decoded["longitudeDeg"]
+                assert value["frame_id"] == source
+                locations += 1
+                continue
             assert channel.topic == f"/{source}/{directory}" and channel.message_encoding == "json"
             rec, inst = expected[(source, message.sequence)]
             assert inst.name == directory and schema.name == inst.type.name
@@ -175,6 +184,8 @@ def test_every_message_validates_and_equals_the_log(recorded, tmp_path):
             seen_topics[channel.topic] = seen_topics.get(channel.topic, 0) + 1
             n += 1
     assert n == len(expected)
+    with_position = [i for i in chosen.values() if {"latitudeDeg", "longitudeDeg"} <= {f.name for f in i.type.packed_fields}]
+    assert with_position and locations == sum(seen_topics[f"/rmax1ob1/{i.name}"] for i in with_position)
     assert set(seen_topics) == {f"/rmax1ob1/{i.name}" for i in chosen.values()}, set(seen_topics) ^ {
         f"/rmax1ob1/{i.name}" for i in chosen.values()}
 
@@ -191,3 +202,15 @@ def test_non_finite_floats_become_null_and_are_counted(recorded, tmp_path):
     shaped = _Shaper(cat, stats).value(t, value)
     assert shaped[leaf.name] is None and stats.non_finite == 1
     json.dumps(shaped, allow_nan=False)  # valid JSON for any reader
+
+
+def test_units_from_the_headers_are_in_the_schemas(recorded):
+    """imu.h documents imuOut.p as `/**< [rad/s] roll rate, body x */` and specificForce as `/* m/s^2, ... */`."""
+    _, cat, _ = recorded
+    from uavbus.tools.mcap_export import schema_document
+
+    props = schema_document(cat.type_of("imuOut"), cat)["properties"]
+    assert props["p"]["unit"] == "rad/s" and props["p"]["description"] == "[rad/s] roll rate, body x"
+    assert props["specificForce"]["unit"] == "m/s^2" and props["specificForce"]["type"] == "object"
+    assert "unit" not in props["sampleCount"]
+    foxglove_readable(schema_document(cat.type_of("imuOut"), cat), "imuOut")

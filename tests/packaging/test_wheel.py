@@ -73,7 +73,10 @@ def test_wheel_contents_and_clean_build(installed: Installed) -> None:
     names = installed.names()
     for needed in ("uavbus/py.typed", "uavbus/_data/templates/properties.json", "uavbus/_data/templates/c/Catalogue.c.j2",
                    "uavbus/_data/schemas/config.schema.json", "uavbus/_data/runtime_c/include/ub/ub_node.h",
-                   "uavbus/_data/runtime_c/src/core/ub_node.c", "uavbus/_cdefs/ub_node.h", "uavbus_gen/frontend.py"):
+                   "uavbus/_data/runtime_c/src/core/ub_node.c", "uavbus/_cdefs/ub_node.h", "uavbus_gen/frontend.py",
+                   # the console's pages: every asset in the wheel, nothing fetched at run time (docs/web.md)
+                   "uavbus/web/server.py", "uavbus/web/static/index.html", "uavbus/web/static/app.js",
+                   "uavbus/web/static/style.css"):
         assert needed in names, needed
     assert any(n.startswith("uavbus/_ub.") and n.endswith(".so") for n in names)
     assert not any(n.startswith(("tests/", "runtime_c/", "examples/")) for n in names)

@@ -28,11 +28,21 @@ def session_of(h: Hitl, config: Path) -> NodeSession:
     return NodeSession(node=h.gcs, config=load_config(config, "gcs"), contents=Contents(h.gcs.catalogue))
 
 
+async def settle(pilot: Any, view: RemoteView, timeout: float = 10.0) -> None:
+    """Lets the app run until the request in flight is answered (the UI never blocks on one)."""
+    for _ in range(int(timeout / 0.02)):
+        if not view.busy:
+            return
+        await pilot.pause(0.02)
+    raise AssertionError(f"still waiting for an answer after {timeout} s ({view.message})")
+
+
 async def open_leaf(pilot: Any, view: RemoteView, *path: str) -> None:
-    """Selects a leaf of the tree as the operator would (cursor on it, Enter)."""
+    """Selects a leaf of the tree as the operator would (cursor on it, Enter), and waits for its answer."""
     tree = view.query_one("#remote-tree")
     tree.select_node(view.find(*path))
     await pilot.pause()
+    await settle(pilot, view)
 
 
 async def edit(pilot: Any, view: RemoteView, row: int, new_tail: str, keep: int) -> None:
@@ -84,6 +94,7 @@ def test_tui_reads_tables_and_changes_a_rate_two_hops(hitl_opts: HitlOptions) ->
                 assert "press Confirm" in view.message, view.message
                 assert view.rows[k]["period_ms"] == 100  # nothing sent yet
                 await pilot.click("#remote-confirm")
+                await settle(pilot, view)
                 assert view.message == "fcs20: done", view.message
                 assert view.rows[k]["period_ms"] == 20
                 assert [r["period_ms"] for r in h.gcs.remote("fcs20").table("pubsub") if r["row"] == row] == [20]
@@ -101,6 +112,7 @@ def test_tui_reads_tables_and_changes_a_rate_two_hops(hitl_opts: HitlOptions) ->
                 raw = [r["value"] for r in view.rows if r["field"].startswith("airData.rawCounts")]
                 await edit(pilot, view, k, "90000.5", keep=len("airData.staticPressurePa = "))
                 await pilot.click("#remote-confirm")
+                await settle(pilot, view)
                 assert view.message == "fcs20: done", view.message
                 fcs = h.gcs.remote("fcs20")
                 assert fcs.get("airData.staticPressurePa") == pytest.approx(90000.5)
@@ -111,6 +123,7 @@ def test_tui_reads_tables_and_changes_a_rate_two_hops(hitl_opts: HitlOptions) ->
                 (k,) = [i for i, r in enumerate(view.rows) if r["entity"] == "rmax1ob2"]
                 await edit(pilot, view, k, "0x00000000", keep=len("mask rmax1ob2 = "))
                 await pilot.click("#remote-confirm")
+                await settle(pilot, view)
                 assert view.message == "fcs20: done", view.message
                 (after,) = [r for r in view.rows if r["entity"] == "rmax1ob2"]
                 assert after["mask"] == "0x00000000", after
@@ -137,6 +150,7 @@ def test_tui_shows_a_policy_refusal_and_its_reason(browser_policy_opts: HitlOpti
                 before = view.rows[k]["value"]
                 await edit(pilot, view, k, "1.5", keep=len("airData.staticPressurePa = "))
                 await pilot.click("#remote-confirm")
+                await settle(pilot, view)
                 assert view.message == "fcs20: write airData: refused (not_authorized)", view.message
                 assert view.rows[k]["value"] == before
                 # Tables are the administrators': the grid keeps what it showed, the reason is shown.

@@ -183,3 +183,20 @@ def test_spy_says_what_to_do_when_it_sees_nothing(tmp_path: Path, cat: Catalogue
     assert "port gcsPortDatalink1 (udp:bind=127.0.0.1:" in res.stdout and "no peer known yet" in res.stdout
     hz = run("hz", "gpsOut", "--log", str(path))
     assert "gpsOut: no messages seen" in hz.stdout and "none of them DATA" in hz.stdout
+
+
+def test_echo_shows_the_units_the_headers_document(redundant_log: tuple[Path, list]) -> None:
+    """imu.h: `double p; /**< [rad/s] roll rate, body x */`, `vector3d_t specificForce; /* m/s^2, body axes */`."""
+    path, _ = redundant_log
+    out = io.StringIO()
+    assert live.echo_main(["imuOut", "--log", str(path), "--field", "p", "--field", "sampleCount", "--count", "1"],
+                          out=out) == 0
+    line = json.loads(out.getvalue())
+    assert line["units"] == {"p": "rad/s"}  # sampleCount has none
+    whole = io.StringIO()
+    assert live.echo_main(["imuOut", "--log", str(path), "--count", "1"], out=whole) == 0
+    units = json.loads(whole.getvalue())["units"]
+    assert units["specificForce.x"] == "m/s^2" and units["temperatureC"] == "degC" and "time.seconds" not in units
+    gps = io.StringIO()
+    assert live.echo_main(["gpsOut", "--log", str(path), "--count", "1"], out=gps) == 0
+    assert "units" not in json.loads(gps.getvalue())  # gps.h documents no unit

@@ -51,6 +51,9 @@ class Tool:
 
     def run(self) -> int:
         src = self.source = open_source(self.args, self.stopped)
+        if self.args.duration:  # --duration counts from when the tool listens, not from before its node opened
+            self.deadline = self.clock() + self.args.duration
+        self.opened(src)
         name = getattr(self.args, "name", None)
         if name and not src.contents.known(name):
             src.close()
@@ -79,6 +82,9 @@ class Tool:
             print(f"{src.log.path}: ignored {src.log.stats.ignored_bytes} bytes: "
                   f"{src.log.stats.ignored_reason}", file=sys.stderr)
         return 0
+
+    def opened(self, src: Source) -> None:
+        """Called once the source is open, before the first frame."""
 
     def on_frame(self, contents: Contents, seen: Seen) -> None:
         raise NotImplementedError
@@ -159,6 +165,7 @@ class Echo(Tool):
         super().__init__(*a, **kw)
         self.seen_seqs: dict[str, Stream] = {}
         self.duplicates = 0
+        self._unit_cache: dict[str, str] | None = None
 
     def on_frame(self, contents: Contents, seen: Seen) -> None:
         if contents.name(seen.header) != self.args.name:
@@ -183,12 +190,31 @@ class Echo(Tool):
         line: dict[str, Any] = {"t_ms": seen.t_ms, "time": iso_time(seen.unix_ms), "name": self.args.name,
                                 "source": seen.source, "seq": seen.header.seq, "link": seen.link,
                                 "value": jsonable(value) if value is not None else None}
+        units = self._units(contents)
+        if units:
+            line["units"] = units  # from the headers' comments (docs/catalogue.md#units)
         if not new:
             line["duplicate"] = True
         print(json.dumps(line, separators=(",", ":")), file=self.out)
         self.out.flush()
         if new:
             self.matched += 1
+
+    def _units(self, contents: Contents) -> dict[str, str]:
+        """{field path: unit} of what is printed: the --field members, or every member that has one."""
+        if self._unit_cache is None:
+            import re
+
+            from uavbus.units import units_of
+
+            inst = contents.catalogue.find(self.args.name)
+            known = {k: v["unit"] for k, v in units_of(contents.catalogue, inst.type).items() if v.get("unit")} \
+                if inst is not None else {}
+            if self.args.field:
+                known = {f: known[re.sub(r"\[\d+\]", "", f)] for f in self.args.field
+                         if re.sub(r"\[\d+\]", "", f) in known}
+            self._unit_cache = known
+        return self._unit_cache
 
     def report(self, contents: Contents, final: bool) -> None:
         if final and self.matched == 0:
@@ -238,6 +264,7 @@ class Bw(Tool):
         self.streams: dict[tuple[str, str], Stream] = {}
         self.first_ms: int | None = None
         self.last_ms = 0
+        self.listen_ms: float | None = None  # the node clock when a live node started listening
 
     def on_frame(self, contents: Contents, seen: Seen) -> None:
         name = contents.name(seen.header)
@@ -253,15 +280,28 @@ class Bw(Tool):
         self.last_ms = max(self.last_ms, seen.t_ms)
         self.matched += 1
 
+    def opened(self, src: Source) -> None:
+        if src.session is not None:
+            self.listen_ms = float(src.session.node.now())
+
+    def _now_ms(self) -> float:
+        session = self.source.session if self.source is not None else None
+        return float(session.node.now()) if session is not None else float(self.last_ms)
+
     def _span_ms(self) -> float:
+        """The time the rates divide by: what was actually observed. Live, the window once it is full, and
+        before that the time since the tool started listening (a 3 s run at 10 msg/s shows 10, not 30
+        messages over a 5 s window); a log: its span."""
         if self.source is not None and self.source.live:
-            return self.args.window * 1000.0
+            now = self._now_ms()
+            start = self.listen_ms if self.listen_ms is not None else float(self.first_ms or now)
+            return max(min(self.args.window * 1000.0, now - start), 1.0)
         return float(self.last_ms - (self.first_ms or 0)) or 1.0
 
     def _trim(self) -> None:
         if self.source is None or not self.source.live:
             return
-        horizon = self.last_ms - self.args.window * 1000.0
+        horizon = self._now_ms() - self.args.window * 1000.0
         for q in (*self.by_content.values(), *self.by_link.values()):
             while q and q[0][0] < horizon:
                 q.popleft()

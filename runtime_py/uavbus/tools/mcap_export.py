@@ -19,7 +19,9 @@ Values are the catalogue's decoding (uavbus.catalogue), shaped for the tools' JS
   - a NaN or infinite float has no JSON number: it is written as null and counted
     (`non_finite`); such a message does not validate against its schema, and the export says so.
 The catalogue itself is attached (`catalogue.json`), and a metadata record `uavbus` keeps the log's
-node, links and start time.
+node, links and start time. Units and descriptions from the headers' comments are in the schemas' property
+"description" and "unit". A directory with a latitude and a longitude in degrees (gpsOut) also gets a channel
+`/<source>/<directory>/location` in Foxglove's `foxglove.LocationFix` schema, which its map panel shows.
 """
 
 from __future__ import annotations
@@ -56,7 +58,12 @@ def _leaf_schema(f: Field, catalogue: Catalogue) -> dict[str, Any]:
 
 
 def type_schema(t: Type, catalogue: Catalogue) -> dict[str, Any]:
-    """The JSON Schema of a catalogue type's values as exported (module docstring)."""
+    """The JSON Schema of a catalogue type's values as exported (module docstring). A member whose header
+    comment gave a unit or a description (docs/catalogue.md#units) says so in its "description" ("[rad/s]
+    roll rate, body x") and its "unit"."""
+    from uavbus.units import units_of
+
+    units = units_of(catalogue, t)
     props: dict[str, Any] = {}
     for f in t.packed_fields:
         leaf = _leaf_schema(f, catalogue)
@@ -65,9 +72,54 @@ def type_schema(t: Type, catalogue: Catalogue) -> dict[str, Any]:
             leaf = {"type": "array", "items": leaf, "minItems": n, "maxItems": n}
             if len(f.dims) > 1:
                 leaf["description"] = "row-major " + "".join(f"[{d}]" for d in f.dims)
+        said = units.get(f.name)
+        if said:
+            leaf = dict(leaf)
+            text = " ".join(x for x in (f"[{said['unit']}]" if said.get("unit") else "", said.get("doc") or "",
+                                         leaf.get("description", "")) if x)
+            leaf["description"] = text
+            if said.get("unit"):
+                leaf["unit"] = said["unit"]
         props[f.name] = leaf
     return {"type": "object", "title": t.name, "properties": props, "required": list(props),
             "additionalProperties": False}
+
+
+# Foxglove's map panel shows foxglove.LocationFix messages: a directory with a latitude and a longitude (gpsOut)
+# gets a second channel `/<source>/<directory>/location` in that schema, beside its own.
+LOCATION_SCHEMA = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema", "title": "foxglove.LocationFix", "type": "object",
+    "properties": {
+        "timestamp": {"type": "object", "properties": {"sec": {"type": "integer", "minimum": 0},
+                                                       "nsec": {"type": "integer", "minimum": 0}}},
+        "frame_id": {"type": "string"},
+        "latitude": {"type": "number", "description": "degrees"},
+        "longitude": {"type": "number", "description": "degrees"},
+        "altitude": {"type": "number", "description": "meters"},
+        "position_covariance": {"type": "array", "items": {"type": "number"}, "minItems": 9, "maxItems": 9},
+        "position_covariance_type": {"type": "integer", "minimum": 0, "maximum": 3},
+    },
+}
+_LAT, _LON, _ALT = ("latitudeDeg", "latitude", "lat"), ("longitudeDeg", "longitude", "lon"), \
+    ("altitudeMsl", "altitude", "alt")
+
+
+def location_fields(t: Type) -> tuple[str, str, str | None] | None:
+    """(latitude, longitude, altitude or None) member names of a type with a position in degrees, else None."""
+    names = {f.name for f in t.packed_fields if f.wire in ("f32", "f64") and not f.dims}
+    lat = next((n for n in _LAT if n in names), None)
+    lon = next((n for n in _LON if n in names), None)
+    if lat is None or lon is None:
+        return None
+    return lat, lon, next((n for n in _ALT if n in names), None)
+
+
+def location_fix(value: dict[str, Any], fields: tuple[str, str, str | None], t_ns: int, frame: str) -> dict[str, Any]:
+    lat, lon, alt = fields
+    return {"timestamp": {"sec": t_ns // 1_000_000_000, "nsec": t_ns % 1_000_000_000}, "frame_id": frame,
+            "latitude": float(value[lat]), "longitude": float(value[lon]),
+            "altitude": float(value[alt]) if alt else 0.0, "position_covariance": [0.0] * 9,
+            "position_covariance_type": 0}
 
 
 def schema_document(t: Type, catalogue: Catalogue) -> dict[str, Any]:
@@ -132,6 +184,7 @@ def export_mcap(log: Any, out_path: str, only: set[str] | None = None) -> McapSt
     stats = McapStats()
     shaper = _Shaper(catalogue, stats)
     schemas: dict[str, int] = {}
+    location_sid: int | None = None
     channels: dict[tuple[str, str], int] = {}
     seen: set[tuple[bytes, int]] = set()
     with open(out_path, "wb") as f:
@@ -183,6 +236,20 @@ def export_mcap(log: Any, out_path: str, only: set[str] | None = None) -> McapSt
             stats.messages += 1
             name = topic(source, inst.name)
             stats.by_topic[name] = stats.by_topic.get(name, 0) + 1
+            loc = location_fields(inst.type)
+            if loc is not None and all(isinstance(value.get(k), (int, float)) for k in loc if k):
+                lch = channels.get((source, inst.name + "/location"))
+                if lch is None:
+                    if location_sid is None:
+                        location_sid = w.register_schema(name="foxglove.LocationFix", encoding="jsonschema",
+                                                         data=json.dumps(LOCATION_SCHEMA).encode("utf-8"))
+                    lch = channels[(source, inst.name + "/location")] = w.register_channel(
+                        topic=name + "/location", message_encoding="json", schema_id=location_sid,
+                        metadata={"source": source, "directory": inst.name, "type": "foxglove.LocationFix",
+                                  "catalogue": catalogue.name})
+                w.add_message(channel_id=lch, log_time=t_ns, publish_time=t_ns, sequence=hd.seq & 0xFFFFFFFF,
+                              data=json.dumps(location_fix(value, loc, t_ns, source)).encode("utf-8"))
+                stats.by_topic[name + "/location"] = stats.by_topic.get(name + "/location", 0) + 1
         w.finish()
     stats.channels = len(channels)
     return stats

@@ -53,6 +53,8 @@ class BrowserApp(App[None]):
         self.message = ""
         self._shown: dict[str, list[tuple[str, ...]]] = {}
         self.selected: int | None = None  # admin row chosen in the table; None: the last one added
+        self._remote_view: RemoteView | None = None
+        self.turns = 0  # loop turns so far (tests: the UI kept running while a request was in flight)
 
     # -- layout ---------------------------------------------------------------------------------
     def compose(self) -> ComposeResult:
@@ -82,7 +84,7 @@ class BrowserApp(App[None]):
             with TabPane("Values", id="tab-values"):
                 yield DataTable(id="values", zebra_stripes=True)
             with TabPane("Remote", id="tab-remote"):
-                yield RemoteView(self.session, live_s=self.live_s)
+                yield RemoteView(self.session, live_s=self.live_s, admin=self.admin)
         yield Footer()
 
     def on_mount(self) -> None:
@@ -110,6 +112,12 @@ class BrowserApp(App[None]):
         if self.pump is not None:
             self.pump()
         self.session.node.poll(timeout=0)
+        self.turns += 1
+        if self._remote_view is None:
+            views = self.query(RemoteView)  # walks the DOM: done once, not on every turn
+            self._remote_view = views.first() if views else None
+        if self._remote_view is not None:
+            self._remote_view.step()  # a remote request's answer, if it came (the UI never waits for one)
         contents = self.session.contents
         while self.session.seen:
             seen = self.session.seen.popleft()
