@@ -186,9 +186,9 @@ def play_to(log: Any, contents: Any, records: list[Any], args: Any, out: IO[str]
 
 
 def _is_data(rec: Any) -> bool:
-    from uavbus._bindings.ub_frame import lib
+    from uavbus._bindings.ub_frame import ADMIN_DATA
 
-    return rec.header.admin == lib.UB_ADMIN_DATA
+    return rec.header.admin == ADMIN_DATA
 
 
 def _probe(node: Any, args: Any, identity: str, content: str, no_answer: type, refused: type) -> None:
