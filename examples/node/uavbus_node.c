@@ -261,6 +261,20 @@ static void event_warning(const char *msg) {
     fprintf(stderr, "uavbus_node: %s\n", msg);
 }
 
+/* The log's rotation: every file deleted to keep --record-max-files is said, never silent. */
+static void on_log_event(void *user, ub_log_event_t event, uint32_t index, const char *name) {
+    (void)user;
+    char msg[UB_LOG_PATH_MAX + 96];
+    if (event == UB_LOG_EVENT_FILE_DELETED) {
+        snprintf(msg, sizeof msg, "log: deleted %s (file %lu) to keep --record-max-files", name, (unsigned long)index);
+        event_warning(msg);
+    } else if (event == UB_LOG_EVENT_DELETE_FAILED) {
+        snprintf(msg, sizeof msg, "log: could not delete %s (file %lu) to keep --record-max-files: %s", name,
+                 (unsigned long)index, strerror(errno));
+        event_warning(msg);
+    }
+}
+
 /* ---- usage and start-up errors ------------------------------------------------------------------------ */
 
 static void usage(FILE *f) {
@@ -972,7 +986,13 @@ int main(int argc, char **argv) {
         /* ub_log_open_path() opens (and rotates) the files itself; a file-size limit comes back as EFBIG
          * since SIGXFSZ is ignored, and the log moves on to its next file. */
         rc = ub_log_open_path(&g_log, o.record, &o.rotation, &g_node, node_name, o.record_tx, unix_ms(), g_start_ms);
+        uint64_t min_bytes = 0;
+        if (rc == UB_ERR_RANGE && ub_log_rotation_floor(&g_node, node_name, &min_bytes) == UB_OK)
+            die("%s: --record-max-bytes %" PRIu64 " is below %" PRIu64 ", the smallest file that holds the log header "
+                "(meta and catalogue, twice) and one largest record: raise it",
+                o.record, o.rotation.max_bytes, min_bytes);
         if (rc != UB_OK) die("%s: cannot start the log: %s (%s)", o.record, ub_strerror(rc), strerror(errno));
+        ub_log_set_event_fn(&g_log, on_log_event, NULL);
         ub_node_set_tap(&g_node, ub_log_tap, &g_log);
         g_logging = true;
     }
