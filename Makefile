@@ -5,6 +5,8 @@
 #   make setup   idempotent install: Debian packages + .venv with the uavbus package
 #   make fuzz    every fuzz harness for FUZZ_SECONDS (default 600) each; report in build-fuzz/fuzz-out/
 #   make coverage  line and branch coverage of runtime_c from the tests (gcovr); report in build-cov/
+#   make test-cross  the runtime and generated codecs on big-endian (s390x) and 32-bit (armhf) targets under
+#                    qemu-user, every tests/vectors file reproduced there, and a clang build (part of make test)
 #
 # Everything below installs only from Debian and PyPI; nothing is downloaded at run time.
 
@@ -16,10 +18,13 @@ BUILD       := build
 BUILD_ASAN  := build-asan
 BUILD_FUZZ  := build-fuzz
 BUILD_COV   := build-cov
+BUILD_CROSS := build-cross
 # clang + libFuzzer: `make test` runs every fuzz harness for a few seconds (make fuzz for longer).
 FUZZ_APT_PKGS := clang-14 libclang-rt-14-dev
+# Cross compilers + qemu-user for test-cross (tests/cross/run.sh: s390x = 64-bit big-endian, armhf = 32-bit).
+CROSS_APT_PKGS := gcc-s390x-linux-gnu gcc-arm-linux-gnueabihf qemu-user
 APT_PKGS    := libcmocka-dev cmake ninja-build pkg-config libsodium-dev gcc-arm-none-eabi libnewlib-arm-none-eabi g++ \
-               $(FUZZ_APT_PKGS)
+               $(FUZZ_APT_PKGS) $(CROSS_APT_PKGS)
 COV_APT_PKGS := gcovr
 SETUP_STAMP := $(VENV)/.uavbus-setup-stamp
 FUZZ_SECONDS ?= 600
@@ -27,7 +32,7 @@ FUZZ_SMOKE_SECONDS ?= 5
 FUZZ_CC     ?= clang-14
 FUZZ_FLAGS  := -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 
-.PHONY: setup test test-c test-py test-fuzz demo bench clean apt-deps fuzz fuzz-build fuzz-corpus coverage
+.PHONY: setup test test-c test-py test-fuzz test-cross demo bench clean apt-deps fuzz fuzz-build fuzz-corpus coverage
 
 setup: apt-deps $(SETUP_STAMP)
 
@@ -93,7 +98,13 @@ fuzz-corpus: setup
 	cmake --build $(BUILD)
 	fuzz/make_corpus.sh $(BUILD)
 
-test: test-c test-fuzz test-py
+# Every byte order and word size: the runtime, the generated example codecs and the socket-free C tests built
+# for s390x (big-endian) and armhf (32-bit) and run under qemu-user, each tests/vectors file reproduced there
+# byte for byte; then a clang build with its socket-free tests (tests/cross/run.sh says which tests and why).
+test-cross: setup
+	tests/cross/run.sh $(BUILD_CROSS) $(abspath $(VPY))
+
+test: test-c test-cross test-fuzz test-py
 
 # Line and branch coverage of runtime_c/src from the C tests (corpus replay included) and the multi-process
 # tests run against the instrumented uavbus_node (-O0 and the instrumentation make gcc warn about flows and
@@ -123,4 +134,4 @@ bench: setup
 	bench/run.sh
 
 clean:
-	rm -rf $(BUILD) $(BUILD_ASAN) $(BUILD_FUZZ) $(BUILD_COV) build-bench build-mcu demo-out
+	rm -rf $(BUILD) $(BUILD_ASAN) $(BUILD_FUZZ) $(BUILD_COV) $(BUILD_CROSS) build-bench build-mcu demo-out
