@@ -80,6 +80,8 @@ run_target() { # triple debian-arch description data-model (lp64|ilp32)
   fi
   command -v "$triple-gcc" >/dev/null || fail "$triple-gcc missing: make setup installs gcc-${triple%%-*}... (APT_PKGS)"
   fetch_sysroot "$triple" "$arch"
+  # A toolchain file's flags are read at the first configure only: start over when it changed.
+  [[ "$ROOT/tests/cross/linux-cross.cmake" -nt "$build/CMakeCache.txt" ]] && rm -f "$build/CMakeCache.txt"
   cmake -S "$ROOT" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release "-DUAVBUS_PYTHON=$PY" \
     "-DCMAKE_TOOLCHAIN_FILE=$ROOT/tests/cross/linux-cross.cmake" "-DUB_CROSS_TRIPLE=$triple" \
     "-DUB_CROSS_SYSROOT=$OUT/sysroot-$triple" >/dev/null
