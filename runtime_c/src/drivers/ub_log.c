@@ -293,10 +293,10 @@ int ub_log_open_path(ub_log_t *log, const char *path, const ub_log_rotation_t *r
     memcpy(log->path, path, strlen(path) + 1);
     if (rot != NULL) log->rot = *rot;
     if (log->rot.max_bytes != 0) {
-        uint64_t floor = 0;
-        rc = ub_log_rotation_floor(node, node_name, &floor);
+        uint64_t min_bytes = 0;
+        rc = ub_log_rotation_floor(node, node_name, &min_bytes);
         if (rc != UB_OK) return rc;
-        if (log->rot.max_bytes < floor) return UB_ERR_RANGE; /* a file per record otherwise */
+        if (log->rot.max_bytes < min_bytes) return UB_ERR_RANGE; /* a file per record otherwise */
     }
     log->owns_fd = 1;
     rc = start_file(log, start_t_ms);
