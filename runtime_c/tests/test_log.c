@@ -610,22 +610,22 @@ static void test_deletions_are_reported(void **state) {
 static void test_rotation_below_the_header_is_refused(void **state) {
     (void)state;
     fixture_t *f = fixture_new();
-    uint64_t floor = 0;
-    assert_int_equal(ub_log_rotation_floor(f->b, "gcs", &floor), UB_OK);
+    uint64_t min_bytes = 0;
+    assert_int_equal(ub_log_rotation_floor(f->b, "gcs", &min_bytes), UB_OK);
     /* Both copies of the longest header (meta with every number at its widest) and one largest record. */
     size_t cat = strlen(k_cat_json);
-    assert_true(floor > UB_LOG_HEADER_COPIES * (UB_LOG_FILE_HEADER_LEN + cat + 200) + UB_LOG_RECORD_HEADER_LEN
+    assert_true(min_bytes > UB_LOG_HEADER_COPIES * (UB_LOG_FILE_HEADER_LEN + cat + 200) + UB_LOG_RECORD_HEADER_LEN
                             + UB_FRAME_MAX);
-    assert_true(floor < UB_LOG_HEADER_COPIES * (UB_LOG_FILE_HEADER_LEN + cat + 400) + UB_LOG_RECORD_HEADER_LEN
+    assert_true(min_bytes < UB_LOG_HEADER_COPIES * (UB_LOG_FILE_HEADER_LEN + cat + 400) + UB_LOG_RECORD_HEADER_LEN
                             + UB_FRAME_MAX);
     char path[96];
     snprintf(path, sizeof path, "/tmp/ub_test_floor_%ld.ublog", (long)getpid());
     unlink(path);
-    ub_log_rotation_t rot = {.max_bytes = floor - 1, .max_files = 3};
+    ub_log_rotation_t rot = {.max_bytes = min_bytes - 1, .max_files = 3};
     assert_int_equal(ub_log_open_path(&f->log, path, &rot, f->b, "gcs", true, 0, 0), UB_ERR_RANGE);
     struct stat st;
     assert_int_equal(stat(path, &st), -1);
-    rot.max_bytes = floor;
+    rot.max_bytes = min_bytes;
     assert_int_equal(ub_log_open_path(&f->log, path, &rot, f->b, "gcs", true, 0, 0), UB_OK);
     /* At the floor every file holds at least one record of the largest size. */
     uint8_t frame[UB_FRAME_MAX];
@@ -639,7 +639,7 @@ static void test_rotation_below_the_header_is_refused(void **state) {
     assert_int_equal(ub_log_file_index(&f->log), 5); /* one record per file: the largest just fits */
     ub_log_close(&f->log);
     remove_set(path, 5);
-    assert_int_equal(ub_log_rotation_floor(NULL, "gcs", &floor), UB_ERR_INVAL);
+    assert_int_equal(ub_log_rotation_floor(NULL, "gcs", &min_bytes), UB_ERR_INVAL);
     fixture_free(f);
 }
 
