@@ -6,6 +6,8 @@
 #   make setup   idempotent install: Debian packages + .venv with the uavbus package
 #   make fuzz    every fuzz harness for FUZZ_SECONDS (default 600) each; report in build-fuzz/fuzz-out/
 #   make coverage  line and branch coverage of runtime_c from the tests (gcovr); report in build-cov/
+#   make test-cross  the runtime and generated codecs on big-endian (s390x) and 32-bit (armhf) targets under
+#                    qemu-user, every tests/vectors file reproduced there, and a clang build (part of make test)
 #
 # Everything below installs only from Debian and PyPI; nothing is downloaded at run time.
 
@@ -17,16 +19,20 @@ BUILD       := build
 BUILD_ASAN  := build-asan
 BUILD_FUZZ  := build-fuzz
 BUILD_COV   := build-cov
+BUILD_CROSS := build-cross
 # clang + libFuzzer: `make test` runs every fuzz harness for a few seconds (make fuzz for longer).
 FUZZ_APT_PKGS := clang-14 libclang-rt-14-dev
-# qemu-user runs the generator's cross-built self-tests (qemu-arm); gcc-multilib links its -m32 self-test.
+# qemu-user runs the generator's cross-built self-tests (qemu-arm) and test-cross (s390x, armhf); gcc-multilib
+# links the generator's -m32 self-test.
 # QEMU's system emulator: `make test` and `make demo` boot the Cortex-M4 firmware (examples/mcu) on mps2-an386.
 HITL_APT_PKGS := qemu-system-arm
 # The console's browser tests and the demo's screenshots: headless Chromium driven by Selenium (tests/web).
 WEB_APT_PKGS := chromium chromium-driver
+# Cross compilers for test-cross (tests/cross/run.sh: s390x = 64-bit big-endian, armhf = 32-bit).
+CROSS_APT_PKGS := gcc-s390x-linux-gnu gcc-arm-linux-gnueabihf
 APT_PKGS    := libcmocka-dev cmake ninja-build pkg-config libsodium-dev gcc-arm-none-eabi libnewlib-arm-none-eabi g++ \
                qemu-user gcc-multilib $(HITL_APT_PKGS) \
-               $(FUZZ_APT_PKGS) $(WEB_APT_PKGS)
+               $(FUZZ_APT_PKGS) $(WEB_APT_PKGS) $(CROSS_APT_PKGS)
 COV_APT_PKGS := gcovr
 SETUP_STAMP := $(VENV)/.uavbus-setup-stamp
 FUZZ_SECONDS ?= 600
@@ -34,7 +40,8 @@ FUZZ_SMOKE_SECONDS ?= 5
 FUZZ_CC     ?= clang-14
 FUZZ_FLAGS  := -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 
-.PHONY: setup test lint test-c test-py test-fuzz demo bench clean apt-deps fuzz fuzz-build fuzz-corpus coverage firmware
+.PHONY: setup test lint test-c test-py test-fuzz test-cross demo bench clean apt-deps fuzz fuzz-build fuzz-corpus \
+        coverage firmware
 
 setup: apt-deps $(SETUP_STAMP)
 
@@ -112,7 +119,13 @@ fuzz-corpus: setup
 lint: setup
 	$(VPY) -m ruff check .
 
-test: lint test-c test-fuzz test-py
+# Every byte order and word size: the runtime, the generated example codecs and the socket-free C tests built
+# for s390x (big-endian) and armhf (32-bit) and run under qemu-user, each tests/vectors file reproduced there
+# byte for byte; then a clang build with its socket-free tests (tests/cross/run.sh says which tests and why).
+test-cross: setup
+	tests/cross/run.sh $(BUILD_CROSS) $(abspath $(VPY))
+
+test: lint test-c test-cross test-fuzz test-py
 
 # Line and branch coverage of runtime_c/src from the C tests (corpus replay included) and the multi-process
 # tests run against the instrumented uavbus_node (-O0 and the instrumentation make gcc warn about flows and
@@ -144,4 +157,4 @@ bench: setup
 	bench/run.sh
 
 clean:
-	rm -rf $(BUILD) $(BUILD_ASAN) $(BUILD_FUZZ) $(BUILD_COV) build-bench build-mcu demo-out
+	rm -rf $(BUILD) $(BUILD_ASAN) $(BUILD_FUZZ) $(BUILD_COV) $(BUILD_CROSS) build-bench build-mcu demo-out

@@ -19,6 +19,13 @@
 # directories and DEFINES as compile definitions, so they see the headers the
 # way the generator did.
 #
+# The generated C checks that each struct's size and member offsets are the ones the catalogue
+# describes, so the headers must be parsed as the target compiles them. A cross build passes the
+# target to the generator's clang (`--target=<triple>`): UAVBUS_GEN_TARGET, by default the compiler's
+# target when cross-compiling (CMAKE_C_COMPILER_TARGET, else the Linux multiarch triple CMake found,
+# CMAKE_LIBRARY_ARCHITECTURE, e.g. s390x-linux-gnu). A bare-metal cross build (no such triple) parses
+# as the host does unless UAVBUS_GEN_TARGET is set.
+#
 # UAVBUS_PYTHON is the Python that has the uavbus package (`pip install uavbus`);
 # default: the repository's .venv when there is one, else the python3 on PATH. It is
 # checked once, at configure time, with a message saying what to do.
@@ -121,8 +128,20 @@ function(uavbus_generate)
     list(APPEND gen_args "--std" "${ARG_STD}")
   endif()
   list(APPEND gen_args "--name" "${ARG_NAME}" "--id-scheme" "${ARG_ID_SCHEME}" "-o" "${out_dir}")
-  if(ARG_CLANG_ARGS)
-    list(APPEND gen_args "--" ${ARG_CLANG_ARGS})
+  set(clang_args ${ARG_CLANG_ARGS})
+  set(gen_target "${UAVBUS_GEN_TARGET}")
+  if(NOT gen_target AND CMAKE_CROSSCOMPILING)
+    if(CMAKE_C_COMPILER_TARGET)
+      set(gen_target "${CMAKE_C_COMPILER_TARGET}")
+    elseif(CMAKE_LIBRARY_ARCHITECTURE)
+      set(gen_target "${CMAKE_LIBRARY_ARCHITECTURE}")
+    endif()
+  endif()
+  if(gen_target)
+    list(APPEND clang_args "--target=${gen_target}")
+  endif()
+  if(clang_args)
+    list(APPEND gen_args "--" ${clang_args})
   endif()
 
   # Editing the generator or a template must regenerate, exactly like editing a header.

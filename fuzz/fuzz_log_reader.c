@@ -2,10 +2,11 @@
  * Fuzz harness: the binary log reader (ub_log.h) on damaged and hostile files (issue #17 item 6).
  *
  * Input: byte 0 is a mode, the rest a file. Mode bit 0 clear: the harness writes a valid file header
- * itself (format 2, or format 1 with bit 1) and the rest is the records, so the fuzzer works on records
- * rather than on the header CRC; with bit 2 it also reseals every record it finds (marker, head_crc and
- * crc recomputed at each boundary) so sequences, lengths and links of valid records get explored. Bit 0
- * set: the rest is the whole file, header included.
+ * itself (format 3, format 1 with bit 1, format 2 with bit 3) and the rest is the records, so the fuzzer
+ * works on records rather than on the header CRC; with bit 2 it also reseals every record it finds (marker,
+ * head_crc and crc recomputed at each boundary) so sequences, lengths and links of valid records get
+ * explored. Bit 0 set: the rest is the whole file, header included; a header with no whole copy is given to
+ * ub_log_header_repair(), whose success must make it parse.
  *
  * Properties: no crash or memory error; every record returned lies inside the file, after the previous
  * one, with a length in range; every byte is accounted for (header + record bytes + skipped bytes = file
@@ -33,17 +34,22 @@ int LLVMFuzzerInitialize(int *argc, char ***argv) {
 }
 
 static size_t write_header(uint8_t *out, int version) {
-    static const char meta[] = "{\"format\":2,\"node\":\"fuzz\",\"links\":{\"0\":\"a\",\"1\":\"b\"},\"start_unix_ms\":0,"
+    static const char meta[] = "{\"format\":3,\"node\":\"fuzz\",\"links\":{\"0\":\"a\",\"1\":\"b\"},\"start_unix_ms\":0,"
                                "\"start_t_ms\":0,\"record_tx\":true,\"file_index\":0,\"first_seq\":0}";
     static const char cat[] = "{\"name\":\"fuzz\",\"types\":[],\"instances\":[]}";
     size_t ml = sizeof meta - 1, cl = sizeof cat - 1;
-    memcpy(out, version == 1 ? UB_LOG_MAGIC_V1 : UB_LOG_MAGIC, UB_LOG_MAGIC_LEN);
+    size_t fixed = version == 3 ? UB_LOG_FILE_HEADER_LEN : UB_LOG_V2_FILE_HEADER_LEN;
+    memcpy(out, version == 1 ? UB_LOG_MAGIC_V1 : version == 2 ? UB_LOG_MAGIC_V2 : UB_LOG_MAGIC, UB_LOG_MAGIC_LEN);
     ub_put_u32le(out + 8, (uint32_t)ml);
     ub_put_u32le(out + 12, (uint32_t)cl);
-    memcpy(out + 20, meta, ml);
-    memcpy(out + 20 + ml, cat, cl);
-    ub_put_u32le(out + 16, ub_crc32c(out + 20, ml + cl));
-    return 20 + ml + cl;
+    memcpy(out + fixed, meta, ml);
+    memcpy(out + fixed + ml, cat, cl);
+    ub_put_u32le(out + 16, ub_crc32c(out + fixed, ml + cl));
+    if (version != 3) return fixed + ml + cl;
+    ub_put_u32le(out + UB_LOG_FILE_HEAD_SPAN, ub_crc32c(out, UB_LOG_FILE_HEAD_SPAN));
+    size_t copy = fixed + ml + cl;
+    memcpy(out + copy, out, copy); /* the spare */
+    return UB_LOG_HEADER_COPIES * copy;
 }
 
 /* Recomputes the checks of every record found by walking `body` from its start. */
@@ -80,7 +86,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
         memcpy(g_file, data, size);
         len = size;
     } else {
-        int version = mode & 2 ? 1 : 2;
+        int version = mode & 2 ? 1 : mode & 8 ? 2 : 3;
         len = write_header(g_file, version);
         if (len + size > sizeof g_file) return 0;
         memcpy(g_file + len, data, size);
@@ -94,11 +100,21 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
 
     ub_log_reader_t rd;
     ub_log_header_t hdr;
-    if (ub_log_reader_init(&rd, file, len, &hdr) != UB_OK) {
+    int rc = ub_log_reader_init(&rd, file, len, &hdr);
+    if (rc == UB_ERR_CHECKSUM) {
+        FUZZ_CHECK(hdr.size <= len, "lost header's size %zu of %zu", hdr.size, len);
+        if (ub_log_header_repair(file, len) == UB_OK) {
+            rc = ub_log_reader_init(&rd, file, len, &hdr);
+            FUZZ_CHECK(rc == UB_OK, "a repaired header does not parse (%d)", rc);
+        }
+    }
+    if (rc != UB_OK) {
         free(file);
         return 0;
     }
-    FUZZ_CHECK(hdr.size <= len && (hdr.version == 1 || hdr.version == 2), "header size %zu of %zu", hdr.size, len);
+    FUZZ_CHECK(hdr.size <= len && hdr.version >= 1 && hdr.version <= 3, "header size %zu of %zu", hdr.size, len);
+    FUZZ_CHECK(hdr.meta >= (const char *)file && hdr.catalogue + hdr.catalogue_len <= (const char *)file + hdr.size,
+               "meta and catalogue outside the header");
     size_t hl = hdr.version == 1 ? UB_LOG_V1_RECORD_HEADER_LEN : UB_LOG_RECORD_HEADER_LEN;
     size_t n = 0, end = hdr.size;
     uint64_t bytes = 0;

@@ -106,12 +106,12 @@ def deep_mutate_log(rng: random.Random, data: bytes) -> bytes:
         from uavbus._bindings.ub_frame import ub_crc32c, ub_crc32c_update
         from uavbus.logfile import FILE_HEADER, MAGIC, RECORD_HEAD_SPAN, RECORD_HEADER_LEN
 
-        magic, meta_len, cat_len, _ = FILE_HEADER.unpack_from(data, 0)
+        magic, meta_len, cat_len, _, _ = FILE_HEADER.unpack_from(data, 0)
         if magic != MAGIC:
             return mutate_bytes(rng, data)
         start = FILE_HEADER.size
         body = bytearray(data[start:start + meta_len + cat_len])
-        rest = bytearray(data[start + meta_len + cat_len:])
+        rest = bytearray(data[2 * (start + meta_len + cat_len):])  # format 3: the header twice
         if rng.random() < 0.4:
             text = body.decode("utf-8", "replace")
             cuts = [("\"abi_version\":2", "\"abi_version\":99"), ("\"packed_size\":", "\"packed_size\":-"),
@@ -141,8 +141,9 @@ def deep_mutate_log(rng: random.Random, data: bytes) -> bytes:
                 # Format 2 (docs/log-format.md): head_crc over the record header, crc continued over the frame.
                 head = ub_crc32c(bytes(rest[pos:pos + RECORD_HEAD_SPAN]))
                 struct.pack_into("<II", rest, pos + RECORD_HEAD_SPAN, head, ub_crc32c_update(head, bytes(frame)))
-        header = FILE_HEADER.pack(MAGIC, meta_len, cat_len, ub_crc32c(bytes(body)))
-        return header + bytes(body) + bytes(rest)
+        fixed = struct.pack("<8sIII", MAGIC, meta_len, cat_len, ub_crc32c(bytes(body)))
+        copy = fixed + struct.pack("<I", ub_crc32c(fixed)) + bytes(body)
+        return copy + copy + bytes(rest)
     except (ImportError, AttributeError, struct.error, ValueError):
         return mutate_bytes(rng, data)
 

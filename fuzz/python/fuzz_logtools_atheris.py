@@ -46,19 +46,23 @@ sys.path.insert(0, str(HERE))  # fuzz_cli: the seed log, its mutations and the c
 # ---------------------------------------------------------------- the fuzzed process
 
 def reseal(data: bytes) -> bytes:
-    """The header CRC and every format-2 record's checks recomputed, so damage gets past them
-    (docs/log-format.md: head_crc over record[0:20] at 20, the frame's crc continued from it at 24)."""
+    """The header's checks and every record's recomputed, so damage gets past them (docs/log-format.md,
+    format 3: the primary copy's crc at 16 and head_crc at 20, the spare made its copy again; a record's
+    head_crc over record[0:20] at 20, the frame's crc continued from it at 24)."""
     from uavbus._bindings.ub_frame import ub_crc32c, ub_crc32c_update
     from uavbus.logfile import FILE_HEADER, MAGIC, RECORD_HEAD_SPAN, RECORD_HEADER_LEN
 
     if len(data) < FILE_HEADER.size or data[:len(MAGIC)] != MAGIC:
         return data
-    _, meta_len, cat_len, _ = FILE_HEADER.unpack_from(data, 0)
-    end = FILE_HEADER.size + meta_len + cat_len
+    _, meta_len, cat_len, _, _ = FILE_HEADER.unpack_from(data, 0)
+    copy = FILE_HEADER.size + meta_len + cat_len
+    end = 2 * copy
     if end > len(data):
         return data
     b = bytearray(data)
-    struct.pack_into("<I", b, 12, ub_crc32c(bytes(b[FILE_HEADER.size:end])))
+    struct.pack_into("<I", b, 16, ub_crc32c(bytes(b[FILE_HEADER.size:copy])))
+    struct.pack_into("<I", b, 20, ub_crc32c(bytes(b[:20])))
+    b[copy:end] = b[:copy]
     pos = end
     while pos + RECORD_HEADER_LEN <= len(b):
         frame_len = struct.unpack_from("<H", b, pos + 2)[0]

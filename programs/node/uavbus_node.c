@@ -586,6 +586,20 @@ static void after_tick(ub_app_t *app, uint64_t now_ms) {
     fleet_poll(now_ms);
 }
 
+/* The log's rotation: every file deleted to keep --record-max-files is said, never silent. */
+static void on_log_event(void *user, ub_log_event_t event, uint32_t index, const char *name) {
+    ub_app_t *app = user;
+    char msg[UB_LOG_PATH_MAX + 96];
+    if (event == UB_LOG_EVENT_FILE_DELETED) {
+        snprintf(msg, sizeof msg, "log: deleted %s (file %lu) to keep --record-max-files", name, (unsigned long)index);
+        ub_app_warning(app, msg);
+    } else if (event == UB_LOG_EVENT_DELETE_FAILED) {
+        snprintf(msg, sizeof msg, "log: could not delete %s (file %lu) to keep --record-max-files: %s", name,
+                 (unsigned long)index, strerror(errno));
+        ub_app_warning(app, msg);
+    }
+}
+
 /* After the shell's command line: the node, what it hosts, its ports, its "ready" event. */
 static void setup(ub_app_t *app) {
     const options_t *o = &g_opt;
@@ -606,7 +620,13 @@ static void setup(ub_app_t *app) {
          * since SIGXFSZ is ignored, and the log moves on to its next file. */
         int rc = ub_log_open_path(&g_log, o->record, &o->rotation, &app->node, app->node_name, o->record_tx,
                                   ub_app_unix_ms(), app->start_ms);
+        uint64_t min_bytes = 0;
+        if (rc == UB_ERR_RANGE && ub_log_rotation_floor(&app->node, app->node_name, &min_bytes) == UB_OK)
+            ub_app_die(app, "%s: --record-max-bytes %" PRIu64 " is below %" PRIu64 ", the smallest file that holds the "
+                       "log header (meta and catalogue, twice) and one largest record: raise it",
+                       o->record, o->rotation.max_bytes, min_bytes);
         if (rc != UB_OK) ub_app_die(app, "%s: cannot start the log: %s (%s)", o->record, ub_strerror(rc), strerror(errno));
+        ub_log_set_event_fn(&g_log, on_log_event, app);
         ub_node_set_tap(&app->node, ub_log_tap, &g_log);
         g_logging = true;
     }

@@ -136,11 +136,15 @@ static void test_record_and_read_back(void **state) {
     assert_true(hdr.meta_len < sizeof meta);
     memcpy(meta, hdr.meta, hdr.meta_len);
     meta[hdr.meta_len] = '\0';
-    assert_string_equal(meta, "{\"format\":2,\"node\":\"gcs\",\"links\":{\"0\":\"gcs\\\"Radio\"},"
+    assert_string_equal(meta, "{\"format\":3,\"node\":\"gcs\",\"links\":{\"0\":\"gcs\\\"Radio\"},"
                               "\"start_unix_ms\":1700000000000,\"start_t_ms\":0,\"record_tx\":true,"
-                              "\"file_index\":0,\"first_seq\":0}");
-    assert_int_equal(hdr.version, 2);
-    assert_int_equal(hdr.size, UB_LOG_FILE_HEADER_LEN + hdr.meta_len + hdr.catalogue_len);
+                              "\"file_index\":0,\"first_seq\":0,\"max_files\":0}");
+    assert_int_equal(hdr.version, 3);
+    assert_int_equal(hdr.damaged, 0);
+    /* The header twice: the spare copy is byte for byte the primary. */
+    size_t copy = UB_LOG_FILE_HEADER_LEN + hdr.meta_len + hdr.catalogue_len;
+    assert_int_equal(hdr.size, UB_LOG_HEADER_COPIES * copy);
+    assert_memory_equal(buf, buf + copy, copy);
     assert_int_equal(hdr.catalogue_len, strlen(k_cat_json));
     assert_memory_equal(hdr.catalogue, k_cat_json, hdr.catalogue_len);
     size_t rx, tx, ignored;
@@ -174,12 +178,32 @@ static void test_record_and_read_back(void **state) {
     assert_int_equal(rs->missing_records, 1); /* by the sequence numbers: record 2 is absent */
     assert_int_equal(rs->resyncs, 0);         /* its header held: the next record was where it said */
     buf[third + 10] ^= 0x01;
-    /* A damaged header is refused. */
+    /* A damaged primary copy: the spare serves, and says so. */
     buf[UB_LOG_FILE_HEADER_LEN] ^= 0x01;
-    assert_int_equal(ub_log_reader_init(&r2, buf, len, NULL), UB_ERR_CHECKSUM);
+    assert_int_equal(ub_log_reader_init(&r2, buf, len, &hdr), UB_OK);
+    assert_int_equal(hdr.damaged, UB_LOG_COPY_PRIMARY);
+    assert_ptr_equal(hdr.meta, (const char *)buf + copy + UB_LOG_FILE_HEADER_LEN);
+    assert_int_equal(count_records(buf, len, &rx, &tx, &ignored), s->records);
+    /* Both copies' meta damaged at different places: no repair can help, refused; the records are still where
+     * the (sound) fixed parts say. */
+    buf[copy + UB_LOG_FILE_HEADER_LEN + 3] ^= 0x01;
+    assert_int_equal(ub_log_reader_init(&r2, buf, len, &hdr), UB_ERR_CHECKSUM);
+    assert_int_equal(hdr.damaged, UB_LOG_COPY_PRIMARY | UB_LOG_COPY_SPARE);
+    assert_int_equal(hdr.size, UB_LOG_HEADER_COPIES * copy);
+    assert_int_equal(ub_log_header_repair(buf, len), UB_ERR_CHECKSUM);
+    buf[copy + UB_LOG_FILE_HEADER_LEN + 3] ^= 0x01;
+    /* The primary's magic damaged: still a log, found through its spare. */
+    buf[0] = 'X';
+    assert_int_equal(ub_log_reader_init(&r2, buf, len, &hdr), UB_OK);
+    assert_int_equal(hdr.damaged, UB_LOG_COPY_PRIMARY);
+    buf[0] = 'U';
+    buf[UB_LOG_FILE_HEADER_LEN] ^= 0x01;
     assert_int_equal(ub_log_reader_init(&r2, buf, 10, NULL), UB_ERR_TRUNCATED);
-    buf[0] = 'X'; /* not a log at all */
+    assert_int_equal(ub_log_reader_init(&r2, buf, copy + 10, NULL), UB_ERR_TRUNCATED); /* the spare still to come */
+    buf[0] = 'X';
+    buf[copy] = 'X'; /* neither copy has its magic: not a log at all */
     assert_int_equal(ub_log_reader_init(&r2, buf, len, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_log_header_repair(buf, len), UB_ERR_INVAL);
     free(buf);
     fixture_free(f);
 }
@@ -428,8 +452,12 @@ static void test_rotation_by_size_keeps_max_files(void **state) {
         uint8_t *buf = slurp(name, &len);
         ub_log_header_t hdr;
         assert_int_equal(ub_log_header_parse(buf, len, &hdr), UB_OK);
-        char want[64];
-        snprintf(want, sizeof want, "\"file_index\":%u,\"first_seq\":%u}", i, first);
+        char want[96];
+        snprintf(want, sizeof want, "\"file_index\":%u,\"first_seq\":%u,\"max_files\":3", i, first);
+        assert_non_null(strstr(hdr.meta, want));
+        /* A file whose start deleted the oldest one names it. */
+        if (i >= 3) snprintf(want, sizeof want, ",\"deleted_file\":%u}", i - 3);
+        else snprintf(want, sizeof want, ",\"max_files\":3}");
         assert_non_null(strstr(hdr.meta, want));
         free(buf);
     }
@@ -532,6 +560,89 @@ static void test_rlimit_fsize_in_a_child_process(void **state) {
     fixture_free(f);
 }
 
+
+/* Every deletion under max_files is reported to the event hook, with the file's name. */
+typedef struct events {
+    unsigned started, deleted, failed;
+    uint32_t last_deleted;
+    char last_name[UB_LOG_PATH_MAX];
+} events_t;
+
+static void on_event(void *user, ub_log_event_t ev, uint32_t index, const char *name) {
+    events_t *e = user;
+    if (ev == UB_LOG_EVENT_FILE_STARTED) e->started++;
+    if (ev == UB_LOG_EVENT_FILE_DELETED) {
+        e->deleted++;
+        e->last_deleted = index;
+        snprintf(e->last_name, sizeof e->last_name, "%s", name);
+    }
+    if (ev == UB_LOG_EVENT_DELETE_FAILED) e->failed++;
+}
+
+static void test_deletions_are_reported(void **state) {
+    (void)state;
+    fixture_t *f = fixture_new();
+    char path[96];
+    snprintf(path, sizeof path, "/tmp/ub_test_evt_%ld.ublog", (long)getpid());
+    ub_log_rotation_t rot = {.max_ms = 100, .max_files = 2};
+    assert_int_equal(ub_log_open_path(&f->log, path, &rot, f->b, "gcs", true, 0, 0), UB_OK);
+    events_t ev;
+    memset(&ev, 0, sizeof ev);
+    ub_log_set_event_fn(&f->log, on_event, &ev);
+    uint8_t frame[UB_FRAME_MAX];
+    for (uint32_t i = 0; i < 50; i++) { /* a file per 100 ms: files 0..4 */
+        assert_int_equal(ub_log_write(&f->log, 0, UB_TAP_RX, frame, log_frame(frame, i), 10 * i), UB_OK);
+    }
+    ub_log_close(&f->log);
+    assert_int_equal(ev.started, 4);
+    assert_int_equal(ev.deleted, 3);
+    assert_int_equal(ev.failed, 0);
+    assert_int_equal(ev.deleted, ub_log_stats(&f->log)->files_deleted);
+    assert_int_equal(ev.last_deleted, 2);
+    char name[UB_LOG_PATH_MAX];
+    assert_int_equal(ub_log_file_name(path, 2, name, sizeof name), UB_OK);
+    assert_string_equal(ev.last_name, name);
+    remove_set(path, 4);
+    fixture_free(f);
+}
+
+/* A size limit below one header and one largest record would start a file per record: refused, no file made. */
+static void test_rotation_below_the_header_is_refused(void **state) {
+    (void)state;
+    fixture_t *f = fixture_new();
+    uint64_t min_bytes = 0;
+    assert_int_equal(ub_log_rotation_floor(f->b, "gcs", &min_bytes), UB_OK);
+    /* Both copies of the longest header (meta with every number at its widest) and one largest record. */
+    size_t cat = strlen(k_cat_json);
+    assert_true(min_bytes > UB_LOG_HEADER_COPIES * (UB_LOG_FILE_HEADER_LEN + cat + 200) + UB_LOG_RECORD_HEADER_LEN
+                            + UB_FRAME_MAX);
+    assert_true(min_bytes < UB_LOG_HEADER_COPIES * (UB_LOG_FILE_HEADER_LEN + cat + 400) + UB_LOG_RECORD_HEADER_LEN
+                            + UB_FRAME_MAX);
+    char path[96];
+    snprintf(path, sizeof path, "/tmp/ub_test_floor_%ld.ublog", (long)getpid());
+    unlink(path);
+    ub_log_rotation_t rot = {.max_bytes = min_bytes - 1, .max_files = 3};
+    assert_int_equal(ub_log_open_path(&f->log, path, &rot, f->b, "gcs", true, 0, 0), UB_ERR_RANGE);
+    struct stat st;
+    assert_int_equal(stat(path, &st), -1);
+    rot.max_bytes = min_bytes;
+    assert_int_equal(ub_log_open_path(&f->log, path, &rot, f->b, "gcs", true, 0, 0), UB_OK);
+    /* At the floor every file holds at least one record of the largest size. */
+    uint8_t frame[UB_FRAME_MAX];
+    ub_frame_header_t h;
+    memset(&h, 0, sizeof h);
+    h.hop_limit = 1;
+    h.payload_size = UB_MAX_PAYLOAD;
+    int n = ub_frame_finish(frame, sizeof frame, &h);
+    assert_true(n > 0);
+    for (uint32_t i = 0; i < 6; i++) assert_int_equal(ub_log_write(&f->log, 0, UB_TAP_RX, frame, (size_t)n, i), UB_OK);
+    assert_int_equal(ub_log_file_index(&f->log), 5); /* one record per file: the largest just fits */
+    ub_log_close(&f->log);
+    remove_set(path, 5);
+    assert_int_equal(ub_log_rotation_floor(NULL, "gcs", &min_bytes), UB_ERR_INVAL);
+    fixture_free(f);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_record_and_read_back),
@@ -544,6 +655,8 @@ int main(void) {
         cmocka_unit_test(test_rotation_by_time),
         cmocka_unit_test(test_efbig_continues_in_the_next_file),
         cmocka_unit_test(test_rlimit_fsize_in_a_child_process),
+        cmocka_unit_test(test_deletions_are_reported),
+        cmocka_unit_test(test_rotation_below_the_header_is_refused),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

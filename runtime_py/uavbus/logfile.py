@@ -5,10 +5,11 @@ A log is written by the C writer (ub_log.h) from any node. This module reads it 
 count the same damage; every frame's header is then parsed and verified by the C frame codec
 (ub_frame_parse), never in Python.
 
-Layout (little-endian), format 2:
+Layout (little-endian), format 3:
 
-    header: "UBLOG2\\r\\n" | u32 meta_len | u32 catalogue_len | u32 crc32c(meta | catalogue)
-            | meta (JSON) | catalogue (compact catalogue JSON)
+    header copy: "UBLOG3\\r\\n" | u32 meta_len | u32 catalogue_len | u32 crc32c(meta | catalogue)
+                 | u32 crc32c(copy[0:20]) | meta (JSON) | catalogue (compact catalogue JSON)
+    header:      header copy | the same copy again (the spare)
     record: u16 0xB10C | u16 frame_len | u32 seq | u64 t_ms | u8 link_id | u8 dir (0 rx, 1 tx)
             | u16 reserved | u32 crc32c(record[0:20]) | u32 crc32c continued over the frame | frame
 
@@ -16,7 +17,10 @@ Damage costs only the records it touches: the reader skips a record whose frame 
 after bytes were lost or inserted it searches for the next record. `ReadStats` counts what was skipped
 (`ignored_bytes`, `damaged_records`, `resyncs`, a cut tail in `truncated_bytes`) and, from the records'
 sequence numbers, how many are missing (`missing_records`: not written, e.g. on a full disk, or lost
-to damage). Format 1 files ("UBLOG1") are still read.
+to damage). The header is kept twice: one damaged region leaves a whole copy (or two halves the reader
+joins), and `LogHeader.damaged` says which copy failed. When no copy is left the records are still read,
+given the catalogue they were recorded with (`catalogue_json`, the tools' `--catalogue FILE`). Format 1
+and 2 files ("UBLOG1", "UBLOG2": one header copy) are still read.
 """
 
 from __future__ import annotations
@@ -31,13 +35,15 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 from uavbus._bindings import ub_log
-from uavbus._bindings.ub_error import ChecksumError, InvalidArgumentError, TruncatedError, UbError
+from uavbus._bindings.ub_error import InvalidArgumentError, TruncatedError, UbError
 from uavbus._bindings.ub_frame import FrameHeader, ub_frame_parse
 
-MAGIC = b"UBLOG2\r\n"
+MAGIC = b"UBLOG3\r\n"
+MAGIC_V2 = b"UBLOG2\r\n"
 MAGIC_V1 = b"UBLOG1\r\n"
 FORMAT = ub_log.FORMAT
-FILE_HEADER = struct.Struct("<8sIII")  # magic, meta_len, catalogue_len, crc32c(meta | catalogue)
+FILE_HEADER = struct.Struct("<8sIIII")  # magic, meta_len, catalogue_len, crc32c(meta | catalogue), crc32c(copy[0:20])
+FILE_HEADER_V2 = struct.Struct("<8sIII")  # formats 1 and 2: no check of its own on the fixed part
 RECORD_HEADER_LEN = ub_log.RECORD_HEADER_LEN  # format 2; format 1 records have ub_log.V1_RECORD_HEADER_LEN
 RECORD_HEAD_SPAN = 20  # head_crc covers record[0:20]; it sits at 20, the frame's crc (continued from it) at 24
 DIR_NAMES = ("rx", "tx")
@@ -58,10 +64,27 @@ class LogHeader:
     record_tx: bool
     meta: dict[str, Any]
     catalogue_json: str
-    size: int  # bytes of the file header, i.e. the offset of the first record
-    version: int = FORMAT  # 1 or 2
+    size: int  # bytes of the file header (both copies), i.e. the offset of the first record (0: unknown)
+    version: int = FORMAT  # 1, 2 or 3
     file_index: int = 0  # which file of a rotated set (ub_log_open_path)
     first_seq: int | None = None  # sequence number of the file's first record (format 2)
+    damaged: int = 0  # copies of the header that failed their checks: 1 the primary, 2 the spare (format 3)
+    repaired: bool = False  # neither copy was whole: the header was joined from the sound parts of both
+    lost: bool = False  # no copy is left: no meta (node, links, times); records read with an external catalogue
+    catalogue_origin: str = "embedded catalogue"  # or the --catalogue file the records are decoded with
+    max_files: int = 0  # the writer's max_files (format 3): older files of the set are deleted by design
+    deleted_file: int | None = None  # the file of the set whose deletion the start of this one caused
+
+    def header_note(self) -> str:
+        """One line on the header's state: "" when both copies are whole."""
+        if self.lost:
+            return ("both copies of the header are lost (no node, links or start time); records read and "
+                    f"decoded with {self.catalogue_origin}")
+        if self.repaired:
+            return "both copies of the header damaged in different places: joined from the sound parts of both"
+        which = {1: "primary copy damaged, spare used", 2: "spare copy damaged (the primary is whole)",
+                 3: "both copies damaged"}
+        return f"header {which[self.damaged]}" if self.damaged else ""
 
     def link_name(self, link_id: int) -> str:
         return self.links.get(link_id, f"link{link_id}")
@@ -122,31 +145,55 @@ def _entity_text(raw: bytes) -> str:
     return raw.rstrip(b"\0").decode("ascii", "replace")
 
 
-def parse_header(data: bytes | bytearray | memoryview, path: str = "<log>") -> LogHeader | None:
+def _lost_header(version: int, size: int, damaged: int, catalogue_json: str, origin: str) -> LogHeader:
+    return LogHeader(node="", links={}, start_unix_ms=0, start_t_ms=0, record_tx=False, meta={},
+                     catalogue_json=catalogue_json, size=size, version=version, damaged=damaged, lost=True,
+                     catalogue_origin=origin)
+
+
+def parse_header(data: bytes | bytearray | memoryview, path: str = "<log>", catalogue_json: str | None = None,
+                 catalogue_origin: str = "--catalogue") -> LogHeader | None:
     """The file header from the start of `data`; None when `data` is still too short to hold it.
 
-    Raises LogFormatError (message `path: ...`) when the bytes are not a valid log header."""
+    `catalogue_json` (a catalogue from elsewhere, e.g. `--catalogue FILE`) replaces the embedded one, and
+    lets the records of a log whose header is lost be read (the header then has no meta: `lost`).
+    Raises LogFormatError (message `path: ...`) when the bytes are not a valid log header and no
+    catalogue was given."""
     try:
         raw = ub_log.ub_log_header_parse(data)
     except TruncatedError:
         return None
     except InvalidArgumentError:
-        raise LogFormatError(f"{path}: not a uavbus log (no UBLOG1/UBLOG2 magic)") from None
-    except ChecksumError:
-        raise LogFormatError(f"{path}: header CRC mismatch: the log's metadata or catalogue is damaged") from None
+        if catalogue_json is not None and len(data) >= FILE_HEADER.size:
+            # No magic left at all: records of this writer's format are searched for from the start.
+            return _lost_header(FORMAT, 0, ub_log.COPY_PRIMARY | ub_log.COPY_SPARE, catalogue_json, catalogue_origin)
+        raise LogFormatError(f"{path}: not a uavbus log (no UBLOG1/UBLOG2/UBLOG3 magic)") from None
+    except ub_log.HeaderLostError as lost:
+        if catalogue_json is not None:
+            return _lost_header(lost.version, lost.size, lost.damaged, catalogue_json, catalogue_origin)
+        copies = "both copies of the log's metadata and catalogue are" if lost.version >= 3 else \
+            "the log's metadata or catalogue is"
+        raise LogFormatError(f"{path}: header CRC mismatch: {copies} damaged; its records can still be read "
+                             "with --catalogue FILE (the catalogue it was recorded with)") from None
     try:
         meta = json.loads(raw.meta.decode("utf-8"))
-        catalogue_json = raw.catalogue.decode("utf-8")
+        catalogue_json = catalogue_json if catalogue_json is not None else raw.catalogue.decode("utf-8")
         if not isinstance(meta, dict):
             raise ValueError("not an object")
         links = {int(k): str(v) for k, v in dict(meta.get("links", {})).items()}
         first_seq = meta.get("first_seq")
+        deleted = meta.get("deleted_file")
         return LogHeader(node=str(meta.get("node", "")), links=links,
                          start_unix_ms=int(meta.get("start_unix_ms", 0)), start_t_ms=int(meta.get("start_t_ms", 0)),
                          record_tx=bool(meta.get("record_tx", False)), meta=meta,
                          catalogue_json=catalogue_json, size=raw.size, version=raw.version,
                          file_index=int(meta.get("file_index", 0)),
-                         first_seq=int(first_seq) if isinstance(first_seq, int) else None)
+                         first_seq=int(first_seq) if isinstance(first_seq, int) else None,
+                         damaged=raw.damaged, repaired=raw.repaired,
+                         catalogue_origin=catalogue_origin if raw.catalogue != catalogue_json.encode() else
+                         "embedded catalogue",
+                         max_files=int(meta.get("max_files", 0)),
+                         deleted_file=int(deleted) if isinstance(deleted, int) else None)
     except (UnicodeDecodeError, ValueError, TypeError, AttributeError) as exc:
         raise LogFormatError(f"{path}: header metadata is not valid JSON meta: {exc}") from exc
 
@@ -214,10 +261,13 @@ class LogReader:
         if log.ignored_bytes: print(log.stats.ignored_reason)
     """
 
-    def __init__(self, path: str | os.PathLike[str]) -> None:
+    def __init__(self, path: str | os.PathLike[str], catalogue_json: str | None = None,
+                 catalogue_origin: str = "--catalogue") -> None:
+        """`catalogue_json`: a catalogue from elsewhere (`--catalogue FILE`), used instead of the embedded one
+        and needed when the header is lost."""
         self.path = str(path)
         self._data = Path(path).read_bytes()
-        header = parse_header(self._data, self.path)
+        header = parse_header(self._data, self.path, catalogue_json, catalogue_origin)
         if header is None:
             raise LogFormatError(f"{self.path}: file ends inside the log header ({len(self._data)} bytes): "
                                  "nothing was recorded")
@@ -255,11 +305,12 @@ def load_catalogue(catalogue_json: str) -> Any:
 
 
 def _wait_header(f: BinaryIO, path: str, buf: bytearray, stop: Callable[[], bool] | None,
-                 sleep: Callable[[float], None], poll_s: float) -> LogHeader | None:
+                 sleep: Callable[[float], None], poll_s: float, catalogue_json: str | None = None,
+                 catalogue_origin: str = "--catalogue") -> LogHeader | None:
     """Reads from `f` into `buf` until the file header is whole; None when `stop()` says so first."""
     while True:
         buf += f.read()
-        header = parse_header(buf, path)
+        header = parse_header(buf, path, catalogue_json, catalogue_origin)
         if header is not None:
             return header
         if stop is not None and stop():
@@ -270,7 +321,8 @@ def _wait_header(f: BinaryIO, path: str, buf: bytearray, stop: Callable[[], bool
 def follow(path: str | os.PathLike[str], *, poll_s: float = 0.05, stop: Callable[[], bool] | None = None,
            from_start: bool = True, sleep: Callable[[float], None] = time.sleep,
            on_header: Callable[[LogHeader], None] | None = None,
-           stats: ReadStats | None = None, rotation: bool = True) -> Iterator[LogRecord]:
+           stats: ReadStats | None = None, rotation: bool = True, catalogue_json: str | None = None,
+           catalogue_origin: str = "--catalogue") -> Iterator[LogRecord]:
     """Yields records of a log that is still being written, as they are appended (like tail -f).
 
     Waits for the file and its header to appear. A partial record at the end is waited for, not
@@ -278,7 +330,7 @@ def follow(path: str | os.PathLike[str], *, poll_s: float = 0.05, stop: Callable
     (pass a ReadStats to see it), exactly as LogReader does. With `rotation` (the default), following
     the first file of a rotated set (ub_log_open_path, docs/log-format.md "Rotation") moves on to the
     next file once the writer has started it, with the counters carried over. `stop()` is checked
-    between polls; `from_start=False` skips existing records."""
+    between polls; `from_start=False` skips existing records. `catalogue_json`: as for LogReader."""
     path = str(path)
     stats = stats if stats is not None else ReadStats()
     f: BinaryIO | None = None
@@ -291,7 +343,7 @@ def follow(path: str | os.PathLike[str], *, poll_s: float = 0.05, stop: Callable
                     return
                 sleep(poll_s)
         buf = bytearray()
-        header = _wait_header(f, path, buf, stop, sleep, poll_s)
+        header = _wait_header(f, path, buf, stop, sleep, poll_s, catalogue_json, catalogue_origin)
         if header is None:
             return
         if on_header is not None:
@@ -321,7 +373,7 @@ def follow(path: str | os.PathLike[str], *, poll_s: float = 0.05, stop: Callable
                 f.close()
                 f = open(nxt, "rb")  # noqa: SIM115
                 buf = bytearray()
-                nh = _wait_header(f, nxt, buf, stop, sleep, poll_s)
+                nh = _wait_header(f, nxt, buf, stop, sleep, poll_s, catalogue_json, catalogue_origin)
                 if nh is None:
                     return
                 header, index, base = nh, index + 1, nh.size

@@ -3,11 +3,14 @@ cycle, counters read back from C, and a struct published by Python equal to the 
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from binding_testutil import TABLE2, FakeClock, Generated
 from binding_testutil import run_nodes as run
 from uavbus import Catalogue, MemLink, Node
+from uavbus._bindings.ub_error import RangeError
 from uavbus_gen import model
 
 
@@ -167,8 +170,23 @@ def test_record_with_c_writer(pair, tmp_path) -> None:
     stats = gcs.stop_recording()
     assert stats is not None and stats["write_errors"] == 0
     data = path.read_bytes()
-    assert data.startswith(b"UBLOG2\r\n") and len(data) == stats["bytes"]
+    assert data.startswith(b"UBLOG3\r\n") and len(data) == stats["bytes"]
     assert b'"gcs"' in data[:2048]  # the meta names this node
+
+
+def test_record_refuses_a_size_limit_below_the_header(pair, flightsw: Generated, tmp_path) -> None:
+    """Issue 29: a max_bytes below the header started a file per frame (350 files in 5 s). Refused with a
+    one-line reason naming the smallest limit; at that limit recording works."""
+    gcs, air, link, clock = pair
+    path = tmp_path / "small.ublog"
+    with pytest.raises(RangeError, match=r"max_bytes 1000 is below (\d+), the smallest file that holds the log "
+                                         r"header \(meta and catalogue, twice\) and one largest record") as exc:
+        gcs.record(path, max_bytes=1000, max_files=3)
+    assert not path.exists()
+    floor = int(re.search(r"below (\d+)", str(exc.value)).group(1))
+    assert floor > 2 * len(flightsw.catalogue.json_text)  # the catalogue is in both copies of the header
+    gcs.record(path, max_bytes=floor, max_files=3)
+    assert gcs.stop_recording()["files"] == 1
 
 
 def test_publisher_sends_the_directory_with_names_resolved_once(pair) -> None:

@@ -50,4 +50,4 @@ def test_demo_short_mode_passes_and_writes_its_outputs(program: Path, tmp_path: 
     assert browser["rate"]["period_ms"] == [100, 50]
     assert abs(browser["rate"]["achieved_hz"] - 20.0) <= 3.0
     assert not list((tmp_path / "secure" / "keys").glob("*.key"))[0].stat().st_mode & 0o077
-    assert (tmp_path / "gcs1.ublog").read_bytes()[:8] == b"UBLOG2\r\n"
+    assert (tmp_path / "gcs1.ublog").read_bytes()[:8] == b"UBLOG3\r\n"

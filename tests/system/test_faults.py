@@ -31,7 +31,7 @@ pytestmark = pytest.mark.timeout(60)
 
 ROOT = Path(__file__).resolve().parents[2]
 TABLE2 = ROOT / "examples" / "configs" / "table2.json"
-LIMIT = 192 * 1024  # bytes per file: the header (the embedded flightsw catalogue) takes ~172 KiB
+LIMIT = 376 * 1024  # bytes per file: the header (the embedded flightsw catalogue, 182 KiB, twice) takes ~365 KiB
 
 # Runs argv[2:] with RLIMIT_FSIZE = argv[1] bytes and SIGXFSZ at its default action (Python itself ignores
 # SIGXFSZ, and an ignored signal stays ignored across exec: the node must ignore it on its own).
@@ -60,6 +60,10 @@ def test_log_survives_a_file_size_limit(program: Path, tmp_path: Path) -> None:
     s = final["log"]
     assert s["write_errors"] == 0 and s["limit_rotations"] >= 3 and s["failing"] is False
     assert s["files"] == s["file_index"] + 1 and s["files_deleted"] == s["files"] - 3
+    # Every deletion was said (issue 29: --record-max-files deleted all but the last files silently).
+    deleted = [e["message"] for e in _events(run.stdout) if e.get("event") == "warning" and "deleted" in e["message"]]
+    assert len(deleted) == s["files_deleted"] and all("to keep --record-max-files" in m for m in deleted)
+    assert run.stderr.count("uavbus_node: log: deleted ") == s["files_deleted"]
     sent = final["links"]["onboardPortRelay"]["frames_out"]
     assert s["records"] == sent > 300
     # The newest three files remain; each reads alone, whole, and the records run on across them.
@@ -75,6 +79,20 @@ def test_log_survives_a_file_size_limit(program: Path, tmp_path: Path) -> None:
             assert recs[0].seq == next_seq
         next_seq = recs[-1].seq + 1
     assert next_seq == s["records"]
+
+
+def test_rotation_below_the_header_is_refused(program: Path, tmp_path: Path) -> None:
+    """Issue 29: --record-max-bytes below the header started a new file per frame (350 files in 5 s). The
+    node refuses to start, with one line naming the smallest limit, and makes no file."""
+    log = tmp_path / "primary.ublog"
+    run = subprocess.run([str(program), "--config", str(TABLE2), "--node", "primary", "--record", str(log),
+                          "--record-max-bytes", "100000", "--duration-ms", "200"],
+                         capture_output=True, text=True, timeout=30, stdin=subprocess.DEVNULL)
+    assert run.returncode != 0
+    lines = [ln for ln in run.stderr.splitlines() if "--record-max-bytes" in ln]
+    assert len(lines) == 1, run.stderr
+    assert "--record-max-bytes 100000 is below " in lines[0] and "log header" in lines[0]
+    assert not list(tmp_path.glob("primary*.ublog"))
 
 
 # ---- supervision output (issue #17 item 2) --------------------------------------------------------------

@@ -66,7 +66,7 @@ def test_record_and_play_back_same_values_same_order(hitl_opts: HitlOptions, tmp
         h.wait_data("imuOut", "fcs20", 10, 5.0)
         h.run_for(0.5)
         live: list[Msg] = [(n, s, q, r) for _, n, s, q, r in h.messages]
-    assert log.read_bytes()[:8] == b"UBLOG2\r\n"
+    assert log.read_bytes()[:8] == b"UBLOG3\r\n"
 
     replayed, report = play_into_fresh_node(hitl_opts, catalogue, log)
     assert report["frames"] > len(live)                 # both datalinks recorded: duplicates included

@@ -57,7 +57,7 @@ def test_user_errors_are_one_line_with_documented_status(tmp_path: Path, sample_
             (["hz"], 2, "uavbus hz: the following arguments are required: name", "(see uavbus hz --help)"),
             (["hz", "gpsOut", "--log", str(log), "--window", "-1"], 2, "'-1': give a number above 0"),
             (["log", "info", str(tmp_path / "missing.ublog")], 3, "missing.ublog: No such file or directory"),
-            (["log", "info", str(not_a_log)], 3, "not a uavbus log (no UBLOG1/UBLOG2 magic)"),
+            (["log", "info", str(not_a_log)], 3, "not a uavbus log (no UBLOG1/UBLOG2/UBLOG3 magic)"),
             (["log", "export", str(log), "--csv", "--only", "gpsOutt"], 2, "--only gpsOutt: not in the log's catalogue"),
             (["log", "play", str(log), "--into", "udp:host=1"], 2, "'host=1' is not a udp parameter"),
             (["tables", "--static", "--config", str(bad_config), "--node", "x"], 3,

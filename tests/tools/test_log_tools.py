@@ -49,6 +49,33 @@ def test_info_reports_truncated_tail(sample_log, tmp_path: Path) -> None:
     assert "truncated tail" in text and "ignored " in text
 
 
+def test_info_on_a_log_whose_header_is_lost_takes_catalogue(sample_log, catalogue_path, tmp_path: Path) -> None:
+    """Both copies of the header damaged (the same byte of each catalogue copy): `log info` says what to do;
+    with --catalogue it reads every record and says the header is lost. export takes it too."""
+    path, data, expected = sample_log()
+    size = LogReader(path).header.size
+    bad = bytearray(data)
+    bad[size // 2 - 5] ^= 0x08
+    bad[size - 5] ^= 0x08
+    lost = tmp_path / "lost.ublog"
+    lost.write_bytes(bytes(bad))
+    res = subprocess.run([UAVBUS, "log", "info", str(lost)], capture_output=True, text=True, timeout=30)
+    assert res.returncode == 3
+    assert "header CRC mismatch: both copies" in res.stderr and "--catalogue FILE" in res.stderr
+    text = run("info", str(lost), "--catalogue", str(catalogue_path))
+    assert "header:     both copies of the header are lost" in text
+    assert "flightsw (id scheme" in text and f"--catalogue {catalogue_path}" in text
+    assert "records:    121" in text and "damage:     none" in text
+    rows = [json.loads(line) for line in run("export", str(lost), "--jsonl", "--catalogue",
+                                             str(catalogue_path)).splitlines()]
+    assert [r["value"] for r in rows if r["name"] == "gpsOut"] == [e["shown"] for e in expected]
+    # One copy damaged: info says which, and reads as before.
+    bad[size - 5] ^= 0x08
+    lost.write_bytes(bytes(bad))
+    text = run("info", str(lost))
+    assert "header:     header primary copy damaged, spare used" in text and "records:    121" in text
+
+
 def test_export_jsonl_matches_encoded_values(sample_log) -> None:
     path, _, expected = sample_log()
     lines = [json.loads(x) for x in run("export", str(path), "--jsonl", "--only", "gpsOut").splitlines()]

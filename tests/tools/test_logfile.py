@@ -1,5 +1,6 @@
 """The Python log reader (the C reader through cffi): header, records, truncated tails at random cut points,
-damage at random places skipped and counted, format 1 files, follow."""
+damage at random places skipped and counted, a damaged header (one copy, both halves, both copies with
+--catalogue), format 1 and 2 files, follow."""
 
 from __future__ import annotations
 
@@ -28,7 +29,7 @@ def test_reads_header_and_every_record(sample_log, cat) -> None:
     assert [cat.decode("gpsOut", r.payload) for r in gps] == [e["value"] for e in expected]
     assert recs[-1].dir == "tx" and recs[-1].link == "gcsPortDatalink1"
     assert [r.seq for r in recs] == list(range(len(recs)))
-    assert log.header.version == 2 and log.header.first_seq == 0
+    assert log.header.version == 3 and log.header.first_seq == 0 and log.header.damaged == 0
     assert log.stats.missing_records == 0 and log.stats.damaged_records == 0
     assert log.catalogue().name == "flightsw"
 
@@ -59,20 +60,32 @@ def test_cut_inside_header_is_an_error(sample_log, tmp_path: Path) -> None:
     cut.write_bytes(data[:30])
     with pytest.raises(LogFormatError, match="ends inside the log header"):
         LogReader(cut)
-    cut.write_bytes(b"NOTALOG!" + data[8:])
+    copy = LogReader(path).header.size // 2
+    cut.write_bytes(b"NOTALOG!" + data[8:copy] + b"NOTALOG!" + data[copy + 8:])  # both copies' magic
     with pytest.raises(LogFormatError, match="not a uavbus log"):
         LogReader(cut)
 
 
-def test_damaged_header_and_record_are_reported(sample_log, tmp_path: Path) -> None:
+def test_damaged_header_and_record_are_reported(sample_log, tmp_path: Path, cat) -> None:
     path, data, _ = sample_log(n_gps=3)
     header_size = LogReader(path).header.size
-    bad = bytearray(data)
-    bad[header_size - 3] ^= 0x01  # inside the catalogue JSON
-    (tmp_path / "bh.ublog").write_bytes(bytes(bad))
-    with pytest.raises(LogFormatError, match="header CRC mismatch"):
-        LogReader(tmp_path / "bh.ublog")
+    copy = header_size // 2
     recs = LogReader(path).records()
+    bad = bytearray(data)
+    bad[header_size - 3] ^= 0x01  # inside the spare copy's catalogue JSON: the primary serves
+    (tmp_path / "bh.ublog").write_bytes(bytes(bad))
+    log = LogReader(tmp_path / "bh.ublog")
+    assert log.header.damaged == 2 and log.header.node == "gcs" and len(log.records()) == len(recs)
+    assert log.header.header_note() == "header spare copy damaged (the primary is whole)"
+    bad[copy - 3] ^= 0x01  # the same byte of the primary: no copy whole, and none can be joined
+    (tmp_path / "bh.ublog").write_bytes(bytes(bad))
+    with pytest.raises(LogFormatError, match=r"header CRC mismatch: both copies .* --catalogue FILE"):
+        LogReader(tmp_path / "bh.ublog")
+    # Given the catalogue, every record is read (the sound fixed parts say where they start).
+    log = LogReader(tmp_path / "bh.ublog", catalogue_json=cat.json_text)
+    assert log.header.lost and log.header.size == header_size
+    assert [r.frame for r in log.records()] == [r.frame for r in recs] and log.ignored_bytes == 0
+    assert log.catalogue().name == "flightsw"
     bad = bytearray(data)
     bad[recs[4].offset + RECORD_HEADER_LEN + 70] ^= 0x40  # payload byte of the 5th record
     (tmp_path / "br.ublog").write_bytes(bytes(bad))
@@ -148,6 +161,87 @@ def test_format_1_logs_are_still_read(sample_log, tmp_path: Path, cat) -> None:
     log = LogReader(v1_path)
     assert [r.frame for r in log.records()] == [r.frame for i, r in enumerate(v2) if i != 2]
     assert log.stats.resyncs == 1
+
+
+def _spread(size: int, n: int = 32) -> list[int]:
+    return [(size - 1) * k // (n - 1) for k in range(n)]
+
+
+def test_one_flipped_byte_anywhere_in_the_header_loses_nothing(sample_log, tmp_path: Path) -> None:
+    """Issue 29: a flip in the header (42 % of the demo's log) lost every record. One flipped byte at each of
+    32 positions spread over the header region, first and last byte included: every record read, the meta
+    and the catalogue whole."""
+    path, data, _ = sample_log(n_gps=5)
+    good = LogReader(path)
+    want = [r.frame for r in good.records()]
+    copy = good.header.size // 2
+    rng = random.Random(29)
+    for at in _spread(good.header.size):
+        bad = bytearray(data)
+        bad[at] ^= rng.randint(1, 255)
+        p = tmp_path / f"f{at}.ublog"
+        p.write_bytes(bytes(bad))
+        log = LogReader(p)
+        assert log.header.damaged == (1 if at < copy else 2), at
+        assert (log.header.node, log.header.links, log.header.catalogue_json) == (
+            good.header.node, good.header.links, good.header.catalogue_json), at
+        assert [r.frame for r in log.records()] == want and log.ignored_bytes == 0, at
+
+
+def test_a_zeroed_kib_costs_at_most_the_records_it_covers(sample_log, tmp_path: Path, cat) -> None:
+    """A 1 KiB zeroed block at offsets over the whole file: every record it does not cover is read. Over the
+    header the flightsw catalogue (tens of kB a copy) always leaves a whole copy, or two halves joined."""
+    path, data, _ = sample_log(n_gps=8)
+    good = LogReader(path)
+    full = good.records()
+    size = good.header.size
+    copy = size // 2
+    offsets = sorted(set(_spread(size - 1024, 12)) | {copy - 512, copy - 1000, copy - 24}
+                     | set(range(size, len(data) - 1024, 997)))
+    joined = 0
+    for at in offsets:
+        bad = bytearray(data)
+        bad[at:at + 1024] = bytes(1024)
+        p = tmp_path / f"z{at}.ublog"
+        p.write_bytes(bytes(bad))
+        log = LogReader(p)
+        joined += log.header.repaired
+        assert log.header.node == "gcs" and log.header.catalogue_json == good.header.catalogue_json, at
+        got = {r.seq: r.frame for r in log.records()}
+        for r in full:
+            end = r.offset + RECORD_HEADER_LEN + len(r.frame)
+            if not (r.offset < at + 1024 and end > at):
+                assert got.get(r.seq) == r.frame, (at, r.seq)
+        assert all(got[s] == full[s].frame for s in got)
+    assert joined >= 2  # the blocks over the boundary of the two copies were met, and joined
+
+
+def test_both_copies_lost_reads_with_an_external_catalogue(sample_log, tmp_path: Path, cat) -> None:
+    """The whole header zeroed (a region larger than a copy): no magic left. With the catalogue from
+    elsewhere every record is still found (searched for from the start)."""
+    path, data, _ = sample_log(n_gps=4)
+    good = LogReader(path)
+    bad = bytes(good.header.size) + data[good.header.size:]
+    p = tmp_path / "lost.ublog"
+    p.write_bytes(bad)
+    with pytest.raises(LogFormatError, match="not a uavbus log"):
+        LogReader(p)
+    log = LogReader(p, catalogue_json=cat.json_text)
+    assert log.header.lost and log.header.size == 0
+    assert [r.frame for r in log.records()] == [r.frame for r in good.records()]
+    assert log.ignored_bytes == good.header.size  # the zeroed header, skipped while searching
+    assert "both copies of the header are lost" in log.header.header_note()
+
+
+def test_format_2_logs_are_still_read(sample_log, tmp_path: Path, cat) -> None:
+    path, _, _ = sample_log(n_gps=3)
+    v3 = LogReader(path).records()
+    records = [(r.frame, r.t_ms, r.link_id, 0 if r.dir == "rx" else 1) for r in v3]
+    v2_path = tmp_path / "v2.ublog"
+    write_log(v2_path, "gcs", {0: "gcsPortDatalink1", 1: "gcsPortDatalink2"}, cat.json_text, records, version=2)
+    log = LogReader(v2_path)
+    assert log.header.version == 2 and log.header.first_seq == 0 and log.header.damaged == 0
+    assert [(r.frame, r.seq) for r in log.records()] == [(r.frame, r.seq) for r in v3]
 
 
 def test_parse_header_waits_for_more_bytes(cat) -> None:

@@ -5,8 +5,9 @@
  *
  * docs/log-format.md is the specification. In short (all integers little-endian):
  *
- *     file header  "UBLOG2\r\n" | u32 meta_len | u32 catalogue_len | u32 crc32c(meta | catalogue)
- *                  | meta (JSON) | catalogue (the catalogue's compact JSON)
+ *     header copy  "UBLOG3\r\n" | u32 meta_len | u32 catalogue_len | u32 crc32c(meta | catalogue)
+ *                  | u32 head_crc = crc32c(copy[0..20)) | meta (JSON) | catalogue (the catalogue's compact JSON)
+ *     file header  header copy | the same copy again (the spare)
  *     record       u16 0xB10C | u16 frame_len | u32 seq | u64 t_ms | u8 link_id | u8 dir (0 rx, 1 tx)
  *                  | u16 reserved (0) | u32 head_crc = crc32c(record[0..20))
  *                  | u32 crc = crc32c continued from head_crc over the frame | frame
@@ -17,10 +18,15 @@
  * goes on from there. A record whose header holds but whose frame does not is
  * skipped whole and counted; `seq` (one number per record the writer was
  * given, written or not) lets a reader count records that are missing. So a
- * damaged log loses only the records the damage touched.
+ * damaged log loses only the records the damage touched. The file header (meta and the
+ * embedded catalogue, often the larger part of a short log) is written twice, each copy
+ * with its own checks, so one damaged region, wherever it is, leaves one copy whole; and
+ * when both are lost (a region over both small copies) the records are still found by
+ * searching, to be decoded with a catalogue given separately.
  *
- * meta is `{"format":2,"node":"<name>","links":{"<link_id>":"<link name>",...},
- * "start_unix_ms":N,"start_t_ms":N,"record_tx":true|false,"file_index":K,"first_seq":S}`;
+ * meta is `{"format":3,"node":"<name>","links":{"<link_id>":"<link name>",...},
+ * "start_unix_ms":N,"start_t_ms":N,"record_tx":true|false,"file_index":K,"first_seq":S,
+ * "max_files":M[,"deleted_file":D]}` (D: the file the start of this one deleted to keep max_files);
  * `t_ms` of a record is the node's clock (the `now_ms` it was given), so
  * unix time = start_unix_ms + (t_ms - start_t_ms).
  *
@@ -32,6 +38,11 @@
  * a file-size limit must ignore SIGXFSZ (uavbus_node does), so the limit
  * comes back as EFBIG: a log opened with ub_log_open_path() then continues in
  * the next file.
+ *
+ * Rotation refuses a `max_bytes` below ub_log_rotation_floor() (the header and one
+ * largest record: a smaller limit would start a file per record); every file deleted
+ * to keep `max_files` is counted, named in the next file's meta ("deleted_file") and
+ * reported to the event hook (ub_log_set_event_fn()), so no deletion is silent.
  *
  * Usage (a log the writer opens and rotates itself):
  *
@@ -60,14 +71,25 @@
 extern "C" {
 #endif
 
-#define UB_LOG_MAGIC "UBLOG2\r\n"
+#define UB_LOG_MAGIC "UBLOG3\r\n"
+/** Version 2 files (one header copy, no head_crc); still read. */
+#define UB_LOG_MAGIC_V2 "UBLOG2\r\n"
 /** Files written by the first writer (no per-record header check, no sequence numbers); still read. */
 #define UB_LOG_MAGIC_V1 "UBLOG1\r\n"
 #define UB_LOG_MAGIC_LEN 8u
 /** The format version this writer produces (the digit of the magic, and meta's "format"). */
-#define UB_LOG_FORMAT 2u
-/** Fixed part of the file header: magic, meta_len, catalogue_len, crc. */
-#define UB_LOG_FILE_HEADER_LEN 20u
+#define UB_LOG_FORMAT 3u
+/** Fixed part of one header copy: magic, meta_len, catalogue_len, crc, head_crc. */
+#define UB_LOG_FILE_HEADER_LEN 24u
+/** Bytes of the fixed part covered by its head_crc (everything before it). */
+#define UB_LOG_FILE_HEAD_SPAN 20u
+/** Copies of the header at the start of a file (the primary and the spare). */
+#define UB_LOG_HEADER_COPIES 2u
+/** Fixed part of a version 1 or 2 file header: magic, meta_len, catalogue_len, crc. */
+#define UB_LOG_V2_FILE_HEADER_LEN 20u
+/** ub_log_header_t.damaged: which copies of the header failed their checks. */
+#define UB_LOG_COPY_PRIMARY 0x01u
+#define UB_LOG_COPY_SPARE 0x02u
 #define UB_LOG_RECORD_MARKER 0xB10Cu
 /** Record header: marker, frame_len, seq, t_ms, link_id, dir, reserved, head_crc, crc. */
 #define UB_LOG_RECORD_HEADER_LEN 28u
@@ -104,7 +126,18 @@ typedef struct ub_log_stats {
     uint64_t files_deleted; /**< old files deleted to keep max_files */
     uint64_t open_errors;  /**< rotations that could not open their file or write its header (retried) */
     uint64_t limit_rotations; /**< writes refused with EFBIG (a file-size limit) that moved on to the next file */
+    uint64_t delete_errors; /**< old files that max_files should have deleted but could not be (errno in last_errno) */
 } ub_log_stats_t;
+
+/** What ub_log_event_fn reports. */
+typedef enum ub_log_event {
+    UB_LOG_EVENT_FILE_STARTED = 1, /**< a rotation started file `index` (`name`) */
+    UB_LOG_EVENT_FILE_DELETED = 2, /**< file `index` (`name`) was deleted to keep max_files */
+    UB_LOG_EVENT_DELETE_FAILED = 3 /**< file `index` should have been deleted and could not be (errno set) */
+} ub_log_event_t;
+
+/** Event hook of a rotating log (e.g. a program prints one line per event). Called from ub_log_write(). */
+typedef void (*ub_log_event_fn)(void *user, ub_log_event_t event, uint32_t index, const char *name);
 
 /** Injectable write(2), for tests: return like write(2), with errno set on failure. */
 typedef ssize_t (*ub_log_write_fn)(void *user, int fd, const void *buf, size_t len);
@@ -120,6 +153,7 @@ typedef struct ub_log {
     uint32_t next_seq;     /**< sequence number of the next record */
     uint32_t file_index;
     uint32_t file_first_seq;
+    int64_t file_deleted;  /**< index of the file the start of the current one deleted; -1: none */
     uint64_t file_bytes;   /**< bytes in the current file */
     uint64_t file_start_t_ms;
     uint64_t reopen_at_ms;
@@ -128,6 +162,8 @@ typedef struct ub_log {
     ub_log_rotation_t rot;
     ub_log_write_fn write_fn;
     void *write_user;
+    ub_log_event_fn event_fn;
+    void *event_user;
     ub_log_stats_t stats;
     char node_name[UB_LOG_NAME_MAX];
     char path[UB_LOG_PATH_MAX];
@@ -154,8 +190,10 @@ UB_CHECK int ub_log_open(ub_log_t *log, int fd, const ub_node_t *node, const cha
  * `path` with ".k" (4 digits at least) before its extension: primary.ublog,
  * primary.0001.ublog, primary.0002.ublog... (ub_log_file_name()). Every file
  * starts with its own header, so each one reads alone; `seq` runs on across files.
- * @return as ub_log_open(); UB_ERR_NOSPACE (path too long); UB_ERR_IO (open or
- *         header write failed, errno set: nothing is left open).
+ * @return as ub_log_open(); UB_ERR_NOSPACE (path too long); UB_ERR_RANGE
+ *         (rot->max_bytes non-zero and below ub_log_rotation_floor(): no file
+ *         is created); UB_ERR_IO (open or header write failed, errno set:
+ *         nothing is left open).
  */
 UB_CHECK int ub_log_open_path(ub_log_t *log, const char *path, const ub_log_rotation_t *rot, const ub_node_t *node,
                               const char *node_name, bool record_tx, uint64_t start_unix_ms, uint64_t start_t_ms);
@@ -165,6 +203,19 @@ UB_CHECK int ub_log_open_path(ub_log_t *log, const char *path, const ub_log_rota
  * @return UB_OK, UB_ERR_INVAL or UB_ERR_NOSPACE (`cap` too small).
  */
 UB_CHECK int ub_log_file_name(const char *path, uint32_t index, char *out, size_t cap);
+
+/**
+ * The smallest `max_bytes` a rotating log of `node` accepts: both copies of the
+ * longest header its files can have (meta with the widest numbers, the
+ * catalogue) plus one record of UB_FRAME_MAX bytes. Below it every record would
+ * start a new file.
+ * @return UB_OK with *out set; UB_ERR_INVAL (NULL, node without catalogue);
+ *         UB_ERR_NOSPACE (meta or name too long, as ub_log_open()).
+ */
+UB_CHECK int ub_log_rotation_floor(const ub_node_t *node, const char *node_name, uint64_t *out);
+
+/** Installs the event hook of a log opened with ub_log_open_path() (NULL removes it). */
+void ub_log_set_event_fn(ub_log_t *log, ub_log_event_fn fn, void *user);
 
 /** Replaces write(2) for this log (tests inject failures); NULL restores write(2). */
 void ub_log_set_write_fn(ub_log_t *log, ub_log_write_fn fn, void *user);
@@ -198,8 +249,10 @@ typedef struct ub_log_header {
     uint32_t meta_len;
     const char *catalogue;
     uint32_t catalogue_len;
-    uint8_t version; /**< 1 or 2 */
-    size_t size;     /**< bytes of the whole file header: the offset of the first record */
+    uint8_t version; /**< 1, 2 or 3 */
+    size_t size;     /**< bytes of the whole file header (both copies): the offset of the first record;
+                          0 when the header is lost and where the records start is unknown */
+    uint8_t damaged; /**< UB_LOG_COPY_PRIMARY / UB_LOG_COPY_SPARE: copies that failed their checks (version 3) */
 } ub_log_header_t;
 
 typedef struct ub_log_record {
@@ -239,12 +292,33 @@ typedef struct ub_log_reader {
 } ub_log_reader_t;
 
 /**
- * Parses the file header at the start of `buf[0, len)`.
- * @return UB_OK; UB_ERR_INVAL (NULL, or not a ublog: unknown magic);
+ * Parses the file header at the start of `buf[0, len)`. Version 3: the first
+ * copy whose checks hold is used (the primary, else the spare; a copy whose own
+ * fixed part is damaged is read with the other's lengths and CRC), and
+ * `hdr->damaged` says which failed. A primary whose magic or fixed part is
+ * damaged is found again through its spare.
+ * @return UB_OK; UB_ERR_INVAL (NULL, or not a ublog: unknown magic and no spare copy);
  *         UB_ERR_TRUNCATED (`len` shorter than the header says: read more);
- *         UB_ERR_CHECKSUM (header CRC mismatch: the meta or catalogue is damaged).
+ *         UB_ERR_CHECKSUM (no copy of meta and catalogue is whole: `hdr` is still
+ *         filled with the version, `damaged` and `size`, the offset of the first
+ *         record or 0 when unknown, and no meta or catalogue; the records can be
+ *         read from there with ub_log_reader_begin() / ub_log_reader_data(), which
+ *         search past whatever is left of the header).
  */
 UB_CHECK int ub_log_header_parse(const uint8_t *buf, size_t len, ub_log_header_t *hdr);
+
+/**
+ * Rebuilds, in place, the header of a version 3 file for which
+ * ub_log_header_parse() found no whole copy (UB_ERR_CHECKSUM with a non-zero
+ * size): one damaged region over the end of the primary copy and the start of
+ * the spare leaves the primary's start and the spare's end, which together are
+ * a whole copy. The spare's bytes are written over the primary's from where
+ * the two agree, if the result matches the header CRC; ub_log_header_parse()
+ * then succeeds (reporting both copies whole: remember what it said before).
+ * @return UB_OK (repaired); UB_ERR_CHECKSUM (no such combination, or no sound
+ *         fixed part); UB_ERR_TRUNCATED; UB_ERR_INVAL (NULL, not version 3).
+ */
+UB_CHECK int ub_log_header_repair(uint8_t *buf, size_t len);
 
 /**
  * Whole-file reader: parses the header of `buf[0, len)` (ub_log_header_parse())

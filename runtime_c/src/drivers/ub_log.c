@@ -87,13 +87,13 @@ static bool put_text(char *out, size_t cap, size_t *pos, const char *text) {
     return true;
 }
 
-/* meta: {"format":2,"node":"..","links":{"0":"name",...},"start_unix_ms":N,"start_t_ms":N,"record_tx":b,
- *        "file_index":K,"first_seq":S} */
+/* meta: {"format":3,"node":"..","links":{"0":"name",...},"start_unix_ms":N,"start_t_ms":N,"record_tx":b,
+ *        "file_index":K,"first_seq":S,"max_files":M[,"deleted_file":D]} */
 static int build_meta(const ub_log_t *log, uint64_t start_unix_ms, uint64_t start_t_ms, char *out, size_t cap,
                       size_t *len) {
     size_t pos = 0;
-    char tmp[160];
-    bool ok = put_text(out, cap, &pos, "{\"format\":2,\"node\":") && put_json_string(out, cap, &pos, log->node_name)
+    char tmp[224];
+    bool ok = put_text(out, cap, &pos, "{\"format\":3,\"node\":") && put_json_string(out, cap, &pos, log->node_name)
               && put_text(out, cap, &pos, ",\"links\":{");
     bool first = true;
     for (int id = 0; ok && id < UB_MAX_NODE_LINKS; id++) {
@@ -104,17 +104,24 @@ static int build_meta(const ub_log_t *log, uint64_t start_unix_ms, uint64_t star
         first = false;
     }
     snprintf(tmp, sizeof tmp,
-             "},\"start_unix_ms\":%llu,\"start_t_ms\":%llu,\"record_tx\":%s,\"file_index\":%lu,\"first_seq\":%lu}",
+             "},\"start_unix_ms\":%llu,\"start_t_ms\":%llu,\"record_tx\":%s,\"file_index\":%lu,\"first_seq\":%lu,"
+             "\"max_files\":%lu",
              (unsigned long long)start_unix_ms, (unsigned long long)start_t_ms, log->record_tx ? "true" : "false",
-             (unsigned long)log->file_index, (unsigned long)log->file_first_seq);
+             (unsigned long)log->file_index, (unsigned long)log->file_first_seq, (unsigned long)log->rot.max_files);
     ok = ok && put_text(out, cap, &pos, tmp);
+    if (log->file_deleted >= 0) {
+        snprintf(tmp, sizeof tmp, ",\"deleted_file\":%lld", (long long)log->file_deleted);
+        ok = ok && put_text(out, cap, &pos, tmp);
+    }
+    ok = ok && put_text(out, cap, &pos, "}");
     if (!ok) return UB_ERR_NOSPACE;
     *len = pos;
     return UB_OK;
 }
 
-/* Writes the current file's header (magic, lengths, CRC, meta, catalogue), the file starting at
- * `t_ms`. On failure the file is cut back to empty and need_header stays set. */
+/* Writes the current file's header, the file starting at `t_ms`: the copy (magic, lengths, CRC, head_crc,
+ * meta, catalogue) twice, so that one damaged region leaves a whole copy. On failure the file is cut back
+ * to empty and need_header stays set. */
 static int write_header(ub_log_t *log, uint64_t t_ms) {
     uint8_t head[UB_LOG_FILE_HEADER_LEN + UB_LOG_META_MAX];
     size_t meta_len = 0;
@@ -129,11 +136,19 @@ static int write_header(ub_log_t *log, uint64_t t_ms) {
     uint32_t crc = ub_crc32c(head + UB_LOG_FILE_HEADER_LEN, meta_len);
     crc = ub_crc32c_update(crc, cat, cat_len);
     ub_put_u32le(head + 16, crc);
-    /* Header and meta with one write(); the catalogue (tens of kB) follows. */
+    ub_put_u32le(head + UB_LOG_FILE_HEAD_SPAN, ub_crc32c(head, UB_LOG_FILE_HEAD_SPAN));
+    /* Per copy: fixed part and meta with one write(); the catalogue (tens of kB) follows. */
     size_t first = UB_LOG_FILE_HEADER_LEN + meta_len;
-    size_t done = write_all(log, head, first);
-    if (done == first && cat_len > 0) done += write_all(log, cat, cat_len);
-    if (done != first + cat_len) {
+    size_t done = 0, want = 0;
+    for (unsigned copy = 0; copy < UB_LOG_HEADER_COPIES && done == want; copy++) {
+        want += first;
+        done += write_all(log, head, first);
+        if (done == want && cat_len > 0) {
+            want += cat_len;
+            done += write_all(log, cat, cat_len);
+        }
+    }
+    if (done != UB_LOG_HEADER_COPIES * (first + cat_len)) {
         cut_back(log, done);
         return UB_ERR_IO;
     }
@@ -175,6 +190,27 @@ static int prepare(ub_log_t *log, const ub_node_t *node, const char *node_name, 
     log->start_unix_ms = start_unix_ms;
     log->start_t_ms = start_t_ms;
     log->need_header = 1;
+    log->file_deleted = -1;
+    return UB_OK;
+}
+
+int ub_log_rotation_floor(const ub_node_t *node, const char *node_name, uint64_t *out) {
+    if (out == NULL) return UB_ERR_INVAL;
+    /* The widest meta any file of the set can have: every number at its longest, a deletion named. */
+    ub_log_t probe; /* only its meta fields are used */
+    int rc = prepare(&probe, node, node_name, true, UINT64_MAX, UINT64_MAX);
+    if (rc != UB_OK) return rc;
+    probe.file_index = UINT32_MAX;
+    probe.file_first_seq = UINT32_MAX;
+    probe.rot.max_files = UINT32_MAX;
+    probe.file_deleted = UINT32_MAX;
+    char meta[UB_LOG_META_MAX];
+    size_t meta_len = 0;
+    rc = build_meta(&probe, UINT64_MAX, UINT64_MAX, meta, sizeof meta, &meta_len);
+    size_t cat_len = node->cat->json != NULL ? node->cat->json_len : 0;
+    if (rc != UB_OK) return rc;
+    *out = (uint64_t)UB_LOG_HEADER_COPIES * (UB_LOG_FILE_HEADER_LEN + meta_len + cat_len) + UB_LOG_RECORD_HEADER_LEN
+           + UB_FRAME_MAX;
     return UB_OK;
 }
 
@@ -194,13 +230,27 @@ int ub_log_open(ub_log_t *log, int fd, const ub_node_t *node, const char *node_n
     return UB_OK;
 }
 
-/* Deletes the file that falls out of the max_files window when file `log->file_index` starts. */
+static void event(ub_log_t *log, ub_log_event_t ev, uint32_t index, const char *name) {
+    if (log->event_fn != NULL) log->event_fn(log->event_user, ev, index, name);
+}
+
+/* Deletes the file that falls out of the max_files window when file `log->file_index` starts; the new
+ * file's meta names it ("deleted_file") and the event hook hears of it: a deletion is never silent. */
 static void delete_oldest(ub_log_t *log) {
     if (log->rot.max_files == 0 || log->file_index < log->rot.max_files) return;
+    uint32_t index = log->file_index - log->rot.max_files;
     char name[UB_LOG_PATH_MAX];
-    if (ub_log_file_name(log->path, log->file_index - log->rot.max_files, name, sizeof name) != UB_OK) return;
+    if (ub_log_file_name(log->path, index, name, sizeof name) != UB_OK) return;
     int saved = errno;
-    if (unlink(name) == 0) log->stats.files_deleted++;
+    if (unlink(name) == 0) {
+        log->stats.files_deleted++;
+        log->file_deleted = index;
+        event(log, UB_LOG_EVENT_FILE_DELETED, index, name);
+    } else if (errno != ENOENT) {
+        log->stats.delete_errors++;
+        log->stats.last_errno = errno;
+        event(log, UB_LOG_EVENT_DELETE_FAILED, index, name);
+    }
     errno = saved;
 }
 
@@ -221,6 +271,7 @@ static int start_file(ub_log_t *log, uint64_t t_ms) {
         log->file_bytes = 0;
         log->file_first_seq = log->next_seq;
         log->need_header = 1;
+        if (log->file_index > 0) event(log, UB_LOG_EVENT_FILE_STARTED, log->file_index, name);
     }
     if (write_header(log, t_ms) != UB_OK) {
         log->stats.open_errors++;
@@ -241,6 +292,12 @@ int ub_log_open_path(ub_log_t *log, const char *path, const ub_log_rotation_t *r
         return UB_ERR_NOSPACE;
     memcpy(log->path, path, strlen(path) + 1);
     if (rot != NULL) log->rot = *rot;
+    if (log->rot.max_bytes != 0) {
+        uint64_t min_bytes = 0;
+        rc = ub_log_rotation_floor(node, node_name, &min_bytes);
+        if (rc != UB_OK) return rc;
+        if (log->rot.max_bytes < min_bytes) return UB_ERR_RANGE; /* a file per record otherwise */
+    }
     log->owns_fd = 1;
     rc = start_file(log, start_t_ms);
     if (rc != UB_OK) {
@@ -254,6 +311,12 @@ int ub_log_open_path(ub_log_t *log, const char *path, const ub_log_rotation_t *r
     return UB_OK;
 }
 
+void ub_log_set_event_fn(ub_log_t *log, ub_log_event_fn fn, void *user) {
+    if (log == NULL) return;
+    log->event_fn = fn;
+    log->event_user = user;
+}
+
 void ub_log_set_write_fn(ub_log_t *log, ub_log_write_fn fn, void *user) {
     if (log == NULL) return;
     log->write_fn = fn;
@@ -265,6 +328,7 @@ static int rotate(ub_log_t *log, uint64_t t_ms) {
     if (log->fd >= 0) close(log->fd);
     log->fd = -1;
     log->file_index++;
+    log->file_deleted = -1;
     return start_file(log, t_ms);
 }
 
@@ -367,29 +431,153 @@ void ub_log_close(ub_log_t *log) {
 
 /* ---- reading ----------------------------------------------------------------------------------------- */
 
-int ub_log_header_parse(const uint8_t *buf, size_t len, ub_log_header_t *hdr) {
-    if (buf == NULL && len > 0) return UB_ERR_INVAL;
-    size_t prefix = len < UB_LOG_MAGIC_LEN ? len : UB_LOG_MAGIC_LEN;
-    uint8_t version;
-    if (memcmp(buf, UB_LOG_MAGIC, prefix) == 0) version = 2;
-    else if (memcmp(buf, UB_LOG_MAGIC_V1, prefix) == 0) version = 1;
-    else return UB_ERR_INVAL;
-    if (len < UB_LOG_FILE_HEADER_LEN) return UB_ERR_TRUNCATED;
+/* Version 1 and 2: one copy, no check of its own on the fixed part. */
+static int parse_v2(const uint8_t *buf, size_t len, uint8_t version, ub_log_header_t *hdr) {
+    if (len < UB_LOG_V2_FILE_HEADER_LEN) return UB_ERR_TRUNCATED;
     uint64_t meta_len = ub_get_u32le(buf + 8);
     uint64_t cat_len = ub_get_u32le(buf + 12);
-    if (UB_LOG_FILE_HEADER_LEN + meta_len + cat_len > len) return UB_ERR_TRUNCATED;
-    const uint8_t *meta = buf + UB_LOG_FILE_HEADER_LEN;
+    if (UB_LOG_V2_FILE_HEADER_LEN + meta_len + cat_len > len) return UB_ERR_TRUNCATED;
+    const uint8_t *meta = buf + UB_LOG_V2_FILE_HEADER_LEN;
     uint32_t crc = ub_crc32c_update(ub_crc32c(meta, (size_t)meta_len), meta + meta_len, (size_t)cat_len);
-    if (crc != ub_get_u32le(buf + 16)) return UB_ERR_CHECKSUM;
-    if (hdr != NULL) {
-        hdr->meta = (const char *)meta;
-        hdr->meta_len = (uint32_t)meta_len;
-        hdr->catalogue = (const char *)(meta + meta_len);
-        hdr->catalogue_len = (uint32_t)cat_len;
-        hdr->version = version;
-        hdr->size = UB_LOG_FILE_HEADER_LEN + (size_t)meta_len + (size_t)cat_len;
+    hdr->version = version;
+    if (crc != ub_get_u32le(buf + 16)) {
+        hdr->damaged = UB_LOG_COPY_PRIMARY;
+        return UB_ERR_CHECKSUM; /* the lengths are not to be trusted: where records start is unknown */
     }
+    hdr->meta = (const char *)meta;
+    hdr->meta_len = (uint32_t)meta_len;
+    hdr->catalogue = (const char *)(meta + meta_len);
+    hdr->catalogue_len = (uint32_t)cat_len;
+    hdr->size = UB_LOG_V2_FILE_HEADER_LEN + (size_t)meta_len + (size_t)cat_len;
     return UB_OK;
+}
+
+/* Whether the fixed part of a version 3 copy at `p` (UB_LOG_FILE_HEADER_LEN bytes there) holds. */
+static bool v3_fixed_ok(const uint8_t *p) {
+    return memcmp(p, UB_LOG_MAGIC, UB_LOG_MAGIC_LEN) == 0
+           && ub_crc32c(p, UB_LOG_FILE_HEAD_SPAN) == ub_get_u32le(p + UB_LOG_FILE_HEAD_SPAN);
+}
+
+/* The spare copy of a file whose primary's fixed part is damaged: the first position after the primary's
+ * fixed part where a sound fixed part says the copy before it is exactly as long (the copies are equal).
+ * @return its offset, or 0 when none is in buf. */
+static size_t find_spare(const uint8_t *buf, size_t len) {
+    size_t from = UB_LOG_FILE_HEADER_LEN;
+    while (from + UB_LOG_FILE_HEADER_LEN <= len) {
+        const uint8_t *hit = memchr(buf + from, UB_LOG_MAGIC[0], len - from - UB_LOG_FILE_HEADER_LEN + 1);
+        if (hit == NULL) return 0;
+        size_t at = (size_t)(hit - buf);
+        if (v3_fixed_ok(hit)) {
+            uint64_t copy = UB_LOG_FILE_HEADER_LEN + (uint64_t)ub_get_u32le(hit + 8) + ub_get_u32le(hit + 12);
+            if (copy == at) return at;
+        }
+        from = at + 1;
+    }
+    return 0;
+}
+
+/* Where the two copies of a version 3 header are: `*fixed` is a sound fixed part (the primary's, else the
+ * spare's), `*spare` the spare's offset. @return UB_OK, UB_ERR_TRUNCATED or UB_ERR_CHECKSUM (no sound fixed
+ * part: *spare 0). Sets UB_LOG_COPY_* in *damaged for a fixed part that does not hold. */
+static int locate_v3(const uint8_t *buf, size_t len, const uint8_t **fixed, size_t *spare, uint8_t *damaged) {
+    *spare = 0;
+    if (len < UB_LOG_FILE_HEADER_LEN) return UB_ERR_TRUNCATED;
+    if (v3_fixed_ok(buf)) {
+        *fixed = buf;
+        *spare = UB_LOG_FILE_HEADER_LEN + (size_t)ub_get_u32le(buf + 8) + (size_t)ub_get_u32le(buf + 12);
+        if ((uint64_t)*spare * UB_LOG_HEADER_COPIES > len) return UB_ERR_TRUNCATED;
+        if (memcmp(buf + *spare, buf, UB_LOG_FILE_HEADER_LEN) != 0) *damaged |= UB_LOG_COPY_SPARE;
+        return UB_OK;
+    }
+    *damaged |= UB_LOG_COPY_PRIMARY;
+    *spare = find_spare(buf, len);
+    if (*spare == 0) return UB_ERR_CHECKSUM;
+    *fixed = buf + *spare;
+    return *spare * UB_LOG_HEADER_COPIES > len ? UB_ERR_TRUNCATED : UB_OK;
+}
+
+/* Version 3: two equal copies; each copy's meta and catalogue are checked against the CRC of the sound fixed
+ * part, the primary's first. */
+static int parse_v3(const uint8_t *buf, size_t len, ub_log_header_t *hdr) {
+    hdr->version = 3;
+    const uint8_t *fixed = NULL;
+    size_t spare = 0;
+    int rc = locate_v3(buf, len, &fixed, &spare, &hdr->damaged);
+    if (rc != UB_OK) return rc; /* CHECKSUM: size 0, records are searched for from the start */
+    hdr->size = spare * UB_LOG_HEADER_COPIES;
+    size_t meta_len = ub_get_u32le(fixed + 8), cat_len = ub_get_u32le(fixed + 12);
+    uint32_t want = ub_get_u32le(fixed + 16);
+    const uint8_t *found = NULL;
+    for (unsigned copy = 0; copy < UB_LOG_HEADER_COPIES; copy++) {
+        const uint8_t *meta = buf + copy * spare + UB_LOG_FILE_HEADER_LEN;
+        if (ub_crc32c_update(ub_crc32c(meta, meta_len), meta + meta_len, cat_len) == want) {
+            if (found == NULL) found = meta;
+        } else {
+            hdr->damaged |= copy == 0 ? UB_LOG_COPY_PRIMARY : UB_LOG_COPY_SPARE;
+        }
+    }
+    if (found == NULL) return UB_ERR_CHECKSUM;
+    hdr->meta = (const char *)found;
+    hdr->meta_len = (uint32_t)meta_len;
+    hdr->catalogue = (const char *)(found + meta_len);
+    hdr->catalogue_len = (uint32_t)cat_len;
+    return UB_OK;
+}
+
+int ub_log_header_repair(uint8_t *buf, size_t len) {
+    if (buf == NULL) return UB_ERR_INVAL;
+    if (len < UB_LOG_MAGIC_LEN || (memcmp(buf, UB_LOG_MAGIC, UB_LOG_MAGIC_LEN) != 0 && find_spare(buf, len) == 0))
+        return UB_ERR_INVAL; /* versions 1 and 2 have one copy: nothing to repair from */
+    const uint8_t *fixed = NULL;
+    size_t spare = 0;
+    uint8_t damaged = 0;
+    int rc = locate_v3(buf, len, &fixed, &spare, &damaged);
+    if (rc != UB_OK) return rc;
+    size_t n = (size_t)ub_get_u32le(fixed + 8) + ub_get_u32le(fixed + 12);
+    uint32_t want = ub_get_u32le(fixed + 16);
+    uint8_t *a = buf + UB_LOG_FILE_HEADER_LEN;
+    const uint8_t *b = buf + spare + UB_LOG_FILE_HEADER_LEN;
+    /* One region over the end of the primary and the start of the spare damages the primary's bytes from
+     * some x on and the spare's up to some y < x: between the two the copies agree. The longest stretch where
+     * they agree is taken as that middle; the primary up to its start and the spare from there on must then
+     * match the CRC. (A region inside one copy leaves the other whole: parse needs no repair then.) */
+    size_t best = 0, best_len = 0, run = 0;
+    for (size_t i = 0; i <= n; i++) {
+        if (i < n && a[i] == b[i]) {
+            run++;
+            continue;
+        }
+        if (run > best_len) {
+            best_len = run;
+            best = i - run;
+        }
+        run = 0;
+    }
+    if (ub_crc32c_update(ub_crc32c(a, best), b + best, n - best) != want) return UB_ERR_CHECKSUM;
+    memcpy(a + best, b + best, n - best);
+    if (fixed != buf) memcpy(buf, fixed, UB_LOG_FILE_HEADER_LEN);
+    return UB_OK;
+}
+
+int ub_log_header_parse(const uint8_t *buf, size_t len, ub_log_header_t *hdr) {
+    if (buf == NULL && len > 0) return UB_ERR_INVAL;
+    ub_log_header_t h;
+    memset(&h, 0, sizeof h);
+    size_t prefix = len < UB_LOG_MAGIC_LEN ? len : UB_LOG_MAGIC_LEN;
+    int rc;
+    if (memcmp(buf, UB_LOG_MAGIC, prefix) == 0) {
+        rc = parse_v3(buf, len, &h);
+    } else if (memcmp(buf, UB_LOG_MAGIC_V2, prefix) == 0) {
+        rc = parse_v2(buf, len, 2, &h);
+    } else if (memcmp(buf, UB_LOG_MAGIC_V1, prefix) == 0) {
+        rc = parse_v2(buf, len, 1, &h);
+    } else if (len >= UB_LOG_FILE_HEADER_LEN && find_spare(buf, len) != 0) {
+        rc = parse_v3(buf, len, &h); /* the primary's magic is damaged; its spare says this is a log */
+    } else {
+        return UB_ERR_INVAL;
+    }
+    if (hdr != NULL && (rc == UB_OK || rc == UB_ERR_CHECKSUM)) *hdr = h;
+    return rc;
 }
 
 void ub_log_reader_begin(ub_log_reader_t *rd, uint8_t version) {
@@ -409,10 +597,11 @@ void ub_log_reader_data(ub_log_reader_t *rd, const uint8_t *buf, size_t len, boo
 int ub_log_reader_init(ub_log_reader_t *rd, const uint8_t *buf, size_t len, ub_log_header_t *hdr) {
     if (rd == NULL) return UB_ERR_INVAL;
     ub_log_header_t h;
+    memset(&h, 0, sizeof h);
     memset(rd, 0, sizeof *rd);
     int rc = ub_log_header_parse(buf, len, &h);
+    if (hdr != NULL && (rc == UB_OK || rc == UB_ERR_CHECKSUM)) *hdr = h; /* where records start, if known */
     if (rc != UB_OK) return rc;
-    if (hdr != NULL) *hdr = h;
     ub_log_reader_begin(rd, h.version);
     ub_log_reader_data(rd, buf, len, true);
     rd->pos = h.size;

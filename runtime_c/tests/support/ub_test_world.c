@@ -90,21 +90,19 @@ static int unpack_new(void *obj, const uint8_t *buf, size_t len) {
     return 8;
 }
 
-static const ub_type_desc_t gps_type = {"struct test_gps", 0x6A1F0C21u, 24, sizeof(struct test_gps), pack_gps,
-                                        unpack_gps};
-static const ub_type_desc_t gps_v2_type = {"struct test_gps", 0x3B77D0E5u, 28, sizeof(struct test_gps_v2),
-                                           pack_gps_v2, unpack_gps_v2};
-static const ub_type_desc_t imu_type = {"struct test_imu", 0x1D2C3B4Au, 28, sizeof(struct test_imu), pack_imu,
-                                        unpack_imu};
-static const ub_type_desc_t new_type = {"struct test_new", 0x0BADCAFEu, 8, sizeof(struct test_new), pack_new,
-                                        unpack_new};
+/* Initialisers, not objects: C11 allows a const object's value in no static initialiser (GCC accepts it as an
+ * extension; clang refuses, which the clang build of make test-cross found). */
+#define GPS_TYPE {"struct test_gps", 0x6A1F0C21u, 24, sizeof(struct test_gps), pack_gps, unpack_gps}
+#define GPS_V2_TYPE {"struct test_gps", 0x3B77D0E5u, 28, sizeof(struct test_gps_v2), pack_gps_v2, unpack_gps_v2}
+#define IMU_TYPE {"struct test_imu", 0x1D2C3B4Au, 28, sizeof(struct test_imu), pack_imu, unpack_imu}
+#define NEW_TYPE {"struct test_new", 0x0BADCAFEu, 8, sizeof(struct test_new), pack_new, unpack_new}
 
 /* IDs under the paper's rule (first 8 + last 8 characters, 0x00-padded halves). */
 #define ID_GPS "gpsOut\0\0gpsOut\0\0"
 #define ID_IMU "imuOut\0\0imuOut\0\0"
 #define ID_NEW "newMsg\0\0newMsg\0\0"
 
-static const ub_type_desc_t base_types[] = {gps_type, imu_type};
+static const ub_type_desc_t base_types[] = {GPS_TYPE, IMU_TYPE};
 static const ub_instance_desc_t base_instances[] = {
     {ID_GPS, "gpsOut", &base_types[0]},
     {ID_IMU, "imuOut", &base_types[1]},
@@ -112,7 +110,7 @@ static const ub_instance_desc_t base_instances[] = {
 const ub_catalogue_t ub_test_cat = {"test", UB_ID_SCHEME_PAPER, UB_CATALOGUE_ABI_VERSION, base_types, 2,
                                     base_instances, 2, 28, NULL, 0};
 
-static const ub_type_desc_t newer_types[] = {gps_type, imu_type, new_type};
+static const ub_type_desc_t newer_types[] = {GPS_TYPE, IMU_TYPE, NEW_TYPE};
 static const ub_instance_desc_t newer_instances[] = {
     {ID_GPS, "gpsOut", &newer_types[0]},
     {ID_IMU, "imuOut", &newer_types[1]},
@@ -121,7 +119,7 @@ static const ub_instance_desc_t newer_instances[] = {
 const ub_catalogue_t ub_test_cat_newer = {"test_newer", UB_ID_SCHEME_PAPER, UB_CATALOGUE_ABI_VERSION, newer_types, 3,
                                           newer_instances, 3, 28, NULL, 0};
 
-static const ub_type_desc_t changed_types[] = {gps_v2_type, imu_type};
+static const ub_type_desc_t changed_types[] = {GPS_V2_TYPE, IMU_TYPE};
 static const ub_instance_desc_t changed_instances[] = {
     {ID_GPS, "gpsOut", &changed_types[0]},
     {ID_IMU, "imuOut", &changed_types[1]},

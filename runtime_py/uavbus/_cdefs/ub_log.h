@@ -6,6 +6,9 @@
 #define UB_LOG_FILE_HEADER_LEN ...
 #define UB_LOG_RECORD_HEADER_LEN ...
 #define UB_LOG_V1_RECORD_HEADER_LEN ...
+#define UB_LOG_HEADER_COPIES ...
+#define UB_LOG_COPY_PRIMARY ...
+#define UB_LOG_COPY_SPARE ...
 
 typedef struct ub_log_rotation {
     uint64_t max_bytes;
@@ -26,6 +29,7 @@ typedef struct ub_log_stats {
     uint64_t files_deleted;
     uint64_t open_errors;
     uint64_t limit_rotations;
+    uint64_t delete_errors;
     ...;
 } ub_log_stats_t;
 
@@ -36,6 +40,7 @@ int ub_log_open(ub_log_t *log, int fd, const ub_node_t *node, const char *node_n
 int ub_log_open_path(ub_log_t *log, const char *path, const ub_log_rotation_t *rot, const ub_node_t *node,
                      const char *node_name, bool record_tx, uint64_t start_unix_ms, uint64_t start_t_ms);
 int ub_log_file_name(const char *path, uint32_t index, char *out, size_t cap);
+int ub_log_rotation_floor(const ub_node_t *node, const char *node_name, uint64_t *out);
 int ub_log_write(ub_log_t *log, int link_id, ub_tap_dir_t dir, const uint8_t *frame, size_t len, uint64_t t_ms);
 void ub_log_tap(void *user, int link_id, ub_tap_dir_t dir, const uint8_t *frame, size_t len, uint64_t now_ms);
 const ub_log_stats_t *ub_log_stats(const ub_log_t *log);
@@ -49,6 +54,7 @@ typedef struct ub_log_header {
     uint32_t catalogue_len;
     uint8_t version;
     size_t size;
+    uint8_t damaged;
     ...;
 } ub_log_header_t;
 
@@ -78,6 +84,7 @@ typedef struct ub_log_reader_stats {
 typedef struct ub_log_reader { ...; } ub_log_reader_t;
 
 int ub_log_header_parse(const uint8_t *buf, size_t len, ub_log_header_t *hdr);
+int ub_log_header_repair(uint8_t *buf, size_t len);
 void ub_log_reader_begin(ub_log_reader_t *rd, uint8_t version);
 void ub_log_reader_data(ub_log_reader_t *rd, const uint8_t *buf, size_t len, bool final);
 int ub_log_reader_next(ub_log_reader_t *rd, ub_log_record_t *rec);

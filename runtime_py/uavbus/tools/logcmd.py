@@ -1,10 +1,13 @@
 """`uavbus log info|export|play FILE`: read, export and replay binary logs (docs/log-format.md).
 
-    uavbus log info FILE
+    uavbus log info FILE [--catalogue CAT.json]
     uavbus log export FILE (--csv | --jsonl) [--only NAME[,NAME...]]... [--admin] [--numeric] [-o OUT]
     uavbus log export FILE --mcap OUT [--only NAME[,NAME...]]...
     uavbus log play FILE --into SPEC [--only NAME[,NAME...]]... [--speed X | --fast] [--dir rx|tx|all]
     uavbus log play FILE --to ENTITY --into PORTSPEC [--as NAME | --map SRC=NAME...] [--key FILE] [--only ...]
+
+Every subcommand takes `--catalogue CAT.json`: the catalogue to decode with instead of the one embedded in the
+log, for a log whose header (both copies) is damaged or that has none.
 """
 
 from __future__ import annotations
@@ -44,10 +47,21 @@ class _Copies:
         return st.add(rec.t_ms, rec.header.seq, None)
 
 
-def _open(path: str) -> tuple[LogReader, Contents]:
-    log = LogReader(path)
+def open_log(path: str, catalogue: str | None) -> LogReader:
+    """The log at `path`, decoded with the catalogue file `catalogue` when given (`--catalogue`)."""
+    if catalogue is None:
+        return LogReader(path)
+    try:
+        text = open(catalogue, encoding="utf-8").read()  # noqa: SIM115 (read at once)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SystemExit(f"{catalogue}: cannot read the catalogue given with --catalogue: {exc}") from None
+    return LogReader(path, catalogue_json=text, catalogue_origin=f"--catalogue {catalogue}")
+
+
+def _open(path: str, catalogue: str | None = None) -> tuple[LogReader, Contents]:
+    log = open_log(path, catalogue)
     log.records()
-    return log, Contents(load_catalogue(log.header.catalogue_json, f"{path}: embedded catalogue"))
+    return log, Contents(load_catalogue(log.header.catalogue_json, f"{path}: {log.header.catalogue_origin}"))
 
 
 def _check_only(contents: Contents, only: list[str] | None, path: str) -> set[str] | None:
@@ -73,14 +87,20 @@ def _truncation_note(log: LogReader) -> str:
 
 
 def cmd_info(args: argparse.Namespace, out: IO[str]) -> int:
-    log, contents = _open(args.file)
+    log, contents = _open(args.file, args.catalogue)
     h, cat, recs = log.header, contents.catalogue, log.records()
-    print(f"log:        {log.path}", file=out)
-    print(f"node:       {h.node}", file=out)
-    print(f"started:    {human_time(h.start_unix_ms or None)} (unix ms {h.start_unix_ms}, node clock "
-          f"{h.start_t_ms} ms); {'received and sent' if h.record_tx else 'received'} frames recorded", file=out)
+    print(f"log:        {log.path} (format {h.version})", file=out)
+    if h.header_note():
+        print(f"header:     {h.header_note()}", file=out)
+    if not h.lost:
+        print(f"node:       {h.node}", file=out)
+        print(f"started:    {human_time(h.start_unix_ms or None)} (unix ms {h.start_unix_ms}, node clock "
+              f"{h.start_t_ms} ms); {'received and sent' if h.record_tx else 'received'} frames recorded", file=out)
     print(f"catalogue:  {cat.name} (id scheme {cat.id_scheme}, {len(cat.types)} types, "
-          f"{len(cat.instances)} instances)", file=out)
+          f"{len(cat.instances)} instances; {h.catalogue_origin})", file=out)
+    if h.max_files:
+        deleted = f"; starting it deleted file {h.deleted_file}" if h.deleted_file is not None else ""
+        print(f"rotation:   file {h.file_index} of a set that keeps {h.max_files} files{deleted}", file=out)
     print("links:      " + (", ".join(f"{k}={v}" for k, v in sorted(h.links.items())) or "none"), file=out)
     print(f"records:    {len(recs)} ({log.stats.record_bytes} bytes)", file=out)
     if recs:
@@ -143,7 +163,7 @@ def _meta(log: LogReader, rec: LogRecord, name: str, dup: bool) -> dict[str, Any
 
 
 def cmd_export(args: argparse.Namespace, out: IO[str]) -> int:
-    log, contents = _open(args.file)
+    log, contents = _open(args.file, args.catalogue)
     only = _check_only(contents, args.only, args.file)
     rows = list(_export_rows(log, contents, only, args.admin, args.numeric))
     if args.jsonl:
@@ -180,7 +200,7 @@ def _cell(v: Any) -> Any:
 
 def cmd_play(args: argparse.Namespace, out: IO[str], sleep: Callable[[float], None] = time.sleep,
              clock: Callable[[], float] = time.monotonic) -> int:
-    log, contents = _open(args.file)
+    log, contents = _open(args.file, getattr(args, "catalogue", None))
     only = _check_only(contents, args.only, args.file)
     dirs = {"rx": ("rx",), "tx": ("tx",), "all": ("rx", "tx")}[args.dir]
     chosen = [r for r in log.records()
@@ -215,13 +235,22 @@ def cmd_play(args: argparse.Namespace, out: IO[str], sleep: Callable[[float], No
     return 0
 
 
+def add_catalogue_arg(p: argparse.ArgumentParser) -> None:
+    """The shared `--catalogue` of every log subcommand."""
+    p.add_argument("--catalogue", metavar="CAT.json",
+                   help="decode with this catalogue (<name>.catalogue.json) instead of the log's embedded one: "
+                        "for a log whose header is damaged (both copies) or that has no catalogue")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = ArgumentParser(prog="uavbus log", description="read, export and replay uavbus binary logs")
     sub = p.add_subparsers(dest="cmd", required=True)
     info = sub.add_parser("info", help="node, catalogue, links, records by link and content, truncated tail")
     info.add_argument("file")
+    add_catalogue_arg(info)
     exp = sub.add_parser("export", help="decoded values as CSV or JSON lines (to stdout or -o)")
     exp.add_argument("file")
+    add_catalogue_arg(exp)
     fmt = exp.add_mutually_exclusive_group(required=True)
     fmt.add_argument("--csv", action="store_true")
     fmt.add_argument("--jsonl", action="store_true")
@@ -234,6 +263,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="enum members as numbers (default: their constants' names, from the catalogue)")
     play = sub.add_parser("play", help="send the recorded frames, as they are, into a node")
     play.add_argument("file")
+    add_catalogue_arg(play)
     play.add_argument("--into", required=True, metavar="SPEC",
                       help="udp:peer=HOST:PORT[,bind=HOST:PORT] | tcp:connect=HOST:PORT | serial:device=PATH[,baud=N]. "
                            "Over UDP the frames come from an ephemeral port (or bind=): the receiving port must "

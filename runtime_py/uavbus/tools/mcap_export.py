@@ -259,11 +259,11 @@ def cmd_export_mcap(args: Any, out: Any) -> int:
     """`uavbus log export FILE --mcap OUT [--only NAME...]` (tools/logcmd.py)."""
     import sys
 
-    from uavbus.logfile import LogReader
+    from uavbus.tools.logcmd import open_log
 
     if args.output:
         raise SystemExit("uavbus log export: --mcap OUT names the output file; -o is for --csv/--jsonl")
-    log = LogReader(args.file)
+    log = open_log(args.file, getattr(args, "catalogue", None))
     catalogue = log.catalogue()
     only = {n for item in args.only for n in item.split(",") if n} if args.only else None
     missing = sorted(n for n in (only or ()) if catalogue.find(n) is None)

@@ -151,6 +151,15 @@ class Source:
 
 def open_source(args: argparse.Namespace, stop: Callable[[], bool]) -> Source:
     if args.log:
+        # --catalogue (or $UAVBUS_CATALOGUE) decodes a log too, in place of its embedded catalogue: the way to
+        # read a log whose header is damaged in both copies.
+        catalogue = getattr(args, "catalogue", None)
+        external = None
+        if catalogue:
+            try:
+                external = open(catalogue, encoding="utf-8").read()  # noqa: SIM115 (read at once)
+            except (OSError, UnicodeDecodeError) as exc:
+                raise SystemExit(f"{catalogue}: cannot read the catalogue given with --catalogue: {exc}") from None
         if args.follow:
             header_box: list[Contents] = []
 
@@ -159,18 +168,19 @@ def open_source(args: argparse.Namespace, stop: Callable[[], bool]) -> Source:
 
                 def on_header(h: Any) -> None:
                     headers.append(h)
-                    header_box.append(Contents(load_catalogue(h.catalogue_json, f"{args.log}: embedded catalogue")))
+                    header_box.append(Contents(load_catalogue(h.catalogue_json, f"{args.log}: {h.catalogue_origin}")))
 
-                for rec in follow(args.log, stop=stop, on_header=on_header):
+                for rec in follow(args.log, stop=stop, on_header=on_header, catalogue_json=external,
+                                  catalogue_origin=f"--catalogue {catalogue}"):
                     yield Seen(t_ms=rec.t_ms, link=rec.link, dir=rec.dir, header=rec.header, frame=rec.frame,
                                unix_ms=log_unix_ms(headers[0], rec.t_ms))
 
             # The catalogue is in the header, which may not exist yet: read lazily through a proxy.
             return Source(contents=_LazyContents(header_box), frames=frames(), live=True)
-        log = LogReader(args.log)
+        log = LogReader(args.log, catalogue_json=external, catalogue_origin=f"--catalogue {catalogue}")
         seen = (Seen(t_ms=r.t_ms, link=r.link, dir=r.dir, header=r.header, frame=r.frame,
                      unix_ms=log_unix_ms(log.header, r.t_ms)) for r in log.records())
-        contents = Contents(load_catalogue(log.header.catalogue_json, f"{args.log}: embedded catalogue"))
+        contents = Contents(load_catalogue(log.header.catalogue_json, f"{args.log}: {log.header.catalogue_origin}"))
         return Source(contents=contents, frames=seen, live=False, log=log)
     session = open_node(args)
 
