@@ -20,8 +20,10 @@
 
 #include "support/ub_test_world.h"
 #include "ub/ub_admin_wire.h"
+#include "ub/ub_member.h"
 #include "ub/ub_node.h"
 #include "ub/ub_node_svc.h"
+#include "ub/ub_route.h"
 #include "ub/ub_service.h"
 #include "ub/ub_wire.h"
 
@@ -320,6 +322,24 @@ static void test_table_capacity_is_the_configured_one(void **state) {
     assert_true(added > 0 && added < UB_MAX_SERVICES); /* the built-in services hold the rest */
     ub_service_t extra = {.name = "extra", .order = UB_SVC_ORDER_USER};
     assert_int_equal(ub_node_add_service(n, &extra), UB_ERR_FULL);
+    /* The engines' own attach functions say so too, and leave the node as it was... */
+    int e = ub_node_add_entity_name(n, "gcs1", true);
+    assert_true(e >= 0);
+    ub_route_t *rt = calloc(1, sizeof *rt);
+    assert_non_null(rt);
+    assert_int_equal(ub_route_attach(rt, n, NULL, 0), UB_ERR_FULL);
+    assert_null(ub_node_service_for(n, UB_SVC_LINK_LOCAL, UB_ADMIN_HELLO));
+    /* ... while a requester takes the row of the serving side it replaces, so it still fits. */
+    ub_member_t *m = calloc(1, sizeof *m);
+    assert_non_null(m);
+    const ub_service_t *server = ub_node_service_for(n, UB_SVC_CODE, UB_ADMIN_MEMBERSHIP);
+    assert_non_null(server);
+    assert_int_equal(ub_member_init(m, n, e, NULL), UB_OK);
+    assert_ptr_equal(ub_node_service_for(n, UB_SVC_CODE, UB_ADMIN_MEMBERSHIP), &m->svc);
+    ub_member_detach(m);
+    assert_ptr_equal(ub_node_service_for(n, UB_SVC_CODE, UB_ADMIN_MEMBERSHIP), server);
+    free(m);
+    free(rt);
     free(w);
 }
 

@@ -232,7 +232,8 @@ size_t ub_inspect_put_request(uint8_t *p, size_t cap, uint32_t request_id, const
 /**
  * Initialises `in` and attaches it to `node` (one per node; replaces any
  * previous one): requests come from local entity `entity`.
- * @return UB_OK, UB_ERR_INVAL (NULL, `entity` not local).
+ * @return UB_OK, UB_ERR_INVAL (NULL, `entity` not local), UB_ERR_FULL (the node's service table,
+ *         UB_MAX_SERVICES, is full: nothing attached, the node goes on serving requests).
  */
 UB_CHECK int ub_inspect_init(ub_inspect_t *in, ub_node_t *node, int entity, const ub_inspect_options_t *opt);
 

@@ -151,7 +151,8 @@ typedef struct ub_member {
 /**
  * Initialises `m` and attaches it to `node` (one per node; replaces any
  * previous one): requests come from local entity `entity`.
- * @return UB_OK, UB_ERR_INVAL (NULL, `entity` not local).
+ * @return UB_OK, UB_ERR_INVAL (NULL, `entity` not local), UB_ERR_FULL (the node's service table,
+ *         UB_MAX_SERVICES, is full: nothing attached, the node goes on serving requests).
  */
 UB_CHECK int ub_member_init(ub_member_t *m, ub_node_t *node, int entity, const ub_member_options_t *opt);
 

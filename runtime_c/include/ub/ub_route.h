@@ -221,7 +221,8 @@ typedef struct ub_route {
  * its hello and full table.
  * @return UB_OK; UB_ERR_INVAL (NULL, or an option out of range: hello_ms not
  *         10..65535, update_ms < hello_ms or > 65535, dead_misses > 16,
- *         parallel unknown).
+ *         parallel unknown); UB_ERR_FULL (the node's service table,
+ *         UB_MAX_SERVICES, is full: nothing attached).
  */
 UB_CHECK int ub_route_attach(ub_route_t *rt, ub_node_t *node, const ub_route_options_t *opt, uint64_t now_ms);
 

@@ -426,7 +426,12 @@ int ub_inspect_init(ub_inspect_t *in, ub_node_t *node, int entity, const ub_insp
     in->svc = ub_priv_inspect_server;
     in->svc.tick = inspect_tick;
     in->svc.user = in;
-    return ub_node_add_service(node, &in->svc);
+    int rc = ub_node_add_service(node, &in->svc);
+    if (rc != UB_OK && prev != NULL && ub_node_add_service(node, prev) != UB_OK) {
+        /* cannot fail: its codes were just freed */
+    }
+    if (rc != UB_OK) in->node = NULL; /* not attached: serving goes on as before */
+    return rc;
 }
 
 void ub_inspect_detach(ub_inspect_t *in) {

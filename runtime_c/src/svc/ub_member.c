@@ -199,7 +199,12 @@ int ub_member_init(ub_member_t *m, ub_node_t *node, int entity, const ub_member_
     m->svc.on_reply = member_on_reply;
     m->svc.tick = member_tick;
     m->svc.user = m;
-    return ub_node_add_service(node, &m->svc);
+    int rc = ub_node_add_service(node, &m->svc);
+    if (rc != UB_OK && prev != NULL && ub_node_add_service(node, prev) != UB_OK) {
+        /* cannot fail: its codes were just freed */
+    }
+    if (rc != UB_OK) m->node = NULL; /* not attached: serving goes on as before */
+    return rc;
 }
 
 void ub_member_detach(ub_member_t *m) {

@@ -731,7 +731,14 @@ int ub_route_attach(ub_route_t *rt, ub_node_t *node, const ub_route_options_t *o
                              .forget_link = route_forget_link,
                              .mask_set = route_mask_set,
                              .user = rt};
-    return ub_node_add_service(node, &rt->svc);
+    int rc = ub_node_add_service(node, &rt->svc);
+    if (rc != UB_OK) {
+        rt->node = NULL; /* not attached (a full service table): the engine attached before keeps routing */
+        if (prev != NULL && ub_node_add_service(node, prev) != UB_OK) {
+            /* cannot fail: its codes were just freed */
+        }
+    }
+    return rc;
 }
 
 void ub_route_detach(ub_route_t *rt) {
