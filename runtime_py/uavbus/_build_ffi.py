@@ -47,7 +47,7 @@ def make_ffibuilder() -> FFI:
         "uavbus._ub",
         includes,
         sources=[_relative_to_root(src) for src in sorted(C_SOURCE_DIR.glob("*/*.c"))],
-        # src/ too: private headers are included by their layer ("core/ub_router_private.h").
+        # src/ too: private headers are included by their layer ("core/ub_node_private.h").
         include_dirs=[_relative_to_root(C_INCLUDE_DIR), _relative_to_root(C_SOURCE_DIR)],
         # Frame security (ub_sec.c) is libsodium's: the same build as CMake's UAVBUS_SECURITY=ON.
         define_macros=[("_POSIX_C_SOURCE", "200809L"), ("UB_SECURITY", "1")],

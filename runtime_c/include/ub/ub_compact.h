@@ -266,7 +266,9 @@ UB_CHECK int ub_compact_decode(const ub_compact_codec_t *c, const uint8_t *pkt, 
 
 /** Restores a 32-bit sequence from its low 16 bits and the last one seen (closest value, serial arithmetic). */
 static inline uint32_t ub_compact_seq_restore(uint32_t last, uint16_t low) {
-    return last + (uint32_t)(int32_t)(int16_t)(uint16_t)(low - (uint16_t)last);
+    /* The 16-bit step from `last`, taken as signed (-32768..32767) in unsigned arithmetic mod 2^32. */
+    uint32_t step = (uint16_t)(low - (uint16_t)last);
+    return last + step - ((step & 0x8000u) ? 0x10000u : 0u);
 }
 
 /** @return the reference of `src` in `refs`, or NULL. */

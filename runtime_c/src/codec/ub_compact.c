@@ -158,7 +158,7 @@ int ub_compact_encode(const ub_compact_codec_t *c, const uint8_t *frame, size_t 
     if (admin == UB_ADMIN_DATA && type != NULL)
         while (wire_ps > 0 && payload[wire_ps - 1] == 0) wire_ps--;
 
-    size_t need = 1 + (ctl1 != 0) + (hop > 15) + (admin != 0) + (seq32 ? 4u : 2u) +
+    size_t need = 1u + (ctl1 != 0 ? 1u : 0u) + (hop > 15 ? 1u : 0u) + (admin != 0 ? 1u : 0u) + (seq32 ? 4u : 2u) +
                   (v < 0 ? UB_DIR_ID_LEN + 4u : v > 0x7F ? 2u : 1u) +
                   (!(ctl1 & (UB_COMPACT_DEST_FULL | UB_COMPACT_SRC_FULL | UB_COMPACT_ENT_WIDE))
                        ? 1u
@@ -167,7 +167,7 @@ int ub_compact_encode(const ub_compact_codec_t *c, const uint8_t *frame, size_t 
     if (cap < need) return UB_ERR_NOSPACE;
     size_t p = 0;
     uint8_t prot = flags == UB_FRAME_FLAG_SIGNED ? 1u : flags == UB_FRAME_FLAG_ENCRYPTED ? 2u : 0u;
-    pkt[p++] = (uint8_t)((hop <= 15 ? hop : 0u) | prot << UB_COMPACT_PROT_SHIFT | (admin != 0 ? UB_COMPACT_ADMIN : 0u) |
+    pkt[p++] = (uint8_t)((hop <= 15 ? hop : 0u) | (unsigned)prot << UB_COMPACT_PROT_SHIFT | (admin != 0 ? UB_COMPACT_ADMIN : 0u) |
                          (ctl1 != 0 ? UB_COMPACT_EXT : 0u));
     if (ctl1 != 0) pkt[p++] = ctl1;
     if (hop > 15) pkt[p++] = hop;

@@ -53,7 +53,7 @@ int ub_link_mask_parse(const char *text, uint8_t *mask) {
 void ub_link_mask_format(uint8_t mask, char out[11]) {
     out[0] = '0';
     out[1] = 'x';
-    for (unsigned link = 0; link < 8; link++) out[9 - link] = (mask >> link) & 1u ? '1' : '0';
+    for (unsigned link = 0; link < 8; link++) out[9 - link] = ((unsigned)mask >> link) & 1u ? '1' : '0';
     out[10] = '\0';
 }
 
