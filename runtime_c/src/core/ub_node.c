@@ -724,7 +724,7 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
         return UB_VERDICT_ACCEPTED;
     }
     const ub_local_entity_t *owner = &node->locals[link->owner];
-    uint8_t mask = dest_row >= 0 ? (uint8_t)(owner->masks[dest_row] & ~(1u << link->index)) : 0;
+    uint8_t mask = (uint8_t)(dest_row >= 0 ? owner->masks[dest_row] & ~(1u << link->index) : 0u);
     if (mask == 0) {
         count_drop(node, link_id, UB_DROP_NO_ROUTE);
         return UB_VERDICT_ACCEPTED;
