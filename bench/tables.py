@@ -72,8 +72,8 @@ def read_loop(path: Path) -> tuple[dict, dict]:
     rtt: dict[tuple, dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
     for line in path.read_text().splitlines():
         kv = dict((k, v.strip('"')) for k, v in re.findall(r'(\w+)=("[^"]*"|\S+)', line))
-        if not kv:
-            continue
+        if not kv or kv.get("status", "ok") != "ok":
+            continue  # a failed sample (loop_bench's status=failed line) is listed from failures.txt, never pooled
         if kv["mode"] == "blast":
             key = (kv["transport"], kv.get("batching", "0"), kv["placement"])
             for f in ("delivered_per_s", "lost_pct", "offered_per_s", "refused_retried"):
@@ -123,6 +123,48 @@ def before_after(raw: Path) -> list[str]:
     return out + [""]
 
 
+def read_failures(raw: Path) -> list[dict[str, str]]:
+    """The samples bench/tools/sample.sh recorded as failed or timed out, one dict per line."""
+    f = raw / "failures.txt"
+    if not f.exists():
+        return []
+    return [dict((k, v.strip('"')) for k, v in re.findall(r'(\w+)=("[^"]*"|\S+)', line))
+            for line in f.read_text().splitlines() if line.strip()]
+
+
+def failures_section(fails: list[dict[str, str]]) -> list[str]:
+    out = ["## Failed or timed-out samples", ""]
+    if not fails:
+        return out + ["None: every sample of this run finished and is in the tables below.", ""]
+    out += [f"{len(fails)} sample(s) of this run failed or passed their deadline; they are not in the tables "
+            "(a figure pools only the samples that finished, and says how many rounds it has). The run went on.", "",
+            "| status | raw file | command | exit | deadline s | reason |", "|---|---|---|---:|---:|---|"]
+    for f in fails:
+        reason = f.get("reason", "").replace("|", "/")
+        out.append(f"| {f.get('status', '?')} | {f.get('out', '?')} | `{f.get('cmd', '?')}` | {f.get('exit', '?')} | "
+                   f"{f.get('deadline_s', '?')} | {reason} |")
+    return out + [""]
+
+
+def misses_section(goals: list, notes: Path) -> list[str]:
+    """"What holds a miss back": the misses with this run's figures (generated), then the hand-kept analysis
+    labelled with the run it analysed: its figures are that run's, never presented as this one's."""
+    out = ["## What holds a miss back", "", "Goals missed in this run, with this run's figures (generated):", ""]
+    missed = [g for g in goals if not g[3]]
+    out += [f"- **{fig}**: goal {goal}; measured {measured}." for fig, goal, measured, _ok, _note in missed] or [
+        "- none"]
+    out.append("")
+    if notes.exists():
+        text = notes.read_text().rstrip().splitlines()
+        m = next((re.match(r"^analysed-run:\s*(.+)$", ln) for ln in text if ln.startswith("analysed-run:")), None)
+        body = [ln for ln in text if not ln.startswith("analysed-run:") and not ln.startswith("# ")]
+        run = m.group(1) if m else "an unnamed earlier run"
+        out += [f"### Analysis kept by hand (bench/results_notes.md), written for {run}", "",
+                f"*The profiles and figures below are from {run}, not from this run; this run's figures are the "
+                "tables above and the list just above.*", ""] + body + [""]
+    return out
+
+
 def machine() -> str:
     cpu = "?"
     for line in Path("/proc/cpuinfo").read_text().splitlines():
@@ -148,6 +190,7 @@ def main() -> None:
     w("(figures drift between runs and machines; ../shared/anchors/peers.md has the method and earlier peer")
     w("figures). Each figure is median [min - max] over repeated, interleaved samples.")
     w("")
+    out.extend(failures_section(read_failures(raw)))
 
     # ---- figure 1 ----
     ns, size, ir = read_codec(raw)
@@ -544,10 +587,7 @@ def main() -> None:
     for fig, goal, measured, ok, note in goals:
         w(f"| {fig} | {goal} | {measured} | {'✓' if ok else '✗'} |")
     w("")
-    notes = Path(__file__).with_name("results_notes.md")
-    if notes.exists():
-        w(notes.read_text().rstrip())
-        w("")
+    out.extend(misses_section(goals, Path(__file__).with_name("results_notes.md")))
 
     # ---- commands and raw internals ----
     w("## Exact commands")
