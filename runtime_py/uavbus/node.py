@@ -771,6 +771,30 @@ class Deliveries:
             out += [read_member(t, field, img, 0) for _, i, _, _, _, _, img, _ in self.extra if i == idx]
         return out
 
+    def rows(self, content: str) -> list[tuple[Any, ...]]:
+        """Every delivery of `content` decoded to a flat tuple of its leaf values (the type's packed order,
+        nested members and arrays flattened; Catalogue.decode() gives dicts), in order: one struct pass over
+        the records."""
+        node = self.node
+        inst = node.catalogue.instance(content)
+        t, idx = inst.type, inst.index
+        key = (idx, "")
+        row = node._columns.get(key)
+        if row is None:
+            fmt = t._struct.format
+            fits = sys.byteorder == "little" and isinstance(fmt, str) and fmt.startswith("<")
+            pad = node._ring.stride - ub_rxring.HEADER - t._struct.size
+            row = struct.Struct(f"<8xI{ub_rxring.HEADER - 12}x{fmt[1:]}{pad}x") if fits and pad >= 0 else False
+            node._columns[key] = row
+        if row and self.n:
+            out = [r[1:] for r in row.iter_unpack(self.records) if r[0] == idx]
+        else:
+            out = [t._struct.unpack_from(img) for _, i, _, _, _, _, img, _ in self._tuples() if i == idx]
+            return out
+        if self.extra:
+            out += [t._struct.unpack_from(img) for _, i, _, _, _, _, img, _ in self.extra if i == idx]
+        return out
+
     def _tuples(self) -> list[tuple[int, int, bytes, bytes, int, int, bytes, int]]:
         recs = [(e, i, s, d, q, t, img[:ln], h)
                 for t, i, q, e, ln, h, s, d, img in self.node._records.iter_unpack(self.records)] if self.n else []

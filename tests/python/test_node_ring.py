@@ -117,3 +117,14 @@ def test_receive_checks_what_a_c_node_would_refuse(cat: Catalogue) -> None:
     batch = rx.receive()
     assert batch.column("flagOut", "n") == [1, 1]
     assert rx.counters()["python"]["refused_payloads"] == 1
+
+
+def test_rows_decode_every_field_in_order(cat: Catalogue) -> None:
+    tx, rx, link = pair(cat, ring_records=16)
+    pub = tx.publisher("tx", "tickOut", "rx")
+    images = [cat.encode("tickOut", {"n": i, "k": -i, "x": i / 4}) for i in range(BURST)]
+    pub.send_many(b"".join(images))
+    link.pump(10)
+    rx.service(dispatch=False)
+    rows = rx.receive().rows("tickOut")
+    assert rows == [(i, -i, i / 4) for i in range(BURST)]  # 16 from the ring, 44 spilled, one stream
