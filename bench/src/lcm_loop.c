@@ -77,6 +77,7 @@ static void fail(const char *fmt, ...) {
 /* Sender side: the deadline, and a receiver that exited without its result. */
 static void check_alive(long at, int result_fd) {
     int status;
+    if (now_ns() > s_deadline) fail("deadline passed at message %ld (LOOP_BENCH_DEADLINE_S)", at);
     if (s_child > 0 && waitpid(s_child, &status, WNOHANG) == s_child) {
         s_child = -1;
         struct pollfd rp = {.fd = result_fd, .events = POLLIN};
@@ -107,6 +108,7 @@ int main(int argc, char **argv) {
     pid_t child = fork();
     if (child < 0) return 2;
     if (child == 0) {
+        s_deadline += 2000000000u; /* 2 s after the sender's: the sender reports first */
         prctl(PR_SET_PDEATHSIG, SIGKILL);
         close(done_pipe[1]);
         pin(split ? 1 : 0);

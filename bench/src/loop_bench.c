@@ -107,6 +107,7 @@ static void die(const char *what, int rc) { fail("%s failed: %s (%d)", what, ub_
 /* Sender side, on every wait: the deadline, and whether the receiver/echo child is still there. */
 static void check_alive(long at) {
     int status = 0;
+    if (now_ns() > smp.deadline_ns) fail("deadline passed at message %ld (LOOP_BENCH_DEADLINE_S)", at);
     if (smp.child > 0 && waitpid(smp.child, &status, WNOHANG) == smp.child) {
         smp.child = -1; /* reaped: nothing left to kill */
         smp.child_status = status;
@@ -116,7 +117,6 @@ static void check_alive(long at) {
         fail("the %s child exited early (%s %d) at message %ld", strcmp(smp.mode, "rtt") == 0 ? "echo" : "receiver",
              WIFEXITED(status) ? "exit" : "signal", WIFEXITED(status) ? WEXITSTATUS(status) : WTERMSIG(status), at);
     }
-    if (now_ns() > smp.deadline_ns) fail("deadline passed at message %ld (LOOP_BENCH_DEADLINE_S)", at);
 }
 #define CHECK(call)                      \
     do {                                 \
@@ -303,6 +303,7 @@ int main(int argc, char **argv) {
     pid_t child = fork();
     if (child < 0) return 2;
     if (child == 0) { /* receiver (blast) or echo (rtt) */
+        smp.deadline_ns += 2000000000u; /* 2 s after the sender's: the sender, which knows more, reports first */
         /* The sender killed by a deadline (bench/run.sh's timeout) takes its receiver with it. */
         prctl(PR_SET_PDEATHSIG, SIGKILL);
         close(result_pipe[0]);

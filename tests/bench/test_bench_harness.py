@@ -136,3 +136,28 @@ def test_what_holds_a_miss_back_quotes_this_runs_figures_and_labels_the_hand_ana
     # The real notes file names the run it analysed.
     real = (ROOT / "bench" / "results_notes.md").read_text()
     assert re.search(r"^analysed-run: .+", real, re.M)
+
+
+def test_tables_renders_what_ran_and_names_what_did_not(tmp_path: Path) -> None:
+    # A run where every figure but the Python one failed: results.md is still written, figure 4 has its
+    # tables and goals from this run's samples, every other figure says in one line why it is missing.
+    raw = tmp_path / "raw"
+    raw.mkdir()
+    rows = []
+    for case, rate in (("uavbus publish", 900), ("pymavlink encode", 100), ("lcm encode", 300),
+                       ("uavbus receive", 500), ("pymavlink decode", 100), ("lcm decode", 600)):
+        for m in tables.MSGS:
+            rows.append("\t".join([case, m, str(rate), str(rate + 10), str(rate - 10)]))
+    (raw / "py.txt").write_text("\n".join(rows) + "\n")
+    (raw / "failures.txt").write_text('status=timeout exit=124 deadline_s=150 out=loop.txt '
+                                      'cmd="loop_bench rtt tcp 10000 split" reason="no result"\n')
+    out = tmp_path / "results.md"
+    subprocess.run([sys.executable, str(ROOT / "bench" / "tables.py"), str(raw), str(out)], check=True, timeout=60)
+    text = out.read_text()
+    assert "| timeout | loop.txt | `loop_bench rtt tcp 10000 split` |" in text
+    assert "**figure 3: not produced from this run's raw outputs** (FileNotFoundError" in text
+    assert "| uavbus publish / pymavlink encode | 9.00x | 9.00x | 9.00x | >= 4x |" in text
+    assert "| uavbus receive / lcm decode | 0.83x | 0.83x | 0.83x | >= 1x |" in text
+    misses = text.split("## What holds a miss back", 1)[1]
+    assert "**Python receive**: goal >= 4x pymavlink decode and >= 1x LCM decode; measured worst 5.00x pymavlink, " \
+           "0.83x LCM." in misses
