@@ -139,7 +139,7 @@ def readline_by(proc: subprocess.Popen, seconds: float, what: str) -> str:
     (issue #28; bench/run.sh reports the sample as failed and goes on)."""
     r, _, _ = select.select([proc.stdout], [], [], seconds)
     if not r:
-        raise SystemExit(f"bridges_bench: {what}: no answer within {seconds:.0f} s")
+        raise SystemExit(f"bridges_bench: {what}: no answer within {seconds:g} s")
     line = proc.stdout.readline()  # unbuffered pipe: select saw these bytes, nothing hides in a buffer
     if not line:
         raise SystemExit(f"bridges_bench: {what}: the child exited (status {proc.wait()}) without an answer")
