@@ -686,17 +686,19 @@ def _entity_at(node: Node, index: int) -> str:
 class Publisher:
     """Node.publisher(): `directory` is the bound storage; send() originates one DATA frame from it."""
 
-    __slots__ = ("node", "directory", "_c", "_entity", "_instance", "_dest", "_local")
+    __slots__ = ("node", "directory", "_c", "_entity", "_instance", "_dest", "_local", "_what", "_now")
 
     def __init__(self, node: Node, directory: Directory, entity: int, instance: int, dest: Any, local: bool) -> None:
         self.node, self.directory, self._c = node, directory, node._c
         self._entity, self._instance, self._dest, self._local = entity, instance, dest, local
+        # Resolved once: send() is the per-frame path (only the clock is read per frame).
+        self._what = directory.instance.name if directory.instance else ""
+        self._now = node.now
 
     def send(self) -> int:
         """Returns the links whose transport accepted the frame (0: delivered locally, or every
         transport refused it: counted per link as tx_error/backpressure/detached)."""
-        n = ub_node.ub_node_send_data_id(self._c, self._entity, self._instance, self._dest, self.node.now(),
-                                         self.directory.instance.name if self.directory.instance else "")
+        n = ub_node.ub_node_send_data_id(self._c, self._entity, self._instance, self._dest, self._now(), self._what)
         if self._local:
             self.node._dispatch()  # a local destination is delivered synchronously
         return n
