@@ -44,7 +44,7 @@ if ! command -v valgrind >/dev/null; then
   $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq valgrind >/dev/null
 fi
 say "installing the bench extra (pymavlink, lcm) into .venv"
-"$VPY" -m pip install -q -e '.[bench]' --no-build-isolation 2>&1 | grep -v -i -E "warning|^ *!!|^ *\*|^ *$|corresp|wheel_obj|Please|By 2027|See https|name as your package" >&2 || true
+timeout -k 5 1800 "$VPY" -m pip install -q -e '.[bench]' --no-build-isolation 2>&1 | grep -v -i -E "warning|^ *!!|^ *\*|^ *$|corresp|wheel_obj|Please|By 2027|See https|name as your package" >&2 || true
 site=$("$VPY" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
 lcm_inc=$site/include
 lcm_lib=$site/lib
@@ -53,7 +53,7 @@ test -f "$lcm_inc/lcm/lcm.h" -a -f "$lcm_lib/liblcm.so" || { echo "bench: the lc
 say "generating the peers' code into $peers"
 rm -rf "$peers/mavlink" "$peers/lcmgen" "$peers/lcmpy"
 mkdir -p "$peers/lcmgen" "$peers/lcmpy"
-"$root/.venv/bin/mavgen.py" --lang=C --wire-protocol=2.0 --output="$peers/mavlink" \
+timeout -k 5 600 "$root/.venv/bin/mavgen.py" --lang=C --wire-protocol=2.0 --output="$peers/mavlink" \
   "$site/pymavlink/dialects/v20/common.xml" >/dev/null
 (cd "$peers" && "$root/.venv/bin/lcm-gen" -c --c-cpath lcmgen --c-hpath lcmgen "$root/bench/catalogue/bench_msgs.lcm" \
   && "$root/.venv/bin/lcm-gen" -p --ppath lcmpy "$root/bench/catalogue/bench_msgs.lcm") >/dev/null
