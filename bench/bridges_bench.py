@@ -134,13 +134,25 @@ def blast(sock: socket.socket, packets: list[bytes], dest: tuple[str, int]) -> f
     return time.perf_counter() - t
 
 
+def readline_by(proc: subprocess.Popen, seconds: float, what: str) -> str:
+    """One line from a child within a deadline: a child that hangs or exits is a clear failure, never a hang
+    (issue #28; bench/run.sh reports the sample as failed and goes on)."""
+    r, _, _ = select.select([proc.stdout], [], [], seconds)
+    if not r:
+        raise SystemExit(f"bridges_bench: {what}: no answer within {seconds:g} s")
+    line = proc.stdout.readline()  # unbuffered pipe: select saw these bytes, nothing hides in a buffer
+    if not line:
+        raise SystemExit(f"bridges_bench: {what}: the child exited (status {proc.wait()}) without an answer")
+    return line.decode()
+
+
 def mav_direct_ingest(packets: list[bytes]) -> dict:
-    sink = subprocess.Popen([sys.executable, "-c", SINK], stdout=subprocess.PIPE, text=True)
+    sink = subprocess.Popen([sys.executable, "-c", SINK], stdout=subprocess.PIPE, bufsize=0)
     try:
-        port = int(sink.stdout.readline())
+        port = int(readline_by(sink, 60, "the MAVLink sink's port"))
         ap = udp()
         secs = blast(ap, packets, (HOST, port))
-        out = json.loads(sink.stdout.readline())
+        out = json.loads(readline_by(sink, 120, "the MAVLink sink's count"))
         ap.close()
     finally:
         sink.kill()

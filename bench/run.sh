@@ -26,11 +26,16 @@ mkdir -p "$raw" "$peers" "$gen" "$bin"
 rm -rf "${raw:?}"/*   # raw/callgrind is a directory: a second run must not stop here
 
 say() { echo "bench: $*" >&2; }
-timed() { # timed NAME command...: records the command for results.md, then runs it
-  local name=$1; shift
+# Every child of the bench runs with a deadline (bench/tools/sample.sh): a sample that fails or times out is
+# written to $raw/failures.txt, reported in results.md ("Failed or timed-out samples"), and the run goes on.
+# Deadlines are generous (several times a quiet run's duration): they exist so a hung child cannot stop the run.
+SAMPLE=$root/bench/tools/sample.sh
+sample() { # sample OUT DEADLINE_S command...: records the command for results.md, then runs it with a deadline
+  local out=$1 dl=$2; shift 2
   echo "$*" >>"$raw/commands.txt"
-  "$@"
+  "$SAMPLE" "$out" "$dl" "$@"
 }
+: >"$raw/failures.txt"
 
 # ---- 0. peers and tools ----
 if ! command -v valgrind >/dev/null; then
@@ -39,7 +44,7 @@ if ! command -v valgrind >/dev/null; then
   $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq valgrind >/dev/null
 fi
 say "installing the bench extra (pymavlink, lcm) into .venv"
-"$VPY" -m pip install -q -e '.[bench]' --no-build-isolation 2>&1 | grep -v -i -E "warning|^ *!!|^ *\*|^ *$|corresp|wheel_obj|Please|By 2027|See https|name as your package" >&2 || true
+timeout -k 5 1800 "$VPY" -m pip install -q -e '.[bench]' --no-build-isolation 2>&1 | grep -v -i -E "warning|^ *!!|^ *\*|^ *$|corresp|wheel_obj|Please|By 2027|See https|name as your package" >&2 || true
 site=$("$VPY" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
 lcm_inc=$site/include
 lcm_lib=$site/lib
@@ -48,7 +53,7 @@ test -f "$lcm_inc/lcm/lcm.h" -a -f "$lcm_lib/liblcm.so" || { echo "bench: the lc
 say "generating the peers' code into $peers"
 rm -rf "$peers/mavlink" "$peers/lcmgen" "$peers/lcmpy"
 mkdir -p "$peers/lcmgen" "$peers/lcmpy"
-"$root/.venv/bin/mavgen.py" --lang=C --wire-protocol=2.0 --output="$peers/mavlink" \
+timeout -k 5 600 "$root/.venv/bin/mavgen.py" --lang=C --wire-protocol=2.0 --output="$peers/mavlink" \
   "$site/pymavlink/dialects/v20/common.xml" >/dev/null
 (cd "$peers" && "$root/.venv/bin/lcm-gen" -c --c-cpath lcmgen --c-hpath lcmgen "$root/bench/catalogue/bench_msgs.lcm" \
   && "$root/.venv/bin/lcm-gen" -p --ppath lcmpy "$root/bench/catalogue/bench_msgs.lcm") >/dev/null
@@ -105,18 +110,18 @@ fi
 # ---- figure 1: C codecs (3 processes x 11 interleaved samples; callgrind once) ----
 say "figure 1: C codecs"
 for p in 1 2 3; do
-  timed codec taskset -c 0 "$bin/codec_bench" >>"$raw/codec.tsv"
-  if [ -n "$base_bin" ]; then taskset -c 0 "$base_bin/codec_bench" >>"$raw/base_codec.tsv"; fi
+  sample "$raw/codec.tsv" 600 taskset -c 0 "$bin/codec_bench"
+  if [ -n "$base_bin" ]; then "$SAMPLE" "$raw/base_codec.tsv" 600 taskset -c 0 "$base_bin/codec_bench"; fi
 done
 (mkdir -p "$raw/callgrind" && cd "$raw/callgrind" &&
-  valgrind --tool=callgrind --callgrind-out-file=cg.%p "$root/$bin/codec_bench" callgrind 2>/dev/null)
+  "$SAMPLE" "$root/$raw/callgrind.log" 1800 valgrind --tool=callgrind --callgrind-out-file=cg.%p "$root/$bin/codec_bench" callgrind 2>/dev/null)
 echo "valgrind --tool=callgrind $bin/codec_bench callgrind" >>"$raw/commands.txt"
 
 # ---- figure 2: router in-process over memlinks ----
 say "figure 2: router, 1 and 3 hops"
 for h in 1 3; do
-  timed router taskset -c 0 "$bin/router_hops" "$h" >>"$raw/router.txt"
-  if [ -n "$base_bin" ]; then taskset -c 0 "$base_bin/router_hops" "$h" >>"$raw/base_router.txt"; fi
+  sample "$raw/router.txt" 600 taskset -c 0 "$bin/router_hops" "$h"
+  if [ -n "$base_bin" ]; then "$SAMPLE" "$raw/base_router.txt" 600 taskset -c 0 "$base_bin/router_hops" "$h"; fi
 done
 
 # ---- figure 3: loopback between 2 processes, in a private network namespace (only lo) ----
@@ -126,30 +131,33 @@ unshare -rn bash -c '
   ip link set lo up
   ip route add 224.0.0.0/4 dev lo
   if ip -o link | grep -v " lo:" | grep -q .; then echo "bench: namespace has more than lo" >&2; exit 2; fi
-  bin=$1; runs=$2; base_bin=$3; raw=$4
+  bin=$1; runs=$2; base_bin=$3; raw=$4; S=$5
+  # Each sample: its own deadline inside loop_bench/lcm_loop (LOOP_BENCH_DEADLINE_S), and timeout around it.
+  export LOOP_BENCH_DEADLINE_S=120
+  L=$raw/loop.txt
   for r in $(seq "$runs"); do
     for pl in split same; do
       if [ -n "$base_bin" ]; then
-        for t in udp tcp; do "$base_bin/loop_bench" blast $t 1000000 $pl >>"$raw/base_loop.txt"; done
-        for t in udp tcp; do "$base_bin/loop_bench" rtt $t 10000 $pl >>"$raw/base_loop.txt"; done
+        for t in udp tcp; do "$S" "$raw/base_loop.txt" 150 "$base_bin/loop_bench" blast $t 1000000 $pl; done
+        for t in udp tcp; do "$S" "$raw/base_loop.txt" 150 "$base_bin/loop_bench" rtt $t 10000 $pl; done
       fi
-      "$bin/loop_bench" blast udp 1000000 $pl
-      "$bin/loop_bench" blast tcp 1000000 $pl
-      "$bin/loop_bench" blast udp 300000 $pl nobatch
-      "$bin/loop_bench" blast raw-udp 300000 $pl
-      "$bin/lcm_loop" blast 200000 $pl
-      "$bin/loop_bench" rtt udp 10000 $pl
-      "$bin/loop_bench" rtt tcp 10000 $pl
-      "$bin/loop_bench" rtt raw-udp 10000 $pl
-      "$bin/lcm_loop" rtt 10000 $pl
+      "$S" "$L" 150 "$bin/loop_bench" blast udp 1000000 $pl
+      "$S" "$L" 150 "$bin/loop_bench" blast tcp 1000000 $pl
+      "$S" "$L" 150 "$bin/loop_bench" blast udp 300000 $pl nobatch
+      "$S" "$L" 150 "$bin/loop_bench" blast raw-udp 300000 $pl
+      "$S" "$L" 150 "$bin/lcm_loop" blast 200000 $pl
+      "$S" "$L" 150 "$bin/loop_bench" rtt udp 10000 $pl
+      "$S" "$L" 150 "$bin/loop_bench" rtt tcp 10000 $pl
+      "$S" "$L" 150 "$bin/loop_bench" rtt raw-udp 10000 $pl
+      "$S" "$L" 150 "$bin/lcm_loop" rtt 10000 $pl
     done
-  done' _ "$bin" "$RUNS" "$base_bin" "$raw" >>"$raw/loop.txt"
+  done' _ "$bin" "$RUNS" "$base_bin" "$raw" "$SAMPLE"
 echo "unshare -rn: loop_bench blast udp|tcp 1000000, udp 300000 nobatch, raw-udp 300000; lcm_loop blast 200000;" \
   "rtt 10000 each; placements split and same; $RUNS interleaved rounds (see bench/run.sh)" >>"$raw/commands.txt"
 
 # ---- figure 4: Python ----
 say "figure 4: Python"
-for p in 1 2 3; do timed py taskset -c 0 .venv/bin/python bench/py_bench.py "$gen/benchcat.catalogue.json" "$peers/lcmpy" >>"$raw/py.txt"; done
+for p in 1 2 3; do sample "$raw/py.txt" 900 taskset -c 0 .venv/bin/python bench/py_bench.py "$gen/benchcat.catalogue.json" "$peers/lcmpy"; done
 
 # ---- figure 5: generator time on synthetic headers ----
 say "figure 5: generator"
@@ -157,9 +165,12 @@ for n in 100 700 3000 10000; do
   "$VPY" bench/tools/gen_synth.py "$n" "$gen/synth$n.h"
   for r in 1 2 3; do
     t0=$(date +%s%N)
-    "$root/.venv/bin/uavbus" gen "$gen/synth$n.h" --name synth -o "$gen/synth$n" >/dev/null
-    t1=$(date +%s%N)
-    echo "gen n=$n ns=$((t1 - t0))" >>"$raw/gen.txt"
+    if timeout -k 5 600 "$root/.venv/bin/uavbus" gen "$gen/synth$n.h" --name synth -o "$gen/synth$n" >/dev/null; then
+      t1=$(date +%s%N)
+      echo "gen n=$n ns=$((t1 - t0))" >>"$raw/gen.txt"
+    else
+      echo "status=failed exit=$? deadline_s=600 out=gen.txt cmd=\"uavbus gen synth$n.h\" reason=\"see the log above\"" >>"$raw/failures.txt"
+    fi
   done
 done
 echo "uavbus gen build-bench/bench-gen/synthN.h --name synth -o ... (N = 100, 700, 3000, 10000; 3 runs each)" >>"$raw/commands.txt"
@@ -169,9 +180,9 @@ say "figure 5b: gen and selftest at 1,000 and 10,000 instances"
 for n in 1000 10000; do
   "$VPY" tests/corpus/big/make_big.py "$gen/big$n" --instances "$n"
   t0=$(date +%s%N)
-  "$root/.venv/bin/uavbus" gen "$gen/big$n/big_all.h" -I "$gen/big$n/include" --name big -o "$gen/big$n/out" >/dev/null 2>&1
+  timeout -k 5 1200 "$root/.venv/bin/uavbus" gen "$gen/big$n/big_all.h" -I "$gen/big$n/include" --name big -o "$gen/big$n/out" >/dev/null 2>&1 || true
   t1=$(date +%s%N)
-  "$root/.venv/bin/uavbus" selftest "$gen/big$n/big_all.h" -I "$gen/big$n/include" --name big --timeout 1200 >/dev/null 2>&1 \
+  timeout -k 5 1500 "$root/.venv/bin/uavbus" selftest "$gen/big$n/big_all.h" -I "$gen/big$n/include" --name big --timeout 1200 >/dev/null 2>&1 \
     && ok=1 || ok=0
   t2=$(date +%s%N)
   echo "scale n=$n gen_ns=$((t1 - t0)) selftest_ns=$((t2 - t1)) ok=$ok" >>"$raw/scale.txt"
@@ -205,7 +216,7 @@ echo "cmake -S examples/mcu -DCMAKE_BUILD_TYPE=MinSizeRel -DCMAKE_TOOLCHAIN_FILE
 # ---- figure 7: the bridges (MAVLink, Zenoh) beside the same paths without them ----
 say "figure 7: bridges"
 cmake --build "$build" --target uavbus_mavbridge uavbus_node >/dev/null
-timed bridges "$VPY" bench/bridges_bench.py --build "$build" --out "$raw/bridges.json" --runs "${BRIDGE_RUNS:-3}"
+sample "$raw/bridges.log" 1800 "$VPY" bench/bridges_bench.py --build "$build" --out "$raw/bridges.json" --runs "${BRIDGE_RUNS:-3}"
 
 # ---- figure 8: fleets (issue 12): 10, 30, 100 vehicles + 2 ground stations in process; 30 as processes ----
 # A fleet of 102 entities needs room in every node's tables: the runtime is compiled again with larger
@@ -221,30 +232,30 @@ done
 ar rcs "$build/fleet-lib/libub.a" "$build"/fleet-lib/*.o
 gcc "${CFLAGS[@]}" "${FLEET_CAPS[@]}" bench/src/fleet_bench.c "$gen/benchcat.c" "$build/fleet-lib/libub.a" $SODIUM -lm \
   -o "$bin/fleet_bench"
-for n in 10 30 100; do timed fleet "$bin/fleet_bench" "$n" >>"$raw/fleet.txt"; done
+for n in 10 30 100; do sample "$raw/fleet.txt" 1200 "$bin/fleet_bench" "$n"; done
 cmake -S . -B "$build/fleet-node" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DUAVBUS_BUILD_TESTS=OFF \
   -DUAVBUS_PYTHON="$VPY" "-DCMAKE_C_FLAGS=-DUB_MAX_ENTITIES=64 -DUB_DEDUP_SOURCES=64" >/dev/null
 cmake --build "$build/fleet-node" --target uavbus_node >/dev/null
-timed fleet "$VPY" bench/fleet_procs.py "$build/fleet-node/programs/node/uavbus_node" 30 --out "$build/fleet-procs" \
-  >>"$raw/fleet.txt" 2>"$raw/fleet_procs.log"
+sample "$raw/fleet.txt" 1200 "$VPY" bench/fleet_procs.py "$build/fleet-node/programs/node/uavbus_node" 30 --out "$build/fleet-procs" \
+  2>"$raw/fleet_procs.log"
 
 # ---- figure 9: the wire for real radios (issue 15): bytes per message, messages/s through a 57,600-baud radio ----
 say "figure 9: bytes on the wire and a simulated 57,600-baud radio, uavbus compact/full beside MAVLink 2 (pymavlink)"
 gcc "${CFLAGS[@]}" bench/src/radio_bench.c "$LIBUB" $SODIUM -o "$bin/radio_bench"
 rm -rf "$build/wire-frames"
-timed wire "$VPY" bench/wire_bench.py "$gen/benchcat.catalogue.json" "$build/wire-frames" >"$raw/wire.txt"
-timed radio "$bin/radio_bench" 5760 255 60 "$build"/wire-frames/*.frames >"$raw/radio.txt"
+sample "$raw/wire.txt" 900 "$VPY" bench/wire_bench.py "$gen/benchcat.catalogue.json" "$build/wire-frames"
+sample "$raw/radio.txt" 900 "$bin/radio_bench" 5760 255 60 "$build"/wire-frames/*.frames
 
 # ---- figure 10: remote inspection (issue 16): one-shot read over 1 and 2 hops, Table 2 processes ----
 say "figure 10: remote read round trip over 1 and 2 hops"
 [ -d build ] || cmake -S . -B build -G Ninja -DUAVBUS_PYTHON="$VPY" >/dev/null   # the node Hitl runs (sim.build)
 cmake --build build --target uavbus_node >/dev/null
-timed inspect "$VPY" bench/inspect_bench.py --n "${INSPECT_N:-300}" >"$raw/inspect.txt" 2>"$raw/inspect.log"
+sample "$raw/inspect.txt" 900 "$VPY" bench/inspect_bench.py --n "${INSPECT_N:-300}" 2>"$raw/inspect.log"
 
 # ---- internals kept from the first bench (frame codec, router costs, false-accept rate) ----
-"$build/runtime_c/ub_frame_bench" >"$raw/frame_bench.txt"
-"$build/runtime_c/ub_router_bench" >"$raw/router_bench.txt"
-"$build/runtime_c/ub_far" 200000 >"$raw/far.txt"
+"$SAMPLE" "$raw/frame_bench.txt" 600 "$build/runtime_c/ub_frame_bench"
+"$SAMPLE" "$raw/router_bench.txt" 600 "$build/runtime_c/ub_router_bench"
+"$SAMPLE" "$raw/far.txt" 600 "$build/runtime_c/ub_far" 200000
 
 "$VPY" bench/tables.py "$raw" bench/results.md
 say "wrote bench/results.md"

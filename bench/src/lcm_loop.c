@@ -5,9 +5,17 @@
  * 224.0.0.0/4 routed to lo).
  *
  *   lcm_loop blast|rtt N split|same
+ *
+ * Deadlines as in loop_bench.c (issue #28): the sample ends within LOOP_BENCH_DEADLINE_S seconds (default
+ * 120); the receiver stops when it has N messages or when the sender is done and the socket has been quiet
+ * for 300 ms, never while the sender is still sending; a sample that cannot finish prints one result line
+ * with status=failed and a reason, and exits 3.
  */
 #define _GNU_SOURCE
 #include <poll.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <sys/prctl.h>
 #include <sched.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -44,6 +52,41 @@ static void on_msg(const lcm_recv_buf_t *rbuf, const char *channel, void *user) 
     if (echo) lcm_publish(lc, "ECHO", rbuf->data, rbuf->data_size);
 }
 
+static const char *s_mode = "?", *s_where = "?";
+static long s_n;
+static pid_t s_child; /* 0 in the child */
+static uint64_t s_deadline;
+
+static void fail(const char *fmt, ...) __attribute__((format(printf, 1, 2), noreturn));
+static void fail(const char *fmt, ...) {
+    char why[200];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(why, sizeof why, fmt, ap);
+    va_end(ap);
+    fprintf(stderr, "lcm_loop: %s %ld %s: %s\n", s_mode, s_n, s_where, why);
+    if (s_child == 0) _exit(3);
+    if (s_child > 0) {
+        kill(s_child, SIGKILL);
+        waitpid(s_child, NULL, 0);
+    }
+    printf("mode=%s transport=lcm-udpm placement=\"%s\" n=%ld status=failed reason=\"%s\"\n", s_mode, s_where, s_n, why);
+    exit(3);
+}
+
+/* Sender side: the deadline, and a receiver that exited without its result. */
+static void check_alive(long at, int result_fd) {
+    int status;
+    if (now_ns() > s_deadline) fail("deadline passed at message %ld (LOOP_BENCH_DEADLINE_S)", at);
+    if (s_child > 0 && waitpid(s_child, &status, WNOHANG) == s_child) {
+        s_child = -1;
+        struct pollfd rp = {.fd = result_fd, .events = POLLIN};
+        if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0 && poll(&rp, 1, 0) == 1))
+            fail("the receiver/echo child exited early at message %ld", at);
+    }
+    if (now_ns() > s_deadline) fail("deadline passed at message %ld (LOOP_BENCH_DEADLINE_S)", at);
+}
+
 static int cmp_u64(const void *a, const void *b) {
     uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
     return x < y ? -1 : x > y;
@@ -54,18 +97,37 @@ int main(int argc, char **argv) {
     int rtt = strcmp(argv[1], "rtt") == 0;
     long n = atol(argv[2]);
     int split = strcmp(argv[3], "split") == 0;
-    int ready[2], result[2];
-    if (pipe(ready) < 0 || pipe(result) < 0) return 2;
+    s_mode = rtt ? "rtt" : "blast";
+    s_where = split ? "rx/echo cpu1, tx cpu0" : "both cpu0";
+    s_n = n;
+    const char *dl = getenv("LOOP_BENCH_DEADLINE_S");
+    s_deadline = now_ns() + (uint64_t)((dl && atof(dl) > 0 ? atof(dl) : 120.0) * 1e9);
+    int ready[2], result[2], done_pipe[2];
+    if (pipe(ready) < 0 || pipe(result) < 0 || pipe(done_pipe) < 0) return 2;
+    fflush(stdout);
     pid_t child = fork();
+    if (child < 0) return 2;
     if (child == 0) {
+        s_deadline += 2000000000u; /* 2 s after the sender's: the sender reports first */
+        prctl(PR_SET_PDEATHSIG, SIGKILL);
+        close(done_pipe[1]);
         pin(split ? 1 : 0);
-        alarm(120);
         echo = rtt;
         lc = lcm_create(URL);
-        if (lc == NULL) return 2;
+        if (lc == NULL) fail("lcm_create(%s) failed in the receiver", URL);
         lcm_subscribe(lc, "BENCH", on_msg, NULL);
         if (write(ready[1], "r", 1) != 1) return 2;
-        while (received < (uint64_t)n && lcm_handle_timeout(lc, 500) > 0) {
+        int done = 0;
+        while (received < (uint64_t)n) {
+            int was_done = done; /* quiet for a whole 300 ms after "done": nothing left in flight */
+            struct pollfd p[2] = {{.fd = lcm_get_fileno(lc), .events = POLLIN},
+                                  {.fd = done ? -1 : done_pipe[0], .events = POLLIN}};
+            int k = poll(p, 2, done ? 300 : 200);
+            if (k > 0 && (p[1].revents & (POLLIN | POLLHUP))) done = 1;
+            int input = k > 0 && (p[0].revents & POLLIN);
+            if (input && lcm_handle(lc) != 0) fail("lcm_handle failed in the receiver");
+            if (was_done && !input) break;
+            if (now_ns() > s_deadline) fail("deadline passed in the receiver");
         }
         char line[96];
         int len = snprintf(line, sizeof line, "%llu %llu %llu\n", (unsigned long long)received,
@@ -74,12 +136,20 @@ int main(int argc, char **argv) {
         lcm_destroy(lc);
         _exit(0);
     }
+    s_child = child;
+    close(ready[1]);
+    close(result[1]);
+    close(done_pipe[0]);
     pin(0);
     lc = lcm_create(URL);
-    if (lc == NULL) return 2;
+    if (lc == NULL) fail("lcm_create(%s) failed", URL);
     lcm_subscribe(lc, "ECHO", on_msg, NULL);
-    char c;
-    if (read(ready[0], &c, 1) != 1) return 2;
+    {
+        struct pollfd rp = {.fd = ready[0], .events = POLLIN};
+        while (poll(&rp, 1, 200) == 0) check_alive(0, result[0]);
+        char c;
+        if (read(ready[0], &c, 1) != 1) fail("the receiver exited before it was ready");
+    }
     usleep(300000);
     uint8_t msg[64] = {0};
     uint64_t *rtts = rtt ? calloc((size_t)n, sizeof *rtts) : NULL;
@@ -88,22 +158,30 @@ int main(int argc, char **argv) {
         memcpy(msg, &i, sizeof i);
         uint64_t ts = now_ns();
         uint64_t before = received;
-        lcm_publish(lc, "BENCH", msg, sizeof msg);
+        if (lcm_publish(lc, "BENCH", msg, sizeof msg) != 0) check_alive(i, result[0]); /* counted as lost */
         if (rtt) {
-            while (received == before)
-                if (lcm_handle_timeout(lc, 1000) <= 0) {
-                    fprintf(stderr, "lcm_loop: echo lost at %ld\n", i);
-                    return 3;
-                }
+            while (received == before) {
+                if (lcm_handle_timeout(lc, 200) < 0) fail("lcm_handle failed at message %ld", i);
+                check_alive(i, result[0]);
+                if (received == before && now_ns() - ts > 5000000000u) fail("echo of message %ld not back within 5 s", i);
+            }
             rtts[i] = now_ns() - ts;
         }
+        if ((i & 4095) == 0) check_alive(i, result[0]);
     }
     uint64_t t1 = now_ns();
+    close(done_pipe[1]); /* done: the receiver drains what is in flight and reports */
     char line[96] = {0};
+    {
+        struct pollfd rp = {.fd = result[0], .events = POLLIN};
+        while (poll(&rp, 1, 200) == 0)
+            if (now_ns() > s_deadline) fail("no result from the receiver before the deadline");
+    }
     ssize_t got = read(result[0], line, sizeof line - 1);
-    waitpid(child, NULL, 0);
+    if (s_child > 0) waitpid(child, NULL, 0);
+    s_child = -1;
     unsigned long long rx = 0, f = 0, l = 0;
-    if (got <= 0 || sscanf(line, "%llu %llu %llu", &rx, &f, &l) != 3) return 3;
+    if (got <= 0 || sscanf(line, "%llu %llu %llu", &rx, &f, &l) != 3) fail("no result from the receiver");
     const char *where = split ? "rx/echo cpu1, tx cpu0" : "both cpu0";
     if (rtt) {
         size_t warm = (size_t)n / 20, k = (size_t)n - warm;

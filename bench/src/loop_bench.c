@@ -15,6 +15,17 @@
  * (received-1)/(t_last-t_first) at the receiver, lost % = 1 - received/N. Both ends use SO_RCVBUF
  * 4 MiB (rmem_max here) and, unless "nobatch", the drivers' batching (sendmmsg / multi-frame writes).
  * RTT: ping-pong of single frames, poll()-blocking on both ends, p50/p99 over N round trips.
+ *
+ * Surviving a busy machine (issue #28): every wait has a deadline. The whole sample must finish within
+ * LOOP_BENCH_DEADLINE_S seconds (default 120); the receiver never gives up on its own while the sender
+ * is still sending (it stops when it has N messages, or when the sender says it is done and the socket
+ * has then been quiet for a moment), and the sender checks on every wait that the receiver is alive.
+ * A sample that cannot finish prints ONE result line with status=failed and a reason (the receiver
+ * exited early, the deadline passed, an echo never came) and exits 3; it never hangs. A transient send
+ * error (ECONNREFUSED from an ICMP error queued on a connected UDP socket, ENOBUFS) is retried and
+ * counted (send_errors=); it is a failure only once the receiver is gone or the deadline has passed.
+ * Faults for the harness test (tests/bench/): LOOP_BENCH_FAULT=echo-exit:K (the receiver/echo child
+ * exits after K messages without a result) or send-fail-once (the first send reports ECONNREFUSED).
  */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
@@ -22,9 +33,11 @@
 #include <poll.h>
 #include <sched.h>
 #include <signal.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -54,9 +67,56 @@ static void pin(int cpu) {
     if (sched_setaffinity(0, sizeof set, &set) != 0) perror("loop_bench: sched_setaffinity");
 }
 
-static void die(const char *what, int rc) {
-    fprintf(stderr, "loop_bench: %s failed: %s (%d)\n", what, ub_strerror(rc), rc);
-    exit(2);
+/* The sample being measured, for the one result line a failure still prints. */
+static struct sample {
+    const char *mode, *transport, *where;
+    long n;
+    pid_t child;           /* receiver/echo; 0 in the child itself, -1 once reaped */
+    int child_status;      /* its wait status once reaped */
+    int result_fd;         /* the pipe its result line comes on */
+    uint64_t deadline_ns;  /* absolute CLOCK_MONOTONIC */
+    long fault_echo_exit;  /* -1: no fault */
+    int fault_send_fail;   /* sends still to fail (fault injection) */
+} smp = {.fault_echo_exit = -1};
+
+/* Reports the sample as failed (stdout: the result line bench/tables.py reads; stderr: the reason for a
+ * person), ends the child and exits 3. In the child: just the reason and exit 3 (the parent reports). */
+static void fail(const char *fmt, ...) __attribute__((format(printf, 1, 2), noreturn));
+static void fail(const char *fmt, ...) {
+    char why[256];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(why, sizeof why, fmt, ap);
+    va_end(ap);
+    fprintf(stderr, "loop_bench: %s %s %ld %s: %s\n", smp.mode, smp.transport, smp.n, smp.where, why);
+    if (smp.child == 0) _exit(3);
+    if (smp.child > 0) {
+        kill(smp.child, SIGKILL);
+        waitpid(smp.child, NULL, 0);
+    }
+    for (char *c = why; *c; c++)
+        if (*c == '"') *c = '\'';
+    printf("mode=%s transport=%s placement=\"%s\" n=%ld status=failed reason=\"%s\"\n", smp.mode, smp.transport,
+           smp.where, smp.n, why);
+    fflush(stdout);
+    exit(3);
+}
+
+static void die(const char *what, int rc) { fail("%s failed: %s (%d)", what, ub_strerror(rc), rc); }
+
+/* Sender side, on every wait: the deadline, and whether the receiver/echo child is still there. */
+static void check_alive(long at) {
+    int status = 0;
+    if (now_ns() > smp.deadline_ns) fail("deadline passed at message %ld (LOOP_BENCH_DEADLINE_S)", at);
+    if (smp.child > 0 && waitpid(smp.child, &status, WNOHANG) == smp.child) {
+        smp.child = -1; /* reaped: nothing left to kill */
+        smp.child_status = status;
+        /* A child that wrote its result finished its part (all N in): what is left in flight is still read. */
+        struct pollfd rp = {.fd = smp.result_fd, .events = POLLIN};
+        if (WIFEXITED(status) && WEXITSTATUS(status) == 0 && poll(&rp, 1, 0) == 1 && (rp.revents & POLLIN)) return;
+        fail("the %s child exited early (%s %d) at message %ld", strcmp(smp.mode, "rtt") == 0 ? "echo" : "receiver",
+             WIFEXITED(status) ? "exit" : "signal", WIFEXITED(status) ? WEXITSTATUS(status) : WTERMSIG(status), at);
+    }
 }
 #define CHECK(call)                      \
     do {                                 \
@@ -158,6 +218,31 @@ static int cmp_u64(const void *a, const void *b) {
     return x < y ? -1 : x > y;
 }
 
+/* Receiver side: poll the socket and the sender's "done" pipe. Returns when N messages are in, or once
+ * the sender is done and the socket has been quiet for 300 ms; the deadline ends the child (exit 3). */
+static int child_wait(int sock, int done_fd, int *done, int ms) {
+    struct pollfd p[2] = {{.fd = sock, .events = POLLIN}, {.fd = *done ? -1 : done_fd, .events = POLLIN}};
+    int n = poll(p, 2, ms);
+    if (n > 0 && (p[1].revents & (POLLIN | POLLHUP))) *done = 1;
+    if (now_ns() > smp.deadline_ns) fail("deadline passed in the receiver");
+    return n > 0 && (p[0].revents & (POLLIN | POLLHUP | POLLERR));
+}
+
+/* Fault injection for the harness test: the child stops answering (exits without a result). */
+static void child_fault(uint64_t received) {
+    if (smp.fault_echo_exit >= 0 && received >= (uint64_t)smp.fault_echo_exit) _exit(0);
+}
+
+/* Sender: a transient send error is retried (counted); after 1000 in a row, or with the receiver gone, the
+ * sample fails. */
+static void send_error(uint64_t *send_errors, int err, long at, unsigned *in_row) {
+    (*send_errors)++;
+    if (err != ECONNREFUSED && err != ENOBUFS && err != EAGAIN) fail("send: %s at message %ld", strerror(err), at);
+    if (++*in_row > 1000) fail("send: %s, 1000 times in a row at message %ld", strerror(err), at);
+    check_alive(at);
+    usleep(1000);
+}
+
 int main(int argc, char **argv) {
     if (argc < 5) {
         fprintf(stderr, "usage: loop_bench blast|rtt udp|tcp|raw-udp N split|same [nobatch]\n");
@@ -174,8 +259,23 @@ int main(int argc, char **argv) {
         fprintf(stderr, "loop_bench: bad arguments\n");
         return 2;
     }
-    int result_pipe[2], ready_pipe[2];
-    if (pipe(result_pipe) < 0 || pipe(ready_pipe) < 0) return 2;
+    const char *where = split ? "rx/echo cpu1, tx cpu0" : "both cpu0";
+    smp.mode = mode;
+    smp.transport = transport;
+    smp.where = where;
+    smp.n = n_msgs;
+    const char *dl = getenv("LOOP_BENCH_DEADLINE_S");
+    double deadline_s = dl && atof(dl) > 0 ? atof(dl) : 120.0;
+    smp.deadline_ns = now_ns() + (uint64_t)(deadline_s * 1e9);
+    const char *fault = getenv("LOOP_BENCH_FAULT");
+    if (fault && strncmp(fault, "echo-exit:", 10) == 0) smp.fault_echo_exit = atol(fault + 10);
+    else if (fault && strcmp(fault, "send-fail-once") == 0) smp.fault_send_fail = 1;
+    else if (fault && *fault) {
+        fprintf(stderr, "loop_bench: LOOP_BENCH_FAULT=%s: use echo-exit:K or send-fail-once\n", fault);
+        return 2;
+    }
+    int result_pipe[2], ready_pipe[2], done_pipe[2];
+    if (pipe(result_pipe) < 0 || pipe(ready_pipe) < 0 || pipe(done_pipe) < 0) return 2;
 
     /* Sockets before the fork, so both ports are known to both sides. */
     int raw_rx = -1, raw_tx = -1;
@@ -199,24 +299,34 @@ int main(int argc, char **argv) {
         CHECK(ub_tcp_local_port(&rx_end.tcp, &rx_port));
     }
 
+    fflush(stdout);
     pid_t child = fork();
     if (child < 0) return 2;
     if (child == 0) { /* receiver (blast) or echo (rtt) */
+        smp.deadline_ns += 2000000000u; /* 2 s after the sender's: the sender, which knows more, reports first */
+        /* The sender killed by a deadline (bench/run.sh's timeout) takes its receiver with it. */
+        prctl(PR_SET_PDEATHSIG, SIGKILL);
+        close(result_pipe[0]);
+        close(ready_pipe[0]);
+        close(done_pipe[1]);
         pin(split ? 1 : 0);
-        alarm(120);
         uint64_t received = 0, t_first = 0, t_last = 0;
+        int done = 0;
         if (raw) {
             close(raw_tx);
             uint8_t buf[2048];
             if (write(ready_pipe[1], "r", 1) != 1) return 2;
-            struct pollfd p = {.fd = raw_rx, .events = POLLIN};
-            while (received < (uint64_t)n_msgs && poll(&p, 1, 500) > 0) {
+            for (;;) {
+                int was_done = done; /* quiet for a whole 300 ms after "done": nothing left in flight */
+                int got_input = child_wait(raw_rx, done_pipe[0], &done, done ? 300 : 200);
+                if (received >= (uint64_t)n_msgs || (was_done && !got_input)) break;
                 for (;;) {
                     ssize_t k = recv(raw_rx, buf, sizeof buf, MSG_DONTWAIT);
                     if (k < 0) break;
                     uint64_t t = now_ns();
                     if (received++ == 0) t_first = t;
                     t_last = t;
+                    child_fault(received);
                     if (rtt && send(raw_rx, buf, (size_t)k, 0) < 0) perror("loop_bench: echo");
                 }
             }
@@ -235,15 +345,22 @@ int main(int argc, char **argv) {
             if (write(ready_pipe[1], "r", 1) != 1) return 2;
             /* TCP: accept first (the listening socket is what poll() watches until then). */
             if (!is_udp) {
-                uint64_t t0 = now_ms();
-                while (ub_tcp_state(&e->tcp) != UB_TCP_UP && now_ms() - t0 < 5000) {
+                while (ub_tcp_state(&e->tcp) != UB_TCP_UP) {
                     struct pollfd lp = {.fd = ub_tcp_listen_fileno(&e->tcp), .events = POLLIN};
                     (void)poll(&lp, 1, 100);
                     CHECK(ub_tcp_service(&e->tcp, &e->node, now_ms()));
+                    if (now_ns() > smp.deadline_ns) fail("no connection from the sender before the deadline");
                 }
                 big_buffers(ub_tcp_fileno(&e->tcp));
             }
-            while (e->received < (uint64_t)n_msgs && end_wait(e, 500) > 0) {
+            for (;;) {
+                int was_done = done;
+                int got_input = child_wait(end_fd(e), done_pipe[0], &done, done ? 300 : 200);
+                int rc = end_service(e);
+                if (rc < 0) die("service", rc);
+                child_fault(e->received);
+                if (e->received >= (uint64_t)n_msgs || (was_done && !got_input)) break;
+                if (!is_udp && ub_tcp_state(&e->tcp) != UB_TCP_UP) break; /* the sender hung up */
             }
             received = e->received;
             t_first = e->t_first;
@@ -257,11 +374,24 @@ int main(int argc, char **argv) {
     }
 
     /* sender (blast) or pinger (rtt) */
+    smp.child = child;
+    smp.result_fd = result_pipe[0];
+    /* Only the child writes these: with the parent's ends closed, a child that dies reads as EOF. */
+    close(result_pipe[1]);
+    close(ready_pipe[1]);
+    close(done_pipe[0]);
     pin(0);
-    char c;
-    if (read(ready_pipe[0], &c, 1) != 1) return 2;
+    {
+        struct pollfd rp = {.fd = ready_pipe[0], .events = POLLIN};
+        while (poll(&rp, 1, 200) == 0) check_alive(0);
+        char c;
+        if (read(ready_pipe[0], &c, 1) != 1) {
+            check_alive(0);
+            fail("the child exited before it was ready");
+        }
+    }
     usleep(100000);
-    uint64_t refused = 0, t0 = 0, t1 = 0;
+    uint64_t refused = 0, send_errors = 0, t0 = 0, t1 = 0;
     uint64_t *rtts = rtt ? calloc((size_t)n_msgs, sizeof *rtts) : NULL;
     if (raw) {
         close(raw_rx);
@@ -271,20 +401,34 @@ int main(int argc, char **argv) {
         for (long i = 0; i < n_msgs; i++) {
             memcpy(msg, &i, sizeof i);
             uint64_t ts = now_ns();
-            while (send(raw_tx, msg, sizeof msg, 0) < 0) {
-                if (errno != EAGAIN && errno != ENOBUFS) {
-                    perror("loop_bench: send");
-                    return 2;
+            unsigned in_row = 0;
+            for (;;) {
+                ssize_t k;
+                if (smp.fault_send_fail > 0) {
+                    smp.fault_send_fail--;
+                    k = -1;
+                    errno = ECONNREFUSED;
+                } else {
+                    k = send(raw_tx, msg, sizeof msg, 0);
                 }
-                refused++;
+                if (k >= 0) break;
+                if (errno == EAGAIN || errno == ENOBUFS) {
+                    refused++;
+                    if ((refused & 1023) == 0) check_alive(i);
+                    continue;
+                }
+                send_error(&send_errors, errno, i, &in_row);
             }
             if (rtt) {
-                if (poll(&p, 1, 1000) <= 0 || recv(raw_tx, back, sizeof back, 0) < 0) {
-                    fprintf(stderr, "loop_bench: raw echo lost at %ld\n", i);
-                    return 3;
+                for (;;) {
+                    int k = poll(&p, 1, 200);
+                    if (k > 0 && recv(raw_tx, back, sizeof back, MSG_DONTWAIT) >= 0) break;
+                    check_alive(i);
+                    if (now_ns() - ts > 5000000000u) fail("echo of message %ld not back within 5 s", i);
                 }
                 rtts[i] = now_ns() - ts;
             }
+            if ((i & 4095) == 0) check_alive(i);
         }
         t1 = now_ns();
     } else {
@@ -300,12 +444,11 @@ int main(int argc, char **argv) {
             CHECK(ub_tcp_client_init(&e->tcp, "127.0.0.1", rx_port, NULL));
             CHECK(ub_tcp_attach(&e->tcp, &e->node, e->link));
             if (!rtt && batching) CHECK(ub_tcp_set_batching(&e->tcp, 1));
-            uint64_t w = now_ms();
-            while (ub_tcp_state(&e->tcp) != UB_TCP_UP && now_ms() - w < 5000) {
+            while (ub_tcp_state(&e->tcp) != UB_TCP_UP) {
                 CHECK(ub_tcp_service(&e->tcp, &e->node, now_ms()));
                 usleep(1000);
+                check_alive(0);
             }
-            if (ub_tcp_state(&e->tcp) != UB_TCP_UP) die("tcp connect", UB_ERR_CLOSED);
             big_buffers(ub_tcp_fileno(&e->tcp));
         }
         const uint8_t *dest = ub_node_entity_id(&e->node, e->other);
@@ -314,57 +457,78 @@ int main(int argc, char **argv) {
             benchBlob64.seq = (uint64_t)i;
             uint64_t ts = now_ns();
             benchBlob64.t_ns = ts;
+            unsigned in_row = 0;
             for (;;) {
-                int rc = ub_node_send_data(&e->node, e->self, benchcat_INST_benchBlob64, dest, ts / 1000000u);
+                int rc;
+                if (smp.fault_send_fail > 0) {
+                    smp.fault_send_fail--;
+                    send_error(&send_errors, ECONNREFUSED, i, &in_row);
+                    continue;
+                }
+                rc = ub_node_send_data(&e->node, e->self, benchcat_INST_benchBlob64, dest, ts / 1000000u);
                 if (rc == 1) break;
                 if (rc < 0) die("ub_node_send_data", rc);
                 refused++; /* push back: wait for room, then send the same message again */
                 struct pollfd p = {.fd = end_fd(e), .events = POLLOUT};
                 (void)poll(&p, 1, 10);
                 end_flush(e);
+                check_alive(i); /* a refusal that never ends is a receiver gone (TCP closed), not push back */
+                if (!is_udp && ub_tcp_state(&e->tcp) != UB_TCP_UP) {
+                    CHECK(ub_tcp_service(&e->tcp, &e->node, now_ms()));
+                    if (ub_tcp_state(&e->tcp) != UB_TCP_UP && now_ns() - ts > 5000000000u)
+                        fail("TCP connection down for 5 s at message %ld", i);
+                }
             }
             if (rtt) {
                 while (e->last_echo_seq != (uint64_t)i || e->received == 0) {
-                    if (end_wait(e, 1000) <= 0) {
-                        fprintf(stderr, "loop_bench: echo lost at %ld\n", i);
-                        return 3;
-                    }
+                    (void)end_wait(e, 200);
+                    check_alive(i);
+                    if (now_ns() - ts > 5000000000u) fail("echo of message %ld not back within 5 s", i);
                 }
                 rtts[i] = now_ns() - ts;
             }
+            if ((i & 4095) == 0) check_alive(i);
         }
         while (end_pending(e)) {
             struct pollfd p = {.fd = end_fd(e), .events = POLLOUT};
             (void)poll(&p, 1, 10);
             end_flush(e);
+            check_alive(n_msgs);
         }
         t1 = now_ns();
     }
+    /* Done: the receiver drains what is in flight and reports. */
+    close(done_pipe[1]);
     char line[128] = {0};
-    ssize_t got = read(result_pipe[0], line, sizeof line - 1);
-    int status = 0;
-    waitpid(child, &status, 0);
-    unsigned long long received = 0, t_first = 0, t_last = 0;
-    if (got <= 0 || sscanf(line, "%llu %llu %llu", &received, &t_first, &t_last) != 3) {
-        fprintf(stderr, "loop_bench: no result from the receiver\n");
-        return 3;
+    ssize_t got = 0;
+    {
+        struct pollfd rp = {.fd = result_pipe[0], .events = POLLIN};
+        while (poll(&rp, 1, 200) == 0)
+            if (now_ns() > smp.deadline_ns) fail("no result from the receiver before the deadline");
+        got = read(result_pipe[0], line, sizeof line - 1);
     }
-    const char *where = split ? "rx/echo cpu1, tx cpu0" : "both cpu0";
+    int status = smp.child_status;
+    if (smp.child > 0) waitpid(child, &status, 0);
+    smp.child = -1;
+    unsigned long long received = 0, t_first = 0, t_last = 0;
+    if (got <= 0 || sscanf(line, "%llu %llu %llu", &received, &t_first, &t_last) != 3)
+        fail("no result from the receiver (it exited: %s %d)", WIFEXITED(status) ? "exit" : "signal",
+             WIFEXITED(status) ? WEXITSTATUS(status) : WTERMSIG(status));
     if (rtt) {
         qsort(rtts, (size_t)n_msgs, sizeof *rtts, cmp_u64);
         size_t warm = (size_t)n_msgs / 20;
         size_t k = (size_t)n_msgs - warm;
         uint64_t *r = rtts + warm;
         qsort(r, k, sizeof *r, cmp_u64);
-        printf("mode=rtt transport=%s placement=\"%s\" n=%ld p50_us=%.2f p99_us=%.2f\n", transport, where, n_msgs,
-               r[k / 2] / 1e3, r[(k * 99) / 100] / 1e3);
+        printf("mode=rtt transport=%s placement=\"%s\" n=%ld p50_us=%.2f p99_us=%.2f send_errors=%llu status=ok\n",
+               transport, where, n_msgs, r[k / 2] / 1e3, r[(k * 99) / 100] / 1e3, (unsigned long long)send_errors);
     } else {
         double rate = received > 1 && t_last > t_first ? (double)(received - 1) / ((t_last - t_first) / 1e9) : 0;
         printf("mode=blast transport=%s placement=\"%s\" batching=%d n=%ld received=%llu delivered_per_s=%.0f "
-               "lost_pct=%.3f offered_per_s=%.0f refused_retried=%llu\n",
+               "lost_pct=%.3f offered_per_s=%.0f refused_retried=%llu send_errors=%llu status=ok\n",
                transport, where, raw ? 0 : batching, n_msgs, received, rate,
                100.0 * (1.0 - (double)received / (double)n_msgs), n_msgs / ((t1 - t0) / 1e9),
-               (unsigned long long)refused);
+               (unsigned long long)refused, (unsigned long long)send_errors);
     }
     free(rtts);
     return 0;

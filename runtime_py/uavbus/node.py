@@ -14,15 +14,17 @@ from __future__ import annotations
 
 import logging
 import select
+import struct
+import sys
 import time
 from collections import deque
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, Iterator
+from typing import TYPE_CHECKING, Any, Callable, Iterator, Sequence
 
 from uavbus._bindings import (ub_admin, ub_frag, ub_frame, ub_inspect, ub_link, ub_log, ub_member, ub_memlink, ub_node,
-                              ub_nodecfg, ub_ports, ub_pubsub, ub_route, ub_sec)
+                              ub_nodecfg, ub_ports, ub_pubsub, ub_route, ub_rxring, ub_sec)
 from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, NotFoundError, UbError
-from uavbus.catalogue import Catalogue, CatalogueError, Instance, refused
+from uavbus.catalogue import Catalogue, CatalogueError, Instance, read_member, refused
 from uavbus.config import Config, load_config
 from uavbus.directory import Directory
 from uavbus.enums import catalogue_enums
@@ -33,6 +35,10 @@ if TYPE_CHECKING:
 Clock = Callable[[], float]
 log = logging.getLogger("uavbus")
 INBOX_MAX = 10000  # messages kept for messages() when no on_data callback consumes them
+# Record memory of a node's delivery ring (ub_rxring.h): deliveries beyond it in one C call take the
+# per-delivery callback instead (counted as "spilled" in counters()["python"]["ring"]), never lost.
+RING_BYTES = 1 << 20
+RING_MAX_RECORDS = 4096
 
 
 def monotonic_ms() -> float:
@@ -120,14 +126,16 @@ class Node:
     def __init__(self, catalogue: Catalogue | str | Path, config: str | Path | Config | None = None,
                  node: str | None = None,
                  clock: Clock | None = None, *, hop_limit: int = 0, first_seq: int | None = None,
-                 timing: dict[str, int] | None = None, random_seed: int | None = None) -> None:
+                 timing: dict[str, int] | None = None, random_seed: int | None = None,
+                 ring_records: int | None = None) -> None:
         """`catalogue`: a Catalogue or the path of a `.catalogue.json`. `config` (a path or a Config from
         load_config) is applied through the C loader, hosting the entities of `node` (from its "nodes")
         or of its "hosts"; a refused file raises ConfigError. `clock()` returns ms (default
         CLOCK_MONOTONIC; an injected clock makes the node never sleep, for tests and simulations).
         `first_seq`: the first sequence number this node sends (default: from the wall clock, so a
         restarted process is not taken for duplicates of the one before); `hop_limit`, `timing`
-        (ub_pubsub timing, ms) and `random_seed` (seeded request ids, tests only) as in ub_node.h."""
+        (ub_pubsub timing, ms) and `random_seed` (seeded request ids, tests only) as in ub_node.h.
+        `ring_records`: capacity of the delivery ring (default: ~1 MiB of records, 64 to 4096)."""
         self.catalogue = catalogue if isinstance(catalogue, Catalogue) else Catalogue.load(catalogue)
         enums = catalogue_enums(self.catalogue)
         self._enums = enums if enums else None  # enum members read as IntEnum (catalogues that record them)
@@ -149,7 +157,16 @@ class Node:
         self.wire = Wire(self, first_seq)  # compact links, MTUs, fragments
         self._sink = _Sink(self)
         self._handle = ub_node.new_handle(self._sink)
-        ub_node.set_deliver_sink(self._c, self._handle)
+        # Deliveries go to a C-side ring drained once per turn (one cffi call, no callback per frame); a
+        # full ring spills to the sink's per-delivery callback, counted, keeping the order (ub_rxring.h).
+        image_cap = max((i.type.packed_size for i in self.catalogue.instances), default=0)
+        stride = ub_rxring.HEADER + (image_cap + 7) // 8 * 8
+        self._ring = ub_rxring.Ring(ring_records or max(64, min(RING_MAX_RECORDS, RING_BYTES // stride)), image_cap)
+        ub_rxring.ub_rxring_attach(self._ring, self._c, self._handle)
+        self._records = struct.Struct(ub_rxring.RECORD_HEADER.format + f"{self._ring.stride - ub_rxring.HEADER}s")
+        self._held: list[tuple[int, int, bytes, bytes, int, int, bytes, int]] = []  # after a callback raised
+        self._columns: dict[tuple[int, str], Any] = {}
+        self._refusable = any(i.type.refusable for i in self.catalogue.instances)
         self._dirs: dict[int, Directory] = {}
         self._callbacks: list[Callable[[Message], Any]] = []
         self._frame_callbacks: list[Callable[[str, str, bytes, int], Any]] = []
@@ -371,10 +388,48 @@ class Node:
             for cb in list(self._frame_callbacks):
                 cb(name, "tx" if direction else "rx", frame, t_ms)
 
+    def _drain(self) -> list[tuple[int, int, bytes, bytes, int, int, bytes, int]]:
+        """Every delivery not yet dispatched, oldest first: held back by a raising callback, then the ring's
+        records (one C call), then those that found the ring full (the sink's callback), in that order."""
+        ring = self._ring
+        n = ub_rxring.ub_rxring_drain(ring) if ub_rxring.ub_rxring_pending(ring) else 0
+        out = self._held
+        if out:
+            self._held = []
+        if n:
+            view = memoryview(ring.out_buf)[:n * ring.stride]
+            out = out + [(e, i, s, d, q, t, img[:ln], h)
+                         for t, i, q, e, ln, h, s, d, img in self._records.iter_unpack(view)]
+        if self._sink.pending:
+            out = out + self._sink.pending
+            self._sink.pending = []
+        return out
+
+    def receive(self) -> "Deliveries":
+        """Everything delivered since the last turn as one batch, without a Message per delivery: one C call
+        drains the delivery ring. For high rates: use `service(dispatch=False)` or `poll(dispatch=False)` to
+        run the node, then `receive()`; `Deliveries.column()` reads one field of every delivery, iterating
+        gives Message objects (built on demand). on_data callbacks and messages() do not see these."""
+        if self._refusable:
+            # A catalogue with bools or narrow bitfields: each image is checked as _dispatch() does (what a
+            # C node's unpack refuses is dropped and counted), so the batch is built from checked tuples.
+            kept = []
+            for rec in self._drain():
+                if refused(self.catalogue.instances[rec[1]].type, rec[6]) is not None:
+                    self._refused_payloads += 1
+                else:
+                    kept.append(rec)
+            return Deliveries(self, b"", 0, kept)
+        ring = self._ring
+        n = ub_rxring.ub_rxring_drain(ring) if ub_rxring.ub_rxring_pending(ring) else 0
+        extra = self._held + self._sink.pending if (self._held or self._sink.pending) else None
+        self._held, self._sink.pending = [], []
+        return Deliveries(self, ring.out_buf[:n * ring.stride] if n else b"", n, extra)
+
     def _dispatch(self) -> int:
         if self._sink.frames:
             self._dispatch_frames()
-        pending, self._sink.pending = self._sink.pending, []
+        pending = self._drain()
         instances, names = self.catalogue.instances, self._local_names
         for k, (entity, instance, src_id, dest_id, seq, now_ms, raw, hop_limit) in enumerate(pending):
             if refused(instances[instance].type, raw) is not None:
@@ -393,7 +448,7 @@ class Node:
                     except Exception:
                         # The caller sees the error; the deliveries after this one wait for the next turn.
                         self._callback_errors += 1
-                        self._sink.pending[:0] = pending[k + 1:]
+                        self._held[:0] = pending[k + 1:]
                         raise
             else:
                 if len(self._inbox) >= INBOX_MAX:
@@ -409,10 +464,11 @@ class Node:
             return []
         return ub_ports.ub_ports_pollfds(self._ports, self._pollfds)
 
-    def poll(self, timeout: float = 0.05) -> int:
+    def poll(self, timeout: float = 0.05, dispatch: bool = True) -> int:
         """One loop turn: waits up to `timeout` s for a descriptor (never sleeps with an injected
         clock and no descriptors), services ports and memlinks, ticks the tables, dispatches
-        deliveries. Returns the number of messages delivered."""
+        deliveries (with `dispatch=False` they wait for receive()). Returns the number of messages
+        delivered (0 with dispatch=False)."""
         self._check_open()
         wait_ms = max(0, int(timeout * 1000))
         now = self.now()
@@ -428,10 +484,11 @@ class Node:
             p.poll(wait_ms)
         elif self._real_clock and wait_ms > 0:
             time.sleep(wait_ms / 1000.0)
-        return self.service()
+        return self.service(dispatch=dispatch)
 
-    def service(self, now_ms: int | None = None) -> int:
-        """The non-blocking part of poll(): ports, memlinks, tick, dispatch (at `now_ms` or now)."""
+    def service(self, now_ms: int | None = None, dispatch: bool = True) -> int:
+        """The non-blocking part of poll(): ports, memlinks, tick, dispatch (at `now_ms` or now; with
+        `dispatch=False` the deliveries wait in the ring for receive())."""
         now = self.now() if now_ms is None else now_ms
         if self._ports is not None:
             ub_ports.ub_ports_service(self._ports, now)
@@ -441,7 +498,7 @@ class Node:
         for m in self._memlinks:
             ub_memlink.ub_memlink_pump(m._c, now)
         ub_node.ub_node_tick(self._c, now)
-        return self._dispatch()
+        return self._dispatch() if dispatch else 0
 
     def messages(self, timeout: float | None = None, poll_s: float = 0.01) -> Iterator[Message]:
         """Deliveries as they come, driving poll() itself; stops after `timeout` s (wall clock)
@@ -571,7 +628,8 @@ class Node:
         if self.security.enabled:
             out["security"] = self.security.status()
         out["python"] = {"inbox_dropped": self._inbox_dropped, "callback_errors": self._callback_errors,
-                         "frames_dropped": self._frames_dropped, "refused_payloads": self._refused_payloads}
+                         "frames_dropped": self._frames_dropped, "refused_payloads": self._refused_payloads,
+                         "ring": ub_rxring.ub_rxring_counters(self._ring)}
         if self._log is not None:
             out["log"] = ub_log.ub_log_stats(self._log)
         return out
@@ -609,7 +667,7 @@ class Node:
         self.routing.disable()
         for transport in self._kept:
             transport.detach()
-        ub_node.set_deliver_sink(self._c, None)
+        ub_rxring.ub_rxring_detach(self._ring)
 
     def __enter__(self) -> "Node":
         return self
@@ -628,20 +686,130 @@ def _entity_at(node: Node, index: int) -> str:
 class Publisher:
     """Node.publisher(): `directory` is the bound storage; send() originates one DATA frame from it."""
 
-    __slots__ = ("node", "directory", "_c", "_entity", "_instance", "_dest", "_local")
+    __slots__ = ("node", "directory", "_c", "_entity", "_instance", "_dest", "_local", "_what", "_now")
 
     def __init__(self, node: Node, directory: Directory, entity: int, instance: int, dest: Any, local: bool) -> None:
         self.node, self.directory, self._c = node, directory, node._c
         self._entity, self._instance, self._dest, self._local = entity, instance, dest, local
+        # Resolved once: send() is the per-frame path (only the clock is read per frame).
+        self._what = directory.instance.name if directory.instance else ""
+        self._now = node.now
 
     def send(self) -> int:
         """Returns the links whose transport accepted the frame (0: delivered locally, or every
         transport refused it: counted per link as tx_error/backpressure/detached)."""
-        n = ub_node.ub_node_send_data_id(self._c, self._entity, self._instance, self._dest, self.node.now(),
-                                         self.directory.instance.name if self.directory.instance else "")
+        n = ub_node.ub_node_send_data_id(self._c, self._entity, self._instance, self._dest, self._now(), self._what)
         if self._local:
             self.node._dispatch()  # a local destination is delivered synchronously
         return n
+
+    def send_many(self, values: Sequence[Any] | bytes | bytearray | memoryview, field: str | None = None) -> int:
+        """Sends len(values) frames in one C call (ub_send_many). With `field` (a plain scalar member): frame i
+        carries values[i] in that field, the rest of the directory as set. Without: `values` are whole wire
+        images (a sequence of bytes, or one buffer of n images back to back). The directory keeps the last
+        value. Returns the sum over frames of the links whose transport accepted it (as send())."""
+        d = self.directory
+        t = d._type
+        if field is not None:
+            scalar = t._scalars.get(field)
+            if scalar is None or not isinstance(scalar[0], struct.Struct):
+                raise InvalidArgumentError(f"send_many: {t.name}.{field} is not a plain scalar member "
+                                           f"(one of {', '.join(sorted(t._scalars))}); send whole images instead")
+            packer, offset = scalar
+            n = len(values)
+            data = struct.pack(f"{packer.format[0]}{n}{packer.format[1:]}", *values)
+            size = packer.size
+        else:
+            size, offset = t.packed_size, 0
+            data = values if isinstance(values, (bytes, bytearray, memoryview)) else b"".join(values)
+            if size == 0 or len(data) % size:
+                raise InvalidArgumentError(f"send_many: {len(data)} bytes are not whole {t.name} images "
+                                           f"({size} bytes each)")
+            n = len(data) // size
+        sent = ub_rxring.ub_send_many(self._c, self._entity, self._instance, self._dest, self.node.now(),
+                                      d._offset + offset, size, data, n, d.instance.name if d.instance else "")
+        if self._local:
+            self.node._dispatch()
+        return sent
+
+
+class Deliveries:
+    """Node.receive(): one batch of deliveries as records (the ring's memory copied once), not objects.
+
+    `len()` counts them; `column(content, field)` reads one plain scalar field of every delivery of
+    `content`, in order, with one struct pass over the records; iterating builds a Message per delivery
+    (only then: a receiver that reads columns pays for no objects)."""
+
+    __slots__ = ("node", "records", "n", "extra")
+
+    def __init__(self, node: Node, records: bytes, n: int,
+                 extra: list[tuple[int, int, bytes, bytes, int, int, bytes, int]] | None) -> None:
+        self.node, self.records, self.n, self.extra = node, records, n, extra
+
+    def __len__(self) -> int:
+        return self.n + (len(self.extra) if self.extra else 0)
+
+    def column(self, content: str, field: str) -> list[Any]:
+        node = self.node
+        inst = node.catalogue.instance(content)
+        key = (inst.index, field)
+        col = node._columns.get(key)
+        t = inst.type
+        if col is None:
+            scalar = t._scalars.get(field)
+            if scalar is not None and isinstance(scalar[0], struct.Struct) and sys.byteorder == "little":
+                # (instance, value) from each record: header and image in one little-endian pass.
+                code, size, at = scalar[0].format[1:], scalar[0].size, ub_rxring.HEADER + scalar[1]
+                col = struct.Struct(f"<8xI{at - 12}x{code}{node._ring.stride - at - size}x")
+            else:
+                t.field(field)  # an unknown member raises KeyError naming the members
+                col = False
+            node._columns[key] = col
+        idx = inst.index
+        if not col:
+            return [read_member(t, field, img, 0) for _, i, _, _, _, _, img, _ in self._tuples() if i == idx]
+        out = [v for i, v in col.iter_unpack(self.records) if i == idx] if self.n else []
+        if self.extra:
+            out += [read_member(t, field, img, 0) for _, i, _, _, _, _, img, _ in self.extra if i == idx]
+        return out
+
+    def rows(self, content: str) -> list[tuple[Any, ...]]:
+        """Every delivery of `content` decoded to a flat tuple of its leaf values (the type's packed order,
+        nested members and arrays flattened; Catalogue.decode() gives dicts), in order: one struct pass over
+        the records."""
+        node = self.node
+        inst = node.catalogue.instance(content)
+        t, idx = inst.type, inst.index
+        key = (idx, "")
+        row = node._columns.get(key)
+        if row is None:
+            fmt = t._struct.format
+            fits = sys.byteorder == "little" and isinstance(fmt, str) and fmt.startswith("<")
+            pad = node._ring.stride - ub_rxring.HEADER - t._struct.size
+            row = struct.Struct(f"<8xI{ub_rxring.HEADER - 12}x{fmt[1:]}{pad}x") if fits and pad >= 0 else False
+            node._columns[key] = row
+        if row and self.n:
+            out = [r[1:] for r in row.iter_unpack(self.records) if r[0] == idx]
+        else:
+            out = [t._struct.unpack_from(img) for _, i, _, _, _, _, img, _ in self._tuples() if i == idx]
+            return out
+        if self.extra:
+            out += [t._struct.unpack_from(img) for _, i, _, _, _, _, img, _ in self.extra if i == idx]
+        return out
+
+    def _tuples(self) -> list[tuple[int, int, bytes, bytes, int, int, bytes, int]]:
+        recs = [(e, i, s, d, q, t, img[:ln], h)
+                for t, i, q, e, ln, h, s, d, img in self.node._records.iter_unpack(self.records)] if self.n else []
+        return recs + (self.extra or [])
+
+    def __iter__(self) -> Iterator[Message]:
+        node = self.node
+        instances, names = node.catalogue.instances, node._local_names
+        for entity, instance, src_id, dest_id, seq, now_ms, raw, hop_limit in self._tuples():
+            local = names.get(entity)
+            if local is None:
+                local = names[entity] = _entity_at(node, entity)
+            yield Message(instances[instance], local, src_id, dest_id, seq, now_ms, raw, node.catalogue, hop_limit)
 
 
 class Admin:

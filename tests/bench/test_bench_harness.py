@@ -1,0 +1,163 @@
+"""The bench survives faults (issue #28, Build 7): a failed or hung sample is reported, never a hang or a dead run.
+
+Real processes with injected faults: bench/src/loop_bench.c built here from the bench catalogue and the
+runtime sources, run with tiny counts and LOOP_BENCH_FAULT (an echo child that exits early, a send that
+fails once); bench/tools/sample.sh (the deadline every child of bench/run.sh runs under) on a command that
+fails and one that hangs; bench/tables.py's reading of those outputs. No timing is asserted.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+SAMPLE = ROOT / "bench" / "tools" / "sample.sh"
+sys.path.insert(0, str(ROOT / "bench"))
+
+import tables  # noqa: E402  (bench/tables.py)
+
+
+@pytest.fixture(scope="session")
+def loop_bench(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("loop_bench")
+    subprocess.run([sys.executable, "-m", "uavbus.cli", "gen", str(ROOT / "bench/catalogue/bench_msgs.h"), "--name",
+                    "benchcat", "-o", str(out / "gen")], check=True, cwd=ROOT, capture_output=True)
+    sodium = subprocess.run(["pkg-config", "--libs", "libsodium"], capture_output=True, text=True,
+                            check=True).stdout.split()
+    exe = out / "loop_bench"
+    subprocess.run(["gcc", "-O1", "-std=gnu11", "-Wall", "-Wextra", "-Werror", "-D_POSIX_C_SOURCE=200809L",
+                    "-DUB_SECURITY=1", "-Iruntime_c/include", "-Iruntime_c/src", "-Ibench/catalogue",
+                    f"-I{out / 'gen'}", "bench/src/loop_bench.c", str(out / "gen/benchcat.c"),
+                    *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "runtime_c/src").glob("*/*.c")),
+                    *sodium, "-lm", "-o", str(exe)], check=True, cwd=ROOT)
+    return exe
+
+
+def kv(line: str) -> dict[str, str]:
+    return {k: v.strip('"') for k, v in re.findall(r'(\w+)=("[^"]*"|\S+)', line)}
+
+
+def run(exe: Path, *args: str, fault: str = "", deadline: str = "20") -> subprocess.CompletedProcess:
+    env = dict(os.environ, LOOP_BENCH_DEADLINE_S=deadline, LOOP_BENCH_FAULT=fault)
+    # The outer timeout is the test's own guard: loop_bench must end long before it.
+    return subprocess.run([str(exe), *args], env=env, capture_output=True, text=True, timeout=60)
+
+
+@pytest.mark.parametrize("transport", ["tcp", "udp", "raw-udp"])
+def test_echo_child_exiting_early_is_a_reported_failure_not_a_hang(loop_bench: Path, transport: str) -> None:
+    # The run that hung 12 minutes: rtt tcp, the echo child gone, the pinger waiting for ever.
+    r = run(loop_bench, "rtt", transport, "300", "split", fault="echo-exit:5")
+    assert r.returncode == 3, r.stderr
+    line = kv(r.stdout.strip().splitlines()[-1])
+    assert line["status"] == "failed" and line["mode"] == "rtt" and line["transport"] == transport
+    assert "exited early" in line["reason"], line
+    assert "p50_us" not in line  # no figure for a failed sample
+
+
+@pytest.mark.parametrize("transport", ["tcp", "udp", "raw-udp"])
+def test_receiver_exiting_during_a_blast_is_a_reported_failure(loop_bench: Path, transport: str) -> None:
+    r = run(loop_bench, "blast", transport, "100000", "same", fault="echo-exit:50")
+    assert r.returncode == 3, r.stderr
+    line = kv(r.stdout.strip().splitlines()[-1])
+    assert line["status"] == "failed" and "exited early" in line["reason"], line
+
+
+@pytest.mark.parametrize("transport", ["tcp", "udp", "raw-udp"])
+def test_a_send_that_fails_once_is_retried_and_counted(loop_bench: Path, transport: str) -> None:
+    # The run that died with "loop_bench: send: Connection refused": one refused send must not end the sample.
+    r = run(loop_bench, "blast", transport, "500", "same", fault="send-fail-once")
+    assert r.returncode == 0, r.stdout + r.stderr
+    line = kv(r.stdout)
+    assert line["status"] == "ok" and line["send_errors"] == "1" and line["n"] == "500", line
+    assert int(line["received"]) == 500 or transport != "tcp"  # TCP loses nothing; UDP may, and says so
+
+
+def test_without_faults_samples_finish(loop_bench: Path) -> None:
+    for mode, transport in (("rtt", "tcp"), ("rtt", "udp"), ("blast", "tcp")):
+        r = run(loop_bench, mode, transport, "300", "same")
+        assert r.returncode == 0, r.stdout + r.stderr
+        line = kv(r.stdout)
+        assert line["status"] == "ok" and line["send_errors"] == "0", line
+
+
+def test_deadline_ends_a_sample_that_cannot_finish(loop_bench: Path) -> None:
+    # 1 s for 50 million round trips: the sample ends at its deadline with a report.
+    t0 = time.monotonic()
+    r = run(loop_bench, "rtt", "udp", "50000000", "same", deadline="1")
+    assert r.returncode == 3
+    line = kv(r.stdout.strip().splitlines()[-1])
+    assert line["status"] == "failed" and "deadline" in line["reason"], line
+    assert time.monotonic() - t0 < 30  # not a timing claim: "it ended", with a wide margin
+
+
+def test_sample_sh_records_failures_and_timeouts_and_the_run_goes_on(tmp_path: Path, loop_bench: Path) -> None:
+    out = tmp_path / "loop.txt"
+    env = dict(os.environ, LOOP_BENCH_DEADLINE_S="20", LOOP_BENCH_FAULT="")
+    script = (f'set -e\n'
+              f'"{SAMPLE}" "{out}" 30 "{loop_bench}" rtt udp 200 same\n'
+              f'LOOP_BENCH_FAULT=echo-exit:3 "{SAMPLE}" "{out}" 30 "{loop_bench}" rtt tcp 200 same\n'
+              f'"{SAMPLE}" "{out}" 1 sleep 60\n'
+              f'"{SAMPLE}" "{out}" 30 "{loop_bench}" blast udp 200 same\n'
+              f'echo run-went-on\n')
+    r = subprocess.run(["bash", "-c", script], env=env, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and "run-went-on" in r.stdout, r.stderr
+    fails = tables.read_failures(tmp_path)
+    assert [f["status"] for f in fails] == ["failed", "timeout"], fails
+    assert "rtt tcp 200" in fails[0]["cmd"] and "exited early" in fails[0]["reason"]
+    assert fails[1]["cmd"] == "sleep 60" and fails[1]["deadline_s"] == "1"
+    # tables.py pools only the finished samples and lists the failures in results.md.
+    blast, rtt = tables.read_loop(out)
+    assert list(rtt) == [("udp", "both cpu0")] and len(rtt[("udp", "both cpu0")]["p50"]) == 1
+    assert list(blast) == [("udp", "1", "both cpu0")]
+    text = "\n".join(tables.failures_section(fails))
+    assert "2 sample(s) of this run failed" in text and "| timeout |" in text and "| failed |" in text
+    assert "None" in "\n".join(tables.failures_section([]))
+
+
+def test_what_holds_a_miss_back_quotes_this_runs_figures_and_labels_the_hand_analysis(tmp_path: Path) -> None:
+    goals = [("in-process, 3 hops", ">= 5 M msg/s delivered", "4.03 M msg/s", False, ""),
+             ("RAM", "<= 64 KiB static", "40.0 KiB", True, "")]
+    notes = tmp_path / "notes.md"
+    notes.write_text("# heading\nanalysed-run: the run of 2026-11-23 (12fba5f)\n\n- **3 hops (1.91 M msg/s).**\n")
+    text = "\n".join(tables.misses_section(goals, notes))
+    generated, hand = text.split("### ", 1)
+    assert "in-process, 3 hops**: goal >= 5 M msg/s delivered; measured 4.03 M msg/s" in generated
+    assert "RAM" not in generated  # met goals are not misses
+    assert "1.91" not in generated  # the hand-kept figure never appears as this run's
+    assert hand.startswith("Analysis kept by hand") and "the run of 2026-11-23 (12fba5f)" in hand
+    assert "not from this run" in hand and "1.91 M msg/s" in hand
+    # The real notes file names the run it analysed.
+    real = (ROOT / "bench" / "results_notes.md").read_text()
+    assert re.search(r"^analysed-run: .+", real, re.M)
+
+
+def test_tables_renders_what_ran_and_names_what_did_not(tmp_path: Path) -> None:
+    # A run where every figure but the Python one failed: results.md is still written, figure 4 has its
+    # tables and goals from this run's samples, every other figure says in one line why it is missing.
+    raw = tmp_path / "raw"
+    raw.mkdir()
+    rows = []
+    for case, rate in (("uavbus publish", 900), ("pymavlink encode", 100), ("lcm encode", 300),
+                       ("uavbus receive", 500), ("pymavlink decode", 100), ("lcm decode", 600)):
+        for m in tables.MSGS:
+            rows.append("\t".join([case, m, str(rate), str(rate + 10), str(rate - 10)]))
+    (raw / "py.txt").write_text("\n".join(rows) + "\n")
+    (raw / "failures.txt").write_text('status=timeout exit=124 deadline_s=150 out=loop.txt '
+                                      'cmd="loop_bench rtt tcp 10000 split" reason="no result"\n')
+    out = tmp_path / "results.md"
+    subprocess.run([sys.executable, str(ROOT / "bench" / "tables.py"), str(raw), str(out)], check=True, timeout=60)
+    text = out.read_text()
+    assert "| timeout | loop.txt | `loop_bench rtt tcp 10000 split` |" in text
+    assert "**figure 3: not produced from this run's raw outputs** (FileNotFoundError" in text
+    assert "| uavbus publish / pymavlink encode | 9.00x | 9.00x | 9.00x | >= 4x |" in text
+    assert "| uavbus receive / lcm decode | 0.83x | 0.83x | 0.83x | >= 1x |" in text
+    misses = text.split("## What holds a miss back", 1)[1]
+    assert "**Python receive**: goal >= 4x pymavlink decode and >= 1x LCM decode; measured worst 5.00x pymavlink, " \
+           "0.83x LCM." in misses
