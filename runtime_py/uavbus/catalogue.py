@@ -132,6 +132,18 @@ class Catalogue:
     """A loaded catalogue. Look instances up by name or ID; encode/decode their values."""
 
     def __init__(self, doc: dict[str, Any], origin: str = "<catalogue>") -> None:
+        # A damaged catalogue (a log's embedded copy, a hand-edited file) is bad input whatever the parser
+        # met in it: always a CatalogueError naming the origin, never a KeyError from deep inside.
+        try:
+            self._load(doc, origin)
+        except CatalogueError:
+            raise
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError, RecursionError) as exc:
+            detail = f"missing {exc}" if isinstance(exc, KeyError) else f"{type(exc).__name__}: {exc}"
+            raise CatalogueError(f"{origin}: not a usable uavbus catalogue ({detail}); regenerate it with "
+                                 "`uavbus gen`") from None
+
+    def _load(self, doc: dict[str, Any], origin: str) -> None:
         self.origin = origin
         try:
             self.name: str = doc["catalogue"]
@@ -183,6 +195,8 @@ class Catalogue:
             doc = json.loads(text)
         except json.JSONDecodeError as exc:
             raise CatalogueError(f"{origin}:{exc.lineno}: invalid JSON: {exc.msg}") from exc
+        except (UnicodeDecodeError, RecursionError) as exc:
+            raise CatalogueError(f"{origin}: not a uavbus catalogue ({type(exc).__name__}: {exc})") from None
         return cls(doc, origin)
 
     def _make_type(self, name: str, raw_types: dict[str, Any], stack: tuple[str, ...]) -> Type:

@@ -307,10 +307,21 @@ def load_catalogue(catalogue_json: str) -> Any:
 def _wait_header(f: BinaryIO, path: str, buf: bytearray, stop: Callable[[], bool] | None,
                  sleep: Callable[[float], None], poll_s: float, catalogue_json: str | None = None,
                  catalogue_origin: str = "--catalogue") -> LogHeader | None:
-    """Reads from `f` into `buf` until the file header is whole; None when `stop()` says so first."""
+    """Reads from `f` into `buf` until the file header is whole; None when `stop()` says so first.
+
+    A damaged primary copy hides where the spare copy starts until the spare's bytes are there, so a header
+    that does not parse yet is only final once the file stops growing (the writer writes its header in one
+    go) or `stop()` says no more will come: until then the bytes still to come may complete it."""
     while True:
-        buf += f.read()
-        header = parse_header(buf, path, catalogue_json, catalogue_origin)
+        chunk = f.read()
+        buf += chunk
+        try:
+            header = parse_header(buf, path, catalogue_json, catalogue_origin)
+        except LogFormatError:
+            if not chunk or (stop is not None and stop()):
+                raise
+            sleep(poll_s)
+            continue
         if header is not None:
             return header
         if stop is not None and stop():

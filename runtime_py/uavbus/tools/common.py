@@ -141,19 +141,11 @@ class Contents:
 def load_catalogue(text: str | bytes | None = None, origin: str = "<catalogue>", path: str | None = None) -> Any:
     """A Catalogue from JSON text (a log's embedded copy) or a file, or a CatalogueError saying which and
     why: a damaged catalogue is bad input, whatever exception its parser met."""
-    from uavbus.catalogue import Catalogue, CatalogueError
+    from uavbus.catalogue import Catalogue
 
-    try:
-        if path is not None:
-            return Catalogue.load(path)
-        return Catalogue.from_json_text(text or "", origin=origin)
-    except CatalogueError:
-        raise
-    except (KeyError, TypeError, ValueError, AttributeError, IndexError, RecursionError) as exc:
-        where = path or origin
-        detail = f"missing {exc}" if isinstance(exc, KeyError) else f"{type(exc).__name__}: {exc}"
-        raise CatalogueError(f"{where}: not a usable uavbus catalogue ({detail}); regenerate it with "
-                             "`uavbus gen`") from None
+    if path is not None:
+        return Catalogue.load(path)
+    return Catalogue.from_json_text(text or "", origin=origin)
 
 
 SEQ_WINDOW = 4096  # sequence numbers remembered per stream to recognise copies
@@ -215,19 +207,30 @@ class Stream:
         return min(d), max(d)
 
 
+def _utc(unix_ms: float) -> datetime.datetime | None:
+    """The UTC time of `unix_ms`, or None when no calendar holds it (a damaged log's clock can say anything)."""
+    try:
+        return datetime.datetime.fromtimestamp(unix_ms / 1000.0, tz=datetime.timezone.utc)
+    except (OverflowError, ValueError, OSError):
+        return None
+
+
 def human_time(unix_ms: float | None) -> str:
     """Wall-clock time, readable and unambiguous: "2025-11-23 19:37:01.123 UTC" ("-" when unknown)."""
     if unix_ms is None:
         return "-"
-    t = datetime.datetime.fromtimestamp(unix_ms / 1000.0, tz=datetime.timezone.utc)
+    t = _utc(unix_ms)
+    if t is None:
+        return f"unix ms {unix_ms:.0f} (not a date)"
     return t.strftime("%Y-%m-%d %H:%M:%S.") + f"{t.microsecond // 1000:03d} UTC"
 
 
 def iso_time(unix_ms: float | None) -> str | None:
-    """ISO 8601 UTC with ms, for CSV and JSON lines: "2025-11-23T19:37:01.123Z" (None when unknown)."""
-    if unix_ms is None:
+    """ISO 8601 UTC with ms, for CSV and JSON lines: "2025-11-23T19:37:01.123Z" (None when unknown, or when
+    the recorded clock names no date)."""
+    t = _utc(unix_ms) if unix_ms is not None else None
+    if t is None:
         return None
-    t = datetime.datetime.fromtimestamp(unix_ms / 1000.0, tz=datetime.timezone.utc)
     return t.strftime("%Y-%m-%dT%H:%M:%S.") + f"{t.microsecond // 1000:03d}Z"
 
 
