@@ -21,6 +21,7 @@
 #include "ub/ub_ports.h"
 #include "ub/ub_serial.h"
 #include "ub_mavbridge.h"
+#include "ub_mavroute.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -95,6 +96,50 @@ void ub_mavio_close(ub_mavio_t *io);
  * @return UB_OK; UB_ERR_IO (cannot read it); UB_ERR_CONFIG (bad content or mode).
  */
 UB_CHECK int ub_mavbridge_load_key(const char *path, uint8_t key[32], char *err, size_t err_cap);
+
+/* ---- the GCS endpoint (the front door, ub_mavroute.h) ------------------------------------------------ */
+
+/** A ground station silent this long (no datagram; GCSs send HEARTBEAT every second) is forgotten. */
+#ifndef UB_MAVGCS_CLIENT_TIMEOUT_MS
+#define UB_MAVGCS_CLIENT_TIMEOUT_MS 10000
+#endif
+
+typedef struct ub_mavgcs_stats {
+    uint64_t datagrams_in;
+    uint64_t clients_new;     /**< ground stations that appeared */
+    uint64_t clients_expired; /**< ... and were forgotten after UB_MAVGCS_CLIENT_TIMEOUT_MS of silence */
+    uint64_t clients_full;    /**< datagrams from a new address while UB_MAVROUTE_MAX_CLIENTS are known: dropped */
+    uint64_t again;           /**< datagrams the socket could not take now */
+    uint64_t send_errors;
+    uint64_t read_errors;
+} ub_mavgcs_stats_t;
+
+/** A UDP server endpoint for ground stations (QGroundControl, MAVProxy, MAVSDK: `udpout`/`udp://:PORT`
+ *  style clients). Every address that sends a datagram becomes a client of the router. Caller-owned. */
+typedef struct ub_mavgcs {
+    int fd;
+    struct {
+        struct sockaddr_in addr;
+        uint64_t last_ms;
+        uint8_t in_use;
+    } clients[UB_MAVROUTE_MAX_CLIENTS];
+    uint8_t rx[2048];
+    ub_mavgcs_stats_t stats;
+} ub_mavgcs_t;
+
+/** Opens `udp:bind=HOST:PORT` (no peer: ground stations are learned). @return UB_OK, UB_ERR_INVAL, UB_ERR_IO. */
+UB_CHECK int ub_mavgcs_open(ub_mavgcs_t *g, const ub_port_spec_t *spec, char *err, size_t err_cap);
+/** ub_mavroute_send_fn (`user` = the ub_mavgcs_t). */
+int ub_mavgcs_send(void *user, int client, const uint8_t *bytes, size_t len);
+/** Reads what arrived (at most UB_MAVIO_RX_BUDGET datagrams) into the router; forgets silent clients.
+ *  @return UB_OK or UB_ERR_IO. */
+UB_CHECK int ub_mavgcs_service(ub_mavgcs_t *g, ub_mavroute_t *rt, uint64_t now_ms);
+void ub_mavgcs_pollfd(const ub_mavgcs_t *g, struct pollfd *pfd);
+/** @return UB_OK with the bound port, or UB_ERR_IO. */
+UB_CHECK int ub_mavgcs_local_port(const ub_mavgcs_t *g, uint16_t *port);
+/** @return ground stations known now. */
+int ub_mavgcs_clients(const ub_mavgcs_t *g);
+void ub_mavgcs_close(ub_mavgcs_t *g);
 
 #ifdef __cplusplus
 }

@@ -240,3 +240,120 @@ int ub_mavbridge_load_key(const char *path, uint8_t key[32], char *err, size_t e
     }
     return UB_OK;
 }
+
+/* ---- the GCS endpoint ------------------------------------------------------------------------------ */
+
+int ub_mavgcs_open(ub_mavgcs_t *g, const ub_port_spec_t *spec, char *err, size_t cap) {
+    if (g == NULL || spec == NULL) return UB_ERR_INVAL;
+    memset(g, 0, sizeof *g);
+    g->fd = -1;
+    if (spec->kind != UB_PORT_UDP || spec->peer_port != 0)
+        return fail(err, cap, UB_ERR_INVAL, "gcs", "the GCS endpoint is udp:bind=HOST:PORT (ground stations are learned: no peer)");
+    struct sockaddr_in local;
+    memset(&local, 0, sizeof local);
+    local.sin_family = AF_INET;
+    local.sin_port = htons(spec->port);
+    if (inet_pton(AF_INET, spec->host, &local.sin_addr) != 1)
+        return fail(err, cap, UB_ERR_INVAL, "gcs", "bind must be a dotted IPv4 address");
+    int fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (fd < 0) return fail(err, cap, UB_ERR_IO, "gcs socket", strerror(errno));
+    int rcvbuf = UB_MAVIO_RCVBUF;
+    (void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+    if (bind(fd, (const struct sockaddr *)&local, sizeof local) < 0) {
+        int e = errno;
+        close(fd);
+        char what[96];
+        snprintf(what, sizeof what, "gcs udp bind %s:%u", spec->host, (unsigned)spec->port);
+        return fail(err, cap, UB_ERR_IO, what, strerror(e));
+    }
+    g->fd = fd;
+    return UB_OK;
+}
+
+int ub_mavgcs_send(void *user, int client, const uint8_t *bytes, size_t len) {
+    ub_mavgcs_t *g = user;
+    if (g == NULL || g->fd < 0 || client < 0 || client >= UB_MAVROUTE_MAX_CLIENTS || !g->clients[client].in_use)
+        return UB_ERR_INVAL;
+    ssize_t w = sendto(g->fd, bytes, len, 0, (const struct sockaddr *)&g->clients[client].addr, sizeof g->clients[client].addr);
+    if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+        g->stats.again++;
+        return UB_ERR_AGAIN;
+    }
+    if (w < 0 || (size_t)w != len) {
+        g->stats.send_errors++;
+        return UB_ERR_IO;
+    }
+    return UB_OK;
+}
+
+static int client_of(ub_mavgcs_t *g, ub_mavroute_t *rt, const struct sockaddr_in *from, uint64_t now_ms) {
+    int free_slot = -1;
+    for (int c = 0; c < UB_MAVROUTE_MAX_CLIENTS; c++) {
+        if (g->clients[c].in_use && same_peer(&g->clients[c].addr, from)) return c;
+        if (!g->clients[c].in_use && free_slot < 0) free_slot = c;
+    }
+    if (free_slot < 0) {
+        g->stats.clients_full++;
+        return -1;
+    }
+    g->clients[free_slot].in_use = 1;
+    g->clients[free_slot].addr = *from;
+    g->clients[free_slot].last_ms = now_ms;
+    ub_mavroute_client_gone(rt, free_slot); /* a fresh parser and nothing learned from a former client */
+    g->stats.clients_new++;
+    return free_slot;
+}
+
+int ub_mavgcs_service(ub_mavgcs_t *g, ub_mavroute_t *rt, uint64_t now_ms) {
+    if (g == NULL || rt == NULL || g->fd < 0) return UB_ERR_INVAL;
+    for (int k = 0; k < UB_MAVIO_RX_BUDGET; k++) {
+        struct sockaddr_in from;
+        socklen_t flen = sizeof from;
+        ssize_t n = recvfrom(g->fd, g->rx, sizeof g->rx, 0, (struct sockaddr *)&from, &flen);
+        if (n < 0) {
+            if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) break;
+            g->stats.read_errors++;
+            return UB_ERR_IO;
+        }
+        g->stats.datagrams_in++;
+        int c = client_of(g, rt, &from, now_ms);
+        if (c < 0) continue;
+        g->clients[c].last_ms = now_ms;
+        if (ub_mavroute_from_client(rt, c, g->rx, (size_t)n, now_ms) < 0) return UB_ERR_INVAL; /* cannot happen */
+    }
+    for (int c = 0; c < UB_MAVROUTE_MAX_CLIENTS; c++) {
+        if (g->clients[c].in_use && now_ms - g->clients[c].last_ms > UB_MAVGCS_CLIENT_TIMEOUT_MS) {
+            g->clients[c].in_use = 0;
+            g->stats.clients_expired++;
+            ub_mavroute_client_gone(rt, c);
+        }
+    }
+    return UB_OK;
+}
+
+void ub_mavgcs_pollfd(const ub_mavgcs_t *g, struct pollfd *pfd) {
+    pfd->fd = g->fd;
+    pfd->events = POLLIN;
+    pfd->revents = 0;
+}
+
+int ub_mavgcs_local_port(const ub_mavgcs_t *g, uint16_t *port) {
+    if (g == NULL || port == NULL || g->fd < 0) return UB_ERR_INVAL;
+    struct sockaddr_in local;
+    socklen_t len = sizeof local;
+    if (getsockname(g->fd, (struct sockaddr *)&local, &len) < 0) return UB_ERR_IO;
+    *port = ntohs(local.sin_port);
+    return UB_OK;
+}
+
+int ub_mavgcs_clients(const ub_mavgcs_t *g) {
+    int n = 0;
+    for (int c = 0; g != NULL && c < UB_MAVROUTE_MAX_CLIENTS; c++) n += g->clients[c].in_use;
+    return n;
+}
+
+void ub_mavgcs_close(ub_mavgcs_t *g) {
+    if (g == NULL || g->fd < 0) return;
+    close(g->fd);
+    g->fd = -1;
+}

@@ -1,0 +1,187 @@
+"""The MAVLink front door (docs/bridges.md#the-front-door-ground-stations-on-the-bus): ground stations
+nobody here wrote (pymavlink's mavutil, two at once) see every vehicle of the fleet through one bridge
+node's GCS endpoint, whichever bridge node each autopilot hangs off.
+
+    autopilot 1 (sys 1) -- uavbus_mavbridge [door] --gcs udp:...  <-- GCS A (pymavlink, sys 255)
+                                   |                               <-- GCS B (pymavlink, sys 254)
+                                 udp (uavbus)
+                                   |
+                           uavbus_node [relay1]
+                              /          \\
+            uavbus_mavbridge [mb2]    uavbus_mavbridge [mb3]      (two uavbus hops from the door)
+                     |                          |
+             autopilot 2 (sys 2)       autopilot 3 (sys 3)
+
+Checked, each able to fail:
+  - both GCSs get HEARTBEAT and distinct ATTITUDE samples of systems 1, 2 and 3 (counts, not rates);
+  - a COMMAND_LONG GCS A sends to system 2 reaches autopilot 2 only (autopilots 1 and 3 log no such
+    command) with GCS A's ids, and its COMMAND_ACK (target 255) reaches GCS A, not GCS B (system 254);
+  - a forged ATTITUDE (system 2, a roll no autopilot sends) from another address than autopilot 2's
+    reaches no GCS and is counted `foreign` by mb2's transport;
+  - the door reports the three vehicles and no system id conflict.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import time
+from pathlib import Path
+
+from uavbus.sim.portalloc import PortAllocator
+from uavbus.sim.process import ProcessGroup
+
+from bridge_testutil import autopilot_argv
+
+os.environ.setdefault("MAVLINK20", "1")
+from pymavlink import mavutil  # noqa: E402
+
+FORGED_ROLL = 2.5  # the autopilots' rolls stay within +-0.1 rad
+VEHICLES = (1, 2, 3)
+
+
+def write_config(path: Path, ports: PortAllocator) -> None:
+    a = {k: ports.port() for k in ("door", "relay_door", "relay_mb2", "relay_mb3", "mb2", "mb3")}
+
+    def udp(bind: str, peer: str) -> dict[str, str]:
+        return {"transport": "udp", "bind": f"127.0.0.1:{a[bind]}", "peer": f"127.0.0.1:{a[peer]}"}
+
+    cfg = {
+        "system": "doortest",
+        "entities": [
+            {"name": "door", "links": ["toRelay"], "linktoentity": {"relay1": [0], "mb2": [0], "mb3": [0]}},
+            {"name": "relay1", "links": ["toDoor", "toMb2", "toMb3"],
+             "linktoentity": {"door": ["toDoor"], "mb2": ["toMb2"], "mb3": ["toMb3"]}},
+            {"name": "mb2", "links": ["toRelay"], "linktoentity": {"relay1": [0], "door": [0], "mb3": [0]}},
+            {"name": "mb3", "links": ["toRelay"], "linktoentity": {"relay1": [0], "door": [0], "mb2": [0]}},
+        ],
+        "nodes": {"door": ["door"], "relay": ["relay1"], "mb2": ["mb2"], "mb3": ["mb3"]},
+        "ports": {
+            "door:toRelay": udp("door", "relay_door"),
+            "relay1:toDoor": udp("relay_door", "door"),
+            "relay1:toMb2": udp("relay_mb2", "mb2"),
+            "relay1:toMb3": udp("relay_mb3", "mb3"),
+            "mb2:toRelay": udp("mb2", "relay_mb2"),
+            "mb3:toRelay": udp("mb3", "relay_mb3"),
+        },
+        # Which bridges may hand a bridge MAVLink frames: the door and the vehicle bridges, nobody else.
+        "security": {"write": {
+            "door": [{"from": ["mb2", "mb3"], "content": "mavFrame"}],
+            "mb2": [{"from": "door", "content": "mavFrame"}],
+            "mb3": [{"from": "door", "content": "mavFrame"}],
+        }},
+    }
+    path.write_text(json.dumps(cfg, indent=1))
+
+
+class Gcs:
+    """A pymavlink ground station on the door's UDP endpoint (mavutil `udpout`, as MAVProxy's --master)."""
+
+    def __init__(self, port: int, sysid: int) -> None:
+        self.conn = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=sysid,
+                                               source_component=190, dialect="common")
+        self.heartbeats: dict[int, int] = {}
+        self.attitude: dict[int, set[int]] = {}
+        self.rolls: list[float] = []
+        self.acks: list[tuple[int, int, int]] = []  # (from system, command, result)
+        self.next_hb = 0.0
+
+    def pump(self) -> None:
+        now = time.monotonic()
+        if now >= self.next_hb:
+            self.conn.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS, mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
+                                         mavutil.mavlink.MAV_STATE_ACTIVE)
+            self.next_hb = now + 0.5
+        while (m := self.conn.recv_msg()) is not None:
+            kind, src = m.get_type(), m.get_srcSystem()
+            if kind == "HEARTBEAT":
+                self.heartbeats[src] = self.heartbeats.get(src, 0) + 1
+            elif kind == "ATTITUDE":
+                self.attitude.setdefault(src, set()).add(m.time_boot_ms)
+                self.rolls.append(m.roll)
+            elif kind == "COMMAND_ACK":
+                self.acks.append((src, m.command, m.result))
+
+
+def run(gcss: list[Gcs], seconds: float, until=None) -> None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        for g in gcss:
+            g.pump()
+        if until is not None and until():
+            return
+        time.sleep(0.005)
+
+
+def test_two_gcs_see_three_vehicles_and_commands_reach_only_their_target(tmp_path, group: ProcessGroup, mavbridge,
+                                                                                  uavbus_node):
+    ports = PortAllocator()
+    cfg = tmp_path / "door.json"
+    write_config(cfg, ports)
+    prog = mavbridge["program"]
+    aps, mav_ports = {}, {}
+    for sysid in VEHICLES:
+        ap_port, mav_ports[sysid] = ports.port(), ports.port()
+        aps[sysid] = group.spawn(autopilot_argv(ap_port, duration=55, sysid=sysid), f"autopilot{sysid}", ready_timeout=10)
+        mav_ports[sysid] = (mav_ports[sysid], ap_port)
+    gcs_port = ports.port()
+
+    def bridge(node: str, sysid: int, extra: list[str]):
+        bind, peer = mav_ports[sysid]
+        return group.spawn([prog, "--config", str(cfg), "--node", node, "--stats-ms", "0", "--target", f"{sysid}/1",
+                            "--mavlink", f"udp:bind=127.0.0.1:{bind},peer=127.0.0.1:{peer}"] + extra,
+                           node, ready_timeout=10)
+
+    door = bridge("door", 1, ["--gcs", f"udp:bind=127.0.0.1:{gcs_port}", "--fleet", "mb2", "--fleet", "mb3"])
+    mb2 = bridge("mb2", 2, ["--fleet", "door"])
+    bridge("mb3", 3, ["--fleet", "door"])
+    group.spawn([str(uavbus_node), "--config", str(cfg), "--node", "relay", "--stats-ms", "0"], "relay", ready_timeout=10)
+    assert door.wait_ready()["gcs_port"] == gcs_port
+
+    a, b = Gcs(gcs_port, 255), Gcs(gcs_port, 254)
+    group.on_close(a.conn.close)
+    group.on_close(b.conn.close)
+
+    def everyone_seen() -> bool:
+        return all(len(g.attitude.get(s, ())) >= 20 and g.heartbeats.get(s, 0) >= 2 for g in (a, b) for s in VEHICLES)
+
+    run([a, b], 30, everyone_seen)
+    assert everyone_seen(), (f"A: hb {a.heartbeats} att { {s: len(v) for s, v in a.attitude.items()} }; "
+                             f"B: hb {b.heartbeats} att { {s: len(v) for s, v in b.attitude.items()} }; "
+                             f"door: {door.request_stats()['mavlink'].get('door')}")
+
+    # A command from GCS A to system 2 only.
+    marks = {s: ap.mark() for s, ap in aps.items()}
+    a.conn.mav.command_long_send(2, 1, mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
+    run([a, b], 10, lambda: any(ack[0] == 2 and ack[1] == 400 for ack in a.acks))
+    assert (2, 400, 0) in a.acks, f"no COMMAND_ACK from system 2 at GCS A: {a.acks}; door {door.request_stats()['mavlink']['door']}"
+    got = [e for e in aps[2].all("command") if e["command"] == 400]
+    assert len(got) == 1 and got[0]["from"] == [255, 190] and got[0]["params"][0] == 1.0, got
+    run([a, b], 1.0)  # time for a wrongly routed copy to arrive anywhere else
+    for s in (1, 3):
+        ap = aps[s]
+        ap.send("stats")
+        ap.wait_event("stats", 3, since=marks[s])
+        assert not [e for e in ap.all("command") if e["command"] == 400], f"autopilot {s} got GCS A's command"
+    assert not [ack for ack in b.acks if ack[1] == 400], f"GCS B got GCS A's ACK: {b.acks}"
+
+    # A forger sends ATTITUDE as system 2 to mb2's MAVLink port from its own address.
+    forged = mavutil.mavlink.MAVLink(None, srcSystem=2, srcComponent=1)
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        for i in range(20):
+            msg = mavutil.mavlink.MAVLink_attitude_message(999_000 + i, FORGED_ROLL, 0, 0, 0, 0, 0)
+            sock.sendto(msg.pack(forged), ("127.0.0.1", mav_ports[2][0]))
+            run([a, b], 0.05)
+    finally:
+        sock.close()
+    run([a, b], 1.0)
+    for g in (a, b):
+        assert not [r for r in g.rolls if abs(r - FORGED_ROLL) < 1e-3], "a forged ATTITUDE reached a GCS"
+    s2 = mb2.request_stats()["mavlink"]
+    assert s2["transport"]["foreign"] >= 20 and s2["other_source"] == 0, s2
+
+    st = door.request_stats()["mavlink"]["door"]
+    assert st["systems"] == [1, 2, 3] and st["sysid_conflicts"] == 0, st
+    assert st["clients"] == 2 and st["from_peers"] > 0 and st["to_clients"] > 0, st
