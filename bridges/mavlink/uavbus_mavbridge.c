@@ -3,13 +3,16 @@
  *
  *   uavbus_mavbridge --config FILE [--node NAME] [--entity NAME] --mavlink SPEC
  *                    [--sysid N] [--compid N] [--target SYSID/COMPID] [--mavlink-key FILE [--link-id N]]
- *                    [--commands-without-policy] [--port LINK=SPEC]... [--stats-ms MS] [--duration-ms MS]
+ *                    [--commands-without-policy] [--gcs udp:bind=HOST:PORT] [--fleet ENTITY]...
+ *                    [--port LINK=SPEC]... [--stats-ms MS] [--duration-ms MS]
  *
  * The uavbus side is a node of a configuration file, run by the same program shell as uavbus_node
  * (runtime_c/app/ub_app.h): entity table, ports, the "security" section (whose write policy says who
  * may command the autopilot), the JSON-lines protocol, stdin, signals and the poll loop. The bridge
- * entity is --entity, or the node's first hosted entity. The MAVLink side is one UDP or serial link
- * (--mavlink udp:bind=HOST:PORT,peer=HOST:PORT | serial:device=PATH[,baud=N]), polled beside the ports.
+ * entity is --entity, or the node's first hosted entity. The MAVLink side is one UDP, TCP client or serial
+ * link (--mavlink udp:bind=HOST:PORT,peer=HOST:PORT | tcp:connect=HOST:PORT | serial:device=PATH[,baud=N]),
+ * polled beside the ports. The front door (ub_mavroute.h): --gcs opens a UDP endpoint for ground stations,
+ * --fleet names the other bridge entities whose vehicles it shows.
  *
  * Output on stdout, one JSON object per line (docs/program-protocol.md): "ready", "autopilot"
  * (connected / lost), "stats", "warning", "error". stdin: `stats`, `quit`. CLOCK_MONOTONIC ms, no
@@ -64,7 +67,7 @@ static void usage(FILE *f) {
             "                        [--mavlink-key FILE [--link-id N]] [--commands-without-policy]\n"
             "                        [--gcs udp:bind=HOST:PORT] [--fleet ENTITY]...\n"
             "                        [--port LINK=SPEC]... [--stats-ms MS] [--duration-ms MS]\n"
-            "SPEC (--mavlink): udp:bind=HOST:PORT,peer=HOST:PORT | serial:device=PATH[,baud=N]\n"
+            "SPEC (--mavlink): udp:bind=HOST:PORT,peer=HOST:PORT | tcp:connect=HOST:PORT | serial:device=PATH[,baud=N]\n"
             "stdin commands: stats | quit\n");
 }
 
@@ -173,8 +176,10 @@ static void event_stats(ub_app_t *app, uint64_t now_ms, bool final) {
     C(intervals_timeout); C(seq_outliers);
     const ub_mavio_stats_t *s = &g_b.io.stats;
     ub_app_out(app, ",\"transport\":{\"datagrams_in\":%" PRIu64 ",\"foreign\":%" PRIu64 ",\"read_errors\":%" PRIu64
-        ",\"again\":%" PRIu64 ",\"send_errors\":%" PRIu64 "}",
-        s->datagrams_in, s->foreign, s->read_errors, s->again, s->send_errors);
+        ",\"again\":%" PRIu64 ",\"send_errors\":%" PRIu64 ",\"connects\":%" PRIu64 ",\"disconnects\":%" PRIu64
+        ",\"connect_failures\":%" PRIu64 "}",
+        s->datagrams_in, s->foreign, s->read_errors, s->again, s->send_errors, s->connects, s->disconnects,
+        s->connect_failures);
     if (g_b.door) {
         const ub_mavroute_counters_t *r = ub_mavroute_counters(&g_b.rt);
         const ub_mavgcs_stats_t *gs = &g_b.gcs.stats;

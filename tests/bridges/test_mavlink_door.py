@@ -185,3 +185,78 @@ def test_two_gcs_see_three_vehicles_and_commands_reach_only_their_target(tmp_pat
     st = door.request_stats()["mavlink"]["door"]
     assert st["systems"] == [1, 2, 3] and st["sysid_conflicts"] == 0, st
     assert st["clients"] == 2 and st["from_peers"] > 0 and st["to_clients"] > 0, st
+
+
+PARAM_COUNT = 20  # mav_autopilot.PARAMS
+
+
+def test_tcp_autopilot_parameters_and_statustext_through_the_door(tmp_path, group: ProcessGroup, mavbridge):
+    """An autopilot on TCP (as SITL's 5760, mav_autopilot.py --tcp) behind the door: a pymavlink GCS fetches
+    the whole parameter list with the exact names (char arrays: a 16-character one with no NUL), sets one,
+    and reads STATUSTEXT; the bridge reconnects when the autopilot restarts."""
+    ports = PortAllocator()
+    ap_port, gcs_port = ports.port(), ports.port()
+    cfg = tmp_path / "door1.json"
+    cfg.write_text(json.dumps({
+        "system": "doortest1",
+        "entities": [{"name": "door", "links": [], "linktoentity": {}}],
+        "nodes": {"door": ["door"]},
+        "security": {"write": {"door": [{"from": "door", "content": "mavFrame"}]}},
+    }))
+    argv = autopilot_argv(ap_port, duration=50, sysid=7) + ["--tcp"]
+    ap = group.spawn(argv, "autopilot7", ready_timeout=10)
+    door = group.spawn([mavbridge["program"], "--config", str(cfg), "--node", "door", "--stats-ms", "0",
+                        "--mavlink", f"tcp:connect=127.0.0.1:{ap_port}", "--gcs", f"udp:bind=127.0.0.1:{gcs_port}"],
+                       "door", ready_timeout=10)
+    door.wait_event(lambda e: e.get("event") == "autopilot" and e.get("state") == "connected", 10,
+                    what="autopilot connected over TCP")
+    g = Gcs(gcs_port, 255)
+    group.on_close(g.conn.close)
+    run([g], 10, lambda: g.heartbeats.get(7, 0) >= 1)
+    assert g.heartbeats.get(7), f"no HEARTBEAT of system 7 at the GCS: {door.request_stats()['mavlink']}"
+
+    # The parameter list, with pymavlink's own bookkeeping (as MAVProxy's `param fetch`).
+    values: dict[str, float] = {}
+    texts: list[str] = []
+
+    def collect() -> None:
+        while (m := g.conn.recv_msg()) is not None:
+            if m.get_type() == "PARAM_VALUE" and m.get_srcSystem() == 7:
+                values[m.param_id] = m.param_value
+                count = m.param_count
+                assert count == PARAM_COUNT, count
+            elif m.get_type() == "STATUSTEXT":
+                texts.append(m.text)
+
+    g.conn.mav.param_request_list_send(7, 1)
+    end = time.monotonic() + 10
+    while len(values) < PARAM_COUNT and time.monotonic() < end:
+        collect()
+        time.sleep(0.01)
+    assert len(values) == PARAM_COUNT, sorted(values)
+    assert values["WPNAV_SPEED_DN_X"] == 150.0 and values["SYSID_THISMAV"] == 7.0, values
+
+    g.conn.mav.param_set_send(7, 1, b"TEST_P05", 42.5, mavutil.mavlink.MAV_PARAM_TYPE_REAL32)
+    end = time.monotonic() + 5
+    while values.get("TEST_P05") != 42.5 and time.monotonic() < end:
+        collect()
+        time.sleep(0.01)
+    assert values.get("TEST_P05") == 42.5, values
+    assert any(e["name"] == "TEST_P05" and e["value"] == 42.5 for e in ap.all("param_set")), ap.all("param_set")
+
+    ap.send("statustext Battery 3 low: 22% left")
+    end = time.monotonic() + 5
+    while "Battery 3 low: 22% left" not in texts and time.monotonic() < end:
+        collect()
+        time.sleep(0.01)
+    assert "Battery 3 low: 22% left" in texts, texts
+
+    # The autopilot restarts (SITL does): the bridge connects again by itself.
+    ap.stop()
+    door.wait_event(lambda e: e.get("event") == "autopilot" and e.get("state") == "lost", 10, what="autopilot lost")
+    mark = door.mark()
+    ap.restart(ready_timeout=10)
+    door.wait_event(lambda e: e.get("event") == "autopilot" and e.get("state") == "connected", 15, since=mark,
+                    what="autopilot back over TCP")
+    t = door.request_stats()["mavlink"]["transport"]
+    assert t["connects"] >= 2 and t["disconnects"] >= 1, t

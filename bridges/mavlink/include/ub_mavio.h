@@ -1,10 +1,12 @@
 /**
  * @file ub_mavio.h
  * @brief POSIX transports between the MAVLink bridge (ub_mavbridge.h) and an autopilot: a UDP
- *        socket (bind + the autopilot's address) or a serial device (raw 8N1, ub_serial.h's
- *        set-up), both non-blocking, from the same spec text as uavbus ports
- *        (`udp:bind=127.0.0.1:14550,peer=127.0.0.1:14555`, `serial:device=/dev/ttyACM0,baud=115200`),
- *        and the signing key file.
+ *        socket (bind + the autopilot's address), a TCP client (ArduPilot SITL's 5760; reconnects)
+ *        or a serial device (raw 8N1, ub_serial.h's set-up), all non-blocking, from the same spec
+ *        text as uavbus ports (`udp:bind=127.0.0.1:14550,peer=127.0.0.1:14555`,
+ *        `tcp:connect=127.0.0.1:5760`, `serial:device=/dev/ttyACM0,baud=115200`), and the signing
+ *        key file. The autopilot's address is pinned: UDP takes datagrams from the peer only, TCP
+ *        and serial are the autopilot's own connection.
  *
  * Nothing is dropped silently: datagrams from another address than the peer (`foreign`), messages
  * the socket or the device could not take (`again`, `send_errors`, `tx_full`) are counted.
@@ -36,6 +38,10 @@ extern "C" {
 #ifndef UB_MAVIO_RCVBUF
 #define UB_MAVIO_RCVBUF (1 << 20)
 #endif
+/** TCP: wait before connecting again after a failure or a closed connection. */
+#ifndef UB_MAVIO_RECONNECT_MS
+#define UB_MAVIO_RECONNECT_MS 1000
+#endif
 /** Datagrams or reads per ub_mavio_service() at most (the poll loop comes back for the rest). */
 #ifndef UB_MAVIO_RX_BUDGET
 #define UB_MAVIO_RX_BUDGET 64
@@ -50,6 +56,9 @@ typedef struct ub_mavio_stats {
     uint64_t bytes_out;     /**< bytes the socket or the device accepted */
     uint64_t again;         /**< messages refused: socket buffer full, or serial queue full */
     uint64_t send_errors;   /**< socket or device write errors */
+    uint64_t connects;      /**< TCP: connections made */
+    uint64_t disconnects;   /**< TCP: connections the autopilot closed or broke */
+    uint64_t connect_failures; /**< TCP: attempts refused or failed (retried every UB_MAVIO_RECONNECT_MS) */
 } ub_mavio_stats_t;
 
 /** One transport. Caller-owned; fields private. */
@@ -58,6 +67,8 @@ typedef struct ub_mavio {
     int fd;
     struct sockaddr_in peer;
     ub_serial_t serial;
+    uint8_t connecting;       /* TCP: a non-blocking connect in progress */
+    uint64_t retry_ms;        /* TCP: next connect attempt while fd < 0 */
     size_t tx_len;
     uint8_t tx[UB_MAVIO_TX_BUFFER];
     uint8_t rx[2048];
@@ -79,11 +90,15 @@ int ub_mavio_write(void *user, const uint8_t *bytes, size_t len);
  */
 UB_CHECK int ub_mavio_service(ub_mavio_t *io, ub_mavbridge_t *br, uint64_t now_ms);
 
-/** The descriptor to poll: POLLIN, plus POLLOUT while serial bytes wait. */
+/** The descriptor to poll: POLLIN, plus POLLOUT while serial or TCP bytes wait or a connect is in
+ *  progress. fd -1 (ignored by poll) while a TCP connection waits to be retried. */
 void ub_mavio_pollfd(const ub_mavio_t *io, struct pollfd *pfd);
 
 /** The UDP socket's bound port. @return UB_OK, or UB_ERR_INVAL (serial) / UB_ERR_IO. */
 UB_CHECK int ub_mavio_local_port(const ub_mavio_t *io, uint16_t *port);
+
+/** @return whether the transport can carry bytes now (TCP: connected; UDP and serial: open). */
+bool ub_mavio_up(const ub_mavio_t *io);
 
 /** Closes the descriptor. Safe twice. */
 void ub_mavio_close(ub_mavio_t *io);

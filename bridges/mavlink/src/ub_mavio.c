@@ -5,6 +5,7 @@
 #include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <netinet/tcp.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/socket.h>
@@ -41,12 +42,49 @@ static int open_udp(ub_mavio_t *io, const ub_port_spec_t *spec, char *err, size_
     return UB_OK;
 }
 
+/* TCP client: starts a non-blocking connect (completed in ub_mavio_service()). */
+static int tcp_connect(ub_mavio_t *io, uint64_t now_ms) {
+    int fd = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (fd < 0) return UB_ERR_IO;
+    int one = 1;
+    (void)setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one); /* MAVLink messages are small and urgent */
+    int rc = connect(fd, (const struct sockaddr *)&io->peer, sizeof io->peer);
+    if (rc < 0 && errno != EINPROGRESS) {
+        close(fd);
+        io->stats.connect_failures++;
+        io->retry_ms = now_ms + UB_MAVIO_RECONNECT_MS;
+        return UB_ERR_IO;
+    }
+    io->fd = fd;
+    io->connecting = rc < 0;
+    if (rc == 0) io->stats.connects++;
+    return UB_OK;
+}
+
+static void tcp_drop(ub_mavio_t *io, uint64_t now_ms, bool was_up) {
+    if (io->fd >= 0) close(io->fd);
+    io->fd = -1;
+    io->connecting = 0;
+    io->tx_len = 0; /* half a message must not start the next connection */
+    io->retry_ms = now_ms + UB_MAVIO_RECONNECT_MS;
+    if (was_up) io->stats.disconnects++;
+    else io->stats.connect_failures++;
+}
+
 int ub_mavio_open(ub_mavio_t *io, const ub_port_spec_t *spec, char *err, size_t err_cap) {
     if (io == NULL || spec == NULL) return UB_ERR_INVAL;
     memset(io, 0, sizeof *io);
     io->fd = -1;
     io->kind = spec->kind;
     if (spec->kind == UB_PORT_UDP) return open_udp(io, spec, err, err_cap);
+    if (spec->kind == UB_PORT_TCP_CONNECT) {
+        io->peer.sin_family = AF_INET;
+        io->peer.sin_port = htons(spec->port);
+        if (inet_pton(AF_INET, spec->host, &io->peer.sin_addr) != 1)
+            return fail(err, err_cap, UB_ERR_INVAL, "tcp", "connect must be a dotted IPv4 address");
+        (void)tcp_connect(io, 0); /* refused now: retried by ub_mavio_service(), as SITL may start later */
+        return UB_OK;
+    }
     if (spec->kind == UB_PORT_SERIAL) {
         int rc = ub_serial_open(&io->serial, spec->device, spec->baud);
         if (rc == UB_ERR_RANGE) return fail(err, err_cap, rc, spec->device, "unsupported baud rate");
@@ -55,19 +93,20 @@ int ub_mavio_open(ub_mavio_t *io, const ub_port_spec_t *spec, char *err, size_t 
         return UB_OK;
     }
     return fail(err, err_cap, UB_ERR_INVAL, "mavlink",
-                "the autopilot link is udp:bind=HOST:PORT,peer=HOST:PORT or serial:device=PATH[,baud=N]");
+                "the autopilot link is udp:bind=HOST:PORT,peer=HOST:PORT, tcp:connect=HOST:PORT or serial:device=PATH[,baud=N]");
 }
 
-/* Writes what the device takes now; returns bytes written or a negative error. */
-static ssize_t write_some(int fd, const uint8_t *p, size_t n) {
-    ssize_t w = write(fd, p, n);
+/* Writes what the device or the connection takes now; returns bytes written or a negative error. */
+static ssize_t write_some(const ub_mavio_t *io, const uint8_t *p, size_t n) {
+    int fd = io->fd;
+    ssize_t w = io->kind == UB_PORT_TCP_CONNECT ? send(fd, p, n, MSG_NOSIGNAL) : write(fd, p, n);
     if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) return 0;
     return w;
 }
 
 static int flush_serial(ub_mavio_t *io) {
     if (io->tx_len == 0) return UB_OK;
-    ssize_t w = write_some(io->fd, io->tx, io->tx_len);
+    ssize_t w = write_some(io, io->tx, io->tx_len);
     if (w < 0) {
         io->stats.send_errors++;
         return UB_ERR_IO;
@@ -95,10 +134,14 @@ int ub_mavio_write(void *user, const uint8_t *bytes, size_t len) {
         io->stats.bytes_out += len;
         return UB_OK;
     }
-    /* Serial: keep order behind what waits; a message is queued whole or refused whole. */
+    /* Serial and TCP: keep order behind what waits; a message is queued whole or refused whole. */
+    if (io->kind == UB_PORT_TCP_CONNECT && (io->fd < 0 || io->connecting)) {
+        io->stats.again++; /* not connected (yet): the bridge counts it as backpressure */
+        return UB_ERR_AGAIN;
+    }
     if (flush_serial(io) < 0) return UB_ERR_IO;
     if (io->tx_len == 0) {
-        ssize_t w = write_some(io->fd, bytes, len);
+        ssize_t w = write_some(io, bytes, len);
         if (w < 0) {
             io->stats.send_errors++;
             return UB_ERR_IO;
@@ -125,8 +168,35 @@ static bool same_peer(const struct sockaddr_in *a, const struct sockaddr_in *b) 
     return a->sin_addr.s_addr == b->sin_addr.s_addr && a->sin_port == b->sin_port;
 }
 
+/* TCP: connects, completes a connect, flushes; a broken connection is dropped and retried.
+ * @return whether the connection is up. */
+static bool tcp_service(ub_mavio_t *io, uint64_t now_ms) {
+    if (io->fd < 0) {
+        if (now_ms < io->retry_ms || tcp_connect(io, now_ms) < 0) return false;
+    }
+    if (io->connecting) {
+        int e = 0;
+        socklen_t elen = sizeof e;
+        struct pollfd pfd = {.fd = io->fd, .events = POLLOUT, .revents = 0};
+        if (poll(&pfd, 1, 0) <= 0) return false; /* still in progress */
+        if (getsockopt(io->fd, SOL_SOCKET, SO_ERROR, &e, &elen) < 0 || e != 0) {
+            tcp_drop(io, now_ms, false);
+            return false;
+        }
+        io->connecting = 0;
+        io->stats.connects++;
+    }
+    if (flush_serial(io) < 0) {
+        tcp_drop(io, now_ms, true);
+        return false;
+    }
+    return true;
+}
+
 int ub_mavio_service(ub_mavio_t *io, ub_mavbridge_t *br, uint64_t now_ms) {
-    if (io == NULL || br == NULL || io->fd < 0) return UB_ERR_INVAL;
+    if (io == NULL || br == NULL) return UB_ERR_INVAL;
+    if (io->kind == UB_PORT_TCP_CONNECT && !tcp_service(io, now_ms)) return 0;
+    if (io->fd < 0) return UB_ERR_INVAL;
     int accepted = 0;
     if (io->kind == UB_PORT_SERIAL && flush_serial(io) < 0) return UB_ERR_IO;
     for (int k = 0; k < UB_MAVIO_RX_BUDGET; k++) {
@@ -140,6 +210,12 @@ int ub_mavio_service(ub_mavio_t *io, ub_mavbridge_t *br, uint64_t now_ms) {
                 continue;
             }
             if (n >= 0) io->stats.datagrams_in++;
+        } else if (io->kind == UB_PORT_TCP_CONNECT) {
+            n = recv(io->fd, io->rx, sizeof io->rx, 0);
+            if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
+                tcp_drop(io, now_ms, true); /* closed or broken: the autopilot restarts, SITL too */
+                break;
+            }
         } else {
             n = read(io->fd, io->rx, sizeof io->rx);
             if (n == 0) break; /* no data (VMIN 0) */
@@ -158,9 +234,11 @@ int ub_mavio_service(ub_mavio_t *io, ub_mavbridge_t *br, uint64_t now_ms) {
 
 void ub_mavio_pollfd(const ub_mavio_t *io, struct pollfd *pfd) {
     pfd->fd = io->fd;
-    pfd->events = (short)(POLLIN | (io->tx_len > 0 ? POLLOUT : 0));
+    pfd->events = (short)(POLLIN | (io->tx_len > 0 || io->connecting ? POLLOUT : 0));
     pfd->revents = 0;
 }
+
+bool ub_mavio_up(const ub_mavio_t *io) { return io != NULL && io->fd >= 0 && !io->connecting; }
 
 int ub_mavio_local_port(const ub_mavio_t *io, uint16_t *port) {
     if (io == NULL || port == NULL || io->kind != UB_PORT_UDP) return UB_ERR_INVAL;
