@@ -84,9 +84,9 @@ def main() -> int:
     sent: dict[str, int] = {}
     commands = 0
     paused_until = 0.0
-    params = dict(PARAMS)
-    params["SYSID_THISMAV"] = float(args.sysid)
-    names = list(params)
+    param_table = dict(PARAMS)
+    param_table["SYSID_THISMAV"] = float(args.sysid)
+    names = list(param_table)
     greeted = False
     emit({"event": "ready", "pid": os.getpid(), "port": args.port, "signing": key is not None})
 
@@ -164,7 +164,7 @@ def main() -> int:
                 kind = msg.get_type()
 
                 def param_value(name: str) -> None:
-                    send(m.MAVLink_param_value_message(name.encode(), params[name], m.MAV_PARAM_TYPE_REAL32,
+                    send(m.MAVLink_param_value_message(name.encode(), param_table[name], m.MAV_PARAM_TYPE_REAL32,
                                                        len(names), names.index(name)))
 
                 if not greeted and kind == "HEARTBEAT":
@@ -181,13 +181,13 @@ def main() -> int:
                 if kind == "PARAM_REQUEST_READ":
                     pid = msg.param_id if isinstance(msg.param_id, str) else msg.param_id.decode()
                     name = names[msg.param_index] if 0 <= msg.param_index < len(names) else pid
-                    if name in params:
+                    if name in param_table:
                         param_value(name)
                     continue
                 if kind == "PARAM_SET":
                     pid = msg.param_id if isinstance(msg.param_id, str) else msg.param_id.decode()
-                    if pid in params:
-                        params[pid] = msg.param_value
+                    if pid in param_table:
+                        param_table[pid] = msg.param_value
                         emit({"event": "param_set", "name": pid, "value": msg.param_value})
                         param_value(pid)
                     continue

@@ -25,7 +25,11 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import socket
+import subprocess
+import sys
+import threading
 import time
 from pathlib import Path
 
@@ -114,31 +118,40 @@ def run(gcss: list[Gcs], seconds: float, until=None) -> None:
         time.sleep(0.005)
 
 
+class Fleet:
+    """Three autopilots behind the door, mb2 and mb3 (the diagram above); ports from the allocator."""
+
+    def __init__(self, tmp_path: Path, group: ProcessGroup, mavbridge: dict[str, str], uavbus_node: Path) -> None:
+        ports = PortAllocator()
+        cfg = tmp_path / "door.json"
+        write_config(cfg, ports)
+        prog = mavbridge["program"]
+        self.aps, self.mav_ports = {}, {}
+        for sysid in VEHICLES:
+            ap_port, bind = ports.port(), ports.port()
+            self.aps[sysid] = group.spawn(autopilot_argv(ap_port, duration=55, sysid=sysid), f"autopilot{sysid}",
+                                          ready_timeout=10)
+            self.mav_ports[sysid] = (bind, ap_port)
+        self.gcs_port = ports.port()
+
+        def bridge(node: str, sysid: int, extra: list[str]):
+            bind, peer = self.mav_ports[sysid]
+            return group.spawn([prog, "--config", str(cfg), "--node", node, "--stats-ms", "0", "--target", f"{sysid}/1",
+                                "--mavlink", f"udp:bind=127.0.0.1:{bind},peer=127.0.0.1:{peer}"] + extra,
+                               node, ready_timeout=10)
+
+        self.door = bridge("door", 1, ["--gcs", f"udp:bind=127.0.0.1:{self.gcs_port}", "--fleet", "mb2", "--fleet", "mb3"])
+        self.mb2 = bridge("mb2", 2, ["--fleet", "door"])
+        self.mb3 = bridge("mb3", 3, ["--fleet", "door"])
+        group.spawn([str(uavbus_node), "--config", str(cfg), "--node", "relay", "--stats-ms", "0"], "relay",
+                    ready_timeout=10)
+        assert self.door.wait_ready()["gcs_port"] == self.gcs_port
+
+
 def test_two_gcs_see_three_vehicles_and_commands_reach_only_their_target(tmp_path, group: ProcessGroup, mavbridge,
                                                                                   uavbus_node):
-    ports = PortAllocator()
-    cfg = tmp_path / "door.json"
-    write_config(cfg, ports)
-    prog = mavbridge["program"]
-    aps, mav_ports = {}, {}
-    for sysid in VEHICLES:
-        ap_port, mav_ports[sysid] = ports.port(), ports.port()
-        aps[sysid] = group.spawn(autopilot_argv(ap_port, duration=55, sysid=sysid), f"autopilot{sysid}", ready_timeout=10)
-        mav_ports[sysid] = (mav_ports[sysid], ap_port)
-    gcs_port = ports.port()
-
-    def bridge(node: str, sysid: int, extra: list[str]):
-        bind, peer = mav_ports[sysid]
-        return group.spawn([prog, "--config", str(cfg), "--node", node, "--stats-ms", "0", "--target", f"{sysid}/1",
-                            "--mavlink", f"udp:bind=127.0.0.1:{bind},peer=127.0.0.1:{peer}"] + extra,
-                           node, ready_timeout=10)
-
-    door = bridge("door", 1, ["--gcs", f"udp:bind=127.0.0.1:{gcs_port}", "--fleet", "mb2", "--fleet", "mb3"])
-    mb2 = bridge("mb2", 2, ["--fleet", "door"])
-    bridge("mb3", 3, ["--fleet", "door"])
-    group.spawn([str(uavbus_node), "--config", str(cfg), "--node", "relay", "--stats-ms", "0"], "relay", ready_timeout=10)
-    assert door.wait_ready()["gcs_port"] == gcs_port
-
+    f = Fleet(tmp_path, group, mavbridge, uavbus_node)
+    aps, mav_ports, gcs_port, door, mb2 = f.aps, f.mav_ports, f.gcs_port, f.door, f.mb2
     a, b = Gcs(gcs_port, 255), Gcs(gcs_port, 254)
     group.on_close(a.conn.close)
     group.on_close(b.conn.close)
@@ -260,3 +273,74 @@ def test_tcp_autopilot_parameters_and_statustext_through_the_door(tmp_path, grou
                     what="autopilot back over TCP")
     t = door.request_stats()["mavlink"]["transport"]
     assert t["connects"] >= 2 and t["disconnects"] >= 1, t
+
+
+class MavProxy:
+    """MAVProxy (PyPI) as an operator runs it: `mavproxy.py --master udpout:HOST:PORT`, commands on stdin."""
+
+    def __init__(self, tmp_path: Path, gcs_port: int, target: int, source_system: int = 250) -> None:
+        exe = Path(sys.executable).with_name("mavproxy.py")
+        assert exe.exists(), f"{exe} missing: MAVProxy is in the test extra of pyproject.toml (make setup installs it)"
+        state = tmp_path / "mavproxy"
+        state.mkdir()
+        self.proc = subprocess.Popen(
+            [sys.executable, str(exe), f"--master=udpout:127.0.0.1:{gcs_port}", f"--source-system={source_system}",
+             f"--target-system={target}", f"--state-basedir={state}", f"--logfile={state / 'mav.tlog'}"],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, cwd=state, text=True, bufsize=1)
+        self.lines: list[str] = []
+        self.reader = threading.Thread(target=self._read, daemon=True)
+        self.reader.start()
+
+    def _read(self) -> None:
+        for line in self.proc.stdout:  # type: ignore[union-attr]
+            self.lines.append(line.rstrip("\n"))
+
+    def send(self, command: str) -> None:
+        self.proc.stdin.write(command + "\n")  # type: ignore[union-attr]
+        self.proc.stdin.flush()  # type: ignore[union-attr]
+
+    def wait(self, pattern: str, timeout: float, since: int = 0) -> re.Match[str]:
+        rx = re.compile(pattern)
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            for line in self.lines[since:]:
+                if (m := rx.search(line)) is not None:
+                    return m
+            time.sleep(0.05)
+        raise AssertionError(f"MAVProxy never printed /{pattern}/ in {timeout} s; its output:\n" + "\n".join(self.lines[-40:]))
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait(5)
+
+
+def test_mavproxy_and_pymavlink_at_once(tmp_path, group: ProcessGroup, mavbridge, uavbus_node):
+    """MAVProxy on the door, aimed at system 3 (two uavbus hops away), while a pymavlink GCS watches: MAVProxy
+    sees the vehicles, fetches the whole parameter list (after its MAVFTP attempt times out, as against any
+    autopilot without FTP), and its arm command is acknowledged by system 3 only."""
+    f = Fleet(tmp_path, group, mavbridge, uavbus_node)
+    watcher = Gcs(f.gcs_port, 254)
+    group.on_close(watcher.conn.close)
+    mp = MavProxy(tmp_path, f.gcs_port, target=3)
+    group.on_close(mp.close)
+    end = time.monotonic() + 40
+    seen: set[int] = set()
+    while time.monotonic() < end and not (len(seen) == 3 and any("Received" in x for x in mp.lines)):
+        run([watcher], 0.2)
+        seen = {int(m.group(1)) for x in mp.lines if (m := re.search(r"Detected vehicle (\d+):1", x))}
+    assert seen == set(VEHICLES), "MAVProxy did not see the three vehicles:\n" + "\n".join(mp.lines[-30:])
+    got = mp.wait(r"Received (\d+) parameters", 5)
+    assert int(got.group(1)) == PARAM_COUNT, got.group(0)
+    lists = [e for e in f.aps[3].all("param_list") if e["from"][0] == 250]
+    assert lists and not [e for s in (1, 2) for e in f.aps[s].all("param_list") if e["from"][0] == 250]
+
+    mark = len(mp.lines)
+    mp.send("arm throttle")
+    mp.wait(r"COMMAND_ACK.*(ARM|400).*ACCEPTED|Got COMMAND_ACK: COMPONENT_ARM_DISARM: ACCEPTED", 15, since=mark)
+    arms = [e for e in f.aps[3].all("command") if e["command"] == 400]
+    assert arms and arms[0]["from"][0] == 250, arms
+    for s in (1, 2):
+        assert not [e for e in f.aps[s].all("command") if e["command"] == 400], f"autopilot {s} got MAVProxy's arm"
+    run([watcher], 0.5)
+    assert all(len(watcher.attitude.get(s, ())) > 10 for s in VEHICLES), {k: len(v) for k, v in watcher.attitude.items()}

@@ -119,6 +119,10 @@ static int flush_serial(ub_mavio_t *io) {
 
 int ub_mavio_write(void *user, const uint8_t *bytes, size_t len) {
     ub_mavio_t *io = user;
+    if (io != NULL && io->kind == UB_PORT_TCP_CONNECT && (io->fd < 0 || io->connecting)) {
+        io->stats.again++; /* not connected (yet): the bridge counts it as backpressure */
+        return UB_ERR_AGAIN;
+    }
     if (io == NULL || io->fd < 0) return UB_ERR_CLOSED;
     if (io->kind == UB_PORT_UDP) {
         ssize_t w = sendto(io->fd, bytes, len, 0, (const struct sockaddr *)&io->peer, sizeof io->peer);
@@ -135,10 +139,6 @@ int ub_mavio_write(void *user, const uint8_t *bytes, size_t len) {
         return UB_OK;
     }
     /* Serial and TCP: keep order behind what waits; a message is queued whole or refused whole. */
-    if (io->kind == UB_PORT_TCP_CONNECT && (io->fd < 0 || io->connecting)) {
-        io->stats.again++; /* not connected (yet): the bridge counts it as backpressure */
-        return UB_ERR_AGAIN;
-    }
     if (flush_serial(io) < 0) return UB_ERR_IO;
     if (io->tx_len == 0) {
         ssize_t w = write_some(io, bytes, len);
