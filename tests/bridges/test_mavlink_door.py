@@ -344,3 +344,26 @@ def test_mavproxy_and_pymavlink_at_once(tmp_path, group: ProcessGroup, mavbridge
         assert not [e for e in f.aps[s].all("command") if e["command"] == 400], f"autopilot {s} got MAVProxy's arm"
     run([watcher], 0.5)
     assert all(len(watcher.attitude.get(s, ())) > 10 for s in VEHICLES), {k: len(v) for k, v in watcher.attitude.items()}
+
+
+def test_mavsdk_discovers_every_vehicle_arms_one_and_sets_a_parameter(tmp_path, group: ProcessGroup, mavbridge,
+                                                                         uavbus_node):
+    """MAVSDK (PyPI `mavsdk`, MAVSDK's C library) on the door: discovers the three system ids, reads each one's
+    attitude, arms system 3 (two hops away; only it is armed) and sets and reads back a parameter of system 2."""
+    f = Fleet(tmp_path, group, mavbridge, uavbus_node)
+    script = Path(__file__).with_name("mavsdk_gcs.py")
+    proc = subprocess.run([sys.executable, str(script), "--url", f"udpout://127.0.0.1:{f.gcs_port}", "--vehicles", "3",
+                           "--arm", "3", "--param", "2:TEST_P07=12.25"], capture_output=True, text=True, timeout=55)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    got = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert got["systems"] == list(VEHICLES), (got, f.door.request_stats()["mavlink"]["door"])
+    for s in VEHICLES:
+        roll = got["attitude"][str(s)]
+        assert roll is not None and abs(roll) < 6.0, got  # the autopilots' roll: 0.1 sin(t) rad
+    assert got["arm"] == "ok", got
+    arms = [e for s in VEHICLES for e in f.aps[s].all("command") if e["command"] == 400]
+    assert len({tuple(e["target"]) for e in arms}) == 1 and all(e["target"][0] == 3 for e in arms), arms
+    assert [e for e in f.aps[3].all("command") if e["command"] == 400], "system 3 never saw the arm command"
+    assert got["param"] == 12.25, got
+    sets = {s: [e for e in f.aps[s].all("param_set") if e["name"] == "TEST_P07"] for s in VEHICLES}
+    assert sets[2] and not sets[1] and not sets[3], sets
