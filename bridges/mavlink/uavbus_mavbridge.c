@@ -54,6 +54,7 @@ static struct {
     ub_mavroute_t rt;
     ub_mavgcs_t gcs;
     bool door;                 /* the router runs (--gcs or --fleet) */
+    bool autopilot;            /* --mavlink given (a door may have no autopilot of its own) */
     bool was_up;               /* the autopilot's state last reported */
     uint64_t conflicts_reported;
 } g_b;
@@ -65,7 +66,7 @@ static void usage(FILE *f) {
             "usage: uavbus_mavbridge --config FILE [--node NAME] [--entity NAME] --mavlink SPEC\n"
             "                        [--sysid N] [--compid N] [--target SYSID/COMPID]\n"
             "                        [--mavlink-key FILE [--link-id N]] [--commands-without-policy]\n"
-            "                        [--gcs udp:bind=HOST:PORT] [--fleet ENTITY]...\n"
+            "                        [--gcs udp:bind=HOST:PORT] [--fleet ENTITY]...   (--gcs without --mavlink: a door only)\n"
             "                        [--port LINK=SPEC]... [--stats-ms MS] [--duration-ms MS]\n"
             "SPEC (--mavlink): udp:bind=HOST:PORT,peer=HOST:PORT | tcp:connect=HOST:PORT | serial:device=PATH[,baud=N]\n"
             "stdin commands: stats | quit\n");
@@ -127,7 +128,8 @@ static void event_ready(ub_app_t *app, const options_t *o) {
     ub_app_out(app, "{\"event\":\"ready\",\"pid\":%ld,\"entity\":", (long)getpid());
     ub_app_entity(app, ub_node_entity_id(&app->node, g_b.br.entity));
     ub_app_out(app, ",\"mavlink\":");
-    ub_app_str(app, o->mavlink, SIZE_MAX);
+    if (o->mavlink != NULL) ub_app_str(app, o->mavlink, SIZE_MAX);
+    else ub_app_out(app, "null");
     if (ub_mavio_local_port(&g_b.io, &port) == UB_OK) ub_app_out(app, ",\"mavlink_port\":%u", (unsigned)port);
     if (g_b.gcs.fd >= 0 && ub_mavgcs_local_port(&g_b.gcs, &port) == UB_OK) ub_app_out(app, ",\"gcs_port\":%u", (unsigned)port);
     ub_app_out(app, ",\"fleet\":%d", o->n_fleet);
@@ -234,10 +236,11 @@ static int pollfds(ub_app_t *app, struct pollfd *fds, int max) {
 }
 
 static void before_tick(ub_app_t *app, uint64_t now_ms) {
-    if (ub_mavio_service(&g_b.io, &g_b.br, now_ms) < 0) ub_app_error(app, "mavlink: the autopilot link failed (read error)");
+    if (g_b.autopilot && ub_mavio_service(&g_b.io, &g_b.br, now_ms) < 0)
+        ub_app_error(app, "mavlink: the autopilot link failed (read error)");
     if (g_b.gcs.fd >= 0 && ub_mavgcs_service(&g_b.gcs, &g_b.rt, now_ms) < 0)
         ub_app_error(app, "mavlink: the GCS endpoint failed (read error)");
-    ub_mavbridge_tick(&g_b.br, now_ms);
+    if (g_b.autopilot) ub_mavbridge_tick(&g_b.br, now_ms);
 }
 
 static void after_tick(ub_app_t *app, uint64_t now_ms) {
@@ -262,15 +265,21 @@ static void after_tick(ub_app_t *app, uint64_t now_ms) {
 /* After the shell's command line: the node, the MAVLink link, the bridge, the ports, "ready". */
 static void setup(ub_app_t *app) {
     const options_t *o = &g_opt;
-    if (o->mavlink == NULL)
-        ub_app_die(app, "uavbus_mavbridge: --mavlink SPEC is required, e.g. --mavlink udp:bind=127.0.0.1:14550,peer=127.0.0.1:14555");
+    g_b.io.fd = -1; /* nothing open yet: the close hook must not close descriptor 0 */
+    g_b.gcs.fd = -1;
+    if (o->mavlink == NULL && o->gcs == NULL)
+        ub_app_die(app, "uavbus_mavbridge: --mavlink SPEC is required (or --gcs for a front door without an autopilot of "
+                        "its own), e.g. --mavlink udp:bind=127.0.0.1:14550,peer=127.0.0.1:14555");
     /* The uavbus side signs (and requires signed frames) as the "security" section says, as uavbus_node. */
     ub_app_start(app, &mavcat_catalogue, NULL);
 
     ub_port_spec_t mspec;
     char perr[UB_PORTS_ERR_LEN];
-    if (ub_port_spec_parse(o->mavlink, &mspec, perr, sizeof perr) != UB_OK) ub_app_die(app, "uavbus_mavbridge: --mavlink: %s", perr);
-    if (ub_mavio_open(&g_b.io, &mspec, perr, sizeof perr) != UB_OK) ub_app_die(app, "uavbus_mavbridge: --mavlink %s: %s", o->mavlink, perr);
+    g_b.autopilot = o->mavlink != NULL;
+    if (g_b.autopilot && ub_port_spec_parse(o->mavlink, &mspec, perr, sizeof perr) != UB_OK)
+        ub_app_die(app, "uavbus_mavbridge: --mavlink: %s", perr);
+    if (g_b.autopilot && ub_mavio_open(&g_b.io, &mspec, perr, sizeof perr) != UB_OK)
+        ub_app_die(app, "uavbus_mavbridge: --mavlink %s: %s", o->mavlink, perr);
 
     ub_mavbridge_options_t bopt;
     memset(&bopt, 0, sizeof bopt);
@@ -291,13 +300,13 @@ static void setup(ub_app_t *app) {
     int rc = ub_mavbridge_init(&g_b.br, &app->node, entity, mav_directories, mav_directories_count, &mavbridgeStatus, &bopt,
                                ub_mavio_write, &g_b.io, now);
     if (rc != UB_OK) ub_app_die(app, "uavbus_mavbridge: bridge set-up failed: %s", ub_strerror(rc));
-    g_b.gcs.fd = -1;
     g_b.door = o->gcs != NULL || o->n_fleet > 0;
     if (g_b.door) {
         rc = ub_mavroute_init(&g_b.rt, &g_b.br, &mavFrame, o->fleet, o->n_fleet, ub_mavgcs_send, &g_b.gcs);
         if (rc == UB_ERR_INVAL)
             ub_app_die(app, "uavbus_mavbridge: --fleet: every entity must be in the entity table of %s", app->config_path);
         if (rc != UB_OK) ub_app_die(app, "uavbus_mavbridge: front door set-up failed: %s", ub_strerror(rc));
+        ub_mavroute_set_autopilot(&g_b.rt, g_b.autopilot);
         ub_node_set_deliver_hook(&app->node, ub_mavroute_on_deliver, &g_b.rt);
     } else {
         ub_node_set_deliver_hook(&app->node, ub_mavbridge_on_deliver, &g_b.br);

@@ -35,6 +35,7 @@ from pathlib import Path
 
 from uavbus.sim.portalloc import PortAllocator
 from uavbus.sim.process import ProcessGroup
+from uavbus.sim.secure import signed_config
 
 from bridge_testutil import autopilot_argv
 
@@ -45,12 +46,13 @@ FORGED_ROLL = 2.5  # the autopilots' rolls stay within +-0.1 rad
 VEHICLES = (1, 2, 3)
 
 
-def write_config(path: Path, ports: PortAllocator) -> None:
+def write_config(path: Path, ports: PortAllocator, compact: bool = False) -> None:
     a = {k: ports.port() for k in ("door", "relay_door", "relay_mb2", "relay_mb3", "mb2", "mb3")}
 
-    def udp(bind: str, peer: str) -> dict[str, str]:
-        return {"transport": "udp", "bind": f"127.0.0.1:{a[bind]}", "peer": f"127.0.0.1:{a[peer]}"}
+    def udp(bind: str, peer: str, encoding: str = "full") -> dict[str, str]:
+        return {"transport": "udp", "bind": f"127.0.0.1:{a[bind]}", "peer": f"127.0.0.1:{a[peer]}", "encoding": encoding}
 
+    mb2_link = "compact" if compact else "full"  # a radio link's encoding: both ends say the same
     cfg = {
         "system": "doortest",
         "entities": [
@@ -64,9 +66,9 @@ def write_config(path: Path, ports: PortAllocator) -> None:
         "ports": {
             "door:toRelay": udp("door", "relay_door"),
             "relay1:toDoor": udp("relay_door", "door"),
-            "relay1:toMb2": udp("relay_mb2", "mb2"),
+            "relay1:toMb2": udp("relay_mb2", "mb2", mb2_link),
             "relay1:toMb3": udp("relay_mb3", "mb3"),
-            "mb2:toRelay": udp("mb2", "relay_mb2"),
+            "mb2:toRelay": udp("mb2", "relay_mb2", mb2_link),
             "mb3:toRelay": udp("mb3", "relay_mb3"),
         },
         # Which bridges may hand a bridge MAVLink frames: the door and the vehicle bridges, nobody else.
@@ -121,26 +123,32 @@ def run(gcss: list[Gcs], seconds: float, until=None) -> None:
 class Fleet:
     """Three autopilots behind the door, mb2 and mb3 (the diagram above); ports from the allocator."""
 
-    def __init__(self, tmp_path: Path, group: ProcessGroup, mavbridge: dict[str, str], uavbus_node: Path) -> None:
+    def __init__(self, tmp_path: Path, group: ProcessGroup, mavbridge: dict[str, str], uavbus_node: Path,
+                 door_autopilot: bool = True, signed: bool = False, compact: bool = False) -> None:
         ports = PortAllocator()
         cfg = tmp_path / "door.json"
-        write_config(cfg, ports)
+        write_config(cfg, ports, compact)
+        if signed:
+            cfg = signed_config(cfg, tmp_path / "signed")
         prog = mavbridge["program"]
         self.aps, self.mav_ports = {}, {}
-        for sysid in VEHICLES:
+        self.vehicles = VEHICLES if door_autopilot else VEHICLES[1:]
+        for sysid in self.vehicles:
             ap_port, bind = ports.port(), ports.port()
             self.aps[sysid] = group.spawn(autopilot_argv(ap_port, duration=55, sysid=sysid), f"autopilot{sysid}",
                                           ready_timeout=10)
             self.mav_ports[sysid] = (bind, ap_port)
         self.gcs_port = ports.port()
 
-        def bridge(node: str, sysid: int, extra: list[str]):
-            bind, peer = self.mav_ports[sysid]
-            return group.spawn([prog, "--config", str(cfg), "--node", node, "--stats-ms", "0", "--target", f"{sysid}/1",
-                                "--mavlink", f"udp:bind=127.0.0.1:{bind},peer=127.0.0.1:{peer}"] + extra,
+        def bridge(node: str, sysid: int | None, extra: list[str]):
+            mav = []
+            if sysid is not None:
+                bind, peer = self.mav_ports[sysid]
+                mav = ["--target", f"{sysid}/1", "--mavlink", f"udp:bind=127.0.0.1:{bind},peer=127.0.0.1:{peer}"]
+            return group.spawn([prog, "--config", str(cfg), "--node", node, "--stats-ms", "0"] + mav + extra,
                                node, ready_timeout=10)
 
-        self.door = bridge("door", 1, ["--gcs", f"udp:bind=127.0.0.1:{self.gcs_port}", "--fleet", "mb2", "--fleet", "mb3"])
+        self.door = bridge("door", 1 if door_autopilot else None, ["--gcs", f"udp:bind=127.0.0.1:{self.gcs_port}", "--fleet", "mb2", "--fleet", "mb3"])
         self.mb2 = bridge("mb2", 2, ["--fleet", "door"])
         self.mb3 = bridge("mb3", 3, ["--fleet", "door"])
         group.spawn([str(uavbus_node), "--config", str(cfg), "--node", "relay", "--stats-ms", "0"], "relay",
@@ -367,3 +375,30 @@ def test_mavsdk_discovers_every_vehicle_arms_one_and_sets_a_parameter(tmp_path, 
     assert got["param"] == 12.25, got
     sets = {s: [e for e in f.aps[s].all("param_set") if e["name"] == "TEST_P07"] for s in VEHICLES}
     assert sets[2] and not sets[1] and not sets[3], sets
+
+
+def test_a_door_without_autopilot_on_a_signed_bus_with_a_compact_link(tmp_path, group: ProcessGroup, mavbridge,
+                                                                       uavbus_node):
+    """The ground side's node is only a door (no --mavlink): the vehicles are all elsewhere. The bus is signed
+    (every bridge requires signed frames) and mb2's radio link is compact: the frames still arrive, every
+    one verified, none refused."""
+    f = Fleet(tmp_path, group, mavbridge, uavbus_node, door_autopilot=False, signed=True, compact=True)
+    ready = f.door.wait_ready()
+    assert ready["mavlink"] is None and ready["uavbus_signed"], ready
+    g = Gcs(f.gcs_port, 255)
+    group.on_close(g.conn.close)
+    def all_seen() -> bool:
+        return all(len(g.attitude.get(s, ())) >= 20 and g.heartbeats.get(s, 0) >= 2 for s in f.vehicles)
+
+    run([g], 30, all_seen)
+    assert all_seen() and 1 not in g.attitude, \
+        ({k: len(v) for k, v in g.attitude.items()}, g.heartbeats, f.door.request_stats()["mavlink"]["door"])
+    g.conn.mav.command_long_send(2, 1, mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
+    run([g], 10, lambda: any(ack[0] == 2 and ack[1] == 400 for ack in g.acks))
+    assert (2, 400, 0) in g.acks, g.acks
+    st = f.door.request_stats()
+    assert st["mavlink"]["door"]["systems"] == [2, 3] and st["mavlink"]["door"]["to_autopilot"] == 0, st["mavlink"]["door"]
+    assert st["mavlink"]["messages_out"] == 0, st["mavlink"]  # no autopilot: nothing sent toward one
+    assert st["security"]["verified_in"] > 100 and st["security"]["auth_failures"] == 0, st["security"]
+    mb2 = f.mb2.request_stats()
+    assert mb2["security"]["signed_out"] > 100, mb2["security"]

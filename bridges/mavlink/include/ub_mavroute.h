@@ -74,6 +74,7 @@ typedef struct ub_mavroute_counters {
 /** The router. Caller-owned (a few kB); fields private. */
 typedef struct ub_mavroute {
     ub_mavbridge_t *br;
+    bool autopilot;              /* the bridge has an autopilot link (default); off: a door only */
     ub_node_t *node;
     int entity;
     int32_t frame_instance;
@@ -103,6 +104,10 @@ typedef struct ub_mavroute {
  */
 UB_CHECK int ub_mavroute_init(ub_mavroute_t *rt, ub_mavbridge_t *br, struct ub_mavframe *frame,
                               const char *const *peers, int n_peers, ub_mavroute_send_fn send, void *send_user);
+
+/** Says whether the bridge has an autopilot link (default yes). A node that is only a front door (its ground
+ *  stations and the fleet's vehicles, none of its own) sends nothing toward one. */
+void ub_mavroute_set_autopilot(ub_mavroute_t *rt, bool has_autopilot);
 
 /** Bytes from ground station `client` (0..UB_MAVROUTE_MAX_CLIENTS-1): parsed, learned, routed.
  *  @return messages routed, or UB_ERR_INVAL. */

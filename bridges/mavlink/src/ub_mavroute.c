@@ -26,6 +26,7 @@ int ub_mavroute_init(ub_mavroute_t *rt, ub_mavbridge_t *br, struct ub_mavframe *
     if (n_peers > UB_MAVROUTE_MAX_PEERS) return UB_ERR_FULL;
     memset(rt, 0, sizeof *rt);
     rt->br = br;
+    rt->autopilot = true;
     rt->node = br->node;
     rt->entity = br->entity;
     rt->frame = frame;
@@ -97,7 +98,7 @@ static void route(ub_mavroute_t *rt, const mavlink_message_t *m, int from, uint6
     uint16_t len = mavlink_msg_to_send_buffer(rt->tx, m);
     /* The autopilot: what is addressed to it, and ground stations' broadcasts (HEARTBEAT...), never other
      * vehicles' broadcast telemetry. Only when the bridge forwards commands (the node's write policy). */
-    if ((mask & bit(UB_MAVROUTE_LINK_AUTOPILOT)) && from != UB_MAVROUTE_LINK_AUTOPILOT &&
+    if (rt->autopilot && (mask & bit(UB_MAVROUTE_LINK_AUTOPILOT)) && from != UB_MAVROUTE_LINK_AUTOPILOT &&
         (target != 0 || rt->vehicle[m->sysid] == 0)) {
         if (!rt->br->opt.commands) rt->c.commands_off++;
         else if (ub_mavbridge_forward(rt->br, m, now_ms) == UB_OK) rt->c.to_autopilot++;
@@ -176,6 +177,10 @@ void ub_mavroute_on_deliver(void *user, int entity, uint32_t instance, const ub_
         break;
     }
     rt->c.bad_frames++;
+}
+
+void ub_mavroute_set_autopilot(ub_mavroute_t *rt, bool has_autopilot) {
+    if (rt != NULL) rt->autopilot = has_autopilot;
 }
 
 const ub_mavroute_counters_t *ub_mavroute_counters(const ub_mavroute_t *rt) { return rt != NULL ? &rt->c : NULL; }
