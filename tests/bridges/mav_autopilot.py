@@ -13,7 +13,9 @@ when the bridge's first HEARTBEAT arrives) and, as system 1 component 1:
   - serves the parameter protocol over PARAMS (PARAM_REQUEST_LIST, _READ by id or index, PARAM_SET),
     names being MAVLink char arrays (16 bytes, not NUL-terminated at full length);
   - sends STATUSTEXT "<name> ready" when a peer first speaks, and on `statustext TEXT` (stdin).
-With --tcp it listens for one TCP connection instead (as ArduPilot SITL's 5760).
+With --tcp it listens for one TCP connection instead (as ArduPilot SITL's 5760); with --pty it makes a
+pseudo-terminal pair, keeps the master end and says the other end's path in "ready" (`device`): a serial
+autopilot for a bridge's `serial:device=PATH`.
 With --key (64 hex digits in a file), pymavlink's own MAVLink 2 signing: everything it sends is signed
 and nothing unsigned is accepted.
 
@@ -55,6 +57,42 @@ def read_key(path: str) -> bytes:
     raise SystemExit(f"{path}: no key")
 
 
+class PtyConn:
+    """The master end of a pseudo-terminal as a mavutil-like connection (what the main loop uses of one)."""
+
+    def __init__(self, sysid: int, compid: int) -> None:
+        import tty
+
+        self.fd, slave = os.openpty()
+        tty.setraw(slave)  # 8N1 raw bytes, as ub_serial sets its end too
+        self.device = os.ttyname(slave)
+        self.slave = slave  # kept open: the pair lives while one end is open
+        os.set_blocking(self.fd, False)
+        self.mav = mavutil.mavlink.MAVLink(self, srcSystem=sysid, srcComponent=compid)
+        self.mav.robust_parsing = True  # as mavutil's own connections: line noise is BAD_DATA, not an exception
+        # The main loop sends only while `conn.port` is set: from the bridge's first bytes on (as udpin waits
+        # for a client), so nothing piles up in the pty before the bridge reads and no write is cut short.
+        self.port = None
+        self.pending: list = []
+
+    def write(self, buf: bytes) -> None:
+        try:
+            os.write(self.fd, buf)
+        except BlockingIOError:
+            pass  # the bridge is not reading: a real serial line would drop it too
+
+    def recv_msg(self):
+        if not self.pending:
+            try:
+                data = os.read(self.fd, 4096)
+            except (BlockingIOError, OSError):
+                data = b""
+            if data:
+                self.port = self
+            self.pending = self.mav.parse_buffer(data) or [] if data else []
+        return self.pending.pop(0) if self.pending else None
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--port", type=int, required=True)
@@ -62,12 +100,16 @@ def main() -> int:
     ap.add_argument("--compid", type=int, default=1)
     ap.add_argument("--key")
     ap.add_argument("--tcp", action="store_true", help="listen for one TCP connection (as SITL's 5760) instead of udpin")
+    ap.add_argument("--pty", action="store_true", help="a serial autopilot on a pseudo-terminal (its path in ready)")
     ap.add_argument("--duration", type=float, default=120.0)
     args = ap.parse_args()
 
     kind = "tcpin" if args.tcp else "udpin"
-    conn = mavutil.mavlink_connection(f"{kind}:127.0.0.1:{args.port}", source_system=args.sysid,
-                                      source_component=args.compid, dialect="common")
+    if args.pty:
+        conn = PtyConn(args.sysid, args.compid)
+    else:
+        conn = mavutil.mavlink_connection(f"{kind}:127.0.0.1:{args.port}", source_system=args.sysid,
+                                          source_component=args.compid, dialect="common")
     mav = conn.mav
     key = read_key(args.key) if args.key else None
     if key:
@@ -88,13 +130,14 @@ def main() -> int:
     param_table["SYSID_THISMAV"] = float(args.sysid)
     names = list(param_table)
     greeted = False
-    emit({"event": "ready", "pid": os.getpid(), "port": args.port, "signing": key is not None})
+    emit({"event": "ready", "pid": os.getpid(), "port": args.port, "signing": key is not None,
+          "device": getattr(conn, "device", None)})
 
     def boot_ms() -> int:
         return int((time.monotonic() - start) * 1000)
 
     def send(msg: object) -> None:
-        peer = conn.port is not None if args.tcp else conn.clients
+        peer = conn.port is not None if (args.tcp or args.pty) else conn.clients
         if time.monotonic() < paused_until or not peer:
             return
         mav.send(msg)
