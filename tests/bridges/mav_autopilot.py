@@ -74,12 +74,15 @@ class PtyConn:
         # for a client), so nothing piles up in the pty before the bridge reads and no write is cut short.
         self.port = None
         self.pending: list = []
+        self.dropped = 0  # messages the pty did not take whole
 
     def write(self, buf: bytes) -> None:
         try:
-            os.write(self.fd, buf)
+            n = os.write(self.fd, buf)
         except BlockingIOError:
-            pass  # the bridge is not reading: a real serial line would drop it too
+            n = 0  # the bridge is not reading: a real serial line would drop it too
+        if n < len(buf):
+            self.dropped += 1
 
     def recv_msg(self):
         if not self.pending:
@@ -152,7 +155,8 @@ def main() -> int:
                                                      100, -50, 0, 9000)
 
     def stats() -> dict:
-        s = {"event": "stats", "sent": sent, "commands": commands, "intervals": {str(k): v for k, v in interval_us.items()}}
+        s = {"event": "stats", "sent": sent, "commands": commands, "intervals": {str(k): v for k, v in interval_us.items()},
+             "pty_dropped": getattr(conn, "dropped", 0)}
         if key:
             g = mav.signing
             s["signing"] = {"goodsig": g.goodsig_count, "badsig": g.badsig_count, "unsigned": g.unsigned_count,

@@ -438,3 +438,4 @@ def test_serial_autopilot_behind_the_door(tmp_path, group: ProcessGroup, mavbrid
     assert (9, 400, 0) in g.acks, (g.acks, ap.all("command"))
     st = door.request_stats()["mavlink"]
     assert st["bad_crc"] == 0 and st["parse_errors"] == 0, st
+    assert st["messages_in"] > 50, st
