@@ -3,7 +3,7 @@
  *
  *   uavbus_mavbridge --config FILE [--node NAME] [--entity NAME] --mavlink SPEC
  *                    [--sysid N] [--compid N] [--target SYSID/COMPID] [--mavlink-key FILE [--link-id N]]
- *                    [--commands-without-policy] [--gcs udp:bind=HOST:PORT] [--fleet ENTITY]...
+ *                    [--commands-without-policy] [--gcs udp:bind=HOST:PORT|tcp:listen=HOST:PORT] [--fleet ENTITY]...
  *                    [--port LINK=SPEC]... [--stats-ms MS] [--duration-ms MS]
  *
  * The uavbus side is a node of a configuration file, run by the same program shell as uavbus_node
@@ -66,7 +66,8 @@ static void usage(FILE *f) {
             "usage: uavbus_mavbridge --config FILE [--node NAME] [--entity NAME] --mavlink SPEC\n"
             "                        [--sysid N] [--compid N] [--target SYSID/COMPID]\n"
             "                        [--mavlink-key FILE [--link-id N]] [--commands-without-policy]\n"
-            "                        [--gcs udp:bind=HOST:PORT] [--fleet ENTITY]...   (--gcs without --mavlink: a door only)\n"
+            "                        [--gcs udp:bind=HOST:PORT | tcp:listen=HOST:PORT] [--fleet ENTITY]...\n"
+            "                        (--gcs without --mavlink: a front door only)\n"
             "                        [--port LINK=SPEC]... [--stats-ms MS] [--duration-ms MS]\n"
             "SPEC (--mavlink): udp:bind=HOST:PORT,peer=HOST:PORT | tcp:connect=HOST:PORT | serial:device=PATH[,baud=N]\n"
             "stdin commands: stats | quit\n");
@@ -190,10 +191,12 @@ static void event_stats(ub_app_t *app, uint64_t now_ms, bool final) {
             ",\"commands_off\":%" PRIu64 ",\"bad_frames\":%" PRIu64 ",\"client_parse_errors\":%" PRIu64
             ",\"send_errors\":%" PRIu64 ",\"sysid_conflicts\":%" PRIu64 ",\"unknown_peer\":%" PRIu64
             ",\"clients\":%d,\"clients_new\":%" PRIu64 ",\"clients_expired\":%" PRIu64 ",\"clients_full\":%" PRIu64
+            ",\"clients_closed\":%" PRIu64 ",\"gcs_again\":%" PRIu64 ",\"gcs_send_errors\":%" PRIu64
             ",\"systems\":[",
             r->from_autopilot, r->from_clients, r->from_peers, r->to_clients, r->to_peers, r->to_autopilot, r->no_target,
             r->commands_off, r->bad_frames, r->client_parse_errors, r->send_errors, r->sysid_conflicts, r->unknown_peer,
-            ub_mavgcs_clients(&g_b.gcs), gs->clients_new, gs->clients_expired, gs->clients_full);
+            ub_mavgcs_clients(&g_b.gcs), gs->clients_new, gs->clients_expired, gs->clients_full, gs->clients_closed,
+            gs->again, gs->send_errors);
         bool first_sys = true;
         for (int sys = 1; sys < 256; sys++) {
             if (g_b.rt.vehicle[sys] == 0) continue;
@@ -228,11 +231,9 @@ static void event_autopilot(ub_app_t *app, bool up) {
 
 static int pollfds(ub_app_t *app, struct pollfd *fds, int max) {
     (void)app;
-    if (max < 2) return 0;
-    ub_mavio_pollfd(&g_b.io, &fds[0]);
-    if (g_b.gcs.fd < 0) return 1;
-    ub_mavgcs_pollfd(&g_b.gcs, &fds[1]);
-    return 2;
+    if (max < 1) return 0;
+    ub_mavio_pollfd(&g_b.io, &fds[0]); /* fd -1 (no autopilot, TCP waiting to reconnect): poll ignores it */
+    return 1 + ub_mavgcs_pollfds(&g_b.gcs, &fds[1], max - 1);
 }
 
 static void before_tick(ub_app_t *app, uint64_t now_ms) {

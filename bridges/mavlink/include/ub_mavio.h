@@ -123,33 +123,40 @@ typedef struct ub_mavgcs_stats {
     uint64_t datagrams_in;
     uint64_t clients_new;     /**< ground stations that appeared */
     uint64_t clients_expired; /**< ... and were forgotten after UB_MAVGCS_CLIENT_TIMEOUT_MS of silence */
-    uint64_t clients_full;    /**< datagrams from a new address while UB_MAVROUTE_MAX_CLIENTS are known: dropped */
+    uint64_t clients_full;    /**< datagrams from a new address (TCP: connections) while UB_MAVROUTE_MAX_CLIENTS are known: dropped */
+    uint64_t clients_closed;  /**< TCP: connections the ground station closed, or broke, or that a message could not
+                                   go out on whole (closed rather than leave half a frame in the stream) */
     uint64_t again;           /**< datagrams the socket could not take now */
     uint64_t send_errors;
     uint64_t read_errors;
 } ub_mavgcs_stats_t;
 
-/** A UDP server endpoint for ground stations (QGroundControl, MAVProxy, MAVSDK: `udpout`/`udp://:PORT`
- *  style clients). Every address that sends a datagram becomes a client of the router. Caller-owned. */
+/** A server endpoint for ground stations: UDP (QGroundControl, MAVProxy, MAVSDK as `udpout` clients; every
+ *  address that sends a datagram becomes a client of the router) or TCP (every connection is a client).
+ *  Caller-owned. */
 typedef struct ub_mavgcs {
-    int fd;
+    int fd;          /* the UDP socket, or the TCP listening socket */
+    uint8_t tcp;
     struct {
         struct sockaddr_in addr;
         uint64_t last_ms;
+        int fd;      /* TCP: the connection */
         uint8_t in_use;
     } clients[UB_MAVROUTE_MAX_CLIENTS];
     uint8_t rx[2048];
     ub_mavgcs_stats_t stats;
 } ub_mavgcs_t;
 
-/** Opens `udp:bind=HOST:PORT` (no peer: ground stations are learned). @return UB_OK, UB_ERR_INVAL, UB_ERR_IO. */
+/** Opens `udp:bind=HOST:PORT` (no peer: ground stations are learned) or `tcp:listen=HOST:PORT`.
+ *  @return UB_OK, UB_ERR_INVAL, UB_ERR_IO. */
 UB_CHECK int ub_mavgcs_open(ub_mavgcs_t *g, const ub_port_spec_t *spec, char *err, size_t err_cap);
 /** ub_mavroute_send_fn (`user` = the ub_mavgcs_t). */
 int ub_mavgcs_send(void *user, int client, const uint8_t *bytes, size_t len);
 /** Reads what arrived (at most UB_MAVIO_RX_BUDGET datagrams) into the router; forgets silent clients.
  *  @return UB_OK or UB_ERR_IO. */
 UB_CHECK int ub_mavgcs_service(ub_mavgcs_t *g, ub_mavroute_t *rt, uint64_t now_ms);
-void ub_mavgcs_pollfd(const ub_mavgcs_t *g, struct pollfd *pfd);
+/** The descriptors to poll (the socket, and each TCP connection) into `pfds`. @return how many (<= max). */
+int ub_mavgcs_pollfds(const ub_mavgcs_t *g, struct pollfd *pfds, int max);
 /** @return UB_OK with the bound port, or UB_ERR_IO. */
 UB_CHECK int ub_mavgcs_local_port(const ub_mavgcs_t *g, uint16_t *port);
 /** @return ground stations known now. */

@@ -325,26 +325,31 @@ int ub_mavgcs_open(ub_mavgcs_t *g, const ub_port_spec_t *spec, char *err, size_t
     if (g == NULL || spec == NULL) return UB_ERR_INVAL;
     memset(g, 0, sizeof *g);
     g->fd = -1;
-    if (spec->kind != UB_PORT_UDP || spec->peer_port != 0)
-        return fail(err, cap, UB_ERR_INVAL, "gcs", "the GCS endpoint is udp:bind=HOST:PORT (ground stations are learned: no peer)");
+    for (int c = 0; c < UB_MAVROUTE_MAX_CLIENTS; c++) g->clients[c].fd = -1;
+    bool tcp = spec->kind == UB_PORT_TCP_LISTEN;
+    if ((spec->kind != UB_PORT_UDP && !tcp) || (!tcp && spec->peer_port != 0))
+        return fail(err, cap, UB_ERR_INVAL, "gcs",
+                    "the GCS endpoint is udp:bind=HOST:PORT (ground stations are learned: no peer) or tcp:listen=HOST:PORT");
     struct sockaddr_in local;
     memset(&local, 0, sizeof local);
     local.sin_family = AF_INET;
     local.sin_port = htons(spec->port);
     if (inet_pton(AF_INET, spec->host, &local.sin_addr) != 1)
         return fail(err, cap, UB_ERR_INVAL, "gcs", "bind must be a dotted IPv4 address");
-    int fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    int fd = socket(AF_INET, (tcp ? SOCK_STREAM : SOCK_DGRAM) | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
     if (fd < 0) return fail(err, cap, UB_ERR_IO, "gcs socket", strerror(errno));
-    int rcvbuf = UB_MAVIO_RCVBUF;
-    (void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
-    if (bind(fd, (const struct sockaddr *)&local, sizeof local) < 0) {
+    int one = 1, rcvbuf = UB_MAVIO_RCVBUF;
+    if (tcp) (void)setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one); /* restart while old ones linger */
+    else (void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+    if (bind(fd, (const struct sockaddr *)&local, sizeof local) < 0 || (tcp && listen(fd, UB_MAVROUTE_MAX_CLIENTS) < 0)) {
         int e = errno;
         close(fd);
         char what[96];
-        snprintf(what, sizeof what, "gcs udp bind %s:%u", spec->host, (unsigned)spec->port);
+        snprintf(what, sizeof what, "gcs %s %s:%u", tcp ? "tcp listen" : "udp bind", spec->host, (unsigned)spec->port);
         return fail(err, cap, UB_ERR_IO, what, strerror(e));
     }
     g->fd = fd;
+    g->tcp = tcp;
     return UB_OK;
 }
 
@@ -352,6 +357,21 @@ int ub_mavgcs_send(void *user, int client, const uint8_t *bytes, size_t len) {
     ub_mavgcs_t *g = user;
     if (g == NULL || g->fd < 0 || client < 0 || client >= UB_MAVROUTE_MAX_CLIENTS || !g->clients[client].in_use)
         return UB_ERR_INVAL;
+    if (g->tcp) {
+        ssize_t w = send(g->clients[client].fd, bytes, len, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+            g->stats.again++; /* the whole message left out: the stream stays whole */
+            return UB_ERR_AGAIN;
+        }
+        if (w < 0 || (size_t)w != len) {
+            /* Half a frame went out: the stream is cut rather than left corrupt; the next service sees the
+             * connection end (clients_closed) and the router forgets the client. */
+            (void)shutdown(g->clients[client].fd, SHUT_RDWR);
+            g->stats.send_errors++;
+            return UB_ERR_IO;
+        }
+        return UB_OK;
+    }
     ssize_t w = sendto(g->fd, bytes, len, 0, (const struct sockaddr *)&g->clients[client].addr, sizeof g->clients[client].addr);
     if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
         g->stats.again++;
@@ -382,8 +402,61 @@ static int client_of(ub_mavgcs_t *g, ub_mavroute_t *rt, const struct sockaddr_in
     return free_slot;
 }
 
+static void tcp_client_gone(ub_mavgcs_t *g, ub_mavroute_t *rt, int c) {
+    close(g->clients[c].fd);
+    g->clients[c].fd = -1;
+    g->clients[c].in_use = 0;
+    g->stats.clients_closed++;
+    ub_mavroute_client_gone(rt, c);
+}
+
+static int gcs_tcp_service(ub_mavgcs_t *g, ub_mavroute_t *rt, uint64_t now_ms) {
+    for (;;) {
+        struct sockaddr_in from;
+        socklen_t flen = sizeof from;
+        int fd = accept(g->fd, (struct sockaddr *)&from, &flen);
+        if (fd < 0) break;
+        if (fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) | O_NONBLOCK) < 0 || fcntl(fd, F_SETFD, FD_CLOEXEC) < 0) {
+            close(fd);
+            g->stats.read_errors++;
+            continue;
+        }
+        int c = 0;
+        while (c < UB_MAVROUTE_MAX_CLIENTS && g->clients[c].in_use) c++;
+        if (c == UB_MAVROUTE_MAX_CLIENTS) {
+            close(fd);
+            g->stats.clients_full++;
+            continue;
+        }
+        int one = 1;
+        (void)setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        g->clients[c].in_use = 1;
+        g->clients[c].fd = fd;
+        g->clients[c].addr = from;
+        g->clients[c].last_ms = now_ms;
+        ub_mavroute_client_gone(rt, c); /* a fresh parser */
+        g->stats.clients_new++;
+    }
+    for (int c = 0; c < UB_MAVROUTE_MAX_CLIENTS; c++) {
+        if (!g->clients[c].in_use) continue;
+        for (int k = 0; k < UB_MAVIO_RX_BUDGET; k++) {
+            ssize_t n = recv(g->clients[c].fd, g->rx, sizeof g->rx, 0);
+            if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) break;
+            if (n <= 0) {
+                tcp_client_gone(g, rt, c);
+                break;
+            }
+            g->stats.datagrams_in++;
+            g->clients[c].last_ms = now_ms;
+            if (ub_mavroute_from_client(rt, c, g->rx, (size_t)n, now_ms) < 0) return UB_ERR_INVAL; /* cannot happen */
+        }
+    }
+    return UB_OK;
+}
+
 int ub_mavgcs_service(ub_mavgcs_t *g, ub_mavroute_t *rt, uint64_t now_ms) {
     if (g == NULL || rt == NULL || g->fd < 0) return UB_ERR_INVAL;
+    if (g->tcp) return gcs_tcp_service(g, rt, now_ms);
     for (int k = 0; k < UB_MAVIO_RX_BUDGET; k++) {
         struct sockaddr_in from;
         socklen_t flen = sizeof from;
@@ -409,10 +482,13 @@ int ub_mavgcs_service(ub_mavgcs_t *g, ub_mavroute_t *rt, uint64_t now_ms) {
     return UB_OK;
 }
 
-void ub_mavgcs_pollfd(const ub_mavgcs_t *g, struct pollfd *pfd) {
-    pfd->fd = g->fd;
-    pfd->events = POLLIN;
-    pfd->revents = 0;
+int ub_mavgcs_pollfds(const ub_mavgcs_t *g, struct pollfd *pfds, int max) {
+    int n = 0;
+    if (g == NULL || g->fd < 0 || max < 1) return 0;
+    pfds[n++] = (struct pollfd){.fd = g->fd, .events = POLLIN, .revents = 0};
+    for (int c = 0; g->tcp && c < UB_MAVROUTE_MAX_CLIENTS && n < max; c++)
+        if (g->clients[c].in_use) pfds[n++] = (struct pollfd){.fd = g->clients[c].fd, .events = POLLIN, .revents = 0};
+    return n;
 }
 
 int ub_mavgcs_local_port(const ub_mavgcs_t *g, uint16_t *port) {
@@ -432,6 +508,10 @@ int ub_mavgcs_clients(const ub_mavgcs_t *g) {
 
 void ub_mavgcs_close(ub_mavgcs_t *g) {
     if (g == NULL || g->fd < 0) return;
+    for (int c = 0; g->tcp && c < UB_MAVROUTE_MAX_CLIENTS; c++) {
+        if (g->clients[c].in_use) close(g->clients[c].fd);
+        g->clients[c].in_use = 0;
+    }
     close(g->fd);
     g->fd = -1;
 }
