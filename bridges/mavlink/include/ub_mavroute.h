@@ -8,6 +8,9 @@
  *    directory `mavFrame` (struct ub_mavframe) into the peer's bridge entity: the bus signs, compacts,
  *    fragments and routes it like any directory, over any number of hops, and the peer's node write
  *    policy says which bridges may feed it.
+ *  - **Only where someone listens.** The autopilot's broadcasts (telemetry) go to a peer only while that
+ *    peer was heard within UB_MAVROUTE_PEER_TIMEOUT_MS: ground stations' broadcasts (their HEARTBEAT) go to
+ *    every peer and wake the vehicle bridges up; with no ground station anywhere, nothing crosses the bus.
  *  - **Routing** follows the MAVLink routing guide: every link's source system ids are learned from the
  *    traffic; a message without a target system (or target 0, broadcast) goes to every other link; a
  *    message with a target goes only to the links where that system was seen (nowhere if none: counted
@@ -42,6 +45,13 @@ extern "C" {
 /** Other bridge entities of the fleet. */
 #ifndef UB_MAVROUTE_MAX_PEERS
 #define UB_MAVROUTE_MAX_PEERS 8
+#endif
+
+/** A peer bridge heard from (any mavFrame) within this long gets this node's vehicles' broadcasts: a door's
+ *  ground stations wake the vehicle bridges up (their HEARTBEATs are broadcasts), and nothing crosses the
+ *  bus toward a node where no ground station is. */
+#ifndef UB_MAVROUTE_PEER_TIMEOUT_MS
+#define UB_MAVROUTE_PEER_TIMEOUT_MS 10000
 #endif
 
 /** Link numbers: 0 the autopilot, 1.. clients, then peers (bits of the learned-system masks). */
@@ -83,12 +93,14 @@ typedef struct ub_mavroute {
     void *send_user;
     uint8_t peers[UB_MAVROUTE_MAX_PEERS][UB_ENTITY_ID_LEN];
     int n_peers;
+    uint64_t peer_heard_ms[UB_MAVROUTE_MAX_PEERS]; /* last mavFrame from each peer, 0 = never */
     uint8_t client_up[UB_MAVROUTE_MAX_CLIENTS];
     mavlink_message_t cbuf[UB_MAVROUTE_MAX_CLIENTS]; /* a parser per client (TCP and serial are streams) */
     mavlink_status_t cstatus[UB_MAVROUTE_MAX_CLIENTS];
     mavlink_message_t msg, pbuf;
     mavlink_status_t pstatus;
     uint32_t seen[256];          /* per system id: the links it was heard on */
+    uint8_t gcs[256];            /* per system id: its HEARTBEAT says MAV_TYPE_GCS */
     uint8_t vehicle[256];        /* per system id: 1 + the vehicle link that owns it (its HEARTBEAT), 0 = none */
     uint8_t last_conflict;       /* system id of the last conflict (for the program's report) */
     uint8_t tx[MAVLINK_MAX_PACKET_LEN];

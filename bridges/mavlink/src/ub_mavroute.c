@@ -61,6 +61,13 @@ static bool vehicle_heartbeat(const mavlink_message_t *m) {
     return hb.autopilot != MAV_AUTOPILOT_INVALID && hb.type != MAV_TYPE_GCS;
 }
 
+static bool gcs_heartbeat(const mavlink_message_t *m) {
+    if (m->msgid != MAVLINK_MSG_ID_HEARTBEAT) return false;
+    mavlink_heartbeat_t hb;
+    memcpy(&hb, _MAV_PAYLOAD(m), sizeof hb);
+    return hb.type == MAV_TYPE_GCS;
+}
+
 /* Learns the source system on link `from`. A vehicle system id already owned by another vehicle link
  * (the local autopilot, a peer bridge) is a conflict: counted, reported, dropped (the first keeps it). */
 static bool learn(ub_mavroute_t *rt, const mavlink_message_t *m, int from) {
@@ -73,6 +80,7 @@ static bool learn(ub_mavroute_t *rt, const mavlink_message_t *m, int from) {
         }
         if (owner == 0 && vehicle_heartbeat(m)) rt->vehicle[m->sysid] = (uint8_t)(from + 1);
     }
+    if (gcs_heartbeat(m)) rt->gcs[m->sysid] = 1;
     rt->seen[m->sysid] |= bit(from);
     return true;
 }
@@ -96,10 +104,11 @@ static void route(ub_mavroute_t *rt, const mavlink_message_t *m, int from, uint6
         return;
     }
     uint16_t len = mavlink_msg_to_send_buffer(rt->tx, m);
-    /* The autopilot: what is addressed to it, and ground stations' broadcasts (HEARTBEAT...), never other
-     * vehicles' broadcast telemetry. Only when the bridge forwards commands (the node's write policy). */
+    /* The autopilot: what is addressed to it, and ground stations' broadcasts (HEARTBEAT...: from a local
+     * ground station, or from a system whose HEARTBEAT says GCS), never other vehicles' broadcast telemetry.
+     * Only when the bridge forwards commands (the node's write policy). */
     if (rt->autopilot && (mask & bit(UB_MAVROUTE_LINK_AUTOPILOT)) && from != UB_MAVROUTE_LINK_AUTOPILOT &&
-        (target != 0 || rt->vehicle[m->sysid] == 0)) {
+        (target != 0 || is_client_link(from) || rt->gcs[m->sysid])) {
         if (!rt->br->opt.commands) rt->c.commands_off++;
         else if (ub_mavbridge_forward(rt->br, m, now_ms) == UB_OK) rt->c.to_autopilot++;
         else rt->c.send_errors++;
@@ -111,8 +120,13 @@ static void route(ub_mavroute_t *rt, const mavlink_message_t *m, int from, uint6
     }
     /* The bus does the multi-hop part: what came from a peer goes to local links only (no loops). */
     if (is_peer_link(from)) return;
-    for (int p = 0; p < rt->n_peers; p++)
-        if (mask & bit(UB_MAVROUTE_LINK_PEER0 + p)) to_peer(rt, p, rt->tx, len, now_ms);
+    for (int p = 0; p < rt->n_peers; p++) {
+        if (!(mask & bit(UB_MAVROUTE_LINK_PEER0 + p))) continue;
+        /* A vehicle's broadcast goes only to a peer heard lately (someone listens there). */
+        bool listening = rt->peer_heard_ms[p] != 0 && now_ms - rt->peer_heard_ms[p] <= UB_MAVROUTE_PEER_TIMEOUT_MS;
+        if (from == UB_MAVROUTE_LINK_AUTOPILOT && target == 0 && !listening) continue;
+        to_peer(rt, p, rt->tx, len, now_ms);
+    }
 }
 
 static void on_autopilot(void *user, const mavlink_message_t *m, uint64_t now_ms) {
@@ -164,6 +178,7 @@ void ub_mavroute_on_deliver(void *user, int entity, uint32_t instance, const ub_
         return;
     }
     rt->c.from_peers++;
+    rt->peer_heard_ms[p] = now_ms != 0 ? now_ms : 1;
     /* One whole frame per write: a fresh parser, so a damaged frame cannot disturb the next one. */
     size_t len = rt->frame->len <= UB_MAVFRAME_MAX ? rt->frame->len : 0;
     memset(&rt->pstatus, 0, sizeof rt->pstatus);

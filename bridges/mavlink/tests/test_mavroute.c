@@ -269,12 +269,31 @@ static void test_one_system_id_behind_two_vehicle_links_is_a_conflict(void **sta
     ap_heartbeat(&g_w.mb, 1);
     ap_attitude(&g_w.mb, 1, 555);
     run(20);
-    /* mb2 heard the door's vehicle 1 first (telemetry goes to every peer): its own autopilot is the second. */
-    assert_int_equal(ub_mavroute_counters(&g_w.mb.rt)->sysid_conflicts, 2);
-    assert_int_equal(g_w.mb.rt.last_conflict, 1);
-    assert_int_equal(ub_mavroute_counters(&g_w.mb.rt)->to_peers, 0);
+    /* The door's own vehicle 1 came first: mb2's (woken by the ground station's heartbeat) is the second. */
+    assert_int_equal(ub_mavroute_counters(&g_w.door.rt)->sysid_conflicts, 2);
+    assert_int_equal(g_w.door.rt.last_conflict, 1);
     assert_int_equal(count(&g_w.clients[0], MAVLINK_MSG_ID_HEARTBEAT, 1, 0), 1); /* the door's vehicle only */
     assert_int_equal(count(&g_w.clients[0], MAVLINK_MSG_ID_ATTITUDE, 1, 0), 0);
+}
+
+static void test_vehicles_broadcast_only_toward_peers_that_listen(void **state) {
+    (void)state;
+    setup_world(true);
+    /* No ground station anywhere: mb2's vehicle sends nothing over the bus. */
+    ap_heartbeat(&g_w.mb, 2);
+    ap_attitude(&g_w.mb, 2, 100);
+    run(20);
+    assert_int_equal(ub_mavroute_counters(&g_w.mb.rt)->to_peers, 0);
+    /* A ground station on the door: its heartbeat wakes mb2 up, whose vehicle then reaches it. */
+    gcs_heartbeat(0, 250);
+    ap_attitude(&g_w.mb, 2, 120);
+    run(20);
+    assert_int_equal(count(&g_w.clients[0], MAVLINK_MSG_ID_ATTITUDE, 2, 0), 1);
+    /* Silence from the door for longer than UB_MAVROUTE_PEER_TIMEOUT_MS: mb2 stops sending. */
+    run(UB_MAVROUTE_PEER_TIMEOUT_MS + 100);
+    uint64_t sent = ub_mavroute_counters(&g_w.mb.rt)->to_peers;
+    ap_attitude(&g_w.mb, 2, 140);
+    assert_int_equal(ub_mavroute_counters(&g_w.mb.rt)->to_peers, sent);
 }
 
 static void test_a_forged_sequence_is_no_loss(void **state) {
@@ -297,6 +316,7 @@ int main(void) {
         cmocka_unit_test(test_commands_off_refuse_and_count),
         cmocka_unit_test(test_damaged_frames_are_counted),
         cmocka_unit_test(test_one_system_id_behind_two_vehicle_links_is_a_conflict),
+        cmocka_unit_test(test_vehicles_broadcast_only_toward_peers_that_listen),
         cmocka_unit_test(test_a_forged_sequence_is_no_loss),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
