@@ -9,7 +9,13 @@ when the bridge's first HEARTBEAT arrives) and, as system 1 component 1:
     with time_boot_ms (a new value per sample) and values that move;
   - honours MAV_CMD_SET_MESSAGE_INTERVAL (interval µs; 0 = default rate, -1 = off) for the messages
     it streams, answering ACCEPTED, and UNSUPPORTED for any other message id;
-  - answers every other COMMAND_LONG / COMMAND_INT with COMMAND_ACK ACCEPTED.
+  - answers every other COMMAND_LONG / COMMAND_INT with COMMAND_ACK ACCEPTED;
+  - serves the parameter protocol over PARAMS (PARAM_REQUEST_LIST, _READ by id or index, PARAM_SET),
+    names being MAVLink char arrays (16 bytes, not NUL-terminated at full length);
+  - sends STATUSTEXT "<name> ready" when a peer first speaks, and on `statustext TEXT` (stdin).
+With --tcp it listens for one TCP connection instead (as ArduPilot SITL's 5760); with --pty it makes a
+pseudo-terminal pair, keeps the master end and says the other end's path in "ready" (`device`): a serial
+autopilot for a bridge's `serial:device=PATH`.
 With --key (64 hex digits in a file), pymavlink's own MAVLink 2 signing: everything it sends is signed
 and nothing unsigned is accepted.
 
@@ -34,6 +40,8 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
 DEFAULT_US = {30: 20_000, 33: 100_000}  # ATTITUDE 50 Hz, GLOBAL_POSITION_INT 10 Hz
+# The parameter table: a full-length (16-character) name among them, as ArduPilot has.
+PARAMS = {"SYSID_THISMAV": 1.0, "WPNAV_SPEED_DN_X": 150.0, **{f"TEST_P{i:02d}": float(i) for i in range(18)}}
 
 
 def emit(obj: dict) -> None:
@@ -49,17 +57,62 @@ def read_key(path: str) -> bytes:
     raise SystemExit(f"{path}: no key")
 
 
+class PtyConn:
+    """The master end of a pseudo-terminal as a mavutil-like connection (what the main loop uses of one)."""
+
+    def __init__(self, sysid: int, compid: int) -> None:
+        import tty
+
+        self.fd, slave = os.openpty()
+        tty.setraw(slave)  # 8N1 raw bytes, as ub_serial sets its end too
+        self.device = os.ttyname(slave)
+        self.slave = slave  # kept open: the pair lives while one end is open
+        os.set_blocking(self.fd, False)
+        self.mav = mavutil.mavlink.MAVLink(self, srcSystem=sysid, srcComponent=compid)
+        self.mav.robust_parsing = True  # as mavutil's own connections: line noise is BAD_DATA, not an exception
+        # The main loop sends only while `conn.port` is set: from the bridge's first bytes on (as udpin waits
+        # for a client), so nothing piles up in the pty before the bridge reads and no write is cut short.
+        self.port = None
+        self.pending: list = []
+        self.dropped = 0  # messages the pty did not take whole
+
+    def write(self, buf: bytes) -> None:
+        try:
+            n = os.write(self.fd, buf)
+        except BlockingIOError:
+            n = 0  # the bridge is not reading: a real serial line would drop it too
+        if n < len(buf):
+            self.dropped += 1
+
+    def recv_msg(self):
+        if not self.pending:
+            try:
+                data = os.read(self.fd, 4096)
+            except (BlockingIOError, OSError):
+                data = b""
+            if data:
+                self.port = self
+            self.pending = self.mav.parse_buffer(data) or [] if data else []
+        return self.pending.pop(0) if self.pending else None
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--port", type=int, required=True)
     ap.add_argument("--sysid", type=int, default=1)
     ap.add_argument("--compid", type=int, default=1)
     ap.add_argument("--key")
+    ap.add_argument("--tcp", action="store_true", help="listen for one TCP connection (as SITL's 5760) instead of udpin")
+    ap.add_argument("--pty", action="store_true", help="a serial autopilot on a pseudo-terminal (its path in ready)")
     ap.add_argument("--duration", type=float, default=120.0)
     args = ap.parse_args()
 
-    conn = mavutil.mavlink_connection(f"udpin:127.0.0.1:{args.port}", source_system=args.sysid,
-                                      source_component=args.compid, dialect="common")
+    kind = "tcpin" if args.tcp else "udpin"
+    if args.pty:
+        conn = PtyConn(args.sysid, args.compid)
+    else:
+        conn = mavutil.mavlink_connection(f"{kind}:127.0.0.1:{args.port}", source_system=args.sysid,
+                                          source_component=args.compid, dialect="common")
     mav = conn.mav
     key = read_key(args.key) if args.key else None
     if key:
@@ -76,13 +129,19 @@ def main() -> int:
     sent: dict[str, int] = {}
     commands = 0
     paused_until = 0.0
-    emit({"event": "ready", "pid": os.getpid(), "port": args.port, "signing": key is not None})
+    param_table = dict(PARAMS)
+    param_table["SYSID_THISMAV"] = float(args.sysid)
+    names = list(param_table)
+    greeted = False
+    emit({"event": "ready", "pid": os.getpid(), "port": args.port, "signing": key is not None,
+          "device": getattr(conn, "device", None)})
 
     def boot_ms() -> int:
         return int((time.monotonic() - start) * 1000)
 
     def send(msg: object) -> None:
-        if time.monotonic() < paused_until or not conn.clients:
+        peer = conn.port is not None if (args.tcp or args.pty) else conn.clients
+        if time.monotonic() < paused_until or not peer:
             return
         mav.send(msg)
         name = msg.get_type()  # type: ignore[attr-defined]
@@ -96,7 +155,8 @@ def main() -> int:
                                                      100, -50, 0, 9000)
 
     def stats() -> dict:
-        s = {"event": "stats", "sent": sent, "commands": commands, "intervals": {str(k): v for k, v in interval_us.items()}}
+        s = {"event": "stats", "sent": sent, "commands": commands, "intervals": {str(k): v for k, v in interval_us.items()},
+             "pty_dropped": getattr(conn, "dropped", 0)}
         if key:
             g = mav.signing
             s["signing"] = {"goodsig": g.goodsig_count, "badsig": g.badsig_count, "unsigned": g.unsigned_count,
@@ -119,7 +179,8 @@ def main() -> int:
     while time.monotonic() < end:
         now = time.monotonic()
         wake = min([next_hb] + [t for k, t in next_due.items() if interval_us[k] > 0])
-        r, _, _ = select.select([conn.port, sys.stdin], [], [], max(0.0, min(wake - now, 0.05)))
+        fd = conn.fd  # tcpin: the listening socket until the bridge connects, then the connection
+        r, _, _ = select.select([fd, sys.stdin], [], [], max(0.0, min(wake - now, 0.05)))
         if sys.stdin in r:
             chunk = os.read(sys.stdin.fileno(), 4096).decode()
             if not chunk:
@@ -138,14 +199,45 @@ def main() -> int:
                     one_off(float(words[1]), good_key=False)
                 elif words[0] == "send_badsig":
                     one_off(float(words[1]), good_key=True)
+                elif words[0] == "statustext":
+                    send(m.MAVLink_statustext_message(m.MAV_SEVERITY_INFO, " ".join(words[1:]).encode()[:50]))
                 elif words[0] == "pause":
                     paused_until = time.monotonic() + float(words[1])
-        if conn.port in r:
+        if fd in r:
             while True:
                 msg = conn.recv_msg()
                 if msg is None:
                     break
                 kind = msg.get_type()
+
+                def param_value(name: str) -> None:
+                    send(m.MAVLink_param_value_message(name.encode(), param_table[name], m.MAV_PARAM_TYPE_REAL32,
+                                                       len(names), names.index(name)))
+
+                if not greeted and kind == "HEARTBEAT":
+                    greeted = True
+                    send(m.MAVLink_statustext_message(m.MAV_SEVERITY_INFO, f"vehicle {args.sysid} ready".encode()))
+                if kind in ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET") and \
+                        msg.target_system not in (0, args.sysid):
+                    continue
+                if kind == "PARAM_REQUEST_LIST":
+                    emit({"event": "param_list", "from": [msg.get_srcSystem(), msg.get_srcComponent()]})
+                    for name in names:
+                        param_value(name)
+                    continue
+                if kind == "PARAM_REQUEST_READ":
+                    pid = msg.param_id if isinstance(msg.param_id, str) else msg.param_id.decode()
+                    name = names[msg.param_index] if 0 <= msg.param_index < len(names) else pid
+                    if name in param_table:
+                        param_value(name)
+                    continue
+                if kind == "PARAM_SET":
+                    pid = msg.param_id if isinstance(msg.param_id, str) else msg.param_id.decode()
+                    if pid in param_table:
+                        param_table[pid] = msg.param_value
+                        emit({"event": "param_set", "name": pid, "value": msg.param_value})
+                        param_value(pid)
+                    continue
                 if kind not in ("COMMAND_LONG", "COMMAND_INT"):
                     continue
                 commands += 1

@@ -54,7 +54,12 @@ def test_mavbridge_refuses_bad_set_up_in_one_line(tmp_path, mavbridge):
     prog = mavbridge["program"]
     cases = [
         ([prog, "--config", str(cfg)], "--mavlink SPEC is required"),
-        ([prog, "--config", str(cfg), "--mavlink", "tcp:connect=127.0.0.1:5760"], "udp:bind=HOST:PORT,peer=HOST:PORT or serial"),
+        ([prog, "--config", str(cfg), "--mavlink", "tcp:listen=127.0.0.1:5760"],
+         "udp:bind=HOST:PORT,peer=HOST:PORT, tcp:connect=HOST:PORT or serial"),
+        ([prog, "--config", str(cfg), "--mavlink", "udp:bind=127.0.0.1:0,peer=127.0.0.1:9", "--gcs",
+          "udp:bind=127.0.0.1:0,peer=127.0.0.1:9"], "ground stations are learned: no peer"),
+        ([prog, "--config", str(cfg), "--mavlink", "udp:bind=127.0.0.1:0,peer=127.0.0.1:9", "--fleet", "nobody"],
+         "--fleet: every entity must be in the entity table"),
         ([prog, "--config", str(cfg), "--mavlink", "udp:bind=127.0.0.1:0,peer=127.0.0.1:9", "--target", "1"],
          "expected SYSID/COMPID"),
         ([prog, "--config", str(cfg), "--mavlink", "udp:bind=127.0.0.1:0,peer=127.0.0.1:9", "--entity", "nobody"],

@@ -82,6 +82,9 @@ extern const size_t mav_directories_count;
  */
 typedef int (*ub_mav_write_fn)(void *user, const uint8_t *bytes, size_t len);
 
+/** Called with every message accepted from the autopilot (the front door, ub_mavroute.h, forwards it). */
+typedef void (*ub_mav_tap_fn)(void *user, const mavlink_message_t *m, uint64_t now_ms);
+
 /** Options; 0 fields take the defaults. */
 typedef struct ub_mavbridge_options {
     uint8_t sysid;               /**< our MAVLink system id; default 255 (a GCS) */
@@ -107,7 +110,9 @@ typedef struct ub_mavbridge_counters {
     uint64_t bytes_in;           /**< bytes from the autopilot's transport */
     uint64_t messages_in;        /**< valid MAVLink messages from the autopilot (target) */
     uint64_t updates_sent;       /**< DATA frames sent to subscribers on those updates */
-    uint64_t lost;               /**< autopilot messages missing by sequence number */
+    uint64_t lost;               /**< autopilot messages missing by sequence number (a jump counts once the
+                                      next message continues from it: a forged sequence is no loss) */
+    uint64_t seq_outliers;       /**< messages whose sequence the next one did not continue (counted, not losses) */
     uint64_t bad_crc;            /**< frames with a bad checksum (an unknown msgid fails it too) */
     uint64_t parse_errors;       /**< bytes the MAVLink parser threw away (bad length, flags) */
     uint64_t unsigned_refused;   /**< signing on: unsigned messages */
@@ -173,6 +178,10 @@ typedef struct ub_mavbridge {
     /* the autopilot */
     uint8_t target_sysid, target_compid;
     uint8_t target_known, connected, seq_known, last_seq;
+    uint8_t jump_pending, jump_seq; /* a sequence jump waiting for the next message to confirm it */
+    uint8_t jump_gap;
+    ub_mav_tap_fn tap;
+    void *tap_user;
     uint64_t last_heartbeat_ms;
     /* timers */
     uint64_t start_ms, next_heartbeat_ms, next_scan_ms, next_status_ms;
@@ -222,6 +231,17 @@ void ub_mavbridge_tick(ub_mavbridge_t *br, uint64_t now_ms);
 
 /** The node's delivery hook for the bridge entity (`user` = the bridge): forwards writes. */
 void ub_mavbridge_on_deliver(void *user, int entity, uint32_t instance, const ub_frame_header_t *h, uint64_t now_ms);
+
+/** Installs `fn` (NULL: none), called with every message accepted from the autopilot. */
+void ub_mavbridge_set_tap(ub_mavbridge_t *br, ub_mav_tap_fn fn, void *user);
+
+/**
+ * Sends message `m` of another system (a ground station's, from the front door) to the autopilot as
+ * it is, or, when signing is on, re-signed with the bridge's key under its own ids (the autopilot
+ * takes only signed messages then). Counted in messages_out.
+ * @return UB_OK; UB_ERR_AGAIN / another negative code from the transport; UB_ERR_INVAL.
+ */
+UB_CHECK int ub_mavbridge_forward(ub_mavbridge_t *br, const mavlink_message_t *m, uint64_t now_ms);
 
 /** @return the index in the table of message `msgid`'s directory, or UB_ERR_NOTFOUND. */
 UB_CHECK int ub_mavbridge_find(const ub_mavbridge_t *br, uint32_t msgid);

@@ -32,4 +32,18 @@ struct ub_mavbridge_status {
     uint32_t link_lost;          /* times the autopilot's HEARTBEAT stopped */
 };
 
+/** Instance name of the frame directory. */
+#define UB_MAVFRAME_NAME "mavFrame"
+/** Largest MAVLink 2 frame: 10 header + 255 payload + 2 checksum + 13 signature. */
+#define UB_MAVFRAME_MAX 280
+
+/* One MAVLink frame, as its sender received it, between bridge nodes (the front door,
+ * ub_mavroute.h): a DATA write of `mavFrame` into a peer bridge entity carries it across the bus
+ * (signed, compact, fragmented and routed as any directory). Bytes, not chars: the catalogue's string
+ * rule skips char arrays. */
+struct ub_mavframe {
+    uint16_t len;                   /* bytes used in `bytes` (a whole MAVLink 1 or 2 frame) */
+    uint8_t bytes[UB_MAVFRAME_MAX]; /* the frame, checksum and signature included */
+};
+
 #endif /* UB_MAVBRIDGE_STATUS_H */

@@ -405,6 +405,34 @@ static bool from_target(ub_mavbridge_t *br, const mavlink_message_t *m) {
     return true;
 }
 
+/* Losses by MAVLink sequence. A jump is counted only when the next message continues from it: a single
+ * forged (or corrupted) sequence number would otherwise add up to 255 losses, and a forger sending one
+ * message a second inflated `lost` by tens of thousands. A jump the next message does not continue is
+ * an outlier (counted as such); the stream's own sequence goes on. */
+static void count_sequence(ub_mavbridge_t *br, uint8_t seq) {
+    if (!br->seq_known) {
+        br->seq_known = 1;
+        br->last_seq = seq;
+        return;
+    }
+    if (br->jump_pending) {
+        br->jump_pending = 0;
+        if (seq == (uint8_t)(br->jump_seq + 1u)) {
+            br->c.lost += br->jump_gap; /* confirmed: the stream really jumped */
+            br->last_seq = seq;
+            return;
+        }
+        br->c.seq_outliers++;
+    }
+    if (seq == (uint8_t)(br->last_seq + 1u)) {
+        br->last_seq = seq;
+        return;
+    }
+    br->jump_pending = 1;
+    br->jump_seq = seq;
+    br->jump_gap = (uint8_t)(seq - (uint8_t)(br->last_seq + 1u));
+}
+
 static void accept_message(ub_mavbridge_t *br, const mavlink_message_t *m, uint64_t now_ms) {
     bool known = br->target_known;
     if (!from_target(br, m)) {
@@ -413,9 +441,8 @@ static void accept_message(ub_mavbridge_t *br, const mavlink_message_t *m, uint6
         return;
     }
     br->c.messages_in++;
-    if (br->seq_known) br->c.lost += (uint8_t)(m->seq - (uint8_t)(br->last_seq + 1u));
-    br->seq_known = 1;
-    br->last_seq = m->seq;
+    count_sequence(br, m->seq);
+    if (br->tap != NULL) br->tap(br->tap_user, m, now_ms);
     if (m->msgid == MAVLINK_MSG_ID_HEARTBEAT) heard_autopilot(br, now_ms);
     int d = ub_mavbridge_find(br, m->msgid);
     if (d < 0) {
@@ -474,6 +501,35 @@ int ub_mavbridge_rx(ub_mavbridge_t *br, const uint8_t *bytes, size_t len, uint64
         }
     }
     return accepted;
+}
+
+void ub_mavbridge_set_tap(ub_mavbridge_t *br, ub_mav_tap_fn fn, void *user) {
+    if (br == NULL) return;
+    br->tap = fn;
+    br->tap_user = user;
+}
+
+int ub_mavbridge_forward(ub_mavbridge_t *br, const mavlink_message_t *m, uint64_t now_ms) {
+    if (br == NULL || m == NULL) return UB_ERR_INVAL;
+    uint16_t len;
+    if (br->opt.sign) {
+        /* The autopilot takes only messages signed with the key: sign the ground station's message
+         * as the bridge's own (the GCS need not hold the vehicle's key; the bus authenticated it). */
+        const mavlink_msg_entry_t *e = mavlink_get_msg_entry(m->msgid);
+        if (e == NULL) return UB_ERR_NOTFOUND;
+        return send_message(br, m->msgid, _MAV_PAYLOAD(m), e->max_msg_len, now_ms);
+    }
+    len = mavlink_msg_to_send_buffer(br->tx, m);
+    int rc = br->write(br->write_user, br->tx, len);
+    if (rc == UB_OK) {
+        br->c.messages_out++;
+        br->c.bytes_out += len;
+    } else if (rc == UB_ERR_AGAIN) {
+        br->c.backpressure++;
+    } else {
+        br->c.send_errors++;
+    }
+    return rc;
 }
 
 /* ---- writes from entities --------------------------------------------------------------------------- */

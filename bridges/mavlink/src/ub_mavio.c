@@ -5,6 +5,7 @@
 #include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <netinet/tcp.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/socket.h>
@@ -41,12 +42,49 @@ static int open_udp(ub_mavio_t *io, const ub_port_spec_t *spec, char *err, size_
     return UB_OK;
 }
 
+/* TCP client: starts a non-blocking connect (completed in ub_mavio_service()). */
+static int tcp_connect(ub_mavio_t *io, uint64_t now_ms) {
+    int fd = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (fd < 0) return UB_ERR_IO;
+    int one = 1;
+    (void)setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one); /* MAVLink messages are small and urgent */
+    int rc = connect(fd, (const struct sockaddr *)&io->peer, sizeof io->peer);
+    if (rc < 0 && errno != EINPROGRESS) {
+        close(fd);
+        io->stats.connect_failures++;
+        io->retry_ms = now_ms + UB_MAVIO_RECONNECT_MS;
+        return UB_ERR_IO;
+    }
+    io->fd = fd;
+    io->connecting = rc < 0;
+    if (rc == 0) io->stats.connects++;
+    return UB_OK;
+}
+
+static void tcp_drop(ub_mavio_t *io, uint64_t now_ms, bool was_up) {
+    if (io->fd >= 0) close(io->fd);
+    io->fd = -1;
+    io->connecting = 0;
+    io->tx_len = 0; /* half a message must not start the next connection */
+    io->retry_ms = now_ms + UB_MAVIO_RECONNECT_MS;
+    if (was_up) io->stats.disconnects++;
+    else io->stats.connect_failures++;
+}
+
 int ub_mavio_open(ub_mavio_t *io, const ub_port_spec_t *spec, char *err, size_t err_cap) {
     if (io == NULL || spec == NULL) return UB_ERR_INVAL;
     memset(io, 0, sizeof *io);
     io->fd = -1;
     io->kind = spec->kind;
     if (spec->kind == UB_PORT_UDP) return open_udp(io, spec, err, err_cap);
+    if (spec->kind == UB_PORT_TCP_CONNECT) {
+        io->peer.sin_family = AF_INET;
+        io->peer.sin_port = htons(spec->port);
+        if (inet_pton(AF_INET, spec->host, &io->peer.sin_addr) != 1)
+            return fail(err, err_cap, UB_ERR_INVAL, "tcp", "connect must be a dotted IPv4 address");
+        (void)tcp_connect(io, 0); /* refused now: retried by ub_mavio_service(), as SITL may start later */
+        return UB_OK;
+    }
     if (spec->kind == UB_PORT_SERIAL) {
         int rc = ub_serial_open(&io->serial, spec->device, spec->baud);
         if (rc == UB_ERR_RANGE) return fail(err, err_cap, rc, spec->device, "unsupported baud rate");
@@ -55,19 +93,20 @@ int ub_mavio_open(ub_mavio_t *io, const ub_port_spec_t *spec, char *err, size_t 
         return UB_OK;
     }
     return fail(err, err_cap, UB_ERR_INVAL, "mavlink",
-                "the autopilot link is udp:bind=HOST:PORT,peer=HOST:PORT or serial:device=PATH[,baud=N]");
+                "the autopilot link is udp:bind=HOST:PORT,peer=HOST:PORT, tcp:connect=HOST:PORT or serial:device=PATH[,baud=N]");
 }
 
-/* Writes what the device takes now; returns bytes written or a negative error. */
-static ssize_t write_some(int fd, const uint8_t *p, size_t n) {
-    ssize_t w = write(fd, p, n);
+/* Writes what the device or the connection takes now; returns bytes written or a negative error. */
+static ssize_t write_some(const ub_mavio_t *io, const uint8_t *p, size_t n) {
+    int fd = io->fd;
+    ssize_t w = io->kind == UB_PORT_TCP_CONNECT ? send(fd, p, n, MSG_NOSIGNAL) : write(fd, p, n);
     if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) return 0;
     return w;
 }
 
 static int flush_serial(ub_mavio_t *io) {
     if (io->tx_len == 0) return UB_OK;
-    ssize_t w = write_some(io->fd, io->tx, io->tx_len);
+    ssize_t w = write_some(io, io->tx, io->tx_len);
     if (w < 0) {
         io->stats.send_errors++;
         return UB_ERR_IO;
@@ -80,6 +119,10 @@ static int flush_serial(ub_mavio_t *io) {
 
 int ub_mavio_write(void *user, const uint8_t *bytes, size_t len) {
     ub_mavio_t *io = user;
+    if (io != NULL && io->kind == UB_PORT_TCP_CONNECT && (io->fd < 0 || io->connecting)) {
+        io->stats.again++; /* not connected (yet): the bridge counts it as backpressure */
+        return UB_ERR_AGAIN;
+    }
     if (io == NULL || io->fd < 0) return UB_ERR_CLOSED;
     if (io->kind == UB_PORT_UDP) {
         ssize_t w = sendto(io->fd, bytes, len, 0, (const struct sockaddr *)&io->peer, sizeof io->peer);
@@ -95,10 +138,10 @@ int ub_mavio_write(void *user, const uint8_t *bytes, size_t len) {
         io->stats.bytes_out += len;
         return UB_OK;
     }
-    /* Serial: keep order behind what waits; a message is queued whole or refused whole. */
+    /* Serial and TCP: keep order behind what waits; a message is queued whole or refused whole. */
     if (flush_serial(io) < 0) return UB_ERR_IO;
     if (io->tx_len == 0) {
-        ssize_t w = write_some(io->fd, bytes, len);
+        ssize_t w = write_some(io, bytes, len);
         if (w < 0) {
             io->stats.send_errors++;
             return UB_ERR_IO;
@@ -125,8 +168,35 @@ static bool same_peer(const struct sockaddr_in *a, const struct sockaddr_in *b) 
     return a->sin_addr.s_addr == b->sin_addr.s_addr && a->sin_port == b->sin_port;
 }
 
+/* TCP: connects, completes a connect, flushes; a broken connection is dropped and retried.
+ * @return whether the connection is up. */
+static bool tcp_service(ub_mavio_t *io, uint64_t now_ms) {
+    if (io->fd < 0) {
+        if (now_ms < io->retry_ms || tcp_connect(io, now_ms) < 0) return false;
+    }
+    if (io->connecting) {
+        int e = 0;
+        socklen_t elen = sizeof e;
+        struct pollfd pfd = {.fd = io->fd, .events = POLLOUT, .revents = 0};
+        if (poll(&pfd, 1, 0) <= 0) return false; /* still in progress */
+        if (getsockopt(io->fd, SOL_SOCKET, SO_ERROR, &e, &elen) < 0 || e != 0) {
+            tcp_drop(io, now_ms, false);
+            return false;
+        }
+        io->connecting = 0;
+        io->stats.connects++;
+    }
+    if (flush_serial(io) < 0) {
+        tcp_drop(io, now_ms, true);
+        return false;
+    }
+    return true;
+}
+
 int ub_mavio_service(ub_mavio_t *io, ub_mavbridge_t *br, uint64_t now_ms) {
-    if (io == NULL || br == NULL || io->fd < 0) return UB_ERR_INVAL;
+    if (io == NULL || br == NULL) return UB_ERR_INVAL;
+    if (io->kind == UB_PORT_TCP_CONNECT && !tcp_service(io, now_ms)) return 0;
+    if (io->fd < 0) return UB_ERR_INVAL;
     int accepted = 0;
     if (io->kind == UB_PORT_SERIAL && flush_serial(io) < 0) return UB_ERR_IO;
     for (int k = 0; k < UB_MAVIO_RX_BUDGET; k++) {
@@ -140,6 +210,12 @@ int ub_mavio_service(ub_mavio_t *io, ub_mavbridge_t *br, uint64_t now_ms) {
                 continue;
             }
             if (n >= 0) io->stats.datagrams_in++;
+        } else if (io->kind == UB_PORT_TCP_CONNECT) {
+            n = recv(io->fd, io->rx, sizeof io->rx, 0);
+            if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
+                tcp_drop(io, now_ms, true); /* closed or broken: the autopilot restarts, SITL too */
+                break;
+            }
         } else {
             n = read(io->fd, io->rx, sizeof io->rx);
             if (n == 0) break; /* no data (VMIN 0) */
@@ -158,9 +234,11 @@ int ub_mavio_service(ub_mavio_t *io, ub_mavbridge_t *br, uint64_t now_ms) {
 
 void ub_mavio_pollfd(const ub_mavio_t *io, struct pollfd *pfd) {
     pfd->fd = io->fd;
-    pfd->events = (short)(POLLIN | (io->tx_len > 0 ? POLLOUT : 0));
+    pfd->events = (short)(POLLIN | (io->tx_len > 0 || io->connecting ? POLLOUT : 0));
     pfd->revents = 0;
 }
+
+bool ub_mavio_up(const ub_mavio_t *io) { return io != NULL && io->fd >= 0 && !io->connecting; }
 
 int ub_mavio_local_port(const ub_mavio_t *io, uint16_t *port) {
     if (io == NULL || port == NULL || io->kind != UB_PORT_UDP) return UB_ERR_INVAL;
@@ -239,4 +317,201 @@ int ub_mavbridge_load_key(const char *path, uint8_t key[32], char *err, size_t e
         return UB_ERR_CONFIG;
     }
     return UB_OK;
+}
+
+/* ---- the GCS endpoint ------------------------------------------------------------------------------ */
+
+int ub_mavgcs_open(ub_mavgcs_t *g, const ub_port_spec_t *spec, char *err, size_t cap) {
+    if (g == NULL || spec == NULL) return UB_ERR_INVAL;
+    memset(g, 0, sizeof *g);
+    g->fd = -1;
+    for (int c = 0; c < UB_MAVROUTE_MAX_CLIENTS; c++) g->clients[c].fd = -1;
+    bool tcp = spec->kind == UB_PORT_TCP_LISTEN;
+    if ((spec->kind != UB_PORT_UDP && !tcp) || (!tcp && spec->peer_port != 0))
+        return fail(err, cap, UB_ERR_INVAL, "gcs",
+                    "the GCS endpoint is udp:bind=HOST:PORT (ground stations are learned: no peer) or tcp:listen=HOST:PORT");
+    struct sockaddr_in local;
+    memset(&local, 0, sizeof local);
+    local.sin_family = AF_INET;
+    local.sin_port = htons(spec->port);
+    if (inet_pton(AF_INET, spec->host, &local.sin_addr) != 1)
+        return fail(err, cap, UB_ERR_INVAL, "gcs", "bind must be a dotted IPv4 address");
+    int fd = socket(AF_INET, (tcp ? SOCK_STREAM : SOCK_DGRAM) | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (fd < 0) return fail(err, cap, UB_ERR_IO, "gcs socket", strerror(errno));
+    int one = 1, rcvbuf = UB_MAVIO_RCVBUF;
+    if (tcp) (void)setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one); /* restart while old ones linger */
+    else (void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+    if (bind(fd, (const struct sockaddr *)&local, sizeof local) < 0 || (tcp && listen(fd, UB_MAVROUTE_MAX_CLIENTS) < 0)) {
+        int e = errno;
+        close(fd);
+        char what[96];
+        snprintf(what, sizeof what, "gcs %s %s:%u", tcp ? "tcp listen" : "udp bind", spec->host, (unsigned)spec->port);
+        return fail(err, cap, UB_ERR_IO, what, strerror(e));
+    }
+    g->fd = fd;
+    g->tcp = tcp;
+    return UB_OK;
+}
+
+int ub_mavgcs_send(void *user, int client, const uint8_t *bytes, size_t len) {
+    ub_mavgcs_t *g = user;
+    if (g == NULL || g->fd < 0 || client < 0 || client >= UB_MAVROUTE_MAX_CLIENTS || !g->clients[client].in_use)
+        return UB_ERR_INVAL;
+    if (g->tcp) {
+        ssize_t w = send(g->clients[client].fd, bytes, len, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+            g->stats.again++; /* the whole message left out: the stream stays whole */
+            return UB_ERR_AGAIN;
+        }
+        if (w < 0 || (size_t)w != len) {
+            /* Half a frame went out: the stream is cut rather than left corrupt; the next service sees the
+             * connection end (clients_closed) and the router forgets the client. */
+            (void)shutdown(g->clients[client].fd, SHUT_RDWR);
+            g->stats.send_errors++;
+            return UB_ERR_IO;
+        }
+        return UB_OK;
+    }
+    ssize_t w = sendto(g->fd, bytes, len, 0, (const struct sockaddr *)&g->clients[client].addr, sizeof g->clients[client].addr);
+    if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+        g->stats.again++;
+        return UB_ERR_AGAIN;
+    }
+    if (w < 0 || (size_t)w != len) {
+        g->stats.send_errors++;
+        return UB_ERR_IO;
+    }
+    return UB_OK;
+}
+
+static int client_of(ub_mavgcs_t *g, ub_mavroute_t *rt, const struct sockaddr_in *from, uint64_t now_ms) {
+    int free_slot = -1;
+    for (int c = 0; c < UB_MAVROUTE_MAX_CLIENTS; c++) {
+        if (g->clients[c].in_use && same_peer(&g->clients[c].addr, from)) return c;
+        if (!g->clients[c].in_use && free_slot < 0) free_slot = c;
+    }
+    if (free_slot < 0) {
+        g->stats.clients_full++;
+        return -1;
+    }
+    g->clients[free_slot].in_use = 1;
+    g->clients[free_slot].addr = *from;
+    g->clients[free_slot].last_ms = now_ms;
+    ub_mavroute_client_gone(rt, free_slot); /* a fresh parser and nothing learned from a former client */
+    g->stats.clients_new++;
+    return free_slot;
+}
+
+static void tcp_client_gone(ub_mavgcs_t *g, ub_mavroute_t *rt, int c) {
+    close(g->clients[c].fd);
+    g->clients[c].fd = -1;
+    g->clients[c].in_use = 0;
+    g->stats.clients_closed++;
+    ub_mavroute_client_gone(rt, c);
+}
+
+static int gcs_tcp_service(ub_mavgcs_t *g, ub_mavroute_t *rt, uint64_t now_ms) {
+    for (;;) {
+        struct sockaddr_in from;
+        socklen_t flen = sizeof from;
+        int fd = accept(g->fd, (struct sockaddr *)&from, &flen);
+        if (fd < 0) break;
+        if (fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) | O_NONBLOCK) < 0 || fcntl(fd, F_SETFD, FD_CLOEXEC) < 0) {
+            close(fd);
+            g->stats.read_errors++;
+            continue;
+        }
+        int c = 0;
+        while (c < UB_MAVROUTE_MAX_CLIENTS && g->clients[c].in_use) c++;
+        if (c == UB_MAVROUTE_MAX_CLIENTS) {
+            close(fd);
+            g->stats.clients_full++;
+            continue;
+        }
+        int one = 1;
+        (void)setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        g->clients[c].in_use = 1;
+        g->clients[c].fd = fd;
+        g->clients[c].addr = from;
+        g->clients[c].last_ms = now_ms;
+        ub_mavroute_client_gone(rt, c); /* a fresh parser */
+        g->stats.clients_new++;
+    }
+    for (int c = 0; c < UB_MAVROUTE_MAX_CLIENTS; c++) {
+        if (!g->clients[c].in_use) continue;
+        for (int k = 0; k < UB_MAVIO_RX_BUDGET; k++) {
+            ssize_t n = recv(g->clients[c].fd, g->rx, sizeof g->rx, 0);
+            if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) break;
+            if (n <= 0) {
+                tcp_client_gone(g, rt, c);
+                break;
+            }
+            g->stats.datagrams_in++;
+            g->clients[c].last_ms = now_ms;
+            if (ub_mavroute_from_client(rt, c, g->rx, (size_t)n, now_ms) < 0) return UB_ERR_INVAL; /* cannot happen */
+        }
+    }
+    return UB_OK;
+}
+
+int ub_mavgcs_service(ub_mavgcs_t *g, ub_mavroute_t *rt, uint64_t now_ms) {
+    if (g == NULL || rt == NULL || g->fd < 0) return UB_ERR_INVAL;
+    if (g->tcp) return gcs_tcp_service(g, rt, now_ms);
+    for (int k = 0; k < UB_MAVIO_RX_BUDGET; k++) {
+        struct sockaddr_in from;
+        socklen_t flen = sizeof from;
+        ssize_t n = recvfrom(g->fd, g->rx, sizeof g->rx, 0, (struct sockaddr *)&from, &flen);
+        if (n < 0) {
+            if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) break;
+            g->stats.read_errors++;
+            return UB_ERR_IO;
+        }
+        g->stats.datagrams_in++;
+        int c = client_of(g, rt, &from, now_ms);
+        if (c < 0) continue;
+        g->clients[c].last_ms = now_ms;
+        if (ub_mavroute_from_client(rt, c, g->rx, (size_t)n, now_ms) < 0) return UB_ERR_INVAL; /* cannot happen */
+    }
+    for (int c = 0; c < UB_MAVROUTE_MAX_CLIENTS; c++) {
+        if (g->clients[c].in_use && now_ms - g->clients[c].last_ms > UB_MAVGCS_CLIENT_TIMEOUT_MS) {
+            g->clients[c].in_use = 0;
+            g->stats.clients_expired++;
+            ub_mavroute_client_gone(rt, c);
+        }
+    }
+    return UB_OK;
+}
+
+int ub_mavgcs_pollfds(const ub_mavgcs_t *g, struct pollfd *pfds, int max) {
+    int n = 0;
+    if (g == NULL || g->fd < 0 || max < 1) return 0;
+    pfds[n++] = (struct pollfd){.fd = g->fd, .events = POLLIN, .revents = 0};
+    for (int c = 0; g->tcp && c < UB_MAVROUTE_MAX_CLIENTS && n < max; c++)
+        if (g->clients[c].in_use) pfds[n++] = (struct pollfd){.fd = g->clients[c].fd, .events = POLLIN, .revents = 0};
+    return n;
+}
+
+int ub_mavgcs_local_port(const ub_mavgcs_t *g, uint16_t *port) {
+    if (g == NULL || port == NULL || g->fd < 0) return UB_ERR_INVAL;
+    struct sockaddr_in local;
+    socklen_t len = sizeof local;
+    if (getsockname(g->fd, (struct sockaddr *)&local, &len) < 0) return UB_ERR_IO;
+    *port = ntohs(local.sin_port);
+    return UB_OK;
+}
+
+int ub_mavgcs_clients(const ub_mavgcs_t *g) {
+    int n = 0;
+    for (int c = 0; g != NULL && c < UB_MAVROUTE_MAX_CLIENTS; c++) n += g->clients[c].in_use;
+    return n;
+}
+
+void ub_mavgcs_close(ub_mavgcs_t *g) {
+    if (g == NULL || g->fd < 0) return;
+    for (int c = 0; g->tcp && c < UB_MAVROUTE_MAX_CLIENTS; c++) {
+        if (g->clients[c].in_use) close(g->clients[c].fd);
+        g->clients[c].in_use = 0;
+    }
+    close(g->fd);
+    g->fd = -1;
 }

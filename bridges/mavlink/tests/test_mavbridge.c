@@ -221,10 +221,21 @@ static void test_telemetry_reaches_a_subscriber_once_per_update(void **state) {
     assert_int_equal(g_f.delivered[inst("ATTITUDE_30")], 50);
     assert_int_equal(state_of(MAVLINK_MSG_ID_ATTITUDE)->rx, 50);
     assert_int_equal(ub_mavbridge_counters(&g_f.br)->lost, 0);
-    /* A gap in the autopilot's sequence numbers is counted. */
+    /* A gap in the autopilot's sequence numbers is counted once the next message continues from it. */
     g_f.ap_status.current_tx_seq += 3;
     ap_attitude(AP_SYS, AP_COMP, 9999, 0.f);
+    assert_int_equal(ub_mavbridge_counters(&g_f.br)->lost, 0);
+    ap_attitude(AP_SYS, AP_COMP, 10000, 0.f);
     assert_int_equal(ub_mavbridge_counters(&g_f.br)->lost, 3);
+    /* A forged sequence number (one message far ahead, the stream going on) is no loss: an outlier. */
+    uint8_t seq = g_f.ap_status.current_tx_seq;
+    g_f.ap_status.current_tx_seq = (uint8_t)(seq + 200u);
+    ap_attitude(AP_SYS, AP_COMP, 10001, 0.f);
+    g_f.ap_status.current_tx_seq = seq;
+    ap_attitude(AP_SYS, AP_COMP, 10002, 0.f);
+    ap_attitude(AP_SYS, AP_COMP, 10003, 0.f);
+    assert_int_equal(ub_mavbridge_counters(&g_f.br)->lost, 3);
+    assert_int_equal(ub_mavbridge_counters(&g_f.br)->seq_outliers, 1);
 }
 
 static void test_subscription_periods_become_message_intervals(void **state) {

@@ -38,6 +38,9 @@ from pathlib import Path
 
 STATUS_DIRECTORY = "mavbridgeStatus"
 STATUS_TYPE = "struct ub_mavbridge_status"
+# Raw MAVLink frames between bridge nodes (the front door, docs/bridges.md): one catalogued directory.
+FRAME_DIRECTORY = "mavFrame"
+FRAME_TYPE = "struct ub_mavframe"
 # Directories the bridge binds besides the messages (the status); the rest of the margin is for the
 # application's own bindings when it embeds the bridge in a bigger node.
 EXTRA_BINDINGS = 16
@@ -136,7 +139,9 @@ def _header(dialect: str, messages: list[Message]) -> str:
     ]
     lines += [f"extern {m.c_type} {m.directory};" for m in messages]
     lines += ["", "/* The bridge's own state and counters (ub_mavbridge_status.h). */",
-              f"extern {STATUS_TYPE} {STATUS_DIRECTORY};", "", "#endif", ""]
+              f"extern {STATUS_TYPE} {STATUS_DIRECTORY};",
+              "/* One raw MAVLink frame between bridge nodes (the front door, ub_mavbridge_status.h). */",
+              f"extern {FRAME_TYPE} {FRAME_DIRECTORY};", "", "#endif", ""]
     return "\n".join(lines)
 
 
@@ -148,7 +153,7 @@ def _source(dialect: str, messages: list[Message]) -> str:
         "",
     ]
     lines += [f"{m.c_type} {m.directory};" for m in messages]
-    lines += [f"{STATUS_TYPE} {STATUS_DIRECTORY};", "",
+    lines += [f"{STATUS_TYPE} {STATUS_DIRECTORY};", f"{FRAME_TYPE} {FRAME_DIRECTORY};", "",
               "/* Sorted by msgid (ub_mavbridge_init() checks). */",
               "const ub_mav_dir_t mav_directories[] = {"]
     lines += [f'    {{{m.msgid}u, "{m.directory}", &{m.directory}, (uint16_t)sizeof {m.directory}}},'
