@@ -22,8 +22,8 @@ BUILD_COV   := build-cov
 BUILD_CROSS := build-cross
 # clang + libFuzzer: `make test` runs every fuzz harness for a few seconds (make fuzz for longer).
 FUZZ_APT_PKGS := clang-14 libclang-rt-14-dev
-# qemu-user runs the generator's cross-built self-tests (qemu-arm) and test-cross (s390x, armhf); gcc-multilib
-# links the generator's -m32 self-test.
+# qemu-user runs the generator's cross-built self-tests (qemu-arm) and test-cross (s390x, armhf); the 32-bit
+# libraries link the generator's -m32 self-test (not gcc-multilib: Debian has it conflict with every cross gcc).
 # QEMU's system emulator: `make test` and `make demo` boot the Cortex-M4 firmware (examples/mcu) on mps2-an386.
 HITL_APT_PKGS := qemu-system-arm
 # The console's browser tests and the demo's screenshots: headless Chromium driven by Selenium (tests/web).
@@ -31,7 +31,7 @@ WEB_APT_PKGS := chromium chromium-driver
 # Cross compilers for test-cross (tests/cross/run.sh: s390x = 64-bit big-endian, armhf = 32-bit).
 CROSS_APT_PKGS := gcc-s390x-linux-gnu gcc-arm-linux-gnueabihf
 APT_PKGS    := libcmocka-dev cmake ninja-build pkg-config libsodium-dev gcc-arm-none-eabi libnewlib-arm-none-eabi g++ \
-               qemu-user gcc-multilib $(HITL_APT_PKGS) \
+               qemu-user lib32gcc-12-dev libc6-dev-i386 $(HITL_APT_PKGS) \
                $(FUZZ_APT_PKGS) $(WEB_APT_PKGS) $(CROSS_APT_PKGS)
 COV_APT_PKGS := gcovr
 SETUP_STAMP := $(VENV)/.uavbus-setup-stamp

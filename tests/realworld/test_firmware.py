@@ -180,21 +180,35 @@ def test_m4_host_parse_is_refused() -> None:
 
 
 
+def m32_args(tmp_path: Path) -> list[str]:
+    """`-m32`, and where Debian's gcc-multilib is not installed (it conflicts with the cross compilers that
+    `make test-cross` needs, so `make setup` installs only its 32-bit libraries: lib32gcc-12-dev and
+    libc6-dev-i386) the one thing it adds for -m32: `asm/` headers on the include path. x86's are one set for
+    both word sizes (they test __i386__ themselves); gcc-multilib's /usr/include/asm is the same link."""
+    if Path("/usr/include/asm").exists() or not Path("/usr/include/x86_64-linux-gnu/asm").is_dir():
+        return ["-m32"]
+    inc = tmp_path / "m32-include"
+    inc.mkdir(exist_ok=True)
+    if not (inc / "asm").exists():
+        (inc / "asm").symlink_to("/usr/include/x86_64-linux-gnu/asm")
+    return ["-m32", "-isystem", str(inc)]
+
+
 @needs_gcc
 def test_abi_flag_no_macro_reveals_is_caught_before_parsing(tmp_path: Path) -> None:
     # A compiler (wrapper) that aligns doubles to 8 in i386 structs: no predefined macro tells, so
     # the probe that the compiler checks against clang's values catches it and names the flag.
     if run(["gcc", "-m32", "-E", "-x", "c", os.devnull], tmp_path).returncode != 0:
-        pytest.skip("gcc -m32 not available (gcc-multilib)")
+        pytest.skip("gcc -m32 not available (lib32gcc-12-dev, libc6-dev-i386: make setup installs them)")
     wrapper = tmp_path / "cc.sh"
     wrapper.write_text('#!/bin/sh\nexec gcc -malign-double "$@"\n')
     wrapper.chmod(0o755)
-    wrong = uavbus("check", ".", "--target-cc", str(wrapper), "--", "-m32", cwd=CONST)
+    wrong = uavbus("check", ".", "--target-cc", str(wrapper), "--", *m32_args(tmp_path), cwd=CONST)
     assert wrong.returncode == 2, describe(wrong)
     assert "lay types out differently: " in wrong.stderr
     assert "double alignment in structs: clang 4 (-malign-double / -m32)" in wrong.stderr
     assert "enum size" not in wrong.stderr and "char signedness" not in wrong.stderr
-    right = uavbus("check", ".", "--target-cc", str(wrapper), "--", "-m32", "-malign-double", cwd=CONST)
+    right = uavbus("check", ".", "--target-cc", str(wrapper), "--", *m32_args(tmp_path), "-malign-double", cwd=CONST)
     assert right.returncode == 0, describe(right)
 
 
@@ -214,11 +228,12 @@ def test_m4_selftest_runs_under_qemu_arm_or_says_why_not() -> None:
 
 
 @needs_gcc
-def test_m32_selftest_links_and_runs() -> None:
+def test_m32_selftest_links_and_runs(tmp_path: Path) -> None:
     if subprocess.run(["gcc", "-m32", "-x", "c", "-", "-o", os.devnull], input="int main(void){return 0;}",
                       capture_output=True, text=True, check=False).returncode != 0:
-        pytest.skip("gcc cannot link -m32 here (gcc-multilib; make setup installs it)")
-    proc = uavbus("selftest", ".", "--name", "cst32", "-j", "2", "--target-cc", "gcc", "--", "-m32", cwd=CONST)
+        pytest.skip("gcc cannot link -m32 here (lib32gcc-12-dev, libc6-dev-i386: make setup installs them)")
+    proc = uavbus("selftest", ".", "--name", "cst32", "-j", "2", "--target-cc", "gcc", "--", *m32_args(tmp_path),
+                  cwd=CONST)
     assert_selftest_passed(proc, 5)
 
 
@@ -302,7 +317,7 @@ def test_instances_from_a_list_and_its_errors(tmp_path: Path) -> None:
 @needs_gcc
 def test_fleet_fingerprints_differ_for_long_and_agree_for_fixed_width(tmp_path: Path) -> None:
     if run(["gcc", "-m32", "-E", "-x", "c", os.devnull], tmp_path).returncode != 0:
-        pytest.skip("gcc -m32 not available (gcc-multilib)")
+        pytest.skip("gcc -m32 not available (lib32gcc-12-dev, libc6-dev-i386: make setup installs them)")
     (tmp_path / "fleet.h").write_text(
         "#include <stdint.h>\n"
         "struct portable { int32_t a; uint64_t t; double d; uint8_t mode; };\n"
@@ -316,7 +331,7 @@ def test_fleet_fingerprints_differ_for_long_and_agree_for_fixed_width(tmp_path: 
         doc = json.loads((out / "catalogue.catalogue.json").read_text())
         return {t["name"]: t["fingerprint"] for t in doc["types"]}
 
-    host, i386 = fingerprints(), fingerprints("--target-cc", "gcc", "--", "-m32")
+    host, i386 = fingerprints(), fingerprints("--target-cc", "gcc", "--", *m32_args(tmp_path))
     assert host["struct portable"] == i386["struct portable"]
     assert host["struct native"] != i386["struct native"]
 
