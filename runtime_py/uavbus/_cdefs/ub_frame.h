@@ -52,6 +52,8 @@ typedef struct ub_decoder_stats {
     uint64_t bytes_in;
     uint64_t bytes_ok;
     uint64_t garbage_bytes;
+    uint64_t foreign_bytes;
+    uint64_t foreign_refused;
     uint64_t rejected[...];
     ...;
 } ub_decoder_stats_t;
