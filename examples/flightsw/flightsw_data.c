@@ -14,6 +14,7 @@
 #include "health.h"
 #include "imu.h"
 #include "navfilter.h"
+#include "nmea_gps.h"
 #include "onboard.h"
 #include "pubsub.h"
 #include "sensors.h"
@@ -60,6 +61,7 @@ onboardTiming_t onboard2Timing;
 onboardTiming_t fcsTiming;
 
 gpsRaw_t gpsRaw;
+nmeaGps_t gpsNmea;
 gpsOut_t gpsOut;
 gpsOut_t gpsSolution;
 gpsOut_t gpsOutBackup;

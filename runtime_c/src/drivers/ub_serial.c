@@ -142,6 +142,16 @@ static void try_reopen(ub_serial_t *serial, uint64_t now_ms) {
         int attached = ub_driver_reattach(serial->node, serial->link_id, &ub_serial_ops, serial);
         (void)attached; /* cannot fail: ub_serial_attach() succeeded with these arguments */
     }
+    if (serial->dec != NULL) { /* the same restart for the caller's decoder, keeping its handler */
+        ub_decoder_t *d = serial->dec;
+        ub_decoder_stats_t kept = d->stats;
+        ub_foreign_cb cb = d->foreign;
+        void *user = d->foreign_user;
+        kept.garbage_bytes += ub_decoder_pending(d);
+        ub_decoder_init(d);
+        d->stats = kept;
+        ub_decoder_set_foreign(d, cb, user);
+    }
 }
 
 static long device_write(int fd, const uint8_t *data, size_t len) { return (long)write(fd, data, len); }
@@ -167,6 +177,12 @@ static int serial_send(void *impl, const uint8_t *frame, size_t len, uint64_t no
         return rc;
     }
     serial->stats.frames_out++;
+    return UB_OK;
+}
+
+int ub_serial_set_decoder(ub_serial_t *serial, ub_decoder_t *dec) {
+    if (serial == NULL) return UB_ERR_INVAL;
+    serial->dec = dec;
     return UB_OK;
 }
 
@@ -209,7 +225,7 @@ int ub_serial_service(ub_serial_t *serial, ub_node_t *node, uint64_t now_ms) {
         ssize_t n = read(serial->fd, serial->rx, sizeof serial->rx);
         if (n > 0) {
             serial->stats.bytes_in += (uint64_t)n;
-            int found = ub_node_rx(node, serial->link_id, serial->rx, (size_t)n, now_ms);
+            int found = ub_node_rx_stream(node, serial->link_id, serial->dec, serial->rx, (size_t)n, now_ms, NULL);
             if (found > 0) frames += found;
             continue;
         }
