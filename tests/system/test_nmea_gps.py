@@ -1,0 +1,175 @@
+"""A GPS nobody here wrote on a link that also carries uavbus (issue #24, acceptance for NMEA).
+
+pynmea2 (PyPI) encodes GGA, RMC, VTG and GSA sentences; the test writes them into a pty, interleaved with
+uavbus frames, line noise and corrupted sentences. On the other side of the pty, uavbus_node (primary,
+rmax1ob1) runs the port `nmea:device=...` (programs/node/adapter_nmea.c) on its link onboardPortDatalink2;
+no other program is involved. gcs1, one hop away over UDP, subscribes to gpsNmea and must receive the values
+pynmea2 encoded (as pynmea2 itself reads them back), never those of a corrupted sentence; every uavbus frame
+written into the pty is delivered; every corrupted sentence is counted.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+import tty
+from pathlib import Path
+
+import pynmea2
+import pytest
+
+from uavbus._bindings.ub_catalogue import ub_entity_id
+from uavbus._bindings.ub_frame import FrameHeader, ub_frame_finish
+from uavbus.catalogue import Catalogue
+from uavbus.sim.hitl import catalogue_for
+from uavbus.sim.portalloc import PortAllocator
+from uavbus.sim.process import ProcessGroup
+
+pytestmark = pytest.mark.timeout(60)
+
+ROOT = Path(__file__).resolve().parents[2]
+TABLE2 = ROOT / "examples" / "configs" / "table2.json"
+EPOCHS = 12
+FRAMES_PER_EPOCH = 2
+NOISE = b"\x00\x13noise between sentences\xff\r\n"
+
+
+def _new_pty(link: Path) -> int:
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    path = os.ttyname(slave)
+    os.close(slave)
+    if link.is_symlink():
+        link.unlink()
+    link.symlink_to(path)
+    return master
+
+
+def _drain(master: int, stop: threading.Event) -> None:
+    """Reads what the node sends onto the pty (its frames toward gcs1 on this link too), so it never blocks."""
+    os.set_blocking(master, False)
+    while not stop.is_set():
+        try:
+            os.read(master, 4096)
+        except BlockingIOError:
+            time.sleep(0.01)
+        except OSError:
+            return
+
+
+def _ddmm(value: float, lat: bool) -> tuple[str, str]:
+    hemi = ("N" if value >= 0 else "S") if lat else ("E" if value >= 0 else "W")
+    v = abs(value)
+    deg = int(v)
+    minutes = (v - deg) * 60.0
+    return (f"{deg:02d}{minutes:07.4f}" if lat else f"{deg:03d}{minutes:07.4f}"), hemi
+
+
+def _epoch(k: int) -> list[pynmea2.NMEASentence]:
+    """One receiver epoch: four sentences whose values change with k."""
+    lat, lat_h = _ddmm(32.3738 + 0.0011 * k, True)
+    lon, lon_h = _ddmm(-84.9664 - 0.0007 * k, False)
+    hhmmss = f"1230{k:02d}.00"
+    return [
+        pynmea2.GGA("GP", "GGA", (hhmmss, lat, lat_h, lon, lon_h, "1", f"{7 + k % 4:02d}", "0.9",
+                                  f"{120.0 + k:.1f}", "M", "-29.4", "M", "", "")),
+        pynmea2.RMC("GP", "RMC", (hhmmss, "A", lat, lat_h, lon, lon_h, f"{10.0 + k:.1f}", f"{80.0 + k:.1f}",
+                                  "261126", "", "")),
+        pynmea2.VTG("GP", "VTG", (f"{81.5 + k:.1f}", "T", "", "M", f"{10.5 + k:.1f}", "N",
+                                  f"{(10.5 + k) * 1.852:.1f}", "K")),
+        pynmea2.GSA("GP", "GSA", ("A", "3", "04", "05", "09", "12", "24", "", "", "", "", "", "", "",
+                                  f"{1.8 + k / 10:.1f}", f"{1.1 + k / 10:.1f}", f"{1.4 + k / 10:.1f}")),
+    ]
+
+
+def _corrupt(sentence: str) -> bytes:
+    """A digit of the latitude changed in transit: the checksum no longer matches."""
+    i = sentence.index(",", sentence.index(",") + 1) + 3
+    d = sentence[i]
+    return (sentence[:i] + ("1" if d != "1" else "2") + sentence[i + 1:] + "\r\n").encode()
+
+
+def test_nmea_gps_and_uavbus_share_a_serial_link(program: Path) -> None:
+    cat = Catalogue.load(str(catalogue_for(program)))
+    inst = cat.instance("fcsSet")  # frames into the link: DATA for rmax1ob1 from fcs20 (not running here)
+    payload = bytes(inst.type.packed_size)
+    alloc = PortAllocator()
+    p_primary, p_gcs = alloc.port(), alloc.port()
+    dev = Path(f"/tmp/ub_gps_{os.getpid()}")
+    master = _new_pty(dev)
+    stop = threading.Event()
+    drain = threading.Thread(target=_drain, args=(master, stop), daemon=True)
+    drain.start()
+    try:
+        with ProcessGroup() as g:
+            g.on_close(lambda: dev.unlink(missing_ok=True))
+            primary = g.spawn([str(program), "--config", str(TABLE2), "--node", "primary",
+                               "--port", f"onboardPortDatalink1=udp:bind=127.0.0.1:{p_primary},peer=127.0.0.1:{p_gcs}",
+                               "--port", f"onboardPortDatalink2=nmea:device={dev},baud=9600",
+                               "--stats-ms", "0"], "primary")
+            gcs = g.spawn([str(program), "--config", str(TABLE2), "--node", "gcs",
+                           "--port", f"gcsPortDatalink1=udp:bind=127.0.0.1:{p_gcs},peer=127.0.0.1:{p_primary}",
+                           "--subscribe", "gcs1:gpsNmea@rmax1ob1/50", "--stats-ms", "0"], "gcs")
+            seq = 0
+            corrupted = 0
+            last_good: list[pynmea2.NMEASentence] = []
+            for k in range(EPOCHS):
+                sentences = _epoch(k)
+                chunk = b""
+                for i, s in enumerate(sentences):
+                    chunk += (str(s) + "\r\n").encode()
+                    if i % 2 == 0 and seq < (k + 1) * FRAMES_PER_EPOCH:
+                        seq += 1
+                        chunk += ub_frame_finish(FrameHeader(dir_id=inst.id, dest_id=ub_entity_id("rmax1ob1"),
+                                                             src_id=ub_entity_id("fcs20"), admin=0, seq=seq,
+                                                             fingerprint=inst.type.fingerprint), payload)
+                chunk += NOISE
+                # A corrupted copy of this epoch's GGA after the good ones: it must change nothing.
+                chunk += _corrupt(str(sentences[0]))
+                corrupted += 1
+                os.write(master, chunk)
+                last_good = sentences
+                time.sleep(0.06)
+
+            gga, rmc, vtg, gsa = (pynmea2.parse(str(s)) for s in last_good)  # pynmea2 reads its own output
+            values: dict = {}
+            deadline = time.monotonic() + 10
+            while time.monotonic() < deadline:
+                m = gcs.mark()
+                gcs.send("dump gpsNmea")
+                packed = gcs.wait_event("dump", 3.0, since=m)["packed"]
+                values = cat.decode("gpsNmea", bytes.fromhex(packed))
+                if values["utcMilliseconds"] == ((12 * 60 + 30) * 60 + EPOCHS - 1) * 1000:
+                    break
+                time.sleep(0.1)
+            assert values["utcMilliseconds"] == ((12 * 60 + 30) * 60 + EPOCHS - 1) * 1000, values
+            assert values["latitudeDeg"] == pytest.approx(float(gga.latitude), abs=1e-9)
+            assert values["longitudeDeg"] == pytest.approx(float(gga.longitude), abs=1e-9)
+            assert values["altitudeMsl"] == pytest.approx(float(gga.altitude))
+            assert values["geoidSeparation"] == pytest.approx(float(gga.geo_sep))
+            assert values["satellitesUsed"] == int(gga.num_sats)
+            assert values["fixQuality"] == int(gga.gps_qual)
+            assert values["statusValid"] == (rmc.status == "A")
+            assert values["utcDate"] == int(rmc.datestamp.strftime("%d%m%y"))
+            assert values["courseDeg"] == pytest.approx(float(vtg.true_track))  # VTG came after RMC
+            assert values["speedMps"] == pytest.approx(float(vtg.spd_over_grnd_kts) * 1852 / 3600)
+            assert values["fixType"] == int(gsa.mode_fix_type)
+            assert values["pdop"] == pytest.approx(float(gsa.pdop), rel=1e-6)
+            assert values["hdop"] == pytest.approx(float(gsa.hdop), rel=1e-6)  # GSA came after GGA
+            assert values["vdop"] == pytest.approx(float(gsa.vdop), rel=1e-6)
+            assert values["sentencesOk"] == 4 * EPOCHS
+            assert values["badChecksums"] == corrupted
+
+            link = primary.request_stats()["links"]["onboardPortDatalink2"]
+            nmea = link["nmea"]
+            assert nmea["sentences_ok"] == 4 * EPOCHS
+            assert nmea["gga"] == nmea["rmc"] == nmea["vtg"] == nmea["gsa"] == EPOCHS
+            assert nmea["bad_checksum"] == corrupted
+            assert nmea["frames_in"] == seq and nmea["frames_rejected"] == 0
+            assert nmea["foreign_refused"] == 0
+            assert link["frames_accepted"] == seq  # every uavbus frame on the shared wire was taken in
+    finally:
+        stop.set()
+        drain.join(timeout=2)
+        os.close(master)
