@@ -1,15 +1,17 @@
 """A GPS nobody here wrote on a link that also carries uavbus (issue #24, acceptance for NMEA).
 
 pynmea2 (PyPI) encodes GGA, RMC, VTG and GSA sentences; the test writes them into a pty, interleaved with
-uavbus frames, line noise and corrupted sentences. On the other side of the pty, uavbus_node (primary,
-rmax1ob1) runs the port `nmea:device=...` (programs/node/adapter_nmea.c) on its link onboardPortDatalink2;
-no other program is involved. gcs1, one hop away over UDP, subscribes to gpsNmea and must receive the values
-pynmea2 encoded (as pynmea2 itself reads them back), never those of a corrupted sentence; every uavbus frame
-written into the pty is delivered; every corrupted sentence is counted.
+uavbus frames, line noise and corrupted sentences. On the other side of the pty, uavbus_node runs the port
+`nmea:device=...` (programs/node/adapter_nmea.c); no other program is involved. The GPS is on fcs20's serial
+port (Table 2 with one more link for it, backupPortGps), and gcs1 subscribes to gpsNmea two hops away
+(gcs1 - rmax1ob1 - fcs20, over UDP): it must receive the values pynmea2 encoded (as pynmea2 itself reads
+them back), never those of a corrupted sentence; every uavbus frame written into the pty is taken in; every
+corrupted sentence is counted.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import threading
 import time
@@ -90,12 +92,23 @@ def _corrupt(sentence: str) -> bytes:
     return (sentence[:i] + ("1" if d != "1" else "2") + sentence[i + 1:] + "\r\n").encode()
 
 
-def test_nmea_gps_and_uavbus_share_a_serial_link(program: Path) -> None:
+def _config(tmp_path: Path) -> Path:
+    """Table 2 with a second link at fcs20 (link 1) for its GPS receiver; no mask uses it."""
+    cfg = json.loads(TABLE2.read_text())
+    fcs = next(e for e in cfg["entities"] if e["name"] == "fcs20")
+    fcs["links"].append("backupPortGps")
+    path = tmp_path / "table2_gps.json"
+    path.write_text(json.dumps(cfg))
+    return path
+
+
+def test_nmea_gps_and_uavbus_share_a_serial_link(program: Path, tmp_path: Path) -> None:
     cat = Catalogue.load(str(catalogue_for(program)))
-    inst = cat.instance("fcsSet")  # frames into the link: DATA for rmax1ob1 from fcs20 (not running here)
+    inst = cat.instance("fcsSet")  # frames into the pty: DATA for fcs20 from rmax1ob2 (not running here)
     payload = bytes(inst.type.packed_size)
+    config = _config(tmp_path)
     alloc = PortAllocator()
-    p_primary, p_gcs = alloc.port(), alloc.port()
+    p_primary, p_gcs, p_relay, p_backup = alloc.port(), alloc.port(), alloc.port(), alloc.port()
     dev = Path(f"/tmp/ub_gps_{os.getpid()}")
     master = _new_pty(dev)
     stop = threading.Event()
@@ -104,13 +117,17 @@ def test_nmea_gps_and_uavbus_share_a_serial_link(program: Path) -> None:
     try:
         with ProcessGroup() as g:
             g.on_close(lambda: dev.unlink(missing_ok=True))
-            primary = g.spawn([str(program), "--config", str(TABLE2), "--node", "primary",
-                               "--port", f"onboardPortDatalink1=udp:bind=127.0.0.1:{p_primary},peer=127.0.0.1:{p_gcs}",
-                               "--port", f"onboardPortDatalink2=nmea:device={dev},baud=9600",
-                               "--stats-ms", "0"], "primary")
-            gcs = g.spawn([str(program), "--config", str(TABLE2), "--node", "gcs",
+            backup = g.spawn([str(program), "--config", str(config), "--node", "backup",
+                              "--port", f"onboardPortDatalink1=udp:bind=127.0.0.1:{p_backup},peer=127.0.0.1:{p_relay}",
+                              "--port", f"backupPortGps=nmea:device={dev},baud=9600",
+                              "--stats-ms", "0"], "backup")
+            g.spawn([str(program), "--config", str(config), "--node", "primary",
+                     "--port", f"onboardPortDatalink1=udp:bind=127.0.0.1:{p_primary},peer=127.0.0.1:{p_gcs}",
+                     "--port", f"onboardPortRelay=udp:bind=127.0.0.1:{p_relay},peer=127.0.0.1:{p_backup}",
+                     "--stats-ms", "0"], "primary")
+            gcs = g.spawn([str(program), "--config", str(config), "--node", "gcs",
                            "--port", f"gcsPortDatalink1=udp:bind=127.0.0.1:{p_gcs},peer=127.0.0.1:{p_primary}",
-                           "--subscribe", "gcs1:gpsNmea@rmax1ob1/50", "--stats-ms", "0"], "gcs")
+                           "--subscribe", "gcs1:gpsNmea@fcs20/50", "--stats-ms", "0"], "gcs")
             seq = 0
             corrupted = 0
             last_good: list[pynmea2.NMEASentence] = []
@@ -121,8 +138,8 @@ def test_nmea_gps_and_uavbus_share_a_serial_link(program: Path) -> None:
                     chunk += (str(s) + "\r\n").encode()
                     if i % 2 == 0 and seq < (k + 1) * FRAMES_PER_EPOCH:
                         seq += 1
-                        chunk += ub_frame_finish(FrameHeader(dir_id=inst.id, dest_id=ub_entity_id("rmax1ob1"),
-                                                             src_id=ub_entity_id("fcs20"), admin=0, seq=seq,
+                        chunk += ub_frame_finish(FrameHeader(dir_id=inst.id, dest_id=ub_entity_id("fcs20"),
+                                                             src_id=ub_entity_id("rmax1ob2"), admin=0, seq=seq,
                                                              fingerprint=inst.type.fingerprint), payload)
                 chunk += NOISE
                 # A corrupted copy of this epoch's GGA after the good ones: it must change nothing.
@@ -161,7 +178,7 @@ def test_nmea_gps_and_uavbus_share_a_serial_link(program: Path) -> None:
             assert values["sentencesOk"] == 4 * EPOCHS
             assert values["badChecksums"] == corrupted
 
-            link = primary.request_stats()["links"]["onboardPortDatalink2"]
+            link = backup.request_stats()["links"]["backupPortGps"]
             nmea = link["nmea"]
             assert nmea["sentences_ok"] == 4 * EPOCHS
             assert nmea["gga"] == nmea["rmc"] == nmea["vtg"] == nmea["gsa"] == EPOCHS
