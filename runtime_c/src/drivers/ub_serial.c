@@ -186,6 +186,18 @@ int ub_serial_set_decoder(ub_serial_t *serial, ub_decoder_t *dec) {
     return UB_OK;
 }
 
+int ub_serial_set_foreign(ub_serial_t *serial, ub_foreign_cb cb, void *user) {
+    if (serial == NULL) return UB_ERR_INVAL;
+    if (cb == NULL) {
+        if (serial->dec == &serial->own_dec) serial->dec = NULL;
+        return UB_OK;
+    }
+    if (serial->dec != &serial->own_dec) ub_decoder_init(&serial->own_dec);
+    ub_decoder_set_foreign(&serial->own_dec, cb, user);
+    serial->dec = &serial->own_dec;
+    return UB_OK;
+}
+
 static int serial_fileno(void *impl) { return ub_serial_fileno(impl); }
 
 const ub_link_ops_t ub_serial_ops = {.kind = "serial", .send = serial_send, .fileno = serial_fileno};
@@ -342,6 +354,10 @@ static int serial_pollfds(const void *state, struct pollfd *fds, int cap) {
 /* A device that hung up and waits to be reopened has no descriptor to wake the loop: its retry time must. */
 static bool serial_next_due(const void *state, uint64_t *due_ms) { return ub_serial_next_retry(state, due_ms); }
 
+static int serial_set_foreign_op(void *state, ub_foreign_cb cb, void *user) {
+    return ub_serial_set_foreign(state, cb, user);
+}
+
 static size_t serial_counters(const void *state, ub_driver_counter_t *out, size_t cap) {
     const ub_serial_stats_t *s = &((const ub_serial_t *)state)->stats;
     const ub_driver_counter_t all[] = {
@@ -389,4 +405,5 @@ const ub_driver_t ub_serial_driver = {
     .next_due = serial_next_due,
     .counters = serial_counters,
     .describe = serial_describe,
+    .set_foreign = serial_set_foreign_op,
 };

@@ -548,6 +548,8 @@ static int udp_pollfds(const void *state, struct pollfd *fds, int cap) {
 
 static int udp_local_port(const void *state, uint16_t *port) { return ub_udp_local_port(state, port); }
 
+static int udp_set_foreign_op(void *state, ub_foreign_cb cb, void *user) { return ub_udp_set_foreign(state, cb, user); }
+
 static size_t udp_counters(const void *state, ub_driver_counter_t *out, size_t cap) {
     const ub_udp_stats_t *s = &((const ub_udp_t *)state)->stats;
     const ub_driver_counter_t all[] = {
@@ -630,4 +632,5 @@ const ub_driver_t ub_udp_driver = {
     .counters = udp_counters,
     .describe = udp_describe,
     .notice = udp_notice,
+    .set_foreign = udp_set_foreign_op,
 };
