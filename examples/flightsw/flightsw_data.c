@@ -20,6 +20,7 @@
 #include "sensors.h"
 #include "sim.h"
 #include "traffic.h"
+#include "ubx_gps.h"
 #include "waypoints.h"
 
 /* Georgia Tech's flight-test range datum (McKenna MOUT site, Fort Benning). */
@@ -62,6 +63,7 @@ onboardTiming_t fcsTiming;
 
 gpsRaw_t gpsRaw;
 nmeaGps_t gpsNmea;
+ubxGps_t gpsUbx;
 gpsOut_t gpsOut;
 gpsOut_t gpsSolution;
 gpsOut_t gpsOutBackup;

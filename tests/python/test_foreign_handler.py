@@ -71,6 +71,9 @@ def test_udp_datagrams_that_are_not_uavbus_reach_the_python_handler(flightsw: Ge
 
 def test_serial_stream_bytes_that_are_not_uavbus_reach_the_python_handler(flightsw: Generated) -> None:
     gcs = Node(flightsw.catalogue, config=TABLE2, node="gcs")
+    # The lowest free pty is held as a decoy: a stale serial path elsewhere on a shared machine (another
+    # node retrying /dev/pts/0 by path) would open it and take its bytes (tests/system/test_nmea_gps.py).
+    decoy_master, decoy_slave = os.openpty()
     master, slave = os.openpty()
     tty.setraw(slave)
     path = os.ttyname(slave)
@@ -84,12 +87,12 @@ def test_serial_stream_bytes_that_are_not_uavbus_reach_the_python_handler(flight
         sentences = [str(pynmea2.VTG("GP", "VTG", (f"{54.7 + k:.1f}", "T", "", "M", "5.5", "N", "10.2", "K")))
                      for k in range(3)]
         text = [(s + "\r\n").encode() for s in sentences]
-        # One write (see tests/system/test_nmea_gps.py on this VM's pty): text, a frame, text, a frame, text.
+        # Text, a frame, text, a frame, text.
         os.write(master, text[0] + _frame(gcs, 1) + text[1] + _frame(gcs, 2) + text[2])
         wait_for(gcs, lambda: len(got) == 2 and len(seen) == sum(map(len, text)))
         assert bytes(seen) == b"".join(text)  # every foreign byte once, in order; no frame byte
         assert [m.source for m in got] == ["rmax1ob1", "rmax1ob1"]
     finally:
         gcs.close()
-        os.close(master)
-        os.close(slave)
+        for fd in (master, slave, decoy_master, decoy_slave):
+            os.close(fd)

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import pynmea2
 import pytest
+from pyubx2 import UBXMessage, UBXReader
 
 from uavbus._bindings.ub_catalogue import ub_entity_id
 from uavbus._bindings.ub_frame import FrameHeader, ub_frame_finish
@@ -38,10 +39,35 @@ FRAMES_PER_EPOCH = 2
 NOISE = b"\x00\x13noise between sentences\xff\r\n"
 
 
-def _new_pty(link: Path) -> int:
-    master, slave = os.openpty()
+def _pty_holders(path: str) -> list[str]:
+    """Other processes that have `path` open (read from /proc)."""
+    me, pids = str(os.getpid()), []
+    for fd in Path("/proc").glob("[0-9]*/fd/*"):
+        try:
+            if os.readlink(fd) == path and fd.parts[2] != me:
+                pids.append(fd.parts[2])
+        except OSError:
+            continue
+    return pids
+
+
+def _new_pty(link: Path, decoys: list[int]) -> int:
+    """A raw pty pair; `link` names its slave. Returns the master.
+
+    A device path is a name anyone may reopen: a serial driver that retries a lost device by path (uavbus's
+    does) opens whatever pty gets that number next and reads its bytes. On this shared machine another
+    session's long-running node retried /dev/pts/0 and took this test's bytes (found through /proc: its pid
+    held our pty's slave). So the lowest free pty, the number a stale path most likely names, is held as a
+    decoy (in `decoys`, closed by the caller), and a pty someone else already holds is skipped too."""
+    d_master, d_slave = os.openpty()
+    decoys += [d_master, d_slave]
+    while True:
+        master, slave = os.openpty()
+        path = os.ttyname(slave)
+        if not _pty_holders(path):
+            break
+        decoys += [master, slave]
     tty.setraw(slave)
-    path = os.ttyname(slave)
     os.close(slave)
     if link.is_symlink():
         link.unlink()
@@ -116,7 +142,8 @@ def test_nmea_gps_and_uavbus_share_a_serial_link(program: Path, tmp_path: Path) 
     alloc = PortAllocator()
     p_primary, p_gcs, p_relay, p_backup = alloc.port(), alloc.port(), alloc.port(), alloc.port()
     dev = Path(f"/tmp/ub_gps_{os.getpid()}")
-    master = _new_pty(dev)
+    decoys: list[int] = []
+    master = _new_pty(dev, decoys)
     stop = threading.Event()
     drain = threading.Thread(target=_drain, args=(master, stop), daemon=True)
     drain.start()
@@ -154,9 +181,6 @@ def test_nmea_gps_and_uavbus_share_a_serial_link(program: Path, tmp_path: Path) 
                 corrupted += 1
                 stream += chunk
                 last_good = sentences
-            # One write: on this test VM (Linux 6.18 under Firecracker) a pty master loses whole writes that
-            # follow one its reader had already drained -- reproduced with a 30-line Python reader and no
-            # uavbus at all -- so the epochs go in as one burst and every byte of it is accounted for below.
             _write_all(master, stream)
             written = len(stream)
 
@@ -205,4 +229,91 @@ def test_nmea_gps_and_uavbus_share_a_serial_link(program: Path, tmp_path: Path) 
     finally:
         stop.set()
         drain.join(timeout=2)
-        os.close(master)
+        for fd in [master, *decoys]:
+            os.close(fd)
+
+
+def _pvt(k: int) -> bytes:
+    """One NAV-PVT epoch from pyubx2 (it scales lat/lon/headMot/pDOP to the wire units itself)."""
+    return UBXMessage("NAV", "NAV-PVT", 0, iTOW=100000 + 200 * k, year=2026, month=11, day=26, hour=17, min=1,
+                      second=k, fixType=3, numSV=7 + k % 5, lon=-84.9664 - 0.0007 * k, lat=32.3738 + 0.0011 * k,
+                      height=150000 + k, hMSL=120000 + 10 * k, hAcc=1500, vAcc=2500, velN=1000 + k, velE=-200,
+                      velD=30, gSpeed=5500 + k, headMot=81.5 + k, pDOP=1.8 + k / 100).serialize()
+
+
+def test_ubx_gps_and_uavbus_share_a_serial_link(program: Path, tmp_path: Path) -> None:
+    """The same with a u-blox receiver: pyubx2's NAV-PVT messages on fcs20's serial port (`ubx:` port),
+    gcs1 two hops away receives gpsUbx with the values pyubx2 encoded; corrupted copies are counted."""
+    cat = Catalogue.load(str(catalogue_for(program)))
+    inst = cat.instance("fcsSet")
+    payload = bytes(inst.type.packed_size)
+    config = _config(tmp_path)
+    alloc = PortAllocator()
+    p_primary, p_gcs, p_relay, p_backup = alloc.port(), alloc.port(), alloc.port(), alloc.port()
+    dev = Path(f"/tmp/ub_ubx_{os.getpid()}")
+    decoys: list[int] = []
+    master = _new_pty(dev, decoys)
+    stop = threading.Event()
+    drain = threading.Thread(target=_drain, args=(master, stop), daemon=True)
+    drain.start()
+    try:
+        with ProcessGroup() as g:
+            g.on_close(lambda: dev.unlink(missing_ok=True))
+            backup = g.spawn([str(program), "--config", str(config), "--node", "backup",
+                              "--port", f"onboardPortDatalink1=udp:bind=127.0.0.1:{p_backup},peer=127.0.0.1:{p_relay}",
+                              "--port", f"backupPortGps=ubx:device={dev},baud=115200",
+                              "--stats-ms", "0"], "backup")
+            g.spawn([str(program), "--config", str(config), "--node", "primary",
+                     "--port", f"onboardPortDatalink1=udp:bind=127.0.0.1:{p_primary},peer=127.0.0.1:{p_gcs}",
+                     "--port", f"onboardPortRelay=udp:bind=127.0.0.1:{p_relay},peer=127.0.0.1:{p_backup}",
+                     "--stats-ms", "0"], "primary")
+            gcs = g.spawn([str(program), "--config", str(config), "--node", "gcs",
+                           "--port", f"gcsPortDatalink1=udp:bind=127.0.0.1:{p_gcs},peer=127.0.0.1:{p_primary}",
+                           "--subscribe", "gcs1:gpsUbx@fcs20/50", "--stats-ms", "0"], "gcs")
+            stream = b""
+            for k in range(EPOCHS):
+                pvt = _pvt(k)
+                bad = bytearray(pvt)
+                bad[6 + 28] ^= 0x04  # latitude changed in transit: the checksum no longer matches
+                frame = ub_frame_finish(FrameHeader(dir_id=inst.id, dest_id=ub_entity_id("fcs20"),
+                                                    src_id=ub_entity_id("rmax1ob2"), admin=0, seq=k + 1,
+                                                    fingerprint=inst.type.fingerprint), payload)
+                stream += pvt + frame + NOISE + bytes(bad)
+            _write_all(master, stream)
+            deadline = time.monotonic() + 10
+            while (gps := backup.request_stats()["links"]["backupPortGps"])["bytes_in"] < len(stream):
+                assert time.monotonic() < deadline, f"fcs20's node did not read all that was written: {gps}"
+                time.sleep(0.05)
+            want = UBXReader.parse(_pvt(EPOCHS - 1))  # pyubx2 reads its own output
+            values: dict = {}
+            deadline = time.monotonic() + 10
+            while time.monotonic() < deadline:
+                m = gcs.mark()
+                gcs.send("dump gpsUbx")
+                values = cat.decode("gpsUbx", bytes.fromhex(gcs.wait_event("dump", 3.0, since=m)["packed"]))
+                if values["navPvtOk"] == EPOCHS:
+                    break
+                time.sleep(0.1)
+            assert values["navPvtOk"] == EPOCHS, values
+            assert values["latitudeDeg"] == pytest.approx(want.lat, abs=1e-7)
+            assert values["longitudeDeg"] == pytest.approx(want.lon, abs=1e-7)
+            assert values["altitudeMsl"] == pytest.approx(want.hMSL / 1000)
+            assert values["heightEllipsoid"] == pytest.approx(want.height / 1000)
+            assert values["groundSpeedMps"] == pytest.approx(want.gSpeed / 1000)
+            assert values["headingDeg"] == pytest.approx(want.headMot, abs=1e-5)
+            assert values["pdop"] == pytest.approx(want.pDOP, rel=1e-6)
+            assert values["velNorth"] == pytest.approx(want.velN / 1000, rel=1e-6)
+            assert values["iTowMs"] == want.iTOW
+            assert values["second"] == want.second and values["fixType"] == want.fixType
+            assert values["satellitesUsed"] == want.numSV
+            assert values["badChecksums"] == EPOCHS
+            link = backup.request_stats()["links"]["backupPortGps"]
+            ubx = link["ubx"]
+            assert ubx["nav_pvt"] == EPOCHS and ubx["bad_checksum"] == EPOCHS, ubx
+            assert ubx["frames_in"] == EPOCHS and ubx["frames_rejected"] == 0
+            assert link["frames_accepted"] == EPOCHS
+    finally:
+        stop.set()
+        drain.join(timeout=2)
+        for fd in [master, *decoys]:
+            os.close(fd)
