@@ -14,11 +14,13 @@
 #include "health.h"
 #include "imu.h"
 #include "navfilter.h"
+#include "nmea_gps.h"
 #include "onboard.h"
 #include "pubsub.h"
 #include "sensors.h"
 #include "sim.h"
 #include "traffic.h"
+#include "ubx_gps.h"
 #include "waypoints.h"
 
 /* Georgia Tech's flight-test range datum (McKenna MOUT site, Fort Benning). */
@@ -60,6 +62,8 @@ onboardTiming_t onboard2Timing;
 onboardTiming_t fcsTiming;
 
 gpsRaw_t gpsRaw;
+nmeaGps_t gpsNmea;
+ubxGps_t gpsUbx;
 gpsOut_t gpsOut;
 gpsOut_t gpsSolution;
 gpsOut_t gpsOutBackup;

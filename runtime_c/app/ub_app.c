@@ -293,6 +293,8 @@ static const char *link_of(const char *port_name) {
     return colon != NULL ? colon + 1 : port_name; /* "entity:link" or "link" */
 }
 
+/* Specs are parsed here, not with the command line, and through the ports set: a driver the program
+ * registered in its setup (ub_ports_register(), e.g. a device adapter) is known by its word. */
 void ub_app_open_ports(ub_app_t *app, uint64_t now_ms) {
     const char *name = app->prog->name;
     char err[UB_PORTS_ERR_LEN];
@@ -300,7 +302,7 @@ void ub_app_open_ports(ub_app_t *app, uint64_t now_ms) {
     ub_port_spec_t specs[UB_APP_MAX_PORT_ARGS];
     int ids[UB_APP_MAX_PORT_ARGS];
     for (int i = 0; i < app->n_ports; i++) {
-        if (ub_port_arg_parse(app->port_args[i], names[i], sizeof names[i], &specs[i], err, sizeof err) != UB_OK) {
+        if (ub_ports_arg_parse(&app->ports, app->port_args[i], names[i], sizeof names[i], &specs[i], err, sizeof err) != UB_OK) {
             ub_app_die(app, "%s:argv[%d]: %s", name, app->port_argi[i], err);
         }
         ids[i] = ub_node_find_link(&app->node, link_of(names[i]));
@@ -314,7 +316,7 @@ void ub_app_open_ports(ub_app_t *app, uint64_t now_ms) {
     for (unsigned c = 0; c < cfg->port_count; c++) {
         const ub_nodecfg_port_t *e = &cfg->ports[c];
         ub_port_spec_t spec;
-        if (ub_port_spec_from_config(e, cfg->source, &spec, err, sizeof err) != UB_OK) ub_app_die(app, "%s", err);
+        if (ub_ports_spec_from_config(&app->ports, e, cfg->source, &spec, err, sizeof err) != UB_OK) ub_app_die(app, "%s", err);
         if (spec.kind == UB_PORT_MEM) continue;
         int id = ub_node_find_link(&app->node, link_of(e->name));
         if (id < 0) continue; /* a link of an entity hosted by another node */

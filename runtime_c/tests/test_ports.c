@@ -8,10 +8,13 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
 
 #include "support/ub_test_pair.h"
 #include "ub/ub_nodecfg.h"
@@ -267,6 +270,60 @@ static void run(net_t *n, uint64_t from_ms, uint64_t to_ms) {
     for (uint64_t t = from_ms; t < to_ms; t++) step(n, t);
 }
 
+typedef struct foreign_seen {
+    uint8_t bytes[128];
+    size_t len;
+    unsigned calls;
+} foreign_seen_t;
+
+static size_t note_foreign(void *user, const uint8_t *run, size_t len) {
+    foreign_seen_t *f = user;
+    if (f->len + len <= sizeof f->bytes) memcpy(f->bytes + f->len, run, len);
+    f->len += len;
+    f->calls++;
+    return len;
+}
+
+/* The port keeps a foreign-traffic handler (issue #24) and gives it to the transport after a software switch;
+ * a transport without the operation says so; frames keep flowing. */
+static void test_foreign_handler_follows_the_port(void **state) {
+    (void)state;
+    net_t n = net_new();
+    char err[UB_PORTS_ERR_LEN], spec[128];
+    foreign_seen_t seen = {{0}, 0, 0};
+    open_udp_pair(&n, 0);
+    assert_int_equal(ub_ports_set_foreign(n.b, "nosuch", note_foreign, &seen), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_ports_set_foreign(NULL, "subPort", note_foreign, &seen), UB_ERR_INVAL);
+    assert_int_equal(ub_ports_set_foreign(n.b, "subPort", note_foreign, &seen), UB_OK);
+    /* The software switch to the same address: the new instance has the handler too. */
+    uint16_t ub = 0, ua = 0;
+    assert_int_equal(ub_ports_local_port(n.b, "subPort", &ub), UB_OK);
+    assert_int_equal(ub_ports_local_port(n.a, "pubPort", &ua), UB_OK);
+    snprintf(spec, sizeof spec, "udp:bind=127.0.0.1:%u,peer=127.0.0.1:%u", (unsigned)ub, (unsigned)ua);
+    assert_int_equal(ub_ports_open_text(n.b, "subPort", spec, 0, err, sizeof err), UB_OK);
+    assert_true(ub_ports_find(n.b, "subPort")->rebinds >= 2);
+    /* A legacy message from the peer's own socket (it passes the peer rule), then a subscription's frames. */
+    const ub_udp_t *pub_udp = ub_ports_udp(n.a, "pubPort");
+    assert_non_null(pub_udp);
+    struct sockaddr_in to = {.sin_family = AF_INET, .sin_port = htons(ub)};
+    assert_int_equal(inet_pton(AF_INET, "127.0.0.1", &to.sin_addr), 1);
+    static const char legacy[] = "\x55\xAA legacy type 7";
+    assert_int_equal(sendto(ub_udp_fileno(pub_udp), legacy, sizeof legacy - 1, 0, (const struct sockaddr *)&to,
+                            sizeof to), (ssize_t)(sizeof legacy - 1));
+    assert_true(ub_pubsub_subscribe(n.p->sub_node, n.p->sub, TEST_GPS, n.p->pub_id, 50, 0) >= 0);
+    run(&n, 0, 400);
+    assert_int_equal(seen.calls, 1);
+    assert_int_equal(seen.len, sizeof legacy - 1);
+    assert_memory_equal(seen.bytes, legacy, sizeof legacy - 1);
+    assert_true(delivery_count(&n.p->log, n.p->sub, TEST_GPS, 0, 400) >= 3);
+    assert_int_equal(ub_ports_udp(n.b, "subPort")->stats.foreign_datagrams, 1);
+    /* TCP has no such operation (yet): refused with a code that says so. */
+    assert_int_equal(ub_ports_open_text(n.a, "pubPort", "tcp:listen=127.0.0.1:0", 0, err, sizeof err), UB_OK);
+    assert_int_equal(ub_ports_set_foreign(n.a, "pubPort", note_foreign, &seen), UB_ERR_UNSUPPORTED);
+    assert_int_equal(ub_ports_set_foreign(n.b, "subPort", NULL, NULL), UB_OK);
+    net_free(&n);
+}
+
 static void test_rebind_tcp_to_udp_keeps_the_subscription(void **state) {
     (void)state;
     net_t n = net_new();
@@ -422,6 +479,7 @@ int main(void) {
         cmocka_unit_test(test_config_entries),
         cmocka_unit_test(test_messages_never_echo_control_bytes),
         cmocka_unit_test(test_rebind_tcp_to_udp_keeps_the_subscription),
+        cmocka_unit_test(test_foreign_handler_follows_the_port),
         cmocka_unit_test(test_impairment_on_ports),
         cmocka_unit_test(test_impairment_survives_tcp_connects),
         cmocka_unit_test(test_link_impairment_overrides),

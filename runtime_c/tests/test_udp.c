@@ -120,6 +120,68 @@ static void test_bad_and_foreign_datagrams_are_counted(void **state) {
     udp_pair_free(u);
 }
 
+typedef struct foreign_log {
+    uint8_t bytes[256];
+    size_t len;
+    unsigned runs;
+    size_t take; /* bytes taken of each run */
+} foreign_log_t;
+
+static size_t collect_foreign(void *user, const uint8_t *run, size_t len) {
+    foreign_log_t *f = user;
+    assert_true(f->len + len <= sizeof f->bytes);
+    memcpy(f->bytes + f->len, run, len);
+    f->len += len;
+    f->runs++;
+    return len < f->take ? len : f->take;
+}
+
+/* Foreign traffic on a datagram link (#24): a datagram from the peer that is not uavbus goes to the link's
+ * handler whole (not to the node's bad_sync); damaged uavbus datagrams are still the node's; a frame is
+ * never handed on; a stranger's datagram is still refused by the peer rule before anything else. */
+static void test_non_uavbus_datagrams_go_to_the_foreign_handler(void **state) {
+    (void)state;
+    udp_pair_t *u = udp_pair_new();
+    pair_t *p = u->p;
+    foreign_log_t f = {.take = 10};
+    assert_int_equal(ub_udp_set_foreign(&u->b, collect_foreign, &f), UB_OK);
+    uint8_t frame[UB_FRAME_MAX];
+    const uint8_t dir_id[UB_DIR_ID_LEN] = {0};
+    size_t len = make_frame(frame, UB_ADMIN_DATA, dir_id, "pub", "sub", 99, 8, 0, NULL, 0);
+    assert_true(len > 0);
+    const char gga[] = "$GPGGA,123519,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,*47\r\n";
+    int from_peer = ub_udp_fileno(&u->a);
+    send_raw(from_peer, u->port_b, (const uint8_t *)gga, sizeof gga - 1);
+    send_raw(from_peer, u->port_b, frame, len - 3); /* damaged uavbus: the node's */
+    send_raw(from_peer, u->port_b, (const uint8_t *)"X", 1);
+    ub_udp_t stranger;
+    assert_int_equal(ub_udp_open(&stranger, "127.0.0.1", 0, "127.0.0.1", u->port_b), UB_OK);
+    send_raw(ub_udp_fileno(&stranger), u->port_b, (const uint8_t *)gga, sizeof gga - 1);
+    run(u, 0, 20);
+    assert_int_equal(f.runs, 2);
+    assert_int_equal(f.len, sizeof gga - 1 + 1);
+    assert_memory_equal(f.bytes, gga, sizeof gga - 1);
+    assert_int_equal(f.bytes[sizeof gga - 1], 'X');
+    assert_int_equal(u->b.stats.foreign_datagrams, 2);
+    assert_int_equal(u->b.stats.foreign_refused, (sizeof gga - 1) - 10); /* "X" was taken whole */
+    assert_int_equal(u->b.stats.foreign, 1);                              /* the stranger */
+    assert_int_equal(ub_node_link_bad_frames(p->sub_node, p->sub_link, UB_RX_BAD_SYNC), 0);
+    assert_int_equal(ub_node_link_bad_frames(p->sub_node, p->sub_link, UB_RX_BAD_LENGTH), 1);
+    /* Frames still reach the node, never the handler; without a handler, text is bad_sync again. */
+    assert_true(ub_node_send_data(p->pub_node, p->pub, TEST_GPS, p->sub_id, 20) == 1);
+    run(u, 20, 40);
+    assert_int_equal(p->log.n, 1);
+    assert_int_equal(f.runs, 2);
+    assert_int_equal(ub_udp_set_foreign(&u->b, NULL, NULL), UB_OK);
+    send_raw(from_peer, u->port_b, (const uint8_t *)gga, sizeof gga - 1);
+    run(u, 40, 60);
+    assert_int_equal(f.runs, 2);
+    assert_int_equal(ub_node_link_bad_frames(p->sub_node, p->sub_link, UB_RX_BAD_SYNC), 1);
+    assert_int_equal(ub_udp_set_foreign(NULL, NULL, NULL), UB_ERR_INVAL);
+    ub_udp_close(&stranger);
+    udp_pair_free(u);
+}
+
 /* Batching: frames queue (nothing on the wire until a flush or a service), go out coalesced into a
  * few datagrams, and every one of them is delivered; the frame counters tell frames from datagrams. */
 static void test_batching_coalesces_frames_into_few_datagrams(void **state) {
@@ -402,6 +464,7 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_two_nodes_exchange_over_udp),
         cmocka_unit_test(test_bad_and_foreign_datagrams_are_counted),
+        cmocka_unit_test(test_non_uavbus_datagrams_go_to_the_foreign_handler),
         cmocka_unit_test(test_batching_coalesces_frames_into_few_datagrams),
         cmocka_unit_test(test_multi_frame_datagram_with_a_bad_frame),
         cmocka_unit_test(test_learn_takes_the_sender_of_accepted_frames),

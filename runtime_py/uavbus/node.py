@@ -184,6 +184,7 @@ class Node:
         self._membership: Membership | None = None
         self.inspect = Inspection(self)
         self._ports: Any = None
+        self._foreign_handlers: dict[str, Any] = {}  # link -> cffi handle of its foreign-traffic handler
         self._pollfds = ub_ports.pollfd_array()
         self._log: Any = None
         self._closed = False
@@ -554,6 +555,15 @@ class Node:
         if self.config is None:
             raise InvalidArgumentError("open_ports_from_config() needs Node(..., config=...)")
         return ub_ports.ub_ports_open_config(self._ports_obj(), self.config.c_config, self.now())
+
+    def set_foreign_handler(self, link: str, handler: Callable[[bytes], int | None] | None) -> None:
+        """Gives `link`'s port a foreign-traffic handler (docs/adapters.md): every run of received bytes that is
+        not a uavbus frame (serial, in stream order) or every datagram that is not uavbus (UDP) is passed to
+        `handler(data)`, which returns how many bytes it took (None: all; the rest is counted refused). uavbus
+        frames on the same link are routed as before, never passed to it. The C decoder does the splitting
+        (one implementation); the port keeps the handler across a runtime switch. None removes it."""
+        handle = ub_ports.ub_ports_set_foreign(self._ports_obj(), link, handler)
+        self._foreign_handlers[link] = handle  # alive while C may call it
 
     def close_port(self, link: str) -> None:
         """Closes the transport of `link` (the link stays, detached)."""

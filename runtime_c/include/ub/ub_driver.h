@@ -129,6 +129,11 @@ typedef struct ub_driver {
      *  that is not the peer). @return 1 with the message in `out` (`link_name` names the link), else 0.
      *  ub_ports asks until the first 1, then never again for that port. */
     int (*notice)(const void *state, const char *link_name, char *out, size_t cap);
+    /** Optional: gives the instance a foreign-traffic handler (ub_frame.h, docs/adapters.md): every run of
+     *  received bytes that is not a uavbus frame (a stream transport), or every datagram that is not uavbus,
+     *  goes to `cb(user, ...)`. `cb` NULL removes it. ub_ports_set_foreign() calls it, and again on the new
+     *  instance after a software switch. NULL: the transport cannot (UB_ERR_UNSUPPORTED). @return UB_OK. */
+    int (*set_foreign)(void *state, ub_foreign_cb cb, void *user);
 } ub_driver_t;
 
 /**

@@ -230,15 +230,32 @@ UB_CHECK int ub_frame_set_hop_limit(uint8_t *frame, size_t len, uint8_t hop_limi
 
 /**
  * Decoder counters. Every byte fed ends up in exactly one place, so
- * `bytes_in == bytes_ok + garbage_bytes + ub_decoder_pending(d)` always holds.
+ * `bytes_in == bytes_ok + foreign_bytes + garbage_bytes + ub_decoder_pending(d)` always holds
+ * (with no foreign-traffic handler, foreign_bytes stays 0 and these bytes are garbage).
  */
 typedef struct ub_decoder_stats {
     uint64_t frames_ok;                     /**< frames delivered to the callback */
     uint64_t bytes_in;                      /**< bytes fed */
     uint64_t bytes_ok;                      /**< bytes of delivered frames */
-    uint64_t garbage_bytes;                 /**< bytes dropped: skipped while hunting for sync, and the sync byte of every rejected candidate */
+    uint64_t garbage_bytes;                 /**< bytes dropped (no foreign handler): skipped while hunting for sync, and the sync byte of every rejected candidate */
+    uint64_t foreign_bytes;                 /**< the same bytes when a foreign handler is set: handed to it, each exactly once */
+    uint64_t foreign_refused;               /**< of foreign_bytes, those the handler did not take (its return below the run's length) */
     uint64_t rejected[UB_RX_REASON_COUNT];  /**< rejected candidate frames, by reason (never UB_RX_BAD_SYNC) */
 } ub_decoder_stats_t;
+
+/**
+ * The link's foreign-traffic handler (paper section IV: uavbus is one message type among the datalink's
+ * others; a GPS or a legacy datalink may share the wire). Called with every run of bytes the decoder does
+ * not recognise as part of a uavbus frame, in stream order and interleaved in order with the frame
+ * callbacks: the bytes before a frame are handed on before that frame is delivered. Each byte is handed on
+ * exactly once; a run may be split (at chunk ends, or where a held candidate turned out not to be a frame),
+ * so a handler that parses lines or messages keeps its own partial state. Bytes of a candidate frame still
+ * held (ub_decoder_pending()) are handed on only once the candidate is rejected. A delivered frame's bytes
+ * are never handed on. `run` is valid only during the call; the handler must not feed the same decoder.
+ * @return how many of the `len` bytes it took (a value above `len` counts as `len`); the rest are counted
+ *         in foreign_refused (a full buffer, an unknown protocol) and are not offered again.
+ */
+typedef size_t (*ub_foreign_cb)(void *user, const uint8_t *run, size_t len);
 
 /**
  * Called once per verified frame. `frame` points to the whole frame
@@ -252,11 +269,20 @@ typedef void (*ub_frame_cb)(void *user, const ub_frame_header_t *h, const uint8_
 typedef struct ub_decoder {
     uint8_t buf[UB_FRAME_MAX]; /* bytes of an unfinished candidate frame, starting at its sync */
     size_t have;
+    ub_foreign_cb foreign; /* NULL: bytes outside frames are garbage */
+    void *foreign_user;
     ub_decoder_stats_t stats;
 } ub_decoder_t;
 
-/** Empties the decoder and zeroes its counters. */
+/** Empties the decoder, zeroes its counters and removes its foreign-traffic handler. */
 void ub_decoder_init(ub_decoder_t *d);
+
+/**
+ * Sets (or with `cb` NULL removes) the foreign-traffic handler: from the next byte fed on, bytes outside
+ * frames go to `cb(user, ...)` and are counted in foreign_bytes instead of garbage_bytes. Costs nothing per
+ * byte: runs are handed over whole, so a pure uavbus stream decodes as fast as without a handler.
+ */
+void ub_decoder_set_foreign(ub_decoder_t *d, ub_foreign_cb cb, void *user);
 
 /**
  * Feeds `len` bytes (`data` may be NULL only when `len` is 0). Calls `cb`

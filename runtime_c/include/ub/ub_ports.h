@@ -196,6 +196,8 @@ typedef struct ub_port {
     ub_compact_t compact;     /**< the link's compact state while the spec asks for encoding=compact */
     ub_impair_params_t own_params;
     uint64_t own_seed;
+    ub_foreign_cb foreign;    /**< ub_ports_set_foreign(): given to every instance of this port, NULL: none */
+    void *foreign_user;
 } ub_port_t;
 
 /** The ports of one node. Caller-owned; large: use static storage. */
@@ -220,6 +222,16 @@ UB_CHECK int ub_ports_init(ub_ports_t *ports, ub_node_t *node);
  *         UB_DRIVER_STATE_MAX); UB_ERR_EXISTS (the word is taken); UB_ERR_FULL (UB_PORTS_MAX_DRIVERS).
  */
 UB_CHECK int ub_ports_register(ub_ports_t *ports, const ub_driver_t *driver);
+
+/**
+ * Gives the port of `link_name` a foreign-traffic handler (issue #24, docs/adapters.md): the bytes of a
+ * stream that are not uavbus frames, or the datagrams that are not uavbus, go to `cb(user, run, len)` in
+ * order instead of being dropped as garbage. The port keeps it: a software switch gives it to the new
+ * transport too; closing the port forgets it. `cb` NULL removes it. Python: Node.set_foreign_handler().
+ * @return UB_OK; UB_ERR_INVAL (NULL ports); UB_ERR_NOTFOUND (no open port on that link);
+ *         UB_ERR_UNSUPPORTED (its transport cannot: ub_driver_t.set_foreign is NULL).
+ */
+UB_CHECK int ub_ports_set_foreign(ub_ports_t *ports, const char *link_name, ub_foreign_cb cb, void *user);
 
 /** ub_port_spec_parse() knowing the drivers registered in `ports` too. */
 UB_CHECK int ub_ports_spec_parse(const ub_ports_t *ports, const char *text, ub_port_spec_t *spec, char *err,

@@ -107,6 +107,8 @@ typedef struct ub_serial {
     uint64_t next_attempt_ms;
     char path[UB_SERIAL_PATH_MAX]; /**< "" for an adopted descriptor */
     ub_serial_stats_t stats;
+    ub_decoder_t *dec;     /**< ub_serial_set_decoder(); NULL: the node slot's */
+    ub_decoder_t own_dec;  /**< the decoder ub_serial_set_foreign() reads through */
     size_t tx_len;
     uint8_t tx[UB_SERIAL_TX_BUFFER];
     uint8_t rx[UB_SERIAL_RX_CHUNK];
@@ -150,6 +152,26 @@ UB_CHECK int ub_serial_attach(ub_serial_t *serial, ub_node_t *node, int link_id)
  *         would-block nor a hang-up; counted in io_errors).
  */
 UB_CHECK int ub_serial_service(ub_serial_t *serial, ub_node_t *node, uint64_t now_ms);
+
+/**
+ * Reads the device through `dec` (caller-owned, outliving the serial link) instead of the node slot's
+ * decoder: for an adapter that gives the link a foreign-traffic handler (ub_decoder_set_foreign(), a GPS
+ * sharing the wire, issue #24). Set it after open (open zeroes the struct). When the device is reopened,
+ * `dec` restarts as the slot's would (the bytes it held counted as garbage) and keeps its handler.
+ * Frames still go to the node (ub_node_rx_stream()); the decoder's rejections are counted in `dec`, not
+ * in the slot's. `dec` NULL: back to the slot's decoder.
+ * @return UB_OK, or UB_ERR_INVAL for a NULL `serial`.
+ */
+UB_CHECK int ub_serial_set_decoder(ub_serial_t *serial, ub_decoder_t *dec);
+
+/**
+ * Gives the link a foreign-traffic handler (ub_frame.h): from now on it is read through a decoder of its
+ * own (ub_serial_set_decoder() with the struct's `own_dec`) whose handler is `cb`; bytes the slot's decoder
+ * still held stay there, so set it right after opening. `cb` NULL removes it (and goes back to the slot's
+ * decoder if `own_dec` was in use).
+ * @return UB_OK, or UB_ERR_INVAL for a NULL `serial`.
+ */
+UB_CHECK int ub_serial_set_foreign(ub_serial_t *serial, ub_foreign_cb cb, void *user);
 
 /** @return the device descriptor, or -1 when closed or down. */
 int ub_serial_fileno(const ub_serial_t *serial);

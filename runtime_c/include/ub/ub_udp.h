@@ -155,6 +155,8 @@ typedef struct ub_udp_stats {
     uint64_t peers_forgotten; /**< learned peers dropped: idle, provisional and never confirmed, or making room */
     uint64_t no_peer;       /**< frames not sent because no peer is known yet (UB_ERR_NOROUTE) */
     uint64_t copy_errors;   /**< copies to the second and further peers that the socket refused */
+    uint64_t foreign_datagrams; /**< accepted datagrams that are not uavbus (no sync pair) handed to the foreign handler */
+    uint64_t foreign_refused;   /**< bytes of those the handler did not take */
 } ub_udp_stats_t;
 
 /** A UDP link. Caller-owned; treat the fields as private. */
@@ -167,6 +169,8 @@ typedef struct ub_udp {
     int link_id;
     ub_udp_stats_t stats;
     uint8_t batching;
+    ub_foreign_cb foreign;                      /* ub_udp_set_foreign(); NULL: non-uavbus datagrams are rejected */
+    void *foreign_user;
     uint16_t tx_count;                          /* datagrams queued (the last one may still grow) */
     uint16_t tx_frames[UB_UDP_TX_SLOTS];        /* frames in each queued datagram */
     uint16_t tx_len[UB_UDP_TX_SLOTS];           /* bytes in each queued datagram */
@@ -229,6 +233,17 @@ UB_CHECK int ub_udp_service(ub_udp_t *udp, ub_node_t *node, uint64_t now_ms);
  * @return UB_OK; UB_ERR_INVAL (NULL); UB_ERR_AGAIN (off refused: frames still queued, socket full).
  */
 UB_CHECK int ub_udp_set_batching(ub_udp_t *udp, int on);
+
+/**
+ * Foreign traffic on a datagram link (issue #24): a datagram from an accepted sender (the peer rules above
+ * still decide who may send) that does not start with the uavbus sync pair is handed whole to `cb` as one
+ * run (ub_foreign_cb, ub_frame.h) instead of to the node, and counted in foreign_datagrams; bytes `cb` does
+ * not take are counted in foreign_refused. A datagram that starts with the sync pair is uavbus, damaged or
+ * not, and goes to the node as before. `cb` NULL removes the handler. A compact link (its packets carry no
+ * sync pair) never hands datagrams on. Never fails for a non-NULL `udp`.
+ * @return UB_OK, or UB_ERR_INVAL for a NULL `udp`.
+ */
+UB_CHECK int ub_udp_set_foreign(ub_udp_t *udp, ub_foreign_cb cb, void *user);
 
 /**
  * Sends every queued datagram it can (one sendmmsg() per UB_UDP_TX_SLOTS).

@@ -165,11 +165,33 @@ const char *ub_rx_reason_name(ub_rx_reason_t reason) {
 void ub_decoder_init(ub_decoder_t *d) {
     if (d == NULL) return;
     d->have = 0;
+    d->foreign = NULL;
+    d->foreign_user = NULL;
     memset(&d->stats, 0, sizeof d->stats);
+}
+
+void ub_decoder_set_foreign(ub_decoder_t *d, ub_foreign_cb cb, void *user) {
+    if (d == NULL) return;
+    d->foreign = cb;
+    d->foreign_user = cb != NULL ? user : NULL;
 }
 
 /* (A compact link's decoder marks an overlong packet being skipped with a `have` beyond the buffer: nothing pending.) */
 size_t ub_decoder_pending(const ub_decoder_t *d) { return d == NULL || d->have > sizeof d->buf ? 0 : d->have; }
+
+/* A run of bytes that are not part of any delivered frame, in stream order: to the foreign-traffic handler
+ * when there is one, else garbage. Called once per run (not per byte), so a pure uavbus stream pays one
+ * comparison per frame for it. */
+static void not_frame(ub_decoder_t *d, const uint8_t *run, size_t n) {
+    if (n == 0) return;
+    if (d->foreign == NULL) {
+        d->stats.garbage_bytes += n;
+        return;
+    }
+    d->stats.foreign_bytes += n;
+    size_t took = d->foreign(d->foreign_user, run, n);
+    if (took < n) d->stats.foreign_refused += n - took;
+}
 
 static void deliver(ub_decoder_t *d, const uint8_t *f, size_t frame_len, ub_frame_cb cb, void *user) {
     d->stats.frames_ok++;
@@ -181,14 +203,9 @@ static void deliver(ub_decoder_t *d, const uint8_t *f, size_t frame_len, ub_fram
     }
 }
 
-static void reject(ub_decoder_t *d, ub_rx_reason_t why) {
-    d->stats.rejected[why]++;
-    d->stats.garbage_bytes++; /* the candidate's sync byte; the search resumes after it */
-}
-
-/* Keeps buf[from, have) from the first sync candidate on: a full sync pair, or a
- * lone SYNC0 as the last byte (its partner may come in the next chunk). Bytes
- * before it are garbage. */
+/* Keeps buf[k, have) from the first sync candidate at or after `from` on: a full sync pair, or a lone
+ * SYNC0 as the last byte (its partner may come in the next chunk). buf[0, k) is not a frame (with `from`
+ * 1, buf[0] is the sync byte of a rejected candidate, where the search resumes after). */
 static void rescan_buffer(ub_decoder_t *d, size_t from) {
     size_t k = from;
     while (k < d->have) {
@@ -201,7 +218,7 @@ static void rescan_buffer(ub_decoder_t *d, size_t from) {
         if (k + 1 == d->have || d->buf[k + 1] == UB_SYNC1) break;
         k++;
     }
-    d->stats.garbage_bytes += k - from;
+    not_frame(d, d->buf, k);
     memmove(d->buf, d->buf + k, d->have - k);
     d->have -= k;
 }
@@ -217,8 +234,8 @@ static int advance_carried(ub_decoder_t *d, const uint8_t *data, size_t len, siz
     if (d->have == 1) {
         if (*pos == len) return 0;
         if (data[*pos] != UB_SYNC1) {
-            d->stats.garbage_bytes++; /* a lone SYNC0, not a candidate: nothing is counted as rejected */
             d->have = 0;
+            not_frame(d, d->buf, 1); /* a lone SYNC0, not a candidate: nothing is counted as rejected */
             return 1;
         }
     }
@@ -254,56 +271,55 @@ static int advance_carried(ub_decoder_t *d, const uint8_t *data, size_t len, siz
         rescan_buffer(d, 0);
         return 1;
     }
-    reject(d, why);
+    d->stats.rejected[why]++;
     d->have -= taken;
     *pos -= taken;
-    rescan_buffer(d, 1);
+    rescan_buffer(d, 1); /* the rejected sync byte is not a frame; the search resumes after it */
     return 1;
 }
 
 /* Searches data[pos, len) in place; whole frames are verified where they lie. Leaves
- * an unfinished candidate (shorter than its frame, so it fits) in the buffer. */
+ * an unfinished candidate (shorter than its frame, so it fits) in the buffer. The bytes
+ * between frames, rejected candidates' sync bytes included, form one run [run, pos)
+ * handed on when a frame is found, a candidate is held, or the chunk ends. */
 static size_t scan_in_place(ub_decoder_t *d, const uint8_t *data, size_t len, size_t pos, ub_frame_cb cb,
                             void *user) {
     size_t delivered = 0;
+    size_t run = pos;
     while (pos < len) {
         const uint8_t *hit = memchr(data + pos, UB_SYNC0, len - pos);
-        size_t at = hit == NULL ? len : (size_t)(hit - data);
-        d->stats.garbage_bytes += at - pos;
-        pos = at;
+        pos = hit == NULL ? len : (size_t)(hit - data);
         if (pos == len) break;
         size_t rest = len - pos;
         if (rest >= 2 && data[pos + 1] != UB_SYNC1) {
-            d->stats.garbage_bytes++;
             pos++;
             continue;
         }
-        if (rest < UB_FRAME_HEADER_LEN) {
-            memcpy(d->buf, data + pos, rest);
-            d->have = rest;
-            break;
-        }
+        if (rest < UB_FRAME_HEADER_LEN) break; /* held below */
         uint32_t header_crc = 0;
         size_t frame_len = 0;
         ub_rx_reason_t why = judge_header(data + pos, &header_crc, &frame_len);
         if (why != HEADER_OK) {
-            reject(d, why);
+            d->stats.rejected[why]++;
             pos++;
             continue;
         }
-        if (rest < frame_len) {
-            memcpy(d->buf, data + pos, rest);
-            d->have = rest;
-            break;
-        }
+        if (rest < frame_len) break; /* held below */
         if (!body_crc_ok(data + pos, frame_len, header_crc)) {
-            reject(d, UB_RX_BAD_CRC);
+            d->stats.rejected[UB_RX_BAD_CRC]++;
             pos++;
             continue;
         }
+        not_frame(d, data + run, pos - run);
         deliver(d, data + pos, frame_len, cb, user);
         delivered++;
         pos += frame_len;
+        run = pos;
+    }
+    not_frame(d, data + run, pos - run);
+    if (pos < len) { /* an unfinished candidate: shorter than its frame, so it fits */
+        memcpy(d->buf, data + pos, len - pos);
+        d->have = len - pos;
     }
     return delivered;
 }

@@ -568,6 +568,9 @@ int ub_ports_open(ub_ports_t *ports, const char *link_name, const ub_port_spec_t
     }
     /* E.g. a TCP client starts its first connection attempt now rather than at the first service. */
     ub_port_driver_t *d = &p->drv[slot];
+    if (p->foreign != NULL && d->driver->set_foreign != NULL) { /* the handler follows a software switch */
+        if (d->driver->set_foreign(&d->state, p->foreign, p->foreign_user) != UB_OK) { /* cannot fail: valid state */ }
+    }
     if (d->driver->start != NULL) d->driver->start(&d->state, ports->node, now_ms);
     return UB_OK;
 }
@@ -623,6 +626,20 @@ static void port_close(ub_ports_t *ports, ub_port_t *p) {
     p->in_use = 0;
     p->impaired = 0;
     p->own_impair = 0;
+}
+
+int ub_ports_set_foreign(ub_ports_t *ports, const char *link_name, ub_foreign_cb cb, void *user) {
+    if (ports == NULL || ports->node == NULL) return UB_ERR_INVAL;
+    int id = resolve_link(ports->node, link_name);
+    ub_port_t *p = id >= 0 ? port_of_link(ports, id) : NULL;
+    if (p == NULL || p->drv[p->active].driver == NULL) return UB_ERR_NOTFOUND;
+    ub_port_driver_t *d = &p->drv[p->active];
+    if (d->driver->set_foreign == NULL) return UB_ERR_UNSUPPORTED;
+    int rc = d->driver->set_foreign(&d->state, cb, user);
+    if (rc != UB_OK) return rc;
+    p->foreign = cb;
+    p->foreign_user = cb != NULL ? user : NULL;
+    return UB_OK;
 }
 
 int ub_ports_close(ub_ports_t *ports, const char *link_name) {

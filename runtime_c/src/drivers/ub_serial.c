@@ -142,6 +142,16 @@ static void try_reopen(ub_serial_t *serial, uint64_t now_ms) {
         int attached = ub_driver_reattach(serial->node, serial->link_id, &ub_serial_ops, serial);
         (void)attached; /* cannot fail: ub_serial_attach() succeeded with these arguments */
     }
+    if (serial->dec != NULL) { /* the same restart for the caller's decoder, keeping its handler */
+        ub_decoder_t *d = serial->dec;
+        ub_decoder_stats_t kept = d->stats;
+        ub_foreign_cb cb = d->foreign;
+        void *user = d->foreign_user;
+        kept.garbage_bytes += ub_decoder_pending(d);
+        ub_decoder_init(d);
+        d->stats = kept;
+        ub_decoder_set_foreign(d, cb, user);
+    }
 }
 
 static long device_write(int fd, const uint8_t *data, size_t len) { return (long)write(fd, data, len); }
@@ -167,6 +177,24 @@ static int serial_send(void *impl, const uint8_t *frame, size_t len, uint64_t no
         return rc;
     }
     serial->stats.frames_out++;
+    return UB_OK;
+}
+
+int ub_serial_set_decoder(ub_serial_t *serial, ub_decoder_t *dec) {
+    if (serial == NULL) return UB_ERR_INVAL;
+    serial->dec = dec;
+    return UB_OK;
+}
+
+int ub_serial_set_foreign(ub_serial_t *serial, ub_foreign_cb cb, void *user) {
+    if (serial == NULL) return UB_ERR_INVAL;
+    if (cb == NULL) {
+        if (serial->dec == &serial->own_dec) serial->dec = NULL;
+        return UB_OK;
+    }
+    if (serial->dec != &serial->own_dec) ub_decoder_init(&serial->own_dec);
+    ub_decoder_set_foreign(&serial->own_dec, cb, user);
+    serial->dec = &serial->own_dec;
     return UB_OK;
 }
 
@@ -209,7 +237,7 @@ int ub_serial_service(ub_serial_t *serial, ub_node_t *node, uint64_t now_ms) {
         ssize_t n = read(serial->fd, serial->rx, sizeof serial->rx);
         if (n > 0) {
             serial->stats.bytes_in += (uint64_t)n;
-            int found = ub_node_rx(node, serial->link_id, serial->rx, (size_t)n, now_ms);
+            int found = ub_node_rx_stream(node, serial->link_id, serial->dec, serial->rx, (size_t)n, now_ms, NULL);
             if (found > 0) frames += found;
             continue;
         }
@@ -326,6 +354,10 @@ static int serial_pollfds(const void *state, struct pollfd *fds, int cap) {
 /* A device that hung up and waits to be reopened has no descriptor to wake the loop: its retry time must. */
 static bool serial_next_due(const void *state, uint64_t *due_ms) { return ub_serial_next_retry(state, due_ms); }
 
+static int serial_set_foreign_op(void *state, ub_foreign_cb cb, void *user) {
+    return ub_serial_set_foreign(state, cb, user);
+}
+
 static size_t serial_counters(const void *state, ub_driver_counter_t *out, size_t cap) {
     const ub_serial_stats_t *s = &((const ub_serial_t *)state)->stats;
     const ub_driver_counter_t all[] = {
@@ -373,4 +405,5 @@ const ub_driver_t ub_serial_driver = {
     .next_due = serial_next_due,
     .counters = serial_counters,
     .describe = serial_describe,
+    .set_foreign = serial_set_foreign_op,
 };

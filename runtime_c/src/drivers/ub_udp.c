@@ -228,6 +228,13 @@ static int udp_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_m
     return udp->batching ? send_batched(udp, frame, len) : send_now(udp, frame, len);
 }
 
+int ub_udp_set_foreign(ub_udp_t *udp, ub_foreign_cb cb, void *user) {
+    if (udp == NULL) return UB_ERR_INVAL;
+    udp->foreign = cb;
+    udp->foreign_user = cb != NULL ? user : NULL;
+    return UB_OK;
+}
+
 int ub_udp_set_batching(ub_udp_t *udp, int on) {
     if (udp == NULL) return UB_ERR_INVAL;
     if (!on && udp->tx_count > 0 && ub_udp_flush(udp) > 0) return UB_ERR_AGAIN;
@@ -288,6 +295,12 @@ static ub_rx_verdict_t hand_datagram(ub_udp_t *udp, ub_node_t *node, const uint8
         udp->stats.frames_in++;
         if (ub_node_rx_frame_verdict(node, udp->link_id, data, len, now_ms, &best) < 0) udp->stats.rejected++;
         return best;
+    }
+    if (udp->foreign != NULL && len > 0 && (len < 2 || data[0] != UB_SYNC0 || data[1] != UB_SYNC1)) {
+        udp->stats.foreign_datagrams++;
+        size_t took = udp->foreign(udp->foreign_user, data, len);
+        if (took < len) udp->stats.foreign_refused += len - took;
+        return UB_VERDICT_REFUSED; /* not a frame: teaches no peer */
     }
     while (off < len) {
         size_t rest = len - off, take = rest;
@@ -535,6 +548,8 @@ static int udp_pollfds(const void *state, struct pollfd *fds, int cap) {
 
 static int udp_local_port(const void *state, uint16_t *port) { return ub_udp_local_port(state, port); }
 
+static int udp_set_foreign_op(void *state, ub_foreign_cb cb, void *user) { return ub_udp_set_foreign(state, cb, user); }
+
 static size_t udp_counters(const void *state, ub_driver_counter_t *out, size_t cap) {
     const ub_udp_stats_t *s = &((const ub_udp_t *)state)->stats;
     const ub_driver_counter_t all[] = {
@@ -545,7 +560,8 @@ static size_t udp_counters(const void *state, ub_driver_counter_t *out, size_t c
         {"rx_calls", s->rx_calls},           {"tx_calls", s->tx_calls},
         {"tx_discarded", s->tx_discarded},   {"peers_learned", s->peers_learned},
         {"peers_forgotten", s->peers_forgotten}, {"no_peer", s->no_peer},
-        {"copy_errors", s->copy_errors},
+        {"copy_errors", s->copy_errors},     {"foreign_datagrams", s->foreign_datagrams},
+        {"foreign_refused", s->foreign_refused},
     };
     size_t n = sizeof all / sizeof all[0];
     for (size_t i = 0; i < n && i < cap && out != NULL; i++) out[i] = all[i];
@@ -558,11 +574,11 @@ static int udp_describe(const void *state, char *out, size_t cap) {
     const ub_udp_stats_t *s = &udp->stats;
     int n = snprintf(out, cap,
                      "\"datagrams_in\":%llu,\"rejected\":%llu,\"foreign\":%llu,\"datagrams_out\":%llu,\"again\":%llu,"
-                     "\"send_errors\":%llu,\"no_peer\":%llu,\"peers_learned\":%llu,\"peers\":[",
+                     "\"send_errors\":%llu,\"no_peer\":%llu,\"peers_learned\":%llu,\"foreign_datagrams\":%llu,\"peers\":[",
                      (unsigned long long)s->datagrams_in, (unsigned long long)s->rejected,
                      (unsigned long long)s->foreign, (unsigned long long)s->datagrams_out,
                      (unsigned long long)s->again, (unsigned long long)s->send_errors, (unsigned long long)s->no_peer,
-                     (unsigned long long)s->peers_learned);
+                     (unsigned long long)s->peers_learned, (unsigned long long)s->foreign_datagrams);
     char host[16];
     uint16_t port;
     for (int i = 0; n >= 0 && ub_udp_peer_at(udp, i, host, &port) == UB_OK; i++) {
@@ -616,4 +632,5 @@ const ub_driver_t ub_udp_driver = {
     .counters = udp_counters,
     .describe = udp_describe,
     .notice = udp_notice,
+    .set_foreign = udp_set_foreign_op,
 };

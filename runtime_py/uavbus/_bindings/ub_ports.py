@@ -39,6 +39,24 @@ def ub_ports_open_config(ports: Any, cfg: Any, now_ms: int) -> int:
     return ensure(lib.ub_ports_open_config(ports, cfg, now_ms, err, ERR_LEN), _text(err) or "ports section")
 
 
+@ffi.def_extern()
+def ub_py_foreign(user: Any, run: Any, length: int) -> int:
+    # `run` is valid only during the call: the handler gets a copy. It returns how many bytes it took
+    # (None: all); an exception refuses the run (cffi returns 0, and C counts it in foreign_refused).
+    fn = ffi.from_handle(user)
+    took = fn(bytes(ffi.buffer(run, length)))
+    return length if took is None else max(0, min(int(took), length))
+
+
+def ub_ports_set_foreign(ports: Any, link: str, fn: Any) -> Any:
+    """Gives `link`'s port the foreign-traffic handler `fn(bytes) -> int | None`; None removes it. Returns the
+    handle the caller must keep alive while the handler is set."""
+    handle = ffi.new_handle(fn) if fn is not None else ffi.NULL
+    ensure(lib.ub_ports_set_foreign(ports, _c_name(link), lib.ub_py_foreign if fn is not None else ffi.NULL, handle),
+           f"port {link!r}: no open port, or its transport takes no foreign-traffic handler")
+    return handle
+
+
 def ub_ports_close(ports: Any, link: str) -> None:
     ensure(lib.ub_ports_close(ports, _c_name(link)), f"port {link!r} is not open")
 
@@ -94,7 +112,7 @@ def ub_ports_describe(ports: Any, link: str) -> dict[str, Any] | None:
 
 
 UDP_STATS = ("datagrams_in", "rejected", "foreign", "datagrams_out", "again", "send_errors", "frames_in",
-             "frames_out", "peers_learned", "peers_forgotten", "no_peer", "copy_errors")
+             "frames_out", "peers_learned", "peers_forgotten", "no_peer", "copy_errors", "foreign_datagrams", "foreign_refused")
 ACCEPT_NAMES = ("peer", "learn", "any")
 
 

@@ -52,6 +52,8 @@ typedef struct ub_decoder_stats {
     uint64_t bytes_in;
     uint64_t bytes_ok;
     uint64_t garbage_bytes;
+    uint64_t foreign_bytes;
+    uint64_t foreign_refused;
     uint64_t rejected[...];
     ...;
 } ub_decoder_stats_t;
@@ -74,3 +76,9 @@ uint32_t ub_crc32c_update(uint32_t crc, const uint8_t *data, size_t len);
 /* Not in the C header: the Python-side ub_frame_cb that the decoder wrapper passes to C
  * (cffi's `extern "Python"`, defined with @ffi.def_extern() in uavbus._bindings.ub_frame). */
 extern "Python" void ub_py_frame_sink(void *user, const ub_frame_header_t *h, const uint8_t *frame, size_t frame_len);
+
+/* The foreign-traffic handler (issue #24): runs of bytes that are not uavbus frames. */
+typedef size_t (*ub_foreign_cb)(void *user, const uint8_t *run, size_t len);
+void ub_decoder_set_foreign(ub_decoder_t *d, ub_foreign_cb cb, void *user);
+/* Not in the C header: the Python-side handler (defined in uavbus._bindings.ub_ports). */
+extern "Python" size_t ub_py_foreign(void *user, const uint8_t *run, size_t len);

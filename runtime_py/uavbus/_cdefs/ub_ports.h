@@ -55,3 +55,4 @@ int ub_ports_set_impairment(ub_ports_t *ports, const ub_impair_params_t *params,
 int ub_ports_set_link_impairment(ub_ports_t *ports, const char *link_name, const ub_impair_params_t *params,
                                  uint64_t seed);
 int ub_ports_notice(ub_ports_t *ports, char *out, size_t cap);
+int ub_ports_set_foreign(ub_ports_t *ports, const char *link_name, ub_foreign_cb cb, void *user);

@@ -15,6 +15,8 @@ typedef struct ub_udp_stats {
     uint64_t peers_forgotten;
     uint64_t no_peer;
     uint64_t copy_errors;
+    uint64_t foreign_datagrams;
+    uint64_t foreign_refused;
     ...;
 } ub_udp_stats_t;
 
