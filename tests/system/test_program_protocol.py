@@ -1,7 +1,7 @@
 """The programs' JSON-lines protocol as they really speak it (docs/program-protocol.md): every line a real
 `uavbus_node` and a real `uavbus_mavbridge` write, driven through every event each of them has, satisfies
 schemas/program-events.schema.json -- the file the supervisor (uavbus.sim.protocol) reads its event names
-from. tests/unit/test_program_protocol.py checks the same file against the C sources."""
+from. tests/unit/test_program_protocol_schema.py checks the same file against the C sources."""
 
 from __future__ import annotations
 

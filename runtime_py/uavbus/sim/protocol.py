@@ -8,7 +8,7 @@ longer emit fails here, at import, rather than as a wait that times out; `events
 what one program emits and takes; `event_schema()` is the JSON Schema one program's lines satisfy (the
 tests validate real output with it; the supervisor itself needs no validator).
 
-tests/unit/test_program_protocol.py checks the file against the C sources (every event and command they
+tests/unit/test_program_protocol_schema.py checks the file against the C sources (every event and command they
 name, no other), tests/system/test_program_protocol.py the real programs' lines against the schema.
 """
 
