@@ -80,7 +80,9 @@ def test_record_and_play_back_same_values_same_order(hitl_opts: HitlOptions, tmp
     data = log.read_bytes()
     header = LogReader(log).header.size  # the header embeds the catalogue: its size follows the catalogue's
     records = len(data) - header
-    cut_at = random.Random(20261121).randrange(header + records // 3, len(data) - 1)
+    # Inside the middle third of the records: a cut near the end may drop only copies the second datalink
+    # recorded of values already delivered, and then nothing the fresh node delivers is missing.
+    cut_at = random.Random(20261121).randrange(header + records // 3, header + 2 * records // 3)
     cut = tmp_path / "cut.ublog"
     cut.write_bytes(data[:cut_at])
     part, report = play_into_fresh_node(hitl_opts, catalogue, cut)

@@ -380,7 +380,7 @@ class Console:
                 item["links"] = self.remote_links[name].get("rows")
                 item["links_error"] = self.remote_links[name].get("error")
             out.append(item)
-        return {"me": self.me, "routing": self.node.routing, "entities": out, "t": time.time()}
+        return {"me": self.me, "routing": self.node.routing.enabled, "entities": out, "t": time.time()}
 
     # -- administration table -------------------------------------------------------------------------
     def admin_now(self) -> dict[str, Any]:

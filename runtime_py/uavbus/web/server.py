@@ -157,7 +157,7 @@ def make_app(console: Any, *, token: str | None, csrf: str | None = None, review
         def now() -> dict[str, Any]:
             cfg = console.node.config
             return {"me": console.me, "system": getattr(cfg, "system", ""), "catalogue": cat.name,
-                    "configured": console.configured, "routing": console.node.routing,
+                    "configured": console.configured, "routing": console.node.routing.enabled,
                     "positions": console.positions_spec, "administrators": console.admin_now()["administrators"]}
         return ok(await on_node(now))
 
