@@ -121,7 +121,9 @@ class _Sink:
 
 class Node:
     """One router (ub_node_t) with its ports, bindings and tables. Not thread-safe: use it from the
-    thread that polls it."""
+    thread that polls it. The engines around the core are sub-objects, as in C they are services of the
+    node: `routing` (Routing), `wire` (compact links, MTUs, fragments), `security`, `inspect` (the INSPECT
+    requester), and `admin(entity)` / `membership()`, created on first use."""
 
     def __init__(self, catalogue: Catalogue | str | Path, config: str | Path | Config | None = None,
                  node: str | None = None,
