@@ -230,6 +230,14 @@ typedef struct ub_dedup_entry {
     uint64_t reply_ms;       /**< last CHALLENGE_REPLY sent to this source (as requester) */
     uint8_t nonce[UB_SEC_NONCE_LEN];       /**< outstanding challenge */
     uint8_t reply_nonce[UB_SEC_NONCE_LEN]; /**< nonce of the last reply sent to this source */
+    /* Lockout protection (docs/security.md, "Lockout"): how far a frame may move the window. */
+    uint64_t proven;         /**< counter the source proved (CHALLENGE_REPLY; own frames: the first) */
+    uint64_t proven_ms;      /**< when, on this node's clock: ub_sec_jump_limit() grows from it */
+    uint64_t rechallenge_ms; /**< last challenge started for this source while it held freshness */
+    uint16_t replay_streak;  /**< frames judged `replay` in a row (a re-challenge at ub_sec_options_t.replay_streak) */
+    uint8_t win_key;         /**< key id of the frame that last set `win.highest`: removing the key resets the window */
+    uint8_t reproving;       /**< the window's key left the keyring: frames wait (`unverified`) for a new proof */
+    uint8_t rechallenged;    /**< `rechallenge_ms` is set */
 } ub_dedup_entry_t;
 
 /** A local entity: its links, masks, duplicate windows and tables. */
