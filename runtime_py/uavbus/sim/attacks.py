@@ -542,9 +542,12 @@ class Campaign:
         imu = self.h.meter("imuOut", "fcs20").rate_hz(t0, t1)
         status = self.h.admin.status(self.rows["imu"])["status"] if "imu" in self.rows else "?"
         silenced = int(imu < 0.9 * 1000 / IMU_MS)
-        r = self._result(LOCKOUT, 2, self._dropped(before, after, where), silenced,
+        dropped = self._dropped(before, after, where)
+        # not in self.results: those are the keyless attacker's (run()'s list)
+        r = AttackResult(LOCKOUT, 2, max(2 - sum(dropped.values()), silenced, 0), dropped,
                          f"imuOut from fcs20 at gcs1 over the next {watch_s:.0f} s: {imu:.1f} Hz "
-                         f"({1000 / IMU_MS:.0f} requested); GCS row {status}", where)
+                         f"({1000 / IMU_MS:.0f} requested); GCS row {status}",
+                         ", ".join(f"{ENTITY[n]}:{link}" for n, link in where))
         r.extra.update(imu_hz=imu, gps_hz=self.h.meter("gpsOut", "rmax1ob1").rate_hz(t0, t1), row_status=status)
         return r
 
