@@ -34,6 +34,9 @@
  *    ACKNOWLEDGED or ACTIVE row that receives nothing for
  *    UB_ADMIN_STALE_PERIODS periods + UB_ADMIN_STALE_MARGIN_MS becomes STALE
  *    (renewals go on) and returns to its ACK's status with the next DATA.
+ *    A subscription row with its destination elsewhere turns STALE when the
+ *    destination, having reported FLOWING, acknowledges without it (its data
+ *    timed out there), and ACTIVE again with its next FLOWING ACK.
  *  - **Active** is observed through the target: every ACK carries a FLOWING
  *    flag. A source sets it once it has sent DATA for the publication; a
  *    subscribing destination sets it while DATA from the source arrives
@@ -86,9 +89,11 @@ typedef enum ub_admin_status {
     UB_ADMIN_STOPPING,     /**< STOP sent, waiting for its ACK */
     UB_ADMIN_STALE         /**< acknowledged, but the data it stands for stopped: the row's destination is an entity
                                 of this node and no DATA of the row's content from its source reached it for
-                                UB_ADMIN_STALE_PERIODS periods + UB_ADMIN_STALE_MARGIN_MS. Renewals go on; the first
-                                DATA returns the row to what its last ACK said (acknowledged or active). A local
-                                status: nothing on the wire changes. */
+                                UB_ADMIN_STALE_PERIODS periods + UB_ADMIN_STALE_MARGIN_MS (the first DATA returns
+                                the row to what its last ACK said); or, destination elsewhere, a subscription row
+                                whose destination reported FLOWING and now acknowledges without it (its next
+                                FLOWING ACK makes it active). Renewals go on. A local status: nothing on the wire
+                                changes. */
 } ub_admin_status_t;
 
 /** A row whose destination is local turns STALE after this many periods without its data, plus the margin. */

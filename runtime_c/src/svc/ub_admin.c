@@ -109,6 +109,7 @@ int ub_admin_set_active(ub_admin_t *adm, int row, bool active, uint64_t now_ms) 
         r->info.acked_at_ms = 0;
         r->info.active_at_ms = 0;
         r->info.last_ack_ms = 0;
+        r->info.last_data_ms = 0;
         enter(r, UB_ADMIN_PENDING, now_ms);
     } else if (!active && r->info.active_flag) {
         enter(r, st == UB_ADMIN_FAILED ? UB_ADMIN_INACTIVE : UB_ADMIN_STOPPING, now_ms);
@@ -234,8 +235,13 @@ bool ub_priv_admin_on_reply(ub_admin_t *adm, const ub_frame_header_t *h, uint32_
         if (info->acked_at_ms == 0) info->acked_at_ms = now_ms;
         row->acked_status = (detail & UB_ACK_FLOWING) ? UB_ADMIN_ACTIVE : UB_ADMIN_ACKNOWLEDGED;
         if (row->acked_status == UB_ADMIN_ACTIVE && info->active_at_ms == 0) info->active_at_ms = now_ms;
-        /* The target's word does not make data arrive: a stale row stays stale until the data does. */
-        bool stale = info->status == UB_ADMIN_STALE && data_quiet(adm, row, now_ms);
+        /* The target's word does not make data arrive: a stale row stays stale until the data does. Where the
+         * data cannot be seen here, a subscription row's destination says it: no FLOWING after it had reported
+         * FLOWING means its data stopped (its row fell back to requesting), not that it has yet to start. */
+        bool stale = data_observable(adm, &info->spec)
+                         ? info->status == UB_ADMIN_STALE && data_quiet(adm, row, now_ms)
+                         : info->spec.type == UB_ADMIN_ROW_SUBSCRIPTION && row->acked_status == UB_ADMIN_ACKNOWLEDGED &&
+                               info->active_at_ms != 0;
         info->status = stale ? UB_ADMIN_STALE : (ub_admin_status_t)row->acked_status;
         info->attempts = 0;
         row->next_send_ms = now_ms + adm->opt.renew_ms;
