@@ -234,7 +234,7 @@ static size_t veh_publications(const authz_t *a) { return ub_pubsub_count(a->veh
 static void test_administrator_limits_bounded(void **state) {
     (void)state;
     authz_t *a = authz_new(43);
-    char name[8];
+    char name[16];
     uint64_t limited0 = counters(a->veh)->requests_limited;
     for (uint32_t i = 0; i < 30; i++) {
         (void)snprintf(name, sizeof name, "cell%02u", i);
