@@ -241,6 +241,8 @@ typedef struct ub_dedup_entry {
     /* Lockout protection (docs/security.md, "Lockout"): how far a frame may move the window. */
     uint64_t proven;         /**< counter the source proved (CHALLENGE_REPLY; own frames: the first) */
     uint64_t proven_ms;      /**< when, on this node's clock: ub_sec_jump_limit() grows from it */
+    uint64_t jump_bound;     /**< a ub_sec_jump_limit() already computed: counters up to it pass without recomputing
+                                  (the limit only grows with time), so most frames cost no division */
     uint64_t rechallenge_ms; /**< last challenge started for this source while it held freshness */
     uint16_t replay_streak;  /**< frames judged `replay` in a row (a re-challenge at ub_sec_options_t.replay_streak) */
     uint8_t win_key;         /**< key id of the frame that last set `win.highest`: removing the key resets the window */

@@ -159,6 +159,7 @@ static void prove(ub_dedup_entry_t *e, uint64_t counter, uint8_t key_id, uint64_
     e->secured = 1;
     e->proven = counter;
     e->proven_ms = now_ms;
+    e->jump_bound = ub_sec_jump_limit(counter, 0, 0); /* proven + slack: the bound at any rate and time */
     e->win_key = key_id;
     e->replay_streak = 0;
     e->reproving = 0;
@@ -256,8 +257,12 @@ static ub_priv_window_t secured_pass(ub_node_t *node, int slot, int link_id, con
     e->last_used = ++node->use_stamp;
     /* A CHALLENGE_REPLY while we challenge is judged by its nonce (on_reply), not by the window it may repair. */
     bool awaited_reply = h->admin == UB_ADMIN_CHALLENGE_REPLY && e->challenging;
-    uint64_t elapsed = now_ms >= e->proven_ms ? now_ms - e->proven_ms : 0; /* a clock gone backwards: no credit */
-    if (rx->counter > ub_sec_jump_limit(e->proven, elapsed, sec->opt.max_counter_rate)) {
+    if (rx->counter > e->jump_bound) { /* beyond the bound last computed: compute it for now */
+        uint64_t elapsed = now_ms >= e->proven_ms ? now_ms - e->proven_ms : 0; /* a clock gone back: no credit */
+        uint64_t limit = ub_sec_jump_limit(e->proven, elapsed, sec->opt.max_counter_rate);
+        if (limit > e->jump_bound) e->jump_bound = limit;
+    }
+    if (rx->counter > e->jump_bound) {
         if (awaited_reply) return UB_PRIV_WINDOW_PASS;
         ub_priv_count_drop(node, link_id, UB_DROP_COUNTER_JUMP);
         rechallenge(node, slot, link_id, e, now_ms);
