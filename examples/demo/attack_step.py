@@ -8,8 +8,13 @@ printed as a check, which holds only when nothing of it was accepted and the vic
 under a reason; the step also checks that gpsOut (10 Hz) and imuOut (50 Hz) kept their rates within
 10 % under attack and after both ends of the datalink restarted.
 
+Then an insider who holds the group key (issue 23's lockout, in the group-key mode): one imuOut frame in
+fcs20's name with counter 2^48-2, toward the forwarder rmax1ob1 and toward gcs1. Checked: nothing accepted,
+both copies counted `counter_jump`, and imuOut still reaching gcs1 at 50 Hz within 10 %.
+
 Returns summary.json's "security" object: {"keys": ..., "attacks": [{"name", "sent", "accepted",
-"dropped_as", "counted_at", "effect"}, ...], "rates": {phase: {"gpsOut": Hz, "imuOut": Hz}}}.
+"dropped_as", "counted_at", "effect"}, ...], "insider": [the same for the group-key lockout],
+"rates": {phase: {"gpsOut": Hz, "imuOut": Hz}}}.
 """
 
 from __future__ import annotations
@@ -18,7 +23,7 @@ import argparse
 from pathlib import Path
 from typing import Any, Callable
 
-from uavbus.sim.attacks import ATTACKS, SHORT_ATTACKS, Campaign, attack_options, start_with_tap
+from uavbus.sim.attacks import ATTACKS, SHORT_ATTACKS, AttackResult, Campaign, attack_options, start_with_tap
 from uavbus.sim.secure import signed_config
 
 TABLE2 = Path(__file__).resolve().parents[2] / "examples" / "configs" / "table2.json"
@@ -61,10 +66,24 @@ def attacker_part(args: argparse.Namespace, check: Callable[[str, bool, str], bo
                 want = REQUESTED_HZ[name]
                 check(f"rate kept {label}: {name}", abs(hz - want) <= RATE_TOLERANCE * want,
                       f"{hz:.2f} Hz for {want:g} Hz requested over {t1 - t0:.1f} s")
+        insider = [insider_lockout(campaign, config, check, say)]
     finally:
         status = h.close()
         tap.close()
     check("attacker step: all C nodes exit cleanly", all(s == 0 for s in status.values()),
           ", ".join(f"{n}: exit {s}" for n, s in status.items()))
     return {"keys": "generated at run time (uavbus keys new), never committed", "signed": True,
-            "attacks": [r.as_json() for r in results], "rates": rates}
+            "attacks": [r.as_json() for r in results], "insider": [r.as_json() for r in insider], "rates": rates}
+
+
+def insider_lockout(campaign: Campaign, config: Path, check: Callable[[str, bool, str], bool],
+                    say: Callable[[str], None]) -> AttackResult:
+    """Issue 23's lockout frame in the group-key mode, by a holder of this run's fleet key."""
+    say("  an insider holding the group key (a captured vehicle) sends one frame in fcs20's name with "
+        "counter 2^48-2")
+    r = campaign.insider_lockout(config.parent / "keys" / "fleet-1.key")
+    check(f"lockout refused: {r.name}", r.accepted == 0 and r.dropped_as == {"counter_jump": r.sent}, r.line())
+    hz, want = r.extra["imu_hz"], REQUESTED_HZ["imuOut"]
+    check("rate kept after the lockout frame: imuOut", abs(hz - want) <= RATE_TOLERANCE * want,
+          f"{hz:.2f} Hz for {want:g} Hz requested")
+    return r

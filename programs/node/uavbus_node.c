@@ -308,10 +308,10 @@ static void out_security(ub_app_t *app) {
         ",\"auth_failures\":%" PRIu64 ",\"unknown_keys\":%" PRIu64 ",\"challenges_sent\":%" PRIu64
         ",\"challenges_completed\":%" PRIu64 ",\"replies_sent\":%" PRIu64 ",\"replies_suppressed\":%" PRIu64
         ",\"reservations\":%" PRIu64 ",\"reserve_failures\":%" PRIu64 ",\"tx_refused\":%" PRIu64
-        ",\"counter_mark\":%" PRIu64 "}",
+        ",\"rechallenges\":%" PRIu64 ",\"window_resets\":%" PRIu64 ",\"counter_mark\":%" PRIu64 "}",
         s->signed_out, s->encrypted_out, s->verified_in, s->decrypted_in, s->auth_failures, s->unknown_keys,
         s->challenges_sent, s->challenges_completed, s->replies_sent, s->replies_suppressed, s->reservations,
-        s->reserve_failures, s->tx_refused, app->counter.mark);
+        s->reserve_failures, s->tx_refused, s->rechallenges, s->window_resets, app->counter.mark);
 }
 
 static void link_stats(ub_app_t *app, int id, const ub_link_t *l, const ub_port_t *p) {

@@ -55,6 +55,71 @@ static void test_retried_until_acknowledged(void **state) {
     pair_free(p);
 }
 
+/* Issue #23 item 5: a status that depends on data turns stale visibly. The administrator is the destination
+ * (its own node sees the data); the source keeps acknowledging the renewals while its DATA stops arriving. */
+static void test_acknowledged_row_without_data_turns_stale_and_back(void **state) {
+    (void)state;
+    pair_t *p = pair_new(NULL);
+    ub_admin_t adm;
+    assert_int_equal(ub_admin_init(&adm, p->sub_node, p->sub, NULL), UB_OK);
+    int row = add_row(p, &adm, UB_ADMIN_ROW_PUBLICATION, TEST_GPS);
+    assert_int_equal(ub_admin_set_active(&adm, row, true, 0), UB_OK);
+    world_run(p->w, 1000, 1);
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_ACTIVE);
+    assert_true(info_of(&adm, row).last_data_ms >= 900);
+    /* DATA (88-byte frames) no longer reaches the destination, dropped `too_big` at the source; the 72-byte
+     * replies still come back */
+    assert_int_equal(ub_node_link_set_mtu(p->pub_node, p->pub_link, 80), UB_OK);
+    uint64_t last = info_of(&adm, row).last_data_ms;
+    uint64_t bound = last + UB_ADMIN_STALE_PERIODS * 100u + UB_ADMIN_STALE_MARGIN_MS;
+    world_run(p->w, bound, 1);
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_ACTIVE); /* not yet */
+    world_run(p->w, bound + 2, 1);
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_STALE);
+    assert_string_equal(ub_admin_status_name(UB_ADMIN_STALE), "stale");
+    /* renewals go on and are acknowledged, yet the row stays stale: the target's word is not the data */
+    uint64_t acks = info_of(&adm, row).last_ack_ms;
+    world_run(p->w, bound + 2500, 1);
+    assert_true(info_of(&adm, row).last_ack_ms > acks);
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_STALE);
+    /* data again: back to what the ACK said */
+    assert_true(ub_node_counters(p->pub_node)->drops[UB_DROP_TOO_BIG] >= 20);
+    assert_int_equal(ub_node_link_set_mtu(p->pub_node, p->pub_link, 0), UB_OK);
+    world_run(p->w, bound + 2700, 1);
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_ACTIVE);
+    pair_free(p);
+}
+
+/* The same for a subscription row whose destination is elsewhere: the administrator (here on the source's node)
+ * cannot see the data, the destination says it: FLOWING, then (its data timed out) acknowledged without it. */
+static void test_remote_subscription_row_turns_stale_when_its_destination_stops_receiving(void **state) {
+    (void)state;
+    pair_t *p = pair_new(NULL);
+    ub_admin_t adm;
+    assert_int_equal(ub_admin_init(&adm, p->pub_node, p->pub, NULL), UB_OK);
+    static struct test_imu imu_src, imu_dst; /* imuOut: 92-byte frames */
+    assert_int_equal(ub_node_bind(p->pub_node, TEST_IMU, &imu_src), UB_OK);
+    assert_int_equal(ub_node_bind(p->sub_node, TEST_IMU, &imu_dst), UB_OK);
+    ub_admin_row_spec_t spec = {.instance = TEST_IMU, .period_ms = 100, .type = UB_ADMIN_ROW_SUBSCRIPTION};
+    memcpy(spec.source, p->pub_id, UB_ENTITY_ID_LEN);
+    memcpy(spec.destination, p->sub_id, UB_ENTITY_ID_LEN);
+    int row = ub_admin_add_row(&adm, &spec);
+    assert_true(row >= 0);
+    assert_int_equal(ub_admin_set_active(&adm, row, true, 0), UB_OK);
+    world_run(p->w, 2000, 1);
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_ACTIVE);
+    /* DATA (92 bytes) stops; requests (88) and replies (72) pass */
+    assert_int_equal(ub_node_link_set_mtu(p->pub_node, p->pub_link, 90), UB_OK);
+    world_run(p->w, 6000, 1);
+    assert_true(ub_node_counters(p->pub_node)->drops[UB_DROP_TOO_BIG] >= 30);
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_STALE);
+    assert_true(info_of(&adm, row).last_ack_ms >= 5000); /* still renewed and acknowledged */
+    assert_int_equal(ub_node_link_set_mtu(p->pub_node, p->pub_link, 0), UB_OK);
+    world_run(p->w, 8000, 1);
+    assert_int_equal(info_of(&adm, row).status, UB_ADMIN_ACTIVE);
+    pair_free(p);
+}
+
 static void test_nack_fails_row_and_reactivation_retries(void **state) {
     (void)state;
     pair_t *p = pair_new(NULL);
@@ -194,6 +259,8 @@ static void test_row_validation(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_retried_until_acknowledged),
+        cmocka_unit_test(test_acknowledged_row_without_data_turns_stale_and_back),
+        cmocka_unit_test(test_remote_subscription_row_turns_stale_when_its_destination_stops_receiving),
         cmocka_unit_test(test_nack_fails_row_and_reactivation_retries),
         cmocka_unit_test(test_retry_limit_fails_row),
         cmocka_unit_test(test_target_lost_after_ack_falls_back_to_pending),

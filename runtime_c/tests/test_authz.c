@@ -218,11 +218,58 @@ static void test_amplification_bounded(void **state) {
     assert_int_equal(counters(a->veh)->leases_expired, expired + 1);
     assert_in_range(a->rogue.data, 19, 21);
     assert_true(a->rogue.last_data_ms < t0 + 2000);
-    /* A long lease is clamped the same way; an administrator's lease 0 means no lease. */
+    /* A long lease is clamped the same way; an administrator's lease 0 too, to its own, longer bound (#23). */
     authz_request(a, UB_ADMIN_PUB_REQUEST, gps, "mallory", "mallory", 100, 600000, 7);
     assert_int_equal(veh_row(a, UB_PS_PUBLICATION, "gpsOut", "mallory")->lease_until_ms, a->w.now_ms + 2000);
     authz_request(a, UB_ADMIN_PUB_REQUEST, gps, "gcs1", "obs1", 100, 0, 8);
-    assert_int_equal(veh_row(a, UB_PS_PUBLICATION, "gpsOut", "obs1")->lease_until_ms, 0);
+    assert_int_equal(veh_row(a, UB_PS_PUBLICATION, "gpsOut", "obs1")->lease_until_ms,
+                     a->w.now_ms + UB_POLICY_DEFAULT_ADMIN_MAX_LEASE_MS);
+    free(a);
+}
+
+static size_t veh_publications(const authz_t *a) { return ub_pubsub_count(a->veh, a->e_veh, UB_PS_PUBLICATION); }
+
+/* Issue #23 item 5: 30 requests "from gcs1" (an administrator: any group-key holder can sign as it) made 30 rows
+ * at 1 ms with no lease, and veh1 sent 16k frames/s forever. An administrator has limits too: its own. */
+static void test_administrator_limits_bounded(void **state) {
+    (void)state;
+    authz_t *a = authz_new(43);
+    char name[16];
+    uint64_t limited0 = counters(a->veh)->requests_limited;
+    for (uint32_t i = 0; i < 30; i++) {
+        (void)snprintf(name, sizeof name, "cell%02u", i);
+        authz_request(a, UB_ADMIN_PUB_REQUEST, authz_instance(a, name), "gcs1", "gcs1", 1, 0, 100 + i);
+    }
+    assert_int_equal(counters(a->veh)->requests_limited - limited0, 30);
+    assert_int_equal(veh_publications(a), 0);
+    run(a, 200);
+    /* its rows: at most max_rows, each lease bounded (lease 0 is not "forever") */
+    ub_policy_limits_t lim = {.max_rows = 6, .max_lease_ms = 5000};
+    assert_int_equal(ub_policy_set_admin_limits(&a->policy, &lim), UB_OK);
+    assert_int_equal(a->policy.admin_limits.min_period_ms, UB_POLICY_DEFAULT_ADMIN_MIN_PERIOD_MS); /* 0 = default */
+    uint64_t t0 = a->w.now_ms;
+    for (uint32_t i = 0; i < 10; i++) {
+        (void)snprintf(name, sizeof name, "cell%02u", i);
+        authz_request(a, UB_ADMIN_PUB_REQUEST, authz_instance(a, name), "gcs1", "gcs1", 100, 0, 200 + i);
+    }
+    assert_int_equal(veh_publications(a), 6);
+    assert_int_equal(counters(a->veh)->requests_limited - limited0, 34);
+    for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
+        const ub_ps_row_t *row = ub_pubsub_row(a->veh, a->e_veh, r);
+        if (row != NULL && row->kind == UB_PS_PUBLICATION) assert_int_equal(row->lease_until_ms, t0 + 5000);
+    }
+    /* unrenewed, they end with their lease */
+    run(a, 6000);
+    assert_int_equal(veh_publications(a), 0);
+    /* the byte budget: 68-byte frames at 10 ms cost 6800 B/s each */
+    ub_policy_limits_t bytes = {.max_bytes_per_s = 10000};
+    assert_int_equal(ub_policy_set_admin_limits(&a->policy, &bytes), UB_OK);
+    authz_request(a, UB_ADMIN_PUB_REQUEST, authz_instance(a, "cell00"), "gcs1", "gcs1", 10, 3000, 300);
+    authz_request(a, UB_ADMIN_PUB_REQUEST, authz_instance(a, "cell01"), "gcs1", "gcs1", 10, 3000, 301);
+    assert_int_equal(veh_publications(a), 1);
+    /* a bad bound is refused, not taken as "none" */
+    ub_policy_limits_t bad = {.max_lease_ms = 10};
+    assert_int_equal(ub_policy_set_admin_limits(&a->policy, &bad), UB_ERR_RANGE);
     free(a);
 }
 
@@ -588,6 +635,7 @@ int main(void) {
         cmocka_unit_test(test_forged_stops_refused),
         cmocka_unit_test(test_non_admin_sub_and_foreign_pub_requests_refused),
         cmocka_unit_test(test_amplification_bounded),
+        cmocka_unit_test(test_administrator_limits_bounded),
         cmocka_unit_test(test_table_exhaustion_bounded_and_administrator_served),
         cmocka_unit_test(test_write_policy_drops_before_storage),
         cmocka_unit_test(test_read_policy_nacks),

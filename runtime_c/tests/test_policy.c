@@ -169,6 +169,23 @@ static void test_config_security_section(void **state) {
     assert_int_equal(pol->limits.max_rows, 4);
     assert_int_equal(pol->limits.max_bytes_per_s, UB_POLICY_DEFAULT_MAX_BYTES_PER_S);
     assert_int_equal(pol->limits.max_lease_ms, 5000);
+    /* administrators: their own defaults, never none */
+    assert_int_equal(pol->admin_limits.min_period_ms, UB_POLICY_DEFAULT_ADMIN_MIN_PERIOD_MS);
+    assert_int_equal(pol->admin_limits.max_rows, UB_POLICY_DEFAULT_ADMIN_MAX_ROWS);
+    assert_int_equal(pol->admin_limits.max_bytes_per_s, UB_POLICY_DEFAULT_ADMIN_MAX_BYTES_PER_S);
+    assert_int_equal(pol->admin_limits.max_lease_ms, UB_POLICY_DEFAULT_ADMIN_MAX_LEASE_MS);
+    assert_ptr_equal(ub_policy_limits_for(pol, true), &pol->admin_limits);
+    assert_ptr_equal(ub_policy_limits_for(pol, false), &pol->limits);
+    rc = parse(f, "\"security\": {\"administrators\": [\"gcs1\"],\n"
+                  " \"admin_limits\": {\"min_period_ms\": 2, \"max_rows\": 16, \"max_bytes_per_s\": 65536}}");
+    if (rc != UB_OK) fail_msg("%s", f->err);
+    assert_int_equal(f->cfg.policy.admin_limits.min_period_ms, 2);
+    assert_int_equal(f->cfg.policy.admin_limits.max_rows, 16);
+    assert_int_equal(f->cfg.policy.admin_limits.max_bytes_per_s, 65536);
+    assert_int_equal(f->cfg.policy.admin_limits.max_lease_ms, UB_POLICY_DEFAULT_ADMIN_MAX_LEASE_MS);
+    assert_int_equal(f->cfg.policy.limits.max_rows, UB_POLICY_DEFAULT_MAX_ROWS);
+    rc = parse(f, "\"security\": {\"administrators\": [\"gcs1\"],\n"
+                  " \"limits\": {\"min_period_ms\": 20, \"max_rows\": 4, \"max_lease_ms\": 5000}}");
 
     /* ub_nodecfg_apply() attaches the configuration's policy; without one the node keeps none. */
     ub_node_t *node = calloc(1, sizeof *node);
@@ -198,7 +215,18 @@ static void test_config_security_errors(void **state) {
                  "links, administrators, read, write and/or limits (see docs/config-format.md)");
     expect_error(f, "\"security\": {\"admins\": [\"gcs1\"]}",
                  "inline.json:2: field 'security.admins': unknown field (expected one of: keys, tx_key, "
-                 "require_signed, counter_file, links, administrators, read, write, limits, exclusive_admin)");
+                 "require_signed, counter_file, links, administrators, read, write, limits, exclusive_admin, admin_limits)");
+    expect_error(f, "\"security\": {\"admin_limits\": {\"max_rows\": 0}}",
+                 "inline.json:2: field 'security.admin_limits.max_rows': must be a whole number from 1 to 4294967295");
+    expect_error(f, "\"security\": {\"admin_limits\":\n {\"max_lease_ms\": 500}}",
+                 "inline.json:3: field 'security.admin_limits.max_lease_ms': must be at least 1000 ms: a shorter lease "
+                 "lapses between two renewals (renew_ms 1000)");
+    expect_error(f, "\"security\": {\"admin_limits\": {\"rows\": 3}}",
+                 "inline.json:2: field 'security.admin_limits': unknown field (expected one of: min_period_ms, "
+                 "max_rows, max_bytes_per_s, max_lease_ms)");
+    expect_error(f, "\"security\": {\"admin_limits\": \"none\"}",
+                 "inline.json:2: field 'security.admin_limits': must be an object with min_period_ms, max_rows, "
+                 "max_bytes_per_s and/or max_lease_ms");
     expect_error(f, "\"security\": {\"administrators\": [\"gcs1\"], \"administrators\": []}",
                  "inline.json:2: field 'security.administrators': duplicate field (first given on line 2)");
     expect_error(f, "\"security\": {\"administrators\": \"gcs1\"}",

@@ -853,7 +853,8 @@ class Admin:
         ub_admin.ub_admin_remove_row(self._c, row)
 
     def status(self, row: int) -> dict[str, Any]:
-        """status: "inactive" | "pending" | "acknowledged" | "active" | "failed" | "stopping"; nack_reason:
+        """status: "inactive" | "pending" | "acknowledged" | "active" | "failed" | "stopping" | "stale" (acknowledged,
+        but the row's destination is here and its data stopped: ub_admin.h UB_ADMIN_STALE); nack_reason:
         None or the target's reason by name ("table_full", "not_authorized", "limit", "other_admin": another
         administrator keeps this flow, ...); nack_relayed: the reason is the source's, relayed by the
         destination of a subscription row."""

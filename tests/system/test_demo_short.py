@@ -42,6 +42,10 @@ def test_demo_short_mode_passes_and_writes_its_outputs(program: Path, tmp_path: 
         assert set(attack) >= {"name", "sent", "accepted", "dropped_as"}
         assert attack["accepted"] == 0 and sum(attack["dropped_as"].values()) == attack["sent"] > 0, attack
     assert {c["name"] for c in doc["checks"] if c["ok"]} >= {f"attack refused: {a['name']}" for a in sec["attacks"]}
+    # issue 23 item 5: a group-key holder's lockout frame (counter 2^48-2) is refused and silences nobody
+    (lockout,) = sec["insider"]
+    assert lockout["accepted"] == 0 and lockout["dropped_as"] == {"counter_jump": lockout["sent"]}, lockout
+    assert "rate kept after the lockout frame: imuOut" in {c["name"] for c in doc["checks"] if c["ok"]}
     # the variable browser over the bus (issue 16): a directory no flow publishes, read 2 hops away; a rate changed
     browser, held = doc["browser"], {c["name"] for c in doc["checks"] if c["ok"]}
     assert {"browser: read airData from fcs20", "browser: change a publication rate"} <= held

@@ -28,6 +28,15 @@
  *  - ACKNOWLEDGED / ACTIVE: the request (same request id) is renewed every
  *    `renew_ms`, which renews the target's lease; without any ACK for one
  *    lease the row falls back to PENDING.
+ *  - STALE: a status that depends on data turns stale visibly. When the
+ *    row's destination is an entity of this node (the administrator's own
+ *    ground station, typically), the table sees the data arrive; an
+ *    ACKNOWLEDGED or ACTIVE row that receives nothing for
+ *    UB_ADMIN_STALE_PERIODS periods + UB_ADMIN_STALE_MARGIN_MS becomes STALE
+ *    (renewals go on) and returns to its ACK's status with the next DATA.
+ *    A subscription row with its destination elsewhere turns STALE when the
+ *    destination, having reported FLOWING, acknowledges without it (its data
+ *    timed out there), and ACTIVE again with its next FLOWING ACK.
  *  - **Active** is observed through the target: every ACK carries a FLOWING
  *    flag. A source sets it once it has sent DATA for the publication; a
  *    subscribing destination sets it while DATA from the source arrives
@@ -77,8 +86,19 @@ typedef enum ub_admin_status {
     UB_ADMIN_ACKNOWLEDGED, /**< target applied the change, data not (yet) reported flowing */
     UB_ADMIN_ACTIVE,       /**< target reports data flowing */
     UB_ADMIN_FAILED,       /**< NACKed (see nack_reason) or retries exhausted */
-    UB_ADMIN_STOPPING      /**< STOP sent, waiting for its ACK */
+    UB_ADMIN_STOPPING,     /**< STOP sent, waiting for its ACK */
+    UB_ADMIN_STALE         /**< acknowledged, but the data it stands for stopped: the row's destination is an entity
+                                of this node and no DATA of the row's content from its source reached it for
+                                UB_ADMIN_STALE_PERIODS periods + UB_ADMIN_STALE_MARGIN_MS (the first DATA returns
+                                the row to what its last ACK said); or, destination elsewhere, a subscription row
+                                whose destination reported FLOWING and now acknowledges without it (its next
+                                FLOWING ACK makes it active). Renewals go on. A local status: nothing on the wire
+                                changes. */
 } ub_admin_status_t;
+
+/** A row whose destination is local turns STALE after this many periods without its data, plus the margin. */
+#define UB_ADMIN_STALE_PERIODS 3u
+#define UB_ADMIN_STALE_MARGIN_MS 500u
 
 /** @return a static name ("pending", ...) for a status, "?" if out of range. */
 const char *ub_admin_status_name(ub_admin_status_t status);
@@ -131,6 +151,8 @@ typedef struct ub_admin_row_info {
     uint64_t acked_at_ms;        /**< time of the first ACK after activation (0 = none yet) */
     uint64_t active_at_ms;       /**< time the row first became ACTIVE (0 = not yet) */
     uint64_t last_ack_ms;
+    uint64_t last_data_ms;       /**< last DATA of the row's content from its source at its destination, when the
+                                      destination is an entity of this node (0 = none, or not observable here) */
 } ub_admin_row_info_t;
 
 /** Admin timing. 0 in a field = default. */
@@ -145,6 +167,7 @@ typedef struct ub_admin_options {
 /** Internal row state; read it through ub_admin_row_status(). */
 typedef struct ub_admin_row {
     uint8_t in_use;
+    uint8_t acked_status; /**< what the last ACK said (ACKNOWLEDGED or ACTIVE): the status once data flows again */
     ub_admin_row_info_t info;
     uint64_t next_send_ms;
 } ub_admin_row_t;

@@ -68,6 +68,8 @@ typedef enum ub_drop_reason {
     UB_DROP_TOO_BIG,         /**< larger than the outgoing link's MTU (forwarders never fragment), or a directory above the
                                   payload limit at a node without fragment state (ub_node_set_frag()) */
     UB_DROP_INCOMPLETE,      /**< a fragmented directory given up: fragments missing at its timeout, or its slot taken */
+    UB_DROP_COUNTER_JUMP,    /**< secured frame whose counter is further ahead than its source could have counted since it
+                                  last proved its counter (ub_sec_jump_limit()): moves no window; the source is challenged */
     UB_DROP_REASON_COUNT
 } ub_drop_reason_t;
 

@@ -93,7 +93,13 @@
  *    and per link: `unsigned`), the key (`unknown_key`) and the tag
  *    (`bad_tag`); then the source's replay window, per handling entity:
  *    a counter above the highest or unseen inside the 64-bit window passes,
- *    a seen one is a `duplicate`, an older one a `replay` (never a restart).
+ *    a seen one is a `duplicate`, an older one a `replay` (never a restart);
+ *    a counter further ahead than the source could have counted since its
+ *    last CHALLENGE_REPLY (ub_sec_jump_limit()) is a `counter_jump` and moves
+ *    nothing. A jump, or ub_sec_options_t.replay_streak replays in a row,
+ *    challenge the source again (a locked-out or restarted sender recovers);
+ *    removing the key that raised a window forgets it (docs/security.md,
+ *    "Lockout").
  *    A source without freshness state is not trusted: its frames are dropped
  *    `unverified` and the handling entity sends it a CHALLENGE (random
  *    16-byte nonce); the CHALLENGE_REPLY, signed with the source's current
@@ -215,7 +221,9 @@ typedef struct ub_entity_row {
  * Duplicate / replay window of one source, as seen by one handling entity,
  * and its freshness handshake. Unsigned sources use the low 32 bits of
  * `win.highest` with serial-number arithmetic (and may reset); secured ones
- * the 48-bit counter (never reset).
+ * the 48-bit counter, moved by a frame at most to ub_sec_jump_limit() and
+ * re-established only by a CHALLENGE_REPLY to our nonce (or forgotten when
+ * the key that set it leaves the keyring): docs/security.md, "Lockout".
  */
 typedef struct ub_dedup_entry {
     uint8_t src[UB_ENTITY_ID_LEN];
@@ -230,6 +238,16 @@ typedef struct ub_dedup_entry {
     uint64_t reply_ms;       /**< last CHALLENGE_REPLY sent to this source (as requester) */
     uint8_t nonce[UB_SEC_NONCE_LEN];       /**< outstanding challenge */
     uint8_t reply_nonce[UB_SEC_NONCE_LEN]; /**< nonce of the last reply sent to this source */
+    /* Lockout protection (docs/security.md, "Lockout"): how far a frame may move the window. */
+    uint64_t proven;         /**< counter the source proved (CHALLENGE_REPLY; own frames: the first) */
+    uint64_t proven_ms;      /**< when, on this node's clock: ub_sec_jump_limit() grows from it */
+    uint64_t jump_bound;     /**< a ub_sec_jump_limit() already computed: counters up to it pass without recomputing
+                                  (the limit only grows with time), so most frames cost no division */
+    uint64_t rechallenge_ms; /**< last challenge started for this source while it held freshness */
+    uint16_t replay_streak;  /**< frames judged `replay` in a row (a re-challenge at ub_sec_options_t.replay_streak) */
+    uint8_t win_key;         /**< key id of the frame that last set `win.highest`: removing the key resets the window */
+    uint8_t reproving;       /**< the window's key left the keyring: frames wait (`unverified`) for a new proof */
+    uint8_t rechallenged;    /**< `rechallenge_ms` is set */
 } ub_dedup_entry_t;
 
 /** A local entity: its links, masks, duplicate windows and tables. */

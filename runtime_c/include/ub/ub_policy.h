@@ -24,7 +24,11 @@
  *    source, its own administration table set it up to arrive there, or a
  *    write rule names it; else it is dropped `not_allowed` before storage is
  *    touched.
- *  - **Limits** bound what one non-administrator can make a node send.
+ *  - **Limits** bound what one requester can make a node send: every
+ *    non-administrator has `limits`, every administrator `admin_limits` (its
+ *    own, higher defaults; never none: a request set of an administrator's
+ *    name, which any group-key holder can forge, cannot make a vehicle flood
+ *    its radio, issue #23 item 5).
  *  - **Exclusive administrator** (optional, ub_policy_set_exclusive(); config
  *    "exclusive_admin": true): the paper's "only one entity interfaces with
  *    the global table" per node. While one administrator keeps a live row in
@@ -64,13 +68,19 @@ extern "C" {
 #define UB_POLICY_DEFAULT_MAX_ROWS 8u           /**< per requester, all hosted entities' tables together */
 #define UB_POLICY_DEFAULT_MAX_BYTES_PER_S 32768u /**< about three 50 Hz streams of 100-byte directories */
 #define UB_POLICY_DEFAULT_MAX_LEASE_MS 10000u   /**< 10 renewals at the default renew_ms */
+/* Administrators' limits when a policy gives none: higher, never unbounded (an administrator's table renews
+ * every renew_ms = 1000 with lease 3000, well inside the lease bound). */
+#define UB_POLICY_DEFAULT_ADMIN_MIN_PERIOD_MS 5u        /**< 200 Hz */
+#define UB_POLICY_DEFAULT_ADMIN_MAX_ROWS 32u            /**< per administrator, all hosted entities' tables together */
+#define UB_POLICY_DEFAULT_ADMIN_MAX_BYTES_PER_S 131072u /**< 128 KiB/s of whole frames */
+#define UB_POLICY_DEFAULT_ADMIN_MAX_LEASE_MS 60000u     /**< lease 0 ("no lease") is granted as this */
 /** Smallest max_lease_ms accepted: below the default renewal period every lease would lapse. */
 #define UB_POLICY_MIN_LEASE_MS 1000u
 
 /** Which rule list: who may ask for data (read) or write into storage (write). */
 typedef enum ub_policy_dir { UB_POLICY_READ = 0, UB_POLICY_WRITE = 1 } ub_policy_dir_t;
 
-/** Bounds on what one non-administrator requester may make this node do. */
+/** Bounds on what one requester (a non-administrator, or an administrator) may make this node do. */
 typedef struct ub_policy_limits {
     uint32_t min_period_ms;   /**< shorter periods are refused (NACK LIMIT) */
     uint32_t max_rows;        /**< rows one requester may own in this node's tables, all local entities together */
@@ -95,7 +105,8 @@ typedef struct ub_policy {
     uint8_t exclusive_admin; /**< one administrator at a time per node (ub_policy_set_exclusive()) */
     uint16_t n_rules;
     ub_policy_rule_t rules[UB_POLICY_MAX_RULES];
-    ub_policy_limits_t limits; /**< defaults filled in */
+    ub_policy_limits_t limits;       /**< every non-administrator's; defaults filled in */
+    ub_policy_limits_t admin_limits; /**< every administrator's; defaults (UB_POLICY_DEFAULT_ADMIN_*) filled in */
 } ub_policy_t;
 
 /**
@@ -126,6 +137,15 @@ void ub_policy_set_exclusive(ub_policy_t *pol, bool on);
 
 /** Sets the limits; 0 in a field = its default. @return UB_OK, or UB_ERR_RANGE (max_lease_ms below UB_POLICY_MIN_LEASE_MS). */
 UB_CHECK int ub_policy_set_limits(ub_policy_t *pol, const ub_policy_limits_t *limits);
+
+/**
+ * Sets the administrators' limits; 0 in a field = its UB_POLICY_DEFAULT_ADMIN_* default (never "unbounded").
+ * @return UB_OK, or UB_ERR_RANGE (max_lease_ms below UB_POLICY_MIN_LEASE_MS).
+ */
+UB_CHECK int ub_policy_set_admin_limits(ub_policy_t *pol, const ub_policy_limits_t *limits);
+
+/** @return the limits that apply to an administrator (`admin`) or to anyone else. */
+const ub_policy_limits_t *ub_policy_limits_for(const ub_policy_t *pol, bool admin);
 
 /** @return whether `id` is an administrator. */
 bool ub_policy_is_admin(const ub_policy_t *pol, const uint8_t id[UB_ENTITY_ID_LEN]);

@@ -78,6 +78,22 @@ extern "C" {
 #define UB_SEC_DEFAULT_REPLY_MIN_MS 50u
 /** Challenge sends per outstanding challenge without traffic from the source (then it waits for the next frame). */
 #define UB_SEC_CHALLENGE_TRIES 5u
+/**
+ * Freshness bound (docs/security.md, "Lockout"). No genuine sender's counter rises faster than this
+ * many values per second: it is the wall-clock counter's own rate (10 µs units), which the restart
+ * rule above already assumes of every sender (a node sending more frames per second than that would
+ * outrun its wall clock). A received frame may move its source's window up to
+ * proven + UB_SEC_JUMP_SLACK + rate x (ms since the proof) / 1000, where `proven` is the counter the
+ * source proved by its last CHALLENGE_REPLY; a frame above is dropped `counter_jump`, moves nothing
+ * and has its source challenged again.
+ */
+#define UB_SEC_DEFAULT_MAX_COUNTER_RATE 100000u
+/** Counters a source may be ahead of its bound at once (a burst, its reserve block): one reservation. */
+#define UB_SEC_JUMP_SLACK UB_SEC_DEFAULT_RESERVE_BLOCK
+/** Frames of one source judged `replay` in a row after which it is challenged again (a restarted or locked-out sender recovers). */
+#define UB_SEC_DEFAULT_REPLAY_STREAK 8u
+/** Least time between two challenges a node starts for a source it already holds freshness for (jump or replay streak). */
+#define UB_SEC_DEFAULT_RECHALLENGE_MIN_MS 1000u
 /** SipHash-2-4 key: the 128-bit signing subkey. */
 #define UB_SEC_SIG_KEY_LEN 16u
 /** libsodium KDF contexts (8 characters each) and the subkey id of both subkeys. */
@@ -103,6 +119,9 @@ typedef struct ub_sec_options {
     uint64_t reserve_block;      /**< counters reserved per store; default UB_SEC_DEFAULT_RESERVE_BLOCK */
     uint32_t challenge_retry_ms; /**< resend of an unanswered challenge; default 200 */
     uint32_t reply_min_ms;       /**< least time between two replies to one requester for one nonce; default 50 */
+    uint32_t max_counter_rate;   /**< counters per second a source may advance (the jump bound); default 100000 */
+    uint32_t replay_streak;      /**< `replay` frames in a row that re-challenge their source; default 8 */
+    uint32_t rechallenge_min_ms; /**< least time between two re-challenges of one source; default 1000 */
 } ub_sec_options_t;
 
 /** One key of the keyring. Treat as private. */
@@ -127,6 +146,8 @@ typedef struct ub_sec_stats {
     uint64_t reservations;         /**< successful counter reservations (calls of the reserve callback) */
     uint64_t reserve_failures;     /**< failed reservations: frames were refused rather than counters reused */
     uint64_t tx_refused;           /**< frames not originated because no counter could be handed out */
+    uint64_t rechallenges;         /**< challenges started for a source already holding freshness (jump, replay streak) */
+    uint64_t window_resets;        /**< windows forgotten because the key that set them left the keyring (rotation) */
 } ub_sec_stats_t;
 
 /** A security context. Caller-owned; treat the fields as private (use the functions). */
@@ -254,6 +275,13 @@ typedef enum ub_sec_window_verdict {
     UB_SEC_WINDOW_DUPLICATE, /**< inside the window and already seen */
     UB_SEC_WINDOW_OLD        /**< UB_SEC_WINDOW_BITS or more behind highest: a replay */
 } ub_sec_window_verdict_t;
+
+/**
+ * The highest counter a frame of a source may carry `elapsed_ms` after the source proved counter
+ * `proven` (its CHALLENGE_REPLY): proven + UB_SEC_JUMP_SLACK + max_rate x elapsed_ms / 1000,
+ * saturating at UB_SEC_COUNTER_MAX. Pure; `max_rate` 0 means UB_SEC_DEFAULT_MAX_COUNTER_RATE.
+ */
+uint64_t ub_sec_jump_limit(uint64_t proven, uint64_t elapsed_ms, uint32_t max_rate);
 
 /** Judges `counter` against `w` without changing it. */
 ub_sec_window_verdict_t ub_sec_window_check(const ub_sec_window_t *w, uint64_t counter);

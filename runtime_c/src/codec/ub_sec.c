@@ -72,6 +72,9 @@ int ub_sec_init(ub_sec_t *sec, const ub_sec_options_t *opt) {
     if (sec->opt.reserve_block == 0) sec->opt.reserve_block = UB_SEC_DEFAULT_RESERVE_BLOCK;
     if (sec->opt.challenge_retry_ms == 0) sec->opt.challenge_retry_ms = UB_SEC_DEFAULT_CHALLENGE_RETRY_MS;
     if (sec->opt.reply_min_ms == 0) sec->opt.reply_min_ms = UB_SEC_DEFAULT_REPLY_MIN_MS;
+    if (sec->opt.max_counter_rate == 0) sec->opt.max_counter_rate = UB_SEC_DEFAULT_MAX_COUNTER_RATE;
+    if (sec->opt.replay_streak == 0) sec->opt.replay_streak = UB_SEC_DEFAULT_REPLAY_STREAK;
+    if (sec->opt.rechallenge_min_ms == 0) sec->opt.rechallenge_min_ms = UB_SEC_DEFAULT_RECHALLENGE_MIN_MS;
 #if HAVE_SODIUM
     if (sodium_init() < 0) return UB_ERR_IO;
     sec->initialised = 1;
@@ -308,6 +311,18 @@ int ub_sec_keygen(uint8_t key[UB_SEC_KEY_LEN]) {
 const ub_sec_stats_t *ub_sec_stats(const ub_sec_t *sec) { return sec == NULL ? NULL : &sec->stats; }
 
 /* ---- replay windows ---- */
+
+uint64_t ub_sec_jump_limit(uint64_t proven, uint64_t elapsed_ms, uint32_t max_rate) {
+    if (max_rate == 0) max_rate = UB_SEC_DEFAULT_MAX_COUNTER_RATE;
+    if (proven >= UB_SEC_COUNTER_MAX) return UB_SEC_COUNTER_MAX;
+    uint64_t room = UB_SEC_COUNTER_MAX - proven; /* saturate: no overflow for any clock or rate */
+    if (room <= UB_SEC_JUMP_SLACK) return UB_SEC_COUNTER_MAX;
+    room -= UB_SEC_JUMP_SLACK;
+    uint64_t secs = elapsed_ms / 1000u, ms = elapsed_ms % 1000u; /* rate x time without a 64-bit overflow */
+    if (secs > room / max_rate) return UB_SEC_COUNTER_MAX;
+    uint64_t ahead = secs * max_rate + ms * max_rate / 1000u;
+    return ahead >= room ? UB_SEC_COUNTER_MAX : proven + UB_SEC_JUMP_SLACK + ahead;
+}
 
 ub_sec_window_verdict_t ub_sec_window_check(const ub_sec_window_t *w, uint64_t counter) {
     if (counter > w->highest) return UB_SEC_WINDOW_NEW;

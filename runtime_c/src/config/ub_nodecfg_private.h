@@ -23,7 +23,7 @@ typedef struct ub_cfg_error {
 } ub_cfg_error_t;
 
 /* The "security" keys parsed by ub_policy.c, in the order the loader lists them in messages. */
-#define UB_PRIV_POLICY_KEYS "administrators", "read", "write", "limits", "exclusive_admin"
+#define UB_PRIV_POLICY_KEYS "administrators", "read", "write", "limits", "exclusive_admin", "admin_limits"
 
 /*
  * Parses security member `key` (one of UB_PRIV_POLICY_KEYS) into `pol`, which

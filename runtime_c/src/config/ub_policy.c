@@ -11,25 +11,43 @@
 
 static uint32_t or_default(uint32_t value, uint32_t fallback) { return value != 0 ? value : fallback; }
 
-static void fill_limits(ub_policy_limits_t *out, const ub_policy_limits_t *l) {
-    out->min_period_ms = or_default(l->min_period_ms, UB_POLICY_DEFAULT_MIN_PERIOD_MS);
-    out->max_rows = or_default(l->max_rows, UB_POLICY_DEFAULT_MAX_ROWS);
-    out->max_bytes_per_s = or_default(l->max_bytes_per_s, UB_POLICY_DEFAULT_MAX_BYTES_PER_S);
-    out->max_lease_ms = or_default(l->max_lease_ms, UB_POLICY_DEFAULT_MAX_LEASE_MS);
+static const ub_policy_limits_t DEFAULT_LIMITS = {UB_POLICY_DEFAULT_MIN_PERIOD_MS, UB_POLICY_DEFAULT_MAX_ROWS,
+                                                  UB_POLICY_DEFAULT_MAX_BYTES_PER_S, UB_POLICY_DEFAULT_MAX_LEASE_MS};
+static const ub_policy_limits_t DEFAULT_ADMIN_LIMITS = {
+    UB_POLICY_DEFAULT_ADMIN_MIN_PERIOD_MS, UB_POLICY_DEFAULT_ADMIN_MAX_ROWS, UB_POLICY_DEFAULT_ADMIN_MAX_BYTES_PER_S,
+    UB_POLICY_DEFAULT_ADMIN_MAX_LEASE_MS};
+
+static void fill_limits(ub_policy_limits_t *out, const ub_policy_limits_t *l, const ub_policy_limits_t *defaults) {
+    out->min_period_ms = or_default(l->min_period_ms, defaults->min_period_ms);
+    out->max_rows = or_default(l->max_rows, defaults->max_rows);
+    out->max_bytes_per_s = or_default(l->max_bytes_per_s, defaults->max_bytes_per_s);
+    out->max_lease_ms = or_default(l->max_lease_ms, defaults->max_lease_ms);
 }
 
 void ub_policy_init(ub_policy_t *pol) {
     if (pol == NULL) return;
     memset(pol, 0, sizeof *pol);
-    const ub_policy_limits_t none = {0};
-    fill_limits(&pol->limits, &none);
+    pol->limits = DEFAULT_LIMITS;
+    pol->admin_limits = DEFAULT_ADMIN_LIMITS;
 }
 
 int ub_policy_set_limits(ub_policy_t *pol, const ub_policy_limits_t *limits) {
     if (pol == NULL || limits == NULL) return UB_ERR_INVAL;
     if (limits->max_lease_ms != 0 && limits->max_lease_ms < UB_POLICY_MIN_LEASE_MS) return UB_ERR_RANGE;
-    fill_limits(&pol->limits, limits);
+    fill_limits(&pol->limits, limits, &DEFAULT_LIMITS);
     return UB_OK;
+}
+
+int ub_policy_set_admin_limits(ub_policy_t *pol, const ub_policy_limits_t *limits) {
+    if (pol == NULL || limits == NULL) return UB_ERR_INVAL;
+    if (limits->max_lease_ms != 0 && limits->max_lease_ms < UB_POLICY_MIN_LEASE_MS) return UB_ERR_RANGE;
+    fill_limits(&pol->admin_limits, limits, &DEFAULT_ADMIN_LIMITS);
+    return UB_OK;
+}
+
+const ub_policy_limits_t *ub_policy_limits_for(const ub_policy_t *pol, bool admin) {
+    if (pol == NULL) return admin ? &DEFAULT_ADMIN_LIMITS : &DEFAULT_LIMITS;
+    return admin ? &pol->admin_limits : &pol->limits;
 }
 
 int ub_policy_add_admin(ub_policy_t *pol, const uint8_t id[UB_ENTITY_ID_LEN]) {
@@ -138,7 +156,7 @@ uint64_t ub_policy_row_bytes_per_s(uint32_t packed_size, uint32_t period_ms) {
     return (per_frame * 1000u + period_ms - 1u) / period_ms;
 }
 
-/* ---- configuration: the "security" keys administrators, read, write, limits ----
+/* ---- configuration: the "security" keys administrators, read, write, limits, admin_limits ----
  * Called by the config loader (ub_nodecfg.c, parse_security()) for each of these keys it finds; the
  * frame-security keys of the same section are parsed elsewhere. Format: docs/config-format.md. */
 
@@ -335,14 +353,16 @@ static int cfg_rules(const cfg_parse_t *c, ub_policy_dir_t dir, const ub_json_va
 
 static const char *const LIMIT_FIELDS[] = {"min_period_ms", "max_rows", "max_bytes_per_s", "max_lease_ms"};
 
-static int cfg_limits(const cfg_parse_t *c, const ub_json_value_t *obj) {
+/* "limits" (every non-administrator) or "admin_limits" (every administrator): the same four fields. */
+static int cfg_limits(const cfg_parse_t *c, const ub_json_value_t *obj, bool admin) {
+    const char *section = admin ? "security.admin_limits" : "security.limits";
     ub_policy_limits_t l = {0};
     uint32_t *slots[] = {&l.min_period_ms, &l.max_rows, &l.max_bytes_per_s, &l.max_lease_ms};
     ub_json_iter_t it;
     ub_json_value_t key, v;
     char field[96], name[KEY_BUF];
     if (obj->kind != UB_JSON_OBJECT)
-        return cfg_fail(c, obj->line, NULL, "security.limits",
+        return cfg_fail(c, obj->line, NULL, section,
                         "must be an object with min_period_ms, max_rows, max_bytes_per_s and/or max_lease_ms");
     ub_json_iter_begin(&it, c->doc, obj);
     while (ub_json_iter_next(&it, &key, &v)) {
@@ -350,9 +370,9 @@ static int cfg_limits(const cfg_parse_t *c, const ub_json_value_t *obj) {
         size_t k = 0;
         while (k < 4 && !(n < KEY_BUF && strcmp(LIMIT_FIELDS[k], name) == 0)) k++;
         if (k == 4)
-            return cfg_fail(c, key.line, NULL, "security.limits",
+            return cfg_fail(c, key.line, NULL, section,
                             "unknown field (expected one of: min_period_ms, max_rows, max_bytes_per_s, max_lease_ms)");
-        (void)snprintf(field, sizeof field, "security.limits.%s", LIMIT_FIELDS[k]);
+        (void)snprintf(field, sizeof field, "%s.%s", section, LIMIT_FIELDS[k]);
         if (*slots[k] != 0) return cfg_fail(c, key.line, NULL, field, "duplicate field");
         uint64_t value = 0;
         bool ok = v.kind == UB_JSON_NUMBER && v.end - v.start <= 10;
@@ -369,8 +389,8 @@ static int cfg_limits(const cfg_parse_t *c, const ub_json_value_t *obj) {
                             UB_POLICY_MIN_LEASE_MS);
         *slots[k] = (uint32_t)value;
     }
-    return ub_policy_set_limits(c->pol, &l) == UB_OK ? UB_OK
-                                                      : cfg_fail(c, obj->line, NULL, "security.limits", "refused");
+    int rc = admin ? ub_policy_set_admin_limits(c->pol, &l) : ub_policy_set_limits(c->pol, &l);
+    return rc == UB_OK ? UB_OK : cfg_fail(c, obj->line, NULL, section, "refused");
 }
 
 static int cfg_exclusive(const cfg_parse_t *c, const ub_json_value_t *v) {
@@ -388,6 +408,7 @@ int ub_priv_policy_parse_key(ub_policy_t *pol, const ub_nodecfg_t *cfg, const ub
     if (strcmp(key, "administrators") == 0) return cfg_administrators(&c, value);
     if (strcmp(key, "read") == 0) return cfg_rules(&c, UB_POLICY_READ, value);
     if (strcmp(key, "write") == 0) return cfg_rules(&c, UB_POLICY_WRITE, value);
-    if (strcmp(key, "limits") == 0) return cfg_limits(&c, value);
+    if (strcmp(key, "limits") == 0) return cfg_limits(&c, value, false);
+    if (strcmp(key, "admin_limits") == 0) return cfg_limits(&c, value, true);
     return UB_ERR_NOTFOUND;
 }

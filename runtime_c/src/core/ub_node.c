@@ -576,7 +576,7 @@ static int next_counter(ub_node_t *node, uint64_t *counter) {
  * context's when one is attached: it may refuse, and then nothing is sent) and key id; enters it in the
  * slot's window, so a copy that loops back is cut there. Every originated frame, routed or link-local,
  * goes through here. */
-static int stamp(ub_node_t *node, int slot, ub_frame_header_t *h, uint8_t hop_limit) {
+static int stamp(ub_node_t *node, int slot, ub_frame_header_t *h, uint8_t hop_limit, uint64_t now_ms) {
     ub_local_entity_t *loc = &node->locals[slot];
     if (h->payload_size > UB_MAX_PAYLOAD) return UB_ERR_RANGE;
     uint64_t counter;
@@ -590,7 +590,7 @@ static int stamp(ub_node_t *node, int slot, ub_frame_header_t *h, uint8_t hop_li
     h->counter_hi = (uint16_t)(counter >> 32);
     h->key_id = node->sec != NULL ? ub_sec_tx_key(node->sec) : 0;
     node->counters.originated++;
-    ub_priv_window_note_own(node, slot, h, h->key_id != 0);
+    ub_priv_window_note_own(node, slot, h, h->key_id != 0, now_ms);
     return UB_OK;
 }
 
@@ -615,7 +615,7 @@ int ub_priv_originate(ub_node_t *node, int slot, uint8_t *frame, size_t cap, ub_
                       uint64_t now_ms) {
     ub_local_entity_t *loc = &node->locals[slot];
     if (cap < UB_FRAME_MAX) return UB_ERR_NOSPACE;
-    int rc = stamp(node, slot, h, node->opt.hop_limit);
+    int rc = stamp(node, slot, h, node->opt.hop_limit, now_ms);
     if (rc < 0) return rc;
     int dest_row;
     int dest_slot = local_destination(node, h->dest_id, &dest_row);
@@ -638,7 +638,7 @@ int ub_priv_originate_local(ub_node_t *node, int slot, int dest_slot, ub_frame_h
                             uint64_t now_ms) {
     uint16_t size = h->payload_size;
     h->payload_size = 0; /* stamp() guards the frame's payload limit; this one never becomes a frame */
-    int rc = stamp(node, slot, h, node->opt.hop_limit);
+    int rc = stamp(node, slot, h, node->opt.hop_limit, now_ms);
     h->payload_size = size;
     if (rc < 0) return rc;
     node->counters.local_direct++;
@@ -935,7 +935,7 @@ int ub_node_send_link_local(ub_node_t *node, int link_id, ub_admin_code_t code, 
     h.admin = (uint8_t)code;
     h.payload_size = len;
     const ub_link_t *link = &node->links[link_id];
-    int rc = stamp(node, link->owner, &h, 1);
+    int rc = stamp(node, link->owner, &h, 1, now_ms);
     if (rc < 0) return rc;
     /* Signed or encrypted like any frame on that link (docs/routing.md, docs/security.md). */
     return send_stamped(node, link->owner, (uint8_t)(1u << link->index), frame, &h, now_ms);

@@ -89,7 +89,7 @@ ub_priv_window_t ub_priv_window_pass(ub_node_t *node, int slot, int link_id, con
                                      const ub_priv_rx_t *rx, uint64_t now_ms);
 
 /* Enters an originated frame (seq / counter in `h`) in the originator's own window. */
-void ub_priv_window_note_own(ub_node_t *node, int slot, const ub_frame_header_t *h, bool secured);
+void ub_priv_window_note_own(ub_node_t *node, int slot, const ub_frame_header_t *h, bool secured, uint64_t now_ms);
 
 /* The freshness-challenge service (CHALLENGE / CHALLENGE_REPLY), registered by ub_node_core_init(). */
 extern const ub_service_t ub_priv_sec_service;

@@ -152,7 +152,20 @@ static inline bool unsigned_seen(ub_node_t *node, ub_dedup_entry_t *e, bool fres
     return false;
 }
 
-void ub_priv_window_note_own(ub_node_t *node, int slot, const ub_frame_header_t *h, bool secured) {
+/* The source proved `counter` (a CHALLENGE_REPLY bound to our nonce, or our own frame): the window starts
+ * there with everything at or below barred, and the jump bound grows from here. */
+static void prove(ub_dedup_entry_t *e, uint64_t counter, uint8_t key_id, uint64_t now_ms) {
+    ub_sec_window_establish(&e->win, counter);
+    e->secured = 1;
+    e->proven = counter;
+    e->proven_ms = now_ms;
+    e->jump_bound = ub_sec_jump_limit(counter, 0, 0); /* proven + slack: the bound at any rate and time */
+    e->win_key = key_id;
+    e->replay_streak = 0;
+    e->reproving = 0;
+}
+
+void ub_priv_window_note_own(ub_node_t *node, int slot, const ub_frame_header_t *h, bool secured, uint64_t now_ms) {
     ub_local_entity_t *loc = &node->locals[slot];
     bool fresh;
     ub_dedup_entry_t *e = entry_get(node, loc, h->src_id, &fresh);
@@ -162,9 +175,10 @@ void ub_priv_window_note_own(ub_node_t *node, int slot, const ub_frame_header_t 
         return;
     }
     uint64_t counter = ub_frame_counter(h);
-    if (!e->secured) {
-        e->secured = 1;
-        ub_sec_window_establish(&e->win, counter);
+    if (!e->secured || e->reproving || counter > e->win.highest) {
+        /* Our own counter is its own proof: a frame claiming to be ours can never get ahead of it by more
+         * than the bound. */
+        prove(e, counter, h->key_id, now_ms);
     } else if (ub_sec_window_check(&e->win, counter) == UB_SEC_WINDOW_NEW) {
         ub_sec_window_accept(&e->win, counter);
     }
@@ -212,6 +226,67 @@ static void challenge(ub_node_t *node, int slot, int link_id, ub_dedup_entry_t *
     send_challenge(node, slot, e, now_ms);
 }
 
+/* A source that holds freshness here looks out of step (a counter jump, or a run of `replay`): challenge it
+ * again, at most once per rechallenge_min_ms, keeping its window until the reply re-proves its counter. A
+ * genuine sender that restarted, or whose window a forged frame pushed ahead, recovers this way. */
+static void rechallenge(ub_node_t *node, int slot, int link_id, ub_dedup_entry_t *e, uint64_t now_ms) {
+    ub_sec_t *sec = node->sec;
+    if (!e->challenging) {
+        bool recent = e->rechallenged && now_ms >= e->rechallenge_ms && now_ms - e->rechallenge_ms < sec->opt.rechallenge_min_ms;
+        if (recent) return;
+        e->rechallenged = 1;
+        e->rechallenge_ms = now_ms;
+        sec->stats.rechallenges++;
+    }
+    challenge(node, slot, link_id, e, e->src, now_ms);
+}
+
+/* The key whose frames set this window left the keyring (a rotation removed it): what they set is forgotten,
+ * and the source proves its counter again under a key still held. */
+static void check_window_key(ub_node_t *node, ub_dedup_entry_t *e) {
+    if (e->win_key == 0 || ub_sec_has_key(node->sec, e->win_key)) return;
+    e->win_key = 0;
+    e->reproving = 1;
+    e->challenging = 0; /* a challenge under the removed key may be outstanding: start afresh */
+    node->sec->stats.window_resets++;
+}
+
+static ub_priv_window_t secured_pass(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h,
+                                     const ub_priv_rx_t *rx, ub_dedup_entry_t *e, uint64_t now_ms) {
+    ub_sec_t *sec = node->sec;
+    e->last_used = ++node->use_stamp;
+    /* A CHALLENGE_REPLY while we challenge is judged by its nonce (on_reply), not by the window it may repair. */
+    bool awaited_reply = h->admin == UB_ADMIN_CHALLENGE_REPLY && e->challenging;
+    if (rx->counter > e->jump_bound) { /* beyond the bound last computed: compute it for now */
+        uint64_t elapsed = now_ms >= e->proven_ms ? now_ms - e->proven_ms : 0; /* a clock gone back: no credit */
+        uint64_t limit = ub_sec_jump_limit(e->proven, elapsed, sec->opt.max_counter_rate);
+        if (limit > e->jump_bound) e->jump_bound = limit;
+    }
+    if (rx->counter > e->jump_bound) {
+        if (awaited_reply) return UB_PRIV_WINDOW_PASS;
+        ub_priv_count_drop(node, link_id, UB_DROP_COUNTER_JUMP);
+        rechallenge(node, slot, link_id, e, now_ms);
+        return UB_PRIV_WINDOW_DROPPED;
+    }
+    switch (ub_sec_window_check(&e->win, rx->counter)) {
+    case UB_SEC_WINDOW_NEW:
+        if (rx->counter > e->win.highest) e->win_key = h->key_id;
+        ub_sec_window_accept(&e->win, rx->counter);
+        e->replay_streak = 0;
+        return UB_PRIV_WINDOW_PASS;
+    case UB_SEC_WINDOW_DUPLICATE:
+        ub_priv_count_drop(node, link_id, UB_DROP_DUPLICATE);
+        return UB_PRIV_WINDOW_DUPLICATE;
+    case UB_SEC_WINDOW_OLD:
+    default:
+        if (awaited_reply) return UB_PRIV_WINDOW_PASS;
+        ub_priv_count_drop(node, link_id, UB_DROP_REPLAY);
+        if (e->replay_streak < UINT16_MAX) e->replay_streak++;
+        if (e->replay_streak >= sec->opt.replay_streak) rechallenge(node, slot, link_id, e, now_ms);
+        return UB_PRIV_WINDOW_DROPPED;
+    }
+}
+
 ub_priv_window_t ub_priv_window_pass(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h,
                                      const ub_priv_rx_t *rx, uint64_t now_ms) {
     ub_local_entity_t *loc = &node->locals[slot];
@@ -231,21 +306,12 @@ ub_priv_window_t ub_priv_window_pass(ub_node_t *node, int slot, int link_id, con
         return UB_PRIV_WINDOW_PASS;
     }
     if (e != NULL && e->secured) {
-        e->last_used = ++node->use_stamp;
-        switch (ub_sec_window_check(&e->win, rx->counter)) {
-        case UB_SEC_WINDOW_NEW:
-            ub_sec_window_accept(&e->win, rx->counter);
-            return UB_PRIV_WINDOW_PASS;
-        case UB_SEC_WINDOW_DUPLICATE:
-            ub_priv_count_drop(node, link_id, UB_DROP_DUPLICATE);
-            return UB_PRIV_WINDOW_DUPLICATE;
-        case UB_SEC_WINDOW_OLD:
-            ub_priv_count_drop(node, link_id, UB_DROP_REPLAY);
-            return UB_PRIV_WINDOW_DROPPED;
-        }
+        check_window_key(node, e);
+        if (!e->reproving) return secured_pass(node, slot, link_id, h, rx, e, now_ms);
     }
-    /* No freshness state: the counter proves nothing (it may be a captured frame). A challenge and
-     * its reply are the exception that builds the state: they are idempotent and bound to a nonce. */
+    /* No freshness state (or none under a key still held): the counter proves nothing (it may be a captured
+     * frame). A challenge and its reply are the exception that builds the state: they are idempotent and
+     * bound to a nonce. */
     if (is_challenge_code(h->admin)) return UB_PRIV_WINDOW_PASS;
     ub_priv_count_drop(node, link_id, UB_DROP_UNVERIFIED);
     challenge(node, slot, link_id, e, h->src_id, now_ms);
@@ -283,7 +349,8 @@ static void on_challenge(ub_node_t *node, int slot, int link_id, const ub_frame_
     (void)ub_priv_originate(node, slot, frame, sizeof frame, &r, link_id, now_ms);
 }
 
-static void on_reply(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h, const uint8_t *nonce) {
+static void on_reply(ub_node_t *node, int slot, int link_id, const ub_frame_header_t *h, const uint8_t *nonce,
+                     uint64_t now_ms) {
     ub_dedup_entry_t *e = entry_find(&node->locals[slot], h->src_id);
     if (e == NULL || !e->challenging || memcmp(e->nonce, nonce, UB_SEC_NONCE_LEN) != 0) {
         ub_priv_count_drop(node, link_id, UB_DROP_REPLAY); /* bound to no outstanding challenge of ours */
@@ -291,8 +358,7 @@ static void on_reply(ub_node_t *node, int slot, int link_id, const ub_frame_head
     }
     /* The reply carries the source's current counter: nothing at or below it (any captured frame)
      * will ever pass; everything it sends next does. */
-    ub_sec_window_establish(&e->win, ub_frame_counter(h));
-    e->secured = 1;
+    prove(e, ub_frame_counter(h), h->key_id, now_ms);
     e->challenging = 0;
     e->challenge_tries = 0;
     memset(e->nonce, 0, sizeof e->nonce);
@@ -317,7 +383,7 @@ static bool sec_on_frame(const ub_service_t *svc, ub_node_t *node, const ub_serv
     if (h->admin == UB_ADMIN_CHALLENGE)
         on_challenge(node, slot, link_id, h, payload, now_ms);
     else
-        on_reply(node, slot, link_id, h, payload);
+        on_reply(node, slot, link_id, h, payload, now_ms);
     return true;
 }
 

@@ -11,6 +11,7 @@
 static const char *const status_names[] = {
     [UB_ADMIN_INACTIVE] = "inactive",         [UB_ADMIN_PENDING] = "pending", [UB_ADMIN_ACKNOWLEDGED] = "acknowledged",
     [UB_ADMIN_ACTIVE] = "active",             [UB_ADMIN_FAILED] = "failed",   [UB_ADMIN_STOPPING] = "stopping",
+    [UB_ADMIN_STALE] = "stale",
 };
 
 const char *ub_admin_status_name(ub_admin_status_t status) {
@@ -108,6 +109,7 @@ int ub_admin_set_active(ub_admin_t *adm, int row, bool active, uint64_t now_ms) 
         r->info.acked_at_ms = 0;
         r->info.active_at_ms = 0;
         r->info.last_ack_ms = 0;
+        r->info.last_data_ms = 0;
         enter(r, UB_ADMIN_PENDING, now_ms);
     } else if (!active && r->info.active_flag) {
         enter(r, st == UB_ADMIN_FAILED ? UB_ADMIN_INACTIVE : UB_ADMIN_STOPPING, now_ms);
@@ -181,6 +183,35 @@ static bool reply_is_for(const ub_admin_t *adm, const ub_admin_row_t *row, const
            memcmp(h->dir_id, ub_node_catalogue(adm->node)->instances[spec->instance].id, UB_DIR_ID_LEN) == 0;
 }
 
+/* The row's destination is an entity of this node: the table sees its data arrive (pubsub_on_data). */
+static bool data_observable(const ub_admin_t *adm, const ub_admin_row_spec_t *spec) {
+    int e = ub_node_find_entity(adm->node, spec->destination);
+    return e >= 0 && ub_node_entity_slot(adm->node, e) >= 0;
+}
+
+/* An acknowledged row with an observable destination that got no data for UB_ADMIN_STALE_PERIODS periods + margin,
+ * counted from its first ACK or its last data, whichever is later. */
+static bool data_quiet(const ub_admin_t *adm, const ub_admin_row_t *row, uint64_t now_ms) {
+    const ub_admin_row_info_t *info = &row->info;
+    if (info->acked_at_ms == 0 || !data_observable(adm, &info->spec)) return false;
+    uint64_t since = info->last_data_ms > info->acked_at_ms ? info->last_data_ms : info->acked_at_ms;
+    uint64_t allowed = (uint64_t)UB_ADMIN_STALE_PERIODS * info->spec.period_ms + UB_ADMIN_STALE_MARGIN_MS;
+    return now_ms > since && now_ms - since > allowed;
+}
+
+void ub_priv_admin_on_data(ub_admin_t *adm, uint32_t instance, const uint8_t src_id[UB_ENTITY_ID_LEN],
+                           const uint8_t dest_id[UB_ENTITY_ID_LEN], uint64_t now_ms) {
+    for (int r = 0; r < UB_MAX_ADMIN_ROWS; r++) {
+        ub_admin_row_t *row = &adm->rows[r];
+        const ub_admin_row_spec_t *spec = &row->info.spec;
+        if (!row->in_use || spec->instance != instance || memcmp(spec->source, src_id, UB_ENTITY_ID_LEN) != 0 ||
+            memcmp(spec->destination, dest_id, UB_ENTITY_ID_LEN) != 0)
+            continue;
+        row->info.last_data_ms = now_ms;
+        if (row->info.status == UB_ADMIN_STALE) row->info.status = (ub_admin_status_t)row->acked_status;
+    }
+}
+
 bool ub_priv_admin_on_reply(ub_admin_t *adm, const ub_frame_header_t *h, uint32_t request_id, uint8_t code, bool nack,
                             uint8_t detail, uint8_t flags, uint64_t now_ms) {
     for (int r = 0; r < UB_MAX_ADMIN_ROWS; r++) {
@@ -192,7 +223,7 @@ bool ub_priv_admin_on_reply(ub_admin_t *adm, const ub_frame_header_t *h, uint32_
             return true;
         }
         bool live = info->status == UB_ADMIN_PENDING || info->status == UB_ADMIN_ACKNOWLEDGED ||
-                    info->status == UB_ADMIN_ACTIVE;
+                    info->status == UB_ADMIN_ACTIVE || info->status == UB_ADMIN_STALE;
         if (!live || code != request_code(&info->spec)) return true;
         if (nack) {
             info->nack_reason = (ub_nack_reason_t)detail;
@@ -202,8 +233,16 @@ bool ub_priv_admin_on_reply(ub_admin_t *adm, const ub_frame_header_t *h, uint32_
         }
         info->last_ack_ms = now_ms;
         if (info->acked_at_ms == 0) info->acked_at_ms = now_ms;
-        info->status = (detail & UB_ACK_FLOWING) ? UB_ADMIN_ACTIVE : UB_ADMIN_ACKNOWLEDGED;
-        if (info->status == UB_ADMIN_ACTIVE && info->active_at_ms == 0) info->active_at_ms = now_ms;
+        row->acked_status = (detail & UB_ACK_FLOWING) ? UB_ADMIN_ACTIVE : UB_ADMIN_ACKNOWLEDGED;
+        if (row->acked_status == UB_ADMIN_ACTIVE && info->active_at_ms == 0) info->active_at_ms = now_ms;
+        /* The target's word does not make data arrive: a stale row stays stale until the data does. Where the
+         * data cannot be seen here, a subscription row's destination says it: no FLOWING after it had reported
+         * FLOWING means its data stopped (its row fell back to requesting), not that it has yet to start. */
+        bool stale = data_observable(adm, &info->spec)
+                         ? info->status == UB_ADMIN_STALE && data_quiet(adm, row, now_ms)
+                         : info->spec.type == UB_ADMIN_ROW_SUBSCRIPTION && row->acked_status == UB_ADMIN_ACKNOWLEDGED &&
+                               info->active_at_ms != 0;
+        info->status = stale ? UB_ADMIN_STALE : (ub_admin_status_t)row->acked_status;
         info->attempts = 0;
         row->next_send_ms = now_ms + adm->opt.renew_ms;
         return true;
@@ -234,8 +273,10 @@ void ub_priv_admin_tick(ub_admin_t *adm, uint64_t now_ms) {
         switch (info->status) {
         case UB_ADMIN_ACKNOWLEDGED:
         case UB_ADMIN_ACTIVE:
+        case UB_ADMIN_STALE:
             /* Renewals keep the target's lease; silence for a whole lease means the target is gone. */
             if (now_ms - info->last_ack_ms > adm->opt.lease_ms) enter(row, UB_ADMIN_PENDING, now_ms);
+            else if (info->status != UB_ADMIN_STALE && data_quiet(adm, row, now_ms)) info->status = UB_ADMIN_STALE;
             /* fall through */
         case UB_ADMIN_PENDING:
             if (now_ms < row->next_send_ms) break;

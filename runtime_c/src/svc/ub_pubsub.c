@@ -278,12 +278,13 @@ static uint64_t row_cost(const ub_node_t *node, uint32_t instance, uint32_t peri
 }
 
 /*
- * Limits of a non-administrator (ub_policy_limits_t): the period, and its rows and their bytes per second
- * over every table of this node once `replacing` (its existing row, or NULL) takes the new period.
+ * Limits of a requester (ub_policy_limits_t; an administrator's own, higher ones: never none, issue #23 item 5):
+ * the period, and its rows and their bytes per second over every table of this node once `replacing` (its
+ * existing row, or NULL) takes the new period.
  */
-static bool within_limits(const ub_node_t *node, const uint8_t requester[UB_ENTITY_ID_LEN], uint32_t instance,
-                          uint32_t period_ms, const ub_ps_row_t *replacing) {
-    const ub_policy_limits_t *lim = &ub_node_policy(node)->limits;
+static bool within_limits(const ub_node_t *node, const uint8_t requester[UB_ENTITY_ID_LEN], bool admin,
+                          uint32_t instance, uint32_t period_ms, const ub_ps_row_t *replacing) {
+    const ub_policy_limits_t *lim = ub_policy_limits_for(ub_node_policy(node), admin);
     if (period_ms < lim->min_period_ms) return false;
     uint64_t rows = 1, bytes = row_cost(node, instance, period_ms);
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
@@ -299,10 +300,10 @@ static bool within_limits(const ub_node_t *node, const uint8_t requester[UB_ENTI
     return rows <= lim->max_rows && bytes <= lim->max_bytes_per_s;
 }
 
-/* A non-administrator's lease: never "no lease", never longer than max_lease_ms. */
+/* A policed requester's lease (an administrator's too): never "no lease", never longer than its max_lease_ms. */
 static uint32_t granted_lease(ub_node_t *node, const sender_t *s, uint32_t lease_ms) {
-    if (!s->policed || s->admin) return lease_ms;
-    uint32_t max = ub_node_policy(node)->limits.max_lease_ms;
+    if (!s->policed) return lease_ms;
+    uint32_t max = ub_policy_limits_for(ub_node_policy(node), s->admin)->max_lease_ms;
     if (lease_ms != 0 && lease_ms <= max) return lease_ms;
     ub_node_svc_counters(node)->leases_clamped++;
     return max;
@@ -383,8 +384,7 @@ static bool on_pub_request(ub_node_t *node, int slot, const sender_t *s, const r
     /* A remote request never changes a row created locally; a non-administrator changes only its own rows.
      * Either way the data already flows to the requester, so it gets its ACK. */
     bool keep = claim == CLAIM_LOCAL || (!s->admin && claim != CLAIM_MINE && claim != CLAIM_NEW);
-    if (!keep && s->policed && !s->admin &&
-        !within_limits(node, h->src_id, (uint32_t)idx, req->period_ms, existing)) {
+    if (!keep && s->policed && !within_limits(node, h->src_id, s->admin, (uint32_t)idx, req->period_ms, existing)) {
         ub_node_svc_counters(node)->requests_limited++;
         reply(node, slot, h, req->id, true, UB_NACK_LIMIT, now_ms);
         return true;
@@ -438,6 +438,11 @@ static bool on_sub_request(ub_node_t *node, int slot, const sender_t *s, const r
         reply(node, slot, h, req->id, false, subscription_flowing(existing) ? UB_ACK_FLOWING : 0, now_ms);
         return true;
     }
+    if (s->policed && !within_limits(node, h->src_id, s->admin, (uint32_t)idx, req->period_ms, existing)) {
+        ub_node_svc_counters(node)->requests_limited++;
+        reply(node, slot, h, req->id, true, UB_NACK_LIMIT, now_ms);
+        return true;
+    }
     ub_ps_row_t *row = existing != NULL ? existing : new_row_for(node, t, s, UB_PS_SUBSCRIPTION, (uint32_t)idx, req->peer);
     if (row == NULL) {
         reply(node, slot, h, req->id, true, UB_NACK_TABLE_FULL, now_ms);
@@ -457,7 +462,7 @@ static bool on_sub_request(ub_node_t *node, int slot, const sender_t *s, const r
         row->source_nack = 0;
         if (existing == NULL || stopping) row->source_acked = 0;
     }
-    take_ownership(row, h, req->id, req->lease_ms, now_ms);
+    take_ownership(row, h, req->id, granted_lease(node, s, req->lease_ms), now_ms);
     if (row->source_nack != 0) {
         /* A renewal while the source refuses: the refusal is the row's status, not an ACK. */
         ub_node_svc_counters(node)->nacks_relayed++;
@@ -622,6 +627,10 @@ static bool pubsub_may_write(const ub_service_t *svc, const ub_node_t *node, int
 static void pubsub_on_data(const ub_service_t *svc, ub_node_t *node, int slot, uint32_t instance,
                            const uint8_t src_id[UB_ENTITY_ID_LEN], uint64_t now_ms) {
     (void)svc;
+    for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) { /* administration rows whose data this is (not stale) */
+        ub_admin_t *adm = ub_node_slot_entity(node, s) >= 0 ? table_of(node, s)->admin : NULL;
+        if (adm != NULL) ub_priv_admin_on_data(adm, instance, src_id, self_id(node, slot), now_ms);
+    }
     ub_pubsub_table_t *t = table_of(node, slot);
     int r = find_row(t, UB_PS_SUBSCRIPTION, instance, src_id, false);
     if (r < 0) return;

@@ -48,4 +48,8 @@ bool ub_priv_admin_routes_to(const ub_admin_t *adm, uint32_t instance, const uin
 
 void ub_priv_admin_tick(ub_admin_t *adm, uint64_t now_ms);
 
+/* DATA of `instance` from `src_id` reached local entity `dest_id`: the rows it stands for are not stale. */
+void ub_priv_admin_on_data(ub_admin_t *adm, uint32_t instance, const uint8_t src_id[UB_ENTITY_ID_LEN],
+                           const uint8_t dest_id[UB_ENTITY_ID_LEN], uint64_t now_ms);
+
 #endif /* UB_SVC_PRIVATE_H */

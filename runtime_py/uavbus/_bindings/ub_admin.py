@@ -60,6 +60,7 @@ def ub_admin_row_status(adm: Any, row: int) -> dict[str, Any]:
         "nack_relayed": bool(info.nack_relayed),
         "request_id": int(info.request_id), "attempts": int(info.attempts), "acked_at_ms": int(info.acked_at_ms),
         "active_at_ms": int(info.active_at_ms), "last_ack_ms": int(info.last_ack_ms),
+        "last_data_ms": int(info.last_data_ms),
     }
 
 

@@ -15,7 +15,7 @@ FRAME_MAX: int = lib.UB_FRAME_MAX
 MAX_PAYLOAD: int = lib.UB_MAX_PAYLOAD
 STATS_FIELDS = ("signed_out", "encrypted_out", "verified_in", "decrypted_in", "auth_failures", "unknown_keys",
                 "challenges_sent", "challenges_completed", "replies_sent", "replies_suppressed", "reservations",
-                "reserve_failures", "tx_refused")
+                "reserve_failures", "tx_refused", "rechallenges", "window_resets")
 
 
 def available() -> bool:

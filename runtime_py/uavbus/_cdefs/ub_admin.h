@@ -6,7 +6,7 @@ typedef enum ub_admin_row_type { UB_ADMIN_ROW_PUBLICATION, UB_ADMIN_ROW_SUBSCRIP
 
 typedef enum ub_admin_status {
     UB_ADMIN_INACTIVE, UB_ADMIN_PENDING, UB_ADMIN_ACKNOWLEDGED, UB_ADMIN_ACTIVE, UB_ADMIN_FAILED,
-    UB_ADMIN_STOPPING, ...
+    UB_ADMIN_STOPPING, UB_ADMIN_STALE, ...
 } ub_admin_status_t;
 
 const char *ub_admin_status_name(ub_admin_status_t status);
@@ -39,6 +39,7 @@ typedef struct ub_admin_row_info {
     uint64_t acked_at_ms;
     uint64_t active_at_ms;
     uint64_t last_ack_ms;
+    uint64_t last_data_ms;
     ...;
 } ub_admin_row_info_t;
 

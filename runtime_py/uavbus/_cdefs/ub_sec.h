@@ -16,6 +16,9 @@ struct ub_sec_options {
     uint64_t reserve_block;
     uint32_t challenge_retry_ms;
     uint32_t reply_min_ms;
+    uint32_t max_counter_rate;
+    uint32_t replay_streak;
+    uint32_t rechallenge_min_ms;
     ...;
 };
 
@@ -33,6 +36,8 @@ typedef struct ub_sec_stats {
     uint64_t reservations;
     uint64_t reserve_failures;
     uint64_t tx_refused;
+    uint64_t rechallenges;
+    uint64_t window_resets;
     ...;
 } ub_sec_stats_t;
 

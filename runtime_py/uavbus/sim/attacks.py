@@ -33,10 +33,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from uavbus._bindings import ub_sec
 from uavbus.sim.attacker import UdpTap, forge, insert_udp_tap, tcp_connect
 from uavbus.sim.hitl import Hitl, HitlOptions
 
-__all__ = ["ATTACKS", "SHORT_ATTACKS", "AttackResult", "Campaign", "attack_options", "start_with_tap"]
+__all__ = ["ATTACKS", "SHORT_ATTACKS", "LOCKOUT", "LOCKOUT_COUNTER", "AttackResult", "Campaign", "attack_options",
+           "start_with_tap"]
 
 DATA, PUB_REQUEST, PUB_STOP, NACK = 0, 1, 3, 6     # admin codes (ub_frame.h)
 NACK_TABLE_FULL = 3
@@ -67,6 +69,10 @@ ATTACKS = (
     "TCP takeover",
     "replay after a restart of both ends",
 )
+# Issue 23's lockout, by an insider who holds the group key (a captured vehicle): not one of ATTACKS (whose
+# attacker holds no key), run by Campaign.insider_lockout() with the fleet's key file.
+LOCKOUT = "lockout: one frame in fcs20's name, counter 2^48-2, group key"
+LOCKOUT_COUNTER = (1 << 48) - 2
 SHORT_ATTACKS = ("forged admin request (spoofed UDP source)", "forged write: armed = 1", "forged gpsOut to the GCS",
                  "forged NACK", "1 ms amplification (1 request)", "replay of recorded frames")
 
@@ -510,6 +516,40 @@ class Campaign:
         twice = self._delivered_twice(mark)
         return self._result(name, len(down) + len(up), self._dropped(before, after, where), twice,
                             f"messages delivered twice at gcs1: {twice}", where)
+
+    # ---- an insider: the group key ------------------------------------------------------------------------
+    def insider_lockout(self, key_file: Path, watch_s: float = 3.0) -> AttackResult:
+        """Issue 23's lockout by a holder of the fleet key (a captured vehicle): ONE imuOut frame in fcs20's
+        name, signed with the group key, counter 2^48-2, injected toward the forwarder rmax1ob1 (on fcs20's
+        path to gcs1) and toward gcs1 itself. Before the jump bound it moved both windows past every counter
+        fcs20 will ever use, silencing it for good; now each is dropped `counter_jump` (docs/security.md,
+        "Lockout") and fcs20's imuOut keeps its rate. `accepted` counts the frame where it got in, plus 1 if
+        imuOut at gcs1 fell below 90 % of its 50 Hz afterwards."""
+        key_id, key = ub_sec.ub_keyfile_load(str(key_file))
+        genuine = [f for f in self.tap.frames("b>a") if _src(f) == "fcs20" and f[48] == DATA]
+        payload = _payload(genuine[-1]) if genuine else bytes(self.cat.instance("imuOut").type.packed_size)
+        frame = forge(self.cat, "imuOut", "fcs20", "gcs1", payload, counter=LOCKOUT_COUNTER, mode="signed", key=key,
+                      key_id=key_id)
+        where = [("primary", UDP_LINK["primary"]), ("gcs", UDP_LINK["gcs"])]
+        before = self._snap("gcs", "primary")
+        self.tap.inject("a>b", frame)          # to the forwarder rmax1ob1, as if from gcs1's side of the datalink
+        self.tap.inject("b>a", frame)          # to gcs1, as if relayed by rmax1ob1
+        self._settle(0.5)
+        t0 = time.monotonic()
+        self.h.run_for(watch_s)
+        t1 = time.monotonic()
+        after = self._snap("gcs", "primary")
+        imu = self.h.meter("imuOut", "fcs20").rate_hz(t0, t1)
+        status = self.h.admin.status(self.rows["imu"])["status"] if "imu" in self.rows else "?"
+        silenced = int(imu < 0.9 * 1000 / IMU_MS)
+        dropped = self._dropped(before, after, where)
+        # not in self.results: those are the keyless attacker's (run()'s list)
+        r = AttackResult(LOCKOUT, 2, max(2 - sum(dropped.values()), silenced, 0), dropped,
+                         f"imuOut from fcs20 at gcs1 over the next {watch_s:.0f} s: {imu:.1f} Hz "
+                         f"({1000 / IMU_MS:.0f} requested); GCS row {status}",
+                         ", ".join(f"{ENTITY[n]}:{link}" for n, link in where))
+        r.extra.update(imu_hz=imu, gps_hz=self.h.meter("gpsOut", "rmax1ob1").rate_hz(t0, t1), row_status=status)
+        return r
 
     # ---- running ----------------------------------------------------------------------------------------
     def run(self, names: tuple[str, ...] | list[str] = ATTACKS, record_s: float = 4.5) -> list[AttackResult]:

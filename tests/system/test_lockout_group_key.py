@@ -1,0 +1,52 @@
+"""Issue 23 item 5 acceptance (the group-key half of the demo's lockout line): an insider who holds the fleet
+key sends ONE imuOut frame in fcs20's name with counter 2^48-2, into the Table 2 processes on 127.0.0.1, toward
+the forwarder rmax1ob1 (on fcs20's 2-hop path to gcs1) and toward gcs1. Before the jump bound this silenced fcs20
+for good at both. Now each copy is dropped and counted `counter_jump` where it arrived, nothing is forwarded, and
+fcs20's imuOut keeps reaching gcs1 at its 50 Hz (within 10 %), the GCS row staying active.
+
+The campaign machinery is uavbus.sim.attacks' (Campaign.insider_lockout), as make demo's attacker step.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from uavbus.sim.attacks import LOCKOUT, Campaign, attack_options, start_with_tap
+from uavbus.sim.build import REPO
+from uavbus.sim.secure import signed_config
+
+pytestmark = pytest.mark.timeout(120)
+
+TABLE2 = REPO / "examples" / "configs" / "table2.json"
+
+
+def test_one_lockout_frame_with_the_group_key_silences_nobody(program: Path, tmp_path: Path) -> None:
+    config = signed_config(TABLE2, tmp_path)
+    h, tap = start_with_tap(attack_options(program, config))
+    try:
+        campaign = Campaign(h, tap, say=print)
+        campaign.start_flows()
+        h.run_for(1.0)                                 # the tap records fcs20's genuine frames
+        primary0 = h.child_stats("primary")
+        r = campaign.insider_lockout(tmp_path / "keys" / "fleet-1.key")
+        print(f"{LOCKOUT}: {r.line()}")
+        # one copy at the forwarder, one at the GCS: each counted under the new reason, nothing else
+        assert r.sent == 2
+        assert r.dropped_as == {"counter_jump": 2}, r.line()
+        assert r.accepted == 0, r.line()
+        assert r.extra["imu_hz"] == pytest.approx(50, rel=0.10), r.line()
+        assert r.extra["row_status"] == "active", r.line()
+        # the forwarder dropped its copy and challenged fcs20 again (at most once a second)
+        primary = h.child_stats("primary")
+        link = primary["links"]["onboardPortDatalink1"]["drops"]
+        assert link["counter_jump"] == 1
+        assert primary["security"]["rechallenges"] - primary0["security"].get("rechallenges", 0) == 1
+        gcs_link = h.gcs.link_counters()["gcsPortDatalink1"]["drops"]
+        assert gcs_link["counter_jump"] == 1
+        # gpsOut, which the frame did not name, kept its rate too
+        assert r.extra["gps_hz"] == pytest.approx(10, rel=0.10), r.line()
+    finally:
+        h.close()
+        tap.close()
