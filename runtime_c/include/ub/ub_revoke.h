@@ -1,0 +1,117 @@
+/**
+ * @file ub_revoke.h
+ * @brief Revocation that reaches the fleet (issue 23 item 4; docs/security.md "Revocation"): a
+ *        service (ub_service.h) that carries authority-signed revocation records (ub_ident.h) from
+ *        node to node, adds them to the node's identity store and persists them.
+ *
+ * Admin code UB_ADMIN_REVOCATION (24), payload = one UB_REVOCATION_LEN-byte record, sent
+ * **link-local** (docs/wire-format.md): each node that learns a record it did not hold sends it on
+ * every attached link, so it spreads hop by hop to the whole connected fleet, whatever the routes
+ * (a revoked relay cannot hide it by refusing to route, as long as another path exists). The record
+ * proves itself (the authority's Ed25519 signature), so it is accepted from any neighbour, signed
+ * link or not, and a forwarder cannot forge or alter one.
+ *
+ *  - **Idempotent**: a record the store already covers (same or newer serial for the entity) changes
+ *    nothing and is not sent on (counted `known`): copies die out after one hop.
+ *  - **Bounded**: a node sends at most one record per `min_interval_ms` (all links at once), each new
+ *    record `repeats` times `repeat_ms` apart (a lossy radio, or a neighbour still challenging our
+ *    freshness, gets another chance), and verifies at most `verify_per_s` received records per
+ *    second (Ed25519 costs ~50 us; more are dropped `backpressure`, counted `over_budget`): a flood of
+ *    junk records cannot eat the CPU, and the genuine record's repeats get through after it.
+ *  - **Persisted**: every record that changed the store is handed to `persist` (ub_revfile_persist()
+ *    rewrites the revocations file atomically) before it is spread; a failure is counted and retried
+ *    on the next tick.
+ *  - From then on the store refuses the revoked entity (ub_ident_peer_kx_key(), _roles()), so the
+ *    origin service and the policy refuse its frames and requests, and a certificate with the revoked
+ *    serial (or an older one) is never accepted again.
+ *
+ * The operator injects a record with ub_revoke_submit() (uavbus_node stdin `revoke FILE`, Python
+ * `Node.identity.revoke()`), exactly as if a neighbour had sent it.
+ *
+ * State is caller-owned (ub_revoke_t embeds its ub_service_t); no allocation, no statics.
+ */
+#ifndef UB_REVOKE_H
+#define UB_REVOKE_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ub_ident.h"
+#include "ub_node.h"
+#include "ub_service.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** Stores the store's revocation list durably; UB_OK or a negative error (retried on the next tick). */
+typedef int (*ub_revoke_persist_fn)(void *user, const ub_ident_store_t *store);
+
+/** Options (0 = default). */
+typedef struct ub_revoke_options {
+    uint32_t min_interval_ms; /**< least time between two records sent (default 50) */
+    uint32_t repeat_ms;       /**< time between the repeats of one record (default 500) */
+    uint8_t repeats;          /**< times each new record is sent on every link (default 3) */
+    uint16_t verify_per_s;    /**< received records verified per second at most (default 32) */
+} ub_revoke_options_t;
+
+/** What the service did. */
+typedef struct ub_revoke_stats {
+    uint32_t received;      /**< REVOCATION frames handed to it (and records submitted) */
+    uint32_t accepted;      /**< records that changed the store (new entity revoked, or a higher serial) */
+    uint32_t known;         /**< records the store already covered: nothing changed, not spread */
+    uint32_t refused;       /**< malformed, wrong authority, bad signature (dropped bad_payload) */
+    uint32_t full;          /**< refused: the store holds UB_IDENT_MAX_REVOCATIONS entities */
+    uint32_t over_budget;   /**< not verified: more than verify_per_s this second (dropped backpressure) */
+    uint32_t sent;          /**< REVOCATION frames sent (one per link per send) */
+    uint32_t persisted;     /**< successful calls of `persist` */
+    uint32_t persist_failures;
+} ub_revoke_stats_t;
+
+/** The service's state. Caller-owned; treat the fields as private. */
+typedef struct ub_revoke {
+    ub_service_t svc;
+    ub_node_t *node;
+    ub_ident_store_t *store;
+    ub_revoke_persist_fn persist;
+    void *persist_user;
+    ub_revoke_options_t opt;
+    bool dirty;                /**< the store changed and is not persisted yet */
+    uint64_t next_send_ms;     /**< earliest time of the next send */
+    uint64_t budget_window_ms; /**< start of the current verification second */
+    uint16_t budget_used;
+    struct {
+        uint8_t remaining;  /**< sends left for store record i */
+        int8_t from_link;   /**< link it arrived on (not sent back there the first time), -1 none */
+        uint64_t due_ms;
+    } spread[UB_IDENT_MAX_REVOCATIONS];
+    ub_revoke_stats_t stats;
+} ub_revoke_t;
+
+/**
+ * Initialises `rv` over `store` (its authority set) and registers it with `node`. `persist` may be
+ * NULL (nothing stored: a test, or a node without a disk). Records already in the store (loaded from
+ * the revocations file) are not sent again: the fleet had them.
+ * @return UB_OK; UB_ERR_INVAL; UB_ERR_EXISTS / UB_ERR_FULL (as ub_node_add_service()).
+ */
+UB_CHECK int ub_revoke_init(ub_revoke_t *rv, ub_node_t *node, ub_ident_store_t *store,
+                            const ub_revoke_options_t *opt, ub_revoke_persist_fn persist, void *persist_user);
+
+/** Unregisters the service. @return as ub_node_remove_service(). */
+UB_CHECK int ub_revoke_remove(ub_revoke_t *rv);
+
+/**
+ * A record from the operator (a revocation file's record): handled as if received, with no budget.
+ * @return UB_OK (accepted: it will be persisted and spread); UB_ERR_EXISTS (already held: nothing
+ *         to do); UB_ERR_AUTH (refused); UB_ERR_FULL; UB_ERR_INVAL.
+ */
+UB_CHECK int ub_revoke_submit(ub_revoke_t *rv, const uint8_t *record, size_t len, uint64_t now_ms);
+
+/** @return the service's counters. */
+const ub_revoke_stats_t *ub_revoke_stats(const ub_revoke_t *rv);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* UB_REVOKE_H */

@@ -1,0 +1,144 @@
+/* The revocation service (contract in ub/ub_revoke.h; design in docs/security.md "Revocation").
+ * It reaches the node only through ub_node_svc.h: records go out with ub_node_send_link_local(). */
+#include "ub/ub_revoke.h"
+
+#include <string.h>
+
+#include "ub/ub_node_svc.h"
+
+#define DEFAULT_MIN_INTERVAL_MS 50u
+#define DEFAULT_REPEAT_MS 500u
+#define DEFAULT_REPEATS 3u
+#define DEFAULT_VERIFY_PER_S 32u
+
+#if UB_MAX_PAYLOAD < UB_REVOCATION_LEN
+#error "a revocation record (104 bytes) must fit one frame: UB_MAX_PAYLOAD >= 104"
+#endif
+
+static const uint8_t REVOKE_CODES[] = {UB_ADMIN_REVOCATION};
+
+/* A record changed the store at `index`: persist it, then spread it (not back on `from_link` at first). */
+static void schedule(ub_revoke_t *rv, int index, int from_link, uint64_t now_ms) {
+    rv->dirty = true;
+    rv->spread[index].remaining = rv->opt.repeats;
+    rv->spread[index].from_link = (int8_t)(from_link >= 0 && from_link < 127 ? from_link : -1);
+    rv->spread[index].due_ms = now_ms;
+}
+
+/* Adds one record to the store; counts what happened. */
+static int take(ub_revoke_t *rv, const uint8_t *record, size_t len, int from_link, uint64_t now_ms) {
+    rv->stats.received++;
+    ub_ident_status_t why;
+    int rc = ub_ident_add_revocation(rv->store, record, len, &why);
+    if (rc >= 0) {
+        rv->stats.accepted++;
+        schedule(rv, rc, from_link, now_ms);
+        return UB_OK;
+    }
+    if (rc == UB_ERR_EXISTS) rv->stats.known++;
+    else if (rc == UB_ERR_FULL) rv->stats.full++;
+    else rv->stats.refused++;
+    return rc;
+}
+
+static bool on_frame(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx, const ub_frame_header_t *h,
+                     const uint8_t *payload, uint64_t now_ms, ub_drop_reason_t *drop) {
+    (void)node;
+    ub_revoke_t *rv = svc->user;
+    *drop = UB_DROP_BAD_PAYLOAD;
+    if (h->payload_size != UB_REVOCATION_LEN) {
+        rv->stats.received++;
+        rv->stats.refused++;
+        return false;
+    }
+    /* The verification budget: a second's worth of Ed25519 verifications at most. */
+    if (now_ms < rv->budget_window_ms || now_ms - rv->budget_window_ms >= 1000u) {
+        rv->budget_window_ms = now_ms;
+        rv->budget_used = 0;
+    }
+    if (rv->budget_used >= rv->opt.verify_per_s) {
+        rv->stats.received++;
+        rv->stats.over_budget++;
+        *drop = UB_DROP_BACKPRESSURE;
+        return false;
+    }
+    rv->budget_used++;
+    int rc = take(rv, payload, h->payload_size, rx->link_id, now_ms);
+    return rc == UB_OK || rc == UB_ERR_EXISTS || rc == UB_ERR_FULL;
+}
+
+static bool link_attached(const ub_node_t *node, int link_id) {
+    const ub_link_t *l = ub_node_link(node, link_id);
+    return l != NULL && l->in_use && l->ops != NULL;
+}
+
+static void tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms) {
+    ub_revoke_t *rv = svc->user;
+    if (rv->dirty && rv->persist != NULL) {
+        if (rv->persist(rv->persist_user, rv->store) == UB_OK) {
+            rv->dirty = false;
+            rv->stats.persisted++;
+        } else {
+            rv->stats.persist_failures++;
+        }
+    } else if (rv->persist == NULL) {
+        rv->dirty = false;
+    }
+    if (now_ms < rv->next_send_ms) return;
+    /* One record per tick at most: the oldest due. */
+    size_t n = ub_ident_revocation_count(rv->store);
+    for (size_t i = 0; i < n; i++) {
+        if (rv->spread[i].remaining == 0 || now_ms < rv->spread[i].due_ms) continue;
+        uint8_t rec[UB_REVOCATION_LEN];
+        if (ub_ident_revocation_at(rv->store, i, rec) != UB_OK) continue;
+        for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) {
+            if (!link_attached(node, lid)) continue;
+            /* Back to the neighbour that sent it only on the repeats (it may have lost our copy; it ignores it). */
+            if (lid == rv->spread[i].from_link && rv->spread[i].remaining == rv->opt.repeats) continue;
+            if (ub_node_send_link_local(node, lid, UB_ADMIN_REVOCATION, rec, UB_REVOCATION_LEN, now_ms) == 1)
+                rv->stats.sent++;
+        }
+        rv->spread[i].remaining--;
+        rv->spread[i].due_ms = now_ms + rv->opt.repeat_ms;
+        rv->next_send_ms = now_ms + rv->opt.min_interval_ms;
+        break;
+    }
+}
+
+int ub_revoke_init(ub_revoke_t *rv, ub_node_t *node, ub_ident_store_t *store, const ub_revoke_options_t *opt,
+                   ub_revoke_persist_fn persist, void *persist_user) {
+    if (rv == NULL || node == NULL || store == NULL) return UB_ERR_INVAL;
+    memset(rv, 0, sizeof *rv);
+    rv->node = node;
+    rv->store = store;
+    rv->persist = persist;
+    rv->persist_user = persist_user;
+    if (opt != NULL) rv->opt = *opt;
+    if (rv->opt.min_interval_ms == 0) rv->opt.min_interval_ms = DEFAULT_MIN_INTERVAL_MS;
+    if (rv->opt.repeat_ms == 0) rv->opt.repeat_ms = DEFAULT_REPEAT_MS;
+    if (rv->opt.repeats == 0) rv->opt.repeats = DEFAULT_REPEATS;
+    if (rv->opt.verify_per_s == 0) rv->opt.verify_per_s = DEFAULT_VERIFY_PER_S;
+    for (size_t i = 0; i < UB_IDENT_MAX_REVOCATIONS; i++) rv->spread[i].from_link = -1;
+    rv->svc.name = "revoke";
+    rv->svc.codes = REVOKE_CODES;
+    rv->svc.n_codes = 1;
+    rv->svc.link_local_codes = REVOKE_CODES;
+    rv->svc.n_link_local_codes = 1;
+    rv->svc.order = UB_SVC_ORDER_USER;
+    rv->svc.on_frame = on_frame;
+    rv->svc.tick = tick;
+    rv->svc.user = rv;
+    return ub_node_add_service(node, &rv->svc);
+}
+
+int ub_revoke_remove(ub_revoke_t *rv) {
+    if (rv == NULL || rv->node == NULL) return UB_ERR_INVAL;
+    return ub_node_remove_service(rv->node, &rv->svc);
+}
+
+int ub_revoke_submit(ub_revoke_t *rv, const uint8_t *record, size_t len, uint64_t now_ms) {
+    if (rv == NULL || record == NULL) return UB_ERR_INVAL;
+    return take(rv, record, len, -1, now_ms);
+}
+
+const ub_revoke_stats_t *ub_revoke_stats(const ub_revoke_t *rv) { return rv != NULL ? &rv->stats : NULL; }
