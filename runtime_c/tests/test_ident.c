@@ -359,7 +359,7 @@ static void test_identity_files(void **state) {
     assert_one_line(err, idp, "--force");
     /* keys that are not the certificate's */
     test_entity_t f;
-    assert_int_equal(test_issue(&f, &auth, "rmax1ob1", UB_ROLE_VEHICLE, 5, T0, T0 + DAY), UB_OK);
+    assert_int_equal(test_issue(&f, &auth, "fcs21", UB_ROLE_VEHICLE, 5, T0, T0 + DAY), UB_OK);
     assert_int_equal(ub_identfile_write(idp, &e.cert, f.sign_seed, e.kx_sk, true, err, sizeof err), UB_OK);
     assert_int_equal(ub_identfile_load_store(s, idp, pubp, NULL, T0, err, sizeof err), UB_ERR_CONFIG);
     assert_one_line(err, idp, "not the certificate's");
