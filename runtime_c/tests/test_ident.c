@@ -18,6 +18,7 @@
 
 #include "support/ub_test_ident.h"
 #include "ub/ub_identfile.h"
+#include "ub/ub_nodecfg.h"
 
 #define T0 1790000000u /* "now" in these tests */
 #define DAY 86400u
@@ -417,6 +418,63 @@ static void test_revocation_persists_across_restart(void **state) {
     free(s);
 }
 
+/* The node configuration names the identity files; a refused file is reported at the config line naming it. */
+static void test_nodecfg_identity(void **state) {
+    (void)state;
+    char cfgp[128], idp[128], pubp[128], err[UB_NODECFG_ERR_LEN + UB_IDENTFILE_ERR_LEN];
+    path_of(cfgp, sizeof cfgp, "node.json");
+    path_of(idp, sizeof idp, "gcs1.id");
+    path_of(pubp, sizeof pubp, "authority.pub");
+    test_entity_t e;
+    assert_int_equal(test_issue(&e, &auth, "gcs1", UB_ROLE_ADMIN, 3, T0, T0 + DAY), UB_OK);
+    assert_int_equal(ub_identfile_write(idp, &e.cert, e.sign_seed, e.kx_sk, false, err, sizeof err), UB_OK);
+    assert_int_equal(ub_authfile_write_public(pubp, auth.pk, false, err, sizeof err), UB_OK);
+    static const char text[] =
+        "{\n"
+        "  \"entities\": [{\"name\": \"gcs1\", \"links\": [\"l0\"], \"linktoentity\": {}}],\n"
+        "  \"hosts\": [\"gcs1\"],\n"
+        "  \"security\": {\n"
+        "    \"authority\": \"authority.pub\",\n"
+        "    \"identity\": \"{entity}.id\",\n"
+        "    \"revocations\": \"state.ubr\"\n"
+        "  }\n"
+        "}\n";
+    FILE *f = fopen(cfgp, "w");
+    assert_non_null(f);
+    assert_int_equal(fwrite(text, 1, sizeof text - 1, f), sizeof text - 1);
+    assert_int_equal(fclose(f), 0);
+    ub_nodecfg_t *cfg = calloc(1, sizeof *cfg);
+    static char buf[4096];
+    assert_int_equal(ub_nodecfg_load_file(cfg, cfgp, buf, sizeof buf, err, sizeof err), UB_OK);
+    ub_ident_store_t *s = calloc(1, sizeof *s);
+    char revs[256];
+    assert_int_equal(ub_nodecfg_load_identity(cfg, s, T0, revs, sizeof revs, err, sizeof err), UB_OK);
+    assert_non_null(ub_ident_self(s));
+    char want[160];
+    path_of(want, sizeof want, "state.ubr");
+    assert_string_equal(revs, want);
+    /* group-readable identity: the config's line 6 names it, and the file's own message says what to do */
+    assert_int_equal(chmod(idp, 0644), 0);
+    assert_int_equal(ub_nodecfg_load_identity(cfg, s, T0, NULL, 0, err, sizeof err), UB_ERR_CONFIG);
+    char where[400];
+    (void)snprintf(where, sizeof where, "%s:6: field 'security.identity': %s: mode 644", cfgp, idp);
+    if (strncmp(err, where, strlen(where)) != 0 || strstr(err, "chmod 600") == NULL || strchr(err, '\n') != NULL)
+        fail_msg("message '%s'", err);
+    assert_int_equal(chmod(idp, 0600), 0);
+    /* expired: same line, what to do */
+    assert_int_equal(ub_nodecfg_load_identity(cfg, s, T0 + 2 * DAY, NULL, 0, err, sizeof err), UB_ERR_CONFIG);
+    (void)snprintf(where, sizeof where, "%s:6: field 'security.identity': %s: the certificate of 'gcs1' expired", cfgp,
+                   idp);
+    if (strncmp(err, where, strlen(where)) != 0) fail_msg("message '%s'", err);
+    /* a damaged authority file: line 5 */
+    assert_int_equal(truncate(pubp, 10), 0);
+    assert_int_equal(ub_nodecfg_load_identity(cfg, s, T0, NULL, 0, err, sizeof err), UB_ERR_CONFIG);
+    (void)snprintf(where, sizeof where, "%s:5: field 'security.authority': %s:", cfgp, pubp);
+    if (strncmp(err, where, strlen(where)) != 0) fail_msg("message '%s'", err);
+    free(s);
+    free(cfg);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip),
@@ -430,6 +488,7 @@ int main(void) {
         cmocka_unit_test(test_full_table),
         cmocka_unit_test_setup_teardown(test_identity_files, files_setup, files_teardown),
         cmocka_unit_test_setup_teardown(test_revocation_persists_across_restart, files_setup, files_teardown),
+        cmocka_unit_test_setup_teardown(test_nodecfg_identity, files_setup, files_teardown),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

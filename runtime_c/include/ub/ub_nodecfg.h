@@ -165,6 +165,20 @@ typedef struct ub_nodecfg_security {
     ub_nodecfg_link_security_t links[UB_NODECFG_MAX_PORTS];
 } ub_nodecfg_security_t;
 
+/**
+ * Identity per entity (issue 23; docs/security.md "Identity per entity"): "security.identity" (this node's
+ * identity file, "{entity}" = the first hosted entity's name), "security.authority" (the authority's
+ * public file), "security.revocations" (the revocations file, read and kept up to date). Read only by
+ * ub_nodecfg_load_identity().
+ */
+typedef struct ub_nodecfg_identity {
+    uint8_t present;                            /**< "authority" given (it is what turns identities on) */
+    char identity[UB_NODECFG_PATH_MAX + 1];     /**< "" when not given: the node verifies others only */
+    char authority[UB_NODECFG_PATH_MAX + 1];
+    char revocations[UB_NODECFG_PATH_MAX + 1];  /**< "" when not given */
+    uint32_t identity_line, authority_line, revocations_line;
+} ub_nodecfg_identity_t;
+
 /** A parsed, validated configuration. Caller-owned; no pointers into the source text. */
 typedef struct ub_nodecfg {
     char source[UB_NODECFG_SOURCE_MAX]; /**< the source name given to the parser, for messages */
@@ -182,6 +196,7 @@ typedef struct ub_nodecfg {
     uint8_t has_policy;
     ub_policy_t policy;
     ub_nodecfg_security_t security;
+    ub_nodecfg_identity_t identity;
 } ub_nodecfg_t;
 
 /**
@@ -283,6 +298,19 @@ UB_CHECK int ub_nodecfg_apply(const ub_nodecfg_t *cfg, struct ub_node *node, cha
 struct ub_sec;
 struct ub_sec_options;
 struct ub_counter_file;
+struct ub_ident_store;
+
+/**
+ * Loads the identity files the "security" section names (ub_nodecfg_identity_t) into `store`
+ * (ub_identfile_load_store()): paths relative to the config file's directory, "{entity}" expanded.
+ * `revocations_path` (may be NULL) receives the resolved revocations path, for ub_revfile_persist().
+ * A refused file is reported as "<config>:<line>: field 'security.identity': <file>: what to do".
+ * @retval UB_OK (also when the section names no authority: `store` is left empty)
+ * @retval UB_ERR_CONFIG / UB_ERR_IO / UB_ERR_UNSUPPORTED `err` says which file and what to do.
+ * @retval UB_ERR_INVAL NULL argument.
+ */
+UB_CHECK int ub_nodecfg_load_identity(const ub_nodecfg_t *cfg, struct ub_ident_store *store, uint64_t now_s,
+                                      char *revocations_path, size_t path_cap, char *err, size_t err_cap);
 
 /**
  * Applies the "security" section to a node that ub_nodecfg_apply() set up:

@@ -82,3 +82,5 @@ typedef struct ub_sec_options ub_sec_options_t;
 typedef struct ub_counter_file ub_counter_file_t;
 int ub_nodecfg_apply_security(const ub_nodecfg_t *cfg, ub_node_t *node, ub_sec_t *sec, ub_counter_file_t *counter,
                               const ub_sec_options_t *opt, uint64_t unix_us, char *err, size_t err_cap);
+int ub_nodecfg_load_identity(const ub_nodecfg_t *cfg, ub_ident_store_t *store, uint64_t now_s, char *revocations_path,
+                             size_t path_cap, char *err, size_t err_cap);
