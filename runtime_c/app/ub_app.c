@@ -284,6 +284,18 @@ void ub_app_start(ub_app_t *app, const ub_catalogue_t *catalogue, ub_frag_t *fra
                                   sizeof sec_err) != UB_OK) {
         ub_app_die(app, "%s", sec_err);
     }
+    /* Identity per entity: the store from the files the section names, and revocation over the bus. */
+    char id_err[UB_NODECFG_ERR_LEN + UB_IDENTFILE_ERR_LEN];
+    if (ub_nodecfg_load_identity(&app->cfg, &app->ident, ub_app_unix_ms() / 1000u, app->revocations_path,
+                                 sizeof app->revocations_path, id_err, sizeof id_err) != UB_OK) {
+        ub_app_die(app, "%s", id_err);
+    }
+    if (app->cfg.identity.present) {
+        app->ident_on = true;
+        if (ub_revoke_init(&app->revoke, &app->node, &app->ident, NULL,
+                           app->revocations_path[0] != '\0' ? ub_revfile_persist : NULL, app->revocations_path) != UB_OK)
+            ub_app_die(app, "%s: the revocation service was refused", name);
+    }
     if (ub_ports_init(&app->ports, &app->node) != UB_OK) ub_app_die(app, "%s: ub_ports_init failed", name);
     app->start_ms = ub_app_mono_ms();
 }

@@ -82,6 +82,14 @@ UB_CHECK int ub_authfile_load_public(const char *path, uint8_t pk[UB_IDENT_SIGN_
  */
 UB_CHECK int ub_revfile_load(const char *path, ub_ident_store_t *store, char *err, size_t err_cap);
 
+/**
+ * Reads the records of revocations file `path` without judging them (an operator's file handed to a
+ * node: ub_revoke_submit() verifies each): header and whole records checked, at most `cap` records.
+ * @return the number of records copied to `records` (UB_REVOCATION_LEN bytes each); UB_ERR_CONFIG;
+ *         UB_ERR_IO (also a missing file); UB_ERR_INVAL.
+ */
+UB_CHECK int ub_revfile_read(const char *path, uint8_t *records, size_t cap, char *err, size_t err_cap);
+
 /** Writes every record of `store` to `path` atomically (temporary file, fsync, rename, directory fsync).
  *  @return UB_OK; UB_ERR_IO; UB_ERR_INVAL. */
 UB_CHECK int ub_revfile_save(const char *path, const ub_ident_store_t *store, char *err, size_t err_cap);

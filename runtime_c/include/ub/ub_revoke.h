@@ -14,7 +14,7 @@
  *  - **Idempotent**: a record the store already covers (same or newer serial for the entity) changes
  *    nothing and is not sent on (counted `known`): copies die out after one hop.
  *  - **Bounded**: a node sends at most one record per `min_interval_ms` (all links at once), each new
- *    record `repeats` times `repeat_ms` apart (a lossy radio, or a neighbour still challenging our
+ *    record `repeats` times `repeat_ms` apart (a round no link took, all down, is retried and not counted) (a lossy radio, or a neighbour still challenging our
  *    freshness, gets another chance), and verifies at most `verify_per_s` received records per
  *    second (Ed25519 costs ~50 us; more are dropped `backpressure`, counted `over_budget`): a flood of
  *    junk records cannot eat the CPU, and the genuine record's repeats get through after it.
@@ -65,6 +65,7 @@ typedef struct ub_revoke_stats {
     uint32_t full;          /**< refused: the store holds UB_IDENT_MAX_REVOCATIONS entities */
     uint32_t over_budget;   /**< not verified: more than verify_per_s this second (dropped backpressure) */
     uint32_t sent;          /**< REVOCATION frames sent (one per link per send) */
+    uint32_t unsent;        /**< rounds no link took (all down or refusing): retried after repeat_ms, not counted as a repeat */
     uint32_t persisted;     /**< successful calls of `persist` */
     uint32_t persist_failures;
 } ub_revoke_stats_t;

@@ -317,6 +317,25 @@ int ub_revfile_load(const char *path, ub_ident_store_t *store, char *err, size_t
     return (int)n;
 }
 
+int ub_revfile_read(const char *path, uint8_t *records, size_t cap, char *err, size_t err_cap) {
+    if (path == NULL || (records == NULL && cap > 0)) return UB_ERR_INVAL;
+    uint8_t buf[UB_REVFILE_MAX];
+    size_t len;
+    int rc = read_file(path, buf, sizeof buf, &len, false, false, "revocations", err, err_cap);
+    if (rc != UB_OK) return rc;
+    rc = check_header(path, buf, len, MAGIC_REVOCATIONS, "revocations", "uavbus keys revoke ENTITY", err, err_cap);
+    if (rc != UB_OK) return rc;
+    size_t body = len - UB_IDENTFILE_HEADER_LEN;
+    if (body % UB_REVOCATION_LEN != 0)
+        return failf(err, err_cap, UB_ERR_CONFIG, "%s: %lu bytes after the header is not a whole number of %u-byte "
+                     "records (damaged: write it again with uavbus keys revoke ENTITY)",
+                     path, (unsigned long)body, (unsigned)UB_REVOCATION_LEN);
+    size_t n = body / UB_REVOCATION_LEN;
+    if (n > cap) n = cap;
+    memcpy(records, buf + UB_IDENTFILE_HEADER_LEN, n * UB_REVOCATION_LEN);
+    return (int)n;
+}
+
 int ub_revfile_save(const char *path, const ub_ident_store_t *store, char *err, size_t err_cap) {
     if (path == NULL || store == NULL) return UB_ERR_INVAL;
     uint8_t buf[UB_REVFILE_MAX];

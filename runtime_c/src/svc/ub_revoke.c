@@ -91,14 +91,23 @@ static void tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms) {
         if (rv->spread[i].remaining == 0 || now_ms < rv->spread[i].due_ms) continue;
         uint8_t rec[UB_REVOCATION_LEN];
         if (ub_ident_revocation_at(rv->store, i, rec) != UB_OK) continue;
+        bool any = false;
         for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) {
             if (!link_attached(node, lid)) continue;
             /* Back to the neighbour that sent it only on the repeats (it may have lost our copy; it ignores it). */
-            if (lid == rv->spread[i].from_link && rv->spread[i].remaining == rv->opt.repeats) continue;
-            if (ub_node_send_link_local(node, lid, UB_ADMIN_REVOCATION, rec, UB_REVOCATION_LEN, now_ms) == 1)
+            if (lid == rv->spread[i].from_link && rv->spread[i].remaining == rv->opt.repeats) {
+                any = true;
+                continue;
+            }
+            if (ub_node_send_link_local(node, lid, UB_ADMIN_REVOCATION, rec, UB_REVOCATION_LEN, now_ms) == 1) {
                 rv->stats.sent++;
+                any = true;
+            }
         }
-        rv->spread[i].remaining--;
+        /* A round no transport took (links down, a TCP peer not yet adopted) does not count as a repeat: it is
+         * tried again after repeat_ms, so a record is never lost to a link that was down when it arrived. */
+        if (any) rv->spread[i].remaining--;
+        else rv->stats.unsent++;
         rv->spread[i].due_ms = now_ms + rv->opt.repeat_ms;
         rv->next_send_ms = now_ms + rv->opt.min_interval_ms;
         break;

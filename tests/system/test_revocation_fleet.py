@@ -1,0 +1,92 @@
+"""Issue 23 item 4 on the paper's Table 2 as real processes on 127.0.0.1: every C node runs with its own
+identity (uavbus keys authority create / issue, made at test time); the operator hands a revocation to one
+node (`revoke FILE` on rmax1ob2's stdin); it reaches rmax1ob1 (1 hop) and fcs20 (2 hops) over the signed
+links, each persists it, a restarted node still holds it, and the revoked vehicle cannot start again with
+its identity (it is told why, in one line)."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from uavbus import keys
+from uavbus.sim.build import REPO
+from uavbus.sim.hitl import Hitl, HitlOptions
+from uavbus.sim.process import NodeError
+from uavbus.sim.secure import signed_config
+
+pytestmark = pytest.mark.timeout(150)
+
+TABLE2 = REPO / "examples" / "configs" / "table2.json"
+ROLES = {"gcs1": "admin", "rmax1ob1": "vehicle,relay", "rmax1ob2": "vehicle", "fcs20": "vehicle"}
+
+
+def identity_config(tmp_path: Path) -> Path:
+    kdir = tmp_path / "keys"
+    keys.authority_create(str(kdir))
+    for entity, roles in ROLES.items():
+        keys.issue(entity, roles, 30, None, str(kdir), None, False)
+    cfg = signed_config(TABLE2, tmp_path)
+    doc: dict[str, Any] = json.loads(cfg.read_text(encoding="utf-8"))
+    doc["security"].update({"authority": str(kdir / "authority.pub"), "identity": str(kdir / "{entity}.id"),
+                            "revocations": "state/{entity}.revocations.ubr"})
+    cfg.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    return cfg
+
+
+def identity(h: Hitl, node: str) -> dict[str, Any]:
+    ident = h.child_stats(node)["identity"]
+    assert ident is not None, f"{node}: no identity in its stats"
+    return ident
+
+
+def test_a_revocation_reaches_the_fleet_persists_and_locks_the_vehicle_out(hitl_opts: HitlOptions,
+                                                                            tmp_path: Path) -> None:
+    hitl_opts.config = identity_config(tmp_path)
+    h = Hitl(hitl_opts)
+    h.start()
+    try:
+        # traffic on every link (a TCP connection is adopted, and freshness proven, by authentic frames)
+        nav = h.add_row("subscription", "navFilterState", "rmax1ob2", "gcs1", 100)
+        imu = h.add_row("subscription", "imuOut", "fcs20", "gcs1", 20)
+        h.wait_status(nav, "active", 8.0)
+        h.wait_status(imu, "active", 8.0)
+        for node in ("primary", "secondary", "backup"):
+            ident = identity(h, node)
+            assert ident["serial"] >= 1 and ident["revocations"] == 0
+        out = keys.revoke("fcs20", None, None, str(tmp_path / "keys"), None)
+        assert "revoked up to serial" in out
+        proc = h.group["secondary"]
+        m = proc.mark()
+        t0 = time.monotonic()
+        proc.send(f"revoke {tmp_path / 'keys' / 'revocations.ubr'}")
+        ev = h.child_event("secondary", "revoke", 3.0, since=m)
+        assert ev["accepted"] == 1 and ev["refused"] == 0 and ev["revocations"] == 1
+        # one hop (rmax1ob1) and two hops (fcs20, its own identity): held, and persisted
+        h.run_until(lambda: identity(h, "primary")["revocations"] == 1, 5.0, "rmax1ob1 holds the revocation")
+        h.run_until(lambda: identity(h, "backup")["revocations"] == 1, 5.0, "fcs20 holds the revocation")
+        elapsed = time.monotonic() - t0
+        print(f"revocation: submitted at rmax1ob2, held by rmax1ob1 and fcs20 (2 hops) within {elapsed * 1000:.0f} ms")
+        assert elapsed < 2.0, f"the revocation took {elapsed:.2f} s to cross two hops"
+        for entity in ("rmax1ob1", "fcs20"):
+            assert (tmp_path / "state" / f"{entity}.revocations.ubr").stat().st_size == 8 + 104
+        # idempotent: the same file again is known everywhere, and nothing new is spread
+        m = proc.mark()
+        proc.send(f"revoke {tmp_path / 'keys' / 'revocations.ubr'}")
+        assert h.child_event("secondary", "revoke", 3.0, since=m)["known"] == 1
+        primary = identity(h, "primary")
+        assert primary["revocations_accepted"] == 1 and primary["revocations_refused"] == 0
+        # a restarted node still holds it (read back from its revocations file)
+        h.restart("primary")
+        assert identity(h, "primary")["revocations"] == 1
+        # the revoked vehicle's restart with the same identity: refused, saying why and what to do
+        with pytest.raises(NodeError) as refused:
+            h.restart("backup")
+        text = str(refused.value)
+        assert "revoked" in text and "uavbus keys issue fcs20" in text, text
+    finally:
+        h.close()
