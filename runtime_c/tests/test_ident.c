@@ -19,6 +19,7 @@
 #include "support/ub_test_ident.h"
 #include "ub/ub_identfile.h"
 #include "ub/ub_nodecfg.h"
+#include "ub/ub_policy.h"
 
 #define T0 1790000000u /* "now" in these tests */
 #define DAY 86400u
@@ -475,6 +476,83 @@ static void test_nodecfg_identity(void **state) {
     free(cfg);
 }
 
+static void test_certificates_file(void **state) {
+    (void)state;
+    char certs[128], err[UB_IDENTFILE_ERR_LEN];
+    path_of(certs, sizeof certs, "fleet.certs");
+    test_entity_t gcs, uav, uav2, old, foreign;
+    assert_int_equal(test_issue(&gcs, &auth, "gcs1", UB_ROLE_ADMIN, 1, T0, T0 + DAY), UB_OK);
+    assert_int_equal(test_issue(&old, &auth, "rmax1ob1", UB_ROLE_VEHICLE, 2, T0 - 2 * DAY, T0 - DAY), UB_OK);
+    assert_int_equal(test_issue(&uav, &auth, "rmax1ob1", UB_ROLE_VEHICLE, 3, T0, T0 + DAY), UB_OK);
+    assert_int_equal(test_issue(&uav2, &auth, "fcs20", UB_ROLE_VEHICLE, 4, T0 - 2 * DAY, T0 - DAY), UB_OK);
+    assert_int_equal(ub_certfile_put(certs, gcs.cert_bytes, UB_CERT_LEN, err, sizeof err), UB_OK);
+    assert_int_equal(ub_certfile_put(certs, old.cert_bytes, UB_CERT_LEN, err, sizeof err), UB_OK);
+    assert_int_equal(ub_certfile_put(certs, uav.cert_bytes, UB_CERT_LEN, err, sizeof err), UB_OK); /* replaces */
+    assert_int_equal(ub_certfile_put(certs, uav2.cert_bytes, UB_CERT_LEN, err, sizeof err), UB_OK);
+    struct stat st;
+    assert_int_equal(stat(certs, &st), 0);
+    assert_int_equal(st.st_size, UB_IDENTFILE_HEADER_LEN + 3 * UB_CERT_LEN);
+    ub_ident_store_t *s = calloc(1, sizeof *s);
+    store_with_authority(s);
+    assert_int_equal(ub_certfile_load(certs, s, T0, err, sizeof err), 2); /* fcs20's expired one skipped */
+    uint16_t roles;
+    assert_int_equal(ub_ident_peer_roles(s, gcs.cert.entity, T0, &roles), UB_OK);
+    assert_int_equal(roles, UB_ROLE_ADMIN);
+    assert_int_equal(s->stats.peers_refused[UB_IDENT_EXPIRED], 1);
+    /* another authority's certificate makes the file refused */
+    assert_int_equal(test_issue(&foreign, &other, "intruder", UB_ROLE_ADMIN, 9, T0, T0 + DAY), UB_OK);
+    assert_int_equal(ub_certfile_put(certs, foreign.cert_bytes, UB_CERT_LEN, err, sizeof err), UB_OK);
+    store_with_authority(s);
+    assert_int_equal(ub_certfile_load(certs, s, T0, err, sizeof err), UB_ERR_CONFIG);
+    assert_one_line(err, certs, "certificate 4 is wrong_authority");
+    free(s);
+}
+
+static int roles_of(void *user, const uint8_t id[UB_ENTITY_ID_LEN], uint16_t *roles) {
+    return ub_ident_peer_roles(user, id, T0 + 1, roles);
+}
+
+/* "Administrators administer" on the certified role: not on a name, not for a revoked administrator. */
+static void test_policy_by_role(void **state) {
+    (void)state;
+    test_entity_t gcs, uav, admin2;
+    assert_int_equal(test_issue(&gcs, &auth, "gcs1", UB_ROLE_ADMIN, 1, T0, T0 + DAY), UB_OK);
+    assert_int_equal(test_issue(&uav, &auth, "rmax1ob1", UB_ROLE_VEHICLE | UB_ROLE_RELAY, 2, T0, T0 + DAY), UB_OK);
+    assert_int_equal(test_issue(&admin2, &auth, "gcs2", UB_ROLE_ADMIN, 3, T0, T0 + DAY), UB_OK);
+    ub_ident_store_t *s = calloc(1, sizeof *s);
+    store_with_authority(s);
+    assert_int_equal(ub_ident_add_peer(s, gcs.cert_bytes, UB_CERT_LEN, T0, NULL), UB_OK);
+    assert_int_equal(ub_ident_add_peer(s, uav.cert_bytes, UB_CERT_LEN, T0, NULL), UB_OK);
+    assert_int_equal(ub_ident_add_peer(s, admin2.cert_bytes, UB_CERT_LEN, T0, NULL), UB_OK);
+    ub_policy_t pol;
+    ub_policy_init(&pol);
+    /* group-key mode: by name */
+    assert_int_equal(ub_policy_add_admin(&pol, uav.cert.entity), UB_OK);
+    assert_true(ub_policy_is_admin(&pol, uav.cert.entity));
+    assert_false(ub_policy_is_admin(&pol, gcs.cert.entity));
+    /* by role: the vehicle listed by name is no administrator; a listed name narrows the certified ones */
+    ub_policy_use_roles(&pol, roles_of, s);
+    assert_false(ub_policy_is_admin(&pol, uav.cert.entity));
+    assert_false(ub_policy_is_admin(&pol, gcs.cert.entity)); /* certified admin, but the list names others */
+    ub_policy_init(&pol);
+    ub_policy_use_roles(&pol, roles_of, s);
+    assert_true(ub_policy_is_admin(&pol, gcs.cert.entity));
+    assert_true(ub_policy_is_admin(&pol, admin2.cert.entity));
+    assert_false(ub_policy_is_admin(&pol, uav.cert.entity));
+    uint8_t unknown[12];
+    assert_int_equal(ub_entity_id("gcs9", unknown), UB_OK);
+    assert_false(ub_policy_is_admin(&pol, unknown));
+    assert_int_equal(ub_policy_add_admin(&pol, gcs.cert.entity), UB_OK);
+    assert_true(ub_policy_is_admin(&pol, gcs.cert.entity));
+    assert_false(ub_policy_is_admin(&pol, admin2.cert.entity));
+    /* revoked: no longer an administrator */
+    uint8_t rec[UB_REVOCATION_LEN];
+    assert_int_equal(test_revoke_record(rec, &auth, "gcs1", 1, T0 + 1), UB_OK);
+    assert_int_equal(ub_ident_add_revocation(s, rec, sizeof rec, NULL), 0);
+    assert_false(ub_policy_is_admin(&pol, gcs.cert.entity));
+    free(s);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip),
@@ -489,6 +567,8 @@ int main(void) {
         cmocka_unit_test_setup_teardown(test_identity_files, files_setup, files_teardown),
         cmocka_unit_test_setup_teardown(test_revocation_persists_across_restart, files_setup, files_teardown),
         cmocka_unit_test_setup_teardown(test_nodecfg_identity, files_setup, files_teardown),
+        cmocka_unit_test_setup_teardown(test_certificates_file, files_setup, files_teardown),
+        cmocka_unit_test(test_policy_by_role),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

@@ -198,7 +198,8 @@ static void test_config_security_errors(void **state) {
                  "links, administrators, read, write and/or limits (see docs/config-format.md)");
     expect_error(f, "\"security\": {\"admins\": [\"gcs1\"]}",
                  "inline.json:2: field 'security.admins': unknown field (expected one of: keys, tx_key, "
-                 "require_signed, counter_file, links, administrators, read, write, limits, exclusive_admin)");
+                 "require_signed, counter_file, links, administrators, read, write, limits, exclusive_admin, identity, authority, "
+                 "revocations, certificates)");
     expect_error(f, "\"security\": {\"administrators\": [\"gcs1\"], \"administrators\": []}",
                  "inline.json:2: field 'security.administrators': duplicate field (first given on line 2)");
     expect_error(f, "\"security\": {\"administrators\": \"gcs1\"}",

@@ -11,7 +11,8 @@
                                      of issued serials)
     uavbus keys issue ENTITY --roles admin,vehicle,... [--days N] [--out FILE] [--force]
                                      the entity's identity (certificate + secret keys, mode 0600), default
-                                     DIR/ENTITY.id, with the next serial; refuses to overwrite without --force
+                                     DIR/ENTITY.id, with the next serial; refuses to overwrite without --force;
+                                     its certificate goes into DIR/fleet.certs (the nodes' "certificates")
     uavbus keys revoke ENTITY [--serial N] [--out FILE]
                                      a signed revocation record of ENTITY's serials up to its last one (or N),
                                      added to the revocations file (default DIR/revocations.ubr)
@@ -36,6 +37,7 @@ from uavbus._bindings import ub_ident, ub_sec
 from uavbus._bindings.ub_error import UbError
 
 DEFAULT_DIR = "keys"
+CERTS_NAME = "fleet.certs"  # next to the authority key: every issued certificate, the nodes' "certificates"
 LEDGER_HEADER = "# uavbus authority ledger: serial entity not_after (one line per issued identity; append-only)\n"
 
 
@@ -109,9 +111,10 @@ def issue(entity: str, roles: str, days: int, authority: str | None, directory: 
     kx_pk, kx_sk = ub_ident.kx_keypair(kx_seed)
     cert = ub_ident.Certificate(roles=bits, serial=serial, entity=eid, sign_pk=sign_pk, kx_pk=kx_pk, not_before=now,
                                 not_after=now + days * 86400, authority=bytes(8), signature=bytes(64))
-    signed, _ = ub_ident.cert_sign(cert, sk)
+    signed, cert_bytes = ub_ident.cert_sign(cert, sk)
     path = Path(out) if out else Path(directory) / f"{entity}.id"
     ub_ident.identfile_write(path, signed, sign_seed, kx_sk, force=force)
+    ub_ident.certfile_put(key.with_name(CERTS_NAME), cert_bytes)
     # The ledger is written after the file: a refused overwrite uses no serial.
     fd = os.open(ledger_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o600)
     with os.fdopen(fd, "a", encoding="utf-8") as f:
@@ -120,7 +123,8 @@ def issue(entity: str, roles: str, days: int, authority: str | None, directory: 
         f.write(f"{serial} {entity} {signed.not_after}\n")
         f.flush()
         os.fsync(f.fileno())
-    return f"{path}: {entity} serial {serial}, roles {','.join(signed.role_names) or '-'}, valid {days} days"
+    return (f"{path}: {entity} serial {serial}, roles {','.join(signed.role_names) or '-'}, valid {days} days; "
+            f"certificate added to {key.with_name(CERTS_NAME)}")
 
 
 def revoke(entity: str, serial: int | None, authority: str | None, directory: str, out: str | None,
@@ -167,6 +171,14 @@ def show(path: str) -> str:
     if magic == b"UBAP":
         pk = ub_ident.authfile_load_public(path)
         return f"{path}: authority public key, key id {ub_ident.authority_kid(pk).hex()}"
+    if magic == b"UBCS":
+        data = p.read_bytes()[8:]
+        lines = [f"{path}: certificates, {len(data) // ub_ident.CERT_LEN}"]
+        for i in range(0, len(data) - ub_ident.CERT_LEN + 1, ub_ident.CERT_LEN):
+            c = ub_ident.cert_decode(data[i:i + ub_ident.CERT_LEN])
+            lines.append(f"  {c.entity_name}: serial {c.serial}, roles {','.join(c.role_names) or '-'}, "
+                         f"{_when(c.not_before)} .. {_when(c.not_after)}")
+        return "\n".join(lines)
     if magic == b"UBRV":
         data = p.read_bytes()[8:]
         lines = [f"{path}: revocations, {len(data) // ub_ident.REVOCATION_LEN} record(s)"]

@@ -25,14 +25,15 @@ TABLE2 = REPO / "examples" / "configs" / "table2.json"
 ROLES = {"gcs1": "admin", "rmax1ob1": "vehicle,relay", "rmax1ob2": "vehicle", "fcs20": "vehicle"}
 
 
-def identity_config(tmp_path: Path) -> Path:
+def identity_config(tmp_path: Path, roles_of: dict[str, str] = ROLES) -> Path:
     kdir = tmp_path / "keys"
     keys.authority_create(str(kdir))
-    for entity, roles in ROLES.items():
+    for entity, roles in roles_of.items():
         keys.issue(entity, roles, 30, None, str(kdir), None, False)
     cfg = signed_config(TABLE2, tmp_path)
     doc: dict[str, Any] = json.loads(cfg.read_text(encoding="utf-8"))
     doc["security"].update({"authority": str(kdir / "authority.pub"), "identity": str(kdir / "{entity}.id"),
+                            "certificates": str(kdir / "fleet.certs"),
                             "revocations": "state/{entity}.revocations.ubr"})
     cfg.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     return cfg
@@ -88,5 +89,27 @@ def test_a_revocation_reaches_the_fleet_persists_and_locks_the_vehicle_out(hitl_
             h.restart("backup")
         text = str(refused.value)
         assert "revoked" in text and "uavbus keys issue fcs20" in text, text
+    finally:
+        h.close()
+
+
+@pytest.mark.parametrize("gcs_roles", ["admin", "observer"])
+def test_who_administers_is_the_certificates_role(hitl_opts: HitlOptions, tmp_path: Path, gcs_roles: str) -> None:
+    """gcs1 asks rmax1ob1 to publish gpsOut to rmax1ob2 (data to a third party: administrators only). The
+    vehicle's node judges gcs1 on its certificate: served when it says admin, refused NOT_AUTHORIZED when
+    it says observer, with the same name, keys and configuration."""
+    hitl_opts.config = identity_config(tmp_path, {**ROLES, "gcs1": gcs_roles})
+    h = Hitl(hitl_opts)
+    h.start()
+    try:
+        row = h.add_row("publication", "gpsOut", "rmax1ob1", "rmax1ob2", 100)
+        if gcs_roles == "admin":
+            h.wait_status(row, "active", 8.0)
+        else:
+            st = h.run_until(lambda: (s := h.admin.status(row)) and s.get("nack_reason") and s, 8.0,
+                             "a NACK for the observer's request")
+            assert "authorized" in str(st["nack_reason"]).lower(), st
+            drops = h.child_stats("primary")["node"]["drops"]
+            assert drops["not_authorized"] >= 1, drops
     finally:
         h.close()

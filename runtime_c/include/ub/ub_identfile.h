@@ -13,6 +13,7 @@
  * | authority secret (`uavbus keys authority create`) | `UBAK` | Ed25519 seed (32 B) | 0600, enforced |
  * | authority public | `UBAP` | Ed25519 public key (32 B) | any |
  * | revocations | `UBRV` | revocation records (104 B each), 0 or more | any (records are signed) |
+ * | certificates | `UBCS` | certificates (176 B each), one per entity: the fleet's public half | any (signed) |
  *
  * A secret file that group or others may access is refused before it is read, as key files are
  * (ub_secfile.h). Messages are one line, "FILE: what is wrong (what to do)": binary files have no
@@ -39,6 +40,12 @@ extern "C" {
 #define UB_IDENTFILE_LEN (UB_IDENTFILE_HEADER_LEN + UB_CERT_LEN + UB_IDENT_SEED_LEN + UB_IDENT_KX_SK_LEN)
 /** Authority files (secret and public): header + 32 bytes. */
 #define UB_AUTHFILE_LEN (UB_IDENTFILE_HEADER_LEN + 32u)
+/** Certificates one certificates file holds (one per entity). */
+#ifndef UB_CERTFILE_MAX_CERTS
+#define UB_CERTFILE_MAX_CERTS 128
+#endif
+/** Largest certificates file read. */
+#define UB_CERTFILE_MAX (UB_IDENTFILE_HEADER_LEN + UB_CERTFILE_MAX_CERTS * UB_CERT_LEN)
 /** Largest revocations file read. */
 #define UB_REVFILE_MAX (UB_IDENTFILE_HEADER_LEN + UB_IDENT_MAX_REVOCATIONS * UB_REVOCATION_LEN)
 
@@ -93,6 +100,23 @@ UB_CHECK int ub_revfile_read(const char *path, uint8_t *records, size_t cap, cha
 /** Writes every record of `store` to `path` atomically (temporary file, fsync, rename, directory fsync).
  *  @return UB_OK; UB_ERR_IO; UB_ERR_INVAL. */
 UB_CHECK int ub_revfile_save(const char *path, const ub_ident_store_t *store, char *err, size_t err_cap);
+
+/**
+ * Puts certificate `cert` (UB_CERT_LEN bytes, decodable) into certificates file `path`, replacing the one
+ * of the same entity, creating the file if needed; atomically. `uavbus keys issue` does it for every
+ * identity it issues, so the file is the fleet's directory of public certificates.
+ * @return UB_OK; UB_ERR_CONFIG (the file or the certificate is not one); UB_ERR_FULL; UB_ERR_IO; UB_ERR_INVAL.
+ */
+UB_CHECK int ub_certfile_put(const char *path, const uint8_t *cert, size_t len, char *err, size_t err_cap);
+
+/**
+ * Adds the certificates of file `path` to `store` (its authority set first): the peers a node knows. A
+ * certificate of another authority, or that does not verify, makes the file refused ("FILE: certificate N
+ * ..."); expired, not yet valid and revoked ones are skipped (counted in the store's stats: a directory
+ * naturally holds them until it is reissued).
+ * @return the number of certificates taken (>= 0); UB_ERR_CONFIG; UB_ERR_IO; UB_ERR_FULL; UB_ERR_INVAL.
+ */
+UB_CHECK int ub_certfile_load(const char *path, ub_ident_store_t *store, uint64_t now_s, char *err, size_t err_cap);
 
 /** ub_revoke_persist_fn (ub_revoke.h) over ub_revfile_save(): `user` is the path (a NUL-terminated string). */
 int ub_revfile_persist(void *user, const ub_ident_store_t *store);

@@ -168,7 +168,8 @@ typedef struct ub_nodecfg_security {
 /**
  * Identity per entity (issue 23; docs/security.md "Identity per entity"): "security.identity" (this node's
  * identity file, "{entity}" = the first hosted entity's name), "security.authority" (the authority's
- * public file), "security.revocations" (the revocations file, read and kept up to date). Read only by
+ * public file), "security.revocations" (the revocations file, read and kept up to date),
+ * "security.certificates" (the fleet's certificates file: the peers this node knows). Read only by
  * ub_nodecfg_load_identity().
  */
 typedef struct ub_nodecfg_identity {
@@ -176,7 +177,8 @@ typedef struct ub_nodecfg_identity {
     char identity[UB_NODECFG_PATH_MAX + 1];     /**< "" when not given: the node verifies others only */
     char authority[UB_NODECFG_PATH_MAX + 1];
     char revocations[UB_NODECFG_PATH_MAX + 1];  /**< "" when not given */
-    uint32_t identity_line, authority_line, revocations_line;
+    char certificates[UB_NODECFG_PATH_MAX + 1]; /**< "" when not given */
+    uint32_t identity_line, authority_line, revocations_line, certificates_line;
 } ub_nodecfg_identity_t;
 
 /** A parsed, validated configuration. Caller-owned; no pointers into the source text. */

@@ -87,6 +87,13 @@ typedef struct ub_policy_rule {
     uint32_t line;                                  /**< config line it came from (0 = added through the API) */
 } ub_policy_rule_t;
 
+/**
+ * The certified roles of entity `id` (identity per entity, ub_ident.h): UB_OK with `*roles` set (UB_ROLE_*
+ * bits), or a negative code when it has no valid identity (unknown, revoked, expired: no role). Typically
+ * ub_ident_peer_roles() on the node's identity store at the caller's wall clock.
+ */
+typedef int (*ub_policy_roles_fn)(void *user, const uint8_t id[UB_ENTITY_ID_LEN], uint16_t *roles);
+
 /** A policy. Caller-owned; fill it with the functions below (or from a config, ub_nodecfg.h). */
 typedef struct ub_policy {
     uint8_t n_admins;
@@ -96,6 +103,8 @@ typedef struct ub_policy {
     uint16_t n_rules;
     ub_policy_rule_t rules[UB_POLICY_MAX_RULES];
     ub_policy_limits_t limits; /**< defaults filled in */
+    ub_policy_roles_fn roles;  /**< NULL: administrators by name (group-key mode); see ub_policy_use_roles() */
+    void *roles_user;
 } ub_policy_t;
 
 /**
@@ -127,7 +136,17 @@ void ub_policy_set_exclusive(ub_policy_t *pol, bool on);
 /** Sets the limits; 0 in a field = its default. @return UB_OK, or UB_ERR_RANGE (max_lease_ms below UB_POLICY_MIN_LEASE_MS). */
 UB_CHECK int ub_policy_set_limits(ub_policy_t *pol, const ub_policy_limits_t *limits);
 
-/** @return whether `id` is an administrator. */
+/**
+ * Administrators by certified role (issue 23 item 3): with `roles` set, an entity is an administrator only
+ * if its valid, unrevoked certificate carries UB_ROLE_ADMIN, and, when the policy also lists
+ * administrators by name, it is listed too (the list narrows, never widens). NULL restores the
+ * group-key mode: administrators by name only. The frame's source ID must be the verified originator for
+ * this to mean anything (origin authentication, ub_origin.h); with only a group key, any key holder can
+ * claim an administrator's name.
+ */
+void ub_policy_use_roles(ub_policy_t *pol, ub_policy_roles_fn roles, void *user);
+
+/** @return whether `id` is an administrator (by certified role when ub_policy_use_roles() set a source). */
 bool ub_policy_is_admin(const ub_policy_t *pol, const uint8_t id[UB_ENTITY_ID_LEN]);
 
 /**

@@ -16,6 +16,7 @@
 #define MAGIC_AUTH_SECRET "UBAK"
 #define MAGIC_AUTH_PUBLIC "UBAP"
 #define MAGIC_REVOCATIONS "UBRV"
+#define MAGIC_CERTIFICATES "UBCS"
 #define PATH_CAP 512
 
 #if defined(__GNUC__)
@@ -346,6 +347,74 @@ int ub_revfile_save(const char *path, const ub_ident_store_t *store, char *err, 
         if (rc != UB_OK) return rc;
     }
     return write_file(path, buf, len, 0644, true, "revocations", "", err, err_cap);
+}
+
+/* ---- certificates ---- */
+
+static int read_certs(const char *path, uint8_t *buf, size_t *n, bool missing_ok, char *err, size_t err_cap) {
+    size_t len;
+    *n = 0;
+    int rc = read_file(path, buf, UB_CERTFILE_MAX, &len, false, missing_ok, "certificates", err, err_cap);
+    if (rc == 1) return UB_OK;
+    if (rc != UB_OK) return rc;
+    rc = check_header(path, buf, len, MAGIC_CERTIFICATES, "certificates", "uavbus keys issue ENTITY", err, err_cap);
+    if (rc != UB_OK) return rc;
+    if ((len - UB_IDENTFILE_HEADER_LEN) % UB_CERT_LEN != 0)
+        return failf(err, err_cap, UB_ERR_CONFIG, "%s: not a whole number of %u-byte certificates (damaged: copy it "
+                     "again from the authority)", path, (unsigned)UB_CERT_LEN);
+    *n = (len - UB_IDENTFILE_HEADER_LEN) / UB_CERT_LEN;
+    return UB_OK;
+}
+
+int ub_certfile_put(const char *path, const uint8_t *cert, size_t len, char *err, size_t err_cap) {
+    if (path == NULL || cert == NULL) return UB_ERR_INVAL;
+    ub_cert_t c, old;
+    if (ub_cert_decode(&c, cert, len) != UB_OK)
+        return failf(err, err_cap, UB_ERR_CONFIG, "%s: the certificate to add is malformed", path);
+    uint8_t buf[UB_CERTFILE_MAX];
+    size_t n;
+    int rc = read_certs(path, buf, &n, true, err, err_cap);
+    if (rc != UB_OK) return rc;
+    size_t at = n;
+    for (size_t i = 0; i < n; i++) {
+        const uint8_t *b = buf + UB_IDENTFILE_HEADER_LEN + i * UB_CERT_LEN;
+        if (ub_cert_decode(&old, b, UB_CERT_LEN) == UB_OK && memcmp(old.entity, c.entity, UB_ENTITY_ID_LEN) == 0) at = i;
+    }
+    if (at == n) {
+        if (n == UB_CERTFILE_MAX_CERTS)
+            return failf(err, err_cap, UB_ERR_FULL, "%s: holds %u certificates already (UB_CERTFILE_MAX_CERTS)", path,
+                         (unsigned)UB_CERTFILE_MAX_CERTS);
+        n++;
+    }
+    put_header(buf, MAGIC_CERTIFICATES);
+    memcpy(buf + UB_IDENTFILE_HEADER_LEN + at * UB_CERT_LEN, cert, UB_CERT_LEN);
+    return write_file(path, buf, UB_IDENTFILE_HEADER_LEN + n * UB_CERT_LEN, 0644, true, "certificates", "", err,
+                      err_cap);
+}
+
+int ub_certfile_load(const char *path, ub_ident_store_t *store, uint64_t now_s, char *err, size_t err_cap) {
+    if (path == NULL || store == NULL) return UB_ERR_INVAL;
+    uint8_t buf[UB_CERTFILE_MAX];
+    size_t n;
+    int rc = read_certs(path, buf, &n, false, err, err_cap);
+    if (rc != UB_OK) return rc;
+    int taken = 0;
+    for (size_t i = 0; i < n; i++) {
+        ub_ident_status_t why;
+        rc = ub_ident_add_peer(store, buf + UB_IDENTFILE_HEADER_LEN + i * UB_CERT_LEN, UB_CERT_LEN, now_s, &why);
+        if (rc == UB_OK) {
+            taken++;
+            continue;
+        }
+        if (rc == UB_ERR_FULL)
+            return failf(err, err_cap, UB_ERR_FULL, "%s: certificate %lu: more peers than this build holds (%u, "
+                         "UB_IDENT_MAX_PEERS in ub_ident.h)", path, (unsigned long)i + 1u, (unsigned)UB_IDENT_MAX_PEERS);
+        if (why == UB_IDENT_EXPIRED || why == UB_IDENT_NOT_YET_VALID || why == UB_IDENT_REVOKED) continue;
+        return failf(err, err_cap, UB_ERR_CONFIG, "%s: certificate %lu is %s; this is not this fleet's certificates "
+                     "file: check the authority file, or issue the entity again", path, (unsigned long)i + 1u,
+                     ub_ident_status_name(why));
+    }
+    return taken;
 }
 
 int ub_revfile_persist(void *user, const ub_ident_store_t *store) {

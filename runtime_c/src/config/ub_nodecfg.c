@@ -578,8 +578,8 @@ static int parse_ports(const parser_t *p, const ub_json_value_t *obj) {
 #define FRAME_SECURITY_KEYS "keys", "tx_key", "require_signed", "counter_file", "links"
 enum { S_KEYS, S_TX_KEY, S_REQUIRE_SIGNED, S_COUNTER_FILE, S_LINKS, N_FRAME_SECURITY_FIELDS };
 /* Identity per entity (issue 23): the last keys of the section. */
-#define IDENTITY_KEYS "identity", "authority", "revocations"
-enum { N_IDENTITY_FIELDS = 3 };
+#define IDENTITY_KEYS "identity", "authority", "revocations", "certificates"
+enum { N_IDENTITY_FIELDS = 4 };
 static const char *const SECURITY_FIELDS[] = {FRAME_SECURITY_KEYS, UB_PRIV_POLICY_KEYS, IDENTITY_KEYS};
 #define N_SECURITY_FIELDS (sizeof SECURITY_FIELDS / sizeof SECURITY_FIELDS[0])
 #define FIRST_IDENTITY_FIELD (N_SECURITY_FIELDS - N_IDENTITY_FIELDS)
@@ -720,7 +720,7 @@ static int parse_frame_security(const parser_t *p, const ub_json_value_t *obj, c
 static int parse_identity(const parser_t *p, const ub_json_value_t *obj, const ub_json_value_t *values) {
     ub_nodecfg_identity_t *id = &p->cfg->identity;
     int rc;
-    if (values[0].kind == 0 && values[1].kind == 0 && values[2].kind == 0) return UB_OK;
+    if (values[0].kind == 0 && values[1].kind == 0 && values[2].kind == 0 && values[3].kind == 0) return UB_OK;
     if (values[1].kind == 0)
         return fail(p, obj->line, NULL, "security.authority",
                     "missing: identities are verified under the fleet authority's public key, e.g. "
@@ -735,6 +735,10 @@ static int parse_identity(const parser_t *p, const ub_json_value_t *obj, const u
     if (values[2].kind != 0) {
         if ((rc = parse_path(p, &values[2], "security.revocations", id->revocations)) != UB_OK) return rc;
         id->revocations_line = values[2].line;
+    }
+    if (values[3].kind != 0) {
+        if ((rc = parse_path(p, &values[3], "security.certificates", id->certificates)) != UB_OK) return rc;
+        id->certificates_line = values[3].line;
     }
     return UB_OK;
 }
@@ -1157,6 +1161,16 @@ int ub_nodecfg_load_identity(const ub_nodecfg_t *cfg, struct ub_ident_store *sto
         }
         (void)sec_failed(cfg, err, err_cap, line, field, "%s", why);
         return rc;
+    }
+    if (id->certificates[0] != '\0') {
+        char certs[UB_SECFILE_PATH_MAX];
+        if (resolve_path(cfg, id->certificates, entity, certs, sizeof certs) != UB_OK)
+            return sec_failed(cfg, err, err_cap, id->certificates_line, "security.certificates", "path too long");
+        rc = ub_certfile_load(certs, store, now_s, why, sizeof why);
+        if (rc < 0) {
+            (void)sec_failed(cfg, err, err_cap, id->certificates_line, "security.certificates", "%s", why);
+            return rc;
+        }
     }
     if (revocations_path != NULL && path_cap > 0) {
         const char *r = id->revocations[0] != '\0' ? revs : "";

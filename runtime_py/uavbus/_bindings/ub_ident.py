@@ -205,6 +205,12 @@ def authfile_load_public(path: Any) -> bytes:
     return bytes(pk)
 
 
+def certfile_put(path: Any, cert: bytes) -> None:
+    """Puts a certificate into the fleet's certificates file (replacing the entity's older one)."""
+    err = ffi.new("char[]", ERR_LEN)
+    ensure(lib.ub_certfile_put(_path(path), cert, len(cert), err, ERR_LEN), _text(err) or str(path))
+
+
 class Store:
     """An identity store (ub_ident_store_t, about 19 kB, owned by this object)."""
 
@@ -259,6 +265,10 @@ class Store:
     def load_revocations(self, path: Any) -> int:
         err = ffi.new("char[]", ERR_LEN)
         return ensure(lib.ub_revfile_load(_path(path), self._s, err, ERR_LEN), _text(err) or str(path))
+
+    def load_certificates(self, path: Any, now_s: int) -> int:
+        err = ffi.new("char[]", ERR_LEN)
+        return ensure(lib.ub_certfile_load(_path(path), self._s, now_s, err, ERR_LEN), _text(err) or str(path))
 
     def save_revocations(self, path: Any) -> None:
         err = ffi.new("char[]", ERR_LEN)

@@ -15,3 +15,6 @@ int ub_revfile_load(const char *path, ub_ident_store_t *store, char *err, size_t
 int ub_revfile_save(const char *path, const ub_ident_store_t *store, char *err, size_t err_cap);
 int ub_identfile_load_store(ub_ident_store_t *store, const char *identity_path, const char *authority_path,
                             const char *revocations_path, uint64_t now_s, char *err, size_t err_cap);
+int ub_certfile_put(const char *path, const uint8_t *cert, size_t len, char *err, size_t err_cap);
+int ub_certfile_load(const char *path, ub_ident_store_t *store, uint64_t now_s, char *err, size_t err_cap);
+int ub_revfile_read(const char *path, uint8_t *records, size_t cap, char *err, size_t err_cap);
