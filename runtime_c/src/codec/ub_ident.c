@@ -123,6 +123,8 @@ int ub_ident_sign_keypair(const uint8_t seed[UB_IDENT_SEED_LEN], uint8_t pk[UB_I
     if (sodium_init() < 0 || crypto_sign_seed_keypair(pk, sk, seed) != 0) return UB_ERR_IO;
     return UB_OK;
 #else
+    memset(pk, 0, UB_IDENT_SIGN_PK_LEN); /* no key leaves a build that cannot make one */
+    memset(sk, 0, UB_IDENT_SIGN_SK_LEN);
     return UB_ERR_UNSUPPORTED;
 #endif
 }
@@ -134,6 +136,8 @@ int ub_ident_kx_keypair(const uint8_t seed[UB_IDENT_SEED_LEN], uint8_t pk[UB_IDE
     if (sodium_init() < 0 || crypto_kx_seed_keypair(pk, sk, seed) != 0) return UB_ERR_IO;
     return UB_OK;
 #else
+    memset(pk, 0, UB_IDENT_KX_PK_LEN);
+    memset(sk, 0, UB_IDENT_KX_SK_LEN);
     return UB_ERR_UNSUPPORTED;
 #endif
 }
@@ -144,6 +148,7 @@ int ub_ident_kx_public(const uint8_t sk[UB_IDENT_KX_SK_LEN], uint8_t pk[UB_IDENT
     if (sodium_init() < 0 || crypto_scalarmult_base(pk, sk) != 0) return UB_ERR_AUTH;
     return UB_OK;
 #else
+    memset(pk, 0, UB_IDENT_KX_PK_LEN);
     return UB_ERR_UNSUPPORTED;
 #endif
 }
