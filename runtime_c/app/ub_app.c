@@ -251,12 +251,6 @@ void ub_app_parse(ub_app_t *app, const ub_app_program_t *prog, int argc, char **
 
 /* ---- the node ---------------------------------------------------------------------------------------- */
 
-/* ub_policy_roles_fn over the node's identity store, at the wall clock (certificates' validity is in unix time). */
-static int app_roles(void *user, const uint8_t id[UB_ENTITY_ID_LEN], uint16_t *roles) {
-    ub_app_t *app = user;
-    return ub_ident_peer_roles(&app->ident, id, ub_app_unix_ms() / 1000u, roles);
-}
-
 void ub_app_start(ub_app_t *app, const ub_catalogue_t *catalogue, ub_frag_t *frag) {
     const char *name = app->prog->name, *path = app->config_path;
     char err[UB_NODECFG_ERR_LEN];
@@ -290,23 +284,16 @@ void ub_app_start(ub_app_t *app, const ub_catalogue_t *catalogue, ub_frag_t *fra
                                   sizeof sec_err) != UB_OK) {
         ub_app_die(app, "%s", sec_err);
     }
-    /* Identity per entity: the store from the files the section names, and revocation over the bus. */
+    /* Identity per entity: the store from the files the section names, authorization by certified role
+     * (issue 23 item 3: a vehicle never administers another unless its certificate says so), and
+     * revocation over the bus. */
     char id_err[UB_NODECFG_ERR_LEN + UB_IDENTFILE_ERR_LEN];
-    if (ub_nodecfg_load_identity(&app->cfg, &app->ident, ub_app_unix_ms() / 1000u, app->revocations_path,
-                                 sizeof app->revocations_path, id_err, sizeof id_err) != UB_OK) {
+    if (ub_nodecfg_apply_identity(&app->cfg, &app->node, &app->ident, ub_app_unix_ms() / 1000u, app->revocations_path,
+                                  sizeof app->revocations_path, id_err, sizeof id_err) != UB_OK) {
         ub_app_die(app, "%s", id_err);
     }
     if (app->cfg.identity.present) {
         app->ident_on = true;
-        /* Authorization by certified role (issue 23 item 3): with identities, "administrators administer" is
-         * decided on the admin role of the requester's certificate; a node whose config has no policy gets
-         * the default one, so a vehicle never administers another unless its certificate says so. */
-        if (!app->cfg.has_policy) {
-            ub_policy_init(&app->cfg.policy);
-            app->cfg.has_policy = 1;
-            ub_node_set_policy(&app->node, &app->cfg.policy);
-        }
-        ub_policy_use_roles(&app->cfg.policy, app_roles, app);
         if (ub_revoke_init(&app->revoke, &app->node, &app->ident, NULL,
                            app->revocations_path[0] != '\0' ? ub_revfile_persist : NULL, app->revocations_path) != UB_OK)
             ub_app_die(app, "%s: the revocation service was refused", name);

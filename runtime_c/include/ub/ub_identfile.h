@@ -122,6 +122,12 @@ UB_CHECK int ub_certfile_load(const char *path, ub_ident_store_t *store, uint64_
 int ub_revfile_persist(void *user, const ub_ident_store_t *store);
 
 /**
+ * ub_policy_roles_fn (ub_policy.h) over a ub_ident_store_t (`store`) at the wall clock (time(NULL)):
+ * ub_ident_peer_roles() for a node whose certificates are judged in real unix time.
+ */
+int ub_ident_roles_now(void *store, const uint8_t id[UB_ENTITY_ID_LEN], uint16_t *roles);
+
+/**
  * A node's identity set-up in one call: sets the authority from `authority_path` (public file),
  * loads the revocations (`revocations_path`, may be NULL), then this node's identity from
  * `identity_path` (may be NULL: a store that only verifies others), refusing one that is expired,

@@ -315,6 +315,18 @@ UB_CHECK int ub_nodecfg_load_identity(const ub_nodecfg_t *cfg, struct ub_ident_s
                                       char *revocations_path, size_t path_cap, char *err, size_t err_cap);
 
 /**
+ * ub_nodecfg_load_identity(), then authorization by certified role on `node` (ub_policy_use_roles() with
+ * ub_ident_roles_now() over `store`): the config's policy, or the default one attached to the node when
+ * the section has no policy keys, so a vehicle never administers another unless its certificate says so.
+ * Nothing happens when the section names no authority (group-key mode unchanged).
+ * `cfg` must outlive the node (its policy is attached), as for ub_nodecfg_apply().
+ * @return as ub_nodecfg_load_identity().
+ */
+UB_CHECK int ub_nodecfg_apply_identity(ub_nodecfg_t *cfg, struct ub_node *node, struct ub_ident_store *store,
+                                       uint64_t now_s, char *revocations_path, size_t path_cap, char *err,
+                                       size_t err_cap);
+
+/**
  * Applies the "security" section to a node that ub_nodecfg_apply() set up:
  *  1. initialises `sec` (with `opt`, may be NULL) and loads every key file
  *     (ub_secfile.h: refused when group/other-accessible; ids unique);

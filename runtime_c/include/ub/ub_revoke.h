@@ -14,8 +14,8 @@
  *  - **Idempotent**: a record the store already covers (same or newer serial for the entity) changes
  *    nothing and is not sent on (counted `known`): copies die out after one hop.
  *  - **Bounded**: a node sends at most one record per `min_interval_ms` (all links at once), each new
- *    record `repeats` times `repeat_ms` apart (a round no link took, all down, is retried and not counted) (a lossy radio, or a neighbour still challenging our
- *    freshness, gets another chance), and verifies at most `verify_per_s` received records per
+ *    record `repeats` times, `repeat_ms` apart then doubling (a lossy radio, or a neighbour still challenging our
+ *    freshness, gets another chance; a round no link took, all down, is retried and not counted), and verifies at most `verify_per_s` received records per
  *    second (Ed25519 costs ~50 us; more are dropped `backpressure`, counted `over_budget`): a flood of
  *    junk records cannot eat the CPU, and the genuine record's repeats get through after it.
  *  - **Persisted**: every record that changed the store is handed to `persist` (ub_revfile_persist()
@@ -51,8 +51,8 @@ typedef int (*ub_revoke_persist_fn)(void *user, const ub_ident_store_t *store);
 /** Options (0 = default). */
 typedef struct ub_revoke_options {
     uint32_t min_interval_ms; /**< least time between two records sent (default 50) */
-    uint32_t repeat_ms;       /**< time between the repeats of one record (default 500) */
-    uint8_t repeats;          /**< times each new record is sent on every link (default 3) */
+    uint32_t repeat_ms;       /**< gap before the first repeat of a record, doubling after (default 200) */
+    uint8_t repeats;          /**< times each new record is sent on every link (default 4) */
     uint16_t verify_per_s;    /**< received records verified per second at most (default 32) */
 } ub_revoke_options_t;
 

@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "ub/ub_wire.h"
@@ -415,6 +416,11 @@ int ub_certfile_load(const char *path, ub_ident_store_t *store, uint64_t now_s, 
                      ub_ident_status_name(why));
     }
     return taken;
+}
+
+int ub_ident_roles_now(void *store, const uint8_t id[UB_ENTITY_ID_LEN], uint16_t *roles) {
+    time_t now = time(NULL);
+    return ub_ident_peer_roles(store, id, now > 0 ? (uint64_t)now : 0u, roles);
 }
 
 int ub_revfile_persist(void *user, const ub_ident_store_t *store) {

@@ -1180,3 +1180,17 @@ int ub_nodecfg_load_identity(const ub_nodecfg_t *cfg, struct ub_ident_store *sto
     }
     return UB_OK;
 }
+
+int ub_nodecfg_apply_identity(ub_nodecfg_t *cfg, struct ub_node *node, struct ub_ident_store *store, uint64_t now_s,
+                              char *revocations_path, size_t path_cap, char *err, size_t err_cap) {
+    if (cfg == NULL || node == NULL) return UB_ERR_INVAL;
+    int rc = ub_nodecfg_load_identity(cfg, store, now_s, revocations_path, path_cap, err, err_cap);
+    if (rc != UB_OK || !cfg->identity.present) return rc;
+    if (!cfg->has_policy) {
+        ub_policy_init(&cfg->policy);
+        cfg->has_policy = 1;
+    }
+    ub_policy_use_roles(&cfg->policy, ub_ident_roles_now, store);
+    ub_node_set_policy(node, &cfg->policy);
+    return UB_OK;
+}

@@ -7,8 +7,8 @@
 #include "ub/ub_node_svc.h"
 
 #define DEFAULT_MIN_INTERVAL_MS 50u
-#define DEFAULT_REPEAT_MS 500u
-#define DEFAULT_REPEATS 3u
+#define DEFAULT_REPEAT_MS 200u
+#define DEFAULT_REPEATS 4u
 #define DEFAULT_VERIFY_PER_S 32u
 
 #if UB_MAX_PAYLOAD < UB_REVOCATION_LEN
@@ -108,7 +108,10 @@ static void tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms) {
          * tried again after repeat_ms, so a record is never lost to a link that was down when it arrived. */
         if (any) rv->spread[i].remaining--;
         else rv->stats.unsent++;
-        rv->spread[i].due_ms = now_ms + rv->opt.repeat_ms;
+        /* Doubling gaps (200, 400, 800 ms by default): the repeats outlast a second whose verification budget a
+         * flood of junk used up, and a long outage costs few sends. */
+        unsigned done = (unsigned)(rv->opt.repeats - rv->spread[i].remaining);
+        rv->spread[i].due_ms = now_ms + ((uint64_t)rv->opt.repeat_ms << (done > 0 && done < 8 ? done - 1u : 0u));
         rv->next_send_ms = now_ms + rv->opt.min_interval_ms;
         break;
     }

@@ -290,3 +290,40 @@ class Store:
     def self_cert(self) -> Certificate | None:
         c = lib.ub_ident_self(self._s)
         return None if c == ffi.NULL else _cert_from_c(c)
+
+
+class NodeIdentity:
+    """A node's identity from its configuration (ub_nodecfg_apply_identity): the store, authorization by
+    certified role, and the revocation service (ub_revoke.h) registered with the node. Keeps every C
+    object the node points to alive as long as itself."""
+
+    def __init__(self, cfg: Any, node: Any, now_s: int) -> None:
+        self.store = Store()
+        self._path = ffi.new("char[]", 512)
+        cap = 2 * ERR_LEN
+        err = ffi.new("char[]", cap)
+        ensure(lib.ub_nodecfg_apply_identity(cfg, node, self.store.c, now_s, self._path, 512, err, cap),
+               _text(err) or "ub_nodecfg_apply_identity")
+        self._rv = ffi.new("ub_revoke_t *")
+        persist = ffi.addressof(lib, "ub_revfile_persist") if self._path[0] != b"\0" else ffi.NULL
+        ensure(lib.ub_revoke_init(self._rv, node, self.store.c, ffi.NULL, persist,
+                                  self._path if persist != ffi.NULL else ffi.NULL), "revocation service")
+
+    def submit(self, record: bytes, now_ms: int) -> str:
+        """A revocation record from the operator: 'accepted', 'known', or why it was refused."""
+        rc = lib.ub_revoke_submit(self._rv, record, len(record), now_ms)
+        if rc == 0:
+            return "accepted"
+        if rc == lib.UB_ERR_EXISTS:
+            return "known"
+        return "full" if rc == lib.UB_ERR_FULL else "refused"
+
+    def stats(self) -> dict[str, int]:
+        st = lib.ub_revoke_stats(self._rv)
+        return {name: int(getattr(st, name)) for name in ("received", "accepted", "known", "refused", "full",
+                                                           "over_budget", "sent", "unsent", "persisted",
+                                                           "persist_failures")}
+
+
+def cfg_has_identity(cfg: Any) -> bool:
+    return bool(cfg.identity.present)

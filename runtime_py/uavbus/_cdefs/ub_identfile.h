@@ -18,3 +18,5 @@ int ub_identfile_load_store(ub_ident_store_t *store, const char *identity_path, 
 int ub_certfile_put(const char *path, const uint8_t *cert, size_t len, char *err, size_t err_cap);
 int ub_certfile_load(const char *path, ub_ident_store_t *store, uint64_t now_s, char *err, size_t err_cap);
 int ub_revfile_read(const char *path, uint8_t *records, size_t cap, char *err, size_t err_cap);
+int ub_revfile_persist(void *user, const ub_ident_store_t *store);
+int ub_ident_roles_now(void *store, const uint8_t id[], uint16_t *roles);
