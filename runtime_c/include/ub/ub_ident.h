@@ -60,14 +60,7 @@
 extern "C" {
 #endif
 
-/** Peers' certificates one store holds (64 known peers: about 11 KiB). */
-#ifndef UB_IDENT_MAX_PEERS
-#define UB_IDENT_MAX_PEERS 64
-#endif
-/** Revocation records one store holds (one per revoked entity: a newer record replaces an older one). */
-#ifndef UB_IDENT_MAX_REVOCATIONS
-#define UB_IDENT_MAX_REVOCATIONS 64
-#endif
+/* Capacities: UB_IDENT_MAX_PEERS and UB_IDENT_MAX_REVOCATIONS in ub_config.h. */
 
 #define UB_IDENT_VERSION 1u
 #define UB_IDENT_KIND_CERT 1u
