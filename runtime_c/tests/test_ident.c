@@ -430,10 +430,15 @@ static void test_nodecfg_identity(void **state) {
     assert_int_equal(test_issue(&e, &auth, "gcs1", UB_ROLE_ADMIN, 3, T0, T0 + DAY), UB_OK);
     assert_int_equal(ub_identfile_write(idp, &e.cert, e.sign_seed, e.kx_sk, false, err, sizeof err), UB_OK);
     assert_int_equal(ub_authfile_write_public(pubp, auth.pk, false, err, sizeof err), UB_OK);
+    test_entity_t m; /* a second hosted entity (a bridge): "{entity}" gives it an identity of its own */
+    char mavp[128];
+    path_of(mavp, sizeof mavp, "mav1.id");
+    assert_int_equal(test_issue(&m, &auth, "mav1", UB_ROLE_BRIDGE, 4, T0, T0 + DAY), UB_OK);
+    assert_int_equal(ub_identfile_write(mavp, &m.cert, m.sign_seed, m.kx_sk, false, err, sizeof err), UB_OK);
     static const char text[] =
         "{\n"
-        "  \"entities\": [{\"name\": \"gcs1\", \"links\": [\"l0\"], \"linktoentity\": {}}],\n"
-        "  \"hosts\": [\"gcs1\"],\n"
+        "  \"entities\": [{\"name\": \"gcs1\", \"links\": [\"l0\"], \"linktoentity\": {}}, {\"name\": \"mav1\"}],\n"
+        "  \"hosts\": [\"gcs1\", \"mav1\"],\n"
         "  \"security\": {\n"
         "    \"authority\": \"authority.pub\",\n"
         "    \"identity\": \"{entity}.id\",\n"
@@ -451,6 +456,12 @@ static void test_nodecfg_identity(void **state) {
     char revs[256];
     assert_int_equal(ub_nodecfg_load_identity(cfg, s, T0, revs, sizeof revs, err, sizeof err), UB_OK);
     assert_non_null(ub_ident_self(s));
+    assert_int_equal(ub_ident_self_count(s), 2);
+    assert_memory_equal(ub_ident_self_kx_sk_for(s, e.cert.entity), e.kx_sk, 32);
+    assert_memory_equal(ub_ident_self_kx_sk_for(s, m.cert.entity), m.kx_sk, 32);
+    uint16_t roles;
+    assert_int_equal(ub_ident_peer_roles(s, m.cert.entity, T0, &roles), UB_OK);
+    assert_int_equal(roles, UB_ROLE_BRIDGE);
     char want[160];
     path_of(want, sizeof want, "state.ubr");
     assert_string_equal(revs, want);

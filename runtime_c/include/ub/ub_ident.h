@@ -36,8 +36,8 @@
  * documentation recommends distinct keys for signing and key agreement; it costs 32 bytes in the
  * certificate and 32 secret bytes, and it lets an MCU entity hold only the X25519 half it needs.
  *
- * **Store**: ub_ident_store_t holds the authority's public key, this node's own identity (its
- * certificate and secret keys), up to UB_IDENT_MAX_PEERS peers' verified certificates and up to
+ * **Store**: ub_ident_store_t holds the authority's public key, this node's own identities (certificate
+ * and secret keys of each hosted entity), up to UB_IDENT_MAX_PEERS peers' verified certificates and up to
  * UB_IDENT_MAX_REVOCATIONS revocation records. Caller-owned, fixed size, no allocation, no statics.
  * A certificate enters only verified under the authority, inside its validity period and not
  * revoked; a revocation enters only verified, and removes the peers it covers at once.
@@ -206,14 +206,19 @@ typedef struct ub_ident_stats {
 } ub_ident_stats_t;
 
 /** Caller-owned identity store; treat the fields as private (ub_ident_* below). */
+/** One of this node's own identities (one per hosted entity). */
+typedef struct ub_ident_self {
+    ub_cert_t cert;
+    uint8_t sign_sk[UB_IDENT_SIGN_SK_LEN];
+    uint8_t kx_sk[UB_IDENT_KX_SK_LEN];
+} ub_ident_self_t;
+
 typedef struct ub_ident_store {
     uint8_t has_authority;
-    uint8_t has_self;
+    uint8_t n_selves;
     uint8_t authority_pk[UB_IDENT_SIGN_PK_LEN];
     uint8_t authority_kid[UB_IDENT_KID_LEN];
-    ub_cert_t self;
-    uint8_t self_sign_sk[UB_IDENT_SIGN_SK_LEN];
-    uint8_t self_kx_sk[UB_IDENT_KX_SK_LEN];
+    ub_ident_self_t selves[UB_MAX_LOCAL_ENTITIES]; /**< this node's identities, one per hosted entity */
     uint16_t n_peers;
     ub_cert_t peers[UB_IDENT_MAX_PEERS];
     uint16_t n_revoked;
@@ -232,21 +237,32 @@ void ub_ident_store_clear(ub_ident_store_t *store);
 UB_CHECK int ub_ident_set_authority(ub_ident_store_t *store, const uint8_t pk[UB_IDENT_SIGN_PK_LEN]);
 
 /**
- * Sets this node's own identity: `cert` must verify under the authority, be valid at `now_s` and not
- * revoked, and the secret keys must be the certificate's (their public halves are recomputed).
+ * Adds one of this node's own identities (one per hosted entity, up to UB_MAX_LOCAL_ENTITIES; the same
+ * entity again replaces its identity): `cert` must verify under the authority, be valid at `now_s` and
+ * not revoked, and the secret keys must be the certificate's (their public halves are recomputed).
  * @return UB_OK; UB_ERR_NOTFOUND (no authority yet); UB_ERR_AUTH (`*why` says which check failed:
  *         signature, authority, time, revocation, or UB_IDENT_MALFORMED for keys that do not match);
- *         UB_ERR_INVAL; UB_ERR_UNSUPPORTED.
+ *         UB_ERR_FULL; UB_ERR_INVAL; UB_ERR_UNSUPPORTED.
  */
 UB_CHECK int ub_ident_set_self(ub_ident_store_t *store, const ub_cert_t *cert,
                                const uint8_t sign_sk[UB_IDENT_SIGN_SK_LEN], const uint8_t kx_sk[UB_IDENT_KX_SK_LEN],
                                uint64_t now_s, ub_ident_status_t *why);
 
-/** @return this node's certificate, or NULL (none set). */
+/** @return this node's first identity's certificate, or NULL (none set). */
 const ub_cert_t *ub_ident_self(const ub_ident_store_t *store);
 
-/** @return this node's X25519 secret key, or NULL (none set). For the origin service's key agreement. */
+/** @return the number of this node's identities. */
+size_t ub_ident_self_count(const ub_ident_store_t *store);
+
+/** @return identity `index` (0 .. count-1) of this node, or NULL. */
+const ub_ident_self_t *ub_ident_self_at(const ub_ident_store_t *store, size_t index);
+
+/** @return the X25519 secret key of this node's first identity, or NULL (none set). */
 const uint8_t *ub_ident_self_kx_sk(const ub_ident_store_t *store);
+
+/** @return the X25519 secret key of this node's identity for hosted entity `entity_id`, or NULL. For the
+ *  origin service's key agreement (ub_origin_add_identity() per hosted entity). */
+const uint8_t *ub_ident_self_kx_sk_for(const ub_ident_store_t *store, const uint8_t entity_id[UB_ENTITY_ID_LEN]);
 
 /**
  * Adds (or renews) a peer's certificate from its UB_CERT_LEN bytes: decoded strictly, verified under

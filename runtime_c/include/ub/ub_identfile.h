@@ -128,6 +128,15 @@ int ub_revfile_persist(void *user, const ub_ident_store_t *store);
 int ub_ident_roles_now(void *store, const uint8_t id[UB_ENTITY_ID_LEN], uint16_t *roles);
 
 /**
+ * Adds one of this node's identities from identity file `identity_path` (ub_identfile_load(), then
+ * ub_ident_set_self()), refusing one that is expired, not yet valid, revoked (`revocations_path`, may be
+ * NULL, only names the file in the message), of another authority or with a bad signature.
+ * @return UB_OK; UB_ERR_CONFIG / UB_ERR_IO (`err`: "FILE: ..."); UB_ERR_INVAL; UB_ERR_UNSUPPORTED.
+ */
+UB_CHECK int ub_identfile_load_self(ub_ident_store_t *store, const char *identity_path, const char *revocations_path,
+                                    uint64_t now_s, char *err, size_t err_cap);
+
+/**
  * A node's identity set-up in one call: sets the authority from `authority_path` (public file),
  * loads the revocations (`revocations_path`, may be NULL), then this node's identity from
  * `identity_path` (may be NULL: a store that only verifies others), refusing one that is expired,

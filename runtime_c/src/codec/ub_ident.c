@@ -346,10 +346,8 @@ int ub_ident_set_authority(ub_ident_store_t *store, const uint8_t pk[UB_IDENT_SI
     if (rc != UB_OK) return rc;
     if (store->has_authority && memcmp(kid, store->authority_kid, UB_IDENT_KID_LEN) != 0) {
         /* Another authority: nothing it did not sign may stay. */
-        wipe(&store->self, sizeof store->self);
-        wipe(store->self_sign_sk, sizeof store->self_sign_sk);
-        wipe(store->self_kx_sk, sizeof store->self_kx_sk);
-        store->has_self = 0;
+        wipe(store->selves, sizeof store->selves);
+        store->n_selves = 0;
         memset(store->peers, 0, sizeof store->peers);
         store->n_peers = 0;
         memset(store->revoked, 0, sizeof store->revoked);
@@ -391,19 +389,37 @@ int ub_ident_set_self(ub_ident_store_t *store, const ub_cert_t *cert, const uint
         *why = UB_IDENT_MALFORMED;
         return UB_ERR_AUTH;
     }
-    store->self = *cert;
-    memcpy(store->self_sign_sk, sign_sk, UB_IDENT_SIGN_SK_LEN);
-    memcpy(store->self_kx_sk, kx_sk, UB_IDENT_KX_SK_LEN);
-    store->has_self = 1;
+    size_t at = store->n_selves;
+    for (size_t i = 0; i < store->n_selves; i++)
+        if (id_eq(store->selves[i].cert.entity, cert->entity)) at = i;
+    if (at == UB_MAX_LOCAL_ENTITIES) return UB_ERR_FULL;
+    if (at == store->n_selves) store->n_selves++;
+    ub_ident_self_t *me = &store->selves[at];
+    me->cert = *cert;
+    memcpy(me->sign_sk, sign_sk, UB_IDENT_SIGN_SK_LEN);
+    memcpy(me->kx_sk, kx_sk, UB_IDENT_KX_SK_LEN);
     return UB_OK;
 }
 
 const ub_cert_t *ub_ident_self(const ub_ident_store_t *store) {
-    return store != NULL && store->has_self ? &store->self : NULL;
+    return store != NULL && store->n_selves > 0 ? &store->selves[0].cert : NULL;
+}
+
+size_t ub_ident_self_count(const ub_ident_store_t *store) { return store != NULL ? store->n_selves : 0; }
+
+const ub_ident_self_t *ub_ident_self_at(const ub_ident_store_t *store, size_t index) {
+    return store != NULL && index < store->n_selves ? &store->selves[index] : NULL;
 }
 
 const uint8_t *ub_ident_self_kx_sk(const ub_ident_store_t *store) {
-    return store != NULL && store->has_self ? store->self_kx_sk : NULL;
+    return store != NULL && store->n_selves > 0 ? store->selves[0].kx_sk : NULL;
+}
+
+const uint8_t *ub_ident_self_kx_sk_for(const ub_ident_store_t *store, const uint8_t entity_id[UB_ENTITY_ID_LEN]) {
+    if (store == NULL || entity_id == NULL) return NULL;
+    for (size_t i = 0; i < store->n_selves; i++)
+        if (id_eq(store->selves[i].cert.entity, entity_id)) return store->selves[i].kx_sk;
+    return NULL;
 }
 
 static int peer_index(const ub_ident_store_t *s, const uint8_t *entity) {
@@ -520,8 +536,9 @@ int ub_ident_revocation_at(const ub_ident_store_t *store, size_t index, uint8_t 
 static ub_ident_status_t find(const ub_ident_store_t *s, const uint8_t *entity, uint64_t now_s, const ub_cert_t **out) {
     *out = NULL;
     const ub_cert_t *c = NULL;
-    if (s->has_self && id_eq(s->self.entity, entity)) c = &s->self;
-    else {
+    for (size_t i = 0; i < s->n_selves && c == NULL; i++)
+        if (id_eq(s->selves[i].cert.entity, entity)) c = &s->selves[i].cert;
+    if (c == NULL) {
         int i = peer_index(s, entity);
         if (i >= 0) c = &s->peers[i];
     }

@@ -429,23 +429,10 @@ int ub_revfile_persist(void *user, const ub_ident_store_t *store) {
 
 /* ---- a node's set-up ---- */
 
-int ub_identfile_load_store(ub_ident_store_t *store, const char *identity_path, const char *authority_path,
-                            const char *revocations_path, uint64_t now_s, char *err, size_t err_cap) {
-    if (store == NULL || authority_path == NULL) return UB_ERR_INVAL;
-    ub_ident_store_init(store);
-    uint8_t pk[UB_IDENT_SIGN_PK_LEN];
-    int rc = ub_authfile_load_public(authority_path, pk, err, err_cap);
-    if (rc != UB_OK) return rc;
-    rc = ub_ident_set_authority(store, pk);
-    if (rc == UB_ERR_UNSUPPORTED)
-        return failf(err, err_cap, rc, "%s: this build has no security (UAVBUS_SECURITY=OFF): identities need libsodium",
-                     authority_path);
-    if (rc != UB_OK) return failf(err, err_cap, rc, "%s: %s", authority_path, ub_strerror(rc));
-    if (revocations_path != NULL) {
-        rc = ub_revfile_load(revocations_path, store, err, err_cap);
-        if (rc < 0) return rc;
-    }
-    if (identity_path == NULL) return UB_OK;
+int ub_identfile_load_self(ub_ident_store_t *store, const char *identity_path, const char *revocations_path,
+                           uint64_t now_s, char *err, size_t err_cap) {
+    if (store == NULL || identity_path == NULL) return UB_ERR_INVAL;
+    int rc;
     ub_cert_t cert;
     uint8_t sign_sk[UB_IDENT_SIGN_SK_LEN], kx_sk[UB_IDENT_KX_SK_LEN];
     rc = ub_identfile_load(identity_path, &cert, sign_sk, kx_sk, err, err_cap);
@@ -455,6 +442,12 @@ int ub_identfile_load_store(ub_ident_store_t *store, const char *identity_path, 
     wipe(sign_sk, sizeof sign_sk);
     wipe(kx_sk, sizeof kx_sk);
     if (rc == UB_OK) return UB_OK;
+    if (rc == UB_ERR_FULL)
+        return failf(err, err_cap, rc, "%s: this node holds %u identities already (UB_MAX_LOCAL_ENTITIES)", identity_path,
+                     (unsigned)UB_MAX_LOCAL_ENTITIES);
+    if (rc == UB_ERR_UNSUPPORTED || rc == UB_ERR_NOTFOUND)
+        return failf(err, err_cap, rc, "%s: %s (identities need libsodium and the authority's public key)",
+                     identity_path, ub_strerror(rc));
     char name[UB_ENTITY_ID_LEN + 1];
     for (size_t i = 0; i < UB_ENTITY_ID_LEN; i++) name[i] = cert.entity[i] >= 0x20 && cert.entity[i] < 0x7f ? (char)cert.entity[i] : (cert.entity[i] == 0 ? '\0' : '?');
     name[UB_ENTITY_ID_LEN] = '\0';
@@ -475,8 +468,8 @@ int ub_identfile_load_store(ub_ident_store_t *store, const char *identity_path, 
                      revocations_path != NULL ? revocations_path : "revocations", name);
     case UB_IDENT_WRONG_AUTHORITY:
         return failf(err, err_cap, UB_ERR_CONFIG,
-                     "%s: issued by another authority than %s (give this fleet's authority file, or issue the identity "
-                     "with it)", identity_path, authority_path);
+                     "%s: issued by another authority than this node's (give this fleet's authority file, or issue the "
+                     "identity with it)", identity_path);
     case UB_IDENT_BAD_SIGNATURE:
         return failf(err, err_cap, UB_ERR_CONFIG,
                      "%s: the authority's signature does not verify (the certificate was altered: issue it again)",
@@ -485,4 +478,24 @@ int ub_identfile_load_store(ub_ident_store_t *store, const char *identity_path, 
         return failf(err, err_cap, UB_ERR_CONFIG, "%s: refused (%s): issue it again: uavbus keys issue %s --force",
                      identity_path, ub_ident_status_name(why), name);
     }
+}
+
+int ub_identfile_load_store(ub_ident_store_t *store, const char *identity_path, const char *authority_path,
+                            const char *revocations_path, uint64_t now_s, char *err, size_t err_cap) {
+    if (store == NULL || authority_path == NULL) return UB_ERR_INVAL;
+    ub_ident_store_init(store);
+    uint8_t pk[UB_IDENT_SIGN_PK_LEN];
+    int rc = ub_authfile_load_public(authority_path, pk, err, err_cap);
+    if (rc != UB_OK) return rc;
+    rc = ub_ident_set_authority(store, pk);
+    if (rc == UB_ERR_UNSUPPORTED)
+        return failf(err, err_cap, rc, "%s: this build has no security (UAVBUS_SECURITY=OFF): identities need libsodium",
+                     authority_path);
+    if (rc != UB_OK) return failf(err, err_cap, rc, "%s: %s", authority_path, ub_strerror(rc));
+    if (revocations_path != NULL) {
+        rc = ub_revfile_load(revocations_path, store, err, err_cap);
+        if (rc < 0) return rc;
+    }
+    if (identity_path == NULL) return UB_OK;
+    return ub_identfile_load_self(store, identity_path, revocations_path, now_s, err, err_cap);
 }
