@@ -100,8 +100,8 @@
 #endif
 
 /* ---- identity per entity (ub_ident.h, issue 23) ---- */
-/** Peers' certificates one identity store holds (184 bytes each: 64 peers and 64 revocations make the
- *  store 18,872 bytes, on a 64-bit host and on a Cortex-M4 alike). */
+/** Peers' certificates one identity store holds (184 bytes each: with 64 revocations the store is 18,872
+ *  bytes on a Cortex-M4 hosting one entity, 19,712 on a 64-bit host with UB_MAX_LOCAL_ENTITIES 4). */
 #ifndef UB_IDENT_MAX_PEERS
 #define UB_IDENT_MAX_PEERS 64
 #endif
