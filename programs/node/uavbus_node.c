@@ -333,11 +333,12 @@ static void out_identity(ub_app_t *app) {
         ",\"peers_refused\":%" PRIu32 ",\"peers_removed\":%" PRIu32 ",\"lookups\":%" PRIu32 ",\"lookups_refused\":%" PRIu32
         ",\"revocations_received\":%" PRIu32 ",\"revocations_accepted\":%" PRIu32 ",\"revocations_known\":%" PRIu32
         ",\"revocations_refused\":%" PRIu32 ",\"revocations_sent\":%" PRIu32 ",\"revocations_over_budget\":%" PRIu32
-        ",\"persisted\":%" PRIu32 ",\"persist_failures\":%" PRIu32 "}",
+        ",\"persisted\":%" PRIu32 ",\"persist_failures\":%" PRIu32 ",\"certs_accepted\":%" PRIu32
+        ",\"certs_known\":%" PRIu32 ",\"certs_refused\":%" PRIu32 ",\"certs_sent\":%" PRIu32 "}",
         self != NULL ? self->serial : 0, self != NULL ? (unsigned)self->roles : 0u,
         (unsigned)ub_ident_revocation_count(&app->ident), s->peers_added, refused, s->peers_removed, s->lookups,
         lookups_refused, r->received, r->accepted, r->known, r->refused + r->full, r->sent, r->over_budget,
-        r->persisted, r->persist_failures);
+        r->persisted, r->persist_failures, r->certs_accepted, r->certs_known, r->certs_refused, r->certs_sent);
 }
 
 /* `revoke FILE`: the records of a revocations file (uavbus keys revoke ENTITY) handed to the revocation

@@ -120,6 +120,7 @@ struct ub_app {
     ub_ident_store_t ident;
     ub_revoke_t revoke;
     char revocations_path[UB_NODECFG_PATH_MAX + 128];
+    char certificates_path[UB_NODECFG_PATH_MAX + 128];
     ub_ports_t ports;
     uint32_t first_seq;
     uint64_t start_ms;       /* CLOCK_MONOTONIC at the start; --duration-ms counts from it */

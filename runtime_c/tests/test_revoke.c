@@ -162,11 +162,66 @@ static void test_flood_is_bounded(void **state) {
     line_free(l);
 }
 
+static uint64_t fixed_clock(void *user) {
+    (void)user;
+    return T0 + 10;
+}
+
+/* Certificates spread like revocations: a node announces its own when the service starts, and a
+ * replacement identity submitted at one end is known at the other, but a revoked serial is never spread. */
+static void test_certificates_spread(void **state) {
+    (void)state;
+    line_t *l = line_new();
+    test_entity_t fcs, repl;
+    assert_int_equal(test_issue(&fcs, &l->auth, "fcs20", UB_ROLE_VEHICLE, 11, T0, T0 + 86400), UB_OK);
+    assert_int_equal(test_issue(&repl, &l->auth, "rmax2ob1", UB_ROLE_VEHICLE, 12, T0, T0 + 86400), UB_OK);
+    ub_revoke_options_t opt = {.clock_s = fixed_clock};
+    for (int i = 0; i < N; i++) {
+        assert_int_equal(ub_revoke_remove(&l->rv[i]), UB_OK);
+        if (i == N - 1)
+            assert_int_equal(ub_ident_set_self(&l->store[i], &fcs.cert, fcs.sign_sk, fcs.kx_sk, T0 + 10, NULL), UB_OK);
+        assert_int_equal(ub_revoke_init(&l->rv[i], l->node[i], &l->store[i], &opt, persist_count, &l->persisted[i]),
+                         UB_OK);
+        assert_int_equal(ub_revoke_spread_certificates(&l->rv[i], NULL, NULL, 0), UB_OK);
+    }
+    world_run(l->w, 100, 10);
+    uint8_t pk[32];
+    for (int i = 0; i < N; i++) {
+        assert_int_equal(ub_ident_peer_kx_key(&l->store[i], fcs.cert.entity, T0 + 10, pk), UB_OK);
+        assert_memory_equal(pk, fcs.cert.kx_pk, 32);
+    }
+    assert_int_equal(l->rv[0].stats.certs_accepted, 1);
+    /* the revoked vehicle's replacement: revoke serial 8, then its new certificate reaches the far end */
+    uint8_t rec[UB_REVOCATION_LEN];
+    assert_int_equal(test_revoke_record(rec, &l->auth, "rmax2ob1", 8, T0 + 5), UB_OK);
+    assert_int_equal(ub_revoke_submit(&l->rv[0], rec, sizeof rec, l->w->now_ms), UB_OK);
+    assert_int_equal(ub_revoke_submit_certificate(&l->rv[0], repl.cert_bytes, UB_CERT_LEN, l->w->now_ms), UB_OK);
+    world_run(l->w, l->w->now_ms + 200, 10);
+    assert_int_equal(ub_ident_peer_kx_key(&l->store[3], repl.cert.entity, T0 + 10, pk), UB_OK);
+    assert_memory_equal(pk, repl.cert.kx_pk, 32);
+    /* the old, revoked certificate submitted again is refused and goes nowhere; copies die out */
+    assert_int_equal(ub_revoke_submit_certificate(&l->rv[0], l->victim.cert_bytes, UB_CERT_LEN, l->w->now_ms),
+                     UB_ERR_AUTH);
+    world_run(l->w, l->w->now_ms + 3000, 10);
+    assert_memory_equal(ub_ident_peer_cert(&l->store[3], repl.cert.entity, T0 + 10)->kx_pk, repl.cert.kx_pk, 32);
+    uint32_t sent[N];
+    for (int i = 0; i < N; i++) {
+        sent[i] = l->rv[i].stats.certs_sent;
+        uint32_t n_links = (i == 0 || i == N - 1) ? 1u : 2u;
+        assert_true(sent[i] <= 2u * 4u * n_links); /* two certificates, 4 repeats each, per link */
+        assert_int_equal(l->rv[i].stats.certs_refused, i == 0 ? 1 : 0);
+    }
+    world_run(l->w, l->w->now_ms + 3000, 10);
+    for (int i = 0; i < N; i++) assert_int_equal(l->rv[i].stats.certs_sent, sent[i]);
+    line_free(l);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_spreads_to_the_far_end),
         cmocka_unit_test(test_foreign_and_junk_records_stay_put),
         cmocka_unit_test(test_flood_is_bounded),
+        cmocka_unit_test(test_certificates_spread),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

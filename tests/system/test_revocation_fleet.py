@@ -89,6 +89,13 @@ def test_a_revocation_reaches_the_fleet_persists_and_locks_the_vehicle_out(hitl_
             h.restart("backup")
         text = str(refused.value)
         assert "revoked" in text and "uavbus keys issue fcs20" in text, text
+        # re-keying the replacement is one command; it starts, announces its certificate, and the fleet learns it
+        out = keys.issue("fcs20", "vehicle", 30, None, str(tmp_path / "keys"), None, True)
+        assert "serial 5" in out, out
+        h.restart("backup")
+        assert identity(h, "backup")["serial"] == 5
+        h.run_until(lambda: identity(h, "primary")["certs_accepted"] >= 1, 5.0, "rmax1ob1 learns the new fcs20")
+        h.run_until(lambda: identity(h, "secondary")["certs_accepted"] >= 1, 5.0, "rmax1ob2 learns it, 2 hops")
     finally:
         h.close()
 

@@ -121,6 +121,12 @@ UB_CHECK int ub_certfile_load(const char *path, ub_ident_store_t *store, uint64_
 /** ub_revoke_persist_fn (ub_revoke.h) over ub_revfile_save(): `user` is the path (a NUL-terminated string). */
 int ub_revfile_persist(void *user, const ub_ident_store_t *store);
 
+/** The wall clock in unix seconds (time(NULL)), for ub_revoke_options_t.clock_s (`user` unused). */
+uint64_t ub_identfile_unix_s(void *user);
+
+/** ub_revoke_persist_cert_fn (ub_revoke.h) over ub_certfile_put(): `user` is the path. */
+int ub_certfile_persist(void *user, const uint8_t *cert, size_t len);
+
 /**
  * ub_policy_roles_fn (ub_policy.h) over a ub_ident_store_t (`store`) at the wall clock (time(NULL)):
  * ub_ident_peer_roles() for a node whose certificates are judged in real unix time.

@@ -314,6 +314,10 @@ struct ub_ident_store;
 UB_CHECK int ub_nodecfg_load_identity(const ub_nodecfg_t *cfg, struct ub_ident_store *store, uint64_t now_s,
                                       char *revocations_path, size_t path_cap, char *err, size_t err_cap);
 
+/** The certificates file the section names, resolved as ub_nodecfg_load_identity() does ("" when none).
+ *  @return UB_OK; UB_ERR_RANGE (longer than `cap`); UB_ERR_INVAL. */
+UB_CHECK int ub_nodecfg_certificates_path(const ub_nodecfg_t *cfg, char *out, size_t cap);
+
 /**
  * ub_nodecfg_load_identity(), then authorization by certified role on `node` (ub_policy_use_roles() with
  * ub_ident_roles_now() over `store`): the config's policy, or the default one attached to the node when

@@ -418,6 +418,16 @@ int ub_certfile_load(const char *path, ub_ident_store_t *store, uint64_t now_s, 
     return taken;
 }
 
+uint64_t ub_identfile_unix_s(void *user) {
+    (void)user;
+    time_t now = time(NULL);
+    return now > 0 ? (uint64_t)now : 0u;
+}
+
+int ub_certfile_persist(void *user, const uint8_t *cert, size_t len) {
+    return ub_certfile_put((const char *)user, cert, len, NULL, 0);
+}
+
 int ub_ident_roles_now(void *store, const uint8_t id[UB_ENTITY_ID_LEN], uint16_t *roles) {
     time_t now = time(NULL);
     return ub_ident_peer_roles(store, id, now > 0 ? (uint64_t)now : 0u, roles);

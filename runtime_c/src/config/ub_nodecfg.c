@@ -1201,3 +1201,11 @@ int ub_nodecfg_apply_identity(ub_nodecfg_t *cfg, struct ub_node *node, struct ub
     ub_node_set_policy(node, &cfg->policy);
     return UB_OK;
 }
+
+int ub_nodecfg_certificates_path(const ub_nodecfg_t *cfg, char *out, size_t cap) {
+    if (cfg == NULL || out == NULL || cap == 0) return UB_ERR_INVAL;
+    out[0] = '\0';
+    if (!cfg->identity.present || cfg->identity.certificates[0] == '\0') return UB_OK;
+    const char *entity = cfg->host_count > 0 ? cfg->entities[cfg->hosts[0]].name : NULL;
+    return resolve_path(cfg, cfg->identity.certificates, entity, out, cap);
+}

@@ -305,9 +305,18 @@ class NodeIdentity:
         ensure(lib.ub_nodecfg_apply_identity(cfg, node, self.store.c, now_s, self._path, 512, err, cap),
                _text(err) or "ub_nodecfg_apply_identity")
         self._rv = ffi.new("ub_revoke_t *")
+        self._opt = ffi.new("ub_revoke_options_t *")
+        self._opt.clock_s = ffi.addressof(lib, "ub_identfile_unix_s")  # certificates' validity: the wall clock
         persist = ffi.addressof(lib, "ub_revfile_persist") if self._path[0] != b"\0" else ffi.NULL
-        ensure(lib.ub_revoke_init(self._rv, node, self.store.c, ffi.NULL, persist,
+        ensure(lib.ub_revoke_init(self._rv, node, self.store.c, self._opt, persist,
                                   self._path if persist != ffi.NULL else ffi.NULL), "revocation service")
+        # certificates spread too: its own are announced, new ones learned go to the certificates file
+        self._certs = ffi.new("char[]", 512)
+        ensure(lib.ub_nodecfg_certificates_path(cfg, self._certs, 512), "security.certificates: path too long")
+        persist_cert = ffi.addressof(lib, "ub_certfile_persist") if self._certs[0] != b"\0" else ffi.NULL
+        ensure(lib.ub_revoke_spread_certificates(self._rv, persist_cert,
+                                                 self._certs if persist_cert != ffi.NULL else ffi.NULL, 0),
+               "certificates")
 
     def submit(self, record: bytes, now_ms: int) -> str:
         """A revocation record from the operator: 'accepted', 'known', or why it was refused."""
@@ -322,7 +331,14 @@ class NodeIdentity:
         st = lib.ub_revoke_stats(self._rv)
         return {name: int(getattr(st, name)) for name in ("received", "accepted", "known", "refused", "full",
                                                            "over_budget", "sent", "unsent", "persisted",
-                                                           "persist_failures")}
+                                                           "persist_failures", "certs_received", "certs_accepted",
+                                                           "certs_known", "certs_refused", "certs_sent",
+                                                           "certs_dropped")}
+
+    def submit_certificate(self, cert: bytes, now_ms: int) -> str:
+        """A certificate from the operator (a new entity, a replacement): 'accepted', 'known' or 'refused'."""
+        rc = lib.ub_revoke_submit_certificate(self._rv, cert, len(cert), now_ms)
+        return "accepted" if rc == 0 else "known" if rc == lib.UB_ERR_EXISTS else "refused"
 
 
 def cfg_has_identity(cfg: Any) -> bool:

@@ -92,3 +92,4 @@ int ub_nodecfg_load_identity(const ub_nodecfg_t *cfg, ub_ident_store_t *store, u
                              size_t path_cap, char *err, size_t err_cap);
 int ub_nodecfg_apply_identity(ub_nodecfg_t *cfg, ub_node_t *node, ub_ident_store_t *store, uint64_t now_s,
                               char *revocations_path, size_t path_cap, char *err, size_t err_cap);
+int ub_nodecfg_certificates_path(const ub_nodecfg_t *cfg, char *out, size_t cap);
