@@ -1147,13 +1147,15 @@ int ub_nodecfg_load_identity(const ub_nodecfg_t *cfg, struct ub_ident_store *sto
     why[0] = '\0';
     int rc = ub_identfile_load_store(store, id->identity[0] != '\0' ? ident : NULL, auth,
                                      id->revocations[0] != '\0' ? revs : NULL, now_s, why, sizeof why);
+#if UB_MAX_LOCAL_ENTITIES > 1
     /* "{entity}" in the identity path: every hosted entity has its own identity (the first is loaded above). */
     for (int h = 1; rc == UB_OK && id->identity[0] != '\0' && strstr(id->identity, "{entity}") != NULL &&
-                    h < cfg->host_count; h++) {
+                    h < cfg->host_count && h < UB_MAX_LOCAL_ENTITIES; h++) {
         if (resolve_path(cfg, id->identity, cfg->entities[cfg->hosts[h]].name, ident, sizeof ident) != UB_OK)
             return sec_failed(cfg, err, err_cap, id->identity_line, "security.identity", "path too long");
         rc = ub_identfile_load_self(store, ident, id->revocations[0] != '\0' ? revs : NULL, now_s, why, sizeof why);
     }
+#endif
     if (rc != UB_OK) {
         /* The line of the field naming the file that was refused. */
         size_t n = strlen(auth);
