@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import time
 from pathlib import Path
 from typing import Any
@@ -28,9 +29,11 @@ def identity_config(tmp_path: Path) -> Path:
     for entity, roles in ROLES.items():
         keys.issue(entity, roles, 30, None, str(kdir), None, False)
     cfg = signed_config(TABLE2, tmp_path)
+    for entity in ROLES:   # each node its own copy of the fleet's certificates (it rewrites it when it learns one)
+        shutil.copyfile(kdir / "fleet.certs", tmp_path / "state" / f"{entity}.certs")
     doc: dict[str, Any] = json.loads(cfg.read_text(encoding="utf-8"))
     doc["security"].update({"authority": "keys/authority.pub", "identity": "keys/{entity}.id",
-                            "certificates": "keys/fleet.certs", "revocations": "state/{entity}.ubr"})
+                            "certificates": "state/{entity}.certs", "revocations": "state/{entity}.ubr"})
     cfg.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     return cfg
 

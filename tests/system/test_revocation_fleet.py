@@ -7,6 +7,7 @@ its identity (it is told why, in one line)."""
 from __future__ import annotations
 
 import json
+import shutil
 import time
 from pathlib import Path
 from typing import Any
@@ -31,9 +32,12 @@ def identity_config(tmp_path: Path, roles_of: dict[str, str] = ROLES) -> Path:
     for entity, roles in roles_of.items():
         keys.issue(entity, roles, 30, None, str(kdir), None, False)
     cfg = signed_config(TABLE2, tmp_path)
+    # each node its own copy of the fleet's certificates (a node rewrites its copy when it learns one)
+    for entity in roles_of:
+        shutil.copyfile(kdir / "fleet.certs", tmp_path / "state" / f"{entity}.certs")
     doc: dict[str, Any] = json.loads(cfg.read_text(encoding="utf-8"))
     doc["security"].update({"authority": str(kdir / "authority.pub"), "identity": str(kdir / "{entity}.id"),
-                            "certificates": str(kdir / "fleet.certs"),
+                            "certificates": "state/{entity}.certs",
                             "revocations": "state/{entity}.revocations.ubr"})
     cfg.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     return cfg
@@ -96,6 +100,9 @@ def test_a_revocation_reaches_the_fleet_persists_and_locks_the_vehicle_out(hitl_
         assert identity(h, "backup")["serial"] == 5
         h.run_until(lambda: identity(h, "primary")["certs_accepted"] >= 1, 5.0, "rmax1ob1 learns the new fcs20")
         h.run_until(lambda: identity(h, "secondary")["certs_accepted"] >= 1, 5.0, "rmax1ob2 learns it, 2 hops")
+        # ...and keeps it: its certificates file now holds serial 5 for fcs20
+        text = keys.show(str(tmp_path / "state" / "rmax1ob2.certs"))
+        assert "fcs20: serial 5" in text, text
     finally:
         h.close()
 
