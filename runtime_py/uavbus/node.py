@@ -21,8 +21,8 @@ from collections import deque
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterator, Sequence
 
-from uavbus._bindings import (ub_admin, ub_frag, ub_frame, ub_ident, ub_inspect, ub_link, ub_log, ub_member, ub_memlink, ub_node,
-                              ub_nodecfg, ub_ports, ub_pubsub, ub_route, ub_rxring, ub_sec)
+from uavbus._bindings import (ub_admin, ub_frag, ub_frame, ub_ident, ub_inspect, ub_link, ub_log, ub_member, ub_memlink,
+                              ub_node, ub_nodecfg, ub_ports, ub_pubsub, ub_route, ub_rxring, ub_sec)
 from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, NotFoundError, UbError
 from uavbus.catalogue import Catalogue, CatalogueError, Instance, read_member, refused
 from uavbus.config import Config, load_config
