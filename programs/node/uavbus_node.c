@@ -13,7 +13,8 @@
  * model (node_motion.h), serves publish/subscribe requests, and reports on
  * stdout, one JSON object per line: "ready", "stats", "rebound", "error", ...
  * stdin takes line commands: `rebind NAME SPEC`, `impair SPEC`, `dump NAME`, `stats`, `quit`, and for
- * key rotation `key add FILE`, `key use ID`, `key remove ID` (docs/security.md).
+ * key rotation `key add FILE`, `key use ID`, `key remove ID`, and `revoke FILE` (a revocations file:
+ * its records spread to the fleet; docs/security.md).
  * See programs/node/README.md and docs/program-protocol.md.
  *
  * The program shell (runtime_c/app/ub_app.h) owns the command line's common part, the node and its
@@ -136,7 +137,7 @@ static void usage(FILE *f) {
             "      tcp:connect=HOST:PORT |"
             "      serial:device=PATH[,baud=N]\n"
             "stdin commands: rebind LINK SPEC | impair SPEC | dump NAME | stats | quit |\n"
-            "                key add FILE | key use ID | key remove ID\n"
+            "                key add FILE | key use ID | key remove ID | revoke FILE\n"
             "%s",
             fleet_usage);
 }
@@ -314,6 +315,71 @@ static void out_security(ub_app_t *app) {
         s->reserve_failures, s->tx_refused, s->rechallenges, s->window_resets, app->counter.mark);
 }
 
+/* The identity store's and the revocation service's counters ("identity":null without an authority). */
+static void out_identity(ub_app_t *app) {
+    if (!app->ident_on) {
+        ub_app_out(app, ",\"identity\":null");
+        return;
+    }
+    const ub_ident_stats_t *s = ub_ident_stats(&app->ident);
+    const ub_revoke_stats_t *r = ub_revoke_stats(&app->revoke);
+    const ub_cert_t *self = ub_ident_self(&app->ident);
+    uint32_t refused = 0, lookups_refused = 0;
+    for (int i = 0; i < 8; i++) {
+        refused += s->peers_refused[i];
+        lookups_refused += s->lookups_refused[i];
+    }
+    ub_app_out(app, ",\"identity\":{\"serial\":%" PRIu64 ",\"roles\":%u,\"revocations\":%u,\"peers_added\":%" PRIu32
+        ",\"peers_refused\":%" PRIu32 ",\"peers_removed\":%" PRIu32 ",\"lookups\":%" PRIu32 ",\"lookups_refused\":%" PRIu32
+        ",\"revocations_received\":%" PRIu32 ",\"revocations_accepted\":%" PRIu32 ",\"revocations_known\":%" PRIu32
+        ",\"revocations_refused\":%" PRIu32 ",\"revocations_sent\":%" PRIu32 ",\"revocations_over_budget\":%" PRIu32
+        ",\"persisted\":%" PRIu32 ",\"persist_failures\":%" PRIu32 ",\"certs_accepted\":%" PRIu32
+        ",\"certs_known\":%" PRIu32 ",\"certs_refused\":%" PRIu32 ",\"certs_sent\":%" PRIu32 "}",
+        self != NULL ? self->serial : 0, self != NULL ? (unsigned)self->roles : 0u,
+        (unsigned)ub_ident_revocation_count(&app->ident), s->peers_added, refused, s->peers_removed, s->lookups,
+        lookups_refused, r->received, r->accepted, r->known, r->refused + r->full, r->sent, r->over_budget,
+        r->persisted, r->persist_failures, r->certs_accepted, r->certs_known, r->certs_refused, r->certs_sent);
+}
+
+/* `revoke FILE`: the records of a revocations file (uavbus keys revoke ENTITY) handed to the revocation
+ * service, which verifies them, persists them and spreads them to the fleet. */
+static void revoke_command(ub_app_t *app, char *save, uint64_t now_ms) {
+    char msg[UB_IDENTFILE_ERR_LEN + 64], err[UB_IDENTFILE_ERR_LEN];
+    char *path = strtok_r(NULL, " \t\r", &save);
+    if (path == NULL) {
+        ub_app_error(app, "revoke: expected 'revoke FILE' (a revocations file: uavbus keys revoke ENTITY)");
+        return;
+    }
+    if (!app->ident_on) {
+        ub_app_error(app, "revoke: this node has no identities (the config's \"security\" section names no authority)");
+        return;
+    }
+    static uint8_t records[UB_IDENT_MAX_REVOCATIONS * UB_REVOCATION_LEN];
+    int n = ub_revfile_read(path, records, UB_IDENT_MAX_REVOCATIONS, err, sizeof err);
+    if (n < 0) {
+        snprintf(msg, sizeof msg, "revoke: %s", err);
+        ub_app_error(app, msg);
+        return;
+    }
+    unsigned accepted = 0, known = 0, refused = 0;
+    for (int i = 0; i < n; i++) {
+        int rc = ub_revoke_submit(&app->revoke, records + (size_t)i * UB_REVOCATION_LEN, UB_REVOCATION_LEN, now_ms);
+        if (rc == UB_OK) accepted++;
+        else if (rc == UB_ERR_EXISTS) known++;
+        else refused++;
+    }
+    if (refused > 0) {
+        snprintf(msg, sizeof msg, "revoke: %s: %u of %d records refused (another authority's, or damaged)", path,
+                 refused, n);
+        ub_app_error(app, msg);
+    }
+    ub_app_out(app, "{\"event\":\"revoke\",\"file\":");
+    ub_app_str(app, path, SIZE_MAX);
+    ub_app_out(app, ",\"accepted\":%u,\"known\":%u,\"refused\":%u,\"revocations\":%u}", accepted, known, refused,
+               (unsigned)ub_ident_revocation_count(&app->ident));
+    ub_app_flush(app);
+}
+
 static void link_stats(ub_app_t *app, int id, const ub_link_t *l, const ub_port_t *p) {
     const ub_link_counters_t *c = &l->counters;
     ub_app_out(app, "\"id\":%d,\"frames_in\":%" PRIu64 ",\"bytes_in\":%" PRIu64 ",\"frames_out\":%" PRIu64
@@ -411,6 +477,7 @@ static void event_stats(ub_app_t *app, uint64_t now_ms, bool final) {
         ub_app_out(app, "}");
     }
     out_security(app);
+    out_identity(app);
     ub_app_out(app, ",\"stdin_dropped\":%" PRIu64 "}", app->stdin_dropped);
     ub_app_flush(app);
 }
@@ -575,6 +642,8 @@ static bool command(ub_app_t *app, const char *verb, char **saved, uint64_t now_
         ub_app_flush(app);
     } else if (strcmp(verb, "key") == 0) {
         key_command(app, save);
+    } else if (strcmp(verb, "revoke") == 0) {
+        revoke_command(app, save, now_ms);
     } else {
         return fleet_command(verb, saved, now_ms); /* node_fleet.c */
     }

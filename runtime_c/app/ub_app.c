@@ -284,6 +284,26 @@ void ub_app_start(ub_app_t *app, const ub_catalogue_t *catalogue, ub_frag_t *fra
                                   sizeof sec_err) != UB_OK) {
         ub_app_die(app, "%s", sec_err);
     }
+    /* Identity per entity: the store from the files the section names, authorization by certified role
+     * (issue 23 item 3: a vehicle never administers another unless its certificate says so), and
+     * revocation over the bus. */
+    char id_err[UB_NODECFG_ERR_LEN + UB_IDENTFILE_ERR_LEN];
+    if (ub_nodecfg_apply_identity(&app->cfg, &app->node, &app->ident, ub_app_unix_ms() / 1000u, app->revocations_path,
+                                  sizeof app->revocations_path, id_err, sizeof id_err) != UB_OK) {
+        ub_app_die(app, "%s", id_err);
+    }
+    if (app->cfg.identity.present) {
+        app->ident_on = true;
+        ub_revoke_options_t ropt = {.clock_s = ub_identfile_unix_s};
+        if (ub_revoke_init(&app->revoke, &app->node, &app->ident, &ropt,
+                           app->revocations_path[0] != '\0' ? ub_revfile_persist : NULL, app->revocations_path) != UB_OK)
+            ub_app_die(app, "%s: the revocation service was refused", name);
+        /* certificates spread too: this node's own are announced, new ones learned go to the certificates file */
+        if (ub_nodecfg_certificates_path(&app->cfg, app->certificates_path, sizeof app->certificates_path) != UB_OK ||
+            ub_revoke_spread_certificates(&app->revoke, app->certificates_path[0] != '\0' ? ub_certfile_persist : NULL,
+                                          app->certificates_path, ub_app_mono_ms()) != UB_OK)
+            ub_app_die(app, "%s: security.certificates: path too long", name);
+    }
     if (ub_ports_init(&app->ports, &app->node) != UB_OK) ub_app_die(app, "%s: ub_ports_init failed", name);
     app->start_ms = ub_app_mono_ms();
 }

@@ -39,9 +39,12 @@
 #include <stdio.h>
 
 #include "ub/ub_frag.h"
+#include "ub/ub_ident.h"
+#include "ub/ub_identfile.h"
 #include "ub/ub_node.h"
 #include "ub/ub_nodecfg.h"
 #include "ub/ub_ports.h"
+#include "ub/ub_revoke.h"
 #include "ub/ub_sec.h"
 #include "ub/ub_secfile.h"
 
@@ -111,6 +114,13 @@ struct ub_app {
     ub_node_t node;
     ub_sec_t sec;            /* used when the configuration has a "security" section */
     ub_counter_file_t counter;
+    /* Identity per entity (issue 23): used when the "security" section names an authority. The revocation
+     * service spreads and persists revocations (ub_revoke.h); its records are the store's. */
+    bool ident_on;
+    ub_ident_store_t ident;
+    ub_revoke_t revoke;
+    char revocations_path[UB_NODECFG_PATH_MAX + 128];
+    char certificates_path[UB_NODECFG_PATH_MAX + 128];
     ub_ports_t ports;
     uint32_t first_seq;
     uint64_t start_ms;       /* CLOCK_MONOTONIC at the start; --duration-ms counts from it */

@@ -215,7 +215,8 @@ static void test_config_security_errors(void **state) {
                  "links, administrators, read, write and/or limits (see docs/config-format.md)");
     expect_error(f, "\"security\": {\"admins\": [\"gcs1\"]}",
                  "inline.json:2: field 'security.admins': unknown field (expected one of: keys, tx_key, "
-                 "require_signed, counter_file, links, administrators, read, write, limits, exclusive_admin, admin_limits)");
+                 "require_signed, counter_file, links, administrators, read, write, limits, exclusive_admin, admin_limits, identity, "
+                 "authority, revocations, certificates)");
     expect_error(f, "\"security\": {\"admin_limits\": {\"max_rows\": 0}}",
                  "inline.json:2: field 'security.admin_limits.max_rows': must be a whole number from 1 to 4294967295");
     expect_error(f, "\"security\": {\"admin_limits\":\n {\"max_lease_ms\": 500}}",

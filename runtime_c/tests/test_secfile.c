@@ -211,7 +211,8 @@ static void test_security_section_parse_errors(void **state) {
          "4: field 'security.links.l0.encrypted': unknown field (expected one of: require_signed, encrypt)"},
         {"{\"keys\": [\"k\"], \"counter_file\": \"c\", \"admins\": []}",
          "4: field 'security.admins': unknown field (expected one of: keys, tx_key, require_signed, counter_file, "
-         "links, administrators, read, write, limits, exclusive_admin, admin_limits)"},
+         "links, administrators, read, write, limits, exclusive_admin, admin_limits, identity, authority, revocations, "
+         "certificates)"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         static ub_nodecfg_t cfg;

@@ -1,31 +1,232 @@
-"""`uavbus keys`: key files for signed and encrypted frames (docs/security.md).
+"""`uavbus keys`: key files for signed frames, and identities per entity (docs/security.md).
 
-    uavbus keys new FILE [--id N]    a new random key, written mode 0600 (never over an existing file);
+    uavbus keys new FILE [--id N]    a new random group key, written mode 0600 (never over an existing file);
                                      prints its id
-    uavbus keys show FILE            the id of a key file (checks it as a node would; never the key)
+    uavbus keys show FILE            what a key, identity, authority or revocations file holds (checked as a
+                                     node reads it; never a secret)
 
-The key is made and written by the C runtime (ub_secfile.h, through cffi), the same code that
-uavbus_node and Node use to read it.
+    uavbus keys authority create [--dir DIR]
+                                     the fleet authority: DIR/authority.key (secret, 0600: keep it offline),
+                                     DIR/authority.pub (every node's copy), DIR/authority.issued (the ledger
+                                     of issued serials)
+    uavbus keys issue ENTITY --roles admin,vehicle,... [--days N] [--out FILE] [--force]
+                                     the entity's identity (certificate + secret keys, mode 0600), default
+                                     DIR/ENTITY.id, with the next serial; refuses to overwrite without --force;
+                                     its certificate goes into DIR/fleet.certs (the nodes' "certificates")
+    uavbus keys revoke ENTITY [--serial N] [--out FILE]
+                                     a signed revocation record of ENTITY's serials up to its last one (or N),
+                                     added to the revocations file (default DIR/revocations.ubr)
+
+Re-keying a lost vehicle's replacement: `uavbus keys revoke rmax1ob1` then
+`uavbus keys issue rmax1ob1 --roles vehicle --force` (a new serial; the old one stays refused).
+
+Every key and certificate is made, signed and written by the C runtime (ub_secfile.h, ub_ident.h,
+ub_identfile.h through cffi), the same code uavbus_node and Node use to read them.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import re
 import sys
+import time
+from pathlib import Path
 
-from uavbus._bindings import ub_sec
+from uavbus._bindings import ub_ident, ub_sec
 from uavbus._bindings.ub_error import UbError
+
+DEFAULT_DIR = "keys"
+CERTS_NAME = "fleet.certs"  # next to the authority key: every issued certificate, the nodes' "certificates"
+LEDGER_HEADER = "# uavbus authority ledger: serial entity not_after (one line per issued identity; append-only)\n"
+
+
+class KeysError(Exception):
+    """A refusal of the CLI itself (one line: what is wrong and what to do)."""
+
+
+def _authority_paths(authority: str | None, directory: str) -> tuple[Path, Path, Path]:
+    key = Path(authority) if authority else Path(directory) / "authority.key"
+    return key, key.with_suffix(".pub"), key.with_suffix(".issued")
+
+
+def _ledger(path: Path) -> list[tuple[int, str, int]]:
+    rows = []
+    if not path.exists():
+        return rows
+    for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        if not line.strip() or line.startswith("#"):
+            continue
+        parts = line.split()
+        if len(parts) != 3 or not parts[0].isdigit() or not parts[2].isdigit():
+            raise KeysError(f"{path}:{lineno}: not a ledger line 'serial entity not_after' (restore the ledger from "
+                            "its backup)")
+        rows.append((int(parts[0]), parts[1], int(parts[2])))
+    return rows
+
+
+def _entity(name: str) -> bytes:
+    if not re.fullmatch(r"[A-Za-z0-9_.-]{1,12}", name):
+        raise KeysError(f"'{name}': an entity name is 1 to 12 characters of A-Z a-z 0-9 _ . - (as in the config)")
+    return ub_ident.entity_id(name)
+
+
+def _roles(text: str) -> int:
+    bits = 0
+    for name in filter(None, (n.strip() for n in text.split(","))):
+        if name not in ub_ident.ROLES:
+            raise KeysError(f"--roles: unknown role '{name}' (roles: {', '.join(ub_ident.ROLES)})")
+        bits |= ub_ident.ROLES[name]
+    return bits
+
+
+def authority_create(directory: str) -> str:
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    key, pub, ledger = _authority_paths(None, directory)
+    seed = ub_ident.random_seed()
+    ub_ident.authfile_write_secret(key, seed)
+    pk, _ = ub_ident.sign_keypair(seed)
+    ub_ident.authfile_write_public(pub, pk, force=True)
+    if not ledger.exists():
+        fd = os.open(ledger, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(LEDGER_HEADER)
+    return f"{key} (keep it offline), {pub} (copy to every node); key id {ub_ident.authority_kid(pk).hex()}"
+
+
+def issue(entity: str, roles: str, days: int, authority: str | None, directory: str, out: str | None,
+          force: bool, now: int | None = None) -> str:
+    key, _, ledger_path = _authority_paths(authority, directory)
+    if days < 1:
+        raise KeysError(f"--days {days}: an identity is valid for at least 1 day")
+    eid = _entity(entity)
+    bits = _roles(roles)
+    sk = ub_ident.authfile_load_secret(key)
+    rows = _ledger(ledger_path)
+    serial = max((r[0] for r in rows), default=0) + 1
+    now = int(time.time()) if now is None else now
+    sign_seed, kx_seed = ub_ident.random_seed(), ub_ident.random_seed()
+    sign_pk, _ = ub_ident.sign_keypair(sign_seed)
+    kx_pk, kx_sk = ub_ident.kx_keypair(kx_seed)
+    cert = ub_ident.Certificate(roles=bits, serial=serial, entity=eid, sign_pk=sign_pk, kx_pk=kx_pk, not_before=now,
+                                not_after=now + days * 86400, authority=bytes(8), signature=bytes(64))
+    signed, cert_bytes = ub_ident.cert_sign(cert, sk)
+    path = Path(out) if out else Path(directory) / f"{entity}.id"
+    ub_ident.identfile_write(path, signed, sign_seed, kx_sk, force=force)
+    ub_ident.certfile_put(key.with_name(CERTS_NAME), cert_bytes)
+    # The ledger is written after the file: a refused overwrite uses no serial.
+    fd = os.open(ledger_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o600)
+    with os.fdopen(fd, "a", encoding="utf-8") as f:
+        if not rows and f.tell() == 0:
+            f.write(LEDGER_HEADER)
+        f.write(f"{serial} {entity} {signed.not_after}\n")
+        f.flush()
+        os.fsync(f.fileno())
+    return (f"{path}: {entity} serial {serial}, roles {','.join(signed.role_names) or '-'}, valid {days} days; "
+            f"certificate added to {key.with_name(CERTS_NAME)}")
+
+
+def revoke(entity: str, serial: int | None, authority: str | None, directory: str, out: str | None,
+           now: int | None = None) -> str:
+    key, _, ledger_path = _authority_paths(authority, directory)
+    eid = _entity(entity)
+    if serial is None:
+        issued = [r[0] for r in _ledger(ledger_path) if r[1] == entity]
+        if not issued:
+            raise KeysError(f"{ledger_path}: no identity issued to '{entity}' (give the serial: --serial N)")
+        serial = max(issued)
+    sk = ub_ident.authfile_load_secret(key)
+    record = ub_ident.revocation_sign(eid, serial, int(time.time()) if now is None else now, sk)
+    path = Path(out) if out else Path(directory) / "revocations.ubr"
+    store = ub_ident.Store(sk[32:])
+    if path.exists():
+        store.load_revocations(path)
+    outcome = store.add_revocation(record)
+    if outcome not in ("added", "known"):
+        raise KeysError(f"{path}: the record was refused ({outcome})")
+    store.save_revocations(path)
+    return (f"{path}: {entity} revoked up to serial {serial}" + (" (already)" if outcome == "known" else "")
+            + f"; send it to the fleet: revoke {path} on any node's stdin")
+
+
+def _when(t: int) -> str:
+    return time.strftime("%Y-%m-%d %H:%M:%SZ", time.gmtime(t)) if t < 2**40 else str(t)
+
+
+def show(path: str) -> str:
+    p = Path(path)
+    try:
+        with open(p, "rb") as f:
+            head = f.read(8)  # the magic only: a secret file is read (and its mode checked) by the C loader
+    except OSError as e:
+        raise KeysError(f"{path}: cannot read: {e.strerror}") from None
+    magic = head[:4]
+    if magic == b"UBID":
+        cert, _, _ = ub_ident.identfile_load(path)
+        return _describe(cert, path)
+    if magic == b"UBAK":
+        sk = ub_ident.authfile_load_secret(path)
+        return f"{path}: authority secret key, key id {ub_ident.authority_kid(sk[32:]).hex()}"
+    if magic == b"UBAP":
+        pk = ub_ident.authfile_load_public(path)
+        return f"{path}: authority public key, key id {ub_ident.authority_kid(pk).hex()}"
+    if magic == b"UBCS":
+        data = p.read_bytes()[8:]
+        lines = [f"{path}: certificates, {len(data) // ub_ident.CERT_LEN}"]
+        for i in range(0, len(data) - ub_ident.CERT_LEN + 1, ub_ident.CERT_LEN):
+            c = ub_ident.cert_decode(data[i:i + ub_ident.CERT_LEN])
+            lines.append(f"  {c.entity_name}: serial {c.serial}, roles {','.join(c.role_names) or '-'}, "
+                         f"{_when(c.not_before)} .. {_when(c.not_after)}")
+        return "\n".join(lines)
+    if magic == b"UBRV":
+        data = p.read_bytes()[8:]
+        lines = [f"{path}: revocations, {len(data) // ub_ident.REVOCATION_LEN} record(s)"]
+        for i in range(0, len(data) - ub_ident.REVOCATION_LEN + 1, ub_ident.REVOCATION_LEN):
+            r = ub_ident.revocation_decode(data[i:i + ub_ident.REVOCATION_LEN])
+            lines.append(f"  {r.entity_name}: serials up to {r.serial} revoked at {_when(r.time_s)} by authority "
+                         f"{r.authority.hex()}")
+        return "\n".join(lines)
+    key_id, _ = ub_sec.ub_keyfile_load(path)
+    return str(key_id)
+
+
+def _describe(cert: ub_ident.Certificate, path: str) -> str:
+    now = int(time.time())
+    state = "expired" if now > cert.not_after else "not yet valid" if now < cert.not_before else "valid"
+    return (f"{path}: identity of {cert.entity_name}, serial {cert.serial}, roles "
+            f"{','.join(cert.role_names) or '-'}, {state} {_when(cert.not_before)} .. {_when(cert.not_after)}, "
+            f"authority {cert.authority.hex()}, Ed25519 {cert.sign_pk.hex()[:16]}..., X25519 {cert.kx_pk.hex()[:16]}...")
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="uavbus keys", description="key files for signed frames (docs/security.md)")
+    parser = argparse.ArgumentParser(prog="uavbus keys",
+                                     description="group keys and per-entity identities (docs/security.md)")
     sub = parser.add_subparsers(dest="cmd", required=True)
-    new = sub.add_parser("new", help="write a new random key to FILE (mode 0600) and print its id")
+    new = sub.add_parser("new", help="write a new random group key to FILE (mode 0600) and print its id")
     new.add_argument("file")
     new.add_argument("--id", type=int, default=0, metavar="N",
                      help="key id 1..255 (default: random); receivers tell keys apart by it")
-    show = sub.add_parser("show", help="print the id of a key file (checked as a node reads it)")
-    show.add_argument("file")
+    show_p = sub.add_parser("show", help="what a key, identity, authority or revocations file holds")
+    show_p.add_argument("file")
+    auth = sub.add_parser("authority", help="the fleet authority")
+    auth_sub = auth.add_subparsers(dest="auth_cmd", required=True)
+    create = auth_sub.add_parser("create", help="make the authority's key pair (never over an existing one)")
+    create.add_argument("--dir", default=DEFAULT_DIR)
+    iss = sub.add_parser("issue", help="issue ENTITY an identity (certificate + secret keys, mode 0600)")
+    iss.add_argument("entity")
+    iss.add_argument("--roles", required=True, help=f"comma-separated: {', '.join(ub_ident.ROLES)}")
+    iss.add_argument("--days", type=int, default=365)
+    iss.add_argument("--dir", default=DEFAULT_DIR)
+    iss.add_argument("--authority", help="the authority's secret key file (default DIR/authority.key)")
+    iss.add_argument("--out", help="the identity file (default DIR/ENTITY.id)")
+    iss.add_argument("--force", action="store_true", help="replace an existing identity file (after a revocation)")
+    rev = sub.add_parser("revoke", help="revoke ENTITY's identities (a signed record in the revocations file)")
+    rev.add_argument("entity")
+    rev.add_argument("--serial", type=int, help="revoke serials up to N (default: the last one issued to ENTITY)")
+    rev.add_argument("--dir", default=DEFAULT_DIR)
+    rev.add_argument("--authority", help="the authority's secret key file (default DIR/authority.key)")
+    rev.add_argument("--out", help="the revocations file (default DIR/revocations.ubr)")
     args = parser.parse_args(argv)
     try:
         if args.cmd == "new":
@@ -33,12 +234,20 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"uavbus keys: --id {args.id}: a key id is 1..255", file=sys.stderr)
                 return 2
             print(ub_sec.ub_keyfile_new(args.file, args.id))
+        elif args.cmd == "show":
+            print(show(args.file))
+        elif args.cmd == "authority":
+            print(authority_create(args.dir))
+        elif args.cmd == "issue":
+            print(issue(args.entity, args.roles, args.days, args.authority, args.dir, args.out, args.force))
         else:
-            key_id, _ = ub_sec.ub_keyfile_load(args.file)
-            print(key_id)
+            print(revoke(args.entity, args.serial, args.authority, args.dir, args.out))
     except UbError as e:
         # the C message already names the file and says what to do; the code name adds nothing
         print(str(e).removeprefix(f"{e.name}: "), file=sys.stderr)
+        return 1
+    except KeysError as e:
+        print(e, file=sys.stderr)
         return 1
     return 0
 

@@ -21,8 +21,8 @@ from collections import deque
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterator, Sequence
 
-from uavbus._bindings import (ub_admin, ub_frag, ub_frame, ub_inspect, ub_link, ub_log, ub_member, ub_memlink, ub_node,
-                              ub_nodecfg, ub_ports, ub_pubsub, ub_route, ub_rxring, ub_sec)
+from uavbus._bindings import (ub_admin, ub_frag, ub_frame, ub_ident, ub_inspect, ub_link, ub_log, ub_member, ub_memlink,
+                              ub_node, ub_nodecfg, ub_ports, ub_pubsub, ub_route, ub_rxring, ub_sec)
 from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, NotFoundError, UbError
 from uavbus.catalogue import Catalogue, CatalogueError, Instance, read_member, refused
 from uavbus.config import Config, load_config
@@ -193,6 +193,8 @@ class Node:
         self.notices: list[str] = []  # one-time notices of the ports (also logged to the "uavbus" logger)
         self.config: Config | None = None
         self.security = Security(self)
+        #: the node's identity (store, revocation service) when its config names an authority, else None
+        self.identity: ub_ident.NodeIdentity | None = None
         if config is not None:
             cfg = config if isinstance(config, Config) else load_config(config)
             if node is not None:
@@ -205,6 +207,12 @@ class Node:
                 raise ConfigError(exc.detail, cfg.path) from None
             if applied is not None:
                 self.security._attach(*applied)
+            # identity per entity: store, authorization by certified role, revocation service (issue 23)
+            if ub_ident.cfg_has_identity(cfg.c_config):
+                try:
+                    self.identity = ub_ident.NodeIdentity(cfg.c_config, self._c, int(time.time()))
+                except UbError as exc:
+                    raise ConfigError(exc.detail, cfg.path) from None
             self.config = cfg
 
     # -- time ----------------------------------------------------------------------------------

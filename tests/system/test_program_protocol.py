@@ -13,6 +13,7 @@ from pathlib import Path
 import jsonschema
 import pytest
 
+from uavbus import keys
 from uavbus.sim import protocol
 from uavbus.sim.build import REPO
 from uavbus.sim.portalloc import PortAllocator
@@ -47,6 +48,15 @@ def test_uavbus_node_writes_every_event_of_the_protocol_and_nothing_else(program
     alloc = PortAllocator()
     relay = alloc.port()
     config = signed_config(TABLE2, tmp_path)
+    # with an identity (issue 23), so that `revoke FILE` has a revocation service to hand its records to
+    kdir = tmp_path / "keys"
+    keys.authority_create(str(kdir))
+    keys.issue("rmax1ob1", "vehicle,relay", 1, None, str(kdir), None, False)
+    keys.revoke("fcs20", 7, None, str(kdir), None)
+    doc = json.loads(config.read_text())
+    doc["security"].update({"authority": str(kdir / "authority.pub"), "identity": str(kdir / "{entity}.id"),
+                            "certificates": str(kdir / "fleet.certs"), "revocations": "state/revocations.ubr"})
+    config.write_text(json.dumps(doc))
     with ProcessGroup() as group:
         node = group.spawn([str(program), "--config", str(config), "--node", "primary", "--stats-ms", "200",
                             "--port", f"onboardPortRelay=udp:bind=127.0.0.1:{relay},peer=127.0.0.1:{alloc.port()}",
@@ -64,6 +74,8 @@ def test_uavbus_node_writes_every_event_of_the_protocol_and_nothing_else(program
         assert rebound["event"] == protocol.REBOUND and rebound["local_port"] > 0
         assert answer(node, "routes", protocol.ROUTES)["event"] == protocol.ROUTES
         assert answer(node, "flows", protocol.FLOWS)["event"] == protocol.FLOWS
+        assert answer(node, f"revoke {kdir / 'revocations.ubr'}", "revoke")["accepted"] == 1
+        assert answer(node, "stats", protocol.STATS)["identity"]["revocations"] == 1
         # A request nobody answers: pending, then failed (no_answer) once its attempts run out.
         m = node.mark()
         node.send("member stranger add_entity fcs20")

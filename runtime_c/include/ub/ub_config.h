@@ -99,6 +99,17 @@
 #define UB_ROUTE_TOMBSTONES 8
 #endif
 
+/* ---- identity per entity (ub_ident.h, issue 23) ---- */
+/** Peers' certificates one identity store holds (184 bytes each: with 64 revocations the store is 18,872
+ *  bytes on a Cortex-M4 hosting one entity, 19,712 on a 64-bit host with UB_MAX_LOCAL_ENTITIES 4). */
+#ifndef UB_IDENT_MAX_PEERS
+#define UB_IDENT_MAX_PEERS 64
+#endif
+/** Revoked entities one store holds (one record each: a newer record replaces an older one in place). */
+#ifndef UB_IDENT_MAX_REVOCATIONS
+#define UB_IDENT_MAX_REVOCATIONS 64
+#endif
+
 #if UB_MAX_PAYLOAD < 64 || UB_MAX_PAYLOAD > 65000
 #error "UB_MAX_PAYLOAD must be between 64 and 65000 (the frame's payload size field is 16 bits)"
 #endif

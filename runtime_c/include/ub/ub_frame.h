@@ -125,7 +125,9 @@ typedef enum ub_admin_code {
     UB_ADMIN_INSPECT = 12,      /**< remote inspection request (ub_inspect.h); answered by INSPECT_VALUE, ACK or NACK */
     UB_ADMIN_INSPECT_VALUE = 13, /**< the value or table page answering an INSPECT read or list (docs/inspect.md) */
     UB_ADMIN_LINK_HELLO = 20,   /**< compact links: link-local dictionary announcement (ub_compact.h); never forwarded */
-    UB_ADMIN_FRAGMENT = 21      /**< one numbered fragment of a large DATA directory (ub_frag.h), end to end */
+    UB_ADMIN_FRAGMENT = 21,     /**< one numbered fragment of a large DATA directory (ub_frag.h), end to end */
+    UB_ADMIN_REVOCATION = 24,   /**< an authority-signed revocation record (ub_revoke.h); link-local, spread hop by hop */
+    UB_ADMIN_CERTIFICATE = 25   /**< an authority-signed certificate (ub_revoke.h); link-local, spread hop by hop */
 } ub_admin_code_t;
 
 /**

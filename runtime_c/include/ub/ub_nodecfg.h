@@ -165,6 +165,22 @@ typedef struct ub_nodecfg_security {
     ub_nodecfg_link_security_t links[UB_NODECFG_MAX_PORTS];
 } ub_nodecfg_security_t;
 
+/**
+ * Identity per entity (issue 23; docs/security.md "Identity per entity"): "security.identity" (this node's
+ * identity file, "{entity}" = the first hosted entity's name), "security.authority" (the authority's
+ * public file), "security.revocations" (the revocations file, read and kept up to date),
+ * "security.certificates" (the fleet's certificates file: the peers this node knows). Read only by
+ * ub_nodecfg_load_identity().
+ */
+typedef struct ub_nodecfg_identity {
+    uint8_t present;                            /**< "authority" given (it is what turns identities on) */
+    char identity[UB_NODECFG_PATH_MAX + 1];     /**< "" when not given: the node verifies others only */
+    char authority[UB_NODECFG_PATH_MAX + 1];
+    char revocations[UB_NODECFG_PATH_MAX + 1];  /**< "" when not given */
+    char certificates[UB_NODECFG_PATH_MAX + 1]; /**< "" when not given */
+    uint32_t identity_line, authority_line, revocations_line, certificates_line;
+} ub_nodecfg_identity_t;
+
 /** A parsed, validated configuration. Caller-owned; no pointers into the source text. */
 typedef struct ub_nodecfg {
     char source[UB_NODECFG_SOURCE_MAX]; /**< the source name given to the parser, for messages */
@@ -182,6 +198,7 @@ typedef struct ub_nodecfg {
     uint8_t has_policy;
     ub_policy_t policy;
     ub_nodecfg_security_t security;
+    ub_nodecfg_identity_t identity;
 } ub_nodecfg_t;
 
 /**
@@ -283,6 +300,35 @@ UB_CHECK int ub_nodecfg_apply(const ub_nodecfg_t *cfg, struct ub_node *node, cha
 struct ub_sec;
 struct ub_sec_options;
 struct ub_counter_file;
+struct ub_ident_store;
+
+/**
+ * Loads the identity files the "security" section names (ub_nodecfg_identity_t) into `store`
+ * (ub_identfile_load_store()): paths relative to the config file's directory, "{entity}" expanded.
+ * `revocations_path` (may be NULL) receives the resolved revocations path, for ub_revfile_persist().
+ * A refused file is reported as "<config>:<line>: field 'security.identity': <file>: what to do".
+ * @retval UB_OK (also when the section names no authority: `store` is left empty)
+ * @retval UB_ERR_CONFIG / UB_ERR_IO / UB_ERR_UNSUPPORTED `err` says which file and what to do.
+ * @retval UB_ERR_INVAL NULL argument.
+ */
+UB_CHECK int ub_nodecfg_load_identity(const ub_nodecfg_t *cfg, struct ub_ident_store *store, uint64_t now_s,
+                                      char *revocations_path, size_t path_cap, char *err, size_t err_cap);
+
+/** The certificates file the section names, resolved as ub_nodecfg_load_identity() does ("" when none).
+ *  @return UB_OK; UB_ERR_RANGE (longer than `cap`); UB_ERR_INVAL. */
+UB_CHECK int ub_nodecfg_certificates_path(const ub_nodecfg_t *cfg, char *out, size_t cap);
+
+/**
+ * ub_nodecfg_load_identity(), then authorization by certified role on `node` (ub_policy_use_roles() with
+ * ub_ident_roles_now() over `store`): the config's policy, or the default one attached to the node when
+ * the section has no policy keys, so a vehicle never administers another unless its certificate says so.
+ * Nothing happens when the section names no authority (group-key mode unchanged).
+ * `cfg` must outlive the node (its policy is attached), as for ub_nodecfg_apply().
+ * @return as ub_nodecfg_load_identity().
+ */
+UB_CHECK int ub_nodecfg_apply_identity(ub_nodecfg_t *cfg, struct ub_node *node, struct ub_ident_store *store,
+                                       uint64_t now_s, char *revocations_path, size_t path_cap, char *err,
+                                       size_t err_cap);
 
 /**
  * Applies the "security" section to a node that ub_nodecfg_apply() set up:

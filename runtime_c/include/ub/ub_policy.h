@@ -97,6 +97,13 @@ typedef struct ub_policy_rule {
     uint32_t line;                                  /**< config line it came from (0 = added through the API) */
 } ub_policy_rule_t;
 
+/**
+ * The certified roles of entity `id` (identity per entity, ub_ident.h): UB_OK with `*roles` set (UB_ROLE_*
+ * bits), or a negative code when it has no valid identity (unknown, revoked, expired: no role). Typically
+ * ub_ident_peer_roles() on the node's identity store at the caller's wall clock.
+ */
+typedef int (*ub_policy_roles_fn)(void *user, const uint8_t id[UB_ENTITY_ID_LEN], uint16_t *roles);
+
 /** A policy. Caller-owned; fill it with the functions below (or from a config, ub_nodecfg.h). */
 typedef struct ub_policy {
     uint8_t n_admins;
@@ -107,6 +114,8 @@ typedef struct ub_policy {
     ub_policy_rule_t rules[UB_POLICY_MAX_RULES];
     ub_policy_limits_t limits;       /**< every non-administrator's; defaults filled in */
     ub_policy_limits_t admin_limits; /**< every administrator's; defaults (UB_POLICY_DEFAULT_ADMIN_*) filled in */
+    ub_policy_roles_fn roles;  /**< NULL: administrators by name (group-key mode); see ub_policy_use_roles() */
+    void *roles_user;
 } ub_policy_t;
 
 /**
@@ -147,7 +156,17 @@ UB_CHECK int ub_policy_set_admin_limits(ub_policy_t *pol, const ub_policy_limits
 /** @return the limits that apply to an administrator (`admin`) or to anyone else. */
 const ub_policy_limits_t *ub_policy_limits_for(const ub_policy_t *pol, bool admin);
 
-/** @return whether `id` is an administrator. */
+/**
+ * Administrators by certified role (issue 23 item 3): with `roles` set, an entity is an administrator only
+ * if its valid, unrevoked certificate carries UB_ROLE_ADMIN, and, when the policy also lists
+ * administrators by name, it is listed too (the list narrows, never widens). NULL restores the
+ * group-key mode: administrators by name only. The frame's source ID must be the verified originator for
+ * this to mean anything (origin authentication, ub_origin.h); with only a group key, any key holder can
+ * claim an administrator's name.
+ */
+void ub_policy_use_roles(ub_policy_t *pol, ub_policy_roles_fn roles, void *user);
+
+/** @return whether `id` is an administrator (by certified role when ub_policy_use_roles() set a source). */
 bool ub_policy_is_admin(const ub_policy_t *pol, const uint8_t id[UB_ENTITY_ID_LEN]);
 
 /**

@@ -10,6 +10,7 @@
 
 #include "ub/ub_node.h"
 #include "ub/ub_sec.h"
+#include "ub/ub_identfile.h"
 #include "ub/ub_secfile.h"
 #include "codec/ub_json.h"
 #include "config/ub_nodecfg_private.h"
@@ -576,8 +577,12 @@ static int parse_ports(const parser_t *p, const ub_json_value_t *obj) {
 
 #define FRAME_SECURITY_KEYS "keys", "tx_key", "require_signed", "counter_file", "links"
 enum { S_KEYS, S_TX_KEY, S_REQUIRE_SIGNED, S_COUNTER_FILE, S_LINKS, N_FRAME_SECURITY_FIELDS };
-static const char *const SECURITY_FIELDS[] = {FRAME_SECURITY_KEYS, UB_PRIV_POLICY_KEYS};
+/* Identity per entity (issue 23): the last keys of the section. */
+#define IDENTITY_KEYS "identity", "authority", "revocations", "certificates"
+enum { N_IDENTITY_FIELDS = 4 };
+static const char *const SECURITY_FIELDS[] = {FRAME_SECURITY_KEYS, UB_PRIV_POLICY_KEYS, IDENTITY_KEYS};
 #define N_SECURITY_FIELDS (sizeof SECURITY_FIELDS / sizeof SECURITY_FIELDS[0])
+#define FIRST_IDENTITY_FIELD (N_SECURITY_FIELDS - N_IDENTITY_FIELDS)
 
 static int parse_path(const parser_t *p, const ub_json_value_t *v, const char *field, char *out) {
     size_t n = v->kind == UB_JSON_STRING ? ub_json_string(&p->doc, v, out, UB_NODECFG_PATH_MAX + 1) : 0;
@@ -711,6 +716,33 @@ static int parse_frame_security(const parser_t *p, const ub_json_value_t *obj, c
     return UB_OK;
 }
 
+/* Identity files ("identity", "authority", "revocations"): paths only; ub_nodecfg_load_identity() reads them. */
+static int parse_identity(const parser_t *p, const ub_json_value_t *obj, const ub_json_value_t *values) {
+    ub_nodecfg_identity_t *id = &p->cfg->identity;
+    int rc;
+    if (values[0].kind == 0 && values[1].kind == 0 && values[2].kind == 0 && values[3].kind == 0) return UB_OK;
+    if (values[1].kind == 0)
+        return fail(p, obj->line, NULL, "security.authority",
+                    "missing: identities are verified under the fleet authority's public key, e.g. "
+                    "\"keys/authority.pub\" (make it with: uavbus keys authority create)");
+    id->present = 1;
+    if ((rc = parse_path(p, &values[1], "security.authority", id->authority)) != UB_OK) return rc;
+    id->authority_line = values[1].line;
+    if (values[0].kind != 0) {
+        if ((rc = parse_path(p, &values[0], "security.identity", id->identity)) != UB_OK) return rc;
+        id->identity_line = values[0].line;
+    }
+    if (values[2].kind != 0) {
+        if ((rc = parse_path(p, &values[2], "security.revocations", id->revocations)) != UB_OK) return rc;
+        id->revocations_line = values[2].line;
+    }
+    if (values[3].kind != 0) {
+        if ((rc = parse_path(p, &values[3], "security.certificates", id->certificates)) != UB_OK) return rc;
+        id->certificates_line = values[3].line;
+    }
+    return UB_OK;
+}
+
 static int parse_security(const parser_t *p, const ub_json_value_t *obj) {
     ub_nodecfg_t *cfg = p->cfg;
     ub_json_value_t values[N_SECURITY_FIELDS];
@@ -721,8 +753,9 @@ static int parse_security(const parser_t *p, const ub_json_value_t *obj) {
                     "write and/or limits (see docs/config-format.md)");
     if ((rc = check_fields(p, obj, SECURITY_FIELDS, N_SECURITY_FIELDS, NULL, "security.", values)) != UB_OK) return rc;
     if ((rc = parse_frame_security(p, obj, values)) != UB_OK) return rc;
+    if ((rc = parse_identity(p, obj, values + FIRST_IDENTITY_FIELD)) != UB_OK) return rc;
     ub_policy_init(&cfg->policy);
-    for (size_t k = N_FRAME_SECURITY_FIELDS; k < N_SECURITY_FIELDS; k++) {
+    for (size_t k = N_FRAME_SECURITY_FIELDS; k < FIRST_IDENTITY_FIELD; k++) {
         if (values[k].kind == 0) continue;
         ub_cfg_error_t e;
         memset(&e, 0, sizeof e);
@@ -1094,4 +1127,87 @@ int ub_nodecfg_apply_security(const ub_nodecfg_t *cfg, struct ub_node *node, str
     if (rc != UB_OK)
         return sec_failed(cfg, err, err_cap, s->line, "security", "the node refused the context: %s", ub_strerror(rc));
     return UB_OK;
+}
+
+/* ---- identity files (issue 23) ---- */
+
+int ub_nodecfg_load_identity(const ub_nodecfg_t *cfg, struct ub_ident_store *store, uint64_t now_s,
+                             char *revocations_path, size_t path_cap, char *err, size_t err_cap) {
+    if (cfg == NULL || store == NULL || (err == NULL && err_cap > 0)) return UB_ERR_INVAL;
+    const ub_nodecfg_identity_t *id = &cfg->identity;
+    if (!id->present) return UB_OK;
+    const char *entity = cfg->host_count > 0 ? cfg->entities[cfg->hosts[0]].name : NULL;
+    char ident[UB_SECFILE_PATH_MAX], auth[UB_SECFILE_PATH_MAX], revs[UB_SECFILE_PATH_MAX], why[UB_IDENTFILE_ERR_LEN];
+    if (resolve_path(cfg, id->authority, entity, auth, sizeof auth) != UB_OK)
+        return sec_failed(cfg, err, err_cap, id->authority_line, "security.authority", "path too long");
+    if (id->identity[0] != '\0' && resolve_path(cfg, id->identity, entity, ident, sizeof ident) != UB_OK)
+        return sec_failed(cfg, err, err_cap, id->identity_line, "security.identity", "path too long");
+    if (id->revocations[0] != '\0' && resolve_path(cfg, id->revocations, entity, revs, sizeof revs) != UB_OK)
+        return sec_failed(cfg, err, err_cap, id->revocations_line, "security.revocations", "path too long");
+    why[0] = '\0';
+    int rc = ub_identfile_load_store(store, id->identity[0] != '\0' ? ident : NULL, auth,
+                                     id->revocations[0] != '\0' ? revs : NULL, now_s, why, sizeof why);
+#if UB_MAX_LOCAL_ENTITIES > 1
+    /* "{entity}" in the identity path: every hosted entity has its own identity (the first is loaded above). */
+    for (int h = 1; rc == UB_OK && id->identity[0] != '\0' && strstr(id->identity, "{entity}") != NULL &&
+                    h < cfg->host_count && h < UB_MAX_LOCAL_ENTITIES; h++) {
+        if (resolve_path(cfg, id->identity, cfg->entities[cfg->hosts[h]].name, ident, sizeof ident) != UB_OK)
+            return sec_failed(cfg, err, err_cap, id->identity_line, "security.identity", "path too long");
+        rc = ub_identfile_load_self(store, ident, id->revocations[0] != '\0' ? revs : NULL, now_s, why, sizeof why);
+    }
+#endif
+    if (rc != UB_OK) {
+        /* The line of the field naming the file that was refused. */
+        size_t n = strlen(auth);
+        uint32_t line = id->authority_line;
+        const char *field = "security.authority";
+        if (id->revocations[0] != '\0' && strncmp(why, revs, strlen(revs)) == 0 && why[strlen(revs)] == ':') {
+            line = id->revocations_line;
+            field = "security.revocations";
+        } else if (id->identity[0] != '\0' && !(strncmp(why, auth, n) == 0 && why[n] == ':')) {
+            line = id->identity_line;
+            field = "security.identity";
+        }
+        (void)sec_failed(cfg, err, err_cap, line, field, "%s", why);
+        return rc;
+    }
+    if (id->certificates[0] != '\0') {
+        char certs[UB_SECFILE_PATH_MAX];
+        if (resolve_path(cfg, id->certificates, entity, certs, sizeof certs) != UB_OK)
+            return sec_failed(cfg, err, err_cap, id->certificates_line, "security.certificates", "path too long");
+        rc = ub_certfile_load(certs, store, now_s, why, sizeof why);
+        if (rc < 0) {
+            (void)sec_failed(cfg, err, err_cap, id->certificates_line, "security.certificates", "%s", why);
+            return rc;
+        }
+    }
+    if (revocations_path != NULL && path_cap > 0) {
+        const char *r = id->revocations[0] != '\0' ? revs : "";
+        if (strlen(r) >= path_cap)
+            return sec_failed(cfg, err, err_cap, id->revocations_line, "security.revocations", "path too long");
+        memcpy(revocations_path, r, strlen(r) + 1);
+    }
+    return UB_OK;
+}
+
+int ub_nodecfg_apply_identity(ub_nodecfg_t *cfg, struct ub_node *node, struct ub_ident_store *store, uint64_t now_s,
+                              char *revocations_path, size_t path_cap, char *err, size_t err_cap) {
+    if (cfg == NULL || node == NULL) return UB_ERR_INVAL;
+    int rc = ub_nodecfg_load_identity(cfg, store, now_s, revocations_path, path_cap, err, err_cap);
+    if (rc != UB_OK || !cfg->identity.present) return rc;
+    if (!cfg->has_policy) {
+        ub_policy_init(&cfg->policy);
+        cfg->has_policy = 1;
+    }
+    ub_policy_use_roles(&cfg->policy, ub_ident_roles_now, store);
+    ub_node_set_policy(node, &cfg->policy);
+    return UB_OK;
+}
+
+int ub_nodecfg_certificates_path(const ub_nodecfg_t *cfg, char *out, size_t cap) {
+    if (cfg == NULL || out == NULL || cap == 0) return UB_ERR_INVAL;
+    out[0] = '\0';
+    if (!cfg->identity.present || cfg->identity.certificates[0] == '\0') return UB_OK;
+    const char *entity = cfg->host_count > 0 ? cfg->entities[cfg->hosts[0]].name : NULL;
+    return resolve_path(cfg, cfg->identity.certificates, entity, out, cap);
 }

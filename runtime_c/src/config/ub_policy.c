@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "ub/ub_frame.h"
+#include "ub/ub_ident.h"
 #include "config/ub_nodecfg_private.h"
 
 /* ---- the policy ---------------------------------------------------------- */
@@ -31,6 +32,12 @@ void ub_policy_init(ub_policy_t *pol) {
     pol->admin_limits = DEFAULT_ADMIN_LIMITS;
 }
 
+static bool listed(const ub_policy_t *pol, const uint8_t *id) {
+    for (unsigned a = 0; a < pol->n_admins; a++)
+        if (memcmp(pol->admins[a], id, UB_ENTITY_ID_LEN) == 0) return true;
+    return false;
+}
+
 int ub_policy_set_limits(ub_policy_t *pol, const ub_policy_limits_t *limits) {
     if (pol == NULL || limits == NULL) return UB_ERR_INVAL;
     if (limits->max_lease_ms != 0 && limits->max_lease_ms < UB_POLICY_MIN_LEASE_MS) return UB_ERR_RANGE;
@@ -52,7 +59,7 @@ const ub_policy_limits_t *ub_policy_limits_for(const ub_policy_t *pol, bool admi
 
 int ub_policy_add_admin(ub_policy_t *pol, const uint8_t id[UB_ENTITY_ID_LEN]) {
     if (pol == NULL || id == NULL) return UB_ERR_INVAL;
-    if (ub_policy_is_admin(pol, id)) return UB_ERR_EXISTS;
+    if (listed(pol, id)) return UB_ERR_EXISTS;
     if (pol->n_admins >= UB_POLICY_MAX_ADMINS) return UB_ERR_FULL;
     memcpy(pol->admins[pol->n_admins++], id, UB_ENTITY_ID_LEN);
     return UB_OK;
@@ -98,11 +105,21 @@ void ub_policy_restrict_reads(ub_policy_t *pol) {
     if (pol != NULL) pol->read_restricted = 1;
 }
 
+void ub_policy_use_roles(ub_policy_t *pol, ub_policy_roles_fn roles, void *user) {
+    if (pol == NULL) return;
+    pol->roles = roles;
+    pol->roles_user = user;
+}
+
 bool ub_policy_is_admin(const ub_policy_t *pol, const uint8_t id[UB_ENTITY_ID_LEN]) {
     if (pol == NULL || id == NULL) return false;
-    for (unsigned a = 0; a < pol->n_admins; a++)
-        if (memcmp(pol->admins[a], id, UB_ENTITY_ID_LEN) == 0) return true;
-    return false;
+    if (pol->roles != NULL) {
+        /* Identity per entity: the certificate decides; a list of names, if any, only narrows it. */
+        uint16_t roles = 0;
+        if (pol->roles(pol->roles_user, id, &roles) != UB_OK || (roles & UB_ROLE_ADMIN) == 0) return false;
+        return pol->n_admins == 0 || listed(pol, id);
+    }
+    return listed(pol, id);
 }
 
 /* Iterative glob with one backtrack point: on a mismatch after a `*`, the star takes one more character. */

@@ -42,6 +42,11 @@ typedef struct ub_nodecfg_security {
     ...;
 } ub_nodecfg_security_t;
 
+typedef struct ub_nodecfg_identity {
+    uint8_t present;
+    ...;
+} ub_nodecfg_identity_t;
+
 typedef struct ub_nodecfg {
     char source[...];
     char system[...];
@@ -55,6 +60,7 @@ typedef struct ub_nodecfg {
     ub_nodecfg_port_t ports[...];
     uint8_t has_policy;
     ub_nodecfg_security_t security;
+    ub_nodecfg_identity_t identity;
     ...;
 } ub_nodecfg_t;
 
@@ -82,3 +88,8 @@ typedef struct ub_sec_options ub_sec_options_t;
 typedef struct ub_counter_file ub_counter_file_t;
 int ub_nodecfg_apply_security(const ub_nodecfg_t *cfg, ub_node_t *node, ub_sec_t *sec, ub_counter_file_t *counter,
                               const ub_sec_options_t *opt, uint64_t unix_us, char *err, size_t err_cap);
+int ub_nodecfg_load_identity(const ub_nodecfg_t *cfg, ub_ident_store_t *store, uint64_t now_s, char *revocations_path,
+                             size_t path_cap, char *err, size_t err_cap);
+int ub_nodecfg_apply_identity(ub_nodecfg_t *cfg, ub_node_t *node, ub_ident_store_t *store, uint64_t now_s,
+                              char *revocations_path, size_t path_cap, char *err, size_t err_cap);
+int ub_nodecfg_certificates_path(const ub_nodecfg_t *cfg, char *out, size_t cap);
