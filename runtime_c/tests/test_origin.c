@@ -194,7 +194,7 @@ static void test_pairwise_keys_agree_and_frames_flow_through_a_forwarder(void **
     for (size_t i = 0; i < on_wire.n; i++) {
         ub_frame_header_t h;
         assert_int_equal(ub_frame_parse(on_wire.f[i], on_wire.len[i], &h), UB_OK);
-        assert_int_equal(on_wire.f[i][UB_FRAME_OFF_VERSION], 0x51);
+        assert_int_equal(on_wire.f[i][UB_FRAME_OFF_VERSION], 0x91);
         assert_int_equal(h.hop_limit, UB_DEFAULT_HOP_LIMIT - 1);
         assert_int_equal(h.origin_hop0, UB_DEFAULT_HOP_LIMIT);
         assert_int_equal(ub_sec_verify(&L->m[2].sec, &h, on_wire.f[i], on_wire.len[i], NULL, 0), UB_OK);

@@ -76,10 +76,10 @@ extern "C" {
 /* Flags: the high nibble of the version byte (docs/wire-format.md, "Flags and trailer"). */
 #define UB_FRAME_FLAG_SIGNED 0x10u    /**< a SIGNED trailer follows the payload */
 #define UB_FRAME_FLAG_ENCRYPTED 0x20u /**< payload is AEAD ciphertext; an ENCRYPTED trailer follows */
-#define UB_FRAME_FLAG_ORIGIN 0x40u    /**< an origin block follows the trailer; only with SIGNED or ENCRYPTED (docs/security.md,
+#define UB_FRAME_FLAG_ORIGIN 0x80u    /**< an origin block follows the trailer; only with SIGNED or ENCRYPTED (docs/security.md,
                                            "Origin authentication"); the hop tag then covers hop_limit and the block */
 #define UB_FRAME_FLAG_PROTECT_MASK 0x30u /**< SIGNED | ENCRYPTED: the hop protection of a flags value */
-#define UB_FRAME_FLAGS_MASK 0xF0u     /**< 0x80 is reserved: a frame with it is BAD_VERSION */
+#define UB_FRAME_FLAGS_MASK 0xF0u     /**< 0x40 is reserved: a frame with it is BAD_VERSION */
 #define UB_FRAME_VERSION_MASK 0x0Fu
 /* Trailer: key_id u8 | counter_hi u16 LE | tag. */
 #define UB_FRAME_SIG_TAG_LEN 8u
