@@ -80,6 +80,7 @@ gcc "${CFLAGS[@]}" -Wno-address-of-packed-member -I"$peers/mavlink" -I"$peers/lc
   -Wl,-rpath,"$lcm_lib" -o "$bin/codec_bench"
 gcc "${CFLAGS[@]}" bench/src/router_hops.c "$gen/benchcat.c" "$LIBUB" $SODIUM -ldl -o "$bin/router_hops"
 gcc "${CFLAGS[@]}" bench/src/loop_bench.c "$gen/benchcat.c" "$LIBUB" $SODIUM -o "$bin/loop_bench"
+gcc "${CFLAGS[@]}" bench/src/origin_bench.c "$LIBUB" $SODIUM -o "$bin/origin_bench"
 gcc "${CFLAGS[@]}" -I"$lcm_inc" bench/src/lcm_loop.c -L"$lcm_lib" -llcm -Wl,-rpath,"$lcm_lib" -o "$bin/lcm_loop"
 
 # ---- the same bench programs over the runtime of BENCH_BASE (a git ref), for figures 1-3 before and after ----
@@ -116,6 +117,10 @@ done
 (mkdir -p "$raw/callgrind" && cd "$raw/callgrind" &&
   "$SAMPLE" "$root/$raw/callgrind.log" 1800 valgrind --tool=callgrind --callgrind-out-file=cg.%p "$root/$bin/codec_bench" callgrind 2>/dev/null)
 echo "valgrind --tool=callgrind $bin/codec_bench callgrind" >>"$raw/commands.txt"
+
+# ---- figure 1c: origin authentication (per-frame cost, pairwise derivation, RAM) ----
+say "figure 1c: origin authentication"
+for p in 1 2 3; do sample "$raw/origin.tsv" 600 taskset -c 0 "$bin/origin_bench"; done
 
 # ---- figure 2: router in-process over memlinks ----
 say "figure 2: router, 1 and 3 hops"

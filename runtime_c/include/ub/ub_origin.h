@@ -25,7 +25,7 @@
  * least recently used evicted (counted), each asked of the store again after `recheck_ms`. No allocation,
  * no statics.
  *
- *     static ub_origin_t org;                           // caller-owned (about 4.5 KiB with 64 peers)
+ *     static ub_origin_t org;                           // caller-owned (7.1 KiB with 64 peers, 64-bit host)
  *     ub_origin_options_t o = {.lookup = store_lookup, .lookup_user = &store};
  *     ub_origin_init(&org, &o);
  *     ub_origin_add_identity(&org, my_entity_id, my_x25519_sk);
