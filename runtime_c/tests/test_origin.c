@@ -18,6 +18,7 @@
 #include <string.h>
 
 #include "support/ub_test_world.h"
+#include "ub/ub_compact.h"
 #include "ub/ub_memlink.h"
 #include "ub/ub_node_svc.h"
 #include "ub/ub_origin.h"
@@ -430,6 +431,55 @@ static void test_pair_cache_evicts_the_least_recently_used(void **state) {
     free(w);
 }
 
+/* A compact link carries the origin block unchanged (ctl1 bit 5): the frame decoded is the frame encoded,
+ * SIGNED and ENCRYPTED; ORIGIN without a protection is refused. */
+static void test_compact_encoding_carries_the_origin_block(void **state) {
+    (void)state;
+    static ub_sec_t sec;
+    test_sec_on(&sec, NULL, GROUP_KEY, 1000, false);
+    ub_compact_codec_t codec;
+    memset(&codec, 0, sizeof codec);
+    for (int enc = 0; enc < 2; enc++) {
+        ub_frame_header_t h;
+        memset(&h, 0, sizeof h);
+        test_eid("a", h.src_id);
+        test_eid("b", h.dest_id);
+        memcpy(h.dir_id, ub_test_cat.instances[TEST_GPS].id, UB_DIR_ID_LEN);
+        h.fingerprint = ub_test_cat.instances[TEST_GPS].type->fingerprint;
+        h.hop_limit = 5;
+        h.origin_hop0 = 8;
+        memset(h.origin_tag, 0x5C, sizeof h.origin_tag);
+        h.payload_size = 20;
+        h.seq = 77;
+        h.counter_hi = 3;
+        h.key_id = 1;
+        h.flags = (uint8_t)((enc ? UB_FRAME_FLAG_ENCRYPTED : UB_FRAME_FLAG_SIGNED) | UB_FRAME_FLAG_ORIGIN);
+        uint8_t payload[20], frame[UB_FRAME_MAX], pkt[UB_COMPACT_PACKET_MAX], back[UB_FRAME_MAX];
+        for (int i = 0; i < 20; i++) payload[i] = (uint8_t)(i + 1);
+        int n = ub_sec_protect(&sec, &h, payload, frame, sizeof frame);
+        assert_true(n > 0);
+        int p = ub_compact_encode(&codec, frame, (size_t)n, true, pkt, sizeof pkt);
+        assert_true(p > 0);
+        ub_frame_header_t d;
+        ub_rx_reason_t why = UB_RX_REASON_COUNT;
+        int m = ub_compact_decode(&codec, pkt, (size_t)p, NULL, back, sizeof back, &d, &why);
+        assert_int_equal(m, n);
+        assert_memory_equal(back, frame, (size_t)n);
+        assert_int_equal(d.origin_hop0, 8);
+        assert_memory_equal(d.origin_tag, h.origin_tag, 8);
+        uint8_t plain[UB_MAX_PAYLOAD];
+        assert_int_equal(ub_sec_verify(&sec, &d, back, (size_t)m, plain, sizeof plain), UB_OK);
+        if (enc) assert_memory_equal(plain, payload, sizeof payload);
+        /* the ORIGIN bit with protection 0: bad_version (the check made again over the change) */
+        if (!enc) {
+            assert_true((pkt[0] & UB_COMPACT_EXT) != 0);
+            pkt[0] = (uint8_t)(pkt[0] & ~UB_COMPACT_PROT_MASK);
+            assert_true(ub_compact_decode(&codec, pkt, (size_t)p, NULL, back, sizeof back, &d, &why) < 0);
+            assert_int_equal(why, UB_RX_BAD_VERSION);
+        }
+    }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_pairwise_keys_agree_and_frames_flow_through_a_forwarder),
@@ -438,6 +488,7 @@ int main(void) {
         cmocka_unit_test(test_restart_of_either_end_reestablishes),
         cmocka_unit_test(test_revoked_peer_is_refused_within_the_recheck),
         cmocka_unit_test(test_pair_cache_evicts_the_least_recently_used),
+        cmocka_unit_test(test_compact_encoding_carries_the_origin_block),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
