@@ -18,8 +18,9 @@
  *
  * Properties checked after every operation (a failure aborts): every frame the node sends parses, and a frame
  * it sends with an origin block carries the tag b's key towards its destination makes; a frame from "a" or
- * "f" whose origin tag is not the real one is never delivered nor passes the origin check; the origin
- * counters never exceed the node's drop counters of the same reasons.
+ * "f" whose origin tag is not the real one is never delivered nor passes the origin check, and one whose tag is
+ * the real one always passes it while the store knows its source; the origin counters never exceed the node's
+ * drop counters of the same reasons.
  */
 #include <stdbool.h>
 #include <stdint.h>
@@ -129,7 +130,7 @@ static size_t make_origin_frame(uint8_t *out, uint8_t arg, const uint8_t *b, siz
     if (plen > UB_MAX_PAYLOAD) plen = UB_MAX_PAYLOAD;
     int src = (arg & 3) == 2 ? 3 : arg & 3; /* a, f, stranger (or f again) */
     int dest = (arg >> 2) & 3;              /* b mostly: 2; else another */
-    if (dest == 3 || dest == 0) dest = 2;
+    if (dest == 3 || dest == 0 || dest == src) dest = 2;
     memcpy(h.src_id, g_ids[src], UB_ENTITY_ID_LEN);
     memcpy(h.dest_id, g_ids[dest], UB_ENTITY_ID_LEN);
     static const uint8_t admins[3] = {UB_ADMIN_DATA, UB_ADMIN_CHALLENGE, UB_ADMIN_CHALLENGE_REPLY};
@@ -190,6 +191,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
             ub_frame_header_t h;
             FUZZ_CHECK(ub_frame_parse(frame, len, &h) == UB_OK, "made frame parses");
             bool to_b = memcmp(h.dest_id, g_ids[2], UB_ENTITY_ID_LEN) == 0;
+            int src = -1;
+            for (int i = 0; i < 2; i++)
+                if (memcmp(h.src_id, g_ids[i], UB_ENTITY_ID_LEN) == 0) src = i;
+            if (to_b && genuine && src >= 0 && !g_refused[src])
+                FUZZ_CHECK(ub_origin_stats(&g_org)->opened == before.opened + 1, "a genuine origin block was refused");
             if (to_b && !genuine) { /* (2^-64 per input for a random tag to be right) */
                 FUZZ_CHECK(ub_origin_stats(&g_org)->opened == before.opened, "a forged origin block was accepted");
                 FUZZ_CHECK(ub_node_counters(&g_node)->delivered == delivered, "a forged frame was delivered");
