@@ -1060,7 +1060,8 @@ class Security:
         X25519 secret key (32 bytes); `lookup(entity_name, now_s)` is the identity store: the peer's X25519
         public key, or None when it is unknown, revoked or expired. From then on every unicast frame a local
         entity sends carries an origin tag for its destination, and every frame reaching a local entity must
-        carry one from its source (`optional=True`: frames without one are still taken)."""
+        carry one from its source (`optional=True`: frames without one are still taken). A hosted entity without
+        an identity here cannot send to remote entities (its frames are refused, counted `no_identity`)."""
         self._need()
         if getattr(self, "_origin", None) is not None:
             raise InvalidArgumentError("origin authentication is already enabled on this node")
