@@ -80,6 +80,7 @@ gcc "${CFLAGS[@]}" -Wno-address-of-packed-member -I"$peers/mavlink" -I"$peers/lc
   -Wl,-rpath,"$lcm_lib" -o "$bin/codec_bench"
 gcc "${CFLAGS[@]}" bench/src/router_hops.c "$gen/benchcat.c" "$LIBUB" $SODIUM -ldl -o "$bin/router_hops"
 gcc "${CFLAGS[@]}" bench/src/loop_bench.c "$gen/benchcat.c" "$LIBUB" $SODIUM -o "$bin/loop_bench"
+gcc "${CFLAGS[@]}" bench/src/origin_bench.c "$LIBUB" $SODIUM -o "$bin/origin_bench"
 gcc "${CFLAGS[@]}" -I"$lcm_inc" bench/src/lcm_loop.c -L"$lcm_lib" -llcm -Wl,-rpath,"$lcm_lib" -o "$bin/lcm_loop"
 
 # ---- the same bench programs over the runtime of BENCH_BASE (a git ref), for figures 1-3 before and after ----
@@ -116,6 +117,10 @@ done
 (mkdir -p "$raw/callgrind" && cd "$raw/callgrind" &&
   "$SAMPLE" "$root/$raw/callgrind.log" 1800 valgrind --tool=callgrind --callgrind-out-file=cg.%p "$root/$bin/codec_bench" callgrind 2>/dev/null)
 echo "valgrind --tool=callgrind $bin/codec_bench callgrind" >>"$raw/commands.txt"
+
+# ---- figure 1c: origin authentication (per-frame cost, pairwise derivation, RAM) ----
+say "figure 1c: origin authentication"
+for p in 1 2 3; do sample "$raw/origin.tsv" 600 taskset -c 0 "$bin/origin_bench"; done
 
 # ---- figure 2: router in-process over memlinks ----
 say "figure 2: router, 1 and 3 hops"
@@ -210,6 +215,12 @@ cmake --build "$build/mcu" >/dev/null
 { arm-none-eabi-size "$build/mcu/firmware.elf" | tail -1 | sed 's/^/firmware /'
   arm-none-eabi-size -t "$build/mcu/uavbus/runtime_c/libub.a" | tail -1 | sed 's/^/libub /'
   arm-none-eabi-nm -S --size-sort "$build/mcu/firmware.elf" | sed 's/^/sym /'; } >"$raw/mcu.txt"
+# Origin authentication's state on the same target and capacities (figure 1c): sizeof(ub_origin_t), 64 pairs.
+printf '#include "ub/ub_origin.h"\nub_origin_t bench_origin;\n' >"$build/mcu/origin_size.c"
+arm-none-eabi-gcc -mcpu=cortex-m4 -mthumb -Os -std=c11 -DUB_CONFIG_FILE='"mcu_ub_config.h"' -Iexamples/mcu \
+  -Iruntime_c/include -c "$build/mcu/origin_size.c" -o "$build/mcu/origin_size.o"
+printf 'ram\tub_origin_t on a Cortex-M4 (arm-none-eabi-gcc -Os, examples/mcu capacities, UB_ORIGIN_PEERS=64)\t%d\n' \
+  "$((16#$(arm-none-eabi-nm -S "$build/mcu/origin_size.o" | awk '$4 == "bench_origin" {print $2}')))" >>"$raw/origin.tsv"
 echo "cmake -S examples/mcu -DCMAKE_BUILD_TYPE=MinSizeRel -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/arm-none-eabi-cortex-m4.cmake;" \
   "arm-none-eabi-size firmware.elf, libub.a" >>"$raw/commands.txt"
 

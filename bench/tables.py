@@ -309,6 +309,8 @@ def main() -> None:
                 ("uavbus ENCRYPTED frame build: pack + ub_sec_protect (AEAD)", "ub_aead_build"),
                 ("uavbus ENCRYPTED parse: feed + decrypt + window + unpack", "ub_aead_parse"),
                 ("floor: libsodium SipHash-2-4 alone over the same tag input", "floor_siphash24"),
+                ("uavbus SIGNED|ORIGIN build: pack + origin tag (pairwise key) + ub_sec_protect", "ub_origin_build"),
+                ("uavbus SIGNED|ORIGIN parse: feed + hop tag + origin tag + window + unpack", "ub_origin_parse"),
             ]
             for title, case in sign_rows:
                 cells = []
@@ -336,6 +338,11 @@ def main() -> None:
                       ["mav_signed_pack_tobuf"], "-", 0)
             ratio_row("ENCRYPTED parse / MAVLink signed parse + decode", ["ub_aead_parse"], ["mav_signed_parse_decode"],
                       "-", 0)
+            r_org = []
+            if ("ub_origin_build", MSGS[0]) in ns:
+                r_org = ratio_row("origin build + parse / MAVLink signed pack + parse (issue 23)",
+                                  ["ub_origin_build", "ub_origin_parse"],
+                                  ["mav_signed_pack_tobuf", "mav_signed_parse_decode"], "<= 1/4", 0.25)
             w("")
             w("The tag is SipHash-2-4, a PRF made for authenticating short messages: one pass over the 68-byte "
               "signing header and the payload, no key block (the subkey is derived once per key), against MAVLink's "
@@ -347,6 +354,50 @@ def main() -> None:
                           max(r_sb) <= 0.5, "64-bit tag vs MAVLink's 48; tag alone " + fmt(r_tag)))
             goals.append(("signed parse + verify", "<= 1/2 of MAVLink signed parse + decode", fmt(r_sp),
                           max(r_sp) <= 0.5, ""))
+            if r_org:
+                goals.append(("origin-authenticated build + verify", "<= 1/4 of MAVLink signed pack + parse", fmt(r_org),
+                              max(r_org) <= 0.25, "pair derivation and RAM: figure 1c"))
+
+    with section(out, broken, "figure 1c: origin authentication"):
+        # ---- figure 1c: origin authentication (issue 23 item 2; bench/src/origin_bench.c) ----
+        if (raw / "origin.tsv").exists():
+            ons: dict[str, list[float]] = defaultdict(list)
+            osize: dict[str, int] = {}
+            ram: dict[str, int] = {}  # the same in every sample
+            for line in (raw / "origin.tsv").read_text().splitlines():
+                parts = line.split("\t")
+                if parts[0] == "ram":
+                    ram[parts[1]] = int(parts[2])
+                    continue
+                ons[parts[0]] += [float(x) for x in parts[2:]]
+                osize[parts[0]] = int(parts[1])
+            if ram and "pair_derive" in ons:
+                w("## 1c. Origin authentication: per-frame cost, pairwise derivation, RAM")
+                w("")
+                w("bench/src/origin_bench.c, GPS_RAW_INT-sized payload (52 bytes), 3 processes x 11 samples. Origin: "
+                  "SipHash-2-4 under a cached pairwise key (docs/security.md, 'Origin authentication'); the hop tag "
+                  "of an ORIGIN frame also covers the hop limit and the block. Pair derivation: X25519 + BLAKE2b + "
+                  "2 KDF subkeys, once per (entity, peer) and cached. The ratio to MAVLink is figure 1b's.")
+                w("")
+                w("| case | ns per frame | frame bytes |")
+                w("|---|---:|---:|")
+                for case in ("signed_build", "signed_verify", "signed_build_verify", "origin_build", "origin_verify",
+                             "origin_build_verify", "origin_forward", "pair_derive"):
+                    if case in ons:
+                        w(f"| {case} | {band(ons[case])} | {osize[case] or '-'} |")
+                w("")
+                w("| RAM | bytes |")
+                w("|---|---:|")
+                for what, n in ram.items():
+                    w(f"| {what} | {n:,} |")
+                w("")
+                sb, ob = statistics.median(ons["signed_build_verify"]), statistics.median(ons["origin_build_verify"])
+                goals.append(("origin authentication", "handshake cost per pair; RAM for 64 known peers",
+                              f"{statistics.median(ons['pair_derive']) / 1000:.1f} us per pair; "
+                              f"{next(iter(ram.values())):,} B host, "
+                              f"{next((v for k, v in ram.items() if 'Cortex-M4' in k), 0):,} B Cortex-M4; "
+                              f"{ob / sb:.2f}x the signed path",
+                              True, "measured, no goal beyond figure 1b's ratio"))
 
     with section(out, broken, "figure 2"):
         # ---- figure 2 ----

@@ -133,6 +133,8 @@ static void usage(FILE *f) {
             "                   [--impair loss=P,dup=P,reorder=P,delay=MS,jitter=MS,seed=N] [--stats-ms MS]\n"
             "                   [--duration-ms MS] [--subscribe ENTITY:CONTENT@SOURCE/PERIOD_MS]...\n"
             "                   [--publish ENTITY:CONTENT>DEST/PERIOD_MS]...\n"
+            "                   [--origin-key KEYFILE --origin-peers FILE]  (origin authentication; KEYFILE may\n"
+            "                   contain {entity}; FILE: \"ENTITY HEX_X25519_PUBLIC_KEY\" lines)\n"
             "SPEC: udp:bind=HOST:PORT[,peer=HOST:PORT][,accept=peer|learn|any] | tcp:listen=HOST:PORT |\n"
             "      tcp:connect=HOST:PORT |"
             "      serial:device=PATH[,baud=N]\n"
@@ -309,10 +311,21 @@ static void out_security(ub_app_t *app) {
         ",\"auth_failures\":%" PRIu64 ",\"unknown_keys\":%" PRIu64 ",\"challenges_sent\":%" PRIu64
         ",\"challenges_completed\":%" PRIu64 ",\"replies_sent\":%" PRIu64 ",\"replies_suppressed\":%" PRIu64
         ",\"reservations\":%" PRIu64 ",\"reserve_failures\":%" PRIu64 ",\"tx_refused\":%" PRIu64
-        ",\"rechallenges\":%" PRIu64 ",\"window_resets\":%" PRIu64 ",\"counter_mark\":%" PRIu64 "}",
+        ",\"rechallenges\":%" PRIu64 ",\"window_resets\":%" PRIu64 ",\"counter_mark\":%" PRIu64,
         s->signed_out, s->encrypted_out, s->verified_in, s->decrypted_in, s->auth_failures, s->unknown_keys,
         s->challenges_sent, s->challenges_completed, s->replies_sent, s->replies_suppressed, s->reservations,
         s->reserve_failures, s->tx_refused, s->rechallenges, s->window_resets, app->counter.mark);
+    /* Origin authentication (--origin-key): its counters, or null. */
+    if (app->origin_key_path == NULL) {
+        ub_app_out(app, ",\"origin\":null}");
+        return;
+    }
+    const ub_origin_stats_t *o = ub_origin_stats(&app->origin);
+    ub_app_out(app, ",\"origin\":{\"sealed\":%" PRIu64 ",\"opened\":%" PRIu64 ",\"bad_origin\":%" PRIu64
+        ",\"no_origin\":%" PRIu64 ",\"no_identity\":%" PRIu64 ",\"derivations\":%" PRIu64 ",\"evictions\":%" PRIu64
+        ",\"cached\":%zu}}",
+        o->sealed, o->opened, o->bad_origin, o->no_origin, o->no_identity, o->derivations, o->evictions,
+        ub_origin_cached(&app->origin));
 }
 
 /* The identity store's and the revocation service's counters ("identity":null without an authority). */

@@ -235,6 +235,10 @@ void ub_app_parse(ub_app_t *app, const ub_app_program_t *prog, int argc, char **
             }
             app->port_argi[app->n_ports] = i;
             app->port_args[app->n_ports++] = v;
+        } else if (strcmp(a, "--origin-key") == 0) {
+            app->origin_key_path = v;
+        } else if (strcmp(a, "--origin-peers") == 0) {
+            app->origin_peers_path = v;
         } else if (prog->option == NULL || !prog->option(app, a, v, i)) {
             usage(prog, stderr);
             ub_app_die(app, "%s:argv[%d]: unknown option '%s' (see --help)", name, i - 1, a);
@@ -247,6 +251,93 @@ void ub_app_parse(ub_app_t *app, const ub_app_program_t *prog, int argc, char **
     /* Fully buffered: every event is written whole by ub_app_flush(), never a part of one. */
     setvbuf(stdout, NULL, _IOFBF, 1 << 16);
     signals();
+}
+
+/* ---- origin authentication (--origin-key, --origin-peers) ---------------------------------------------------
+ * A stand-in for the identity store (issue 23 item 1) until the configuration names identity files: each
+ * hosted entity's X25519 secret key in a key file (`uavbus keys new`: any 32 random bytes are an X25519 secret
+ * key; "{entity}" in the path is the entity's name), and the peers' public keys in a text file, one
+ * "ENTITY HEX_X25519_PUBLIC_KEY" a line, '#' comments. No validity periods or revocation: that is the store's. */
+
+static int app_origin_lookup(void *user, const uint8_t id[UB_ENTITY_ID_LEN], uint64_t now_s, uint8_t pk[UB_ORIGIN_PK_LEN]) {
+    const ub_app_t *app = user;
+    (void)now_s;
+    for (int i = 0; i < app->origin_peer_count; i++)
+        if (memcmp(app->origin_peer_ids[i], id, UB_ENTITY_ID_LEN) == 0) {
+            memcpy(pk, app->origin_peer_pks[i], UB_ORIGIN_PK_LEN);
+            return UB_OK;
+        }
+    return UB_ERR_NOTFOUND;
+}
+
+static int hex_nibble(char c) {
+    return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1;
+}
+
+static void load_origin_peers(ub_app_t *app, const char *path) {
+    FILE *f = fopen(path, "r");
+    if (f == NULL) ub_app_die(app, "%s: cannot open the origin peers file: %s", path, strerror(errno));
+    char line[256];
+    unsigned long lineno = 0;
+    while (fgets(line, sizeof line, f) != NULL) {
+        lineno++;
+        char name[64], hex[128];
+        char *hash = strchr(line, '#');
+        if (hash != NULL) *hash = '\0';
+        int n = sscanf(line, "%63s %127s", name, hex);
+        if (n <= 0) continue;
+        uint8_t id[UB_ENTITY_ID_LEN];
+        if (n != 2 || strlen(hex) != 2 * UB_ORIGIN_PK_LEN || ub_entity_id(name, id) != UB_OK) {
+            fclose(f);
+            ub_app_die(app, "%s:%lu: expected \"ENTITY HEX_X25519_PUBLIC_KEY\" (an entity name of at most 12 bytes and "
+                       "64 hex digits)", path, lineno);
+        }
+        if (app->origin_peer_count == UB_ORIGIN_PEERS) {
+            fclose(f);
+            ub_app_die(app, "%s:%lu: more than %d peers (UB_ORIGIN_PEERS in ub_config.h)", path, lineno, UB_ORIGIN_PEERS);
+        }
+        uint8_t *pk = app->origin_peer_pks[app->origin_peer_count];
+        for (size_t k = 0; k < UB_ORIGIN_PK_LEN; k++) {
+            int hi = hex_nibble(hex[2 * k]), lo = hex_nibble(hex[2 * k + 1]);
+            if (hi < 0 || lo < 0) {
+                fclose(f);
+                ub_app_die(app, "%s:%lu: '%s' is not 64 hex digits", path, lineno, hex);
+            }
+            pk[k] = (uint8_t)(hi << 4 | lo);
+        }
+        memcpy(app->origin_peer_ids[app->origin_peer_count++], id, UB_ENTITY_ID_LEN);
+    }
+    fclose(f);
+}
+
+static void start_origin(ub_app_t *app) {
+    if (app->origin_key_path == NULL && app->origin_peers_path == NULL) return;
+    const char *name = app->prog->name;
+    if (app->origin_key_path == NULL || app->origin_peers_path == NULL)
+        ub_app_die(app, "%s: --origin-key and --origin-peers go together (the entity's key and its peers' public keys)", name);
+    if (ub_node_security(&app->node) == NULL)
+        ub_app_die(app, "%s: --origin-key needs a signed configuration (a \"security\" section with the group key)", name);
+    load_origin_peers(app, app->origin_peers_path);
+    ub_origin_options_t o = {.lookup = app_origin_lookup, .lookup_user = app};
+    if (ub_origin_init(&app->origin, &o) != UB_OK) ub_app_die(app, "%s: origin authentication failed to start", name);
+    for (int h = 0; h < app->cfg.host_count; h++) {
+        const char *entity = app->cfg.entities[app->cfg.hosts[h]].name;
+        char path[512], why[UB_SECFILE_ERR_LEN];
+        const char *at = strstr(app->origin_key_path, "{entity}");
+        if (at != NULL)
+            (void)snprintf(path, sizeof path, "%.*s%s%s", (int)(at - app->origin_key_path), app->origin_key_path, entity,
+                           at + strlen("{entity}"));
+        else
+            (void)snprintf(path, sizeof path, "%s", app->origin_key_path);
+        uint8_t key_id = 0, sk[UB_ORIGIN_SK_LEN], id[UB_ENTITY_ID_LEN];
+        if (ub_keyfile_load(path, &key_id, sk, why, sizeof why) != UB_OK) ub_app_die(app, "%s", why);
+        int rc = ub_entity_id(entity, id) == UB_OK ? ub_origin_add_identity(&app->origin, id, sk) : UB_ERR_RANGE;
+        memset(sk, 0, sizeof sk);
+        if (rc != UB_OK)
+            ub_app_die(app, "%s: identity of %s refused: %s (one key file per hosted entity: put {entity} in the path)",
+                       path, entity, ub_strerror(rc));
+    }
+    if (ub_origin_attach(&app->origin, &app->node) != UB_OK) ub_app_die(app, "%s: the node refused origin authentication", name);
 }
 
 /* ---- the node ---------------------------------------------------------------------------------------- */
@@ -304,6 +395,7 @@ void ub_app_start(ub_app_t *app, const ub_catalogue_t *catalogue, ub_frag_t *fra
                                           app->certificates_path, ub_app_mono_ms()) != UB_OK)
             ub_app_die(app, "%s: security.certificates: path too long", name);
     }
+    start_origin(app);
     if (ub_ports_init(&app->ports, &app->node) != UB_OK) ub_app_die(app, "%s: ub_ports_init failed", name);
     app->start_ms = ub_app_mono_ms();
 }

@@ -43,6 +43,7 @@
 #include "ub/ub_identfile.h"
 #include "ub/ub_node.h"
 #include "ub/ub_nodecfg.h"
+#include "ub/ub_origin.h"
 #include "ub/ub_ports.h"
 #include "ub/ub_revoke.h"
 #include "ub/ub_sec.h"
@@ -121,6 +122,15 @@ struct ub_app {
     ub_revoke_t revoke;
     char revocations_path[UB_NODECFG_PATH_MAX + 128];
     char certificates_path[UB_NODECFG_PATH_MAX + 128];
+    /* Origin authentication (--origin-key, --origin-peers; docs/security.md, "Origin authentication"): until
+     * the identity store names identity files in the configuration, a key file holding the hosted entity's
+     * X25519 secret key and a peers file of "ENTITY HEX_X25519_PUBLIC_KEY" lines stand in for it. */
+    const char *origin_key_path;
+    const char *origin_peers_path;
+    ub_origin_t origin;
+    int origin_peer_count;
+    uint8_t origin_peer_ids[UB_ORIGIN_PEERS][UB_ENTITY_ID_LEN];
+    uint8_t origin_peer_pks[UB_ORIGIN_PEERS][UB_ORIGIN_PK_LEN];
     ub_ports_t ports;
     uint32_t first_seq;
     uint64_t start_ms;       /* CLOCK_MONOTONIC at the start; --duration-ms counts from it */

@@ -254,3 +254,11 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+def x25519_public_key(secret: bytes) -> bytes:
+    """The X25519 public key of an entity's 32-byte secret key (origin authentication, docs/security.md):
+    what the identity store hands its peers. Any 32 random bytes are a secret key (a key file's, too)."""
+    from uavbus._bindings import ub_origin
+
+    return ub_origin.ub_origin_public_key(secret)

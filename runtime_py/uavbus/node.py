@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterator, Sequence
 
 from uavbus._bindings import (ub_admin, ub_frag, ub_frame, ub_ident, ub_inspect, ub_link, ub_log, ub_member, ub_memlink,
-                              ub_node, ub_nodecfg, ub_ports, ub_pubsub, ub_route, ub_rxring, ub_sec)
+                              ub_node, ub_nodecfg, ub_origin, ub_ports, ub_pubsub, ub_route, ub_rxring, ub_sec)
 from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError, NotFoundError, UbError
 from uavbus.catalogue import Catalogue, CatalogueError, Instance, read_member, refused
 from uavbus.config import Config, load_config
@@ -1060,6 +1060,42 @@ class Security:
         return out
 
     __call__ = status  # node.security(): the flat API's spelling
+
+    # ---- origin authentication (docs/security.md, "Origin authentication") ----
+
+    def enable_origin(self, identities: dict[str, bytes], lookup: Callable[[str, int], bytes | None], *,
+                      recheck_ms: int = 0, optional: bool = False) -> None:
+        """Origin authentication for this node's entities: `identities` maps each local entity's name to its
+        X25519 secret key (32 bytes); `lookup(entity_name, now_s)` is the identity store: the peer's X25519
+        public key, or None when it is unknown, revoked or expired. From then on every unicast frame a local
+        entity sends carries an origin tag for its destination, and every frame reaching a local entity must
+        carry one from its source (`optional=True`: frames without one are still taken). A hosted entity without
+        an identity here cannot send to remote entities (its frames are refused, counted `no_identity`)."""
+        self._need()
+        if getattr(self, "_origin", None) is not None:
+            raise InvalidArgumentError("origin authentication is already enabled on this node")
+
+        def by_id(raw: bytes, now_s: int) -> bytes | None:
+            return lookup(ub_node.entity_name(raw), now_s)
+
+        ctx = ub_origin.OriginContext(by_id, recheck_ms, optional)
+        for name, sk in identities.items():
+            ctx.add_identity(ub_node.entity_id(name), sk)
+        ctx.attach(self.node._c)
+        self._origin = ctx
+
+    def origin_forget(self, entity: str) -> int:
+        """Forgets the cached pairwise keys with `entity` at once (e.g. on its revocation)."""
+        ctx = getattr(self, "_origin", None)
+        return 0 if ctx is None else ctx.forget(ub_node.entity_id(entity))
+
+    def origin_status(self) -> dict[str, int] | None:
+        """Origin counters (sealed, opened, bad_origin, no_origin, no_identity, derivations, ...), cached pairs;
+        None when origin authentication is off."""
+        ctx = getattr(self, "_origin", None)
+        if ctx is None:
+            return None
+        return {**ctx.stats(), "cached": ctx.cached()}
 
 
 class Inspection:

@@ -27,6 +27,7 @@ declare -A VECTOR_TESTS=(
   [compact_frames.json]="test_compact_vectors"
   [inspect.json]="test_inspect_vectors"
   [identity.json]="test_ident_vectors"
+  [origin_frames.json]="test_origin_vectors"
   [structs.json]="test_struct_vectors_flightsw test_struct_vectors_kinds"
 )
 # On a 32-bit target (ILP32) one part of structs.json cannot be: the `kinds` catalogue
@@ -43,7 +44,7 @@ ILP32_NOT_APPLICABLE="test_struct_vectors_kinds"
 # byte-order path than test_log and test_frame_codec do.
 CORE_TESTS="test_frame_codec test_frame_crc test_catalogue test_layout test_router test_node test_node_sec test_sec
   test_sec_failclosed test_pubsub test_route test_member test_memlink test_nodecfg test_policy test_inspect
-  test_wire_paths test_log test_table1 test_ident test_revoke"
+  test_wire_paths test_log test_table1 test_ident test_revoke test_origin"
 
 fail() { echo "test-cross: $*" >&2; exit 1; }
 

@@ -16,8 +16,9 @@
  *     ctl0    u8   bits 0-3 hop limit (1..15; 0: a hop byte follows), bits 4-5 protection
  *                  (0 none, 1 SIGNED, 2 ENCRYPTED), bit 6 ADMIN (an admin byte follows; clear: DATA),
  *                  bit 7 EXT (ctl1 follows)
- *    [ctl1]  u8   bit 0 DIR_FULL, bit 1 DEST_FULL, bit 2 SRC_FULL, bit 3 SEQ32, bit 4 ENT_WIDE;
- *                  bits 5-7 reserved (0). Absent = all clear.
+ *    [ctl1]  u8   bit 0 DIR_FULL, bit 1 DEST_FULL, bit 2 SRC_FULL, bit 3 SEQ32, bit 4 ENT_WIDE,
+ *                  bit 5 ORIGIN (the frame's ORIGIN flag: an origin block ends its trailer; only with
+ *                  protection 1 or 2); bits 6-7 reserved (0). Absent = all clear.
  *    [hop]   u8   when ctl0's hop nibble is 0
  *    [admin] u8   when ADMIN
  *     seq    u16  low 16 bits of the frame's seq; u32 (the whole seq) with SEQ32
@@ -85,7 +86,8 @@ extern "C" {
 #define UB_COMPACT_SRC_FULL 0x04u
 #define UB_COMPACT_SEQ32 0x08u
 #define UB_COMPACT_ENT_WIDE 0x10u
-#define UB_COMPACT_CTL1_RESERVED 0xE0u
+#define UB_COMPACT_ORIGIN 0x20u
+#define UB_COMPACT_CTL1_RESERVED 0xC0u
 
 /** Bytes of the check. */
 #define UB_COMPACT_CHECK_LEN 4u

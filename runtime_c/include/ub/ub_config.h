@@ -110,6 +110,16 @@
 #define UB_IDENT_MAX_REVOCATIONS 64
 #endif
 
+/* ---- origin authentication (ub_origin.h; docs/security.md, "Origin authentication") ---- */
+/** Pairwise keys (local entity, peer entity) one ub_origin_t caches; the least recently used is evicted. */
+#ifndef UB_ORIGIN_PEERS
+#define UB_ORIGIN_PEERS 64
+#endif
+/** Local identities (entities with their own X25519 secret key) one ub_origin_t holds. */
+#ifndef UB_ORIGIN_LOCALS
+#define UB_ORIGIN_LOCALS UB_MAX_LOCAL_ENTITIES
+#endif
+
 #if UB_MAX_PAYLOAD < 64 || UB_MAX_PAYLOAD > 65000
 #error "UB_MAX_PAYLOAD must be between 64 and 65000 (the frame's payload size field is 16 bits)"
 #endif

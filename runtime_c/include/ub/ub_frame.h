@@ -20,7 +20,8 @@
  *   56   4  fingerprint     layout fingerprint of the content type (0 if none)
  *   60   4  msg_crc         CRC-32C (Castagnoli) of bytes [4,60), then the payload and the trailer
  *   64   n  payload         (ciphertext when ENCRYPTED)
- * 64+n   t  trailer         only when flagged: key_id u8 | counter_hi u16 | tag (8 B SIGNED, 16 B ENCRYPTED)
+ * 64+n   t  trailer         only when flagged: key_id u8 | counter_hi u16 | tag (8 B SIGNED, 16 B ENCRYPTED),
+ *                           then, with ORIGIN, hop0 u8 | origin tag[8]
  *
  * Frames without flags are exactly the frames of wire version 1 (no trailer).
  * This codec checks the flags and sizes only; the trailer's tag is made and
@@ -75,14 +76,20 @@ extern "C" {
 /* Flags: the high nibble of the version byte (docs/wire-format.md, "Flags and trailer"). */
 #define UB_FRAME_FLAG_SIGNED 0x10u    /**< a SIGNED trailer follows the payload */
 #define UB_FRAME_FLAG_ENCRYPTED 0x20u /**< payload is AEAD ciphertext; an ENCRYPTED trailer follows */
-#define UB_FRAME_FLAGS_MASK 0xF0u     /**< 0x40 and 0x80 are reserved: a frame with them is BAD_VERSION */
+#define UB_FRAME_FLAG_ORIGIN 0x80u    /**< an origin block follows the trailer; only with SIGNED or ENCRYPTED (docs/security.md,
+                                           "Origin authentication"); the hop tag then covers hop_limit and the block */
+#define UB_FRAME_FLAG_PROTECT_MASK 0x30u /**< SIGNED | ENCRYPTED: the hop protection of a flags value */
+#define UB_FRAME_FLAGS_MASK 0xF0u     /**< 0x40 is reserved: a frame with it is BAD_VERSION */
 #define UB_FRAME_VERSION_MASK 0x0Fu
 /* Trailer: key_id u8 | counter_hi u16 LE | tag. */
 #define UB_FRAME_SIG_TAG_LEN 8u
 #define UB_FRAME_AEAD_TAG_LEN 16u
 #define UB_FRAME_SIG_TRAILER_LEN (3u + UB_FRAME_SIG_TAG_LEN)   /* 11 */
 #define UB_FRAME_AEAD_TRAILER_LEN (3u + UB_FRAME_AEAD_TAG_LEN) /* 19 */
-#define UB_FRAME_TRAILER_MAX UB_FRAME_AEAD_TRAILER_LEN
+/* Origin block, after the trailer of an ORIGIN frame: hop0 u8 (the hop limit its origin sent) | origin tag[8]. */
+#define UB_FRAME_ORIGIN_TAG_LEN 8u
+#define UB_FRAME_ORIGIN_LEN (1u + UB_FRAME_ORIGIN_TAG_LEN) /* 9 */
+#define UB_FRAME_TRAILER_MAX (UB_FRAME_AEAD_TRAILER_LEN + UB_FRAME_ORIGIN_LEN)
 #define UB_FRAME_TRL_OFF_KEY_ID 0u
 #define UB_FRAME_TRL_OFF_COUNTER_HI 1u
 #define UB_FRAME_TRL_OFF_TAG 3u
@@ -137,7 +144,7 @@ typedef enum ub_admin_code {
  */
 typedef struct ub_frame_header {
     uint16_t msg_type; /**< filled by parse; ignored by finish, which always writes UB_MSG_TYPE_PUBSUB */
-    uint8_t flags;     /**< 0, UB_FRAME_FLAG_SIGNED or UB_FRAME_FLAG_ENCRYPTED */
+    uint8_t flags;     /**< 0, UB_FRAME_FLAG_SIGNED or UB_FRAME_FLAG_ENCRYPTED, either maybe | UB_FRAME_FLAG_ORIGIN */
     uint8_t dir_id[UB_DIR_ID_LEN];
     uint8_t dest_id[UB_ENTITY_ID_LEN];
     uint8_t src_id[UB_ENTITY_ID_LEN];
@@ -149,17 +156,24 @@ typedef struct ub_frame_header {
     /* From the trailer (parse fills them; 0 without flags). finish ignores them: ub_sec writes the trailer. */
     uint8_t key_id;
     uint16_t counter_hi; /**< high 16 bits of the 48-bit counter */
+    /* From the origin block (parse fills them with ORIGIN; else 0). ub_sec_protect() writes them when h->flags has ORIGIN. */
+    uint8_t origin_hop0;                           /**< the hop limit the origin sent */
+    uint8_t origin_tag[UB_FRAME_ORIGIN_TAG_LEN];   /**< the origin tag (ub_origin.h) */
 } ub_frame_header_t;
 
 /** @return the trailer length that `flags` imply: 0, UB_FRAME_SIG_TRAILER_LEN or UB_FRAME_AEAD_TRAILER_LEN; 0 also for an invalid combination. */
 static inline size_t ub_frame_trailer_len(uint8_t flags) {
-    return flags == UB_FRAME_FLAG_SIGNED ? UB_FRAME_SIG_TRAILER_LEN
-         : flags == UB_FRAME_FLAG_ENCRYPTED ? UB_FRAME_AEAD_TRAILER_LEN : 0u;
+    size_t origin = (flags & UB_FRAME_FLAG_ORIGIN) ? UB_FRAME_ORIGIN_LEN : 0u;
+    flags &= (uint8_t)~UB_FRAME_FLAG_ORIGIN;
+    return flags == UB_FRAME_FLAG_SIGNED ? UB_FRAME_SIG_TRAILER_LEN + origin
+         : flags == UB_FRAME_FLAG_ENCRYPTED ? UB_FRAME_AEAD_TRAILER_LEN + origin : 0u;
 }
 
-/** @return whether `flags` (high nibble of the version byte) is one this codec accepts: none, SIGNED or ENCRYPTED. */
+/** @return whether `flags` (high nibble of the version byte) is one this codec accepts: none, SIGNED or ENCRYPTED,
+ *  the latter two maybe with ORIGIN. */
 static inline int ub_frame_flags_valid(uint8_t flags) {
-    return flags == 0u || flags == UB_FRAME_FLAG_SIGNED || flags == UB_FRAME_FLAG_ENCRYPTED;
+    uint8_t prot = flags & (uint8_t)~UB_FRAME_FLAG_ORIGIN;
+    return flags == 0u || prot == UB_FRAME_FLAG_SIGNED || prot == UB_FRAME_FLAG_ENCRYPTED;
 }
 
 /** @return the 48-bit freshness counter of a parsed header: counter_hi << 32 | seq. */

@@ -70,6 +70,10 @@ typedef enum ub_drop_reason {
     UB_DROP_INCOMPLETE,      /**< a fragmented directory given up: fragments missing at its timeout, or its slot taken */
     UB_DROP_COUNTER_JUMP,    /**< secured frame whose counter is further ahead than its source could have counted since it
                                   last proved its counter (ub_sec_jump_limit()): moves no window; the source is challenged */
+    /* Origin authentication (ub_origin.h; docs/security.md, "Origin authentication"). */
+    UB_DROP_BAD_ORIGIN,      /**< origin tag wrong for its source and destination, or hop limit above the origin's */
+    UB_DROP_NO_ORIGIN,       /**< no origin block where the destination requires one */
+    UB_DROP_NO_IDENTITY,     /**< the peer's identity is unknown, revoked or expired (the identity store refused it) */
     UB_DROP_REASON_COUNT
 } ub_drop_reason_t;
 

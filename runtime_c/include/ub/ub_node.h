@@ -302,6 +302,7 @@ struct ub_node {
     uint8_t n_services;
     uint8_t svc_by_code[3][256];
     const ub_service_t *data_svc; /**< the service observing DATA (ub_service_t.on_data), or NULL */
+    const ub_service_t *seal_svc; /**< the service sealing / opening origin blocks (ub_service_t.seal), or NULL */
 };
 #endif /* UB_NODE_OPAQUE */
 

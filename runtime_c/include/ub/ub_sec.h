@@ -68,6 +68,8 @@ extern "C" {
 #define UB_SEC_KEY_LEN 32u
 #define UB_SEC_NONCE_LEN 16u /**< challenge nonce (payload of CHALLENGE and CHALLENGE_REPLY) */
 #define UB_SEC_SIGNING_HEADER_LEN 68u
+/** The hop tag's header of an ORIGIN frame: the signing header, hop_limit, the origin block (hop0, origin tag). */
+#define UB_SEC_SIGNING_HEADER_MAX (UB_SEC_SIGNING_HEADER_LEN + 1u + UB_FRAME_ORIGIN_LEN)
 #define UB_SEC_DOMAIN "uavbus-sig1"
 #define UB_SEC_COUNTER_MAX ((UINT64_C(1) << 48) - 1u)
 /** 2015-01-01T00:00:00Z in Unix seconds: the epoch of the wall-clock counter (as MAVLink's timestamp). */
@@ -255,6 +257,13 @@ UB_CHECK int ub_sec_keygen(uint8_t key[UB_SEC_KEY_LEN]);
 
 /** Writes the 68-byte signing header of `h` (with its flags, key id and counter_hi) into `out`. */
 void ub_sec_signing_header(const ub_frame_header_t *h, uint8_t out[UB_SEC_SIGNING_HEADER_LEN]);
+
+/**
+ * Writes the header the hop tag (SIGNED) or AEAD (ENCRYPTED, as additional data) covers before the
+ * payload: the signing header, then for ORIGIN frames hop_limit | origin_hop0 | origin_tag.
+ * @return its length: UB_SEC_SIGNING_HEADER_LEN, or UB_SEC_SIGNING_HEADER_MAX with ORIGIN.
+ */
+size_t ub_sec_hop_header(const ub_frame_header_t *h, uint8_t out[UB_SEC_SIGNING_HEADER_MAX]);
 
 /** @return the context's counters. */
 const ub_sec_stats_t *ub_sec_stats(const ub_sec_t *sec);

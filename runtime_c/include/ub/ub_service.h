@@ -63,6 +63,8 @@ typedef struct ub_service_rx {
     int link_id;      /**< the link it arrived on, or -1: from an entity of this node (never left the process) */
     bool secured;     /**< its tag verified (SIGNED or ENCRYPTED); false for local frames */
     uint64_t counter; /**< its freshness counter (48-bit secured, else the 32-bit sequence); 0 when local */
+    bool origin;      /**< its origin block verified for this destination (the seal service's `open`, below): the
+                           source entity itself sent it, not merely a group-key holder; false for local frames */
 } ub_service_rx_t;
 
 /** An ACK or NACK, decoded (its layout: ub_admin_wire.h). */
@@ -115,6 +117,25 @@ typedef bool (*ub_service_may_write_fn)(const ub_service_t *svc, const ub_node_t
 typedef void (*ub_service_data_fn)(const ub_service_t *svc, ub_node_t *node, int slot, uint32_t instance,
                                    const uint8_t src_id[UB_ENTITY_ID_LEN], uint64_t now_ms);
 
+/**
+ * Sealing (an end-to-end origin block, UB_FRAME_FLAG_ORIGIN; docs/security.md, "Origin authentication").
+ * Called for every protected frame local slot `slot` originates towards a remote destination (`h` stamped:
+ * source, counter, key id, hop limit; flags not yet set), with its plaintext payload. Fill
+ * h->origin_hop0 and h->origin_tag and return 1 to send the frame with an origin block; return 0 to send it
+ * without (e.g. link-local); return a negative error to refuse the frame, with `*drop` the reason counted.
+ */
+typedef int (*ub_service_seal_fn)(const ub_service_t *svc, ub_node_t *node, int slot, ub_frame_header_t *h,
+                                  const uint8_t *payload, uint64_t now_ms, ub_drop_reason_t *drop);
+
+/**
+ * Opening: a frame that passed the hop tag reached local slot `rx->slot` over link `rx->link_id`, before
+ * its window. `h` carries the origin block when h->flags has UB_FRAME_FLAG_ORIGIN. Return true to let it on
+ * (set `*origin` when the block verified); false drops it, counted as `*drop`.
+ */
+typedef bool (*ub_service_open_fn)(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
+                                   const ub_frame_header_t *h, const uint8_t *payload, uint64_t now_ms, bool *origin,
+                                   ub_drop_reason_t *drop);
+
 /** A service's registration record (caller-owned; see the file comment). */
 struct ub_service {
     const char *name;                /**< for diagnostics ("route", "echo"...) */
@@ -135,6 +156,9 @@ struct ub_service {
      *  them (ub_node_add_service() refuses a second: UB_ERR_EXISTS). */
     ub_service_may_write_fn may_write;
     ub_service_data_fn on_data;
+    /** Origin sealing and opening (above); at most one registered service has them (UB_ERR_EXISTS). */
+    ub_service_seal_fn seal;
+    ub_service_open_fn open;
     void *user;                      /**< the engine's state, for the callbacks */
 };
 

@@ -154,6 +154,7 @@ int ub_compact_encode(const ub_compact_codec_t *c, const uint8_t *frame, size_t 
     if (si < 0) ctl1 |= UB_COMPACT_SRC_FULL;
     if (seq32) ctl1 |= UB_COMPACT_SEQ32;
     if (di >= 0 && si >= 0 && (di > 15 || si > 15)) ctl1 |= UB_COMPACT_ENT_WIDE;
+    if (flags & UB_FRAME_FLAG_ORIGIN) ctl1 |= UB_COMPACT_ORIGIN;
     size_t wire_ps = ps;
     if (admin == UB_ADMIN_DATA && type != NULL)
         while (wire_ps > 0 && payload[wire_ps - 1] == 0) wire_ps--;
@@ -166,7 +167,8 @@ int ub_compact_encode(const ub_compact_codec_t *c, const uint8_t *frame, size_t 
                   wire_ps + tl + UB_COMPACT_CHECK_LEN;
     if (cap < need) return UB_ERR_NOSPACE;
     size_t p = 0;
-    uint8_t prot = flags == UB_FRAME_FLAG_SIGNED ? 1u : flags == UB_FRAME_FLAG_ENCRYPTED ? 2u : 0u;
+    uint8_t pf = flags & UB_FRAME_FLAG_PROTECT_MASK;
+    uint8_t prot = pf == UB_FRAME_FLAG_SIGNED ? 1u : pf == UB_FRAME_FLAG_ENCRYPTED ? 2u : 0u;
     pkt[p++] = (uint8_t)((hop <= 15 ? hop : 0u) | (unsigned)prot << UB_COMPACT_PROT_SHIFT | (admin != 0 ? UB_COMPACT_ADMIN : 0u) |
                          (ctl1 != 0 ? UB_COMPACT_EXT : 0u));
     if (ctl1 != 0) pkt[p++] = ctl1;
@@ -236,8 +238,10 @@ int ub_compact_decode(const ub_compact_codec_t *c, const uint8_t *pkt, size_t n,
     uint8_t ctl1 = 0;
     if (ctl0 & UB_COMPACT_EXT) ctl1 = pkt[p++];
     unsigned prot = (ctl0 & UB_COMPACT_PROT_MASK) >> UB_COMPACT_PROT_SHIFT;
-    if ((ctl1 & UB_COMPACT_CTL1_RESERVED) || prot == 3) return reject(why, UB_RX_BAD_VERSION);
+    if ((ctl1 & UB_COMPACT_CTL1_RESERVED) || prot == 3 || ((ctl1 & UB_COMPACT_ORIGIN) && prot == 0))
+        return reject(why, UB_RX_BAD_VERSION);
     uint8_t flags = prot == 1 ? UB_FRAME_FLAG_SIGNED : prot == 2 ? UB_FRAME_FLAG_ENCRYPTED : 0u;
+    if (ctl1 & UB_COMPACT_ORIGIN) flags |= UB_FRAME_FLAG_ORIGIN;
     size_t tl = ub_frame_trailer_len(flags);
     uint8_t hop = ctl0 & UB_COMPACT_HOP_MASK;
     if (hop == 0) {
@@ -338,6 +342,10 @@ int ub_compact_decode(const ub_compact_codec_t *c, const uint8_t *pkt, size_t n,
     if (tl > 0) {
         h->key_id = body[ps + UB_FRAME_TRL_OFF_KEY_ID];
         h->counter_hi = ub_get_u16le(body + ps + UB_FRAME_TRL_OFF_COUNTER_HI);
+        if (flags & UB_FRAME_FLAG_ORIGIN) {
+            h->origin_hop0 = body[ps + tl - UB_FRAME_ORIGIN_LEN];
+            memcpy(h->origin_tag, body + ps + tl - UB_FRAME_ORIGIN_TAG_LEN, UB_FRAME_ORIGIN_TAG_LEN);
+        }
     }
     int len = ub_frame_finish(frame, cap, h);
     if (len < 0) return reject(why, UB_RX_BAD_LENGTH);

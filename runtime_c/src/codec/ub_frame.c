@@ -20,6 +20,8 @@ static const uint8_t k_trailer_plus_one[256] = {
     [UB_WIRE_VERSION] = 1,
     [UB_WIRE_VERSION | UB_FRAME_FLAG_SIGNED] = 1 + UB_FRAME_SIG_TRAILER_LEN,
     [UB_WIRE_VERSION | UB_FRAME_FLAG_ENCRYPTED] = 1 + UB_FRAME_AEAD_TRAILER_LEN,
+    [UB_WIRE_VERSION | UB_FRAME_FLAG_SIGNED | UB_FRAME_FLAG_ORIGIN] = 1 + UB_FRAME_SIG_TRAILER_LEN + UB_FRAME_ORIGIN_LEN,
+    [UB_WIRE_VERSION | UB_FRAME_FLAG_ENCRYPTED | UB_FRAME_FLAG_ORIGIN] = 1 + UB_FRAME_AEAD_TRAILER_LEN + UB_FRAME_ORIGIN_LEN,
 };
 
 static uint8_t fold_crc(uint32_t crc) { return (uint8_t)(crc ^ (crc >> 8) ^ (crc >> 16) ^ (crc >> 24)); }
@@ -56,9 +58,19 @@ static void read_header(const uint8_t *f, ub_frame_header_t *h) {
         const uint8_t *t = f + UB_FRAME_HEADER_LEN + h->payload_size;
         h->key_id = t[UB_FRAME_TRL_OFF_KEY_ID];
         h->counter_hi = ub_get_u16le(t + UB_FRAME_TRL_OFF_COUNTER_HI);
+        if (h->flags & UB_FRAME_FLAG_ORIGIN) {
+            const uint8_t *o = t + ub_frame_trailer_len(h->flags) - UB_FRAME_ORIGIN_LEN;
+            h->origin_hop0 = o[0];
+            memcpy(h->origin_tag, o + 1, UB_FRAME_ORIGIN_TAG_LEN);
+        } else {
+            h->origin_hop0 = 0;
+            memset(h->origin_tag, 0, UB_FRAME_ORIGIN_TAG_LEN);
+        }
     } else {
         h->key_id = 0;
         h->counter_hi = 0;
+        h->origin_hop0 = 0;
+        memset(h->origin_tag, 0, UB_FRAME_ORIGIN_TAG_LEN);
     }
 }
 

@@ -186,29 +186,44 @@ void ub_sec_signing_header(const ub_frame_header_t *h, uint8_t out[UB_SEC_SIGNIN
     ub_put_u16le(p, h->counter_hi);
 }
 
-#if HAVE_SODIUM
-/* SipHash-2-4 over (signing header, payload). libsodium's SipHash takes one contiguous input, so both go
- * into a stack buffer first (a copy of at most 68 + UB_MAX_PAYLOAD bytes: a few ns beside the hash). */
-static void sig_tag(const ub_sec_key_t *k, const uint8_t sh[UB_SEC_SIGNING_HEADER_LEN], const uint8_t *payload,
-                    size_t payload_len, uint8_t out[UB_FRAME_SIG_TAG_LEN]) {
-    uint8_t in[UB_SEC_SIGNING_HEADER_LEN + UB_MAX_PAYLOAD];
-    memcpy(in, sh, UB_SEC_SIGNING_HEADER_LEN);
-    if (payload_len > 0) memcpy(in + UB_SEC_SIGNING_HEADER_LEN, payload, payload_len);
-    (void)crypto_shorthash_siphash24(out, in, UB_SEC_SIGNING_HEADER_LEN + payload_len, k->sig_key);
+size_t ub_sec_hop_header(const ub_frame_header_t *h, uint8_t out[UB_SEC_SIGNING_HEADER_MAX]) {
+    ub_sec_signing_header(h, out);
+    if (!(h->flags & UB_FRAME_FLAG_ORIGIN)) return UB_SEC_SIGNING_HEADER_LEN;
+    /* ORIGIN frames: the hop tag also covers the hop limit as sent on this hop and the origin block, so
+     * nobody without the group key changes either (each forwarder re-tags after lowering the hop limit). */
+    uint8_t *p = out + UB_SEC_SIGNING_HEADER_LEN;
+    p[0] = h->hop_limit;
+    p[1] = h->origin_hop0;
+    memcpy(p + 2, h->origin_tag, UB_FRAME_ORIGIN_TAG_LEN);
+    return UB_SEC_SIGNING_HEADER_MAX;
 }
 
+#if HAVE_SODIUM
+/* SipHash-2-4 over (signing header, payload). libsodium's SipHash takes one contiguous input, so both go
+ * into a stack buffer first (a copy of at most 78 + UB_MAX_PAYLOAD bytes: a few ns beside the hash). */
+static void sig_tag(const ub_sec_key_t *k, const uint8_t *sh, size_t sh_len, const uint8_t *payload,
+                    size_t payload_len, uint8_t out[UB_FRAME_SIG_TAG_LEN]) {
+    uint8_t in[UB_SEC_SIGNING_HEADER_MAX + UB_MAX_PAYLOAD];
+    memcpy(in, sh, sh_len);
+    if (payload_len > 0) memcpy(in + sh_len, payload, payload_len);
+    (void)crypto_shorthash_siphash24(out, in, sh_len + payload_len, k->sig_key);
+}
 static void aead_nonce(const ub_frame_header_t *h, uint8_t nonce[24]) {
     memset(nonce, 0, 24);
     memcpy(nonce, h->src_id, UB_ENTITY_ID_LEN);
     ub_put_u32le(nonce + 12, h->seq);
     ub_put_u16le(nonce + 16, h->counter_hi);
     nonce[18] = h->key_id;
+    /* ORIGIN frames are re-encrypted at every hop with the hop limit in the additional data: the hop limit in
+     * the nonce keeps one (key, nonce) from ever authenticating two different additional data. */
+    if (h->flags & UB_FRAME_FLAG_ORIGIN) nonce[19] = h->hop_limit;
 }
 #endif
 
 int ub_sec_protect(ub_sec_t *sec, const ub_frame_header_t *h, const uint8_t *payload, uint8_t *frame, size_t cap) {
     if (sec == NULL || h == NULL || frame == NULL || (payload == NULL && h->payload_size > 0)) return UB_ERR_INVAL;
-    if (h->flags != UB_FRAME_FLAG_SIGNED && h->flags != UB_FRAME_FLAG_ENCRYPTED) return UB_ERR_INVAL;
+    uint8_t prot = h->flags & (uint8_t)~UB_FRAME_FLAG_ORIGIN;
+    if (prot != UB_FRAME_FLAG_SIGNED && prot != UB_FRAME_FLAG_ENCRYPTED) return UB_ERR_INVAL;
 #if HAVE_SODIUM
     const ub_sec_key_t *k = find_key(sec, h->key_id);
     if (k == NULL) return UB_ERR_NOTFOUND;
@@ -217,13 +232,18 @@ int ub_sec_protect(ub_sec_t *sec, const ub_frame_header_t *h, const uint8_t *pay
     if (cap < UB_FRAME_HEADER_LEN + (size_t)h->payload_size + trailer_len) return UB_ERR_NOSPACE;
     uint8_t *body = frame + UB_FRAME_HEADER_LEN;
     uint8_t *trailer = body + h->payload_size;
-    uint8_t sh[UB_SEC_SIGNING_HEADER_LEN];
-    ub_sec_signing_header(h, sh);
+    uint8_t sh[UB_SEC_SIGNING_HEADER_MAX];
+    size_t sh_len = ub_sec_hop_header(h, sh);
     trailer[UB_FRAME_TRL_OFF_KEY_ID] = h->key_id;
     ub_put_u16le(trailer + UB_FRAME_TRL_OFF_COUNTER_HI, h->counter_hi);
-    if (h->flags == UB_FRAME_FLAG_SIGNED) {
+    if (h->flags & UB_FRAME_FLAG_ORIGIN) {
+        uint8_t *o = trailer + trailer_len - UB_FRAME_ORIGIN_LEN;
+        o[0] = h->origin_hop0;
+        memcpy(o + 1, h->origin_tag, UB_FRAME_ORIGIN_TAG_LEN);
+    }
+    if (prot == UB_FRAME_FLAG_SIGNED) {
         if (payload != body) memmove(body, payload, h->payload_size);
-        sig_tag(k, sh, body, h->payload_size, trailer + UB_FRAME_TRL_OFF_TAG);
+        sig_tag(k, sh, sh_len, body, h->payload_size, trailer + UB_FRAME_TRL_OFF_TAG);
         sec->stats.signed_out++;
     } else {
         uint8_t nonce[24];
@@ -232,7 +252,7 @@ int ub_sec_protect(ub_sec_t *sec, const ub_frame_header_t *h, const uint8_t *pay
         /* In place is allowed (c == m); a separate source is read before its bytes are overwritten. */
         if (payload != body) memmove(body, payload, h->payload_size);
         if (crypto_aead_xchacha20poly1305_ietf_encrypt_detached(body, trailer + UB_FRAME_TRL_OFF_TAG, &mac_len, body,
-                                                                h->payload_size, sh, sizeof sh, NULL, nonce,
+                                                                h->payload_size, sh, sh_len, NULL, nonce,
                                                                 k->aead_key) != 0)
             return UB_ERR_INVAL;
         sec->stats.encrypted_out++;
@@ -247,7 +267,8 @@ int ub_sec_protect(ub_sec_t *sec, const ub_frame_header_t *h, const uint8_t *pay
 int ub_sec_verify(ub_sec_t *sec, const ub_frame_header_t *h, const uint8_t *frame, size_t len, uint8_t *plain,
                   size_t plain_cap) {
     if (sec == NULL || h == NULL || frame == NULL) return UB_ERR_INVAL;
-    if (h->flags != UB_FRAME_FLAG_SIGNED && h->flags != UB_FRAME_FLAG_ENCRYPTED) return UB_ERR_INVAL;
+    uint8_t prot = h->flags & (uint8_t)~UB_FRAME_FLAG_ORIGIN;
+    if (prot != UB_FRAME_FLAG_SIGNED && prot != UB_FRAME_FLAG_ENCRYPTED) return UB_ERR_INVAL;
     size_t trailer_len = ub_frame_trailer_len(h->flags);
     if (len != UB_FRAME_HEADER_LEN + (size_t)h->payload_size + trailer_len) return UB_ERR_INVAL;
 #if HAVE_SODIUM
@@ -258,11 +279,11 @@ int ub_sec_verify(ub_sec_t *sec, const ub_frame_header_t *h, const uint8_t *fram
     }
     const uint8_t *body = frame + UB_FRAME_HEADER_LEN;
     const uint8_t *tag = body + h->payload_size + UB_FRAME_TRL_OFF_TAG;
-    uint8_t sh[UB_SEC_SIGNING_HEADER_LEN];
-    ub_sec_signing_header(h, sh);
-    if (h->flags == UB_FRAME_FLAG_SIGNED) {
+    uint8_t sh[UB_SEC_SIGNING_HEADER_MAX];
+    size_t sh_len = ub_sec_hop_header(h, sh);
+    if (prot == UB_FRAME_FLAG_SIGNED) {
         uint8_t mac[UB_FRAME_SIG_TAG_LEN];
-        sig_tag(k, sh, body, h->payload_size, mac);
+        sig_tag(k, sh, sh_len, body, h->payload_size, mac);
         if (sodium_memcmp(mac, tag, UB_FRAME_SIG_TAG_LEN) != 0) {
             sec->stats.auth_failures++;
             return UB_ERR_AUTH;
@@ -273,7 +294,7 @@ int ub_sec_verify(ub_sec_t *sec, const ub_frame_header_t *h, const uint8_t *fram
     if (plain == NULL || plain_cap < h->payload_size) return UB_ERR_INVAL;
     uint8_t nonce[24];
     aead_nonce(h, nonce);
-    if (crypto_aead_xchacha20poly1305_ietf_decrypt_detached(plain, NULL, body, h->payload_size, tag, sh, sizeof sh,
+    if (crypto_aead_xchacha20poly1305_ietf_decrypt_detached(plain, NULL, body, h->payload_size, tag, sh, sh_len,
                                                             nonce, k->aead_key) != 0) {
         sec->stats.auth_failures++;
         return UB_ERR_AUTH;

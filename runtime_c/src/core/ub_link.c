@@ -24,6 +24,9 @@ static const char *const drop_reason_names[UB_DROP_REASON_COUNT] = {
     [UB_DROP_TOO_BIG] = "too_big",
     [UB_DROP_INCOMPLETE] = "incomplete",
     [UB_DROP_COUNTER_JUMP] = "counter_jump",
+    [UB_DROP_BAD_ORIGIN] = "bad_origin",
+    [UB_DROP_NO_ORIGIN] = "no_origin",
+    [UB_DROP_NO_IDENTITY] = "no_identity",
 };
 
 const char *ub_drop_reason_name(ub_drop_reason_t reason) {

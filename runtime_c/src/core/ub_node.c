@@ -417,6 +417,7 @@ typedef struct tx_forms {
     uint8_t hop_limit;            /* the hop limit to send */
     const uint8_t *payload;       /* plaintext payload */
     bool protect;                 /* the frame is authenticated: its clear form is SIGNED, not PLAIN */
+    bool origin;                  /* its protected forms carry h's origin block (UB_FRAME_FLAG_ORIGIN) */
     ub_drop_reason_t unprotected; /* why an encrypting link cannot take it when it is not */
     uint8_t *buf[N_FORMS];        /* UB_FRAME_MAX bytes each (may be shared by forms never both needed) */
     int len[N_FORMS];             /* 0: not built yet; < 0: building failed */
@@ -436,6 +437,7 @@ static int form_get(ub_node_t *node, tx_forms_t *f, int form) {
         n = ub_frame_finish(f->buf[form], UB_FRAME_MAX, &h);
     } else {
         h.flags = form == FORM_SIGNED ? UB_FRAME_FLAG_SIGNED : UB_FRAME_FLAG_ENCRYPTED;
+        if (f->origin) h.flags |= UB_FRAME_FLAG_ORIGIN;
         n = node->sec == NULL ? UB_ERR_NOTFOUND : ub_sec_protect(node->sec, &h, f->payload, f->buf[form], UB_FRAME_MAX);
     }
     f->len[form] = n == 0 ? UB_ERR_INVAL : n;
@@ -525,10 +527,11 @@ static __attribute__((noinline)) void dispatch_admin(ub_node_t *node, int slot, 
                                                      const ub_priv_rx_t *rx, uint64_t now_ms) {
     /* Fragments are DATA in pieces: counted as delivered once whole, not as admin frames. */
     if (h->admin != UB_ADMIN_FRAGMENT) node->counters.admin_handled++;
-    ub_service_rx_t srx = {slot, link_id, false, 0};
+    ub_service_rx_t srx = {slot, link_id, false, 0, false};
     if (rx != NULL && link_id >= 0) {
         srx.secured = rx->secured;
         srx.counter = rx->counter;
+        srx.origin = rx->origin;
     }
     ub_drop_reason_t drop = UB_DROP_BAD_PAYLOAD;
     bool ok = false;
@@ -604,6 +607,7 @@ static int send_stamped(ub_node_t *node, int slot, uint8_t mask, uint8_t *frame,
     f.hop_limit = h->hop_limit;
     f.payload = frame + UB_FRAME_HEADER_LEN;
     f.protect = h->key_id != 0;
+    f.origin = f.protect && (h->flags & UB_FRAME_FLAG_ORIGIN) != 0;
     f.unprotected = UB_DROP_UNKNOWN_KEY;
     f.buf[FORM_PLAIN] = f.buf[FORM_SIGNED] = frame;
     f.buf[FORM_ENCRYPTED] = alt;
@@ -630,6 +634,17 @@ int ub_priv_originate(ub_node_t *node, int slot, uint8_t *frame, size_t cap, ub_
     if (mask == 0) {
         count_drop(node, -1, UB_DROP_NO_ROUTE);
         return UB_ERR_NOROUTE;
+    }
+    const ub_service_t *sealer = node->seal_svc;
+    if (sealer != NULL && sealer->seal != NULL && h->key_id != 0) {
+        /* An end-to-end origin block (docs/security.md, "Origin authentication"): the service decides. */
+        ub_drop_reason_t drop = UB_DROP_NO_IDENTITY;
+        int sealed = sealer->seal(sealer, node, slot, h, frame + UB_FRAME_HEADER_LEN, now_ms, &drop);
+        if (sealed < 0) {
+            count_drop(node, -1, drop);
+            return sealed;
+        }
+        if (sealed > 0) h->flags = UB_FRAME_FLAG_ORIGIN; /* send_stamped() adds the hop protection */
     }
     return send_stamped(node, slot, mask, frame, h, now_ms);
 }
@@ -668,7 +683,7 @@ static __attribute__((noinline)) void on_link_local(ub_node_t *node, int link_id
     }
     const ub_service_t *svc = node->services[idx - 1];
     node->counters.admin_handled++;
-    ub_service_rx_t srx = {node->links[link_id].owner, link_id, rx->secured, rx->counter};
+    ub_service_rx_t srx = {node->links[link_id].owner, link_id, rx->secured, rx->counter, false};
     ub_drop_reason_t drop = UB_DROP_BAD_PAYLOAD;
     if (svc->on_frame == NULL || !svc->on_frame(svc, node, &srx, h, rx->payload, now_ms, &drop))
         count_drop(node, link_id, drop);
@@ -703,6 +718,18 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
     int dest_row = -1;
     int dest_slot = link_local ? -1 : local_destination(node, h->dest_id, &dest_row);
     int handler = dest_slot >= 0 ? dest_slot : link->owner;
+    rx.origin = false;
+    const ub_service_t *opener = node->seal_svc;
+    if (dest_slot >= 0 && opener != NULL && opener->open != NULL) {
+        /* The destination's origin check comes before its window: a frame a key-holding insider forged in
+         * another entity's name never moves that entity's freshness state. */
+        ub_service_rx_t srx = {dest_slot, link_id, rx.secured, rx.counter, false};
+        ub_drop_reason_t drop = UB_DROP_BAD_ORIGIN;
+        if (!opener->open(opener, node, &srx, h, rx.payload, now_ms, &rx.origin, &drop)) {
+            count_drop(node, link_id, drop);
+            return UB_VERDICT_REFUSED;
+        }
+    }
     ub_priv_window_t verdict = ub_priv_window_pass(node, handler, link_id, h, &rx, now_ms);
     if (verdict != UB_PRIV_WINDOW_PASS) {
         if (verdict == UB_PRIV_WINDOW_UNVERIFIED && verdicts != NULL) verdicts->authentic++;
@@ -740,8 +767,9 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
         return UB_VERDICT_ACCEPTED;
     }
+    bool retag = (h->flags & UB_FRAME_FLAG_ORIGIN) != 0; /* its hop tag covers the hop limit: made again below */
     memcpy(out, frame, len);
-    if (ub_frame_set_hop_limit(out, len, (uint8_t)(h->hop_limit - 1)) < 0) {
+    if (!retag && ub_frame_set_hop_limit(out, len, (uint8_t)(h->hop_limit - 1)) < 0) {
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
         return UB_VERDICT_ACCEPTED;
     }
@@ -750,15 +778,17 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
     f.hop_limit = (uint8_t)(h->hop_limit - 1);
     f.payload = rx.payload;
     f.protect = rx.secured;
+    f.origin = retag;
     f.unprotected = UB_DROP_UNSIGNED;
-    int in_form = h->flags == UB_FRAME_FLAG_ENCRYPTED ? FORM_ENCRYPTED
-                : h->flags == UB_FRAME_FLAG_SIGNED  ? FORM_SIGNED : FORM_PLAIN;
+    uint8_t prot = h->flags & UB_FRAME_FLAG_PROTECT_MASK;
+    int in_form = prot == UB_FRAME_FLAG_ENCRYPTED ? FORM_ENCRYPTED
+                : prot == UB_FRAME_FLAG_SIGNED  ? FORM_SIGNED : FORM_PLAIN;
     for (int k = 0; k < N_FORMS; k++) {
         f.buf[k] = alt;
         f.len[k] = 0;
     }
     f.buf[in_form] = out;
-    f.len[in_form] = (int)len;
+    f.len[in_form] = retag ? 0 : (int)len;
     node->counters.forwarded++;
     (void)send_forms(node, owner, mask, &f, now_ms);
     return UB_VERDICT_ACCEPTED;

@@ -68,6 +68,7 @@ typedef struct ub_priv_rx {
     const uint8_t *payload; /* plaintext payload: in the frame, or the caller's buffer for ENCRYPTED */
     uint64_t counter;       /* 48-bit counter (secured) or the 32-bit sequence (unsigned) */
     bool secured;           /* the tag verified */
+    bool origin;            /* the origin block verified (the seal service's open) */
 } ub_priv_rx_t;
 
 /*

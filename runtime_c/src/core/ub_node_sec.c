@@ -77,11 +77,18 @@ bool ub_priv_sec_gate(ub_node_t *node, int link_id, const ub_frame_header_t *h, 
         ub_priv_count_drop(node, link_id, UB_DROP_BAD_TAG);
         return false;
     }
-    if (link->encrypt && require && h->flags != UB_FRAME_FLAG_ENCRYPTED) {
+    uint8_t prot = h->flags & UB_FRAME_FLAG_PROTECT_MASK;
+    if (link->encrypt && require && prot != UB_FRAME_FLAG_ENCRYPTED) {
         ub_priv_count_drop(node, link_id, UB_DROP_UNSIGNED); /* authentic, but sent in clear where it must not be */
         return false;
     }
-    rx->payload = h->flags == UB_FRAME_FLAG_ENCRYPTED ? plain : frame + UB_FRAME_HEADER_LEN;
+    /* Origin block (docs/security.md, "Origin authentication"): hop0 is under the hop tag, so only a
+     * key-holding forwarder could have raised the hop limit above what the origin sent. */
+    if ((h->flags & UB_FRAME_FLAG_ORIGIN) && h->hop_limit > h->origin_hop0) {
+        ub_priv_count_drop(node, link_id, UB_DROP_BAD_ORIGIN);
+        return false;
+    }
+    rx->payload = prot == UB_FRAME_FLAG_ENCRYPTED ? plain : frame + UB_FRAME_HEADER_LEN;
     rx->counter = ub_frame_counter(h);
     rx->secured = true;
     return true;

@@ -25,6 +25,7 @@ static const uint8_t *codes_of(const ub_service_t *svc, ub_service_kind_t kind, 
 static void reindex(ub_node_t *node) {
     memset(node->svc_by_code, 0, sizeof node->svc_by_code);
     node->data_svc = NULL;
+    node->seal_svc = NULL;
     for (int i = 0; i < node->n_services; i++) {
         const ub_service_t *svc = node->services[i];
         for (int k = UB_SVC_CODE; k <= UB_SVC_LINK_LOCAL; k++) {
@@ -33,6 +34,7 @@ static void reindex(ub_node_t *node) {
             for (unsigned j = 0; j < n; j++) node->svc_by_code[k][c[j]] = (uint8_t)(i + 1);
         }
         if (svc->on_data != NULL || svc->may_write != NULL) node->data_svc = svc;
+        if (svc->seal != NULL || svc->open != NULL) node->seal_svc = svc;
     }
 }
 
@@ -55,6 +57,7 @@ int ub_node_add_service(ub_node_t *node, const ub_service_t *svc) {
         }
     }
     if ((svc->on_data != NULL || svc->may_write != NULL) && node->data_svc != NULL) return UB_ERR_EXISTS;
+    if ((svc->seal != NULL || svc->open != NULL) && node->seal_svc != NULL) return UB_ERR_EXISTS;
     if (node->n_services >= UB_MAX_SERVICES) return UB_ERR_FULL;
     /* Keep the table in tick order: after every service of the same or a lower order. */
     int at = node->n_services;

@@ -19,6 +19,7 @@ DEFAULT_HOP_LIMIT: int = lib.UB_DEFAULT_HOP_LIMIT
 RX_REASON_COUNT: int = lib.UB_RX_REASON_COUNT
 FLAG_SIGNED: int = lib.UB_FRAME_FLAG_SIGNED
 FLAG_ENCRYPTED: int = lib.UB_FRAME_FLAG_ENCRYPTED
+FLAG_ORIGIN: int = lib.UB_FRAME_FLAG_ORIGIN
 TRAILER_MAX: int = lib.UB_FRAME_TRAILER_MAX
 ADMIN_DATA: int = lib.UB_ADMIN_DATA  # the admin code of a DATA frame (ub_wire.h)
 _U16_MAX = 0xFFFF
@@ -37,9 +38,11 @@ class FrameHeader:
     seq: int = 0
     fingerprint: int = 0
     msg_type: int = lib.UB_MSG_TYPE_PUBSUB
-    flags: int = 0          # 0, FLAG_SIGNED or FLAG_ENCRYPTED (the version byte's high nibble)
+    flags: int = 0          # 0, FLAG_SIGNED or FLAG_ENCRYPTED, maybe | FLAG_ORIGIN (the version byte's high nibble)
     key_id: int = 0         # from the trailer of a flagged frame
     counter_hi: int = 0     # high 16 bits of the 48-bit counter (seq is the low 32)
+    origin_hop0: int = 0    # origin block (FLAG_ORIGIN): the hop limit the origin sent
+    origin_tag: bytes = bytes(8)  # ... and the origin tag
 
     @property
     def counter(self) -> int:
@@ -77,10 +80,12 @@ def _header_to_c(h: FrameHeader) -> Any:
     _copy_id(c.dir_id, h.dir_id, "dir_id")
     _copy_id(c.dest_id, h.dest_id, "dest_id")
     _copy_id(c.src_id, h.src_id, "src_id")
+    _copy_id(c.origin_tag, h.origin_tag, "origin_tag")
     try:
         c.msg_type, c.admin, c.hop_limit = h.msg_type, h.admin, h.hop_limit
         c.payload_size, c.seq, c.fingerprint = h.payload_size, h.seq, h.fingerprint
         c.flags, c.key_id, c.counter_hi = h.flags, h.key_id, h.counter_hi
+        c.origin_hop0 = h.origin_hop0
     except OverflowError as exc:
         raise RangeError(f"header field out of range: {exc}") from exc
     return c
@@ -91,6 +96,7 @@ def _header_from_c(c: Any) -> FrameHeader:
         dir_id=bytes(c.dir_id), dest_id=bytes(c.dest_id), src_id=bytes(c.src_id),
         admin=c.admin, hop_limit=c.hop_limit, payload_size=c.payload_size, seq=c.seq,
         fingerprint=c.fingerprint, msg_type=c.msg_type, flags=c.flags, key_id=c.key_id, counter_hi=c.counter_hi,
+        origin_hop0=c.origin_hop0, origin_tag=bytes(c.origin_tag),
     )
 
 

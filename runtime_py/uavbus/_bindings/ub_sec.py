@@ -94,7 +94,7 @@ def ub_sec_verify(sec: Any, frame: bytes) -> tuple[FrameHeader, bytes]:
     plain = ffi.new("uint8_t[]", MAX_PAYLOAD)
     ensure(lib.ub_sec_verify(sec, c, frame, len(frame), plain, MAX_PAYLOAD), "ub_sec_verify")
     header = _header_from_c(c)
-    if header.flags == lib.UB_FRAME_FLAG_ENCRYPTED:
+    if header.flags & lib.UB_FRAME_FLAG_ENCRYPTED:
         return header, bytes(ffi.buffer(plain, header.payload_size))
     return header, bytes(frame[64:64 + header.payload_size])
 

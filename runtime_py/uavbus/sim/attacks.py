@@ -143,7 +143,7 @@ def _dest(frame: bytes) -> str:
 
 def _counter(frame: bytes) -> int:
     flags = frame[3] & 0xF0
-    trailer = {0x10: 11, 0x20: 19}.get(flags, 0)
+    trailer = {0x10: 11, 0x20: 19, 0x90: 20, 0xA0: 28}.get(flags, 0)  # with ORIGIN (0x80): + the 9-byte block
     hi = int.from_bytes(frame[len(frame) - trailer + 1:len(frame) - trailer + 3], "little") if trailer else 0
     return hi << 32 | int.from_bytes(frame[52:56], "little")
 

@@ -124,8 +124,8 @@ def play_to(log: Any, contents: Any, records: list[Any], args: Any, out: IO[str]
     identity = names[0]
     if args.to in names:
         raise PlayError(f"--to {args.to} is one of the player's own identities; give them other names (--as, --map)")
-    encrypted = [r for r in data if r.header.flags == FLAG_ENCRYPTED]
-    data = [r for r in data if r.header.flags != FLAG_ENCRYPTED]
+    encrypted = [r for r in data if r.header.flags & FLAG_ENCRYPTED]
+    data = [r for r in data if not r.header.flags & FLAG_ENCRYPTED]
     if not data:
         raise PlayError(f"{args.file}: every selected frame was recorded encrypted (ciphertext); record in the clear "
                         "or on a signing-only link")

@@ -1,0 +1,114 @@
+"""Wrappers for ub_origin.h: origin authentication (docs/security.md, "Origin authentication").
+
+The C context (ub_origin_t) does every key agreement, tag and check; Python supplies only the identity
+store's lookup (an `extern "Python"` callback) and keeps the context and the callback alive with its node.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from uavbus._bindings.ub_error import InvalidArgumentError, ensure
+from uavbus._bindings.ub_frame import FrameHeader, _header_to_c
+from uavbus._ub import ffi, lib
+
+SK_LEN: int = lib.UB_ORIGIN_SK_LEN
+PK_LEN: int = lib.UB_ORIGIN_PK_LEN
+KEY_LEN: int = lib.UB_ORIGIN_KEY_LEN
+PEERS: int = lib.UB_ORIGIN_PEERS
+STATS_FIELDS = ("sealed", "opened", "bad_origin", "no_origin", "no_identity", "derivations", "lookups",
+                "evictions", "rekeys")
+
+# lookup(entity_id: 12 bytes, now_s) -> the X25519 public key (32 bytes), or None: unknown, revoked, expired.
+Lookup = Callable[[bytes, int], "bytes | None"]
+
+
+def _bytes(value: bytes, n: int, what: str) -> bytes:
+    if not isinstance(value, (bytes, bytearray)) or len(value) != n:
+        raise InvalidArgumentError(f"{what} must be {n} bytes")
+    return bytes(value)
+
+
+def ub_origin_public_key(sk: bytes) -> bytes:
+    """The X25519 public key of secret key `sk`."""
+    pk = ffi.new("uint8_t[]", PK_LEN)
+    ensure(lib.ub_origin_public_key(_bytes(sk, SK_LEN, "x25519 secret key"), pk), "ub_origin_public_key")
+    return bytes(pk)
+
+
+def ub_origin_pair_keys(self_id: bytes, self_sk: bytes, peer_id: bytes, peer_pk: bytes) -> tuple[bytes, bytes]:
+    """(key self -> peer, key peer -> self) of the static-static agreement."""
+    tx, rx = ffi.new("uint8_t[]", KEY_LEN), ffi.new("uint8_t[]", KEY_LEN)
+    ensure(lib.ub_origin_pair_keys(_bytes(self_id, 12, "entity id"), _bytes(self_sk, SK_LEN, "secret key"),
+                                   _bytes(peer_id, 12, "entity id"), _bytes(peer_pk, PK_LEN, "public key"), tx, rx),
+           "ub_origin_pair_keys")
+    return bytes(tx), bytes(rx)
+
+
+def ub_origin_tag(key: bytes, header: FrameHeader, payload: bytes) -> bytes:
+    """The origin tag of a frame (header fields, `header.origin_hop0`) and its plaintext payload."""
+    c = _header_to_c(header)
+    c.payload_size = len(payload)
+    tag = ffi.new("uint8_t[]", 8)
+    ensure(lib.ub_origin_tag(_bytes(key, KEY_LEN, "pairwise key"), c, payload, tag), "ub_origin_tag")
+    return bytes(tag)
+
+
+class OriginContext:
+    """A ub_origin_t with its lookup callback; keep it as long as the node it is attached to."""
+
+    def __init__(self, lookup: Lookup, recheck_ms: int = 0, optional: bool = False) -> None:
+        self._lookup = lookup
+        self._handle = ffi.new_handle(self)
+        self.c = ffi.new("ub_origin_t *")
+        opt = ffi.new("ub_origin_options_t *")
+        opt.lookup = lib.ub_py_origin_lookup
+        opt.lookup_user = self._handle
+        opt.recheck_ms = recheck_ms
+        opt.optional = optional
+        ensure(lib.ub_origin_init(self.c, opt), "ub_origin_init")
+        self.error: BaseException | None = None  # an exception the lookup raised (the frame was refused)
+
+    def add_identity(self, entity_id: bytes, sk: bytes) -> None:
+        ensure(lib.ub_origin_add_identity(self.c, _bytes(entity_id, 12, "entity id"), _bytes(sk, SK_LEN, "secret key")),
+               "ub_origin_add_identity")
+
+    def attach(self, node: Any) -> None:
+        ensure(lib.ub_origin_attach(self.c, node), "ub_origin_attach")
+
+    def detach(self, node: Any) -> None:
+        ensure(lib.ub_origin_detach(self.c, node), "ub_origin_detach")
+
+    def forget(self, peer_id: bytes) -> int:
+        return int(lib.ub_origin_forget(self.c, _bytes(peer_id, 12, "entity id")))
+
+    def cached(self) -> int:
+        return int(lib.ub_origin_cached(self.c))
+
+    def stats(self) -> dict[str, int]:
+        s = lib.ub_origin_stats(self.c)
+        return {name: int(getattr(s, name)) for name in STATS_FIELDS}
+
+    def _call(self, entity_id: bytes, now_s: int) -> bytes | None:
+        try:
+            pk = self._lookup(entity_id, now_s)
+        except Exception as exc:  # noqa: BLE001 - a failing store refuses the peer (fail closed), reported later
+            self.error = exc
+            return None
+        if pk is None:
+            return None
+        if len(pk) != PK_LEN:
+            self.error = InvalidArgumentError(f"lookup returned {len(pk)} bytes for an X25519 public key, not 32")
+            return None
+        return bytes(pk)
+
+
+@ffi.def_extern()
+def ub_py_origin_lookup(user: Any, entity_id: Any, now_s: int, pk_out: Any) -> int:
+    ctx: OriginContext = ffi.from_handle(user)
+    pk = ctx._call(bytes(ffi.buffer(entity_id, 12)), now_s)
+    if pk is None:
+        return int(lib.UB_ERR_NOTFOUND)
+    ffi.memmove(pk_out, pk, PK_LEN)
+    return 0
