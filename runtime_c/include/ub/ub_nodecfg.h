@@ -90,8 +90,9 @@ extern "C" {
 #ifndef UB_NODECFG_MAX_PORT_PARAMS
 #define UB_NODECFG_MAX_PORT_PARAMS 6
 #endif
-/** Recommended size of the error-message buffers passed to this API. */
-#define UB_NODECFG_ERR_LEN 256
+/** Recommended size of the error-message buffers passed to this API (a config path of a few hundred characters
+ *  and the longest message, the security section's list of fields, fit). */
+#define UB_NODECFG_ERR_LEN 512
 
 #if UB_MAX_ENTITIES > 255 || UB_NODECFG_MAX_PORTS > 255
 #error "ub_nodecfg counts entities and ports in uint8_t: keep UB_MAX_ENTITIES and UB_NODECFG_MAX_PORTS <= 255"
