@@ -125,7 +125,8 @@ class Fleet:
 
     def __init__(self, tmp_path: Path, group: ProcessGroup, mavbridge: dict[str, str], uavbus_node: Path,
                  door_autopilot: bool = True, signed: bool = False, compact: bool = False,
-                 gcs_transport: str = "udp:bind") -> None:
+                 gcs_transport: str = "udp:bind", door_extra: tuple[str, ...] = (),
+                 gcs_spec: str | None = None) -> None:
         ports = PortAllocator()
         cfg = tmp_path / "door.json"
         write_config(cfg, ports, compact)
@@ -149,12 +150,14 @@ class Fleet:
             return group.spawn([prog, "--config", str(cfg), "--node", node, "--stats-ms", "0"] + mav + extra,
                                node, ready_timeout=10)
 
-        self.door = bridge("door", 1 if door_autopilot else None, ["--gcs", f"{gcs_transport}=127.0.0.1:{self.gcs_port}", "--fleet", "mb2", "--fleet", "mb3"])
+        spec = gcs_spec or f"{gcs_transport}=127.0.0.1:{self.gcs_port}"
+        self.door = bridge("door", 1 if door_autopilot else None, ["--gcs", spec,
+                                                                   "--fleet", "mb2", "--fleet", "mb3", *door_extra])
         self.mb2 = bridge("mb2", 2, ["--fleet", "door"])
         self.mb3 = bridge("mb3", 3, ["--fleet", "door"])
         group.spawn([str(uavbus_node), "--config", str(cfg), "--node", "relay", "--stats-ms", "0"], "relay",
                     ready_timeout=10)
-        assert self.door.wait_ready()["gcs_port"] == self.gcs_port
+        assert gcs_spec is not None or self.door.wait_ready()["gcs_port"] == self.gcs_port
 
 
 def test_two_gcs_see_three_vehicles_and_commands_reach_only_their_target(tmp_path, group: ProcessGroup, mavbridge,

@@ -309,6 +309,57 @@ static void test_a_forged_sequence_is_no_loss(void **state) {
     assert_int_equal(ub_mavbridge_counters(&g_w.door.br)->seq_outliers, 1);
 }
 
+static void gcs_interval(int client, uint8_t sysid, uint8_t target, uint32_t msgid, float us) {
+    mavlink_command_long_t c = {.target_system = target, .target_component = 1,
+                                .command = MAV_CMD_SET_MESSAGE_INTERVAL, .param1 = (float)msgid, .param2 = us};
+    mavlink_message_t m;
+    mavlink_msg_command_long_encode_status(sysid, 190, &g_w.gcs_status[client], &m, &c);
+    gcs_send(client, &m);
+}
+
+/* SET_MESSAGE_INTERVAL from ground stations: answered by the vehicle's bridge as its autopilot (never forwarded),
+ * each ground station held to its own rate, the autopilot asked for the fastest. */
+static void test_rates_asked_by_ground_stations(void **state) {
+    (void)state;
+    setup_world(true);
+    meet();
+    gcs_interval(0, 250, 2, MAVLINK_MSG_ID_ATTITUDE, 100000.0f); /* 10 Hz */
+    gcs_interval(1, 251, 2, MAVLINK_MSG_ID_ATTITUDE, 20000.0f);  /* 50 Hz */
+    run(20);
+    assert_int_equal(ub_mavroute_counters(&g_w.door.rt)->rate_forwarded, 2);
+    assert_int_equal(ub_mavroute_counters(&g_w.mb.rt)->rate_requests, 2);
+    assert_int_equal(count(&g_w.mb.autopilot, MAVLINK_MSG_ID_COMMAND_LONG, 250, 0), 0);
+    assert_int_equal(count(&g_w.mb.autopilot, MAVLINK_MSG_ID_COMMAND_LONG, 251, 0), 0);
+    assert_int_equal(count(&g_w.clients[0], MAVLINK_MSG_ID_COMMAND_ACK, 2, MAV_CMD_SET_MESSAGE_INTERVAL), 1);
+    assert_int_equal(count(&g_w.clients[1], MAVLINK_MSG_ID_COMMAND_ACK, 2, MAV_CMD_SET_MESSAGE_INTERVAL), 1);
+    /* The bridge asks its autopilot for the fastest (the rewritten second request: 20 ms). */
+    int d = ub_mavbridge_find(&g_w.mb.br, MAVLINK_MSG_ID_ATTITUDE);
+    assert_true(d >= 0);
+    assert_int_equal(ub_mavbridge_dir_state(&g_w.mb.br, (size_t)d)->flow_us, 20000);
+    assert_int_equal(ub_mavbridge_dir_state(&g_w.mb.br, (size_t)d)->wanted_us, 20000);
+    size_t before0 = count(&g_w.clients[0], MAVLINK_MSG_ID_ATTITUDE, 2, 0);
+    size_t before1 = count(&g_w.clients[1], MAVLINK_MSG_ID_ATTITUDE, 2, 0);
+    for (int k = 0; k < 50; k++) { /* one second at 50 Hz */
+        ap_attitude(&g_w.mb, 2, 200 + 20u * (uint32_t)k);
+        run(20);
+    }
+    size_t got0 = count(&g_w.clients[0], MAVLINK_MSG_ID_ATTITUDE, 2, 0) - before0;
+    size_t got1 = count(&g_w.clients[1], MAVLINK_MSG_ID_ATTITUDE, 2, 0) - before1;
+    assert_true(got0 >= 9 && got0 <= 11);
+    assert_int_equal(got1, 50);
+    /* Off for ground station 0; ground station 1 goes on. */
+    gcs_interval(0, 250, 2, MAVLINK_MSG_ID_ATTITUDE, -1.0f);
+    before0 = count(&g_w.clients[0], MAVLINK_MSG_ID_ATTITUDE, 2, 0);
+    ap_attitude(&g_w.mb, 2, 5000);
+    run(20);
+    assert_int_equal(count(&g_w.clients[0], MAVLINK_MSG_ID_ATTITUDE, 2, 0), before0);
+    /* A ground station that leaves takes its rate with it. */
+    ub_mavroute_client_gone(&g_w.door.rt, 1);
+    gcs_interval(0, 250, 2, MAVLINK_MSG_ID_ATTITUDE, 0.0f);
+    run(20);
+    assert_int_equal(ub_mavbridge_dir_state(&g_w.mb.br, (size_t)d)->flow_us, 0);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_every_vehicle_reaches_every_ground_station),
@@ -318,6 +369,7 @@ int main(void) {
         cmocka_unit_test(test_one_system_id_behind_two_vehicle_links_is_a_conflict),
         cmocka_unit_test(test_vehicles_broadcast_only_toward_peers_that_listen),
         cmocka_unit_test(test_a_forged_sequence_is_no_loss),
+        cmocka_unit_test(test_rates_asked_by_ground_stations),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
