@@ -297,18 +297,21 @@ static bool rates(ub_mavroute_t *rt, mavlink_message_t *m, int from, uint8_t tar
     return false;
 }
 
-/* May message `m` (a vehicle's broadcast) go to link `to` now, given the interval that link asked? */
+/* May message `m` (a vehicle's broadcast) go to link `to` now, given the interval that link asked? A
+ * generic cell rate algorithm: `next_ms` is the theoretical time of the next frame; one may come early by a
+ * tolerance of one interval, at least 10 ms (the clock's millisecond and the links' jitter: at 1 kHz
+ * asked, two frames within one millisecond are no excess), so the long-run rate never exceeds the asked one. */
 static bool rate_allows(ub_mavroute_t *rt, const mavlink_message_t *m, int to, uint64_t now_ms) {
     ub_mavroute_flow_t *f = find_flow(rt, to, m->sysid, m->msgid);
     if (f == NULL || f->interval_us == 0) return true;
-    if (f->interval_us < 0 || now_ms < f->next_ms) {
+    uint64_t iv = (uint64_t)f->interval_us / 1000u;
+    if (iv == 0) iv = 1;
+    uint64_t tolerance = iv > 10 ? iv : 10;
+    if (f->interval_us < 0 || now_ms + tolerance < f->next_ms) {
         rt->c.rate_limited++;
         return false;
     }
-    uint64_t iv = (uint64_t)f->interval_us / 1000u;
-    if (iv == 0) iv = 1;
-    /* On the interval's grid while on time (jitter does not slow the rate), from now on after a gap. */
-    f->next_ms = f->next_ms + iv > now_ms ? f->next_ms + iv : now_ms + iv;
+    f->next_ms = (f->next_ms > now_ms ? f->next_ms : now_ms) + iv;
     return true;
 }
 
