@@ -361,11 +361,13 @@ def test_mavproxy_and_pymavlink_at_once(tmp_path, group: ProcessGroup, mavbridge
 def test_mavsdk_discovers_every_vehicle_arms_one_and_sets_a_parameter(tmp_path, group: ProcessGroup, mavbridge,
                                                                          uavbus_node):
     """MAVSDK (PyPI `mavsdk`, MAVSDK's C library) on the door: discovers the three system ids, reads each one's
-    attitude, arms system 3 (two hops away; only it is armed) and sets and reads back a parameter of system 2."""
+    attitude, arms system 3 (two hops away; only it is armed), sets and reads back a parameter of system 2, and
+    uploads a 5-waypoint mission to system 3 and reads it back."""
     f = Fleet(tmp_path, group, mavbridge, uavbus_node)
     script = Path(__file__).with_name("mavsdk_gcs.py")
     proc = subprocess.run([sys.executable, str(script), "--url", f"udpout://127.0.0.1:{f.gcs_port}", "--vehicles", "3",
-                           "--arm", "3", "--param", "2:TEST_P07=12.25"], capture_output=True, text=True, timeout=55)
+                           "--arm", "3", "--param", "2:TEST_P07=12.25", "--mission", "3:5"], capture_output=True, text=True,
+                          timeout=80)
     assert proc.returncode == 0, proc.stderr[-3000:]
     got = json.loads(proc.stdout.strip().splitlines()[-1])
     assert got["systems"] == list(VEHICLES), (got, f.door.request_stats()["mavlink"]["door"])
@@ -379,6 +381,14 @@ def test_mavsdk_discovers_every_vehicle_arms_one_and_sets_a_parameter(tmp_path, 
     assert got["param"] == 12.25, got
     sets = {s: [e for e in f.aps[s].all("param_set") if e["name"] == "TEST_P07"] for s in VEHICLES}
     assert sets[2] and not sets[1] and not sets[3], sets
+    # A 5-waypoint mission uploaded to system 3 with MAVSDK's mission plugin, and read back.
+    mission = got["mission"]
+    assert isinstance(mission, dict), mission
+    assert len(mission["down"]) == 5, mission
+    for (lat, lon, alt), (lat2, lon2, alt2) in zip(mission["up"], mission["down"]):
+        assert abs(lat - lat2) < 1e-6 and abs(lon - lon2) < 1e-6 and abs(alt - alt2) < 1e-3, mission
+    f.aps[3].wait_event(lambda e: e.get("event") == "mission" and e.get("what") == "uploaded", 5, what="MAVSDK's upload")
+    assert not [e for s in (1, 2) for e in f.aps[s].all("mission")], "another vehicle saw system 3's mission"
 
 
 def test_a_door_without_autopilot_on_a_signed_bus_with_a_compact_link(tmp_path, group: ProcessGroup, mavbridge,
