@@ -330,7 +330,8 @@ class MavProxy:
 def test_mavproxy_and_pymavlink_at_once(tmp_path, group: ProcessGroup, mavbridge, uavbus_node):
     """MAVProxy on the door, aimed at system 3 (two uavbus hops away), while a pymavlink GCS watches: MAVProxy
     sees the vehicles, fetches the whole parameter list (after its MAVFTP attempt times out, as against any
-    autopilot without FTP), and its arm command is acknowledged by system 3 only."""
+    autopilot without FTP), its arm command is acknowledged by system 3 only, and its `wp load` / `wp list`
+    upload and download a 5-item mission with system 3."""
     f = Fleet(tmp_path, group, mavbridge, uavbus_node)
     watcher = Gcs(f.gcs_port, 254)
     group.on_close(watcher.conn.close)
@@ -356,6 +357,28 @@ def test_mavproxy_and_pymavlink_at_once(tmp_path, group: ProcessGroup, mavbridge
         assert not [e for e in f.aps[s].all("command") if e["command"] == 400], f"autopilot {s} got MAVProxy's arm"
     run([watcher], 0.5)
     assert all(len(watcher.attitude.get(s, ())) > 10 for s in VEHICLES), {k: len(v) for k, v in watcher.attitude.items()}
+
+    # MAVProxy's `wp load` (upload over the mission protocol) and `wp list` (download) with system 3.
+    wpl = tmp_path / "mission.txt"
+    rows = ["QGC WPL 110", "0\t1\t0\t16\t0\t0\t0\t0\t47.3977420\t8.5455940\t0.000000\t1"]
+    rows += [f"{i}\t0\t3\t16\t0\t0\t0\t0\t{47.3977420 + 0.0001 * i:.7f}\t{8.5455940 + 0.0001 * i:.7f}\t{20 + i:.6f}\t1"
+             for i in range(1, 5)]
+    wpl.write_text("\n".join(rows) + "\n")
+    mark = len(mp.lines)
+    mp.send(f"wp load {wpl}")
+    mp.wait(r"Sent all 5 waypoints|Loaded 5 waypoints in", 20, since=mark)
+    f.aps[3].wait_event(lambda e: e.get("event") == "mission" and e.get("what") == "uploaded", 5, what="MAVProxy's upload")
+    up = [e for e in f.aps[3].all("mission") if e["what"] == "uploaded"][-1]
+    assert up["from"][0] == 250 and [round(it[4]) for it in up["items"]] == [0, 21, 22, 23, 24], up
+    mark = len(mp.lines)
+    mp.send("wp list")
+    saved = mp.wait(r"Saved 5 waypoints to (\S+)", 20, since=mark)
+    got = [line.split("\t") for line in Path(saved.group(1)).read_text().splitlines()[1:]]
+    assert len(got) == 5, got
+    for i, r in enumerate(got[1:], start=1):  # 1e-7 degree: the protocol's integer latitude and longitude
+        assert abs(float(r[8]) - (47.3977420 + 0.0001 * i)) < 2e-7 and abs(float(r[9]) - (8.5455940 + 0.0001 * i)) < 2e-7 \
+            and abs(float(r[10]) - (20 + i)) < 1e-3, got
+    assert not [e for s in (1, 2) for e in f.aps[s].all("mission")], "another vehicle saw MAVProxy's mission"
 
 
 def test_mavsdk_discovers_every_vehicle_arms_one_and_sets_a_parameter(tmp_path, group: ProcessGroup, mavbridge,
