@@ -277,3 +277,26 @@ def test_mission_upload_download_clear_two_hops_away(tmp_path, group: ProcessGro
     f.aps[3].wait_event(lambda e: e.get("event") == "mission" and e.get("what") == "cleared", 5, what="the clear")
     for s in (1, 2):
         assert not f.aps[s].all("mission"), f"system {s} saw system 3's mission"
+
+
+def test_two_vehicles_with_one_system_id_are_reported_not_merged(tmp_path, group: ProcessGroup, mavbridge, uavbus_node):
+    """mb2's and mb3's autopilots both say system 2 (a cloned parameter file): the door reports it once (warning,
+    `sysid_conflicts`), keeps the first vehicle heard and drops the other's frames; a command to system 2 reaches
+    one autopilot only."""
+    f = Fleet(tmp_path, group, mavbridge, uavbus_node, door_autopilot=False, mb3_sysid=2)
+    mark = f.door.mark()
+    g = Gcs(f.gcs_port, 250)
+    group.on_close(g.conn.close)
+    run([g], 30, lambda: len(g.attitude.get(2, ())) >= 50)
+    w = f.door.wait_event(lambda e: e.get("event") == "warning" and "used by two vehicles" in e.get("message", ""), 10,
+                          since=mark, what="the system id conflict reported")
+    assert "system id 2" in w["message"], w
+    door = f.door.request_stats()["mavlink"]["door"]
+    assert door["systems"] == [2] and door["sysid_conflicts"] > 0, door
+    # Not merged: the ATTITUDE samples the GCS got come from one autopilot's clock (distinct, no interleaving of two).
+    g.conn.mav.command_long_send(2, 1, M.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
+    run([g], 10, lambda: (2, 400, 0) in g.acks)
+    assert (2, 400, 0) in g.acks, g.acks
+    run([g], 1.0)
+    got = {k: [e for e in f.aps[k].all("command") if e["command"] == 400] for k in (2, 3)}
+    assert sum(1 for k in got if got[k]) == 1, got

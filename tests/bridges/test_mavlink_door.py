@@ -121,12 +121,14 @@ def run(gcss: list[Gcs], seconds: float, until=None) -> None:
 
 
 class Fleet:
-    """Three autopilots behind the door, mb2 and mb3 (the diagram above); ports from the allocator."""
+    """Three autopilots behind the door, mb2 and mb3 (the diagram above); ports from the allocator. `aps[k]` is the
+    autopilot behind the k-th bridge (door 1, mb2 2, mb3 3), whose system id is k unless `mb3_sysid` says another
+    for mb3's (two vehicles with one id)."""
 
     def __init__(self, tmp_path: Path, group: ProcessGroup, mavbridge: dict[str, str], uavbus_node: Path,
                  door_autopilot: bool = True, signed: bool = False, compact: bool = False,
                  gcs_transport: str = "udp:bind", door_extra: tuple[str, ...] = (),
-                 gcs_spec: str | None = None) -> None:
+                 gcs_spec: str | None = None, mb3_sysid: int = 3) -> None:
         ports = PortAllocator()
         cfg = tmp_path / "door.json"
         write_config(cfg, ports, compact)
@@ -135,18 +137,19 @@ class Fleet:
         prog = mavbridge["program"]
         self.aps, self.mav_ports = {}, {}
         self.vehicles = VEHICLES if door_autopilot else VEHICLES[1:]
-        for sysid in self.vehicles:
+        self.sysids = {1: 1, 2: 2, 3: mb3_sysid}
+        for k in self.vehicles:
             ap_port, bind = ports.port(), ports.port()
-            self.aps[sysid] = group.spawn(autopilot_argv(ap_port, duration=55, sysid=sysid), f"autopilot{sysid}",
-                                          ready_timeout=10)
-            self.mav_ports[sysid] = (bind, ap_port)
+            self.aps[k] = group.spawn(autopilot_argv(ap_port, duration=55, sysid=self.sysids[k]), f"autopilot{k}",
+                                      ready_timeout=10)
+            self.mav_ports[k] = (bind, ap_port)
         self.gcs_port = ports.port()
 
-        def bridge(node: str, sysid: int | None, extra: list[str]):
+        def bridge(node: str, k: int | None, extra: list[str]):
             mav = []
-            if sysid is not None:
-                bind, peer = self.mav_ports[sysid]
-                mav = ["--target", f"{sysid}/1", "--mavlink", f"udp:bind=127.0.0.1:{bind},peer=127.0.0.1:{peer}"]
+            if k is not None:
+                bind, peer = self.mav_ports[k]
+                mav = ["--target", f"{self.sysids[k]}/1", "--mavlink", f"udp:bind=127.0.0.1:{bind},peer=127.0.0.1:{peer}"]
             return group.spawn([prog, "--config", str(cfg), "--node", node, "--stats-ms", "0"] + mav + extra,
                                node, ready_timeout=10)
 

@@ -78,7 +78,14 @@ static bool learn(ub_mavroute_t *rt, const mavlink_message_t *m, int from) {
             rt->last_conflict = m->sysid;
             return false;
         }
-        if (owner == 0 && vehicle_heartbeat(m)) rt->vehicle[m->sysid] = (uint8_t)(from + 1);
+        if (owner == 0 && vehicle_heartbeat(m)) {
+            rt->vehicle[m->sysid] = (uint8_t)(from + 1);
+            /* The owner is known: another vehicle link this id was heard on before any HEARTBEAT (a second
+             * vehicle with the same id) no longer gets what is addressed to it. */
+            uint32_t vehicle_links = bit(UB_MAVROUTE_LINK_AUTOPILOT);
+            for (int p = 0; p < UB_MAVROUTE_MAX_PEERS; p++) vehicle_links |= bit(UB_MAVROUTE_LINK_PEER0 + p);
+            rt->seen[m->sysid] &= ~(vehicle_links & ~bit(from));
+        }
     }
     if (gcs_heartbeat(m)) {
         rt->gcs[m->sysid] = 1;

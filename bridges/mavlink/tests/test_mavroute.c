@@ -276,6 +276,27 @@ static void test_one_system_id_behind_two_vehicle_links_is_a_conflict(void **sta
     assert_int_equal(count(&g_w.clients[0], MAVLINK_MSG_ID_ATTITUDE, 1, 0), 0);
 }
 
+/* Frames of the second vehicle heard before any HEARTBEAT: once the first vehicle's HEARTBEAT says who owns the
+ * id, commands to it go to that vehicle only. */
+static void test_a_conflicting_vehicle_heard_first_without_heartbeat_gets_no_commands(void **state) {
+    (void)state;
+    setup_world(true);
+    gcs_heartbeat(0, 250);
+    run(20);
+    g_w.mb.br.target_sysid = 1; /* mb2's bridge configured with --target 1/1: it forwards before any HEARTBEAT */
+    g_w.mb.br.target_compid = 1;
+    g_w.mb.br.target_known = 1;
+    ap_attitude(&g_w.mb, 1, 100); /* mb2's vehicle 1, no HEARTBEAT yet: learned on the peer link */
+    run(20);
+    assert_true(ub_mavroute_seen(&g_w.door.rt, 1) & (1u << UB_MAVROUTE_LINK_PEER0));
+    ap_heartbeat(&g_w.door, 1); /* the door's own vehicle 1 says it is one */
+    run(20);
+    gcs_command(0, 250, 1, MAV_CMD_COMPONENT_ARM_DISARM);
+    run(20);
+    assert_int_equal(count(&g_w.door.autopilot, MAVLINK_MSG_ID_COMMAND_LONG, 250, MAV_CMD_COMPONENT_ARM_DISARM), 1);
+    assert_int_equal(count(&g_w.mb.autopilot, MAVLINK_MSG_ID_COMMAND_LONG, 250, MAV_CMD_COMPONENT_ARM_DISARM), 0);
+}
+
 static void test_vehicles_broadcast_only_toward_peers_that_listen(void **state) {
     (void)state;
     setup_world(true);
@@ -370,6 +391,7 @@ int main(void) {
         cmocka_unit_test(test_vehicles_broadcast_only_toward_peers_that_listen),
         cmocka_unit_test(test_a_forged_sequence_is_no_loss),
         cmocka_unit_test(test_rates_asked_by_ground_stations),
+        cmocka_unit_test(test_a_conflicting_vehicle_heard_first_without_heartbeat_gets_no_commands),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
