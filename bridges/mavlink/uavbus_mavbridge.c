@@ -212,6 +212,26 @@ static void event_stats(ub_app_t *app, uint64_t now_ms, bool final) {
             ub_app_out(app, "%s%d", first_sys ? "" : ",", sys);
             first_sys = false;
         }
+        /* The rates links asked (SET_MESSAGE_INTERVAL / REQUEST_DATA_STREAM): "gcs:N" a ground station of this
+         * endpoint, "peer:ENTITY" a door elsewhere; the autopilot is asked for the fastest of them. */
+        ub_app_out(app, "],\"flows\":[");
+        bool first_flow = true;
+        for (int i = 0; i < UB_MAVROUTE_MAX_FLOWS; i++) {
+            const ub_mavroute_flow_t *fl = &g_b.rt.flows[i];
+            if (fl->link == 0) continue;
+            int link = fl->link - 1;
+            ub_app_out(app, "%s{\"link\":", first_flow ? "" : ",");
+            first_flow = false;
+            if (link >= UB_MAVROUTE_LINK_PEER0) {
+                char name[64];
+                snprintf(name, sizeof name, "peer:%s", g_opt.fleet[link - UB_MAVROUTE_LINK_PEER0]);
+                ub_app_str(app, name, SIZE_MAX);
+            } else {
+                ub_app_out(app, "\"gcs:%d\"", link - UB_MAVROUTE_LINK_CLIENT0);
+            }
+            ub_app_out(app, ",\"sysid\":%u,\"msgid\":%" PRIu32 ",\"interval_us\":%" PRId32 "}", fl->sysid, fl->msgid,
+                       fl->interval_us);
+        }
         ub_app_out(app, "]}");
     }
     ub_app_out(app, ",\"rates\":{");

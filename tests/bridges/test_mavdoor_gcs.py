@@ -79,6 +79,9 @@ def test_rates_asked_by_ground_stations_are_flows_of_the_bus(tmp_path, group: Pr
     mb2 = f.mb2.request_stats()["mavlink"]
     assert door["rate_forwarded"] >= 4 and door["rate_limited"] > 0 and door["flows_full"] == 0, door
     assert mb2["door"]["rate_requests"] >= 3 and mb2["intervals_granted"] >= 1, mb2
+    # The flows as stats show them: per ground station at the door, the door's fastest at mb2.
+    assert {"link": "peer:door", "sysid": 2, "msgid": ATTITUDE, "interval_us": 20_000} in mb2["door"]["flows"], mb2["door"]
+    assert sorted(fl["interval_us"] for fl in door["flows"] if fl["sysid"] == 2) == [-1, 20_000], door["flows"]
 
     # A third ground station takes A's system id: reported, not hidden.
     mark = f.door.mark()
