@@ -339,6 +339,8 @@ static void setup(ub_app_t *app) {
     int rc = ub_mavbridge_init(&g_b.br, &app->node, entity, mav_directories, mav_directories_count, &mavbridgeStatus, &bopt,
                                ub_mavio_write, &g_b.io, now);
     if (rc != UB_OK) ub_app_die(app, "uavbus_mavbridge: bridge set-up failed: %s", ub_strerror(rc));
+    if (o->gcs_key != NULL && o->gcs == NULL)
+        ub_app_die(app, "uavbus_mavbridge: --gcs-key needs --gcs (the ground stations' endpoint it signs)");
     g_b.door = o->gcs != NULL || o->n_fleet > 0;
     if (g_b.door) {
         rc = ub_mavroute_init(&g_b.rt, &g_b.br, &mavFrame, o->fleet, o->n_fleet, ub_mavgcs_send, &g_b.gcs);
@@ -348,7 +350,6 @@ static void setup(ub_app_t *app) {
         ub_mavroute_set_autopilot(&g_b.rt, g_b.autopilot);
         if (o->gcs_key != NULL) {
             uint8_t gkey[32];
-            if (o->gcs == NULL) ub_app_die(app, "uavbus_mavbridge: --gcs-key needs --gcs (the endpoint it signs)");
             if (ub_mavbridge_load_key(o->gcs_key, gkey, perr, sizeof perr) != UB_OK) ub_app_die(app, "%s", perr);
             ub_mavroute_set_gcs_key(&g_b.rt, gkey, 0, ub_mavbridge_signing_time(ub_app_unix_ms() * 1000u), now);
             memset(gkey, 0, sizeof gkey);
