@@ -5,7 +5,7 @@ front door, run in its own process so that a MAVSDK thread can never hang pytest
 
 Waits for the vehicles (system ids), reads each one's attitude, arms one, sets and reads back one
 parameter of one vehicle; with --mission SYSID:N uploads N waypoints to that vehicle with MAVSDK's mission
-plugin and downloads them again. One JSON object on stdout: {"systems": [...], "attitude": {sysid: roll_deg},
+plugin and downloads them again; with --rate SYSID:HZ asks that vehicle's attitude at HZ. One JSON object on stdout: {"systems": [...], "attitude": {sysid: roll_deg},
 "arm": "ok" | error, "param": value | error, "mission": {"up": [[lat, lon, alt]...], "down": [...]} | error}.
 """
 
@@ -32,6 +32,7 @@ def main() -> int:
     ap.add_argument("--arm", type=int, required=True)
     ap.add_argument("--param", required=True, help="SYSID:NAME=VALUE")
     ap.add_argument("--mission", help="SYSID:N waypoints to upload and download")
+    ap.add_argument("--rate", help="SYSID:HZ: the attitude rate asked of that vehicle (MAVSDK's set_rate_attitude_euler)")
     ap.add_argument("--timeout", type=float, default=25.0)
     args = ap.parse_args()
     out: dict = {}
@@ -70,6 +71,13 @@ def main() -> int:
         out["param"] = p.get_param_float(name)
     except Exception as e:  # noqa: BLE001
         out["param"] = f"{type(e).__name__}: {e}"
+    if args.rate:
+        rsys, hz = args.rate.split(":")
+        try:
+            Telemetry(systems[int(rsys)]).set_rate_attitude_euler(float(hz))
+            out["rate"] = "ok"
+        except Exception as e:  # noqa: BLE001
+            out["rate"] = f"{type(e).__name__}: {e}"
     if args.mission:
         msys, n = (int(x) for x in args.mission.split(":"))
         nan = float("nan")

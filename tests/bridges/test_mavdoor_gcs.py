@@ -21,7 +21,7 @@ from pathlib import Path
 
 from uavbus.sim.process import ProcessGroup
 
-from test_mavlink_door import VEHICLES, Fleet, Gcs, run
+from test_mavlink_door import VEHICLES, Fleet, Gcs, reported, run
 
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
@@ -51,6 +51,7 @@ def test_rates_asked_by_ground_stations_are_flows_of_the_bus(tmp_path, group: Pr
     b.conn.mav.command_long_send(2, 1, M.MAV_CMD_SET_MESSAGE_INTERVAL, 0, ATTITUDE, 20_000, 0, 0, 0, 0, 0)
     run([a, b], 10, lambda: (2, 511, 0) in a.acks and (2, 511, 0) in b.acks)
     assert (2, 511, 0) in a.acks and (2, 511, 0) in b.acks, (a.acks, b.acks)
+    reported(f.aps[2], 511)  # the bridge's own request
     run([a, b], 1.0)  # the faster rate reaches mb2, mb2's bridge asks its autopilot
     got_a = samples_between(a, 2, 3.0, [b])
     got_b = samples_between(b, 2, 3.0, [a])
@@ -153,6 +154,7 @@ def test_signed_gcs_endpoint_keeps_out_unsigned_and_wrong_key_senders(tmp_path, 
     good.conn.mav.command_long_send(3, 1, M.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
     run([good], 10, lambda: (3, 400, 0) in good.acks)
     assert (3, 400, 0) in good.acks, good.acks
+    reported(f.aps[3], 400)
     arms = [e for e in f.aps[3].all("command") if e["command"] == 400]
     assert len(arms) == 1 and arms[0]["from"][0] == 250, arms
 

@@ -110,6 +110,12 @@ class Gcs:
                 self.acks.append((src, m.command, m.result))
 
 
+def reported(ap, command: int, timeout: float = 5.0) -> None:
+    """Waits for autopilot `ap` to report `command` on its stdout (the ACK may overtake the report)."""
+    ap.wait_event(lambda e: e.get("event") == "command" and e.get("command") == command, timeout,
+                  what=f"the autopilot reports command {command}")
+
+
 def run(gcss: list[Gcs], seconds: float, until=None) -> None:
     end = time.monotonic() + seconds
     while time.monotonic() < end:
@@ -184,6 +190,9 @@ def test_two_gcs_see_three_vehicles_and_commands_reach_only_their_target(tmp_pat
     a.conn.mav.command_long_send(2, 1, mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
     run([a, b], 10, lambda: any(ack[0] == 2 and ack[1] == 400 for ack in a.acks))
     assert (2, 400, 0) in a.acks, f"no COMMAND_ACK from system 2 at GCS A: {a.acks}; door {door.request_stats()['mavlink']['door']}"
+    # The ACK can overtake the autopilot's own report of the command on its stdout: wait for the report.
+    aps[2].wait_event(lambda e: e.get("event") == "command" and e.get("command") == 400, 5, since=marks[2],
+                      what="autopilot 2 reports the arm command")
     got = [e for e in aps[2].all("command") if e["command"] == 400]
     assert len(got) == 1 and got[0]["from"] == [255, 190] and got[0]["params"][0] == 1.0, got
     run([a, b], 1.0)  # time for a wrongly routed copy to arrive anywhere else
@@ -354,6 +363,7 @@ def test_mavproxy_and_pymavlink_at_once(tmp_path, group: ProcessGroup, mavbridge
     mark = len(mp.lines)
     mp.send("arm throttle")
     mp.wait(r"COMMAND_ACK.*(ARM|400).*ACCEPTED|Got COMMAND_ACK: COMPONENT_ARM_DISARM: ACCEPTED", 15, since=mark)
+    reported(f.aps[3], 400)
     arms = [e for e in f.aps[3].all("command") if e["command"] == 400]
     assert arms and arms[0]["from"][0] == 250, arms
     for s in (1, 2):
@@ -392,7 +402,7 @@ def test_mavsdk_discovers_every_vehicle_arms_one_and_sets_a_parameter(tmp_path, 
     f = Fleet(tmp_path, group, mavbridge, uavbus_node)
     script = Path(__file__).with_name("mavsdk_gcs.py")
     proc = subprocess.run([sys.executable, str(script), "--url", f"udpout://127.0.0.1:{f.gcs_port}", "--vehicles", "3",
-                           "--arm", "3", "--param", "2:TEST_P07=12.25", "--mission", "3:5"], capture_output=True, text=True,
+                           "--arm", "3", "--param", "2:TEST_P07=12.25", "--mission", "3:5", "--rate", "2:5"], capture_output=True, text=True,
                           timeout=80)
     assert proc.returncode == 0, proc.stderr[-3000:]
     got = json.loads(proc.stdout.strip().splitlines()[-1])
@@ -401,12 +411,17 @@ def test_mavsdk_discovers_every_vehicle_arms_one_and_sets_a_parameter(tmp_path, 
         roll = got["attitude"][str(s)]
         assert roll is not None and abs(roll) < 6.0, got  # the autopilots' roll: 0.1 sin(t) rad
     assert got["arm"] == "ok", got
+    reported(f.aps[3], 400)
     arms = [e for s in VEHICLES for e in f.aps[s].all("command") if e["command"] == 400]
     assert len({tuple(e["target"]) for e in arms}) == 1 and all(e["target"][0] == 3 for e in arms), arms
     assert [e for e in f.aps[3].all("command") if e["command"] == 400], "system 3 never saw the arm command"
     assert got["param"] == 12.25, got
     sets = {s: [e for e in f.aps[s].all("param_set") if e["name"] == "TEST_P07"] for s in VEHICLES}
     assert sets[2] and not sets[1] and not sets[3], sets
+    # MAVSDK asks system 2's attitude at 5 Hz: acknowledged (by system 2's bridge), a flow of the door's ground station.
+    assert got["rate"] == "ok", got
+    flows = f.door.request_stats()["mavlink"]["door"]["flows"]
+    assert any(fl["sysid"] == 2 and fl["interval_us"] == 200_000 and fl["link"].startswith("gcs:") for fl in flows), flows
     # A 5-waypoint mission uploaded to system 3 with MAVSDK's mission plugin, and read back.
     mission = got["mission"]
     assert isinstance(mission, dict), mission
