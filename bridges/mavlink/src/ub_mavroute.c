@@ -300,6 +300,22 @@ static bool rates(ub_mavroute_t *rt, mavlink_message_t *m, int from, uint8_t tar
         memcpy((uint8_t *)_MAV_PAYLOAD_NON_CONST(m) + 4, &v, sizeof v);
         (void)reencode(rt, m, false, rt->tx, now_ms);
         *m = rt->out;
+    } else {
+        /* REQUEST_DATA_STREAM: the fastest its ground stations want of the stream's (first) message, in whole
+         * Hz rounded up; left as asked when one of them wants the default (the message cannot say it). */
+        int32_t v = fastest(rt, target, msgids[0], clients);
+        mavlink_request_data_stream_t r;
+        memcpy(&r, _MAV_PAYLOAD(m), sizeof r);
+        if (v < 0) {
+            r.start_stop = 0;
+        } else if (v > 0) {
+            uint32_t hz = (1000000u + (uint32_t)v - 1u) / (uint32_t)v;
+            r.req_message_rate = (uint16_t)(hz > 65535u ? 65535u : hz);
+            r.start_stop = 1;
+        }
+        memcpy((uint8_t *)_MAV_PAYLOAD_NON_CONST(m), &r, sizeof r);
+        (void)reencode(rt, m, false, rt->tx, now_ms);
+        *m = rt->out;
     }
     return false;
 }

@@ -381,6 +381,45 @@ static void test_rates_asked_by_ground_stations(void **state) {
     assert_int_equal(ub_mavbridge_dir_state(&g_w.mb.br, (size_t)d)->flow_us, 0);
 }
 
+static void gcs_stream(int client, uint8_t sysid, uint8_t target, uint8_t stream, uint16_t hz, uint8_t start) {
+    mavlink_request_data_stream_t r = {.req_message_rate = hz, .target_system = target, .target_component = 1,
+                                       .req_stream_id = stream, .start_stop = start};
+    mavlink_message_t m;
+    mavlink_msg_request_data_stream_encode_status(sysid, 190, &g_w.gcs_status[client], &m, &r);
+    gcs_send(client, &m);
+}
+
+static int32_t flow_of(const ub_mavroute_t *rt, int link, uint8_t sysid, uint32_t msgid) {
+    for (int i = 0; i < UB_MAVROUTE_MAX_FLOWS; i++) {
+        const ub_mavroute_flow_t *f = &rt->flows[i];
+        if (f->link == link + 1 && f->sysid == sysid && f->msgid == msgid) return f->interval_us;
+    }
+    return -100; /* none */
+}
+
+/* REQUEST_DATA_STREAM from two ground stations of the door: each held to its own rate at the door, the peer told
+ * the fastest (rewritten), never the autopilot; stop from one leaves the other's rate. */
+static void test_data_streams_asked_by_ground_stations(void **state) {
+    (void)state;
+    setup_world(true);
+    meet();
+    gcs_stream(0, 250, 2, MAV_DATA_STREAM_EXTRA1, 2, 1);
+    gcs_stream(1, 251, 2, MAV_DATA_STREAM_EXTRA1, 10, 1);
+    run(20);
+    assert_int_equal(flow_of(&g_w.door.rt, UB_MAVROUTE_LINK_CLIENT0, 2, MAVLINK_MSG_ID_ATTITUDE), 500000);
+    assert_int_equal(flow_of(&g_w.door.rt, UB_MAVROUTE_LINK_CLIENT0 + 1, 2, MAVLINK_MSG_ID_ATTITUDE), 100000);
+    assert_int_equal(flow_of(&g_w.mb.rt, UB_MAVROUTE_LINK_PEER0, 2, MAVLINK_MSG_ID_ATTITUDE), 100000);
+    assert_int_equal(count(&g_w.mb.autopilot, MAVLINK_MSG_ID_REQUEST_DATA_STREAM, -1, 0), 0);
+    /* The faster one stops: the peer is told the slower one's rate (a new request from the door). */
+    gcs_stream(1, 251, 2, MAV_DATA_STREAM_EXTRA1, 0, 0);
+    run(20);
+    assert_int_equal(flow_of(&g_w.mb.rt, UB_MAVROUTE_LINK_PEER0, 2, MAVLINK_MSG_ID_ATTITUDE), 500000);
+    /* Both stop: the peer stops sending ATTITUDE to the door. */
+    gcs_stream(0, 250, 2, MAV_DATA_STREAM_EXTRA1, 0, 0);
+    run(20);
+    assert_int_equal(flow_of(&g_w.mb.rt, UB_MAVROUTE_LINK_PEER0, 2, MAVLINK_MSG_ID_ATTITUDE), -1);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_every_vehicle_reaches_every_ground_station),
@@ -391,6 +430,7 @@ int main(void) {
         cmocka_unit_test(test_vehicles_broadcast_only_toward_peers_that_listen),
         cmocka_unit_test(test_a_forged_sequence_is_no_loss),
         cmocka_unit_test(test_rates_asked_by_ground_stations),
+        cmocka_unit_test(test_data_streams_asked_by_ground_stations),
         cmocka_unit_test(test_a_conflicting_vehicle_heard_first_without_heartbeat_gets_no_commands),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
