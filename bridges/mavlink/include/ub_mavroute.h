@@ -67,9 +67,11 @@ extern "C" {
 #define UB_MAVROUTE_PEER_TIMEOUT_MS 10000
 #endif
 
-/** Rate entries (link, system, message) at once: ground stations' SET_MESSAGE_INTERVAL / REQUEST_DATA_STREAM. */
+/** Rate entries (link, system, message) at once: ground stations' SET_MESSAGE_INTERVAL / REQUEST_DATA_STREAM.
+ *  MAVProxy and QGroundControl ask 7 streams (13 messages) of every vehicle: two of them with three vehicles
+ *  fill 78 at a door. */
 #ifndef UB_MAVROUTE_MAX_FLOWS
-#define UB_MAVROUTE_MAX_FLOWS 64
+#define UB_MAVROUTE_MAX_FLOWS 128
 #endif
 
 /** Link numbers: 0 the autopilot, 1.. clients, then peers (bits of the learned-system masks). */
