@@ -75,3 +75,31 @@ def bridges_section(raw: Path, w: Callable[[str], None]) -> None:
         added = statistics.median(col(a, "p50_us")) - statistics.median(col(b, "p50_us"))
         w(f"- {label}: adds {added:.0f} µs at p50 (medians of this run).")
     w("")
+
+
+def mavdoor_section(raw: Path, w: Callable[[str], None]) -> None:
+    """The MAVLink front door (bench/mavdoor_bench.py, issue 26) beside direct and MAVProxy as a router."""
+    path = raw / "mavdoor.json"
+    if not path.exists():
+        return
+    d = json.loads(path.read_text())
+    runs = len(d["direct"])
+    w("### 7b. The MAVLink front door: GCS <-> autopilot over 2 uavbus hops, beside MAVProxy as a router")
+    w("")
+    w(f"bench/mavdoor_bench.py, {runs} runs interleaved, one pymavlink autopilot (system 3) and one pymavlink GCS on "
+      "127.0.0.1. Round trip: COMMAND_LONG -> COMMAND_ACK one at a time (median per run; median [min - max] over runs). "
+      "Throughput: ATTITUDE asked at 1 kHz with SET_MESSAGE_INTERVAL (the Python autopilot's own pace bounds it on "
+      "every path). mavp2p is in no registry reachable here: not compared.")
+    w("")
+    w("| path | round trip p50 ms | round trip p90 ms | ATTITUDE/s received | delivered % | ratio p50 to direct |")
+    w("|---|---:|---:|---:|---:|---:|")
+    base = statistics.median([r["rtt_median_ms"] for r in d["direct"]])
+    names = {"direct": "direct (GCS -> autopilot)", "mavproxy": "MAVProxy router (mavproxy.py --master --out)",
+             "door": "front door: uavbus_mavbridge door -> relay -> mb3"}
+    for key in ("direct", "mavproxy", "door"):
+        rs = d[key]
+        p50 = [r["rtt_median_ms"] for r in rs]
+        w(f"| {names[key]} | {_band(p50, '{:.2f}')} | {_band([r['rtt_p90_ms'] for r in rs], '{:.2f}')} | "
+          f"{_band([r['attitude_per_s'] for r in rs], '{:.0f}')} | {_band([r['delivered'] * 100 for r in rs], '{:.1f}')} | "
+          f"{statistics.median(p50) / base:.2f}x |")
+    w("")

@@ -228,6 +228,8 @@ echo "cmake -S examples/mcu -DCMAKE_BUILD_TYPE=MinSizeRel -DCMAKE_TOOLCHAIN_FILE
 say "figure 7: bridges"
 cmake --build "$build" --target uavbus_mavbridge uavbus_node >/dev/null
 sample "$raw/bridges.log" 1800 "$VPY" bench/bridges_bench.py --build "$build" --out "$raw/bridges.json" --runs "${BRIDGE_RUNS:-3}"
+# figure 7b: the MAVLink front door (issue 26) beside a direct link and MAVProxy as a router (the test extra has MAVProxy)
+sample "$raw/mavdoor.log" 900 "$VPY" bench/mavdoor_bench.py --build "$build" --out "$raw/mavdoor.json" --runs "${BRIDGE_RUNS:-3}"
 
 # ---- figure 8: fleets (issue 12): 10, 30, 100 vehicles + 2 ground stations in process; 30 as processes ----
 # A fleet of 102 entities needs room in every node's tables: the runtime is compiled again with larger

@@ -649,9 +649,10 @@ def main() -> None:
 
     with section(out, broken, "figure 7: bridges (bench/bridges_tables.py)"):
         # ---- figure 7: bridges (bench/bridges_tables.py) ----
-        from bridges_tables import bridges_section  # bench/ is the script's own directory
+        from bridges_tables import bridges_section, mavdoor_section  # bench/ is the script's own directory
 
         bridges_section(raw, w)
+        mavdoor_section(raw, w)
 
     with section(out, broken, "figure 8: fleets (bench/fleet_tables.py)"):
         # ---- figure 8: fleets (bench/fleet_tables.py) ----

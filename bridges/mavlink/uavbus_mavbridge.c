@@ -3,7 +3,8 @@
  *
  *   uavbus_mavbridge --config FILE [--node NAME] [--entity NAME] --mavlink SPEC
  *                    [--sysid N] [--compid N] [--target SYSID/COMPID] [--mavlink-key FILE [--link-id N]]
- *                    [--commands-without-policy] [--gcs udp:bind=HOST:PORT|tcp:listen=HOST:PORT] [--fleet ENTITY]...
+ *                    [--commands-without-policy] [--gcs udp:bind=HOST:PORT|tcp:listen=HOST:PORT|serial:device=PATH[,baud=N]]
+ *                    [--gcs-key FILE] [--fleet ENTITY]...
  *                    [--port LINK=SPEC]... [--stats-ms MS] [--duration-ms MS]
  *
  * The uavbus side is a node of a configuration file, run by the same program shell as uavbus_node
@@ -11,8 +12,8 @@
  * may command the autopilot), the JSON-lines protocol, stdin, signals and the poll loop. The bridge
  * entity is --entity, or the node's first hosted entity. The MAVLink side is one UDP, TCP client or serial
  * link (--mavlink udp:bind=HOST:PORT,peer=HOST:PORT | tcp:connect=HOST:PORT | serial:device=PATH[,baud=N]),
- * polled beside the ports. The front door (ub_mavroute.h): --gcs opens a UDP endpoint for ground stations,
- * --fleet names the other bridge entities whose vehicles it shows.
+ * polled beside the ports. The front door (ub_mavroute.h): --gcs opens a UDP, TCP or serial endpoint for ground
+ * stations (--gcs-key: MAVLink 2 signing on it), --fleet names the other bridge entities whose vehicles it shows.
  *
  * Output on stdout, one JSON object per line (docs/program-protocol.md): "ready", "autopilot"
  * (connected / lost), "stats", "warning", "error". stdin: `stats`, `quit`. CLOCK_MONOTONIC ms, no
@@ -38,7 +39,7 @@
 #define MAX_FLEET UB_MAVROUTE_MAX_PEERS
 
 typedef struct options {
-    const char *entity, *mavlink, *key, *gcs;
+    const char *entity, *mavlink, *key, *gcs, *gcs_key;
     const char *fleet[MAX_FLEET]; /* --fleet: the other bridge entities (the front door's peers) */
     int n_fleet;
     unsigned sysid, compid, target_sysid, target_compid, link_id;
@@ -57,6 +58,7 @@ static struct {
     bool autopilot;            /* --mavlink given (a door may have no autopilot of its own) */
     bool was_up;               /* the autopilot's state last reported */
     uint64_t conflicts_reported;
+    uint64_t shared_reported;
 } g_b;
 
 /* ---- arguments ----------------------------------------------------------------------------------- */
@@ -66,7 +68,8 @@ static void usage(FILE *f) {
             "usage: uavbus_mavbridge --config FILE [--node NAME] [--entity NAME] --mavlink SPEC\n"
             "                        [--sysid N] [--compid N] [--target SYSID/COMPID]\n"
             "                        [--mavlink-key FILE [--link-id N]] [--commands-without-policy]\n"
-            "                        [--gcs udp:bind=HOST:PORT | tcp:listen=HOST:PORT] [--fleet ENTITY]...\n"
+            "                        [--gcs udp:bind=HOST:PORT | tcp:listen=HOST:PORT | serial:device=PATH[,baud=N]]\n"
+            "                        [--gcs-key FILE] [--fleet ENTITY]...\n"
             "                        (--gcs without --mavlink: a front door only)\n"
             "                        [--port LINK=SPEC]... [--stats-ms MS] [--duration-ms MS]\n"
             "SPEC (--mavlink): udp:bind=HOST:PORT,peer=HOST:PORT | tcp:connect=HOST:PORT | serial:device=PATH[,baud=N]\n"
@@ -80,6 +83,7 @@ static bool option(ub_app_t *app, const char *a, const char *v, int i) {
     else if (strcmp(a, "--mavlink") == 0) o->mavlink = v;
     else if (strcmp(a, "--mavlink-key") == 0) o->key = v;
     else if (strcmp(a, "--gcs") == 0) o->gcs = v;
+    else if (strcmp(a, "--gcs-key") == 0) o->gcs_key = v;
     else if (strcmp(a, "--fleet") == 0) {
         if (o->n_fleet == MAX_FLEET) ub_app_die(app, "uavbus_mavbridge:argv[%d]: more than %d --fleet entities", i, MAX_FLEET);
         o->fleet[o->n_fleet++] = v;
@@ -192,16 +196,41 @@ static void event_stats(ub_app_t *app, uint64_t now_ms, bool final) {
             ",\"send_errors\":%" PRIu64 ",\"sysid_conflicts\":%" PRIu64 ",\"unknown_peer\":%" PRIu64
             ",\"clients\":%d,\"clients_new\":%" PRIu64 ",\"clients_expired\":%" PRIu64 ",\"clients_full\":%" PRIu64
             ",\"clients_closed\":%" PRIu64 ",\"gcs_again\":%" PRIu64 ",\"gcs_send_errors\":%" PRIu64
-            ",\"systems\":[",
+            ",\"unauthenticated\":%" PRIu64 ",\"rate_requests\":%" PRIu64 ",\"rate_forwarded\":%" PRIu64
+            ",\"rate_limited\":%" PRIu64 ",\"flows_full\":%" PRIu64 ",\"gcs_unsigned\":%" PRIu64
+            ",\"gcs_bad_signature\":%" PRIu64 ",\"gcs_replayed\":%" PRIu64 ",\"gcs_sysid_shared\":%" PRIu64
+            ",\"gcs_signing\":%s,\"systems\":[",
             r->from_autopilot, r->from_clients, r->from_peers, r->to_clients, r->to_peers, r->to_autopilot, r->no_target,
             r->commands_off, r->bad_frames, r->client_parse_errors, r->send_errors, r->sysid_conflicts, r->unknown_peer,
             ub_mavgcs_clients(&g_b.gcs), gs->clients_new, gs->clients_expired, gs->clients_full, gs->clients_closed,
-            gs->again, gs->send_errors);
+            gs->again, gs->send_errors, gs->unauthenticated, r->rate_requests, r->rate_forwarded, r->rate_limited,
+            r->flows_full, r->gcs_unsigned, r->gcs_bad_signature, r->gcs_replayed, r->gcs_sysid_shared,
+            g_b.rt.gcs_sign ? "true" : "false");
         bool first_sys = true;
         for (int sys = 1; sys < 256; sys++) {
             if (g_b.rt.vehicle[sys] == 0) continue;
             ub_app_out(app, "%s%d", first_sys ? "" : ",", sys);
             first_sys = false;
+        }
+        /* The rates links asked (SET_MESSAGE_INTERVAL / REQUEST_DATA_STREAM): "gcs:N" a ground station of this
+         * endpoint, "peer:ENTITY" a door elsewhere; the autopilot is asked for the fastest of them. */
+        ub_app_out(app, "],\"flows\":[");
+        bool first_flow = true;
+        for (int i = 0; i < UB_MAVROUTE_MAX_FLOWS; i++) {
+            const ub_mavroute_flow_t *fl = &g_b.rt.flows[i];
+            if (fl->link == 0) continue;
+            int link = fl->link - 1;
+            ub_app_out(app, "%s{\"link\":", first_flow ? "" : ",");
+            first_flow = false;
+            if (link >= UB_MAVROUTE_LINK_PEER0) {
+                char name[64];
+                snprintf(name, sizeof name, "peer:%s", g_opt.fleet[link - UB_MAVROUTE_LINK_PEER0]);
+                ub_app_str(app, name, SIZE_MAX);
+            } else {
+                ub_app_out(app, "\"gcs:%d\"", link - UB_MAVROUTE_LINK_CLIENT0);
+            }
+            ub_app_out(app, ",\"sysid\":%u,\"msgid\":%" PRIu32 ",\"interval_us\":%" PRId32 "}", fl->sysid, fl->msgid,
+                       fl->interval_us);
         }
         ub_app_out(app, "]}");
     }
@@ -241,6 +270,7 @@ static void before_tick(ub_app_t *app, uint64_t now_ms) {
         ub_app_error(app, "mavlink: the autopilot link failed (read error)");
     if (g_b.gcs.fd >= 0 && ub_mavgcs_service(&g_b.gcs, &g_b.rt, now_ms) < 0)
         ub_app_error(app, "mavlink: the GCS endpoint failed (read error)");
+    if (g_b.door) ub_mavroute_tick(&g_b.rt, now_ms);
     if (g_b.autopilot) ub_mavbridge_tick(&g_b.br, now_ms);
 }
 
@@ -260,6 +290,14 @@ static void after_tick(ub_app_t *app, uint64_t now_ms) {
             ub_app_warning(app, msg);
         }
         g_b.conflicts_reported = rc->sysid_conflicts;
+    }
+    if (g_b.door && rc->gcs_sysid_shared > g_b.shared_reported) {
+        char msg[200];
+        snprintf(msg, sizeof msg, "MAVLink system id %u is used by two ground stations: both get the replies addressed "
+                 "to it (door.gcs_sysid_shared); give each its own (MAVProxy --source-system, QGroundControl's MAVLink "
+                 "settings)", (unsigned)g_b.rt.last_gcs_shared);
+        ub_app_warning(app, msg);
+        g_b.shared_reported = rc->gcs_sysid_shared;
     }
 }
 
@@ -301,6 +339,8 @@ static void setup(ub_app_t *app) {
     int rc = ub_mavbridge_init(&g_b.br, &app->node, entity, mav_directories, mav_directories_count, &mavbridgeStatus, &bopt,
                                ub_mavio_write, &g_b.io, now);
     if (rc != UB_OK) ub_app_die(app, "uavbus_mavbridge: bridge set-up failed: %s", ub_strerror(rc));
+    if (o->gcs_key != NULL && o->gcs == NULL)
+        ub_app_die(app, "uavbus_mavbridge: --gcs-key needs --gcs (the ground stations' endpoint it signs)");
     g_b.door = o->gcs != NULL || o->n_fleet > 0;
     if (g_b.door) {
         rc = ub_mavroute_init(&g_b.rt, &g_b.br, &mavFrame, o->fleet, o->n_fleet, ub_mavgcs_send, &g_b.gcs);
@@ -308,6 +348,12 @@ static void setup(ub_app_t *app) {
             ub_app_die(app, "uavbus_mavbridge: --fleet: every entity must be in the entity table of %s", app->config_path);
         if (rc != UB_OK) ub_app_die(app, "uavbus_mavbridge: front door set-up failed: %s", ub_strerror(rc));
         ub_mavroute_set_autopilot(&g_b.rt, g_b.autopilot);
+        if (o->gcs_key != NULL) {
+            uint8_t gkey[32];
+            if (ub_mavbridge_load_key(o->gcs_key, gkey, perr, sizeof perr) != UB_OK) ub_app_die(app, "%s", perr);
+            ub_mavroute_set_gcs_key(&g_b.rt, gkey, 0, ub_mavbridge_signing_time(ub_app_unix_ms() * 1000u), now);
+            memset(gkey, 0, sizeof gkey);
+        }
         ub_node_set_deliver_hook(&app->node, ub_mavroute_on_deliver, &g_b.rt);
     } else {
         ub_node_set_deliver_hook(&app->node, ub_mavbridge_on_deliver, &g_b.br);

@@ -12,6 +12,10 @@ when the bridge's first HEARTBEAT arrives) and, as system 1 component 1:
   - answers every other COMMAND_LONG / COMMAND_INT with COMMAND_ACK ACCEPTED;
   - serves the parameter protocol over PARAMS (PARAM_REQUEST_LIST, _READ by id or index, PARAM_SET),
     names being MAVLink char arrays (16 bytes, not NUL-terminated at full length);
+  - serves the mission protocol (MAVLink's, as PX4 and ArduPilot do, per mission type): upload (MISSION_COUNT ->
+    MISSION_REQUEST_INT for each item -> MISSION_ITEM_INT -> MISSION_ACK), download (MISSION_REQUEST_LIST ->
+    MISSION_COUNT -> MISSION_REQUEST_INT / MISSION_REQUEST -> MISSION_ITEM_INT -> MISSION_ACK), clear
+    (MISSION_CLEAR_ALL -> MISSION_ACK); "mission" events on stdout (uploaded, cleared);
   - sends STATUSTEXT "<name> ready" when a peer first speaks, and on `statustext TEXT` (stdin).
 With --tcp it listens for one TCP connection instead (as ArduPilot SITL's 5760); with --pty it makes a
 pseudo-terminal pair, keeps the master end and says the other end's path in "ready" (`device`): a serial
@@ -133,6 +137,8 @@ def main() -> int:
     param_table["SYSID_THISMAV"] = float(args.sysid)
     names = list(param_table)
     greeted = False
+    missions: dict[int, list] = {}  # mission type -> items (MISSION_ITEM_INT messages)
+    upload: dict = {}  # the upload in progress: type, count, items, peer
     emit({"event": "ready", "pid": os.getpid(), "port": args.port, "signing": key is not None,
           "device": getattr(conn, "device", None)})
 
@@ -237,6 +243,48 @@ def main() -> int:
                         param_table[pid] = msg.param_value
                         emit({"event": "param_set", "name": pid, "value": msg.param_value})
                         param_value(pid)
+                    continue
+                if kind.startswith("MISSION_") and getattr(msg, "target_system", args.sysid) not in (0, args.sysid):
+                    continue
+                mtype = getattr(msg, "mission_type", 0)
+                peer = (msg.get_srcSystem(), msg.get_srcComponent())
+                if kind == "MISSION_COUNT":
+                    upload = {"type": mtype, "count": msg.count, "items": [], "peer": peer}
+                    if msg.count == 0:
+                        missions[mtype] = []
+                        send(m.MAVLink_mission_ack_message(*peer, m.MAV_MISSION_ACCEPTED, mtype))
+                    else:
+                        send(m.MAVLink_mission_request_int_message(*peer, 0, mtype))
+                    continue
+                if kind in ("MISSION_ITEM_INT", "MISSION_ITEM") and upload and msg.seq == len(upload["items"]):
+                    upload["items"].append(msg)
+                    if len(upload["items"]) < upload["count"]:
+                        send(m.MAVLink_mission_request_int_message(*peer, len(upload["items"]), mtype))
+                    else:
+                        missions[upload["type"]] = upload["items"]
+                        emit({"event": "mission", "what": "uploaded", "type": upload["type"], "from": list(peer),
+                              "items": [[i.seq, i.command, i.x, i.y, i.z] for i in upload["items"]]})
+                        send(m.MAVLink_mission_ack_message(*peer, m.MAV_MISSION_ACCEPTED, mtype))
+                        upload = {}
+                    continue
+                if kind == "MISSION_REQUEST_LIST":
+                    send(m.MAVLink_mission_count_message(*peer, len(missions.get(mtype, [])), mtype))
+                    continue
+                if kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
+                    items = missions.get(mtype, [])
+                    if 0 <= msg.seq < len(items):
+                        i = items[msg.seq]
+                        x, y = (i.x, i.y) if i.get_type() == "MISSION_ITEM_INT" else (i.x * 1e7, i.y * 1e7)
+                        send(m.MAVLink_mission_item_int_message(*peer, i.seq, i.frame, i.command, int(i.seq == 0),
+                                                                i.autocontinue, i.param1, i.param2, i.param3, i.param4,
+                                                                int(x), int(y), i.z, mtype))
+                    else:
+                        send(m.MAVLink_mission_ack_message(*peer, m.MAV_MISSION_INVALID_SEQUENCE, mtype))
+                    continue
+                if kind == "MISSION_CLEAR_ALL":
+                    missions[mtype] = []
+                    emit({"event": "mission", "what": "cleared", "type": mtype, "from": list(peer)})
+                    send(m.MAVLink_mission_ack_message(*peer, m.MAV_MISSION_ACCEPTED, mtype))
                     continue
                 if kind not in ("COMMAND_LONG", "COMMAND_INT"):
                     continue

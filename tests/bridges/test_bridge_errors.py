@@ -75,6 +75,12 @@ def test_mavbridge_refuses_bad_set_up_in_one_line(tmp_path, mavbridge):
     short.chmod(0o600)
     cases.append(([prog, "--config", str(cfg), "--mavlink", "udp:bind=127.0.0.1:0,peer=127.0.0.1:9",
                    "--mavlink-key", str(short)], f"{short}:2: expected one line of 64 hex digits"))
+    mav = ["--mavlink", "udp:bind=127.0.0.1:0,peer=127.0.0.1:9"]
+    cases.append(([prog, "--config", str(cfg), *mav, "--gcs-key", str(short)], "--gcs-key needs --gcs"))
+    cases.append(([prog, "--config", str(cfg), *mav, "--gcs", "udp:bind=127.0.0.1:0", "--gcs-key", str(key)],
+                  f"{key}:1: the MAVLink key file is accessible by group or others"))
+    cases.append(([prog, "--config", str(cfg), *mav, "--gcs", "serial:device=/dev/no-such-tty-uavbus,baud=57600"],
+                  "--gcs serial:device=/dev/no-such-tty-uavbus,baud=57600: /dev/no-such-tty-uavbus: No such file"))
     for argv, expected in cases:
         r = run(argv)
         assert r.returncode == 2, (argv, r.stdout, r.stderr)

@@ -110,6 +110,12 @@ class Gcs:
                 self.acks.append((src, m.command, m.result))
 
 
+def reported(ap, command: int, timeout: float = 5.0) -> None:
+    """Waits for autopilot `ap` to report `command` on its stdout (the ACK may overtake the report)."""
+    ap.wait_event(lambda e: e.get("event") == "command" and e.get("command") == command, timeout,
+                  what=f"the autopilot reports command {command}")
+
+
 def run(gcss: list[Gcs], seconds: float, until=None) -> None:
     end = time.monotonic() + seconds
     while time.monotonic() < end:
@@ -121,11 +127,14 @@ def run(gcss: list[Gcs], seconds: float, until=None) -> None:
 
 
 class Fleet:
-    """Three autopilots behind the door, mb2 and mb3 (the diagram above); ports from the allocator."""
+    """Three autopilots behind the door, mb2 and mb3 (the diagram above); ports from the allocator. `aps[k]` is the
+    autopilot behind the k-th bridge (door 1, mb2 2, mb3 3), whose system id is k unless `mb3_sysid` says another
+    for mb3's (two vehicles with one id)."""
 
     def __init__(self, tmp_path: Path, group: ProcessGroup, mavbridge: dict[str, str], uavbus_node: Path,
                  door_autopilot: bool = True, signed: bool = False, compact: bool = False,
-                 gcs_transport: str = "udp:bind") -> None:
+                 gcs_transport: str = "udp:bind", door_extra: tuple[str, ...] = (),
+                 gcs_spec: str | None = None, mb3_sysid: int = 3) -> None:
         ports = PortAllocator()
         cfg = tmp_path / "door.json"
         write_config(cfg, ports, compact)
@@ -134,27 +143,30 @@ class Fleet:
         prog = mavbridge["program"]
         self.aps, self.mav_ports = {}, {}
         self.vehicles = VEHICLES if door_autopilot else VEHICLES[1:]
-        for sysid in self.vehicles:
+        self.sysids = {1: 1, 2: 2, 3: mb3_sysid}
+        for k in self.vehicles:
             ap_port, bind = ports.port(), ports.port()
-            self.aps[sysid] = group.spawn(autopilot_argv(ap_port, duration=55, sysid=sysid), f"autopilot{sysid}",
-                                          ready_timeout=10)
-            self.mav_ports[sysid] = (bind, ap_port)
+            self.aps[k] = group.spawn(autopilot_argv(ap_port, duration=55, sysid=self.sysids[k]), f"autopilot{k}",
+                                      ready_timeout=10)
+            self.mav_ports[k] = (bind, ap_port)
         self.gcs_port = ports.port()
 
-        def bridge(node: str, sysid: int | None, extra: list[str]):
+        def bridge(node: str, k: int | None, extra: list[str]):
             mav = []
-            if sysid is not None:
-                bind, peer = self.mav_ports[sysid]
-                mav = ["--target", f"{sysid}/1", "--mavlink", f"udp:bind=127.0.0.1:{bind},peer=127.0.0.1:{peer}"]
+            if k is not None:
+                bind, peer = self.mav_ports[k]
+                mav = ["--target", f"{self.sysids[k]}/1", "--mavlink", f"udp:bind=127.0.0.1:{bind},peer=127.0.0.1:{peer}"]
             return group.spawn([prog, "--config", str(cfg), "--node", node, "--stats-ms", "0"] + mav + extra,
                                node, ready_timeout=10)
 
-        self.door = bridge("door", 1 if door_autopilot else None, ["--gcs", f"{gcs_transport}=127.0.0.1:{self.gcs_port}", "--fleet", "mb2", "--fleet", "mb3"])
+        spec = gcs_spec or f"{gcs_transport}=127.0.0.1:{self.gcs_port}"
+        self.door = bridge("door", 1 if door_autopilot else None, ["--gcs", spec,
+                                                                   "--fleet", "mb2", "--fleet", "mb3", *door_extra])
         self.mb2 = bridge("mb2", 2, ["--fleet", "door"])
         self.mb3 = bridge("mb3", 3, ["--fleet", "door"])
         group.spawn([str(uavbus_node), "--config", str(cfg), "--node", "relay", "--stats-ms", "0"], "relay",
                     ready_timeout=10)
-        assert self.door.wait_ready()["gcs_port"] == self.gcs_port
+        assert gcs_spec is not None or self.door.wait_ready()["gcs_port"] == self.gcs_port
 
 
 def test_two_gcs_see_three_vehicles_and_commands_reach_only_their_target(tmp_path, group: ProcessGroup, mavbridge,
@@ -178,6 +190,9 @@ def test_two_gcs_see_three_vehicles_and_commands_reach_only_their_target(tmp_pat
     a.conn.mav.command_long_send(2, 1, mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
     run([a, b], 10, lambda: any(ack[0] == 2 and ack[1] == 400 for ack in a.acks))
     assert (2, 400, 0) in a.acks, f"no COMMAND_ACK from system 2 at GCS A: {a.acks}; door {door.request_stats()['mavlink']['door']}"
+    # The ACK can overtake the autopilot's own report of the command on its stdout: wait for the report.
+    aps[2].wait_event(lambda e: e.get("event") == "command" and e.get("command") == 400, 5, since=marks[2],
+                      what="autopilot 2 reports the arm command")
     got = [e for e in aps[2].all("command") if e["command"] == 400]
     assert len(got) == 1 and got[0]["from"] == [255, 190] and got[0]["params"][0] == 1.0, got
     run([a, b], 1.0)  # time for a wrongly routed copy to arrive anywhere else
@@ -327,7 +342,8 @@ class MavProxy:
 def test_mavproxy_and_pymavlink_at_once(tmp_path, group: ProcessGroup, mavbridge, uavbus_node):
     """MAVProxy on the door, aimed at system 3 (two uavbus hops away), while a pymavlink GCS watches: MAVProxy
     sees the vehicles, fetches the whole parameter list (after its MAVFTP attempt times out, as against any
-    autopilot without FTP), and its arm command is acknowledged by system 3 only."""
+    autopilot without FTP), its arm command is acknowledged by system 3 only, and its `wp load` / `wp list`
+    upload and download a 5-item mission with system 3."""
     f = Fleet(tmp_path, group, mavbridge, uavbus_node)
     watcher = Gcs(f.gcs_port, 254)
     group.on_close(watcher.conn.close)
@@ -347,6 +363,7 @@ def test_mavproxy_and_pymavlink_at_once(tmp_path, group: ProcessGroup, mavbridge
     mark = len(mp.lines)
     mp.send("arm throttle")
     mp.wait(r"COMMAND_ACK.*(ARM|400).*ACCEPTED|Got COMMAND_ACK: COMPONENT_ARM_DISARM: ACCEPTED", 15, since=mark)
+    reported(f.aps[3], 400)
     arms = [e for e in f.aps[3].all("command") if e["command"] == 400]
     assert arms and arms[0]["from"][0] == 250, arms
     for s in (1, 2):
@@ -354,15 +371,39 @@ def test_mavproxy_and_pymavlink_at_once(tmp_path, group: ProcessGroup, mavbridge
     run([watcher], 0.5)
     assert all(len(watcher.attitude.get(s, ())) > 10 for s in VEHICLES), {k: len(v) for k, v in watcher.attitude.items()}
 
+    # MAVProxy's `wp load` (upload over the mission protocol) and `wp list` (download) with system 3.
+    wpl = tmp_path / "mission.txt"
+    rows = ["QGC WPL 110", "0\t1\t0\t16\t0\t0\t0\t0\t47.3977420\t8.5455940\t0.000000\t1"]
+    rows += [f"{i}\t0\t3\t16\t0\t0\t0\t0\t{47.3977420 + 0.0001 * i:.7f}\t{8.5455940 + 0.0001 * i:.7f}\t{20 + i:.6f}\t1"
+             for i in range(1, 5)]
+    wpl.write_text("\n".join(rows) + "\n")
+    mark = len(mp.lines)
+    mp.send(f"wp load {wpl}")
+    mp.wait(r"Sent all 5 waypoints|Loaded 5 waypoints in", 20, since=mark)
+    f.aps[3].wait_event(lambda e: e.get("event") == "mission" and e.get("what") == "uploaded", 5, what="MAVProxy's upload")
+    up = [e for e in f.aps[3].all("mission") if e["what"] == "uploaded"][-1]
+    assert up["from"][0] == 250 and [round(it[4]) for it in up["items"]] == [0, 21, 22, 23, 24], up
+    mark = len(mp.lines)
+    mp.send("wp list")
+    saved = mp.wait(r"Saved 5 waypoints to (\S+)", 20, since=mark)
+    got = [line.split("\t") for line in Path(saved.group(1)).read_text().splitlines()[1:]]
+    assert len(got) == 5, got
+    for i, r in enumerate(got[1:], start=1):  # 1e-7 degree: the protocol's integer latitude and longitude
+        assert abs(float(r[8]) - (47.3977420 + 0.0001 * i)) < 2e-7 and abs(float(r[9]) - (8.5455940 + 0.0001 * i)) < 2e-7 \
+            and abs(float(r[10]) - (20 + i)) < 1e-3, got
+    assert not [e for s in (1, 2) for e in f.aps[s].all("mission")], "another vehicle saw MAVProxy's mission"
+
 
 def test_mavsdk_discovers_every_vehicle_arms_one_and_sets_a_parameter(tmp_path, group: ProcessGroup, mavbridge,
                                                                          uavbus_node):
     """MAVSDK (PyPI `mavsdk`, MAVSDK's C library) on the door: discovers the three system ids, reads each one's
-    attitude, arms system 3 (two hops away; only it is armed) and sets and reads back a parameter of system 2."""
+    attitude, arms system 3 (two hops away; only it is armed), sets and reads back a parameter of system 2, and
+    uploads a 5-waypoint mission to system 3 and reads it back."""
     f = Fleet(tmp_path, group, mavbridge, uavbus_node)
     script = Path(__file__).with_name("mavsdk_gcs.py")
     proc = subprocess.run([sys.executable, str(script), "--url", f"udpout://127.0.0.1:{f.gcs_port}", "--vehicles", "3",
-                           "--arm", "3", "--param", "2:TEST_P07=12.25"], capture_output=True, text=True, timeout=55)
+                           "--arm", "3", "--param", "2:TEST_P07=12.25", "--mission", "3:5", "--rate", "2:5"], capture_output=True, text=True,
+                          timeout=80)
     assert proc.returncode == 0, proc.stderr[-3000:]
     got = json.loads(proc.stdout.strip().splitlines()[-1])
     assert got["systems"] == list(VEHICLES), (got, f.door.request_stats()["mavlink"]["door"])
@@ -370,12 +411,25 @@ def test_mavsdk_discovers_every_vehicle_arms_one_and_sets_a_parameter(tmp_path, 
         roll = got["attitude"][str(s)]
         assert roll is not None and abs(roll) < 6.0, got  # the autopilots' roll: 0.1 sin(t) rad
     assert got["arm"] == "ok", got
+    reported(f.aps[3], 400)
     arms = [e for s in VEHICLES for e in f.aps[s].all("command") if e["command"] == 400]
     assert len({tuple(e["target"]) for e in arms}) == 1 and all(e["target"][0] == 3 for e in arms), arms
     assert [e for e in f.aps[3].all("command") if e["command"] == 400], "system 3 never saw the arm command"
     assert got["param"] == 12.25, got
     sets = {s: [e for e in f.aps[s].all("param_set") if e["name"] == "TEST_P07"] for s in VEHICLES}
     assert sets[2] and not sets[1] and not sets[3], sets
+    # MAVSDK asks system 2's attitude at 5 Hz: acknowledged (by system 2's bridge), a flow of the door's ground station.
+    assert got["rate"] == "ok", got
+    flows = f.door.request_stats()["mavlink"]["door"]["flows"]
+    assert any(fl["sysid"] == 2 and fl["interval_us"] == 200_000 and fl["link"].startswith("gcs:") for fl in flows), flows
+    # A 5-waypoint mission uploaded to system 3 with MAVSDK's mission plugin, and read back.
+    mission = got["mission"]
+    assert isinstance(mission, dict), mission
+    assert len(mission["down"]) == 5, mission
+    for (lat, lon, alt), (lat2, lon2, alt2) in zip(mission["up"], mission["down"]):
+        assert abs(lat - lat2) < 1e-6 and abs(lon - lon2) < 1e-6 and abs(alt - alt2) < 1e-3, mission
+    f.aps[3].wait_event(lambda e: e.get("event") == "mission" and e.get("what") == "uploaded", 5, what="MAVSDK's upload")
+    assert not [e for s in (1, 2) for e in f.aps[s].all("mission")], "another vehicle saw system 3's mission"
 
 
 def test_a_door_without_autopilot_on_a_signed_bus_with_a_compact_link(tmp_path, group: ProcessGroup, mavbridge,

@@ -151,6 +151,7 @@ typedef struct ub_mav_dir_state {
     uint32_t refused_us;     /**< interval it refused (not asked again while wanted), UINT32_MAX = none */
     uint64_t retry_after_ms; /**< no request before (after a timeout) */
     uint8_t resend;          /**< tell the autopilot again (it came back: it may have rebooted) */
+    uint32_t flow_us;        /**< fastest interval a ground station asked through the front door (ub_mavroute.h), 0 = none */
     uint64_t rx;             /**< messages received */
     uint64_t last_rx_ms;
 } ub_mav_dir_state_t;
@@ -242,6 +243,14 @@ void ub_mavbridge_set_tap(ub_mavbridge_t *br, ub_mav_tap_fn fn, void *user);
  * @return UB_OK; UB_ERR_AGAIN / another negative code from the transport; UB_ERR_INVAL.
  */
 UB_CHECK int ub_mavbridge_forward(ub_mavbridge_t *br, const mavlink_message_t *m, uint64_t now_ms);
+
+/**
+ * Sets the fastest interval ground stations asked for message `msgid` through the front door (their
+ * SET_MESSAGE_INTERVAL / REQUEST_DATA_STREAM, ub_mavroute.h): merged with the subscriptions' periods, the
+ * shortest of both is what the autopilot is asked for. `us` 0: none asked (the subscriptions alone).
+ * @return UB_OK; UB_ERR_NOTFOUND (no directory, or an answer/event message that is never streamed).
+ */
+UB_CHECK int ub_mavbridge_set_flow(ub_mavbridge_t *br, uint32_t msgid, uint32_t us);
 
 /** @return the index in the table of message `msgid`'s directory, or UB_ERR_NOTFOUND. */
 UB_CHECK int ub_mavbridge_find(const ub_mavbridge_t *br, uint32_t msgid);

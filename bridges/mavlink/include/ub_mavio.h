@@ -129,14 +129,22 @@ typedef struct ub_mavgcs_stats {
     uint64_t again;           /**< datagrams the socket could not take now */
     uint64_t send_errors;
     uint64_t read_errors;
+    uint64_t unauthenticated; /**< UDP datagrams from a new address with no valid (with --gcs-key: well signed) frame:
+                                   the address gets no place and no frames */
 } ub_mavgcs_stats_t;
 
 /** A server endpoint for ground stations: UDP (QGroundControl, MAVProxy, MAVSDK as `udpout` clients; every
- *  address that sends a datagram becomes a client of the router) or TCP (every connection is a client).
- *  Caller-owned. */
+ *  address that sends a datagram with a valid frame becomes a client of the router), TCP (every connection
+ *  is a client) or serial (a radio or cable to one ground station: client 0, never forgotten; bytes the
+ *  device cannot take now wait in a queue of UB_MAVIO_TX_BUFFER, a frame that does not fit is left out
+ *  whole, `again`). Caller-owned. */
 typedef struct ub_mavgcs {
-    int fd;          /* the UDP socket, or the TCP listening socket */
+    int fd;          /* the UDP socket, the TCP listening socket, or the serial device */
     uint8_t tcp;
+    uint8_t serial;
+    ub_serial_t ser;
+    size_t tx_len;   /* serial: bytes waiting */
+    uint8_t tx[UB_MAVIO_TX_BUFFER];
     struct {
         struct sockaddr_in addr;
         uint64_t last_ms;
@@ -147,7 +155,8 @@ typedef struct ub_mavgcs {
     ub_mavgcs_stats_t stats;
 } ub_mavgcs_t;
 
-/** Opens `udp:bind=HOST:PORT` (no peer: ground stations are learned) or `tcp:listen=HOST:PORT`.
+/** Opens `udp:bind=HOST:PORT` (no peer: ground stations are learned), `tcp:listen=HOST:PORT` or
+ *  `serial:device=PATH[,baud=N]`.
  *  @return UB_OK, UB_ERR_INVAL, UB_ERR_IO. */
 UB_CHECK int ub_mavgcs_open(ub_mavgcs_t *g, const ub_port_spec_t *spec, char *err, size_t err_cap);
 /** ub_mavroute_send_fn (`user` = the ub_mavgcs_t). */
@@ -155,7 +164,7 @@ int ub_mavgcs_send(void *user, int client, const uint8_t *bytes, size_t len);
 /** Reads what arrived (at most UB_MAVIO_RX_BUDGET datagrams) into the router; forgets silent clients.
  *  @return UB_OK or UB_ERR_IO. */
 UB_CHECK int ub_mavgcs_service(ub_mavgcs_t *g, ub_mavroute_t *rt, uint64_t now_ms);
-/** The descriptors to poll (the socket, and each TCP connection) into `pfds`. @return how many (<= max). */
+/** The descriptors to poll (the socket, each TCP connection; the serial device, POLLOUT while bytes wait) into `pfds`. @return how many (<= max). */
 int ub_mavgcs_pollfds(const ub_mavgcs_t *g, struct pollfd *pfds, int max);
 /** @return UB_OK with the bound port, or UB_ERR_IO. */
 UB_CHECK int ub_mavgcs_local_port(const ub_mavgcs_t *g, uint16_t *port);

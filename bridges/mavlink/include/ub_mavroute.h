@@ -22,6 +22,19 @@
  *  - The same system id seen behind two different vehicle links (the local autopilot and a peer, or two
  *    peers) is counted `sysid_conflicts` and reported, never silently merged: the first link keeps it.
  *
+ *  - **Rates a ground station asks** (`SET_MESSAGE_INTERVAL` in COMMAND_LONG / COMMAND_INT,
+ *    `REQUEST_DATA_STREAM`) are flows of this router, never commands to the autopilot: the node whose
+ *    autopilot is the target records the interval for the link it came from (a ground station, or a peer
+ *    door), sends that link the message no faster (`-1`: not at all), answers COMMAND_ACK as an autopilot
+ *    does, and hands the fastest interval any link wants to the bridge (ub_mavbridge_set_flow()), which
+ *    asks its autopilot for the fastest of those and of its uavbus subscriptions. A door whose ground
+ *    station asks for a vehicle behind a peer records it for that ground station too, and sends the peer
+ *    the fastest interval its ground stations want (the command rewritten), so each ground station gets
+ *    its own rate and the bus carries the fastest of them.
+ *  - **Signing on the GCS endpoint** (ub_mavroute_set_gcs_key()): only MAVLink 2 frames signed with the
+ *    endpoint's key get in (unsigned, bad signature, replayed: counted, dropped; the sender gets nothing
+ *    until it sent one good frame), and every frame to the ground stations is signed with it.
+ *
  * No I/O: frames to ground stations go out through the caller's `send` (ub_mavio.h's GCS endpoint).
  * Caller-owned state, no allocation.
  */
@@ -54,6 +67,13 @@ extern "C" {
 #define UB_MAVROUTE_PEER_TIMEOUT_MS 10000
 #endif
 
+/** Rate entries (link, system, message) at once: ground stations' SET_MESSAGE_INTERVAL / REQUEST_DATA_STREAM.
+ *  MAVProxy and QGroundControl ask 7 streams (13 messages) of every vehicle: two of them with three vehicles
+ *  fill 78 at a door. */
+#ifndef UB_MAVROUTE_MAX_FLOWS
+#define UB_MAVROUTE_MAX_FLOWS 128
+#endif
+
 /** Link numbers: 0 the autopilot, 1.. clients, then peers (bits of the learned-system masks). */
 #define UB_MAVROUTE_LINK_AUTOPILOT 0
 #define UB_MAVROUTE_LINK_CLIENT0 1
@@ -79,7 +99,24 @@ typedef struct ub_mavroute_counters {
     uint64_t send_errors;      /**< a client's or a peer's send failed */
     uint64_t sysid_conflicts;  /**< one system id behind two vehicle links (reported, first kept) */
     uint64_t unknown_peer;     /**< frames from a bridge entity not in the peer list: dropped */
+    uint64_t rate_requests;    /**< SET_MESSAGE_INTERVAL / REQUEST_DATA_STREAM answered here for the local autopilot */
+    uint64_t rate_forwarded;   /**< ... from a ground station toward a peer's vehicle (recorded for it, rewritten) */
+    uint64_t rate_limited;     /**< frames not sent to a link because of the interval it asked */
+    uint64_t flows_full;       /**< rate requests not recorded: UB_MAVROUTE_MAX_FLOWS entries in use */
+    uint64_t gcs_unsigned;     /**< GCS signing on: unsigned frames from ground stations, dropped */
+    uint64_t gcs_bad_signature;/**< ... signed with another key */
+    uint64_t gcs_replayed;     /**< ... a timestamp not newer than the stream's, or too old */
+    uint64_t gcs_sysid_shared; /**< a GCS HEARTBEAT with a system id another ground station uses (reported: both get its replies) */
 } ub_mavroute_counters_t;
+
+/** One rate a link asked (private to the router; visible for tests and stats). */
+typedef struct ub_mavroute_flow {
+    uint8_t link;        /**< link number + 1; 0 = free */
+    uint8_t sysid;       /**< the vehicle */
+    uint32_t msgid;
+    int32_t interval_us; /**< > 0: at most once per interval; -1: not at all; 0: as it comes (kept only for aggregation) */
+    uint64_t next_ms;    /**< the next frame may go at this time */
+} ub_mavroute_flow_t;
 
 /** The router. Caller-owned (a few kB); fields private. */
 typedef struct ub_mavroute {
@@ -103,7 +140,17 @@ typedef struct ub_mavroute {
     uint8_t gcs[256];            /* per system id: its HEARTBEAT says MAV_TYPE_GCS */
     uint8_t vehicle[256];        /* per system id: 1 + the vehicle link that owns it (its HEARTBEAT), 0 = none */
     uint8_t last_conflict;       /* system id of the last conflict (for the program's report) */
+    uint8_t last_gcs_shared;     /* system id two ground stations use (for the program's report) */
     uint8_t tx[MAVLINK_MAX_PACKET_LEN];
+    uint8_t ctx[MAVLINK_MAX_PACKET_LEN]; /* the frame for ground stations (re-signed when GCS signing is on) */
+    mavlink_message_t out;       /* re-encoded messages (signed copies, rewritten rate requests, our ACKs) */
+    uint8_t ack_seq;
+    ub_mavroute_flow_t flows[UB_MAVROUTE_MAX_FLOWS];
+    uint64_t next_expiry_ms;
+    bool gcs_sign;
+    mavlink_signing_t gsign;
+    mavlink_signing_streams_t gstreams;
+    uint64_t gsign_t0, gsign_base_ms;
     ub_mavroute_counters_t c;
 } ub_mavroute_t;
 
@@ -124,6 +171,21 @@ void ub_mavroute_set_autopilot(ub_mavroute_t *rt, bool has_autopilot);
 /** Bytes from ground station `client` (0..UB_MAVROUTE_MAX_CLIENTS-1): parsed, learned, routed.
  *  @return messages routed, or UB_ERR_INVAL. */
 UB_CHECK int ub_mavroute_from_client(ub_mavroute_t *rt, int client, const uint8_t *bytes, size_t len, uint64_t now_ms);
+
+/**
+ * Turns MAVLink signing on for the GCS endpoint: frames from ground stations must be signed with `key`
+ * (MAVLink 2 signing; unsigned and badly signed ones are counted and dropped), frames to them are signed
+ * with it (link id `link_id`), the signing time starting at `timestamp` (10 µs since 2015-01-01, from a
+ * wall clock: ub_mavbridge_signing_time()) at `now_ms`.
+ */
+void ub_mavroute_set_gcs_key(ub_mavroute_t *rt, const uint8_t key[32], uint8_t link_id, uint64_t timestamp,
+                             uint64_t now_ms);
+
+/** @return whether ground station `client` sent a valid (with GCS signing: well signed) frame since it appeared. */
+bool ub_mavroute_client_up(const ub_mavroute_t *rt, int client);
+
+/** Expires the rates of peers no longer heard (UB_MAVROUTE_PEER_TIMEOUT_MS). Call every loop turn. */
+void ub_mavroute_tick(ub_mavroute_t *rt, uint64_t now_ms);
 
 /** Ground station `client` went away (timeout, closed): forgets what was learned on it. */
 void ub_mavroute_client_gone(ub_mavroute_t *rt, int client);

@@ -236,6 +236,19 @@ static void scan_rows(ub_mavbridge_t *br) {
         uint32_t want = us > UINT32_MAX ? UINT32_MAX : (uint32_t)us;
         if (br->st[d].wanted_us == 0 || want < br->st[d].wanted_us) br->st[d].wanted_us = want;
     }
+    /* Ground stations' rates (the front door's flows): the autopilot must send at least as fast. */
+    for (size_t d = 0; d < br->n_dirs; d++) {
+        uint32_t f = br->st[d].flow_us;
+        if (f != 0 && (br->st[d].wanted_us == 0 || f < br->st[d].wanted_us)) br->st[d].wanted_us = f;
+    }
+}
+
+int ub_mavbridge_set_flow(ub_mavbridge_t *br, uint32_t msgid, uint32_t us) {
+    int d = ub_mavbridge_find(br, msgid);
+    if (d < 0 || !streamed(msgid)) return UB_ERR_NOTFOUND;
+    br->st[d].flow_us = us;
+    br->next_scan_ms = 0; /* looked at on the next tick, not within SCAN_MS */
+    return UB_OK;
 }
 
 /* What directory `d` needs the autopilot to be told, if anything: its wanted interval, or 0 (default

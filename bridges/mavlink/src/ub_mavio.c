@@ -326,10 +326,21 @@ int ub_mavgcs_open(ub_mavgcs_t *g, const ub_port_spec_t *spec, char *err, size_t
     memset(g, 0, sizeof *g);
     g->fd = -1;
     for (int c = 0; c < UB_MAVROUTE_MAX_CLIENTS; c++) g->clients[c].fd = -1;
+    if (spec->kind == UB_PORT_SERIAL) {
+        int rc = ub_serial_open(&g->ser, spec->device, spec->baud);
+        if (rc == UB_ERR_RANGE) return fail(err, cap, rc, spec->device, "unsupported baud rate");
+        if (rc < 0) return fail(err, cap, UB_ERR_IO, spec->device, strerror(errno));
+        g->fd = ub_serial_fileno(&g->ser);
+        g->serial = 1;
+        g->clients[0].in_use = 1; /* the line is the ground station */
+        g->stats.clients_new++;
+        return UB_OK;
+    }
     bool tcp = spec->kind == UB_PORT_TCP_LISTEN;
     if ((spec->kind != UB_PORT_UDP && !tcp) || (!tcp && spec->peer_port != 0))
         return fail(err, cap, UB_ERR_INVAL, "gcs",
-                    "the GCS endpoint is udp:bind=HOST:PORT (ground stations are learned: no peer) or tcp:listen=HOST:PORT");
+                    "the GCS endpoint is udp:bind=HOST:PORT (ground stations are learned: no peer), tcp:listen=HOST:PORT "
+                    "or serial:device=PATH[,baud=N]");
     struct sockaddr_in local;
     memset(&local, 0, sizeof local);
     local.sin_family = AF_INET;
@@ -353,10 +364,49 @@ int ub_mavgcs_open(ub_mavgcs_t *g, const ub_port_spec_t *spec, char *err, size_t
     return UB_OK;
 }
 
+/* Serial: writes what waits, then as much of `bytes` as the device takes; the rest waits. A frame that does
+ * not fit behind what waits is left out whole. */
+static int gcs_serial_flush(ub_mavgcs_t *g) {
+    if (g->tx_len == 0) return UB_OK;
+    ssize_t w = write(g->fd, g->tx, g->tx_len);
+    if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) return UB_OK;
+    if (w < 0) {
+        g->stats.send_errors++;
+        return UB_ERR_IO;
+    }
+    memmove(g->tx, g->tx + w, g->tx_len - (size_t)w);
+    g->tx_len -= (size_t)w;
+    return UB_OK;
+}
+
+static int gcs_serial_send(ub_mavgcs_t *g, const uint8_t *bytes, size_t len) {
+    if (gcs_serial_flush(g) < 0) return UB_ERR_IO;
+    if (g->tx_len == 0) {
+        ssize_t w = write(g->fd, bytes, len);
+        if (w < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) {
+            g->stats.send_errors++;
+            return UB_ERR_IO;
+        }
+        if (w > 0) {
+            bytes += w;
+            len -= (size_t)w;
+        }
+        if (len == 0) return UB_OK;
+    }
+    if (len > sizeof g->tx - g->tx_len) {
+        g->stats.again++;
+        return UB_ERR_AGAIN;
+    }
+    memcpy(g->tx + g->tx_len, bytes, len);
+    g->tx_len += len;
+    return UB_OK;
+}
+
 int ub_mavgcs_send(void *user, int client, const uint8_t *bytes, size_t len) {
     ub_mavgcs_t *g = user;
     if (g == NULL || g->fd < 0 || client < 0 || client >= UB_MAVROUTE_MAX_CLIENTS || !g->clients[client].in_use)
         return UB_ERR_INVAL;
+    if (g->serial) return gcs_serial_send(g, bytes, len);
     if (g->tcp) {
         ssize_t w = send(g->clients[client].fd, bytes, len, MSG_NOSIGNAL | MSG_DONTWAIT);
         if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
@@ -384,8 +434,9 @@ int ub_mavgcs_send(void *user, int client, const uint8_t *bytes, size_t len) {
     return UB_OK;
 }
 
-static int client_of(ub_mavgcs_t *g, ub_mavroute_t *rt, const struct sockaddr_in *from, uint64_t now_ms) {
+static int client_of(ub_mavgcs_t *g, ub_mavroute_t *rt, const struct sockaddr_in *from, uint64_t now_ms, bool *fresh) {
     int free_slot = -1;
+    *fresh = false;
     for (int c = 0; c < UB_MAVROUTE_MAX_CLIENTS; c++) {
         if (g->clients[c].in_use && same_peer(&g->clients[c].addr, from)) return c;
         if (!g->clients[c].in_use && free_slot < 0) free_slot = c;
@@ -398,7 +449,7 @@ static int client_of(ub_mavgcs_t *g, ub_mavroute_t *rt, const struct sockaddr_in
     g->clients[free_slot].addr = *from;
     g->clients[free_slot].last_ms = now_ms;
     ub_mavroute_client_gone(rt, free_slot); /* a fresh parser and nothing learned from a former client */
-    g->stats.clients_new++;
+    *fresh = true;
     return free_slot;
 }
 
@@ -457,6 +508,21 @@ static int gcs_tcp_service(ub_mavgcs_t *g, ub_mavroute_t *rt, uint64_t now_ms) {
 int ub_mavgcs_service(ub_mavgcs_t *g, ub_mavroute_t *rt, uint64_t now_ms) {
     if (g == NULL || rt == NULL || g->fd < 0) return UB_ERR_INVAL;
     if (g->tcp) return gcs_tcp_service(g, rt, now_ms);
+    if (g->serial) {
+        if (gcs_serial_flush(g) < 0) return UB_ERR_IO;
+        for (int k = 0; k < UB_MAVIO_RX_BUDGET; k++) {
+            ssize_t n = read(g->fd, g->rx, sizeof g->rx);
+            if (n == 0 || (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR))) break;
+            if (n < 0) {
+                g->stats.read_errors++;
+                return UB_ERR_IO;
+            }
+            g->stats.datagrams_in++;
+            g->clients[0].last_ms = now_ms;
+            if (ub_mavroute_from_client(rt, 0, g->rx, (size_t)n, now_ms) < 0) return UB_ERR_INVAL; /* cannot happen */
+        }
+        return UB_OK;
+    }
     for (int k = 0; k < UB_MAVIO_RX_BUDGET; k++) {
         struct sockaddr_in from;
         socklen_t flen = sizeof from;
@@ -467,10 +533,20 @@ int ub_mavgcs_service(ub_mavgcs_t *g, ub_mavroute_t *rt, uint64_t now_ms) {
             return UB_ERR_IO;
         }
         g->stats.datagrams_in++;
-        int c = client_of(g, rt, &from, now_ms);
+        bool fresh;
+        int c = client_of(g, rt, &from, now_ms, &fresh);
         if (c < 0) continue;
         g->clients[c].last_ms = now_ms;
         if (ub_mavroute_from_client(rt, c, g->rx, (size_t)n, now_ms) < 0) return UB_ERR_INVAL; /* cannot happen */
+        if (!ub_mavroute_client_up(rt, c)) {
+            /* Nothing valid (with --gcs-key: nothing well signed) from this address yet: no place for it, so
+             * that a spoofer cycling addresses cannot fill the endpoint (a datagram is whole frames). */
+            g->clients[c].in_use = 0;
+            g->stats.unauthenticated++;
+            ub_mavroute_client_gone(rt, c);
+        } else if (fresh) {
+            g->stats.clients_new++;
+        }
     }
     for (int c = 0; c < UB_MAVROUTE_MAX_CLIENTS; c++) {
         if (g->clients[c].in_use && now_ms - g->clients[c].last_ms > UB_MAVGCS_CLIENT_TIMEOUT_MS) {
@@ -485,14 +561,14 @@ int ub_mavgcs_service(ub_mavgcs_t *g, ub_mavroute_t *rt, uint64_t now_ms) {
 int ub_mavgcs_pollfds(const ub_mavgcs_t *g, struct pollfd *pfds, int max) {
     int n = 0;
     if (g == NULL || g->fd < 0 || max < 1) return 0;
-    pfds[n++] = (struct pollfd){.fd = g->fd, .events = POLLIN, .revents = 0};
+    pfds[n++] = (struct pollfd){.fd = g->fd, .events = (short)(POLLIN | (g->tx_len > 0 ? POLLOUT : 0)), .revents = 0};
     for (int c = 0; g->tcp && c < UB_MAVROUTE_MAX_CLIENTS && n < max; c++)
         if (g->clients[c].in_use) pfds[n++] = (struct pollfd){.fd = g->clients[c].fd, .events = POLLIN, .revents = 0};
     return n;
 }
 
 int ub_mavgcs_local_port(const ub_mavgcs_t *g, uint16_t *port) {
-    if (g == NULL || port == NULL || g->fd < 0) return UB_ERR_INVAL;
+    if (g == NULL || port == NULL || g->fd < 0 || g->serial) return UB_ERR_INVAL;
     struct sockaddr_in local;
     socklen_t len = sizeof local;
     if (getsockname(g->fd, (struct sockaddr *)&local, &len) < 0) return UB_ERR_IO;
@@ -512,6 +588,7 @@ void ub_mavgcs_close(ub_mavgcs_t *g) {
         if (g->clients[c].in_use) close(g->clients[c].fd);
         g->clients[c].in_use = 0;
     }
-    close(g->fd);
+    if (g->serial) ub_serial_close(&g->ser);
+    else close(g->fd);
     g->fd = -1;
 }

@@ -276,6 +276,27 @@ static void test_one_system_id_behind_two_vehicle_links_is_a_conflict(void **sta
     assert_int_equal(count(&g_w.clients[0], MAVLINK_MSG_ID_ATTITUDE, 1, 0), 0);
 }
 
+/* Frames of the second vehicle heard before any HEARTBEAT: once the first vehicle's HEARTBEAT says who owns the
+ * id, commands to it go to that vehicle only. */
+static void test_a_conflicting_vehicle_heard_first_without_heartbeat_gets_no_commands(void **state) {
+    (void)state;
+    setup_world(true);
+    gcs_heartbeat(0, 250);
+    run(20);
+    g_w.mb.br.target_sysid = 1; /* mb2's bridge configured with --target 1/1: it forwards before any HEARTBEAT */
+    g_w.mb.br.target_compid = 1;
+    g_w.mb.br.target_known = 1;
+    ap_attitude(&g_w.mb, 1, 100); /* mb2's vehicle 1, no HEARTBEAT yet: learned on the peer link */
+    run(20);
+    assert_true(ub_mavroute_seen(&g_w.door.rt, 1) & (1u << UB_MAVROUTE_LINK_PEER0));
+    ap_heartbeat(&g_w.door, 1); /* the door's own vehicle 1 says it is one */
+    run(20);
+    gcs_command(0, 250, 1, MAV_CMD_COMPONENT_ARM_DISARM);
+    run(20);
+    assert_int_equal(count(&g_w.door.autopilot, MAVLINK_MSG_ID_COMMAND_LONG, 250, MAV_CMD_COMPONENT_ARM_DISARM), 1);
+    assert_int_equal(count(&g_w.mb.autopilot, MAVLINK_MSG_ID_COMMAND_LONG, 250, MAV_CMD_COMPONENT_ARM_DISARM), 0);
+}
+
 static void test_vehicles_broadcast_only_toward_peers_that_listen(void **state) {
     (void)state;
     setup_world(true);
@@ -309,6 +330,96 @@ static void test_a_forged_sequence_is_no_loss(void **state) {
     assert_int_equal(ub_mavbridge_counters(&g_w.door.br)->seq_outliers, 1);
 }
 
+static void gcs_interval(int client, uint8_t sysid, uint8_t target, uint32_t msgid, float us) {
+    mavlink_command_long_t c = {.target_system = target, .target_component = 1,
+                                .command = MAV_CMD_SET_MESSAGE_INTERVAL, .param1 = (float)msgid, .param2 = us};
+    mavlink_message_t m;
+    mavlink_msg_command_long_encode_status(sysid, 190, &g_w.gcs_status[client], &m, &c);
+    gcs_send(client, &m);
+}
+
+/* SET_MESSAGE_INTERVAL from ground stations: answered by the vehicle's bridge as its autopilot (never forwarded),
+ * each ground station held to its own rate, the autopilot asked for the fastest. */
+static void test_rates_asked_by_ground_stations(void **state) {
+    (void)state;
+    setup_world(true);
+    meet();
+    gcs_interval(0, 250, 2, MAVLINK_MSG_ID_ATTITUDE, 100000.0f); /* 10 Hz */
+    gcs_interval(1, 251, 2, MAVLINK_MSG_ID_ATTITUDE, 20000.0f);  /* 50 Hz */
+    run(20);
+    assert_int_equal(ub_mavroute_counters(&g_w.door.rt)->rate_forwarded, 2);
+    assert_int_equal(ub_mavroute_counters(&g_w.mb.rt)->rate_requests, 2);
+    assert_int_equal(count(&g_w.mb.autopilot, MAVLINK_MSG_ID_COMMAND_LONG, 250, 0), 0);
+    assert_int_equal(count(&g_w.mb.autopilot, MAVLINK_MSG_ID_COMMAND_LONG, 251, 0), 0);
+    assert_int_equal(count(&g_w.clients[0], MAVLINK_MSG_ID_COMMAND_ACK, 2, MAV_CMD_SET_MESSAGE_INTERVAL), 1);
+    assert_int_equal(count(&g_w.clients[1], MAVLINK_MSG_ID_COMMAND_ACK, 2, MAV_CMD_SET_MESSAGE_INTERVAL), 1);
+    /* The bridge asks its autopilot for the fastest (the rewritten second request: 20 ms). */
+    int d = ub_mavbridge_find(&g_w.mb.br, MAVLINK_MSG_ID_ATTITUDE);
+    assert_true(d >= 0);
+    assert_int_equal(ub_mavbridge_dir_state(&g_w.mb.br, (size_t)d)->flow_us, 20000);
+    assert_int_equal(ub_mavbridge_dir_state(&g_w.mb.br, (size_t)d)->wanted_us, 20000);
+    size_t before0 = count(&g_w.clients[0], MAVLINK_MSG_ID_ATTITUDE, 2, 0);
+    size_t before1 = count(&g_w.clients[1], MAVLINK_MSG_ID_ATTITUDE, 2, 0);
+    for (int k = 0; k < 50; k++) { /* one second at 50 Hz */
+        ap_attitude(&g_w.mb, 2, 200 + 20u * (uint32_t)k);
+        run(20);
+    }
+    size_t got0 = count(&g_w.clients[0], MAVLINK_MSG_ID_ATTITUDE, 2, 0) - before0;
+    size_t got1 = count(&g_w.clients[1], MAVLINK_MSG_ID_ATTITUDE, 2, 0) - before1;
+    assert_true(got0 >= 9 && got0 <= 11);
+    assert_int_equal(got1, 50);
+    /* Off for ground station 0; ground station 1 goes on. */
+    gcs_interval(0, 250, 2, MAVLINK_MSG_ID_ATTITUDE, -1.0f);
+    before0 = count(&g_w.clients[0], MAVLINK_MSG_ID_ATTITUDE, 2, 0);
+    ap_attitude(&g_w.mb, 2, 5000);
+    run(20);
+    assert_int_equal(count(&g_w.clients[0], MAVLINK_MSG_ID_ATTITUDE, 2, 0), before0);
+    /* A ground station that leaves takes its rate with it. */
+    ub_mavroute_client_gone(&g_w.door.rt, 1);
+    gcs_interval(0, 250, 2, MAVLINK_MSG_ID_ATTITUDE, 0.0f);
+    run(20);
+    assert_int_equal(ub_mavbridge_dir_state(&g_w.mb.br, (size_t)d)->flow_us, 0);
+}
+
+static void gcs_stream(int client, uint8_t sysid, uint8_t target, uint8_t stream, uint16_t hz, uint8_t start) {
+    mavlink_request_data_stream_t r = {.req_message_rate = hz, .target_system = target, .target_component = 1,
+                                       .req_stream_id = stream, .start_stop = start};
+    mavlink_message_t m;
+    mavlink_msg_request_data_stream_encode_status(sysid, 190, &g_w.gcs_status[client], &m, &r);
+    gcs_send(client, &m);
+}
+
+static int32_t flow_of(const ub_mavroute_t *rt, int link, uint8_t sysid, uint32_t msgid) {
+    for (int i = 0; i < UB_MAVROUTE_MAX_FLOWS; i++) {
+        const ub_mavroute_flow_t *f = &rt->flows[i];
+        if (f->link == link + 1 && f->sysid == sysid && f->msgid == msgid) return f->interval_us;
+    }
+    return -100; /* none */
+}
+
+/* REQUEST_DATA_STREAM from two ground stations of the door: each held to its own rate at the door, the peer told
+ * the fastest (rewritten), never the autopilot; stop from one leaves the other's rate. */
+static void test_data_streams_asked_by_ground_stations(void **state) {
+    (void)state;
+    setup_world(true);
+    meet();
+    gcs_stream(0, 250, 2, MAV_DATA_STREAM_EXTRA1, 2, 1);
+    gcs_stream(1, 251, 2, MAV_DATA_STREAM_EXTRA1, 10, 1);
+    run(20);
+    assert_int_equal(flow_of(&g_w.door.rt, UB_MAVROUTE_LINK_CLIENT0, 2, MAVLINK_MSG_ID_ATTITUDE), 500000);
+    assert_int_equal(flow_of(&g_w.door.rt, UB_MAVROUTE_LINK_CLIENT0 + 1, 2, MAVLINK_MSG_ID_ATTITUDE), 100000);
+    assert_int_equal(flow_of(&g_w.mb.rt, UB_MAVROUTE_LINK_PEER0, 2, MAVLINK_MSG_ID_ATTITUDE), 100000);
+    assert_int_equal(count(&g_w.mb.autopilot, MAVLINK_MSG_ID_REQUEST_DATA_STREAM, -1, 0), 0);
+    /* The faster one stops: the peer is told the slower one's rate (a new request from the door). */
+    gcs_stream(1, 251, 2, MAV_DATA_STREAM_EXTRA1, 0, 0);
+    run(20);
+    assert_int_equal(flow_of(&g_w.mb.rt, UB_MAVROUTE_LINK_PEER0, 2, MAVLINK_MSG_ID_ATTITUDE), 500000);
+    /* Both stop: the peer stops sending ATTITUDE to the door. */
+    gcs_stream(0, 250, 2, MAV_DATA_STREAM_EXTRA1, 0, 0);
+    run(20);
+    assert_int_equal(flow_of(&g_w.mb.rt, UB_MAVROUTE_LINK_PEER0, 2, MAVLINK_MSG_ID_ATTITUDE), -1);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_every_vehicle_reaches_every_ground_station),
@@ -318,6 +429,9 @@ int main(void) {
         cmocka_unit_test(test_one_system_id_behind_two_vehicle_links_is_a_conflict),
         cmocka_unit_test(test_vehicles_broadcast_only_toward_peers_that_listen),
         cmocka_unit_test(test_a_forged_sequence_is_no_loss),
+        cmocka_unit_test(test_rates_asked_by_ground_stations),
+        cmocka_unit_test(test_data_streams_asked_by_ground_stations),
+        cmocka_unit_test(test_a_conflicting_vehicle_heard_first_without_heartbeat_gets_no_commands),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
