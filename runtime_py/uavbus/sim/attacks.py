@@ -481,7 +481,8 @@ class Campaign:
         taken = (t_a["replaced"] - t_b["replaced"]) + (t_a["adopted"] - t_b["adopted"])
         r = self._result(name, len(forged) + len(old), self._dropped(before, after, [(node, link)]), taken,
                          f"connections {t_a['candidates'] - t_b['candidates']} held as candidates, "
-                         f"{t_a['candidates_refused'] - t_b['candidates_refused']} refused, taken over: {taken}; "
+                         f"{t_a['candidates_refused'] - t_b['candidates_refused']} refused, "
+                         f"{t_a['candidates_evicted'] - t_b['candidates_evicted']} evicted, taken over: {taken}; "
                          f"established link {t_a['state']}", [(node, link)])
         r.extra["connections"] = len(socks)
         return r
