@@ -240,15 +240,17 @@ static void frag_on_fragment(ub_node_t *node, int slot, int link_id, const ub_fr
         ub_priv_count_drop(node, link_id, UB_DROP_UNBOUND);
         return;
     }
-    uint64_t lost_before = f->stats.rx_evicted + f->stats.rx_restarted;
+    uint64_t lost_before = f->stats.rx_evicted + f->stats.rx_restarted + f->stats.rx_source_limit;
     const uint8_t *data = NULL;
     size_t total = 0;
     int r = ub_frag_take(f, slot, h->src_id, h->dir_id, h->fingerprint, payload, h->payload_size, now_ms, &data,
                          &total);
-    for (uint64_t k = lost_before; k < f->stats.rx_evicted + f->stats.rx_restarted; k++)
+    for (uint64_t k = lost_before; k < f->stats.rx_evicted + f->stats.rx_restarted + f->stats.rx_source_limit; k++)
         ub_priv_count_drop(node, link_id, UB_DROP_INCOMPLETE);
     if (r == UB_FRAG_DUPLICATE) {
         ub_priv_count_drop(node, link_id, UB_DROP_DUPLICATE);
+    } else if (r == UB_FRAG_REFUSED) { /* this directory cannot be reassembled: it is lost incomplete */
+        ub_priv_count_drop(node, link_id, UB_DROP_INCOMPLETE);
     } else if (r == UB_FRAG_COMPLETE) {
         ub_frame_header_t whole = *h;
         whole.admin = UB_ADMIN_DATA;
