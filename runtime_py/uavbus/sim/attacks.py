@@ -466,11 +466,13 @@ class Campaign:
         nav = self.cat.instance("navFilterState").type.packed_size
         forged = (self._forms("navFilterState", "rmax1ob1", "rmax1ob2", bytes(nav))
                   + self._forms("onboard2Set", "gcs1", "rmax1ob2", self._value("onboard2Set", armed=True)))
+        # Three from one address: at most 2 unproven candidates per address, so the third evicts the first
+        # (docs/security.md, "TCP links"); the two newest carry the attack.
         socks = [tcp_connect(listen) for _ in range(3)]
         try:
             self.h.run_for(0.1)
-            socks[0].sendall(os.urandom(200))                       # junk first: the decoder resynchronises
-            socks[0].sendall(b"".join(forged))
+            socks[2].sendall(os.urandom(200))                       # junk first: the decoder resynchronises
+            socks[2].sendall(b"".join(forged))
             socks[1].sendall(b"".join(old))
             self.h.run_for(1.5)
             after = self._snap(node)
