@@ -39,7 +39,8 @@ static bool compact_on_frame(const ub_service_t *svc, ub_node_t *node, const ub_
     (void)svc;
     (void)drop; /* bad_payload: a LINK_HELLO on a full-frame link, or an unusable one */
     ub_compact_t *c = node->links[rx->link_id].compact;
-    return c != NULL && ub_compact_on_hello(c, payload, h->payload_size, now_ms) >= 0;
+    /* Unsigned, anyone may send one: dictionary changes are rate-limited (ub_compact.h); a refused one is a drop. */
+    return c != NULL && ub_compact_on_hello_from(c, payload, h->payload_size, now_ms, rx->secured) >= 0;
 }
 
 static const uint8_t compact_codes[] = {UB_ADMIN_LINK_HELLO};
