@@ -132,6 +132,13 @@ static void parse_route(const char *text, ub_route_options_t *ro) {
     }
 }
 
+void fleet_stats(ub_app_t *app) {
+    if (!g_route_on) return;
+    const ub_route_counters_t *c = ub_route_counters(&g_route);
+    ub_app_out(app, ",\"routing\":{\"learned\":%" PRIu64 ",\"learn_full\":%" PRIu64 ",\"learn_refused\":%" PRIu64
+        ",\"learn_expired\":%" PRIu64 "}", c->learned, c->learn_full, c->learn_refused, c->learn_expired);
+}
+
 /* ---- membership ------------------------------------------------------------------------------------- */
 
 static const char *reason_name(uint8_t r) {

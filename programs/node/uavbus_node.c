@@ -434,6 +434,7 @@ static void event_stats(ub_app_t *app, uint64_t now_ms, bool final) {
         ub_app_out(app, "}");
     }
     out_security(app);
+    fleet_stats(app);
     ub_app_out(app, ",\"stdin_dropped\":%" PRIu64 "}", app->stdin_dropped);
     ub_app_flush(app);
 }
