@@ -51,6 +51,10 @@ static void test_changes_are_counted_and_unsigned_ones_limited(void **state) {
     assert_int_equal(ub_compact_on_hello(&s, pl, n, 1032), UB_OK);
     assert_int_equal(s.stats.dict_changes, 4);
     assert_int_equal(s.stats.dict_limited, 1);
+    /* a clock that went backwards lets a change through: the link is never stuck on a stale dictionary */
+    n = hello_of(5, 3, pl, sizeof pl);
+    assert_int_equal(ub_compact_on_hello_from(&s, pl, n, 100, false), UB_OK);
+    assert_int_equal(s.stats.dict_changes, 5);
 }
 
 /* A flood of forged hellos, a new epoch every 10 ms for 10 s: at most one change per change_min_ms. */

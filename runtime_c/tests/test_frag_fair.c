@@ -91,6 +91,11 @@ static void test_idle_slots_are_taken_after_protect_ms(void **state) {
     assert_int_equal(feed(&f, 10, 1, 3, 4, 320, &got), UB_FRAG_COMPLETE); /* never taken: it progressed */
     assert_int_equal(feed(&f, 99, 1, 1, 2, 330, &got), UB_FRAG_COMPLETE);
     assert_int_equal(got, 2);
+    /* a clock that went backwards counts as idle: a newcomer is never refused for good */
+    for (unsigned k = 0; k < UB_FRAG_SLOTS; k++) (void)feed(&f, 20 + k, 2, 0, 4, 5000, NULL);
+    uint64_t evicted = f.stats.rx_evicted;
+    assert_int_equal(feed(&f, 98, 2, 0, 2, 4000, NULL), UB_FRAG_PENDING);
+    assert_int_equal(f.stats.rx_evicted, evicted + 1);
     /* default protect_ms: a quarter of the timeout */
     ub_frag_init(&f, NULL, 0);
     assert_int_equal(f.params.protect_ms, UB_FRAG_TIMEOUT_MS / 4);
