@@ -18,7 +18,7 @@
 #define SEP " \t\r"
 
 const char fleet_usage[] =
-    "fleet options: [--route on|hello=MS,update=MS,dead=N,parallel=all|best,learn=0|1,gap=MS]\n"
+    "fleet options: [--route on|hello=MS,update=MS,dead=N,parallel=all|best,learn=0|1,learn_expiry=MS,gap=MS]\n"
     "               [--produce ENTITY] [--motion orbit:...|waypoints:...|static:...] [--epoch-ms MONO_MS]\n"
     "               [--flows-ms MS] [--flow-gap-ms MS]\n"
     "fleet commands: entity add|remove NAME | link add ENTITY INDEX NAME [SPEC] | link remove NAME |\n"
@@ -100,7 +100,7 @@ static void parse_route(const char *text, ub_route_options_t *ro) {
     char *save = NULL;
     for (char *kv = strtok_r(buf, ",", &save); kv != NULL; kv = strtok_r(NULL, ",", &save)) {
         char *eq = strchr(kv, '=');
-        if (eq == NULL) ub_app_die(g_app, "uavbus_node: --route '%s': expected KEY=VALUE (hello, update, dead, parallel, learn, gap)", kv);
+        if (eq == NULL) ub_app_die(g_app, "uavbus_node: --route '%s': expected KEY=VALUE (hello, update, dead, parallel, learn, learn_expiry, gap)", kv);
         *eq = '\0';
         const char *v = eq + 1;
         char *end = NULL;
@@ -122,12 +122,21 @@ static void parse_route(const char *text, ub_route_options_t *ro) {
             ro->dead_misses = (uint8_t)n;
         } else if (strcmp(kv, "learn") == 0 && n <= 1) {
             ro->no_learn = n == 0;
+        } else if (strcmp(kv, "learn_expiry") == 0 && (uint64_t)n <= UINT32_MAX) {
+            ro->learn_expiry_ms = (uint32_t)n;
         } else {
             ub_app_die(g_app, "uavbus_node: --route %s=%s: unknown key or value out of range (hello, update, gap: ms; dead: 1..16; "
-                "learn: 0|1; parallel: all|best)",
+                "learn: 0|1; learn_expiry: ms; parallel: all|best)",
                 kv, v);
         }
     }
+}
+
+void fleet_stats(ub_app_t *app) {
+    if (!g_route_on) return;
+    const ub_route_counters_t *c = ub_route_counters(&g_route);
+    ub_app_out(app, ",\"routing\":{\"learned\":%" PRIu64 ",\"learn_full\":%" PRIu64 ",\"learn_refused\":%" PRIu64
+        ",\"learn_expired\":%" PRIu64 "}", c->learned, c->learn_full, c->learn_refused, c->learn_expired);
 }
 
 /* ---- membership ------------------------------------------------------------------------------------- */
@@ -441,9 +450,10 @@ static void event_routes(uint64_t now_ms) {
         const ub_route_counters_t *c = ub_route_counters(&g_route);
         ub_app_out(g_app, ",\"counters\":{\"route_changes\":%" PRIu64 ",\"routes_found\":%" PRIu64 ",\"routes_lost\":%" PRIu64
             ",\"unfeasible\":%" PRIu64 ",\"expired\":%" PRIu64 ",\"starvation_requests\":%" PRIu64
-            ",\"seqno_bumps\":%" PRIu64 ",\"learned\":%" PRIu64 ",\"learn_full\":%" PRIu64 ",\"pinned_skips\":%" PRIu64 "}",
+            ",\"seqno_bumps\":%" PRIu64 ",\"learned\":%" PRIu64 ",\"learn_full\":%" PRIu64 ",\"learn_expired\":%" PRIu64
+            ",\"pinned_skips\":%" PRIu64 "}",
             c->route_changes, c->routes_found, c->routes_lost, c->unfeasible, c->expired, c->starvation_requests,
-            c->seqno_bumps, c->learned, c->learn_full, c->pinned_skips);
+            c->seqno_bumps, c->learned, c->learn_full, c->learn_expired, c->pinned_skips);
     }
     const ub_node_counters_t *n = ub_node_counters(g_node_p);
     ub_app_out(g_app, ",\"membership\":{\"entities_added\":%" PRIu64 ",\"entities_removed\":%" PRIu64 ",\"links_added\":%" PRIu64

@@ -42,6 +42,10 @@ bool fleet_command(const char *verb, char **save, uint64_t now_ms);
 /* Every loop turn: answers of membership requests, periodic flows events. */
 void fleet_poll(uint64_t now_ms);
 
+/* Writes `,"routing":{...}` (the learned-entity bounds: learned, learn_full, learn_expired) into the stats
+ * event while automatic routes run; nothing otherwise. */
+void fleet_stats(ub_app_t *app);
+
 /* Every DATA delivery (the node's delivery hook). */
 void fleet_on_deliver(int entity, uint32_t instance, const ub_frame_header_t *h, uint64_t now_ms);
 

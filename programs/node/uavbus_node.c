@@ -32,6 +32,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "ub/ub_compact.h"
+#include "ub/ub_frag.h"
 #include "ub/ub_impair.h"
 #include "ub/ub_log.h"
 #include "ub/ub_node.h"
@@ -406,6 +408,17 @@ static void link_stats(ub_app_t *app, int id, const ub_link_t *l, const ub_port_
             ub_node_link_bad_frames(&app->node, id, (ub_rx_reason_t)r));
     }
     ub_app_out(app, "}");
+    const ub_compact_t *cs = ub_node_link_compact(&app->node, id);
+    if (cs != NULL) { /* a compact link: its dictionary exchange and what it refused (issue 29) */
+        const ub_compact_stats_t *k = &cs->stats;
+        ub_app_out(app, ",\"compact\":{\"agreed\":%s,\"tx_frames\":%" PRIu64 ",\"rx_frames\":%" PRIu64
+            ",\"tx_bytes\":%" PRIu64 ",\"tx_full_bytes\":%" PRIu64 ",\"hello_tx\":%" PRIu64 ",\"hello_rx\":%" PRIu64
+            ",\"hello_bad\":%" PRIu64 ",\"peer_restarts\":%" PRIu64 ",\"peer_lists\":%" PRIu64
+            ",\"dict_changes\":%" PRIu64 ",\"dict_limited\":%" PRIu64 "}",
+            ub_compact_agreed(cs) ? "true" : "false", k->tx_frames, k->rx_frames, k->tx_bytes, k->tx_full_bytes,
+            k->hello_tx, k->hello_rx, k->hello_bad, k->peer_restarts, k->peer_lists, k->dict_changes,
+            k->dict_limited);
+    }
     if (p != NULL) {
         ub_app_out(app, ",\"port\":{");
         out_port(app, p, l->name);
@@ -434,6 +447,16 @@ static void event_stats(ub_app_t *app, uint64_t now_ms, bool final) {
     ub_app_drops(app, n->drops);
     ub_app_out(app, "},\"links\":");
     ub_app_links(app, false, link_stats);
+    const ub_frag_stats_t *fs = ub_node_frag_stats(&app->node);
+    if (fs != NULL) { /* fragment reassembly and its bounds (ub_frag.h) */
+        ub_app_out(app, ",\"fragments\":{\"tx_transfers\":%" PRIu64 ",\"tx_fragments\":%" PRIu64 ",\"tx_busy\":%" PRIu64
+            ",\"tx_abandoned\":%" PRIu64 ",\"rx_started\":%" PRIu64 ",\"rx_complete\":%" PRIu64 ",\"rx_duplicates\":%" PRIu64
+            ",\"rx_timeouts\":%" PRIu64 ",\"rx_evicted\":%" PRIu64 ",\"rx_refused\":%" PRIu64 ",\"rx_source_limit\":%" PRIu64
+            ",\"rx_restarted\":%" PRIu64 ",\"rx_bad\":%" PRIu64 ",\"pending\":%zu}",
+            fs->tx_transfers, fs->tx_fragments, fs->tx_busy, fs->tx_abandoned, fs->rx_started, fs->rx_complete,
+            fs->rx_duplicates, fs->rx_timeouts, fs->rx_evicted, fs->rx_refused, fs->rx_source_limit, fs->rx_restarted,
+            fs->rx_bad, ub_frag_pending(&g_frag));
+    }
     ub_app_out(app, ",\"pubsub\":{");
     bool first = true;
     for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) {
@@ -491,6 +514,7 @@ static void event_stats(ub_app_t *app, uint64_t now_ms, bool final) {
     }
     out_security(app);
     out_identity(app);
+    fleet_stats(app);
     ub_app_out(app, ",\"stdin_dropped\":%" PRIu64 "}", app->stdin_dropped);
     ub_app_flush(app);
 }

@@ -276,7 +276,7 @@ static void test_administrator_limits_bounded(void **state) {
 /* ---- table exhaustion and the full-table rule ----------------------------------------------- */
 
 static void request_cells(authz_t *a, const char *who, int first, int count, uint32_t id0) {
-    char name[8];
+    char name[16]; /* "cell" and any int: gcc 12 checks the whole range (-Wformat-truncation) */
     for (int i = first; i < first + count; i++) {
         (void)snprintf(name, sizeof name, "cell%02d", i);
         authz_request(a, UB_ADMIN_PUB_REQUEST, authz_instance(a, name), who, who, 1000, 3000, id0 + (uint32_t)i);

@@ -637,6 +637,89 @@ static void test_removed_entity_is_not_relearned_at_once(void **state) {
     fleet_free(f);
 }
 
+/* A forged ROUTE_UPDATE from `src` advertising `n` entities "f<first>".. (unsigned: anyone may send it on an
+ * unsigned network), into node `node`'s link `link_id`. */
+static void forge_update(fleet_t *f, int node, int link_id, const char *src, uint32_t seq, unsigned first, unsigned n) {
+    uint8_t frame[UB_FRAME_MAX];
+    uint8_t *p = frame + UB_FRAME_HEADER_LEN;
+    size_t len = UB_ROUTE_HDR_LEN + n * UB_ROUTE_ENTRY_LEN;
+    memset(p, 0, len);
+    p[0] = UB_ROUTE_WIRE_VERSION;
+    ub_put_u16le(p + 2, (uint16_t)seq);
+    ub_put_u16le(p + 4, HELLO_MS);
+    ub_put_u16le(p + 6, 4 * HELLO_MS);
+    ub_put_u16le(p + 8, UB_ROUTE_INFINITY);
+    p[10] = (uint8_t)n;
+    for (unsigned i = 0; i < n; i++) {
+        uint8_t *e = p + UB_ROUTE_HDR_LEN + i * UB_ROUTE_ENTRY_LEN;
+        char name[16];
+        snprintf(name, sizeof name, "f%u", first + i);
+        test_eid(name, e);
+        ub_put_u16le(e + 12, 1);                 /* seqno */
+        ub_put_u16le(e + 14, UB_ROUTE_LINK_COST); /* metric */
+    }
+    ub_frame_header_t h;
+    memset(&h, 0, sizeof h);
+    memset(h.dest_id, UB_LINK_LOCAL_BYTE, UB_ENTITY_ID_LEN);
+    test_eid(src, h.src_id);
+    h.admin = UB_ADMIN_ROUTE_UPDATE;
+    h.hop_limit = 1;
+    h.payload_size = (uint16_t)len;
+    h.seq = seq;
+    int fl = ub_frame_finish(frame, sizeof frame, &h);
+    assert_true(fl > 0);
+    assert_int_equal(ub_node_rx_frame(&f->w->nodes[node], link_id, frame, (size_t)fl, f->w->now_ms), UB_OK);
+}
+
+static int fakes_known(fleet_t *f, int node, unsigned n) {
+    int known = 0;
+    for (unsigned i = 0; i < n; i++) {
+        char name[16];
+        uint8_t id[UB_ENTITY_ID_LEN];
+        snprintf(name, sizeof name, "f%u", i);
+        test_eid(name, id);
+        known += ub_node_find_entity(&f->w->nodes[node], id) >= 0;
+    }
+    return known;
+}
+
+/* Issue 29: forged route updates on an unsigned network fill the entity table (learn_full) -- but what no
+ * update advertises any more leaves it after learn_expiry_ms, and the table takes genuine entities again. */
+static void test_learned_entities_expire_when_nobody_advertises_them(void **state) {
+    (void)state;
+    ub_route_options_t ro = {.learn_expiry_ms = 10 * HELLO_MS};
+    fleet_t *f = fleet_new(3, &ro);
+    int e01 = fleet_link(f, 0, 1);
+    fleet_link(f, 1, 2);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    const ub_route_counters_t *c = ub_route_counters(&f->rt[0]);
+    /* the forger fills node 0's table: 24 fake entities, more than it holds */
+    uint64_t t_forged = f->w->now_ms;
+    for (uint32_t k = 0; k < 3; k++) {
+        forge_update(f, 0, f->edge[e01].la, "evil", 1 + k, 8 * k, 8);
+        world_run(f->w, f->w->now_ms + 5, 1);
+    }
+    int filled = fakes_known(f, 0, 24);
+    assert_true(filled > 0);
+    assert_true(c->learn_full > 0); /* the table was full: the bound, counted */
+    assert_int_equal(c->learn_expired, 0);
+    /* nobody advertises them any more: no entity learned from the forger outlives the expiry (checked every ms,
+     * give or take the tick that removes it) */
+    while (f->w->now_ms < t_forged + ro.learn_expiry_ms + 2 * HELLO_MS) {
+        world_run(f->w, f->w->now_ms + 1, 1);
+        if (f->w->now_ms > t_forged + 15 + ro.learn_expiry_ms) assert_int_equal(fakes_known(f, 0, 24), 0);
+    }
+    assert_int_equal(c->learn_expired, (uint64_t)filled);
+    /* the genuine ones, advertised all along, stayed; a new genuine entity finds room again */
+    assert_true(knows(f, 0, 1) && knows(f, 0, 2));
+    assert_true(route(f, 0, 2).reachable);
+    assert_true(fakes_known(f, 0, 24) == 0);
+    forge_update(f, 0, f->edge[e01].la, "evil2", 100, 0, 1); /* learnable again at once: no tombstone */
+    assert_int_equal(fakes_known(f, 0, 1), 1);
+    fleet_free(f);
+}
+
 /* Link-local frames: never forwarded; routing frames at a node without the engine count routing_off; any
  * other code sent link-local counts bad_payload. */
 static void test_link_local_addressing(void **state) {
@@ -716,6 +799,7 @@ int main(void) {
         cmocka_unit_test(test_restarted_node_is_reachable_again),
         cmocka_unit_test(test_manual_mask_pins_a_route),
         cmocka_unit_test(test_removed_entity_is_not_relearned_at_once),
+        cmocka_unit_test(test_learned_entities_expire_when_nobody_advertises_them),
         cmocka_unit_test(test_link_local_addressing),
         cmocka_unit_test(test_options_checked),
     };

@@ -1,5 +1,6 @@
 /*
- * TCP takeover over 127.0.0.1 with signing required. An attacker who connects to the server's
+ * TCP takeover over 127.0.0.1 with signing required (and, issue 29, the client hello and the candidate
+ * slots an outsider cannot hold). An attacker who connects to the server's
  * listening port — silent, with garbage, with unsigned or forged frames, or replaying frames it
  * captured — is held as a candidate and never displaces the established peer; extra connections
  * are refused; the legitimate stream keeps every frame. The legitimate client reconnecting after a
@@ -36,6 +37,7 @@ typedef struct rig {
     uint16_t port;
     ub_sec_t sa, sb;
     uint64_t now;
+    ub_node_t *server_node, *client_node;
 } rig_t;
 
 static void sec_up(ub_sec_t *s) {
@@ -45,7 +47,9 @@ static void sec_up(ub_sec_t *s) {
     assert_int_equal(ub_sec_start(s, 0, 1000), UB_OK);
 }
 
-static rig_t *rig_new(void) {
+/* `listener_publishes` = 0: the publishing node connects out (its frames prove it); 1: the publishing node
+ * listens and the subscriber, which has nothing to send, connects (only its hello can prove it). */
+static rig_t *rig_new_roles(int listener_publishes) {
     rig_t *r = calloc(1, sizeof *r);
     assert_non_null(r);
     r->p = pair_new(NULL);
@@ -56,14 +60,22 @@ static rig_t *rig_new(void) {
     assert_int_equal(ub_node_set_require_signed(r->p->pub_node, true), UB_OK);
     assert_int_equal(ub_node_set_require_signed(r->p->sub_node, true), UB_OK);
     ub_tcp_options_t so = {.idle_ms = 300, .candidate_ms = 500};
+    ub_node_t *server_node = listener_publishes ? r->p->pub_node : r->p->sub_node;
+    ub_node_t *client_node = listener_publishes ? r->p->sub_node : r->p->pub_node;
     assert_int_equal(ub_tcp_server_open(&r->server, "127.0.0.1", 0, &so), UB_OK);
     assert_int_equal(ub_tcp_local_port(&r->server, &r->port), UB_OK);
-    assert_int_equal(ub_tcp_attach(&r->server, r->p->sub_node, r->p->sub_link), UB_OK);
+    assert_int_equal(ub_tcp_attach(&r->server, server_node, listener_publishes ? r->p->pub_link : r->p->sub_link),
+                     UB_OK);
+    r->server_node = server_node;
+    r->client_node = client_node;
     ub_tcp_options_t co = {.backoff_initial_ms = 20, .backoff_max_ms = 160};
     assert_int_equal(ub_tcp_client_init(&r->client, "127.0.0.1", r->port, &co), UB_OK);
-    assert_int_equal(ub_tcp_attach(&r->client, r->p->pub_node, r->p->pub_link), UB_OK);
+    assert_int_equal(ub_tcp_attach(&r->client, client_node, listener_publishes ? r->p->sub_link : r->p->pub_link),
+                     UB_OK);
     return r;
 }
+
+static rig_t *rig_new(void) { return rig_new_roles(0); }
 
 static void rig_free(rig_t *r) {
     ub_tcp_close(&r->client);
@@ -81,9 +93,9 @@ static void step(rig_t *r, int serve_old) {
     (void)poll(fds, 2, 0);
     ub_node_tick(r->p->pub_node, r->now);
     ub_node_tick(r->p->sub_node, r->now);
-    if (serve_old) assert_true(ub_tcp_service(&r->client, r->p->pub_node, r->now) >= 0);
-    if (r->client2.node != NULL) assert_true(ub_tcp_service(&r->client2, r->p->pub_node, r->now) >= 0);
-    assert_true(ub_tcp_service(&r->server, r->p->sub_node, r->now) >= 0);
+    if (serve_old) assert_true(ub_tcp_service(&r->client, r->client_node, r->now) >= 0);
+    if (r->client2.node != NULL) assert_true(ub_tcp_service(&r->client2, r->client_node, r->now) >= 0);
+    assert_true(ub_tcp_service(&r->server, r->server_node, r->now) >= 0);
     r->now++;
 }
 
@@ -97,15 +109,20 @@ static void run(rig_t *r, uint64_t ms, int serve_old) {
     }
 }
 
-/* A raw attacker connection to the server's port. */
-static int attacker_connect(uint16_t port) {
+/* A raw attacker connection to the server's port from 127.0.0.`host` (any 127/8 address is local). */
+static int attacker_connect_from(uint16_t port, uint8_t host) {
     int fd = socket(AF_INET, SOCK_STREAM, 0);
     assert_true(fd >= 0);
+    struct sockaddr_in me = {.sin_family = AF_INET, .sin_port = 0};
+    me.sin_addr.s_addr = htonl(0x7F000000u | host);
+    assert_int_equal(bind(fd, (struct sockaddr *)&me, sizeof me), 0);
     struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons(port)};
     a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
     assert_int_equal(connect(fd, (struct sockaddr *)&a, sizeof a), 0);
     return fd;
 }
+
+static int attacker_connect(uint16_t port) { return attacker_connect_from(port, 1); }
 
 /* Frames the legitimate client sent (captured off the wire by "the attacker"). */
 typedef struct tape {
@@ -148,9 +165,11 @@ static void test_signed_link_comes_up_and_resists_takeover(void **state) {
     int silent = attacker_connect(r->port);
     int noisy = attacker_connect(r->port);
     run(r, 5, 1);
-    int third = attacker_connect(r->port); /* every candidate slot is taken: refused at once */
+    int third = attacker_connect(r->port); /* its address holds its bound of unproven ones: evicts the oldest */
     run(r, 5, 1);
-    assert_int_equal(s->candidates_refused, 1);
+    assert_int_equal(s->candidates_evicted, 1);
+    assert_int_equal(s->candidates_refused, 0);
+    assert_int_equal(ub_tcp_candidates(&r->server), UB_TCP_CANDIDATES_PER_ADDR);
     uint8_t junk[300];
     for (size_t i = 0; i < sizeof junk; i++) junk[i] = (uint8_t)(i * 37u);
     assert_int_equal(write(noisy, junk, sizeof junk), (ssize_t)sizeof junk);
@@ -180,7 +199,7 @@ static void test_signed_link_comes_up_and_resists_takeover(void **state) {
     assert_int_equal(ub_tcp_state(&r->server), UB_TCP_UP);
     assert_int_equal(s->replaced, 0);
     assert_int_equal(s->adopted, 1);
-    assert_int_equal(s->candidates_expired, 2); /* both proved nothing within candidate_ms */
+    assert_int_equal(s->candidates_expired, 2); /* noisy and third: not adopted within candidate_ms */
     assert_int_equal(ub_tcp_candidates(&r->server), 0);
     assert_int_equal(drops(p->sub_node, UB_DROP_UNSIGNED), 1);
     assert_int_equal(drops(p->sub_node, UB_DROP_BAD_TAG), 1);
@@ -222,10 +241,106 @@ static void test_reconnect_after_half_open_is_adopted_when_the_old_peer_is_silen
     rig_free(r);
 }
 
+/* The issue-29 deadlock: the listener publishes, the client has nothing to send. The client's hello on
+ * connecting proves it, so the listener adopts the connection and the stream flows at its rate. */
+static void test_a_listener_that_only_publishes_is_adopted_by_the_client_hello(void **state) {
+    (void)state;
+    rig_t *r = rig_new_roles(1);
+    pair_t *p = r->p;
+    assert_true(ub_pubsub_publish(p->pub_node, p->pub, TEST_GPS, p->sub_id, 10, 0) >= 0);
+    run(r, 50, 1);
+    const ub_tcp_stats_t *s = ub_tcp_stats(&r->server);
+    assert_int_equal(ub_tcp_stats(&r->client)->hellos, 1);
+    assert_int_equal(ub_tcp_state(&r->server), UB_TCP_UP);
+    assert_int_equal(s->adopted, 1);
+    assert_int_equal(drops(r->server_node, UB_DROP_BAD_PAYLOAD), 0); /* the hello is taken, not dropped */
+    uint64_t t0 = r->now;
+    run(r, 1000, 1);
+    /* 10 ms publication for 1 s, minus the first frames dropped `unverified` while the subscriber's
+     * challenge of the publisher runs (one round trip) */
+    size_t got = delivery_count(&p->log, p->sub, TEST_GPS, t0, r->now);
+    assert_in_range(got, 95, 101);
+    assert_int_equal(s->candidates_expired, 0);
+    rig_free(r);
+}
+
+/* Plain connections hold every candidate slot, from several addresses, and reconnect before they expire:
+ * the genuine client still gets a slot at once (evicting the oldest unproven) and proves itself. */
+static void test_plain_connections_renewed_before_expiry_cannot_keep_the_client_out(void **state) {
+    (void)state;
+    rig_t *r = rig_new_roles(1);
+    pair_t *p = r->p;
+    assert_true(ub_pubsub_publish(p->pub_node, p->pub, TEST_GPS, p->sub_id, 10, 0) >= 0);
+    r->client.next_attempt_ms = UINT64_MAX; /* the client stays away while the attacker moves in */
+    int held[UB_TCP_MAX_CANDIDATES];
+    for (int i = 0; i < UB_TCP_MAX_CANDIDATES; i++) {
+        held[i] = attacker_connect_from(r->port, (uint8_t)(2 + i / UB_TCP_CANDIDATES_PER_ADDR));
+        run(r, 100, 1);
+    }
+    assert_int_equal(ub_tcp_candidates(&r->server), UB_TCP_MAX_CANDIDATES);
+    for (int round = 0; round < 8; round++) { /* renew the oldest every 100 ms: the slots never empty */
+        int i = round % UB_TCP_MAX_CANDIDATES;
+        close(held[i]);
+        held[i] = attacker_connect_from(r->port, (uint8_t)(2 + i / UB_TCP_CANDIDATES_PER_ADDR));
+        run(r, 100, 1);
+        assert_int_equal(ub_tcp_candidates(&r->server), UB_TCP_MAX_CANDIDATES);
+    }
+    const ub_tcp_stats_t *s = ub_tcp_stats(&r->server);
+    assert_int_equal(s->adopted, 0);
+    uint64_t evicted = s->candidates_evicted;
+    r->client.next_attempt_ms = r->now; /* the genuine client (re)starts */
+    uint64_t t0 = r->now;
+    run(r, 20, 1);
+    assert_int_equal(ub_tcp_state(&r->server), UB_TCP_UP);
+    assert_int_equal(s->adopted, 1);
+    assert_int_equal(s->candidates_evicted, evicted + 1);
+    assert_int_equal(s->candidates_refused, 0);
+    run(r, 980, 1);
+    size_t got = delivery_count(&p->log, p->sub, TEST_GPS, t0, r->now);
+    assert_in_range(got, 95, 101);
+    for (int i = 0; i < UB_TCP_MAX_CANDIDATES; i++) close(held[i]);
+    rig_free(r);
+}
+
+/* A proven candidate is never evicted by connections that prove nothing; with every slot proven, a new
+ * connection is refused. */
+static void test_a_proven_candidate_is_not_evicted(void **state) {
+    (void)state;
+    rig_t *r = rig_new();
+    assert_true(ub_pubsub_publish(r->p->pub_node, r->p->pub, TEST_GPS, r->p->sub_id, 10, 0) >= 0);
+    run(r, 100, 1);
+    assert_int_equal(ub_tcp_state(&r->server), UB_TCP_UP);
+    /* a second genuine connection (the same node, e.g. after a half-open one): proven, held while the
+     * established peer is alive */
+    ub_tcp_options_t co = {.backoff_initial_ms = 20, .backoff_max_ms = 160};
+    assert_int_equal(ub_tcp_client_init(&r->client2, "127.0.0.1", r->port, &co), UB_OK);
+    assert_int_equal(ub_tcp_attach(&r->client2, r->client_node, r->p->pub_link), UB_OK);
+    run(r, 20, 1);
+    assert_int_equal(ub_tcp_stats(&r->client2)->hellos, 1);
+    assert_int_equal(ub_tcp_candidates(&r->server), 1);
+    int fds[UB_TCP_MAX_CANDIDATES + 2];
+    for (int i = 0; i < UB_TCP_MAX_CANDIDATES + 2; i++) {
+        fds[i] = attacker_connect_from(r->port, (uint8_t)(10 + i));
+        run(r, 5, 1);
+    }
+    const ub_tcp_stats_t *s = ub_tcp_stats(&r->server);
+    assert_int_equal(ub_tcp_candidates(&r->server), UB_TCP_MAX_CANDIDATES);
+    assert_int_equal(s->candidates_evicted, 3); /* 3 free slots, 6 newcomers: the 3 oldest plain ones went */
+    assert_int_equal(s->candidates_lost + s->candidates_expired, 0);
+    int proven = 0;
+    for (int i = 0; i < UB_TCP_MAX_CANDIDATES; i++) proven += r->server.cand[i].fd >= 0 && r->server.cand[i].proven;
+    assert_int_equal(proven, 1);
+    for (int i = 0; i < UB_TCP_MAX_CANDIDATES + 2; i++) close(fds[i]);
+    rig_free(r);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_signed_link_comes_up_and_resists_takeover),
         cmocka_unit_test(test_reconnect_after_half_open_is_adopted_when_the_old_peer_is_silent),
+        cmocka_unit_test(test_a_listener_that_only_publishes_is_adopted_by_the_client_hello),
+        cmocka_unit_test(test_plain_connections_renewed_before_expiry_cannot_keep_the_client_out),
+        cmocka_unit_test(test_a_proven_candidate_is_not_evicted),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

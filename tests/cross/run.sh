@@ -44,7 +44,7 @@ ILP32_NOT_APPLICABLE="test_struct_vectors_kinds"
 # byte-order path than test_log and test_frame_codec do.
 CORE_TESTS="test_frame_codec test_frame_crc test_catalogue test_layout test_router test_node test_node_sec test_sec
   test_sec_failclosed test_pubsub test_route test_member test_memlink test_nodecfg test_policy test_inspect
-  test_wire_paths test_log test_table1 test_ident test_revoke test_origin"
+  test_wire_paths test_log test_table1 test_ident test_revoke test_origin test_frag_fair test_compact_limit"
 
 fail() { echo "test-cross: $*" >&2; exit 1; }
 

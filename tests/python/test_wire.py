@@ -48,6 +48,8 @@ def test_compact_udp_link_delivers_with_short_headers(flightsw: Generated) -> No
         size = flightsw.catalogue.instance("gpsOut").type.packed_size
         assert c["tx_bytes"] < c["tx_full_bytes"]
         assert c["rejected"]["bad_crc"] == 0 and c["rejected"]["no_dictionary"] == 0
+        # Both ends started once: first contact is no dictionary change, and nothing was refused (issue 29).
+        assert c["dict_changes"] == 0 and c["dict_limited"] == 0
         before = dict(c)
         n0 = len(got)
         wait_for([gcs, air], lambda: len(got) >= n0 + 10)

@@ -98,5 +98,12 @@ def test_tables_of_a_live_node_show_pubsub_and_admin(cat) -> None:
     vtext = "\n".join(tables.render_all(vehicle, load_config(TABLE2, "primary")))
     assert "publish/subscribe table of rmax1ob1" in vtext
     assert any(x.split()[:4] == ["publication", "gpsOut", "gcs1", "2000"] for x in vtext.splitlines())
+    # The bounded state (issue 29): each bound's counter, with routing's once routing runs.
+    assert "bounded state" in vtext
+    bounds = {(r["state"], r["counter"]): r["value"] for r in tables.bound_rows(vehicle)}
+    assert bounds[("fragments", "rx_refused")] == 0 and ("fragments", "rx_source_limit") in bounds
+    vehicle.routing.enable()
+    bounds = {(r["state"], r["counter"]) for r in tables.bound_rows(vehicle)}
+    assert {("routing", "learn_full"), ("routing", "learn_expired")} <= bounds
     gcs.close()
     vehicle.close()

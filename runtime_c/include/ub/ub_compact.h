@@ -176,16 +176,20 @@ typedef struct ub_compact_stats {
     uint64_t hello_bad;        /**< LINK_HELLO payloads refused (size, version, page) */
     uint64_t peer_restarts;    /**< the peer's epoch changed */
     uint64_t peer_lists;       /**< complete peer lists taken in (new hash) */
+    uint64_t dict_changes;     /**< LINK_HELLOs that replaced the peer's dictionary held here (epoch, catalogue or list hash), first contact not counted */
+    uint64_t dict_limited;     /**< changes refused: an unauthenticated LINK_HELLO within change_min_ms of the last change */
 } ub_compact_stats_t;
 
 /** Timing of the dictionary exchange; 0 = default. */
 typedef struct ub_compact_params {
     uint32_t hello_ms; /**< a full round of LINK_HELLO pages every hello_ms once agreed (default 5000) */
     uint32_t retry_ms; /**< least gap between rounds while not agreed or on demand (default 500) */
+    uint32_t change_min_ms; /**< least gap between two dictionary changes taken from unauthenticated LINK_HELLOs (default 2000) */
 } ub_compact_params_t;
 
 #define UB_COMPACT_HELLO_MS 5000u
 #define UB_COMPACT_RETRY_MS 500u
+#define UB_COMPACT_CHANGE_MIN_MS 2000u
 
 /** One compact link's state. Caller-owned (about 1.5 KiB with 16 entities); fields private. A stream's unfinished
  *  packet is carried in the link's ub_decoder_t, which is large enough (UB_COMPACT_WIRE_MAX <= UB_FRAME_MAX). */
@@ -217,6 +221,7 @@ typedef struct ub_compact {
     uint8_t started;
     uint64_t next_round_ms;
     uint64_t last_round_ms;
+    uint64_t change_ms;         /**< last dictionary change taken from the peer */
     /* sequences */
     ub_compact_refs_t tx;
     ub_compact_refs_t rx;
@@ -343,10 +348,24 @@ void ub_compact_rx_note(ub_compact_t *s, const uint8_t src[UB_ENTITY_ID_LEN], ui
 bool ub_compact_hello_due(ub_compact_t *s, uint64_t now_ms, uint8_t *payload, size_t cap, uint16_t *len);
 
 /**
- * Takes in a LINK_HELLO payload from the peer.
+ * Takes in a LINK_HELLO payload from the peer (authenticated: ub_compact_on_hello_from() with true).
  * @return UB_OK, or UB_ERR_INVAL (bad size, version or page: counted hello_bad).
  */
 UB_CHECK int ub_compact_on_hello(ub_compact_t *s, const uint8_t *payload, size_t len, uint64_t now_ms);
+
+/**
+ * Takes in a LINK_HELLO payload from the peer. A page that replaces the peer's dictionary held here
+ * (another epoch, catalogue hash or list hash; not first contact) is a **change**, counted
+ * `dict_changes`. On an unsigned link (`authenticated` false: anyone may send a LINK_HELLO there) a
+ * change within `change_min_ms` of the previous one is refused whole and counted `dict_limited`: a
+ * flood of forged hellos cannot keep resetting the link's dictionary and sequence references, only
+ * change it once per `change_min_ms` -- which is still a change nobody can tell from the peer's; sign the
+ * link to stop forged ones (docs/wire-format.md).
+ * @return UB_OK; UB_ERR_INVAL (bad size, version or page: counted hello_bad); UB_ERR_AGAIN (refused by
+ *         the limit).
+ */
+UB_CHECK int ub_compact_on_hello_from(ub_compact_t *s, const uint8_t *payload, size_t len, uint64_t now_ms,
+                                      bool authenticated);
 
 /**
  * The most bytes a frame of `payload_len` payload bytes and `trailer_len` trailer bytes takes on

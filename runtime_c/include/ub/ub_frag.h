@@ -21,9 +21,14 @@
  * allocation), keyed by (handling entity, source, transfer), so fragments of several directories
  * may interleave. Duplicates are ignored (counted); a fragment that disagrees with its transfer
  * (count, total, content) restarts it (the old one counted incomplete). A transfer with no new
- * fragment for `timeout_ms` is dropped and counted; when every slot is busy the one idle longest
- * makes room (counted). Nothing is retransmitted: a lost fragment loses the directory, as LCM's
- * do; periodic publications send it again.
+ * fragment for `timeout_ms` is dropped and counted. Slots are shared fairly (issue 29): one source
+ * holds at most UB_FRAG_SLOTS_PER_SOURCE; its next transfer replaces its own idlest one
+ * (`rx_source_limit`). When every slot is busy, a new transfer takes the slot idle longest only if
+ * that one has had no new fragment for `protect_ms` (`rx_evicted`); otherwise the new transfer is
+ * refused (`rx_refused`): a transfer in progress is never given up for a newcomer, so transfers that
+ * never complete (a flood of forged first fragments from many sources) cannot push out a genuine
+ * one whose fragments keep arriving. Nothing is retransmitted: a lost fragment loses the directory,
+ * as LCM's do; periodic publications send it again.
  *
  * The sender packs the directory into one of UB_FRAG_TX_SLOTS buffers and sends fragments through
  * the node's ordinary send path; when a transport pushes back (UB_ERR_AGAIN: a full radio queue)
@@ -60,6 +65,10 @@ extern "C" {
 #ifndef UB_FRAG_SLOTS
 #define UB_FRAG_SLOTS 4
 #endif
+/** Reassemblies one source may hold at once (its next transfer replaces its own idlest). */
+#ifndef UB_FRAG_SLOTS_PER_SOURCE
+#define UB_FRAG_SLOTS_PER_SOURCE 2
+#endif
 /** Fragmented directories one node sends at once. */
 #ifndef UB_FRAG_TX_SLOTS
 #define UB_FRAG_TX_SLOTS 2
@@ -71,6 +80,9 @@ extern "C" {
 /** Default reassembly timeout: a transfer with no new fragment for this long is dropped. */
 #define UB_FRAG_TIMEOUT_MS 2000u
 
+#if UB_FRAG_SLOTS_PER_SOURCE < 1 || UB_FRAG_SLOTS_PER_SOURCE > UB_FRAG_SLOTS
+#error "UB_FRAG_SLOTS_PER_SOURCE must be 1..UB_FRAG_SLOTS"
+#endif
 #if UB_FRAG_SLOTS < 1 || UB_FRAG_TX_SLOTS < 1 || UB_FRAG_MAX_FRAGMENTS < 2 || UB_FRAG_MAX_FRAGMENTS > 65535
 #error "UB_FRAG_SLOTS and UB_FRAG_TX_SLOTS must be >= 1, UB_FRAG_MAX_FRAGMENTS 2..65535"
 #endif
@@ -109,6 +121,7 @@ UB_CHECK int ub_frag_write(uint8_t *out, size_t cap, uint16_t transfer, uint16_t
 
 typedef struct ub_frag_params {
     uint32_t timeout_ms; /**< 0 = UB_FRAG_TIMEOUT_MS */
+    uint32_t protect_ms; /**< a transfer with a new fragment this recently is not evicted for another source's; 0 = timeout_ms / 4 */
 } ub_frag_params_t;
 
 typedef struct ub_frag_stats {
@@ -117,12 +130,14 @@ typedef struct ub_frag_stats {
     uint64_t tx_busy;        /**< sends refused: every transmit slot busy (UB_ERR_AGAIN) */
     uint64_t tx_paused;      /**< times a transfer stopped for a transport's push back and went on later */
     uint64_t tx_abandoned;   /**< transfers given up (no route, send error) */
-    uint64_t rx_started;     /**< reassemblies begun (each ends complete, timed out, evicted or restarted, or is pending) */
+    uint64_t rx_started;     /**< reassemblies begun (each ends complete, timed out, evicted, restarted or source-limited, or is pending) */
     uint64_t rx_fragments;   /**< fragments taken into a reassembly */
     uint64_t rx_duplicates;  /**< fragments already held */
     uint64_t rx_complete;    /**< directories reassembled and handed on */
     uint64_t rx_timeouts;    /**< transfers dropped after timeout_ms without a new fragment */
-    uint64_t rx_evicted;     /**< transfers dropped to make room (every slot busy) */
+    uint64_t rx_evicted;     /**< transfers dropped to make room (every slot busy, this one idle for protect_ms) */
+    uint64_t rx_refused;     /**< fragments of new transfers refused: every slot busy with a transfer in progress */
+    uint64_t rx_source_limit; /**< transfers dropped for a newer one of their source (UB_FRAG_SLOTS_PER_SOURCE) */
     uint64_t rx_restarted;   /**< transfers dropped because a fragment disagreed with them */
     uint64_t rx_bad;         /**< fragments refused (malformed) */
 } ub_frag_stats_t;
@@ -173,7 +188,8 @@ void ub_frag_init(ub_frag_t *f, const ub_frag_params_t *params, uint16_t first_t
 typedef enum ub_frag_result {
     UB_FRAG_PENDING = 0,  /**< taken; the directory is not whole yet */
     UB_FRAG_COMPLETE = 1, /**< the directory is whole: `*data`, `*len` (valid until the next call) */
-    UB_FRAG_DUPLICATE = 2 /**< already held: ignored */
+    UB_FRAG_DUPLICATE = 2, /**< already held: ignored */
+    UB_FRAG_REFUSED = 3    /**< a fragment of a transfer not held, refused: every slot busy (rx_refused) */
 } ub_frag_result_t;
 
 /**

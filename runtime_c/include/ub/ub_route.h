@@ -52,6 +52,10 @@
  *    adds it as a remote entity (unless `no_learn`), so relays can forward to
  *    vehicles nobody announced to them. An entity removed with
  *    ub_node_remove_entity() is not learned again for 4 update intervals.
+ *    A learned entity that no update has advertised a route to (a
+ *    retraction is no route) for `learn_expiry_ms` is removed again
+ *    (`learn_expired`), so entities from forged or stale updates do not
+ *    fill the entity table for good (issue 29).
  *
  * All state is in the caller-owned ub_route_t (fixed size from ub_config.h,
  * no allocation). Time comes only from ub_node_tick() and the receive path.
@@ -106,6 +110,7 @@ typedef struct ub_route_options {
     uint8_t parallel;        /**< ub_route_parallel_t; default UB_ROUTE_PARALLEL_ALL */
     uint8_t no_learn;        /**< 1: never add entities to the table from updates */
     uint16_t initial_seqno;  /**< first seqno of every local entity; default 0 */
+    uint32_t learn_expiry_ms; /**< a learned entity no update advertised a route to this long is removed; default source_gc_ms */
 } ub_route_options_t;
 
 /** Per-link routing counters. */
@@ -140,6 +145,7 @@ typedef struct ub_route_counters {
     uint64_t learned;             /**< entities added to the table from updates */
     uint64_t learn_full;          /**< could not learn: entity table full */
     uint64_t learn_refused;       /**< not learned: no_learn, or removed recently */
+    uint64_t learn_expired;       /**< learned entities removed: no update advertised a route to them for learn_expiry_ms */
     uint64_t pinned_skips;        /**< masks not written because the operator pinned them */
 } ub_route_counters_t;
 
@@ -206,6 +212,8 @@ typedef struct ub_route {
     ub_route_options_t opt;
     uint16_t seqno[UB_MAX_LOCAL_ENTITIES];   /* per local slot */
     uint8_t learned[UB_MAX_ENTITIES];
+    uint8_t expiring;                        /* removing an expired learned entity: no tombstone */
+    uint64_t advertised_ms[UB_MAX_ENTITIES]; /* learned entities: last update that advertised a route to it */
     uint8_t reselect[UB_MAX_LOCAL_ENTITIES]; /* the slot's routes must be chosen again */
     ub_route_tombstone_t tomb[UB_ROUTE_TOMBSTONES];
     ub_route_link_t links[UB_MAX_NODE_LINKS];

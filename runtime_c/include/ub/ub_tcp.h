@@ -28,23 +28,41 @@
  * since a client waiting to retry has no descriptor to wait on.
  *
  * Server: a new connection never displaces an established peer on its own.
- * It is held as a **candidate** (at most UB_TCP_MAX_CANDIDATES; more are
- * closed at once, `candidates_refused`) whose bytes go to the node through a
- * decoder of its own (ub_node_rx_stream()), so its frames are checked like
- * any others and nothing of it reaches the established stream. A candidate is
- * **adopted** only when the established peer is gone or has sent no frame of
- * proven freshness for `idle_ms` (the usual cause: the same client
- * reconnecting after a half-open connection), and only once the candidate has
- * itself sent a frame the node judged authentic (with signing required: a
- * valid signed frame, verified by the node, not by this driver) that was no
- * duplicate or replay; one whose freshness the node could prove is preferred
- * (a node without state for the source cannot prove it until the challenge,
- * which needs the link). `replaced` counts adoptions that closed an
- * established peer. With no established peer and a link that
- * does not require signing, a new connection is adopted at once, as before.
- * Candidates that prove nothing within `candidate_ms` are closed
- * (`candidates_expired`). Poll ub_tcp_listen_fileno() and ub_tcp_fileno(),
- * and call ub_tcp_service() periodically (candidates are read there).
+ * It is held as a **candidate** (at most UB_TCP_MAX_CANDIDATES) whose bytes go
+ * to the node through a decoder of its own (ub_node_rx_stream()), so its
+ * frames are checked like any others and nothing of it reaches the
+ * established stream. A candidate is **adopted** only when the established
+ * peer is gone or has sent no frame of proven freshness for `idle_ms` (the
+ * usual cause: the same client reconnecting after a half-open connection),
+ * and only once the candidate has itself sent a frame the node judged
+ * authentic (with signing required: a valid signed frame, verified by the
+ * node, not by this driver) that was no duplicate or replay; one whose
+ * freshness the node could prove is preferred. `replaced` counts adoptions
+ * that closed an established peer. With no established peer and a link that
+ * does not require signing, a new connection is adopted at once.
+ *
+ * Client hello: a client whose node can sign (a security context with a
+ * transmit key) sends one signed link-local CHALLENGE (docs/routing.md,
+ * docs/security.md: the **link hello**, `hellos`) as soon as its connection is
+ * up. A listener that requires signing therefore gets a proof on every
+ * genuine connection within one trip, also when the client has nothing else
+ * to send (a listener that only publishes is never stuck behind a silent
+ * client). The listener's node takes the hello like any frame of the sender
+ * (key, counter window) and answers nothing.
+ *
+ * Candidate slots cannot be held against a genuine client: every candidate
+ * is closed `candidate_ms` after it connected (`candidates_expired`:
+ * absolute age, a new connection starts a new candidate rather than renewing
+ * one); at most UB_TCP_CANDIDATES_PER_ADDR unproven candidates come from one
+ * IPv4 address; a new connection that finds its address at that bound, or
+ * every slot taken, **evicts** the oldest unproven candidate (of its own
+ * address first; `candidates_evicted`) instead of being refused. A proven
+ * candidate is never evicted; only when every slot holds one is a new
+ * connection closed at once (`candidates_refused`). So connections that
+ * prove nothing only ever displace each other, and a genuine client, which
+ * proves itself with its hello one trip after connecting, gets a slot at
+ * once. Poll ub_tcp_listen_fileno() and ub_tcp_fileno(), and call
+ * ub_tcp_service() periodically (candidates are read there).
  */
 #ifndef UB_TCP_H
 #define UB_TCP_H
@@ -75,7 +93,14 @@ extern "C" {
 
 /** Connections a server holds beside its established peer until they prove themselves. */
 #ifndef UB_TCP_MAX_CANDIDATES
-#define UB_TCP_MAX_CANDIDATES 2
+#define UB_TCP_MAX_CANDIDATES 4
+#endif
+/** Unproven candidates one IPv4 address may hold; a further connection from it evicts its oldest. */
+#ifndef UB_TCP_CANDIDATES_PER_ADDR
+#define UB_TCP_CANDIDATES_PER_ADDR 2
+#endif
+#if UB_TCP_CANDIDATES_PER_ADDR < 1 || UB_TCP_CANDIDATES_PER_ADDR > UB_TCP_MAX_CANDIDATES
+#error "UB_TCP_CANDIDATES_PER_ADDR must be 1..UB_TCP_MAX_CANDIDATES"
 #endif
 
 #if UB_TCP_TX_BUFFER < UB_FRAME_MAX
@@ -97,7 +122,7 @@ typedef struct ub_tcp_options {
     uint32_t backoff_initial_ms; /**< default 100 */
     uint32_t backoff_max_ms;     /**< default 5000 */
     uint32_t idle_ms;            /**< server: an established peer without a fresh frame this long may be replaced; default 3000 */
-    uint32_t candidate_ms;       /**< server: a candidate that proved nothing this long is closed; default 10000 */
+    uint32_t candidate_ms;       /**< server: a candidate not adopted this long after it connected is closed; default 10000 */
 } ub_tcp_options_t;
 
 typedef struct ub_tcp_stats {
@@ -109,8 +134,9 @@ typedef struct ub_tcp_stats {
     uint64_t replaced;         /**< server: established peers closed because a proven candidate was adopted */
     uint64_t candidates;       /**< server: connections held as candidates */
     uint64_t adopted;          /**< server: candidates adopted (after a fresh authentic frame) */
-    uint64_t candidates_refused; /**< server: connections closed at once: every candidate slot taken */
-    uint64_t candidates_expired; /**< server: candidates closed for proving nothing within candidate_ms */
+    uint64_t candidates_refused; /**< server: connections closed at once: every candidate slot holds a proven one */
+    uint64_t candidates_evicted; /**< server: unproven candidates closed to make room for a new connection */
+    uint64_t candidates_expired; /**< server: candidates closed for not being adopted within candidate_ms of connecting */
     uint64_t candidates_lost;  /**< server: candidates that closed or failed before adoption */
     uint64_t candidate_rejected; /**< server: frames the candidates' decoders rejected (any reason), counted when a candidate ends */
     uint64_t candidate_garbage;  /**< server: bytes of candidates' streams that were no frame, counted when a candidate ends */
@@ -120,6 +146,7 @@ typedef struct ub_tcp_stats {
     uint64_t backpressure;     /**< frames refused with UB_ERR_AGAIN: transmit buffer full */
     uint64_t send_closed;      /**< frames refused with UB_ERR_CLOSED: no connection */
     uint64_t tx_discarded;     /**< queued bytes thrown away with a lost connection */
+    uint64_t hellos;           /**< client: link hellos sent on connecting (signed link-local CHALLENGE) */
 } ub_tcp_stats_t;
 
 /** A server's candidate connection. Treat as private. */
@@ -127,6 +154,7 @@ typedef struct ub_tcp_candidate {
     int fd;           /**< -1: free slot */
     uint8_t proven;   /**< 0 nothing yet; 1 an authentic frame (its freshness not provable yet); 2 a fresh one */
     uint64_t since_ms;
+    uint32_t addr;    /**< the peer's IPv4 address (network order): the per-address bound */
     ub_decoder_t dec; /**< its own stream, apart from the established one */
 } ub_tcp_candidate_t;
 

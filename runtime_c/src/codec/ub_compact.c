@@ -390,6 +390,7 @@ void ub_compact_init(ub_compact_t *s, const ub_catalogue_t *cat, uint32_t epoch,
     if (params != NULL) s->params = *params;
     if (s->params.hello_ms == 0) s->params.hello_ms = UB_COMPACT_HELLO_MS;
     if (s->params.retry_ms == 0) s->params.retry_ms = UB_COMPACT_RETRY_MS;
+    if (s->params.change_min_ms == 0) s->params.change_min_ms = UB_COMPACT_CHANGE_MIN_MS;
     s->epoch = epoch != 0 ? epoch : 1u;
     s->cat = cat;
     s->cat_hash = ub_compact_catalogue_hash(cat);
@@ -643,6 +644,10 @@ bool ub_compact_hello_due(ub_compact_t *s, uint64_t now_ms, uint8_t *payload, si
 static void reset_tx_refs(ub_compact_t *s) { memset(&s->tx, 0, sizeof s->tx); }
 
 int ub_compact_on_hello(ub_compact_t *s, const uint8_t *payload, size_t len, uint64_t now_ms) {
+    return ub_compact_on_hello_from(s, payload, len, now_ms, true);
+}
+
+int ub_compact_on_hello_from(ub_compact_t *s, const uint8_t *payload, size_t len, uint64_t now_ms, bool authenticated) {
     if (s == NULL || payload == NULL) return UB_ERR_INVAL;
     if (len < UB_COMPACT_HELLO_FIXED || payload[UB_CH_OFF_VERSION] != UB_COMPACT_HELLO_VERSION) {
         s->stats.hello_bad++;
@@ -658,6 +663,18 @@ int ub_compact_on_hello(ub_compact_t *s, const uint8_t *payload, size_t len, uin
     }
     uint32_t epoch = ub_get_u32le(payload + UB_CH_OFF_EPOCH);
     uint32_t refs_lost = ub_get_u32le(payload + UB_CH_OFF_REFS_LOST);
+    if (s->peer_heard && (epoch != s->peer_epoch || ub_get_u64le(payload + UB_CH_OFF_CAT) != s->peer_cat_hash ||
+                          ub_get_u64le(payload + UB_CH_OFF_LIST) != s->peer_list_hash)) {
+        /* A change of the peer's dictionary. Unauthenticated, at most one per change_min_ms (a clock that went
+         * backwards lets one through, so the link is never stuck on a stale dictionary). */
+        if (!authenticated && s->stats.dict_changes > 0 && now_ms >= s->change_ms &&
+            now_ms - s->change_ms < s->params.change_min_ms) {
+            s->stats.dict_limited++;
+            return UB_ERR_AGAIN;
+        }
+        s->stats.dict_changes++;
+        s->change_ms = now_ms;
+    }
     if (!s->peer_heard || epoch != s->peer_epoch) {
         /* First contact, or the peer restarted: it holds no references and none of our list. */
         if (s->peer_heard) s->stats.peer_restarts++;

@@ -62,6 +62,7 @@ void ub_frag_init(ub_frag_t *f, const ub_frag_params_t *params, uint16_t first_t
     if (f == NULL) return;
     /* Only the bookkeeping: the data buffers are written before they are read. */
     f->params.timeout_ms = params != NULL && params->timeout_ms != 0 ? params->timeout_ms : UB_FRAG_TIMEOUT_MS;
+    f->params.protect_ms = params != NULL && params->protect_ms != 0 ? params->protect_ms : f->params.timeout_ms / 4u;
     f->next_transfer = first_transfer;
     memset(&f->stats, 0, sizeof f->stats);
     for (size_t i = 0; i < UB_FRAG_SLOTS; i++) f->rx[i].in_use = 0;
@@ -81,6 +82,35 @@ static void start(ub_frag_t *f, ub_frag_rx_t *r, int slot, const uint8_t src[UB_
     r->received = 0;
     memset(r->have, 0, sizeof r->have);
     f->stats.rx_started++;
+}
+
+/* The slot a new transfer of `src` goes to, or NULL (refused): its own idlest one once it holds its share, else a
+ * free one, else the idlest of all if that one has been idle for protect_ms (ub_frag.h). Counts what it drops. */
+static ub_frag_rx_t *room_for(ub_frag_t *f, const uint8_t src[UB_ENTITY_ID_LEN], uint64_t now_ms) {
+    ub_frag_rx_t *free_slot = NULL, *own = NULL, *idlest = NULL;
+    size_t own_n = 0;
+    for (size_t i = 0; i < UB_FRAG_SLOTS; i++) {
+        ub_frag_rx_t *c = &f->rx[i];
+        if (!c->in_use) {
+            if (free_slot == NULL) free_slot = c;
+            continue;
+        }
+        if (idlest == NULL || c->last_ms < idlest->last_ms) idlest = c;
+        if (memcmp(c->src, src, UB_ENTITY_ID_LEN) != 0) continue;
+        own_n++;
+        if (own == NULL || c->last_ms < own->last_ms) own = c;
+    }
+    if (own_n >= UB_FRAG_SLOTS_PER_SOURCE) {
+        f->stats.rx_source_limit++;
+        return own;
+    }
+    if (free_slot != NULL) return free_slot;
+    /* A clock that went backwards counts as idle, so a slot is never held for good. */
+    if (now_ms < idlest->last_ms || now_ms - idlest->last_ms >= f->params.protect_ms) {
+        f->stats.rx_evicted++;
+        return idlest;
+    }
+    return NULL;
 }
 
 int ub_frag_take(ub_frag_t *f, int slot, const uint8_t src[UB_ENTITY_ID_LEN], const uint8_t dir_id[UB_DIR_ID_LEN],
@@ -104,15 +134,13 @@ int ub_frag_take(ub_frag_t *f, int slot, const uint8_t src[UB_ENTITY_ID_LEN], co
         start(f, r, slot, src, dir_id, fingerprint, &fi);
     }
     if (r == NULL) {
-        for (size_t i = 0; i < UB_FRAG_SLOTS && r == NULL; i++)
-            if (!f->rx[i].in_use) r = &f->rx[i];
+        r = room_for(f, src, now_ms);
         if (r == NULL) {
-            r = &f->rx[0];
-            for (size_t i = 1; i < UB_FRAG_SLOTS; i++)
-                if (f->rx[i].last_ms < r->last_ms) r = &f->rx[i];
-            f->stats.rx_evicted++;
+            f->stats.rx_refused++;
+            return UB_FRAG_REFUSED;
         }
         start(f, r, slot, src, dir_id, fingerprint, &fi);
+        r->last_ms = now_ms;
     }
     uint8_t bit = (uint8_t)(1u << (fi.index % 8));
     if (r->have[fi.index / 8] & bit) {

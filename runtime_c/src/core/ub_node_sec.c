@@ -387,6 +387,13 @@ static bool sec_on_frame(const ub_service_t *svc, ub_node_t *node, const ub_serv
         ub_priv_count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
         return true;
     }
+    if (ub_entity_id_is_link_local(h->dest_id)) {
+        /* A link hello (ub_tcp.h): a signed CHALLENGE to whoever is at the other end, sent by a connecting
+         * client so that a listener can adopt the connection. Passing the window already proved what it
+         * can (the key, a counter); there is nobody's freshness to establish, so nothing to answer. */
+        if (h->admin != UB_ADMIN_CHALLENGE) ub_priv_count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+        return true;
+    }
     if (h->admin == UB_ADMIN_CHALLENGE)
         on_challenge(node, slot, link_id, h, payload, now_ms);
     else
@@ -413,6 +420,7 @@ static void sec_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms) 
 }
 
 static const uint8_t sec_codes[] = {UB_ADMIN_CHALLENGE, UB_ADMIN_CHALLENGE_REPLY};
+static const uint8_t sec_link_local_codes[] = {UB_ADMIN_CHALLENGE}; /* the link hello */
 
 /* Freshness challenges (docs/security.md) as a service of the core: the window (ub_priv_window_pass())
  * starts them, this answers and completes them. Ticks after the protocol engines, as before services. */
@@ -420,6 +428,8 @@ const ub_service_t ub_priv_sec_service = {
     .name = "challenge",
     .codes = sec_codes,
     .n_codes = sizeof sec_codes,
+    .link_local_codes = sec_link_local_codes,
+    .n_link_local_codes = sizeof sec_link_local_codes,
     .order = 50,
     .on_frame = sec_on_frame,
     .tick = sec_tick,

@@ -39,7 +39,8 @@ static bool compact_on_frame(const ub_service_t *svc, ub_node_t *node, const ub_
     (void)svc;
     (void)drop; /* bad_payload: a LINK_HELLO on a full-frame link, or an unusable one */
     ub_compact_t *c = node->links[rx->link_id].compact;
-    return c != NULL && ub_compact_on_hello(c, payload, h->payload_size, now_ms) >= 0;
+    /* Unsigned, anyone may send one: dictionary changes are rate-limited (ub_compact.h); a refused one is a drop. */
+    return c != NULL && ub_compact_on_hello_from(c, payload, h->payload_size, now_ms, rx->secured) >= 0;
 }
 
 static const uint8_t compact_codes[] = {UB_ADMIN_LINK_HELLO};
@@ -240,15 +241,17 @@ static void frag_on_fragment(ub_node_t *node, int slot, int link_id, const ub_fr
         ub_priv_count_drop(node, link_id, UB_DROP_UNBOUND);
         return;
     }
-    uint64_t lost_before = f->stats.rx_evicted + f->stats.rx_restarted;
+    uint64_t lost_before = f->stats.rx_evicted + f->stats.rx_restarted + f->stats.rx_source_limit;
     const uint8_t *data = NULL;
     size_t total = 0;
     int r = ub_frag_take(f, slot, h->src_id, h->dir_id, h->fingerprint, payload, h->payload_size, now_ms, &data,
                          &total);
-    for (uint64_t k = lost_before; k < f->stats.rx_evicted + f->stats.rx_restarted; k++)
+    for (uint64_t k = lost_before; k < f->stats.rx_evicted + f->stats.rx_restarted + f->stats.rx_source_limit; k++)
         ub_priv_count_drop(node, link_id, UB_DROP_INCOMPLETE);
     if (r == UB_FRAG_DUPLICATE) {
         ub_priv_count_drop(node, link_id, UB_DROP_DUPLICATE);
+    } else if (r == UB_FRAG_REFUSED) { /* this directory cannot be reassembled: it is lost incomplete */
+        ub_priv_count_drop(node, link_id, UB_DROP_INCOMPLETE);
     } else if (r == UB_FRAG_COMPLETE) {
         ub_frame_header_t whole = *h;
         whole.admin = UB_ADMIN_DATA;

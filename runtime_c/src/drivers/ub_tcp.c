@@ -12,6 +12,7 @@
 
 #include "ub/ub_node.h"
 #include "ub/ub_ports.h"
+#include "ub/ub_sec.h"
 #include "drivers/ub_sock_private.h"
 #include "drivers/ub_stream_tx_private.h"
 
@@ -146,6 +147,15 @@ static void connection_up(ub_tcp_t *tcp, int fd, uint64_t now_ms) {
     /* Cannot fail: ub_tcp_attach() succeeded with these same arguments. */
     int attached = ub_driver_reattach(tcp->node, tcp->link_id, &ub_tcp_ops, tcp);
     (void)attached;
+    /* The link hello (ub_tcp.h): a listener requiring signed frames adopts this connection on its proof,
+     * also when this side has nothing else to send. Without a transmit key there is nothing to prove. */
+    ub_sec_t *sec = ub_node_security(tcp->node);
+    if (tcp->role == UB_TCP_CLIENT && sec != NULL && ub_sec_tx_key(sec) != 0) {
+        uint8_t nonce[UB_SEC_NONCE_LEN];
+        ub_sec_random(sec, nonce, sizeof nonce);
+        if (ub_node_send_link_local(tcp->node, tcp->link_id, UB_ADMIN_CHALLENGE, nonce, sizeof nonce, now_ms) > 0)
+            tcp->stats.hellos++;
+    }
 }
 
 /* A candidate ends (closed or adopted): what its decoder refused goes into the driver's counters. */
@@ -164,10 +174,40 @@ static void close_candidate(ub_tcp_t *tcp, ub_tcp_candidate_t *c) {
     c->proven = 0;
 }
 
+/* The candidate a new connection from `addr` may take the slot of, or NULL: the oldest unproven one of
+ * `addr` once it holds UB_TCP_CANDIDATES_PER_ADDR of them, else a free slot, else the oldest unproven one
+ * of any address (ub_tcp.h). *evict tells whether the slot is taken. */
+static ub_tcp_candidate_t *slot_for(ub_tcp_t *tcp, uint32_t addr, bool *evict) {
+    ub_tcp_candidate_t *free_slot = NULL, *own = NULL, *any = NULL;
+    int own_n = 0;
+    for (int i = 0; i < UB_TCP_MAX_CANDIDATES; i++) {
+        ub_tcp_candidate_t *c = &tcp->cand[i];
+        if (c->fd < 0) {
+            if (free_slot == NULL) free_slot = c;
+            continue;
+        }
+        if (c->proven) continue;
+        if (any == NULL || c->since_ms < any->since_ms) any = c;
+        if (c->addr != addr) continue;
+        own_n++;
+        if (own == NULL || c->since_ms < own->since_ms) own = c;
+    }
+    *evict = true;
+    if (own_n >= UB_TCP_CANDIDATES_PER_ADDR) return own;
+    if (free_slot != NULL) {
+        *evict = false;
+        return free_slot;
+    }
+    return any;
+}
+
 /* New connections never displace the established peer here: they become candidates (see ub_tcp.h). */
 static void server_accept(ub_tcp_t *tcp, uint64_t now_ms) {
     for (;;) {
-        int fd = accept(tcp->listen_fd, NULL, NULL);
+        struct sockaddr_in from;
+        socklen_t from_len = sizeof from;
+        memset(&from, 0, sizeof from);
+        int fd = accept(tcp->listen_fd, (struct sockaddr *)&from, &from_len);
         if (fd < 0) return; /* EAGAIN: nobody waiting; other errors: the next service retries */
         if (ub_sock_set_nonblocking(fd) < 0) {
             close(fd);
@@ -177,17 +217,21 @@ static void server_accept(ub_tcp_t *tcp, uint64_t now_ms) {
             connection_up(tcp, fd, now_ms); /* nobody to displace and nothing to prove */
             continue;
         }
-        ub_tcp_candidate_t *c = NULL;
-        for (int i = 0; i < UB_TCP_MAX_CANDIDATES && c == NULL; i++)
-            if (tcp->cand[i].fd < 0) c = &tcp->cand[i];
+        bool evict;
+        ub_tcp_candidate_t *c = slot_for(tcp, from.sin_addr.s_addr, &evict);
         if (c == NULL) {
             close(fd);
             tcp->stats.candidates_refused++;
             continue;
         }
+        if (evict) {
+            close_candidate(tcp, c);
+            tcp->stats.candidates_evicted++;
+        }
         c->fd = fd;
         c->proven = 0;
         c->since_ms = now_ms;
+        c->addr = from.sin_addr.s_addr;
         ub_decoder_init(&c->dec);
         set_nodelay(fd);
         tcp->stats.candidates++;
@@ -222,7 +266,8 @@ static void service_candidates(ub_tcp_t *tcp, uint64_t now_ms) {
         if (c->fd < 0) continue;
         read_candidate(tcp, c, now_ms);
         if (c->fd < 0) continue;
-        if (!c->proven && now_ms >= c->since_ms && now_ms - c->since_ms >= tcp->opt.candidate_ms) {
+        /* Absolute age: proven or not, a candidate the node never needed is not kept for good. */
+        if (now_ms >= c->since_ms && now_ms - c->since_ms >= tcp->opt.candidate_ms) {
             close_candidate(tcp, c);
             tcp->stats.candidates_expired++;
             continue;
@@ -465,6 +510,7 @@ static size_t tcp_counters(const void *state, ub_driver_counter_t *out, size_t c
         {"candidates", s->candidates},
         {"adopted", s->adopted},
         {"candidates_refused", s->candidates_refused},
+        {"candidates_evicted", s->candidates_evicted},
         {"candidates_expired", s->candidates_expired},
         {"candidates_lost", s->candidates_lost},
         {"candidate_rejected", s->candidate_rejected},
@@ -475,6 +521,7 @@ static size_t tcp_counters(const void *state, ub_driver_counter_t *out, size_t c
         {"backpressure", s->backpressure},
         {"send_closed", s->send_closed},
         {"tx_discarded", s->tx_discarded},
+        {"hellos", s->hellos},
     };
     size_t n = sizeof all / sizeof all[0];
     for (size_t i = 0; i < n && i < cap && out != NULL; i++) out[i] = all[i];
@@ -489,16 +536,17 @@ static int tcp_describe(const void *state, char *out, size_t cap) {
                     "\"state\":\"%s\",\"connects\":%llu,\"reconnects\":%llu,\"disconnects\":%llu,"
                     "\"failed_attempts\":%llu,\"backpressure\":%llu,\"send_closed\":%llu,\"tx_discarded\":%llu,"
                     "\"candidates\":%llu,\"adopted\":%llu,\"replaced\":%llu,\"candidates_refused\":%llu,"
-                    "\"candidates_expired\":%llu,\"candidates_lost\":%llu,\"candidate_rejected\":%llu,"
-                    "\"candidates_open\":%d",
+                    "\"candidates_evicted\":%llu,\"candidates_expired\":%llu,\"candidates_lost\":%llu,"
+                    "\"candidate_rejected\":%llu,\"candidates_open\":%d,\"hellos\":%llu",
                     states[tcp->state % 3], (unsigned long long)s->connects, (unsigned long long)s->reconnects,
                     (unsigned long long)s->disconnects, (unsigned long long)s->failed_attempts,
                     (unsigned long long)s->backpressure, (unsigned long long)s->send_closed,
                     (unsigned long long)s->tx_discarded, (unsigned long long)s->candidates,
                     (unsigned long long)s->adopted, (unsigned long long)s->replaced,
-                    (unsigned long long)s->candidates_refused, (unsigned long long)s->candidates_expired,
-                    (unsigned long long)s->candidates_lost, (unsigned long long)s->candidate_rejected,
-                    ub_tcp_candidates(tcp));
+                    (unsigned long long)s->candidates_refused, (unsigned long long)s->candidates_evicted,
+                    (unsigned long long)s->candidates_expired, (unsigned long long)s->candidates_lost,
+                    (unsigned long long)s->candidate_rejected, ub_tcp_candidates(tcp),
+                    (unsigned long long)s->hellos);
 }
 
 const ub_driver_t ub_tcp_driver = {

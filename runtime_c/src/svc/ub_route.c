@@ -288,7 +288,10 @@ static bool tombstoned(ub_route_t *rt, const uint8_t id[UB_ENTITY_ID_LEN], uint6
 static int destination(ub_route_t *rt, const uint8_t id[UB_ENTITY_ID_LEN], uint16_t metric, uint64_t now_ms) {
     if (ub_entity_id_is_zero(id) || ub_entity_id_is_link_local(id)) return -1;
     int e = ub_node_find_entity(rt->node, id);
-    if (e >= 0) return e;
+    if (e >= 0) {
+        if (metric != INF) rt->advertised_ms[e] = now_ms; /* a retraction advertises no route: it expires */
+        return e;
+    }
     if (metric == INF) return -1; /* a retraction of something we never knew */
     if (rt->opt.no_learn || tombstoned(rt, id, now_ms)) {
         rt->counters.learn_refused++;
@@ -300,6 +303,7 @@ static int destination(ub_route_t *rt, const uint8_t id[UB_ENTITY_ID_LEN], uint1
         return -1;
     }
     rt->learned[e] = 1;
+    rt->advertised_ms[e] = now_ms;
     rt->counters.learned++;
     return e;
 }
@@ -588,6 +592,16 @@ static void link_timers(ub_route_t *rt, int link_id, uint64_t now_ms) {
 }
 
 static void route_timers(ub_route_t *rt, uint64_t now_ms) {
+    /* Learned entities nobody advertises any more leave the table (a clock gone backwards waits). */
+    for (int e = 0; e < UB_MAX_ENTITIES; e++) {
+        if (!rt->learned[e] || now_ms < rt->advertised_ms[e] || now_ms - rt->advertised_ms[e] < rt->opt.learn_expiry_ms)
+            continue;
+        rt->expiring = 1;
+        int removed = ub_node_remove_entity(rt->node, e, now_ms); /* forgets its routes through route_forget_entity() */
+        rt->expiring = 0;
+        rt->learned[e] = 0;
+        if (removed == UB_OK) rt->counters.learn_expired++;
+    }
     for (int e = 0; e < UB_MAX_ENTITIES; e++) {
         for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) {
             ub_route_entry_t *r = &rt->routes[e][lid];
@@ -652,6 +666,7 @@ static void route_forget_entity(const ub_service_t *svc, ub_node_t *node, int en
         rt->dests[slot][entity].sel_link = -1;
     }
     rt->learned[entity] = 0;
+    if (rt->expiring) return; /* nobody advertised it for learn_expiry_ms: it may be learned again at once */
     /* Neighbours keep advertising it until their routes expire: do not learn it back meanwhile. */
     size_t victim = 0;
     for (size_t i = 0; i < UB_ROUTE_TOMBSTONES; i++)
@@ -707,6 +722,7 @@ int ub_route_attach(ub_route_t *rt, ub_node_t *node, const ub_route_options_t *o
     if (o.update_ms == 0) o.update_ms = 4u * o.hello_ms > 0xFFFFu ? 0xFFFFu : 4u * o.hello_ms;
     if (o.trigger_gap_ms == 0) o.trigger_gap_ms = o.hello_ms / 20u > 0 ? o.hello_ms / 20u : 1u;
     if (o.source_gc_ms == 0) o.source_gc_ms = 16u * o.update_ms;
+    if (o.learn_expiry_ms == 0) o.learn_expiry_ms = o.source_gc_ms;
     if (o.dead_misses == 0) o.dead_misses = 2;
     if (o.hello_ms < 10u || o.hello_ms > 0xFFFFu || o.update_ms < o.hello_ms || o.update_ms > 0xFFFFu ||
         o.dead_misses > HISTORY_BITS || o.parallel > UB_ROUTE_PARALLEL_BEST)

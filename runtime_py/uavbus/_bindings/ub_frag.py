@@ -8,7 +8,8 @@ from uavbus._bindings.ub_error import ensure
 from uavbus._ub import ffi, lib
 
 STATS_FIELDS = ("tx_transfers", "tx_fragments", "tx_busy", "tx_paused", "tx_abandoned", "rx_started", "rx_fragments",
-                "rx_duplicates", "rx_complete", "rx_timeouts", "rx_evicted", "rx_restarted", "rx_bad")
+                "rx_duplicates", "rx_complete", "rx_timeouts", "rx_evicted", "rx_refused", "rx_source_limit",
+                "rx_restarted", "rx_bad")
 
 
 def ub_frag_new(first_transfer: int) -> Any:

@@ -213,7 +213,8 @@ def link_counters(node: Any, link_id: int) -> dict[str, Any]:
 
 
 COMPACT_STATS = ("tx_frames", "tx_bytes", "tx_full_bytes", "tx_full_ids", "tx_seq32", "rx_frames", "rx_bytes",
-                 "garbage_bytes", "hello_tx", "hello_rx", "hello_bad", "peer_restarts", "peer_lists")
+                 "garbage_bytes", "hello_tx", "hello_rx", "hello_bad", "peer_restarts", "peer_lists", "dict_changes",
+                 "dict_limited")
 
 
 def compact_info(node: Any, link_id: int) -> dict[str, Any]:

@@ -46,12 +46,15 @@ typedef struct ub_compact_stats {
     uint64_t hello_bad;
     uint64_t peer_restarts;
     uint64_t peer_lists;
+    uint64_t dict_changes;
+    uint64_t dict_limited;
     ...;
 } ub_compact_stats_t;
 
 typedef struct ub_compact_params {
     uint32_t hello_ms;
     uint32_t retry_ms;
+    uint32_t change_min_ms;
     ...;
 } ub_compact_params_t;
 

@@ -2,6 +2,7 @@
 
 #define UB_FRAG_HEADER_LEN ...
 #define UB_FRAG_SLOTS ...
+#define UB_FRAG_SLOTS_PER_SOURCE ...
 #define UB_FRAG_TX_SLOTS ...
 #define UB_FRAG_MAX_FRAGMENTS ...
 #define UB_FRAG_TIMEOUT_MS ...
@@ -9,6 +10,7 @@
 
 typedef struct ub_frag_params {
     uint32_t timeout_ms;
+    uint32_t protect_ms;
     ...;
 } ub_frag_params_t;
 
@@ -24,6 +26,8 @@ typedef struct ub_frag_stats {
     uint64_t rx_complete;
     uint64_t rx_timeouts;
     uint64_t rx_evicted;
+    uint64_t rx_refused;
+    uint64_t rx_source_limit;
     uint64_t rx_restarted;
     uint64_t rx_bad;
     ...;

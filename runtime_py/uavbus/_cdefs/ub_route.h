@@ -15,6 +15,7 @@ typedef struct ub_route_options {
     uint8_t parallel;
     uint8_t no_learn;
     uint16_t initial_seqno;
+    uint32_t learn_expiry_ms;
     ...;
 } ub_route_options_t;
 
@@ -48,6 +49,7 @@ typedef struct ub_route_counters {
     uint64_t seqno_bumps;
     uint64_t learned;
     uint64_t learn_full;
+    uint64_t learn_expired;
     uint64_t learn_refused;
     uint64_t pinned_skips;
     ...;

@@ -472,11 +472,13 @@ class Campaign:
         nav = self.cat.instance("navFilterState").type.packed_size
         forged = (self._forms("navFilterState", "rmax1ob1", "rmax1ob2", bytes(nav))
                   + self._forms("onboard2Set", "gcs1", "rmax1ob2", self._value("onboard2Set", armed=True)))
+        # Three from one address: at most 2 unproven candidates per address, so the third evicts the first
+        # (docs/security.md, "TCP links"); the two newest carry the attack.
         socks = [tcp_connect(listen) for _ in range(3)]
         try:
             self.h.run_for(0.1)
-            socks[0].sendall(os.urandom(200))                       # junk first: the decoder resynchronises
-            socks[0].sendall(b"".join(forged))
+            socks[2].sendall(os.urandom(200))                       # junk first: the decoder resynchronises
+            socks[2].sendall(b"".join(forged))
             socks[1].sendall(b"".join(old))
             self.h.run_for(1.5)
             after = self._snap(node)
@@ -487,7 +489,8 @@ class Campaign:
         taken = (t_a["replaced"] - t_b["replaced"]) + (t_a["adopted"] - t_b["adopted"])
         r = self._result(name, len(forged) + len(old), self._dropped(before, after, [(node, link)]), taken,
                          f"connections {t_a['candidates'] - t_b['candidates']} held as candidates, "
-                         f"{t_a['candidates_refused'] - t_b['candidates_refused']} refused, taken over: {taken}; "
+                         f"{t_a['candidates_refused'] - t_b['candidates_refused']} refused, "
+                         f"{t_a['candidates_evicted'] - t_b['candidates_evicted']} evicted, taken over: {taken}; "
                          f"established link {t_a['state']}", [(node, link)])
         r.extra["connections"] = len(socks)
         return r

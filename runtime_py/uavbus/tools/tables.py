@@ -4,7 +4,9 @@
   entity in the paper's hex notation, one hex digit per link (`0x00000011` = links 0 and 1);
 - publish/subscribe table of each local entity (Figure 4), read from the C router;
 - the global administration table (Figure 5): content, source, destination, period, type,
-  activation, status.
+  activation, status;
+- the node's bounded state: fragment slots, learned entities, compact dictionaries, with the counter of
+  each bound.
 
 The renderers are pure (rows in, lines out) so the TUI shows the very same tables.
 
@@ -82,6 +84,39 @@ def render_admin(entity: str, rows: Sequence[dict[str, Any]]) -> list[str]:
     return render_dict_rows(f"global administration table ({entity})", rows, ADMIN_COLUMNS)
 
 
+BOUND_COLUMNS = ("state", "counter", "value", "means")
+_FRAG_BOUNDS = (("rx_refused", "fragments of new transfers refused: every slot busy with a transfer in progress"),
+                ("rx_source_limit", "transfers replaced by a newer one of their source (slots per source)"),
+                ("rx_evicted", "transfers dropped for a newcomer after protect_ms without progress"),
+                ("rx_timeouts", "transfers dropped after timeout_ms without a new fragment"))
+_ROUTE_BOUNDS = (("learned", "entities learned from route updates"),
+                 ("learn_full", "entities not learned: the entity table was full"),
+                 ("learn_expired", "learned entities removed: no update advertised them for learn_expiry_ms"))
+_COMPACT_BOUNDS = (("dict_changes", "the peer's dictionary replaced (epoch, catalogue or entity list)"),
+                   ("dict_limited", "dictionary changes refused: unsigned, within change_min_ms of the last"))
+
+
+def bound_rows(node: Any) -> list[dict[str, Any]]:
+    """The counters of the node's bounded state (issue 29): fragment slots, learned entities, compact
+    dictionaries -- each bound counted when it is hit."""
+    rows = []
+    frag = node.wire.fragment_counters()
+    rows += [{"state": "fragments", "counter": k, "value": frag.get(k, 0), "means": m} for k, m in _FRAG_BOUNDS]
+    if node.routing.enabled:
+        rc = node.routing.counters()
+        rows += [{"state": "routing", "counter": k, "value": rc.get(k, 0), "means": m} for k, m in _ROUTE_BOUNDS]
+    for link, c in node.link_counters().items():
+        compact = c.get("compact")
+        if compact:
+            rows += [{"state": f"compact {link}", "counter": k, "value": compact.get(k, 0), "means": m}
+                     for k, m in _COMPACT_BOUNDS]
+    return rows
+
+
+def render_bounds(rows: Sequence[dict[str, Any]]) -> list[str]:
+    return render_dict_rows("bounded state (what was refused or removed when a bound was hit)", rows, BOUND_COLUMNS)
+
+
 def render_all(node: Any, config: Config) -> list[str]:
     """Every table of a live node (uavbus.Node) with its config."""
     out = render_entity_table(config)
@@ -96,6 +131,8 @@ def render_all(node: Any, config: Config) -> list[str]:
         if rows:
             out.append("")
             out += render_admin(entity, rows)
+    out.append("")
+    out += render_bounds(bound_rows(node))
     return out
 
 
