@@ -660,8 +660,15 @@ class FleetRun:
         for name, m in self.members.items():
             if m.node is not None:
                 out[name] = m.node.counters()
+                origin = m.node.security.origin_status()
             elif name in self.final_stats:
                 out[name] = dict(self.final_stats[name].get("node", {}))
+                origin = (self.final_stats[name].get("security") or {}).get("origin")
+            else:
+                continue
+            if origin is not None:   # signed with identities: what origin authentication did
+                out[name]["origin"] = {k: origin[k] for k in ("sealed", "opened", "bad_origin", "no_origin",
+                                                              "no_identity") if k in origin}
         return out
 
     def finish(self) -> dict[str, Any]:
