@@ -92,6 +92,7 @@ typedef struct ub_serial_stats {
     uint64_t reopen_failures; /**< reopen attempts that failed (device still absent) */
     uint64_t send_closed;  /**< frames refused with UB_ERR_CLOSED while down */
     uint64_t tx_discarded; /**< queued bytes thrown away with a hang-up */
+    uint64_t foreign_out;  /**< foreign messages written (ub_serial_write_foreign()) */
 } ub_serial_stats_t;
 
 /** A serial link. Caller-owned; treat the fields as private. */
@@ -172,6 +173,15 @@ UB_CHECK int ub_serial_set_decoder(ub_serial_t *serial, ub_decoder_t *dec);
  * @return UB_OK, or UB_ERR_INVAL for a NULL `serial`.
  */
 UB_CHECK int ub_serial_set_foreign(ub_serial_t *serial, ub_foreign_cb cb, void *user);
+
+/**
+ * Writes bytes that are not a uavbus frame (a device's own protocol: a GPS receiver's configuration
+ * message, a legacy datalink message) onto the link through the same transmit buffer as frames, whole or
+ * not at all, so they never split a frame; counted in `foreign_out` and `bytes_out`.
+ * @return UB_OK; UB_ERR_AGAIN (no room beside what is queued: counted `backpressure`, try later);
+ *         UB_ERR_CLOSED (down); UB_ERR_INVAL (NULL, or longer than UB_SERIAL_TX_BUFFER); UB_ERR_IO.
+ */
+UB_CHECK int ub_serial_write_foreign(ub_serial_t *serial, const uint8_t *data, size_t len, uint64_t now_ms);
 
 /** @return the device descriptor, or -1 when closed or down. */
 int ub_serial_fileno(const ub_serial_t *serial);

@@ -156,13 +156,13 @@ static void try_reopen(ub_serial_t *serial, uint64_t now_ms) {
 
 static long device_write(int fd, const uint8_t *data, size_t len) { return (long)write(fd, data, len); }
 
-static int serial_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms) {
-    ub_serial_t *serial = impl;
+/* Writes whole or nothing through the transmit buffer; `counter` counts what went in (a frame, a foreign message). */
+static int serial_write(ub_serial_t *serial, const uint8_t *data, size_t len, uint64_t now_ms, uint64_t *counter) {
     if (serial->state != UB_SERIAL_UP) {
         serial->stats.send_closed++;
         return UB_ERR_CLOSED;
     }
-    int rc = ub_stream_tx_send(serial->fd, device_write, serial->tx, sizeof serial->tx, &serial->tx_len, frame, len,
+    int rc = ub_stream_tx_send(serial->fd, device_write, serial->tx, sizeof serial->tx, &serial->tx_len, data, len,
                                &serial->stats.bytes_out);
     if (rc == UB_ERR_AGAIN) {
         serial->stats.backpressure++;
@@ -176,8 +176,18 @@ static int serial_send(void *impl, const uint8_t *frame, size_t len, uint64_t no
         serial->stats.io_errors++;
         return rc;
     }
-    serial->stats.frames_out++;
+    (*counter)++;
     return UB_OK;
+}
+
+static int serial_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    ub_serial_t *serial = impl;
+    return serial_write(serial, frame, len, now_ms, &serial->stats.frames_out);
+}
+
+int ub_serial_write_foreign(ub_serial_t *serial, const uint8_t *data, size_t len, uint64_t now_ms) {
+    if (serial == NULL || (data == NULL && len != 0) || len > sizeof serial->tx) return UB_ERR_INVAL;
+    return serial_write(serial, data, len, now_ms, &serial->stats.foreign_out);
 }
 
 int ub_serial_set_decoder(ub_serial_t *serial, ub_decoder_t *dec) {
@@ -362,7 +372,7 @@ static size_t serial_counters(const void *state, ub_driver_counter_t *out, size_
     const ub_serial_stats_t *s = &((const ub_serial_t *)state)->stats;
     const ub_driver_counter_t all[] = {
         {"bytes_in", s->bytes_in},         {"bytes_out", s->bytes_out},
-        {"frames_out", s->frames_out},     {"backpressure", s->backpressure},
+        {"frames_out", s->frames_out},     {"foreign_out", s->foreign_out},     {"backpressure", s->backpressure},
         {"io_errors", s->io_errors},       {"hangups", s->hangups},
         {"reopens", s->reopens},           {"reopen_failures", s->reopen_failures},
         {"send_closed", s->send_closed},   {"tx_discarded", s->tx_discarded},
