@@ -285,6 +285,21 @@ void ub_decoder_init(ub_decoder_t *d);
 void ub_decoder_set_foreign(ub_decoder_t *d, ub_foreign_cb cb, void *user);
 
 /**
+ * A new stream starts on the same link (a reconnection, a reopened device): the bytes of a candidate still
+ * held cannot be completed and are counted as garbage (the accounting invariant holds); the counters and
+ * the foreign-traffic handler are kept.
+ */
+void ub_decoder_restart(ub_decoder_t *d);
+
+/**
+ * For a codec that frames the stream itself but shares this decoder's buffer and counters (the compact
+ * encoding, ub_compact.h): `n` bytes that are no frame, in stream order, to the foreign-traffic handler
+ * (counted foreign_bytes, foreign_refused) or, without one, counted as garbage. Not for use beside
+ * ub_decoder_feed() on the same stream.
+ */
+void ub_decoder_not_frame(ub_decoder_t *d, const uint8_t *run, size_t n);
+
+/**
  * Feeds `len` bytes (`data` may be NULL only when `len` is 0). Calls `cb`
  * (may be NULL: count only) for each verified frame, in stream order.
  *

@@ -142,16 +142,7 @@ static void try_reopen(ub_serial_t *serial, uint64_t now_ms) {
         int attached = ub_driver_reattach(serial->node, serial->link_id, &ub_serial_ops, serial);
         (void)attached; /* cannot fail: ub_serial_attach() succeeded with these arguments */
     }
-    if (serial->dec != NULL) { /* the same restart for the caller's decoder, keeping its handler */
-        ub_decoder_t *d = serial->dec;
-        ub_decoder_stats_t kept = d->stats;
-        ub_foreign_cb cb = d->foreign;
-        void *user = d->foreign_user;
-        kept.garbage_bytes += ub_decoder_pending(d);
-        ub_decoder_init(d);
-        d->stats = kept;
-        ub_decoder_set_foreign(d, cb, user);
-    }
+    ub_decoder_restart(serial->dec); /* the same restart for the caller's decoder, keeping its handler (NULL: none) */
 }
 
 static long device_write(int fd, const uint8_t *data, size_t len) { return (long)write(fd, data, len); }
@@ -388,12 +379,14 @@ static int serial_describe(const void *state, char *out, size_t cap) {
     return snprintf(out, cap,
                     "\"state\":\"%s\",\"bytes_in\":%llu,\"bytes_out\":%llu,\"backpressure\":%llu,\"io_errors\":%llu,"
                     "\"hangups\":%llu,\"reopens\":%llu,\"reopen_failures\":%llu,\"send_closed\":%llu,"
-                    "\"tx_discarded\":%llu",
+                    "\"tx_discarded\":%llu,\"foreign_out\":%llu,\"foreign_bytes\":%llu,\"foreign_refused\":%llu",
                     serial->state == UB_SERIAL_UP ? "up" : "down", (unsigned long long)s->bytes_in,
                     (unsigned long long)s->bytes_out, (unsigned long long)s->backpressure,
                     (unsigned long long)s->io_errors, (unsigned long long)s->hangups, (unsigned long long)s->reopens,
                     (unsigned long long)s->reopen_failures, (unsigned long long)s->send_closed,
-                    (unsigned long long)s->tx_discarded);
+                    (unsigned long long)s->tx_discarded, (unsigned long long)s->foreign_out,
+                    (unsigned long long)(serial->dec != NULL ? serial->dec->stats.foreign_bytes : 0),
+                    (unsigned long long)(serial->dec != NULL ? serial->dec->stats.foreign_refused : 0));
 }
 
 const ub_driver_t ub_serial_driver = {

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 from typing import Any
 
 from uavbus._bindings.ub_catalogue import _c_name
@@ -103,6 +105,10 @@ def ub_ports_describe(ports: Any, link: str) -> dict[str, Any] | None:
     udp = lib.ub_ports_udp(ports, _c_name(link))
     if udp != ffi.NULL:
         out["udp"] = udp_info(udp)
+    else:  # any other driver: its state and counters as the stats event carries them ("tcp": {...})
+        text = ffi.new("char[]", 4096)
+        if 0 < lib.ub_ports_describe(ports, _c_name(link), text, 4096) < 4096:
+            out.update(json.loads("{" + ffi.string(text).decode("utf-8") + "}"))
     if p.impaired:
         s = lib.ub_impair_stats(ffi.addressof(p.impair))
         out["impair"] = {k: int(getattr(s, k)) for k in ("offered", "lost", "duplicated", "reordered", "delayed",
