@@ -139,7 +139,7 @@ static void try_reopen(ub_serial_t *serial, uint64_t now_ms) {
     serial->backoff_ms = UB_SERIAL_RETRY_MIN_MS;
     serial->stats.reopens++;
     if (serial->node != NULL) {
-        int attached = ub_driver_reattach(serial->node, serial->link_id, &ub_serial_ops, serial);
+        int attached = ub_driver_reattach(serial->node, serial->link_id, serial->ops, serial->ops_impl);
         (void)attached; /* cannot fail: ub_serial_attach() succeeded with these arguments */
     }
     ub_decoder_restart(serial->dec); /* the same restart for the caller's decoder, keeping its handler (NULL: none) */
@@ -181,6 +181,14 @@ int ub_serial_write_foreign(ub_serial_t *serial, const uint8_t *data, size_t len
     return serial_write(serial, data, len, now_ms, &serial->stats.foreign_out);
 }
 
+int ub_serial_set_rx_hook(ub_serial_t *serial, int (*hook)(void *user, const uint8_t *data, size_t len, uint64_t now_ms),
+                          void *user) {
+    if (serial == NULL) return UB_ERR_INVAL;
+    serial->rx_hook = hook;
+    serial->rx_user = hook != NULL ? user : NULL;
+    return UB_OK;
+}
+
 int ub_serial_set_decoder(ub_serial_t *serial, ub_decoder_t *dec) {
     if (serial == NULL) return UB_ERR_INVAL;
     serial->dec = dec;
@@ -204,8 +212,17 @@ static int serial_fileno(void *impl) { return ub_serial_fileno(impl); }
 const ub_link_ops_t ub_serial_ops = {.kind = "serial", .send = serial_send, .fileno = serial_fileno};
 
 int ub_serial_attach(ub_serial_t *serial, ub_node_t *node, int link_id) {
-    if (serial == NULL) return UB_ERR_INVAL;
-    return ub_driver_attach(node, link_id, &ub_serial_ops, serial, &serial->node, &serial->link_id);
+    return ub_serial_attach_as(serial, node, link_id, &ub_serial_ops, serial);
+}
+
+int ub_serial_attach_as(ub_serial_t *serial, ub_node_t *node, int link_id, const ub_link_ops_t *ops, void *impl) {
+    if (serial == NULL || ops == NULL) return UB_ERR_INVAL;
+    int rc = ub_driver_attach(node, link_id, ops, impl, &serial->node, &serial->link_id);
+    if (rc == UB_OK) {
+        serial->ops = ops;
+        serial->ops_impl = impl;
+    }
+    return rc;
 }
 
 /* read() returned 0. With VMIN = VTIME = 0 that is also "no data now", so ask poll(): a hung-up tty
@@ -238,7 +255,9 @@ int ub_serial_service(ub_serial_t *serial, ub_node_t *node, uint64_t now_ms) {
         ssize_t n = read(serial->fd, serial->rx, sizeof serial->rx);
         if (n > 0) {
             serial->stats.bytes_in += (uint64_t)n;
-            int found = ub_node_rx_stream(node, serial->link_id, serial->dec, serial->rx, (size_t)n, now_ms, NULL);
+            int found = serial->rx_hook != NULL
+                            ? serial->rx_hook(serial->rx_user, serial->rx, (size_t)n, now_ms)
+                            : ub_node_rx_stream(node, serial->link_id, serial->dec, serial->rx, (size_t)n, now_ms, NULL);
             if (found > 0) frames += found;
             continue;
         }
@@ -359,6 +378,10 @@ static int serial_set_foreign_op(void *state, ub_foreign_cb cb, void *user) {
     return ub_serial_set_foreign(state, cb, user);
 }
 
+static int serial_write_foreign_op(void *state, const uint8_t *data, size_t len, uint64_t now_ms) {
+    return ub_serial_write_foreign(state, data, len, now_ms);
+}
+
 static size_t serial_counters(const void *state, ub_driver_counter_t *out, size_t cap) {
     const ub_serial_stats_t *s = &((const ub_serial_t *)state)->stats;
     const ub_driver_counter_t all[] = {
@@ -409,4 +432,5 @@ const ub_driver_t ub_serial_driver = {
     .counters = serial_counters,
     .describe = serial_describe,
     .set_foreign = serial_set_foreign_op,
+    .write_foreign = serial_write_foreign_op,
 };

@@ -479,6 +479,10 @@ static int tcp_local_port(const void *state, uint16_t *port) {
 
 static int tcp_set_foreign_op(void *state, ub_foreign_cb cb, void *user) { return ub_tcp_set_foreign(state, cb, user); }
 
+static int tcp_write_foreign_op(void *state, const uint8_t *data, size_t len, uint64_t now_ms) {
+    return ub_tcp_write_foreign(state, data, len, now_ms);
+}
+
 static size_t tcp_counters(const void *state, ub_driver_counter_t *out, size_t cap) {
     const ub_tcp_stats_t *s = &((const ub_tcp_t *)state)->stats;
     const ub_driver_counter_t all[] = {
@@ -553,5 +557,6 @@ const ub_driver_t ub_tcp_driver = {
     .local_port = tcp_local_port,
     .counters = tcp_counters,
     .set_foreign = tcp_set_foreign_op,
+    .write_foreign = tcp_write_foreign_op,
     .describe = tcp_describe,
 };

@@ -59,6 +59,12 @@ def ub_ports_set_foreign(ports: Any, link: str, fn: Any) -> Any:
     return handle
 
 
+def ub_ports_write_foreign(ports: Any, link: str, data: bytes, now_ms: int) -> None:
+    """Writes `data` (not a uavbus frame: a legacy datalink message) onto `link`'s port, whole or not at all."""
+    ensure(lib.ub_ports_write_foreign(ports, _c_name(link), data, len(data), now_ms),
+           f"port {link!r}: cannot write foreign bytes (no open port, a transport without it, full or down)")
+
+
 def ub_ports_close(ports: Any, link: str) -> None:
     ensure(lib.ub_ports_close(ports, _c_name(link)), f"port {link!r} is not open")
 
