@@ -256,6 +256,8 @@ typedef struct ub_decoder_stats {
  *         in foreign_refused (a full buffer, an unknown protocol) and are not offered again.
  */
 typedef size_t (*ub_foreign_cb)(void *user, const uint8_t *run, size_t len);
+/** Defined where the decoder takes a foreign-traffic handler (code built against older runtimes tests it). */
+#define UB_DECODER_FOREIGN 1
 
 /**
  * Called once per verified frame. `frame` points to the whole frame
