@@ -26,6 +26,7 @@ declare -A VECTOR_TESTS=(
   [signed_frames.json]="test_sec_vectors"
   [compact_frames.json]="test_compact_vectors"
   [inspect.json]="test_inspect_vectors"
+  [legacy_envelope.json]="test_legacy_vectors"
   [structs.json]="test_struct_vectors_flightsw test_struct_vectors_kinds"
 )
 # On a 32-bit target (ILP32) one part of structs.json cannot be: the `kinds` catalogue
