@@ -5,10 +5,11 @@ simulated here with pynmea2 (PyPI), which writes GGA, RMC, VTG and GSA at 5 Hz a
 corrupted in transit; a uavbus frame shares the wire every epoch. fcs20's `uavbus_node` runs the port
 `nmea:device=...` (programs/node/adapter_nmea.c; no other program), and gcs1 subscribes to `gpsNmea` two hops
 away (gcs1 - rmax1ob1 - fcs20, over UDP). Checks: gcs1 holds the last fix pynmea2 encoded (as pynmea2 reads it
-back); every good sentence was merged and every corrupted one counted, never merged; every uavbus frame on the
-shared wire was taken in; the nodes exit cleanly. About two seconds.
+back) and receives it at the receiver's rate (its subscription asks for the receiver's period); every good
+sentence was merged and every corrupted one counted, never merged; every uavbus frame on the shared wire was
+taken in; the nodes exit cleanly. About two seconds.
 
-Returns summary.json's "gps" object: {"epochs", "sentences_ok", "bad_checksum", "frames_in", "at_gcs1": {...}}.
+Returns summary.json's "gps" object: {"epochs", "rate_hz", "sensor_hz", "sentences_ok", "bad_checksum", "frames_in", "at_gcs1": {...}}.
 """
 
 from __future__ import annotations
@@ -83,7 +84,12 @@ def gps_part(out: Path, program: Path, check: Callable[[str, bool, str], bool], 
                            "--subscribe", "gcs1:gpsNmea@fcs20/200", "--stats-ms", "0"], "gcs1")
             say(f"  the receiver (pynmea2) writes GGA, RMC, VTG, GSA at 5 Hz into {dev} for {epochs * EPOCH_S:.1f} s, "
                 "a corrupted GGA every third epoch and a uavbus frame every epoch; fcs20 runs nmea:device=...")
+            def received() -> int:  # gcs1's subscription row: gpsNmea frames it took in
+                rows = gcs.request_stats()["pubsub"].get("gcs1", [])
+                return sum(r["frames"] for r in rows if r["content"] == "gpsNmea")
+
             written = corrupted = 0
+            got0 = received()
             last: list[pynmea2.NMEASentence] = []
             t0 = time.monotonic()
             for k in range(epochs):
@@ -98,6 +104,8 @@ def gps_part(out: Path, program: Path, check: Callable[[str, bool, str], bool], 
                 os.write(master, chunk)
                 written += len(chunk)
                 time.sleep(max(0.0, t0 + (k + 1) * EPOCH_S - time.monotonic()))
+            got = received() - got0
+            window = time.monotonic() - t0
             deadline = time.monotonic() + 5
             while (link := fcs20.request_stats()["links"]["backupPortGps"])["bytes_in"] < written:
                 if time.monotonic() > deadline:
@@ -114,7 +122,7 @@ def gps_part(out: Path, program: Path, check: Callable[[str, bool, str], bool], 
                 time.sleep(0.1)
             gga = pynmea2.parse(str(last[0]))
             nmea = link["nmea"]
-            result.update(sentences_ok=nmea["sentences_ok"], bad_checksum=nmea["bad_checksum"],
+            result.update(rate_hz=got / window, sensor_hz=1 / EPOCH_S, sentences_ok=nmea["sentences_ok"], bad_checksum=nmea["bad_checksum"],
                           frames_in=nmea["frames_in"],
                           at_gcs1={k: values.get(k) for k in ("latitudeDeg", "longitudeDeg", "altitudeMsl",
                                                               "sentencesOk", "badChecksums")})
@@ -129,6 +137,10 @@ def gps_part(out: Path, program: Path, check: Callable[[str, bool, str], bool], 
                   and nmea["bad_checksum"] == corrupted,
                   f"{values.get('sentencesOk')} of {4 * epochs} merged, {nmea['bad_checksum']} of {corrupted} "
                   "corrupted counted")
+            # The subscription asks for the sensor's period: gcs1 receives gpsNmea at the sensor's rate (one
+            # publication either way is the sampling of two counters at the window's ends; 10 % for a loaded machine).
+            check("GPS at gcs1 at the sensor's rate", abs(got - window / EPOCH_S) <= 1 + 0.1 * window / EPOCH_S,
+                  f"{got} publications in {window:.2f} s = {got / window:.2f} Hz, the receiver's {1 / EPOCH_S:g} Hz")
             check("GPS wire shared: every uavbus frame taken in", nmea["frames_in"] == epochs
                   and nmea["frames_rejected"] == 0 and link["frames_accepted"] == epochs,
                   f"{nmea['frames_in']} of {epochs} frames, {nmea['frames_rejected']} rejected")
