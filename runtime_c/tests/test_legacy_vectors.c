@@ -14,70 +14,20 @@
 #include <cmocka.h>
 
 #include "codec/ub_json.h"
+#include "test_json_vectors.h"
 #include "ub/ub_legacy.h"
 
-static char *text;
-static ub_json_doc_t doc;
-static ub_json_value_t root;
-
-static bool member(const ub_json_value_t *obj, const char *key, ub_json_value_t *out) {
-    ub_json_iter_t it;
-    ub_json_value_t k, v;
-    char name[64];
-    ub_json_iter_begin(&it, &doc, obj);
-    while (ub_json_iter_next(&it, &k, &v)) {
-        ub_json_string(&doc, &k, name, sizeof name);
-        if (strcmp(name, key) == 0) {
-            *out = v;
-            return true;
-        }
-    }
-    return false;
-}
-
-static ub_json_value_t get(const ub_json_value_t *obj, const char *key) {
-    ub_json_value_t v;
-    assert_true(member(obj, key, &v));
-    return v;
-}
-
-/* A hex string member into `out`; returns its byte length. */
-static size_t hex(const ub_json_value_t *obj, const char *key, uint8_t *out, size_t cap) {
-    static char buf[8192];
-    ub_json_value_t v = get(obj, key);
-    size_t n = ub_json_string(&doc, &v, buf, sizeof buf);
-    assert_true(n < sizeof buf && n % 2 == 0 && n / 2 <= cap);
-    for (size_t i = 0; i < n / 2; i++) {
-        unsigned b = 0;
-        assert_int_equal(sscanf(buf + 2 * i, "%2x", &b), 1);
-        out[i] = (uint8_t)b;
-    }
-    return n / 2;
-}
-
-static unsigned long num(const ub_json_value_t *obj, const char *key) {
-    ub_json_value_t v = get(obj, key);
-    return strtoul(doc.text + v.start, NULL, 10);
-}
+#define doc vec_doc /* the document and its root: test_json_vectors.h */
+#define root vec_root
 
 static int setup(void **state) {
     (void)state;
-    FILE *fp = fopen("tests/vectors/legacy_envelope.json", "rb");
-    if (fp == NULL) return -1;
-    fseek(fp, 0, SEEK_END);
-    long n = ftell(fp);
-    fseek(fp, 0, SEEK_SET);
-    text = malloc((size_t)n + 1);
-    if (text == NULL || fread(text, 1, (size_t)n, fp) != (size_t)n) return -1;
-    fclose(fp);
-    uint32_t line;
-    char msg[128];
-    return ub_json_parse(&doc, text, (size_t)n, &root, &line, msg, sizeof msg) != 0 ? -1 : 0;
+    return vec_load("tests/vectors/legacy_envelope.json");
 }
 
 static int teardown(void **state) {
     (void)state;
-    free(text);
+    vec_free();
     return 0;
 }
 
@@ -142,15 +92,10 @@ static void test_stream_parsed(void **state) {
         while (ub_json_iter_next(&it, NULL, &m)) {
             static uint8_t want[UB_LEGACY_MESSAGE_MAX];
             char buf[4096];
-            size_t n = ub_json_string(&doc, &m, buf, sizeof buf);
-            for (size_t i = 0; i < n / 2; i++) {
-                unsigned b = 0;
-                assert_int_equal(sscanf(buf + 2 * i, "%2x", &b), 1);
-                want[i] = (uint8_t)b;
-            }
+            size_t n = unhex(buf, ub_json_string(&doc, &m, buf, sizeof buf), want, sizeof want);
             assert_true(k < seen.n);
-            assert_int_equal(seen.lens[k], n / 2);
-            assert_memory_equal(seen.msgs[k], want, n / 2);
+            assert_int_equal(seen.lens[k], n);
+            assert_memory_equal(seen.msgs[k], want, n);
             k++;
         }
         assert_int_equal(found, (int)k);

@@ -18,7 +18,7 @@ import threading
 import time
 import tty
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 import pynmea2
 import pytest
@@ -310,16 +310,37 @@ def test_ubx_gps_and_uavbus_share_a_serial_link(program: Path, tmp_path: Path) -
 
         # Writing: gpsUbxCfg arrives as a uavbus frame on the same wire.
         gps.write(gps.frame("gpsUbxCfg", {"measRateMs": 200, "navRate": 1, "timeRef": 1}))
-        deadline = time.monotonic() + 10
-        while not (cfg := [m for m in _ubx_messages(bytes(gps.from_node)) if m.identity == "CFG-RATE"]):
-            assert time.monotonic() < deadline, f"no CFG-RATE on the wire: {gps.link()}"
-            time.sleep(0.05)
-        assert (cfg[0].measRate, cfg[0].navRate, cfg[0].timeRef) == (200, 1, 1)
+        cfg = _wait_cfg(gps, 1, 200)
+        assert (cfg.measRate, cfg.navRate, cfg.timeRef) == (200, 1, 1)
         gps.write(UBXMessage("ACK", "ACK-ACK", 0, clsID=0x06, msgID=0x08).serialize())
         values = gps.values_at_gcs(lambda v: v["cfgAcked"] == 1)
         assert (values["cfgSent"], values["cfgAcked"], values["cfgNaked"]) == (1, 1, 0), values
         assert values["cfgMeasRateMs"] == 200
         assert gps.link()["ubx"]["ack"] == 1 and gps.link()["ubx"]["foreign_out"] == 1
+
+        # A rate the receiver refuses: ACK-NAK is counted, the acknowledged rate stays, nothing is sent again.
+        gps.write(gps.frame("gpsUbxCfg", {"measRateMs": 25, "navRate": 1, "timeRef": 1}))
+        _wait_cfg(gps, 2, 25)
+        gps.write(UBXMessage("ACK", "ACK-NAK", 0, clsID=0x06, msgID=0x08).serialize())
+        values = gps.values_at_gcs(lambda v: v["cfgNaked"] == 1)
+        assert (values["cfgSent"], values["cfgAcked"], values["cfgNaked"]) == (2, 1, 1), values
+        assert values["cfgMeasRateMs"] == 200
+        # A receiver that does not answer: after a second the message is counted a time-out and sent again.
+        gps.write(gps.frame("gpsUbxCfg", {"measRateMs": 1000, "navRate": 1, "timeRef": 1}))
+        _wait_cfg(gps, 3, 1000)
+        _wait_cfg(gps, 4, 1000)  # no ACK: sent again
+        values = gps.values_at_gcs(lambda v: v["cfgTimeouts"] >= 1 and v["cfgSent"] >= 4)
+        assert values["cfgTimeouts"] >= 1 and values["cfgSent"] >= 4 and values["cfgMeasRateMs"] == 200, values
+
+
+def _wait_cfg(gps: _GpsLink, count: int, rate_ms: int) -> Any:
+    """Until the node has written `count` CFG-RATE messages onto the pty; the last (pyubx2's), with `rate_ms`."""
+    deadline = time.monotonic() + 10
+    while len(cfg := [m for m in _ubx_messages(bytes(gps.from_node)) if m.identity == "CFG-RATE"]) < count:
+        assert time.monotonic() < deadline, f"{len(cfg)} CFG-RATE of {count} on the wire: {gps.link()}"
+        time.sleep(0.05)
+    assert cfg[count - 1].measRate == rate_ms
+    return cfg[count - 1]
 
 
 def _ubx_messages(data: bytes) -> list:
