@@ -197,8 +197,11 @@ int ub_serial_set_decoder(ub_serial_t *serial, ub_decoder_t *dec) {
 
 int ub_serial_set_foreign(ub_serial_t *serial, ub_foreign_cb cb, void *user) {
     if (serial == NULL) return UB_ERR_INVAL;
-    if (cb == NULL) {
-        if (serial->dec == &serial->own_dec) serial->dec = NULL;
+    if (cb == NULL) { /* back to the slot's decoder: what the own one still held is counted garbage there */
+        if (serial->dec == &serial->own_dec) {
+            ub_decoder_restart(&serial->own_dec);
+            serial->dec = NULL;
+        }
         return UB_OK;
     }
     if (serial->dec != &serial->own_dec) ub_decoder_init(&serial->own_dec);

@@ -337,7 +337,8 @@ int ub_tcp_service(ub_tcp_t *tcp, ub_node_t *node, uint64_t now_ms) {
 
 int ub_tcp_set_foreign(ub_tcp_t *tcp, ub_foreign_cb cb, void *user) {
     if (tcp == NULL) return UB_ERR_INVAL;
-    if (cb == NULL) {
+    if (cb == NULL) { /* back to the slot's decoder: what the link's own still held is counted garbage there */
+        if (tcp->foreign_on) ub_decoder_restart(&tcp->own_dec);
         tcp->foreign_on = 0;
         return UB_OK;
     }
