@@ -234,6 +234,8 @@ def main() -> None:
             ("MAVLink mavlink_msg_X_encode -> _pack (incl. finalize + CRC)", "mav_pack"),
             ("MAVLink pack + mavlink_msg_to_send_buffer", "mav_pack_tobuf"),
             ("uavbus streaming parse: ub_decoder_feed (sync + verify) + generated unpack", "ub_frame_parse"),
+            ("the same with a foreign-traffic handler set (mixed-stream decoder), pure uavbus stream",
+             "ub_frame_parse_foreign"),
             ("MAVLink mavlink_parse_char over the frame + mavlink_msg_X_decode", "mav_parse_decode"),
             ("uavbus generated pack (payload only)", "ub_pack"),
             ("uavbus generated unpack (payload only)", "ub_unpack"),
@@ -277,6 +279,9 @@ def main() -> None:
         r_parse = ratio_row("frame parse / MAVLink parse + decode", ["ub_frame_parse"], ["mav_parse_decode"], "<= 1/10", 0.1)
         r_pu = ratio_row("pack + unpack / LCM encode + decode", ["ub_pack", "ub_unpack"], ["lcm_encode", "lcm_decode"],
                          "<= 1.5x", 1.5)
+        r_mixed = (ratio_row("mixed-stream parse (foreign handler set) / parse, pure uavbus stream",
+                             ["ub_frame_parse_foreign"], ["ub_frame_parse"], "<= 1.05x", 1.05)
+                   if ("ub_frame_parse_foreign", MSGS[0]) in ns else [])
         w("")
         goals.append(("frame build", "<= 1/8 of MAVLink pack", ", ".join(f"1/{1 / r:.1f}" for r in r_build),
                       max(r_build) <= 1 / 8, "see 'What holds a miss back'"))
@@ -284,6 +289,15 @@ def main() -> None:
                       max(r_parse) <= 0.1, ""))
         goals.append(("pack + unpack", "<= 1.5x LCM encode + decode", ", ".join(f"{r:.2f}x" for r in r_pu),
                       max(r_pu) <= 1.5, ""))
+        if r_mixed:  # issue #24: a link that may carry foreign traffic pays at most 5 % on a pure uavbus stream
+            # Judged on callgrind's instruction counts when the run has them: deterministic, where two medians of
+            # ~20 ns on a shared machine spread by more than the 5 % being judged (the ns ratio is in the row).
+            ir_mixed = [ir[("ub_frame_parse_foreign", m)] / ir[("ub_frame_parse", m)] for m in MSGS
+                        if ("ub_frame_parse_foreign", m) in ir and ("ub_frame_parse", m) in ir]
+            judged = ir_mixed if len(ir_mixed) == len(MSGS) else r_mixed
+            goals.append(("mixed-stream decoding", "<= 5 % over figure 1's parse, same run",
+                          ", ".join(f"{r:.3f}x" for r in judged) + (" (instructions)" if judged is ir_mixed else " (ns)"),
+                          max(judged) <= 1.05, "the handler is looked at once per run between frames, never per byte"))
 
     with section(out, broken, "figure 1b: signing"):
         # ---- figure 1b: signing ----

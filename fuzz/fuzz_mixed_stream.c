@@ -10,14 +10,19 @@
  *    bytes never reach the handler;
  *  - foreign_refused is exactly what the handler did not take;
  *  - the handler changes where bytes go, not what is a frame: the decoder without a handler delivers the
- *    same frames and counts the foreign bytes as garbage.
+ *    same frames and counts the foreign bytes as garbage;
+ *  - the same stream, in the same cuts, read as a compact-encoded stream with a handler (its packets are
+ *    COBS-delimited, and a packet glued after foreign bytes is searched for): the same accounting invariant,
+ *    garbage 0; and read by the legacy datalink envelope's parser: every byte a message's, noise, or held.
  */
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "fuzz_util.h"
+#include "ub/ub_compact.h"
 #include "ub/ub_frame.h"
+#include "ub/ub_legacy.h"
 
 #define MAX_INPUT (1u << 16)
 
@@ -102,6 +107,35 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     FUZZ_CHECK(plain.stats.garbage_bytes == d.stats.foreign_bytes && ub_decoder_pending(&plain) == pending,
                "garbage %llu without a handler, foreign %llu with", (unsigned long long)plain.stats.garbage_bytes,
                (unsigned long long)d.stats.foreign_bytes);
+
+    /* A compact stream and the legacy envelope, in the same cuts. */
+    static ub_compact_t cs;
+    static ub_decoder_t cd;
+    static ub_legacy_t lp;
+    ub_compact_init(&cs, NULL, 1, NULL);
+    ub_decoder_init(&cd);
+    ub_decoder_set_foreign(&cd, on_foreign, rb);
+    ub_legacy_init(&lp);
+    rb->len = 0;
+    for (off = 0, k = 0; off < n;) {
+        size_t c = max_chunk == 0 ? n - off : 1 + (s[k++ % n] % max_chunk);
+        if (c > n - off) c = n - off;
+        (void)ub_compact_feed(&cs, &cd, s + off, c, 0, NULL, NULL, NULL);
+        FUZZ_CHECK(ub_legacy_feed(&lp, s + off, c, NULL, NULL) >= 0, "legacy: feed refused");
+        off += c;
+        const ub_decoder_stats_t *st = &cd.stats;
+        FUZZ_CHECK(st->bytes_in == st->bytes_ok + st->foreign_bytes + st->garbage_bytes + ub_decoder_pending(&cd),
+                   "compact: in %llu ok %llu foreign %llu garbage %llu pending %zu", (unsigned long long)st->bytes_in,
+                   (unsigned long long)st->bytes_ok, (unsigned long long)st->foreign_bytes,
+                   (unsigned long long)st->garbage_bytes, ub_decoder_pending(&cd));
+        FUZZ_CHECK(st->garbage_bytes == 0, "compact: garbage %llu with a handler", (unsigned long long)st->garbage_bytes);
+        const ub_legacy_stats_t *ls = &lp.stats;
+        FUZZ_CHECK(ls->bytes_in == ls->message_bytes + ls->noise_bytes + ub_legacy_pending(&lp),
+                   "legacy: in %llu messages %llu noise %llu pending %zu", (unsigned long long)ls->bytes_in,
+                   (unsigned long long)ls->message_bytes, (unsigned long long)ls->noise_bytes, ub_legacy_pending(&lp));
+    }
+    FUZZ_CHECK(cd.stats.foreign_bytes == rb->len || rb->overflow, "compact: handed on %zu, counted %llu", rb->len,
+               (unsigned long long)cd.stats.foreign_bytes);
     return 0;
 }
 

@@ -11,6 +11,8 @@
 4. The Table 1 / figure 9 configuration in this process over in-memory links.
    Then the variable browser over the bus (browser_step.py): a directory read from fcs20 that no flow
    publishes, and a publication rate changed from the GCS.
+   Then the GPS step (gps_step.py, issue #24): a simulated COTS GPS (pynmea2) on fcs20's serial port
+   becomes the directory gpsNmea at gcs1, two hops away, with uavbus frames on the same wire.
 5. The attacker step (attack_step.py): issue 11's attacks against the signed Table 2; each is a check.
 6. A fleet: twelve vehicles and two ground stations with automatic routes (examples/demo/fleet_step.py;
    skipped by --short unless --fleet).
@@ -39,6 +41,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 from attack_step import attacker_part, signed_table2  # noqa: E402  (beside this file)
 from browser_step import browser_part  # noqa: E402
+from gps_step import gps_part  # noqa: E402
 from uavbus.sim.build import node_program  # noqa: E402
 from uavbus.sim.hitl import Hitl, HitlOptions, timetag_latency_ms  # noqa: E402
 from uavbus.sim.metrics import (  # noqa: E402
@@ -382,6 +385,7 @@ def main(argv: list[str] | None = None) -> int:
         plot = hitl_part(args, check, rows, extra)
         table1_part(args, check, rows)
         make_plot(args, check, plot)
+        extra["gps"] = gps_part(args.out, args.program, check, say, short=args.short)
         extra["security"] = attacker_part(args, check, say)
         if args.fleet:
             from fleet_step import fleet_part

@@ -64,6 +64,7 @@ onboardTiming_t fcsTiming;
 gpsRaw_t gpsRaw;
 nmeaGps_t gpsNmea;
 ubxGps_t gpsUbx;
+ubxCfg_t gpsUbxCfg;
 gpsOut_t gpsOut;
 gpsOut_t gpsSolution;
 gpsOut_t gpsOutBackup;

@@ -5,50 +5,44 @@
  *
  *     ubx:device=/dev/ttyACM0[,baud=115200][,dir=gpsUbx]
  *
- * The second adapter written the way docs/adapters.md describes (adapter_nmea.c is the first): a serial link
- * read through a decoder of its own whose foreign-traffic handler is the UBX parser (ub_ubx.h); each good
- * NAV-PVT is written into the directory's bound storage. Reading only: writing CFG messages (and checking
- * their ACK) is not done yet.
+ * The second adapter written the way docs/adapters.md describes (adapter_nmea.c is the first), on the
+ * serial adapter helper (adapter_serial.h): the link's foreign bytes go to the UBX parser (ub_ubx.h); each
+ * good NAV-PVT is written into the directory's bound storage.
+ *
+ * Writing (R1's "reading and writing"): the directory `<dir>Cfg` (gpsUbxCfg, type ubxCfg_t) is the
+ * receiver's navigation rate. When its value differs from what the receiver last acknowledged, the next
+ * service call writes a UBX-CFG-RATE onto the link (between uavbus frames, never inside one) and waits for
+ * the receiver's ACK-ACK or ACK-NAK naming CFG-RATE; no answer within UBX_ACK_TIMEOUT_MS is counted and
+ * the message sent again. Every outcome is counted in the directory (cfgSent, cfgAcked, cfgNaked,
+ * cfgTimeouts, cfgMeasRateMs), so the node that wrote the configuration reads the answer two hops away.
  */
-#include <poll.h>
-#include <stdio.h>
 #include <string.h>
 
-#include "ubx_gps.h"
-#include "ub/ub_catalogue.h"
-#include "ub/ub_driver.h"
-#include "ub/ub_frame.h"
-#include "ub/ub_node.h"
-#include "ub/ub_node_svc.h"
-#include "ub/ub_ports.h"
-#include "ub/ub_serial.h"
+#include "adapter_serial.h"
 #include "ub/ub_ubx.h"
+#include "ub/ub_wire.h"
+#include "ubx_gps.h"
 
-#define UBX_DEFAULT_DIR "gpsUbx"
-#define UBX_DEFAULT_BAUD 115200u
+/* u-blox receivers answer a CFG within one navigation epoch; a second covers 1 Hz and a busy link. */
+#define UBX_ACK_TIMEOUT_MS 1000u
 
 typedef struct ubx_adapter {
-    ub_serial_t serial; /* first: the link's impl (ub_serial_ops) is this serial link */
-    ub_decoder_t dec;   /* the link's decoder; its foreign-traffic handler is the parser */
+    adapter_serial_t base; /* first (adapter_serial.h) */
     ub_ubx_t ubx;
-    ubxGps_t *dir;      /* the directory's bound storage; NULL until attached */
-    uint64_t now_ms;
-    char dir_name[UB_PORT_HOST_LEN];
+    ubxCfg_t *cfg;         /* the configuration directory's storage; NULL: none, nothing is written */
+    ubxCfg_t sent;         /* what the last CFG-RATE carried */
+    ubxCfg_t applied;      /* what the receiver last answered (ACK or NAK): not sent again */
+    uint8_t pending;       /* a CFG-RATE waits for its ACK */
+    uint8_t cfg_looked;    /* the configuration directory was looked up (once attached) */
+    uint64_t sent_ms;
 } ubx_adapter_t;
 
-static void write_counters(ubx_adapter_t *a) {
-    const ub_ubx_stats_t *s = &a->ubx.stats;
-    a->dir->navPvtOk = (uint32_t)s->nav_pvt;
-    a->dir->badChecksums = (uint32_t)s->bad_checksum;
-    a->dir->badMessages = (uint32_t)(s->bad_length + s->too_long);
-}
+static void ubx_reset(adapter_serial_t *a) { ub_ubx_init(&((ubx_adapter_t *)a)->ubx); }
 
-static void on_pvt(void *user, const ub_ubx_t *ubx) {
-    ubx_adapter_t *a = user;
-    const ub_ubx_pvt_t *p = &ubx->pvt;
-    ubxGps_t *d = a->dir;
-    d->time.seconds = (uint32_t)(a->now_ms / 1000u);
-    d->time.microseconds = (uint32_t)(a->now_ms % 1000u * 1000u);
+static void on_pvt(ubx_adapter_t *a, const ub_ubx_pvt_t *p) {
+    ubxGps_t *d = a->base.dir;
+    d->time.seconds = (uint32_t)(a->base.now_ms / 1000u);
+    d->time.microseconds = (uint32_t)(a->base.now_ms % 1000u * 1000u);
     d->latitudeDeg = p->lat_1e7 / 1e7;
     d->longitudeDeg = p->lon_1e7 / 1e7;
     d->altitudeMsl = p->hmsl_mm / 1000.0;
@@ -72,136 +66,98 @@ static void on_pvt(void *user, const ub_ubx_t *ubx) {
     d->satellitesUsed = p->num_sv;
 }
 
-static size_t to_parser(void *user, const uint8_t *run, size_t len) {
-    ubx_adapter_t *a = user;
-    if (a->dir == NULL) return 0;
-    int decoded = ub_ubx_feed(&a->ubx, run, len, on_pvt, a);
+/* An ACK-ACK or ACK-NAK: it settles the pending CFG-RATE when it names CFG-RATE (an answer to something
+ * else, or with nothing pending, changes nothing: the parser counted it). */
+static void on_ack(ubx_adapter_t *a, const ub_ubx_ack_t *ack) {
+    if (!a->pending || ack->cls != UB_UBX_CLASS_CFG || ack->id != UB_UBX_ID_CFG_RATE) return;
+    ubxGps_t *d = a->base.dir;
+    a->pending = 0;
+    a->applied = a->sent;
+    if (ack->ok) {
+        d->cfgAcked++;
+        d->cfgMeasRateMs = a->sent.measRateMs;
+    } else {
+        d->cfgNaked++;
+    }
+}
+
+static void on_message(void *user, const ub_ubx_t *ubx) {
+    if (ubx->cls == UB_UBX_CLASS_ACK) on_ack(user, &ubx->ack);
+    else on_pvt(user, &ubx->pvt);
+}
+
+/* Every byte that is not a uavbus frame; the parser takes all (what is not a message is noise). */
+static size_t ubx_feed(adapter_serial_t *base, const uint8_t *run, size_t len) {
+    ubx_adapter_t *a = (ubx_adapter_t *)base;
+    int decoded = ub_ubx_feed(&a->ubx, run, len, on_message, a);
     (void)decoded; /* the parser's own counters say it */
-    write_counters(a);
+    const ub_ubx_stats_t *s = &a->ubx.stats;
+    ubxGps_t *d = base->dir;
+    d->navPvtOk = (uint32_t)s->nav_pvt;
+    d->badChecksums = (uint32_t)s->bad_checksum;
+    d->badMessages = (uint32_t)(s->bad_length + s->too_long);
     return len;
 }
 
-/* ---- the driver table ---- */
-
-enum { SEEN_DIR = 1u << 8 }; /* above the serial driver's own bits, which its spec_param sets */
-
-static void ubx_spec_init(ub_port_spec_t *spec) {
-    spec->kind = UB_PORT_DRIVER;
-    spec->baud = UBX_DEFAULT_BAUD;
-    memcpy(spec->host, UBX_DEFAULT_DIR, sizeof UBX_DEFAULT_DIR); /* the directory name (ub_ports.h allows it) */
+static bool same_cfg(const ubxCfg_t *x, const ubxCfg_t *y) {
+    return x->measRateMs == y->measRateMs && x->navRate == y->navRate && x->timeRef == y->timeRef;
 }
 
-static int ubx_spec_param(ub_port_spec_t *s, uint32_t *seen, const char *key, const char *value, char *err,
-                           size_t cap) {
-    if (strcmp(key, "dir") == 0) {
-        size_t n = strlen(value);
-        bool ok = n > 0 && n < sizeof s->host;
-        for (size_t i = 0; ok && i < n; i++) {
-            char c = value[i];
-            ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
+/* Before the link is read: a configuration to write, or an answer overdue. */
+static void ubx_service(adapter_serial_t *base, uint64_t now_ms) {
+    ubx_adapter_t *a = (ubx_adapter_t *)base;
+    if (!a->cfg_looked) {
+        char name[UB_PORT_HOST_LEN + 4];
+        size_t n = strlen(base->dir_name);
+        if (n + 4 < sizeof name) {
+            memcpy(name, base->dir_name, n);
+            memcpy(name + n, "Cfg", 4);
+            a->cfg = adapter_serial_directory(base, name, sizeof(ubxCfg_t));
         }
-        if (!ok || (*seen & SEEN_DIR)) {
-            snprintf(err, cap, "'dir=%.40s': give one catalogued directory name of type ubxGps_t, e.g. dir=gpsUbx",
-                     value);
-            return UB_ERR_INVAL;
-        }
-        memcpy(s->host, value, n + 1);
-        *seen |= SEEN_DIR;
-        return UB_OK;
+        a->cfg_looked = 1;
     }
-    return ub_serial_driver.spec_param(s, seen, key, value, err, cap); /* device, baud */
-}
-
-static int ubx_spec_finish(ub_port_spec_t *s, uint32_t seen, char *err, size_t cap) {
-    (void)seen;
-    if (s->device[0] == '\0') {
-        snprintf(err, cap, "ubx needs device=PATH, e.g. ubx:device=/dev/ttyACM0,baud=115200");
-        return UB_ERR_INVAL;
+    if (a->cfg == NULL) return;
+    ubxGps_t *d = base->dir;
+    if (a->pending) {
+        if (now_ms - a->sent_ms < UBX_ACK_TIMEOUT_MS) return;
+        a->pending = 0; /* no answer: counted, and sent again below */
+        d->cfgTimeouts++;
+    } else if (a->cfg->measRateMs == 0 || same_cfg(a->cfg, &a->applied)) {
+        return;
     }
-    return UB_OK;
+    ubxCfg_t want = *a->cfg;
+    if (want.measRateMs == 0) return;
+    uint8_t payload[UB_UBX_CFG_RATE_LEN], msg[8 + UB_UBX_CFG_RATE_LEN];
+    ub_put_u16le(payload + 0, want.measRateMs);
+    ub_put_u16le(payload + 2, want.navRate);
+    ub_put_u16le(payload + 4, want.timeRef);
+    int n = ub_ubx_build(UB_UBX_CLASS_CFG, UB_UBX_ID_CFG_RATE, payload, sizeof payload, msg, sizeof msg);
+    if (n < 0 || adapter_serial_write(base, msg, (size_t)n) != UB_OK) return; /* full or down: counted by the link; next call tries again */
+    a->sent = want;
+    a->sent_ms = now_ms;
+    a->pending = 1;
+    d->cfgSent++;
 }
 
-static int ubx_spec_format(const ub_port_spec_t *spec, char *out, size_t cap) {
-    return snprintf(out, cap, "ubx:device=%s,baud=%u,dir=%s", spec->device, (unsigned)spec->baud, spec->host);
-}
-
-static int ubx_open(void *state, const ub_port_spec_t *spec) {
-    ubx_adapter_t *a = state;
-    int rc = ub_serial_open(&a->serial, spec->device, spec->baud);
-    if (rc != UB_OK) return rc;
-    ub_decoder_init(&a->dec);
-    ub_decoder_set_foreign(&a->dec, to_parser, a);
-    ub_ubx_init(&a->ubx);
-    snprintf(a->dir_name, sizeof a->dir_name, "%s", spec->host);
-    return ub_serial_set_decoder(&a->serial, &a->dec);
-}
-
-static void ubx_close(void *state) { ub_serial_driver.close(&((ubx_adapter_t *)state)->serial); }
-
-/* The directory must be catalogued with this adapter's layout and bound (hosted) on this node: the
- * adapter writes into that storage and nowhere else. */
-static int ubx_attach(void *state, ub_node_t *node, int link_id) {
-    ubx_adapter_t *a = state;
-    const ub_catalogue_t *cat = ub_node_catalogue(node);
-    int inst = cat != NULL ? ub_catalogue_find_name(cat, a->dir_name) : UB_ERR_NOTFOUND;
-    if (inst < 0) return UB_ERR_NOTFOUND;
-    if (cat->instances[inst].type->c_size != sizeof(ubxGps_t)) return UB_ERR_INVAL;
-    void *storage = ub_node_binding(node, (uint32_t)inst);
-    if (storage == NULL) return UB_ERR_NOTFOUND;
-    a->dir = storage;
-    return ub_serial_attach(&a->serial, node, link_id);
-}
-
-static int ubx_service(void *state, ub_node_t *node, uint64_t now_ms) {
-    ubx_adapter_t *a = state;
-    a->now_ms = now_ms;
-    return ub_serial_service(&a->serial, node, now_ms);
-}
-
-static int ubx_pollfds(const void *state, struct pollfd *fds, int cap) {
-    return ub_serial_driver.pollfds(&((const ubx_adapter_t *)state)->serial, fds, cap);
-}
-
-static bool ubx_next_due(const void *state, uint64_t *due_ms) {
-    return ub_serial_next_retry(&((const ubx_adapter_t *)state)->serial, due_ms);
-}
-
-static size_t ubx_counters(const void *state, ub_driver_counter_t *out, size_t cap) {
-    const ubx_adapter_t *a = state;
-    const ub_ubx_stats_t *n = &a->ubx.stats;
-    const ub_decoder_stats_t *d = &a->dec.stats;
-    uint64_t rejected = 0;
-    for (int r = 0; r < UB_RX_REASON_COUNT; r++) rejected += d->rejected[r];
+static size_t ubx_counters(const adapter_serial_t *base, ub_driver_counter_t *out, size_t cap) {
+    const ub_ubx_stats_t *n = &((const ubx_adapter_t *)base)->ubx.stats;
     const ub_driver_counter_t all[] = {
-        {"nav_pvt", n->nav_pvt},             {"bad_checksum", n->bad_checksum},
-        {"bad_length", n->bad_length},       {"too_long", n->too_long},
-        {"unsupported", n->unsupported},     {"noise_bytes", n->noise_bytes},
-        {"frames_in", d->frames_ok},         {"frames_rejected", rejected},
-        {"foreign_bytes", d->foreign_bytes}, {"foreign_refused", d->foreign_refused},
-        {"bytes_in", a->serial.stats.bytes_in}, {"bytes_out", a->serial.stats.bytes_out},
-        {"hangups", a->serial.stats.hangups},
+        {"nav_pvt", n->nav_pvt},         {"bad_checksum", n->bad_checksum}, {"bad_length", n->bad_length},
+        {"too_long", n->too_long},       {"unsupported", n->unsupported},   {"ack", n->ack},
+        {"nak", n->nak},                 {"noise_bytes", n->noise_bytes},
     };
-    size_t count = sizeof all / sizeof all[0];
-    for (size_t i = 0; i < count && i < cap && out != NULL; i++) out[i] = all[i];
-    return count;
+    return adapter_serial_put_counters(all, sizeof all / sizeof all[0], out, cap);
 }
 
-const ub_driver_t adapter_ubx_driver = {
-    .name = "ubx",
-    .keys = "device, baud, dir",
-    .examples = "ubx:device=/dev/ttyACM0,baud=115200 | ubx:device=/dev/ttyS1,baud=9600,dir=gpsUbx",
-    .wire_params = false, /* the link carries full frames between the sentences */
-    .state_size = sizeof(ubx_adapter_t),
-    .spec_init = ubx_spec_init,
-    .spec_param = ubx_spec_param,
-    .spec_finish = ubx_spec_finish,
-    .spec_format = ubx_spec_format,
-    .open = ubx_open,
-    .close = ubx_close,
-    .attach = ubx_attach,
-    .link_ops = &ub_serial_ops,
+const adapter_serial_kind_t adapter_ubx = {
+    .driver = ADAPTER_SERIAL_DRIVER("ubx", "ubx:device=/dev/ttyACM0,baud=115200 | ubx:device=/dev/ttyS1,baud=9600,dir=gpsUbx",
+                                    ubx_adapter_t),
+    .dir_type = "ubxGps_t",
+    .default_dir = "gpsUbx",
+    .default_baud = 115200,
+    .dir_size = sizeof(ubxGps_t),
+    .reset = ubx_reset,
+    .feed = ubx_feed,
     .service = ubx_service,
-    .pollfds = ubx_pollfds,
-    .next_due = ubx_next_due,
     .counters = ubx_counters,
 };

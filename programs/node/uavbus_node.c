@@ -54,9 +54,10 @@
 #include "waypoints.h"
 
 /* programs/node/adapter_nmea.c: the NMEA 0183 GPS adapter, a driver table like the built-ins. */
-extern const ub_driver_t adapter_nmea_driver;
+#include "adapter_serial.h"
+extern const adapter_serial_kind_t adapter_nmea;
 /* programs/node/adapter_ubx.c: the u-blox UBX GPS adapter. */
-extern const ub_driver_t adapter_ubx_driver;
+extern const adapter_serial_kind_t adapter_ubx;
 
 #define MAX_PS_ARGS 16
 
@@ -726,8 +727,8 @@ static void setup(ub_app_t *app) {
     ub_node_set_deliver_hook(&app->node, on_deliver, NULL);
     if (o->impair != NULL) apply_impair(app, o->impair, true);
     /* Device adapters (docs/adapters.md): a port spec names them like any transport. */
-    if (ub_ports_register(&app->ports, &adapter_nmea_driver) != UB_OK) ub_app_die(app, "uavbus_node: cannot register the nmea adapter");
-    if (ub_ports_register(&app->ports, &adapter_ubx_driver) != UB_OK) ub_app_die(app, "uavbus_node: cannot register the ubx adapter");
+    if (ub_ports_register(&app->ports, &adapter_nmea.driver) != UB_OK) ub_app_die(app, "uavbus_node: cannot register the nmea adapter");
+    if (ub_ports_register(&app->ports, &adapter_ubx.driver) != UB_OK) ub_app_die(app, "uavbus_node: cannot register the ubx adapter");
     ub_app_open_ports(app, app->start_ms);
     for (int i = 0; i < o->n_ps; i++) add_pubsub(app, o->ps[i], o->ps_is_pub[i], o->ps_argi[i], app->start_ms);
     if (o->record != NULL) {

@@ -18,13 +18,13 @@
 #include "ub/ub_frame.h"
 #include "ub/ub_wire.h"
 #include "codec/ub_json.h"
+#include "test_json_vectors.h"
 
 #define MAX_INST 200
 #define MAX_IDS 32
 
-static char *text;
-static ub_json_doc_t doc;
-static ub_json_value_t root;
+#define doc vec_doc /* the document and its root: test_json_vectors.h */
+#define root vec_root
 static ub_type_desc_t types[MAX_INST];
 static ub_instance_desc_t insts[MAX_INST];
 static ub_catalogue_t cat;
@@ -33,46 +33,8 @@ static size_t list_n[2];
 static uint64_t list_hashes[2];
 static const char *list_names[2] = {"fleet", "wide"};
 
-/* ---- JSON helpers ---- */
-static bool member(const ub_json_value_t *obj, const char *key, ub_json_value_t *out) {
-    ub_json_iter_t it;
-    ub_json_value_t k, v;
-    char name[64];
-    ub_json_iter_begin(&it, &doc, obj);
-    while (ub_json_iter_next(&it, &k, &v)) {
-        ub_json_string(&doc, &k, name, sizeof name);
-        if (strcmp(name, key) == 0) {
-            *out = v;
-            return true;
-        }
-    }
-    return false;
-}
-static ub_json_value_t get(const ub_json_value_t *obj, const char *key) {
-    ub_json_value_t v;
-    if (!member(obj, key, &v)) fail_msg("missing key %s", key);
-    return v;
-}
-static long long num(const ub_json_value_t *obj, const char *key) {
-    ub_json_value_t v = get(obj, key);
-    return strtoll(doc.text + v.start, NULL, 10);
-}
+/* ---- JSON helpers (and test_json_vectors.h) ---- */
 static bool boolean(const ub_json_value_t *obj, const char *key) { return get(obj, key).kind == UB_JSON_TRUE; }
-static size_t str(const ub_json_value_t *obj, const char *key, char *out, size_t cap) {
-    ub_json_value_t v = get(obj, key);
-    return ub_json_string(&doc, &v, out, cap);
-}
-static size_t hex(const ub_json_value_t *obj, const char *key, uint8_t *out, size_t cap) {
-    static char buf[8192];
-    size_t n = str(obj, key, buf, sizeof buf);
-    assert_true(n < sizeof buf && n % 2 == 0 && n / 2 <= cap);
-    for (size_t i = 0; i < n / 2; i++) {
-        unsigned b;
-        sscanf(buf + 2 * i, "%2x", &b);
-        out[i] = (uint8_t)b;
-    }
-    return n / 2;
-}
 static uint64_t hex64(const ub_json_value_t *obj, const char *key) {
     char buf[32];
     str(obj, key, buf, sizeof buf);
@@ -81,17 +43,7 @@ static uint64_t hex64(const ub_json_value_t *obj, const char *key) {
 
 static int setup(void **state) {
     (void)state;
-    FILE *fp = fopen("tests/vectors/compact_frames.json", "rb");
-    if (fp == NULL) return -1;
-    fseek(fp, 0, SEEK_END);
-    long n = ftell(fp);
-    fseek(fp, 0, SEEK_SET);
-    text = malloc((size_t)n + 1);
-    if (text == NULL || fread(text, 1, (size_t)n, fp) != (size_t)n) return -1;
-    fclose(fp);
-    uint32_t line;
-    char msg[128];
-    if (ub_json_parse(&doc, text, (size_t)n, &root, &line, msg, sizeof msg) != 0) return -1;
+    if (vec_load("tests/vectors/compact_frames.json") != 0) return -1;
     /* the catalogue */
     ub_json_value_t arr = get(&root, "catalogue"), item;
     ub_json_iter_t it;
@@ -131,7 +83,7 @@ static int setup(void **state) {
 
 static int teardown(void **state) {
     (void)state;
-    free(text);
+    vec_free();
     return 0;
 }
 

@@ -243,7 +243,7 @@ static void test_registration_is_checked(void **state) {
         assert_int_equal(rc, UB_OK);
         added++;
     }
-    assert_int_equal(added, UB_PORTS_MAX_DRIVERS - 5); /* udp, tcp, serial, mem, pipe */
+    assert_int_equal(added, UB_PORTS_MAX_DRIVERS - 6); /* udp, tcp, serial, legacy, mem, pipe */
     ub_ports_t *other = calloc(1, sizeof *other);
     assert_non_null(other);
     assert_int_equal(ub_ports_init(other, p->sub_node), UB_OK);
@@ -266,12 +266,12 @@ static void test_specs_in_every_form(void **state) {
     ub_port_spec_t s;
     /* Before registration, and without a set, "pipe" is unknown; the message lists what is known. */
     assert_int_equal(ub_ports_spec_parse(ports, "pipe:fd=3", &s, err, sizeof err), UB_ERR_INVAL);
-    assert_non_null(strstr(err, "unknown transport 'pipe' (expected udp, tcp, serial or mem, e.g. udp:bind="));
+    assert_non_null(strstr(err, "unknown transport 'pipe' (expected udp, tcp, serial, legacy or mem, e.g. udp:bind="));
     assert_int_equal(ub_ports_register(ports, &k_pipe_driver), UB_OK);
     assert_int_equal(ub_port_spec_parse("pipe:fd=3", &s, err, sizeof err), UB_ERR_INVAL);
     char long_err[512]; /* the whole message: a UB_PORTS_ERR_LEN buffer cuts the last examples */
     assert_int_equal(ub_ports_spec_parse(ports, "xmpp", &s, long_err, sizeof long_err), UB_ERR_INVAL);
-    assert_non_null(strstr(long_err, "(expected udp, tcp, serial, mem or pipe, e.g. "));
+    assert_non_null(strstr(long_err, "(expected udp, tcp, serial, legacy, mem or pipe, e.g. "));
     assert_non_null(strstr(long_err, " | mem | pipe:fd=3)"));
     /* Command-line form, with the wire parameters every transport takes; formatted back the same. */
     assert_int_equal(ub_ports_spec_parse(ports, "pipe:fd=7,encoding=compact,mtu=255", &s, err, sizeof err), UB_OK);

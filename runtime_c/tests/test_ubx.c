@@ -96,7 +96,15 @@ static void test_bad_messages_counted_not_decoded(void **state) {
     assert_int_equal(ub_ubx_feed(&u, buf, n, on_pvt, NULL), 0);
     assert_int_equal(u.stats.bad_checksum, 1);
     const uint8_t ack[2] = {0x06, 0x8A};
-    n = message(buf, 0x05, 0x01, ack, sizeof ack); /* ACK-ACK: good, not NAV-PVT */
+    n = message(buf, 0x05, 0x01, ack, sizeof ack); /* ACK-ACK: decoded, called back, not a NAV-PVT */
+    assert_int_equal(ub_ubx_feed(&u, buf, n, on_pvt, NULL), 0);
+    assert_int_equal(u.stats.ack, 1);
+    assert_int_equal(g_calls, 1);
+    assert_int_equal(u.ack.cls, 0x06);
+    assert_int_equal(u.ack.id, 0x8A);
+    assert_int_equal(u.ack.ok, 1);
+    g_calls = 0;
+    n = message(buf, 0x0A, 0x04, ack, sizeof ack); /* MON-VER-like: good, unsupported */
     assert_int_equal(ub_ubx_feed(&u, buf, n, on_pvt, NULL), 0);
     assert_int_equal(u.stats.unsupported, 1);
     uint8_t shortp[40] = {0};
@@ -113,10 +121,28 @@ static void test_bad_messages_counted_not_decoded(void **state) {
     assert_int_equal(ub_ubx_feed(NULL, NULL, 0, NULL, NULL), UB_ERR_INVAL);
 }
 
+/* ub_ubx_build() against message() above (written from the interface description): the same bytes, and the
+ * parser reads its CFG-RATE back as a good message. */
+static void test_build_matches_layout(void **state) {
+    (void)state;
+    const uint8_t rate[UB_UBX_CFG_RATE_LEN] = {0xC8, 0x00, 0x01, 0x00, 0x01, 0x00}; /* 200 ms, 1 cycle, GPS */
+    uint8_t want[32], got[32];
+    size_t n = message(want, UB_UBX_CLASS_CFG, UB_UBX_ID_CFG_RATE, rate, sizeof rate);
+    assert_int_equal(ub_ubx_build(UB_UBX_CLASS_CFG, UB_UBX_ID_CFG_RATE, rate, sizeof rate, got, sizeof got), (int)n);
+    assert_memory_equal(got, want, n);
+    assert_int_equal(ub_ubx_build(UB_UBX_CLASS_CFG, UB_UBX_ID_CFG_RATE, rate, sizeof rate, got, n - 1), UB_ERR_NOSPACE);
+    ub_ubx_t u;
+    ub_ubx_init(&u);
+    assert_int_equal(ub_ubx_feed(&u, got, n, NULL, NULL), 0);
+    assert_int_equal(u.stats.unsupported, 1);
+    assert_int_equal(u.stats.bad_checksum, 0);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_nav_pvt_decoded_in_any_cut),
         cmocka_unit_test(test_bad_messages_counted_not_decoded),
+        cmocka_unit_test(test_build_matches_layout),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

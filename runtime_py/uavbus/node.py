@@ -580,6 +580,12 @@ class Node:
         handle = ub_ports.ub_ports_set_foreign(self._ports_obj(), link, handler)
         self._foreign_handlers[link] = handle  # alive while C may call it
 
+    def write_foreign(self, link: str, data: bytes) -> None:
+        """Writes `data`, bytes that are not a uavbus frame (a legacy datalink message on a `legacy:` port, a
+        device's command on a serial or TCP port), onto `link`'s port whole, between frames (docs/adapters.md).
+        Raises when the transport cannot (UDP), the link is down or its transmit buffer is full."""
+        ub_ports.ub_ports_write_foreign(self._ports_obj(), link, bytes(data), self.now())
+
     def close_port(self, link: str) -> None:
         """Closes the transport of `link` (the link stays, detached)."""
         ub_ports.ub_ports_close(self._ports_obj(), link)

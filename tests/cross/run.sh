@@ -28,6 +28,7 @@ declare -A VECTOR_TESTS=(
   [inspect.json]="test_inspect_vectors"
   [identity.json]="test_ident_vectors"
   [origin_frames.json]="test_origin_vectors"
+  [legacy_envelope.json]="test_legacy_vectors"
   [structs.json]="test_struct_vectors_flightsw test_struct_vectors_kinds"
 )
 # On a 32-bit target (ILP32) one part of structs.json cannot be: the `kinds` catalogue

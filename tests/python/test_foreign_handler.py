@@ -96,3 +96,31 @@ def test_serial_stream_bytes_that_are_not_uavbus_reach_the_python_handler(flight
         gcs.close()
         for fd in (master, slave, decoy_master, decoy_slave):
             os.close(fd)
+
+
+def test_tcp_stream_bytes_that_are_not_uavbus_reach_the_python_handler(flightsw: Generated) -> None:
+    """The TCP driver's foreign path (a byte stream like serial): text between frames reaches the handler, the
+    frames are delivered; a new connection restarts the link's decoder and keeps the handler."""
+    gcs = Node(flightsw.catalogue, config=TABLE2, node="gcs")
+    try:
+        gcs.open_port("gcsPortDatalink1", "tcp:listen=127.0.0.1:0")
+        port = gcs.local_port("gcsPortDatalink1")
+        seen = bytearray()
+        gcs.set_foreign_handler("gcsPortDatalink1", lambda data: seen.extend(data))
+        gcs.bind("gpsOut")
+        got = []
+        gcs.on_data(got.append)
+        text = [f"legacy message {k}\r\n".encode() for k in range(4)]
+        with socket.create_connection(("127.0.0.1", port)) as peer:
+            peer.sendall(text[0] + _frame(gcs, 1) + text[1] + _frame(gcs, 2) + text[2])
+            wait_for(gcs, lambda: len(got) == 2 and len(seen) == sum(map(len, text[:3])))
+        assert bytes(seen) == b"".join(text[:3])  # every foreign byte once, in order; no frame byte
+        wait_for(gcs, lambda: gcs.port_info("gcsPortDatalink1")["tcp"]["state"] == "down")
+        with socket.create_connection(("127.0.0.1", port)) as peer:  # a new stream, the same handler
+            peer.sendall(_frame(gcs, 3) + text[3])
+            wait_for(gcs, lambda: len(got) == 3 and len(seen) == sum(map(len, text)))
+        assert bytes(seen) == b"".join(text)
+        tcp = gcs.port_info("gcsPortDatalink1")["tcp"]
+        assert tcp["foreign_bytes"] == len(seen) and tcp["foreign_refused"] == 0, tcp
+    finally:
+        gcs.close()

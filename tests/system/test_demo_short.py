@@ -55,3 +55,8 @@ def test_demo_short_mode_passes_and_writes_its_outputs(program: Path, tmp_path: 
     assert abs(browser["rate"]["achieved_hz"] - 20.0) <= 3.0
     assert not list((tmp_path / "secure" / "keys").glob("*.key"))[0].stat().st_mode & 0o077
     assert (tmp_path / "gcs1.ublog").read_bytes()[:8] == b"UBLOG3\r\n"
+    # the GPS step (issue #24): a simulated COTS GPS on fcs20's serial port becomes gpsNmea at gcs1, 2 hops away
+    gps_step = doc["gps"]
+    assert {"GPS fix at gcs1: the values pynmea2 encoded", "GPS sentences: every good one merged, every corrupted "
+            "one counted", "GPS wire shared: every uavbus frame taken in", "GPS at gcs1 at the sensor's rate"} <= held
+    assert gps_step["at_gcs1"]["sentencesOk"] == 4 * gps_step["epochs"] and gps_step["bad_checksum"] >= 1

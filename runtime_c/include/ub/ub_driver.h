@@ -134,6 +134,10 @@ typedef struct ub_driver {
      *  goes to `cb(user, ...)`. `cb` NULL removes it. ub_ports_set_foreign() calls it, and again on the new
      *  instance after a software switch. NULL: the transport cannot (UB_ERR_UNSUPPORTED). @return UB_OK. */
     int (*set_foreign)(void *state, ub_foreign_cb cb, void *user);
+    /** Optional: writes bytes that are not a uavbus frame (a legacy datalink message, a device's command)
+     *  onto the link, whole or not at all, between frames. ub_ports_write_foreign() calls it. NULL: the
+     *  transport cannot (UB_ERR_UNSUPPORTED). @return UB_OK, UB_ERR_AGAIN (full: later), UB_ERR_CLOSED. */
+    int (*write_foreign)(void *state, const uint8_t *data, size_t len, uint64_t now_ms);
 } ub_driver_t;
 
 /**

@@ -272,6 +272,8 @@ typedef struct ub_decoder_stats {
  *         in foreign_refused (a full buffer, an unknown protocol) and are not offered again.
  */
 typedef size_t (*ub_foreign_cb)(void *user, const uint8_t *run, size_t len);
+/** Defined where the decoder takes a foreign-traffic handler (code built against older runtimes tests it). */
+#define UB_DECODER_FOREIGN 1
 
 /**
  * Called once per verified frame. `frame` points to the whole frame
@@ -299,6 +301,21 @@ void ub_decoder_init(ub_decoder_t *d);
  * byte: runs are handed over whole, so a pure uavbus stream decodes as fast as without a handler.
  */
 void ub_decoder_set_foreign(ub_decoder_t *d, ub_foreign_cb cb, void *user);
+
+/**
+ * A new stream starts on the same link (a reconnection, a reopened device): the bytes of a candidate still
+ * held cannot be completed and are counted as garbage (the accounting invariant holds); the counters and
+ * the foreign-traffic handler are kept.
+ */
+void ub_decoder_restart(ub_decoder_t *d);
+
+/**
+ * For a codec that frames the stream itself but shares this decoder's buffer and counters (the compact
+ * encoding, ub_compact.h): `n` bytes that are no frame, in stream order, to the foreign-traffic handler
+ * (counted foreign_bytes, foreign_refused) or, without one, counted as garbage. Not for use beside
+ * ub_decoder_feed() on the same stream.
+ */
+void ub_decoder_not_frame(ub_decoder_t *d, const uint8_t *run, size_t n);
 
 /**
  * Feeds `len` bytes (`data` may be NULL only when `len` is 0). Calls `cb`

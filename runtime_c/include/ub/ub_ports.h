@@ -71,6 +71,7 @@
 #include "ub_link.h"
 #include "ub_node.h"
 #include "ub_nodecfg.h"
+#include "ub_legacy_link.h"
 #include "ub_serial.h"
 #include "ub_tcp.h"
 #include "ub_udp.h"
@@ -93,7 +94,7 @@ extern "C" {
 #define UB_PORT_DEFAULT_BAUD 115200u
 /** Drivers one ports set knows at most: the four built-ins and registered ones. */
 #ifndef UB_PORTS_MAX_DRIVERS
-#define UB_PORTS_MAX_DRIVERS 8
+#define UB_PORTS_MAX_DRIVERS 10
 #endif
 
 typedef enum ub_port_kind {
@@ -167,6 +168,7 @@ typedef union ub_port_state {
     ub_udp_t udp_;
     ub_tcp_t tcp_;
     ub_serial_t serial_;
+    ub_legacy_link_t legacy_;
     max_align_t align_;
 } ub_port_state_t;
 
@@ -222,6 +224,15 @@ UB_CHECK int ub_ports_init(ub_ports_t *ports, ub_node_t *node);
  *         UB_DRIVER_STATE_MAX); UB_ERR_EXISTS (the word is taken); UB_ERR_FULL (UB_PORTS_MAX_DRIVERS).
  */
 UB_CHECK int ub_ports_register(ub_ports_t *ports, const ub_driver_t *driver);
+
+/**
+ * Writes `len` bytes that are not a uavbus frame (a legacy datalink message: the application's side of the
+ * "large case statement", docs/adapters.md) onto the port of `link_name`, whole or not at all.
+ * @return UB_OK; UB_ERR_AGAIN (transmit buffer full: try later); UB_ERR_CLOSED (link down); UB_ERR_NOTFOUND
+ *         (no open port); UB_ERR_UNSUPPORTED (the transport cannot: UDP, mem); UB_ERR_INVAL.
+ */
+UB_CHECK int ub_ports_write_foreign(ub_ports_t *ports, const char *link_name, const uint8_t *data, size_t len,
+                                    uint64_t now_ms);
 
 /**
  * Gives the port of `link_name` a foreign-traffic handler (issue #24, docs/adapters.md): the bytes of a

@@ -92,6 +92,7 @@ typedef struct ub_serial_stats {
     uint64_t reopen_failures; /**< reopen attempts that failed (device still absent) */
     uint64_t send_closed;  /**< frames refused with UB_ERR_CLOSED while down */
     uint64_t tx_discarded; /**< queued bytes thrown away with a hang-up */
+    uint64_t foreign_out;  /**< foreign messages written (ub_serial_write_foreign()) */
 } ub_serial_stats_t;
 
 /** A serial link. Caller-owned; treat the fields as private. */
@@ -109,6 +110,10 @@ typedef struct ub_serial {
     ub_serial_stats_t stats;
     ub_decoder_t *dec;     /**< ub_serial_set_decoder(); NULL: the node slot's */
     ub_decoder_t own_dec;  /**< the decoder ub_serial_set_foreign() reads through */
+    const ub_link_ops_t *ops; /**< what the slot is attached with (ub_serial_attach_as()); a reopen re-attaches it */
+    void *ops_impl;
+    int (*rx_hook)(void *user, const uint8_t *data, size_t len, uint64_t now_ms); /**< ub_serial_set_rx_hook() */
+    void *rx_user;
     size_t tx_len;
     uint8_t tx[UB_SERIAL_TX_BUFFER];
     uint8_t rx[UB_SERIAL_RX_CHUNK];
@@ -142,6 +147,11 @@ UB_CHECK int ub_serial_adopt(ub_serial_t *serial, int fd, uint32_t baud);
 /** Puts this driver behind slot `link_id` of `node`. @return UB_OK or the error of ub_node_link_attach(). */
 UB_CHECK int ub_serial_attach(ub_serial_t *serial, ub_node_t *node, int link_id);
 
+/** The same with another link vtable and impl in front of the serial link (a driver that frames the stream
+ *  itself, ub_legacy_link.h); a reopened device re-attaches these. */
+UB_CHECK int ub_serial_attach_as(ub_serial_t *serial, ub_node_t *node, int link_id, const ub_link_ops_t *ops,
+                                 void *impl);
+
 /**
  * Flushes the transmit buffer, then reads what is available (at most
  * UB_SERIAL_RX_BUDGET reads) into the node with ub_node_rx(). Detects a
@@ -172,6 +182,24 @@ UB_CHECK int ub_serial_set_decoder(ub_serial_t *serial, ub_decoder_t *dec);
  * @return UB_OK, or UB_ERR_INVAL for a NULL `serial`.
  */
 UB_CHECK int ub_serial_set_foreign(ub_serial_t *serial, ub_foreign_cb cb, void *user);
+
+/**
+ * Writes bytes that are not a uavbus frame (a device's own protocol: a GPS receiver's configuration
+ * message, a legacy datalink message) onto the link through the same transmit buffer as frames, whole or
+ * not at all, so they never split a frame; counted in `foreign_out` and `bytes_out`.
+ * @return UB_OK; UB_ERR_AGAIN (no room beside what is queued: counted `backpressure`, try later);
+ *         UB_ERR_CLOSED (down); UB_ERR_INVAL (NULL, or longer than UB_SERIAL_TX_BUFFER); UB_ERR_IO.
+ */
+UB_CHECK int ub_serial_write_foreign(ub_serial_t *serial, const uint8_t *data, size_t len, uint64_t now_ms);
+
+/**
+ * Hands every byte read to `hook` instead of the node (a link mode that frames the stream itself: the legacy
+ * datalink envelope, ub_legacy_link.h); it returns the frames it handed to the node. NULL: back to the node.
+ * @return UB_OK, or UB_ERR_INVAL for a NULL `serial`.
+ */
+UB_CHECK int ub_serial_set_rx_hook(ub_serial_t *serial, int (*hook)(void *user, const uint8_t *data, size_t len,
+                                                                    uint64_t now_ms),
+                                   void *user);
 
 /** @return the device descriptor, or -1 when closed or down. */
 int ub_serial_fileno(const ub_serial_t *serial);

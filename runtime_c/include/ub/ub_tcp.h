@@ -147,6 +147,7 @@ typedef struct ub_tcp_stats {
     uint64_t send_closed;      /**< frames refused with UB_ERR_CLOSED: no connection */
     uint64_t tx_discarded;     /**< queued bytes thrown away with a lost connection */
     uint64_t hellos;           /**< client: link hellos sent on connecting (signed link-local CHALLENGE) */
+    uint64_t foreign_out;      /**< foreign messages written (ub_tcp_write_foreign()) */
 } ub_tcp_stats_t;
 
 /** A server's candidate connection. Treat as private. */
@@ -176,6 +177,8 @@ typedef struct ub_tcp {
     uint8_t batching;
     uint64_t last_fresh_ms;  /* established peer: when it came up or last sent a fresh frame */
     ub_tcp_candidate_t cand[UB_TCP_MAX_CANDIDATES];
+    uint8_t foreign_on;      /* ub_tcp_set_foreign(): the established stream is read through own_dec */
+    ub_decoder_t own_dec;
     uint8_t tx[UB_TCP_TX_BUFFER];
     uint8_t rx[UB_TCP_RX_CHUNK];
 } ub_tcp_t;
@@ -249,6 +252,24 @@ size_t ub_tcp_tx_pending(const ub_tcp_t *tcp);
 
 /** @return the driver counters. */
 const ub_tcp_stats_t *ub_tcp_stats(const ub_tcp_t *tcp);
+
+/**
+ * Gives the link a foreign-traffic handler (ub_frame.h, docs/adapters.md): the established connection's
+ * stream is read through a decoder of the link's own whose handler is `cb`, so every run of bytes that is
+ * not a uavbus frame goes to `cb` (counted `foreign_bytes`, `foreign_refused`). A new connection restarts
+ * that decoder (a half frame of the old stream is counted as garbage) and keeps the handler. A server's
+ * candidate connections are not the link's peer until adopted: what they send that is no frame is counted
+ * `candidate_garbage`, never handed on. `cb` NULL removes it (back to the node slot's decoder).
+ * @return UB_OK, or UB_ERR_INVAL for a NULL `tcp`.
+ */
+UB_CHECK int ub_tcp_set_foreign(ub_tcp_t *tcp, ub_foreign_cb cb, void *user);
+
+/**
+ * Writes bytes that are not a uavbus frame (a legacy datalink message) onto the established connection
+ * through the same transmit buffer as frames, whole or not at all.
+ * @return UB_OK; UB_ERR_AGAIN (no room: try later); UB_ERR_CLOSED (no connection); UB_ERR_INVAL; UB_ERR_IO.
+ */
+UB_CHECK int ub_tcp_write_foreign(ub_tcp_t *tcp, const uint8_t *data, size_t len, uint64_t now_ms);
 
 /** @return server candidates currently held (not adopted yet). */
 int ub_tcp_candidates(const ub_tcp_t *tcp);

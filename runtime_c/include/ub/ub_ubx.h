@@ -4,11 +4,13 @@
  *
  * A pure state machine like ub_nmea.h: no I/O, no allocation, no globals; feed it a link's foreign runs in
  * any cuts. It finds `B5 62 class id len(u16 LE) payload CK_A CK_B`, verifies the 8-bit Fletcher checksum
- * over class..payload, and decodes NAV-PVT (class 0x01, id 0x07, 92 bytes) into a solution, calling back
- * once per good NAV-PVT. Other messages with a good checksum are counted `unsupported`; a bad checksum, a
- * NAV-PVT of the wrong length or a message longer than UB_UBX_PAYLOAD_MAX is counted, never decoded.
+ * over class..payload, and decodes NAV-PVT (class 0x01, id 0x07, 92 bytes) into a solution and ACK-ACK /
+ * ACK-NAK (class 0x05, 2 bytes: the acknowledged message's class and id) into `ack`, calling back once per
+ * good message of either kind (`ubx->cls` says which). Other messages with a good checksum are counted
+ * `unsupported`; a bad checksum, a NAV-PVT or ACK of the wrong length or a message longer than
+ * UB_UBX_PAYLOAD_MAX is counted, never decoded. ub_ubx_build() writes a message (a CFG to the receiver).
  *
- *     ub_ubx_t ubx;   ub_ubx_init(&ubx);   ub_ubx_feed(&ubx, run, len, on_pvt, ctx);
+ *     ub_ubx_t ubx;   ub_ubx_init(&ubx);   ub_ubx_feed(&ubx, run, len, on_message, ctx);
  */
 #ifndef UB_UBX_H
 #define UB_UBX_H
@@ -27,6 +29,12 @@ extern "C" {
 #define UB_UBX_CLASS_NAV 0x01u
 #define UB_UBX_ID_NAV_PVT 0x07u
 #define UB_UBX_NAV_PVT_LEN 92u
+#define UB_UBX_CLASS_ACK 0x05u
+#define UB_UBX_ID_ACK_NAK 0x00u
+#define UB_UBX_ID_ACK_ACK 0x01u
+#define UB_UBX_CLASS_CFG 0x06u
+#define UB_UBX_ID_CFG_RATE 0x08u  /**< measRate u16 ms, navRate u16 cycles, timeRef u16 (0 UTC, 1 GPS) */
+#define UB_UBX_CFG_RATE_LEN 6u
 /** Longest payload kept; longer messages are skipped (counted `too_long`). */
 #define UB_UBX_PAYLOAD_MAX 128u
 
@@ -48,6 +56,12 @@ typedef struct ub_ubx_pvt {
     uint16_t p_dop_1e2;     /**< position DOP * 100 */
 } ub_ubx_pvt_t;
 
+/** The last ACK-ACK or ACK-NAK: which message the receiver answered, and how. */
+typedef struct ub_ubx_ack {
+    uint8_t cls, id; /**< the acknowledged message's class and id */
+    uint8_t ok;      /**< 1 ACK-ACK (applied), 0 ACK-NAK (refused) */
+} ub_ubx_ack_t;
+
 /** Counters: every byte fed is in exactly one of bytes_in_messages and noise_bytes, or still held. */
 typedef struct ub_ubx_stats {
     uint64_t bytes_in;
@@ -55,7 +69,9 @@ typedef struct ub_ubx_stats {
     uint64_t bytes_in_messages;  /**< bytes of finished or dropped messages, sync included */
     uint64_t nav_pvt;            /**< good NAV-PVT decoded (and called back) */
     uint64_t bad_checksum;       /**< checksum wrong: corrupted in transit */
-    uint64_t bad_length;         /**< NAV-PVT whose length is not 92 */
+    uint64_t bad_length;         /**< NAV-PVT whose length is not 92, ACK whose length is not 2 */
+    uint64_t ack;                /**< good ACK-ACK */
+    uint64_t nak;                /**< good ACK-NAK */
     uint64_t too_long;           /**< payload above UB_UBX_PAYLOAD_MAX: skipped */
     uint64_t unsupported;        /**< good messages of other classes/ids */
 } ub_ubx_stats_t;
@@ -69,10 +85,12 @@ typedef struct ub_ubx {
     uint16_t len, have;
     uint8_t payload[UB_UBX_PAYLOAD_MAX];
     ub_ubx_pvt_t pvt;
+    ub_ubx_ack_t ack;
     ub_ubx_stats_t stats;
 } ub_ubx_t;
 
-/** Called once per good NAV-PVT, after it was decoded into `ubx->pvt`. */
+/** Called once per good NAV-PVT (`ubx->cls` UB_UBX_CLASS_NAV, decoded into `ubx->pvt`) and once per good
+ *  ACK-ACK/ACK-NAK (`ubx->cls` UB_UBX_CLASS_ACK, decoded into `ubx->ack`). */
 typedef void (*ub_ubx_cb)(void *user, const ub_ubx_t *ubx);
 
 /** Empties the parser, zeroes its solution and counters. */
@@ -83,6 +101,12 @@ void ub_ubx_init(ub_ubx_t *ubx);
  * @return good NAV-PVT decoded by this call, or UB_ERR_INVAL (NULL `ubx`, or NULL `data` with `len` > 0).
  */
 UB_CHECK int ub_ubx_feed(ub_ubx_t *ubx, const uint8_t *data, size_t len, ub_ubx_cb cb, void *user);
+
+/**
+ * Writes one UBX message (sync, class, id, length, payload, Fletcher checksum) into `out`.
+ * @return its length (8 + len), UB_ERR_NOSPACE when `cap` is smaller, UB_ERR_INVAL (NULL).
+ */
+UB_CHECK int ub_ubx_build(uint8_t cls, uint8_t id, const uint8_t *payload, uint16_t len, uint8_t *out, size_t cap);
 
 #ifdef __cplusplus
 }

@@ -542,6 +542,23 @@ static bool take_packet(ub_compact_t *s, const uint8_t *seg, size_t n, uint64_t 
     return true;
 }
 
+/* A stream segment that is not a packet, on a link with a foreign-traffic handler: foreign bytes with, maybe,
+ * a packet glued after them. Returns where the first suffix that decodes as a packet starts (its CRC-32C check
+ * makes a false find improbable), or `n`. Quiet: nothing is counted for the suffixes tried. Only after a
+ * rejection with a handler set, so a pure compact stream never pays for it. */
+static size_t packet_suffix(const ub_compact_t *s, const uint8_t *seg, size_t n) {
+    uint8_t pkt[UB_COMPACT_PACKET_MAX];
+    uint8_t frame[UB_FRAME_MAX];
+    ub_compact_codec_t c;
+    ub_compact_rx_codec(s, &c);
+    for (size_t k = 1; k + 1 < n; k++) {
+        int m = ub_cobs_decode(seg + k, n - k, pkt, sizeof pkt);
+        ub_frame_header_t h;
+        if (m > 0 && ub_compact_decode(&c, pkt, (size_t)m, &s->rx, frame, sizeof frame, &h, NULL) >= 0) return k;
+    }
+    return n;
+}
+
 size_t ub_compact_feed(ub_compact_t *s, ub_decoder_t *stream, const uint8_t *data, size_t len, uint64_t now_ms,
                        uint64_t rejected[UB_RX_REASON_COUNT], ub_compact_frame_cb cb, void *user) {
     if (s == NULL || (data == NULL && len > 0)) return 0;
@@ -567,15 +584,17 @@ size_t ub_compact_feed(ub_compact_t *s, ub_decoder_t *stream, const uint8_t *dat
             pos += seg + 1;
             continue;
         }
-        /* Stream: append to the carried packet; one longer than the largest packet is noise. */
+        /* Stream: append to the carried packet; one longer than the largest packet is not a packet (noise, or
+         * foreign traffic: handed on as it comes, the decoder's handler decides). */
         if (stream->have != OVERFLOW && stream->have + seg <= UB_COMPACT_WIRE_MAX) {
             memcpy(stream->buf + stream->have, data + pos, seg);
             stream->have += seg;
         } else {
-            size_t dropped = seg + (stream->have != OVERFLOW ? stream->have : 0);
-            s->stats.garbage_bytes += dropped;
-            ds->garbage_bytes += dropped;
+            size_t held = stream->have != OVERFLOW ? stream->have : 0;
+            s->stats.garbage_bytes += held + seg;
             stream->have = OVERFLOW;
+            ub_decoder_not_frame(stream, stream->buf, held);
+            ub_decoder_not_frame(stream, data + pos, seg);
         }
         pos += seg;
         if (z == NULL) break;
@@ -586,14 +605,24 @@ size_t ub_compact_feed(ub_compact_t *s, ub_decoder_t *stream, const uint8_t *dat
             s->stats.rejected[UB_RX_BAD_LENGTH]++;
             ds->rejected[UB_RX_BAD_LENGTH]++;
             s->stats.garbage_bytes++;
-            ds->garbage_bytes++;
+            ub_decoder_not_frame(stream, data + pos - 1, 1);
         } else if (have > 0 && take_packet(s, stream->buf, have, now_ms, rejected, cb, user)) {
             frames++;
             ds->frames_ok++;
             ds->bytes_ok += have + 1;
         } else {
-            s->stats.garbage_bytes += have + 1;
-            ds->garbage_bytes += have + 1;
+            /* Foreign traffic carries no delimiter of ours: its bytes are glued to the packet after them. */
+            size_t k = stream->foreign != NULL ? packet_suffix(s, stream->buf, have) : have;
+            s->stats.garbage_bytes += k;
+            ub_decoder_not_frame(stream, stream->buf, k);
+            if (k < have && take_packet(s, stream->buf + k, have - k, now_ms, rejected, cb, user)) {
+                frames++;
+                ds->frames_ok++;
+                ds->bytes_ok += have - k + 1;
+            } else {
+                s->stats.garbage_bytes += have - k + 1;
+                ub_decoder_not_frame(stream, data + pos - 1, 1);
+            }
         }
     }
     return frames;

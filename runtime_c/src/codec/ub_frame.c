@@ -205,6 +205,16 @@ static void not_frame(ub_decoder_t *d, const uint8_t *run, size_t n) {
     if (took < n) d->stats.foreign_refused += n - took;
 }
 
+void ub_decoder_not_frame(ub_decoder_t *d, const uint8_t *run, size_t n) {
+    if (d != NULL && (run != NULL || n == 0)) not_frame(d, run, n);
+}
+
+void ub_decoder_restart(ub_decoder_t *d) {
+    if (d == NULL) return;
+    d->stats.garbage_bytes += ub_decoder_pending(d);
+    d->have = 0;
+}
+
 static void deliver(ub_decoder_t *d, const uint8_t *f, size_t frame_len, ub_frame_cb cb, void *user) {
     d->stats.frames_ok++;
     d->stats.bytes_ok += frame_len;

@@ -55,6 +55,19 @@ static int finish(ub_ubx_t *u, ub_ubx_cb cb, void *user) {
         u->stats.bad_checksum++;
         return 0;
     }
+    if (u->cls == UB_UBX_CLASS_ACK && (u->id == UB_UBX_ID_ACK_ACK || u->id == UB_UBX_ID_ACK_NAK)) {
+        if (u->len != 2u) {
+            u->stats.bad_length++;
+            return 0;
+        }
+        u->ack.cls = u->payload[0];
+        u->ack.id = u->payload[1];
+        u->ack.ok = u->id == UB_UBX_ID_ACK_ACK;
+        if (u->ack.ok) u->stats.ack++;
+        else u->stats.nak++;
+        if (cb != NULL) cb(user, u);
+        return 0;
+    }
     if (u->cls != UB_UBX_CLASS_NAV || u->id != UB_UBX_ID_NAV_PVT) {
         u->stats.unsupported++;
         return 0;
@@ -129,4 +142,23 @@ int ub_ubx_feed(ub_ubx_t *u, const uint8_t *data, size_t len, ub_ubx_cb cb, void
         }
     }
     return decoded;
+}
+
+int ub_ubx_build(uint8_t cls, uint8_t id, const uint8_t *payload, uint16_t len, uint8_t *out, size_t cap) {
+    if (out == NULL || (payload == NULL && len != 0)) return UB_ERR_INVAL;
+    if (cap < 8u + (size_t)len) return UB_ERR_NOSPACE;
+    out[0] = UB_UBX_SYNC1;
+    out[1] = UB_UBX_SYNC2;
+    out[2] = cls;
+    out[3] = id;
+    ub_put_u16le(out + 4, len);
+    if (len != 0) memcpy(out + 6, payload, len);
+    uint8_t a = 0, b = 0;
+    for (size_t i = 2; i < 6u + len; i++) {
+        a = (uint8_t)(a + out[i]);
+        b = (uint8_t)(b + a);
+    }
+    out[6 + len] = a;
+    out[7 + len] = b;
+    return (int)(8u + len);
 }

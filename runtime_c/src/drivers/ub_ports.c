@@ -61,7 +61,8 @@ static const ub_driver_t k_mem_driver = {
 };
 
 /* The built-in drivers, in the order messages list them. Constant: each set registers them (ub_ports_init()). */
-static const ub_driver_t *const k_builtin[] = {&ub_udp_driver, &ub_tcp_driver, &ub_serial_driver, &k_mem_driver};
+static const ub_driver_t *const k_builtin[] = {&ub_udp_driver, &ub_tcp_driver, &ub_serial_driver, &ub_legacy_driver,
+                                               &k_mem_driver};
 #define BUILTIN_COUNT (sizeof k_builtin / sizeof k_builtin[0])
 
 /* Which drivers a parse knows: a set's registry, or the built-ins alone. */
@@ -99,7 +100,7 @@ static void append(char *out, size_t cap, const char *fmt, ...) {
     va_end(ap);
 }
 
-/* "udp, tcp, serial or mem" and "udp:... | tcp:... | mem": the transports a message offers. */
+/* "udp, tcp, serial, legacy or mem" and "udp:... | tcp:... | mem": the transports a message offers. */
 static void registry_words(registry_t r, char *out, size_t cap) {
     out[0] = '\0';
     for (size_t i = 0; i < r.count; i++) {
@@ -640,6 +641,17 @@ int ub_ports_set_foreign(ub_ports_t *ports, const char *link_name, ub_foreign_cb
     p->foreign = cb;
     p->foreign_user = cb != NULL ? user : NULL;
     return UB_OK;
+}
+
+int ub_ports_write_foreign(ub_ports_t *ports, const char *link_name, const uint8_t *data, size_t len,
+                           uint64_t now_ms) {
+    if (ports == NULL || ports->node == NULL || (data == NULL && len != 0)) return UB_ERR_INVAL;
+    int id = resolve_link(ports->node, link_name);
+    ub_port_t *p = id >= 0 ? port_of_link(ports, id) : NULL;
+    if (p == NULL || p->drv[p->active].driver == NULL) return UB_ERR_NOTFOUND;
+    ub_port_driver_t *d = &p->drv[p->active];
+    if (d->driver->write_foreign == NULL) return UB_ERR_UNSUPPORTED;
+    return d->driver->write_foreign(&d->state, data, len, now_ms);
 }
 
 int ub_ports_close(ub_ports_t *ports, const char *link_name) {

@@ -139,30 +139,21 @@ static void try_reopen(ub_serial_t *serial, uint64_t now_ms) {
     serial->backoff_ms = UB_SERIAL_RETRY_MIN_MS;
     serial->stats.reopens++;
     if (serial->node != NULL) {
-        int attached = ub_driver_reattach(serial->node, serial->link_id, &ub_serial_ops, serial);
+        int attached = ub_driver_reattach(serial->node, serial->link_id, serial->ops, serial->ops_impl);
         (void)attached; /* cannot fail: ub_serial_attach() succeeded with these arguments */
     }
-    if (serial->dec != NULL) { /* the same restart for the caller's decoder, keeping its handler */
-        ub_decoder_t *d = serial->dec;
-        ub_decoder_stats_t kept = d->stats;
-        ub_foreign_cb cb = d->foreign;
-        void *user = d->foreign_user;
-        kept.garbage_bytes += ub_decoder_pending(d);
-        ub_decoder_init(d);
-        d->stats = kept;
-        ub_decoder_set_foreign(d, cb, user);
-    }
+    ub_decoder_restart(serial->dec); /* the same restart for the caller's decoder, keeping its handler (NULL: none) */
 }
 
 static long device_write(int fd, const uint8_t *data, size_t len) { return (long)write(fd, data, len); }
 
-static int serial_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms) {
-    ub_serial_t *serial = impl;
+/* Writes whole or nothing through the transmit buffer; `counter` counts what went in (a frame, a foreign message). */
+static int serial_write(ub_serial_t *serial, const uint8_t *data, size_t len, uint64_t now_ms, uint64_t *counter) {
     if (serial->state != UB_SERIAL_UP) {
         serial->stats.send_closed++;
         return UB_ERR_CLOSED;
     }
-    int rc = ub_stream_tx_send(serial->fd, device_write, serial->tx, sizeof serial->tx, &serial->tx_len, frame, len,
+    int rc = ub_stream_tx_send(serial->fd, device_write, serial->tx, sizeof serial->tx, &serial->tx_len, data, len,
                                &serial->stats.bytes_out);
     if (rc == UB_ERR_AGAIN) {
         serial->stats.backpressure++;
@@ -176,7 +167,25 @@ static int serial_send(void *impl, const uint8_t *frame, size_t len, uint64_t no
         serial->stats.io_errors++;
         return rc;
     }
-    serial->stats.frames_out++;
+    (*counter)++;
+    return UB_OK;
+}
+
+static int serial_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    ub_serial_t *serial = impl;
+    return serial_write(serial, frame, len, now_ms, &serial->stats.frames_out);
+}
+
+int ub_serial_write_foreign(ub_serial_t *serial, const uint8_t *data, size_t len, uint64_t now_ms) {
+    if (serial == NULL || (data == NULL && len != 0) || len > sizeof serial->tx) return UB_ERR_INVAL;
+    return serial_write(serial, data, len, now_ms, &serial->stats.foreign_out);
+}
+
+int ub_serial_set_rx_hook(ub_serial_t *serial, int (*hook)(void *user, const uint8_t *data, size_t len, uint64_t now_ms),
+                          void *user) {
+    if (serial == NULL) return UB_ERR_INVAL;
+    serial->rx_hook = hook;
+    serial->rx_user = hook != NULL ? user : NULL;
     return UB_OK;
 }
 
@@ -188,8 +197,11 @@ int ub_serial_set_decoder(ub_serial_t *serial, ub_decoder_t *dec) {
 
 int ub_serial_set_foreign(ub_serial_t *serial, ub_foreign_cb cb, void *user) {
     if (serial == NULL) return UB_ERR_INVAL;
-    if (cb == NULL) {
-        if (serial->dec == &serial->own_dec) serial->dec = NULL;
+    if (cb == NULL) { /* back to the slot's decoder: what the own one still held is counted garbage there */
+        if (serial->dec == &serial->own_dec) {
+            ub_decoder_restart(&serial->own_dec);
+            serial->dec = NULL;
+        }
         return UB_OK;
     }
     if (serial->dec != &serial->own_dec) ub_decoder_init(&serial->own_dec);
@@ -203,8 +215,17 @@ static int serial_fileno(void *impl) { return ub_serial_fileno(impl); }
 const ub_link_ops_t ub_serial_ops = {.kind = "serial", .send = serial_send, .fileno = serial_fileno};
 
 int ub_serial_attach(ub_serial_t *serial, ub_node_t *node, int link_id) {
-    if (serial == NULL) return UB_ERR_INVAL;
-    return ub_driver_attach(node, link_id, &ub_serial_ops, serial, &serial->node, &serial->link_id);
+    return ub_serial_attach_as(serial, node, link_id, &ub_serial_ops, serial);
+}
+
+int ub_serial_attach_as(ub_serial_t *serial, ub_node_t *node, int link_id, const ub_link_ops_t *ops, void *impl) {
+    if (serial == NULL || ops == NULL) return UB_ERR_INVAL;
+    int rc = ub_driver_attach(node, link_id, ops, impl, &serial->node, &serial->link_id);
+    if (rc == UB_OK) {
+        serial->ops = ops;
+        serial->ops_impl = impl;
+    }
+    return rc;
 }
 
 /* read() returned 0. With VMIN = VTIME = 0 that is also "no data now", so ask poll(): a hung-up tty
@@ -237,7 +258,9 @@ int ub_serial_service(ub_serial_t *serial, ub_node_t *node, uint64_t now_ms) {
         ssize_t n = read(serial->fd, serial->rx, sizeof serial->rx);
         if (n > 0) {
             serial->stats.bytes_in += (uint64_t)n;
-            int found = ub_node_rx_stream(node, serial->link_id, serial->dec, serial->rx, (size_t)n, now_ms, NULL);
+            int found = serial->rx_hook != NULL
+                            ? serial->rx_hook(serial->rx_user, serial->rx, (size_t)n, now_ms)
+                            : ub_node_rx_stream(node, serial->link_id, serial->dec, serial->rx, (size_t)n, now_ms, NULL);
             if (found > 0) frames += found;
             continue;
         }
@@ -358,11 +381,15 @@ static int serial_set_foreign_op(void *state, ub_foreign_cb cb, void *user) {
     return ub_serial_set_foreign(state, cb, user);
 }
 
+static int serial_write_foreign_op(void *state, const uint8_t *data, size_t len, uint64_t now_ms) {
+    return ub_serial_write_foreign(state, data, len, now_ms);
+}
+
 static size_t serial_counters(const void *state, ub_driver_counter_t *out, size_t cap) {
     const ub_serial_stats_t *s = &((const ub_serial_t *)state)->stats;
     const ub_driver_counter_t all[] = {
         {"bytes_in", s->bytes_in},         {"bytes_out", s->bytes_out},
-        {"frames_out", s->frames_out},     {"backpressure", s->backpressure},
+        {"frames_out", s->frames_out},     {"foreign_out", s->foreign_out},     {"backpressure", s->backpressure},
         {"io_errors", s->io_errors},       {"hangups", s->hangups},
         {"reopens", s->reopens},           {"reopen_failures", s->reopen_failures},
         {"send_closed", s->send_closed},   {"tx_discarded", s->tx_discarded},
@@ -378,12 +405,14 @@ static int serial_describe(const void *state, char *out, size_t cap) {
     return snprintf(out, cap,
                     "\"state\":\"%s\",\"bytes_in\":%llu,\"bytes_out\":%llu,\"backpressure\":%llu,\"io_errors\":%llu,"
                     "\"hangups\":%llu,\"reopens\":%llu,\"reopen_failures\":%llu,\"send_closed\":%llu,"
-                    "\"tx_discarded\":%llu",
+                    "\"tx_discarded\":%llu,\"foreign_out\":%llu,\"foreign_bytes\":%llu,\"foreign_refused\":%llu",
                     serial->state == UB_SERIAL_UP ? "up" : "down", (unsigned long long)s->bytes_in,
                     (unsigned long long)s->bytes_out, (unsigned long long)s->backpressure,
                     (unsigned long long)s->io_errors, (unsigned long long)s->hangups, (unsigned long long)s->reopens,
                     (unsigned long long)s->reopen_failures, (unsigned long long)s->send_closed,
-                    (unsigned long long)s->tx_discarded);
+                    (unsigned long long)s->tx_discarded, (unsigned long long)s->foreign_out,
+                    (unsigned long long)(serial->dec != NULL ? serial->dec->stats.foreign_bytes : 0),
+                    (unsigned long long)(serial->dec != NULL ? serial->dec->stats.foreign_refused : 0));
 }
 
 const ub_driver_t ub_serial_driver = {
@@ -406,4 +435,5 @@ const ub_driver_t ub_serial_driver = {
     .counters = serial_counters,
     .describe = serial_describe,
     .set_foreign = serial_set_foreign_op,
+    .write_foreign = serial_write_foreign_op,
 };

@@ -88,8 +88,8 @@ static void connection_lost(ub_tcp_t *tcp, uint64_t now_ms, int was_up) {
     }
 }
 
-static int tcp_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms) {
-    ub_tcp_t *tcp = impl;
+/* Whole or nothing through the transmit buffer; `counter` counts what went in (a frame, a foreign message). */
+static int tcp_write(ub_tcp_t *tcp, const uint8_t *frame, size_t len, uint64_t now_ms, uint64_t *counter) {
     if (tcp->state != UB_TCP_UP) {
         tcp->stats.send_closed++;
         return UB_ERR_CLOSED;
@@ -120,8 +120,18 @@ static int tcp_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_m
         connection_lost(tcp, now_ms, 1);
         return UB_ERR_CLOSED;
     }
-    tcp->stats.frames_out++;
+    (*counter)++;
     return UB_OK;
+}
+
+static int tcp_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    ub_tcp_t *tcp = impl;
+    return tcp_write(tcp, frame, len, now_ms, &tcp->stats.frames_out);
+}
+
+int ub_tcp_write_foreign(ub_tcp_t *tcp, const uint8_t *data, size_t len, uint64_t now_ms) {
+    if (tcp == NULL || (data == NULL && len != 0) || len > sizeof tcp->tx) return UB_ERR_INVAL;
+    return tcp_write(tcp, data, len, now_ms, &tcp->stats.foreign_out);
 }
 
 static int tcp_fileno(void *impl) { return ub_tcp_fileno(impl); }
@@ -147,6 +157,7 @@ static void connection_up(ub_tcp_t *tcp, int fd, uint64_t now_ms) {
     /* Cannot fail: ub_tcp_attach() succeeded with these same arguments. */
     int attached = ub_driver_reattach(tcp->node, tcp->link_id, &ub_tcp_ops, tcp);
     (void)attached;
+    if (tcp->foreign_on) ub_decoder_restart(&tcp->own_dec); /* the same for the link's own decoder */
     /* The link hello (ub_tcp.h): a listener requiring signed frames adopts this connection on its proof,
      * also when this side has nothing else to send. Without a transmit key there is nothing to prove. */
     ub_sec_t *sec = ub_node_security(tcp->node);
@@ -336,7 +347,8 @@ static int read_available(ub_tcp_t *tcp, uint64_t now_ms) {
         if (n > 0) {
             tcp->stats.bytes_in += (uint64_t)n;
             ub_rx_verdicts_t v = {0, 0};
-            int found = ub_node_rx_stream(tcp->node, tcp->link_id, NULL, tcp->rx, (size_t)n, now_ms, &v);
+            ub_decoder_t *dec = tcp->foreign_on ? &tcp->own_dec : NULL; /* NULL: the slot's */
+            int found = ub_node_rx_stream(tcp->node, tcp->link_id, dec, tcp->rx, (size_t)n, now_ms, &v);
             if (found > 0) frames += found;
             /* Alive only by frames whose freshness is proven: replays, even authentic ones, keep nothing alive. */
             if (v.fresh > 0) tcp->last_fresh_ms = now_ms;
@@ -366,6 +378,19 @@ int ub_tcp_service(ub_tcp_t *tcp, ub_node_t *node, uint64_t now_ms) {
         return 0;
     }
     return read_available(tcp, now_ms);
+}
+
+int ub_tcp_set_foreign(ub_tcp_t *tcp, ub_foreign_cb cb, void *user) {
+    if (tcp == NULL) return UB_ERR_INVAL;
+    if (cb == NULL) { /* back to the slot's decoder: what the link's own still held is counted garbage there */
+        if (tcp->foreign_on) ub_decoder_restart(&tcp->own_dec);
+        tcp->foreign_on = 0;
+        return UB_OK;
+    }
+    if (!tcp->foreign_on) ub_decoder_init(&tcp->own_dec);
+    ub_decoder_set_foreign(&tcp->own_dec, cb, user);
+    tcp->foreign_on = 1;
+    return UB_OK;
 }
 
 int ub_tcp_set_batching(ub_tcp_t *tcp, int on) {
@@ -498,6 +523,12 @@ static int tcp_local_port(const void *state, uint16_t *port) {
     return tcp->role == UB_TCP_SERVER ? ub_tcp_local_port(tcp, port) : UB_ERR_INVAL;
 }
 
+static int tcp_set_foreign_op(void *state, ub_foreign_cb cb, void *user) { return ub_tcp_set_foreign(state, cb, user); }
+
+static int tcp_write_foreign_op(void *state, const uint8_t *data, size_t len, uint64_t now_ms) {
+    return ub_tcp_write_foreign(state, data, len, now_ms);
+}
+
 static size_t tcp_counters(const void *state, ub_driver_counter_t *out, size_t cap) {
     const ub_tcp_stats_t *s = &((const ub_tcp_t *)state)->stats;
     const ub_driver_counter_t all[] = {
@@ -522,6 +553,9 @@ static size_t tcp_counters(const void *state, ub_driver_counter_t *out, size_t c
         {"send_closed", s->send_closed},
         {"tx_discarded", s->tx_discarded},
         {"hellos", s->hellos},
+        {"foreign_out", s->foreign_out},
+        {"foreign_bytes", ((const ub_tcp_t *)state)->own_dec.stats.foreign_bytes},
+        {"foreign_refused", ((const ub_tcp_t *)state)->own_dec.stats.foreign_refused},
     };
     size_t n = sizeof all / sizeof all[0];
     for (size_t i = 0; i < n && i < cap && out != NULL; i++) out[i] = all[i];
@@ -537,7 +571,8 @@ static int tcp_describe(const void *state, char *out, size_t cap) {
                     "\"failed_attempts\":%llu,\"backpressure\":%llu,\"send_closed\":%llu,\"tx_discarded\":%llu,"
                     "\"candidates\":%llu,\"adopted\":%llu,\"replaced\":%llu,\"candidates_refused\":%llu,"
                     "\"candidates_evicted\":%llu,\"candidates_expired\":%llu,\"candidates_lost\":%llu,"
-                    "\"candidate_rejected\":%llu,\"candidates_open\":%d,\"hellos\":%llu",
+                    "\"candidate_rejected\":%llu,\"foreign_bytes\":%llu,\"foreign_refused\":%llu,\"foreign_out\":%llu,"
+                    "\"candidates_open\":%d,\"hellos\":%llu",
                     states[tcp->state % 3], (unsigned long long)s->connects, (unsigned long long)s->reconnects,
                     (unsigned long long)s->disconnects, (unsigned long long)s->failed_attempts,
                     (unsigned long long)s->backpressure, (unsigned long long)s->send_closed,
@@ -545,8 +580,9 @@ static int tcp_describe(const void *state, char *out, size_t cap) {
                     (unsigned long long)s->adopted, (unsigned long long)s->replaced,
                     (unsigned long long)s->candidates_refused, (unsigned long long)s->candidates_evicted,
                     (unsigned long long)s->candidates_expired, (unsigned long long)s->candidates_lost,
-                    (unsigned long long)s->candidate_rejected, ub_tcp_candidates(tcp),
-                    (unsigned long long)s->hellos);
+                    (unsigned long long)s->candidate_rejected, (unsigned long long)tcp->own_dec.stats.foreign_bytes,
+                    (unsigned long long)tcp->own_dec.stats.foreign_refused, (unsigned long long)s->foreign_out,
+                    ub_tcp_candidates(tcp), (unsigned long long)s->hellos);
 }
 
 const ub_driver_t ub_tcp_driver = {
@@ -569,5 +605,7 @@ const ub_driver_t ub_tcp_driver = {
     .next_due = tcp_next_due,
     .local_port = tcp_local_port,
     .counters = tcp_counters,
+    .set_foreign = tcp_set_foreign_op,
+    .write_foreign = tcp_write_foreign_op,
     .describe = tcp_describe,
 };

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 from typing import Any
 
 from uavbus._bindings.ub_catalogue import _c_name
@@ -57,6 +59,12 @@ def ub_ports_set_foreign(ports: Any, link: str, fn: Any) -> Any:
     return handle
 
 
+def ub_ports_write_foreign(ports: Any, link: str, data: bytes, now_ms: int) -> None:
+    """Writes `data` (not a uavbus frame: a legacy datalink message) onto `link`'s port, whole or not at all."""
+    ensure(lib.ub_ports_write_foreign(ports, _c_name(link), data, len(data), now_ms),
+           f"port {link!r}: cannot write foreign bytes (no open port, a transport without it, full or down)")
+
+
 def ub_ports_close(ports: Any, link: str) -> None:
     ensure(lib.ub_ports_close(ports, _c_name(link)), f"port {link!r} is not open")
 
@@ -103,6 +111,10 @@ def ub_ports_describe(ports: Any, link: str) -> dict[str, Any] | None:
     udp = lib.ub_ports_udp(ports, _c_name(link))
     if udp != ffi.NULL:
         out["udp"] = udp_info(udp)
+    else:  # any other driver: its state and counters as the stats event carries them ("tcp": {...})
+        text = ffi.new("char[]", 4096)
+        if 0 < lib.ub_ports_describe(ports, _c_name(link), text, 4096) < 4096:
+            out.update(json.loads("{" + ffi.string(text).decode("utf-8") + "}"))
     if p.impaired:
         s = lib.ub_impair_stats(ffi.addressof(p.impair))
         out["impair"] = {k: int(getattr(s, k)) for k in ("offered", "lost", "duplicated", "reordered", "delayed",

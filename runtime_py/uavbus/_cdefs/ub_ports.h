@@ -56,3 +56,5 @@ int ub_ports_set_link_impairment(ub_ports_t *ports, const char *link_name, const
                                  uint64_t seed);
 int ub_ports_notice(ub_ports_t *ports, char *out, size_t cap);
 int ub_ports_set_foreign(ub_ports_t *ports, const char *link_name, ub_foreign_cb cb, void *user);
+int ub_ports_write_foreign(ub_ports_t *ports, const char *link_name, const uint8_t *data, size_t len, uint64_t now_ms);
+int ub_ports_describe(const ub_ports_t *ports, const char *link_name, char *out, size_t cap);
