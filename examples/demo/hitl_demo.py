@@ -17,6 +17,9 @@
 7. Hardware in the loop (examples/demo/firmware_step.py): the Cortex-M4 firmware boots in QEMU and is fcs20
    in an unsigned Table 2 over its emulated UART; gcs1 subscribes to its imuOut 2 hops away, reads and
    writes its directories, changes its rate; flash and RAM from the ELF (skipped by --short unless --firmware).
+8. The insider step (insider_step.py, issue 23): a captured vehicle (rmax1ob2) with its own valid keys and the
+   group key attacks a Table 2 where every node checks origin tags, then the operator revokes it; each
+   attack is a check (skipped by --short unless --insider; tests/system/test_insider_campaign.py runs it).
 
 Prints a summary table and writes demo-out/summary.json (with "security": {"attacks": [...]}), demo-out/gcs1.ublog (the GCS's binary log)
 and demo-out/imu.png. Exits 0 only if every check held; each failed check names itself and says why.
@@ -366,9 +369,12 @@ def main(argv: list[str] | None = None) -> int:
                     help="run the fleet step (default: yes, except with --short)")
     ap.add_argument("--firmware", action=argparse.BooleanOptionalAction, default=None,
                     help="run the firmware-in-QEMU step (default: yes, except with --short)")
+    ap.add_argument("--insider", action=argparse.BooleanOptionalAction, default=None,
+                    help="run the insider step (default: yes, except with --short)")
     args = ap.parse_args(argv)
     args.fleet = not args.short if args.fleet is None else args.fleet
     args.firmware = not args.short if args.firmware is None else args.firmware
+    args.insider = not args.short if args.insider is None else args.insider
     args.out.mkdir(parents=True, exist_ok=True)
     # SIGTERM (e.g. from make or a CI timeout) unwinds like Ctrl-C, so every `with` stops its processes.
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
@@ -402,6 +408,16 @@ def main(argv: list[str] | None = None) -> int:
             return 130
         except Exception as e:  # noqa: BLE001
             check("firmware step ran to the end", False, f"{type(e).__name__}: {e}")
+    if args.insider and args.program is not None:   # its own network, keys and identities, like the firmware's
+        from insider_step import insider_part
+
+        try:
+            extra["insider"] = insider_part(args, check, say)
+        except KeyboardInterrupt:
+            say("\ninterrupted: every process the demo started has been stopped")
+            return 130
+        except Exception as e:  # noqa: BLE001
+            check("insider step ran to the end", False, f"{type(e).__name__}: {e}")
     if rows:
         write_summary(args.out / "summary.json", rows, {"checks": [c.__dict__ for c in check.items],
                                                         "short": args.short, **extra})
