@@ -29,6 +29,8 @@ only, and `revoke()` says which nodes refuse it.
 
 from __future__ import annotations
 
+import json
+import shutil
 import struct
 import time
 from collections.abc import Callable
@@ -37,7 +39,7 @@ from typing import Any
 
 from uavbus._bindings import ub_frame as uf
 from uavbus._bindings import ub_node as un
-from uavbus._bindings import ub_origin, ub_sec
+from uavbus._bindings import ub_ident, ub_origin, ub_sec
 from uavbus.sim.attacker import frame_header
 from uavbus.sim.attacks import (DATA, IMU_MS, LOCKOUT_COUNTER, PUB_REQUEST, PUB_STOP, UDP_LINK, AttackResult, Campaign,
                                 _counter, _src, attack_options)
@@ -45,7 +47,7 @@ from uavbus.sim.build import REPO
 from uavbus.sim.hitl import HitlOptions
 from uavbus.sim.secure import signed_config
 
-__all__ = ["INSIDER_ATTACKS", "CAPTURED", "InsiderCampaign", "insider_config", "insider_options"]
+__all__ = ["INSIDER_ATTACKS", "CAPTURED", "InsiderCampaign", "identities_wired", "insider_config", "insider_options"]
 
 CAPTURED = "rmax1ob2"
 ENTITIES = ("gcs1", "rmax1ob1", "rmax1ob2", "fcs20")
@@ -65,16 +67,48 @@ INSIDER_ATTACKS = (
 FORMS = ("own pairwise key", "no origin block")
 
 
-def insider_config(out: Path) -> Path:
-    """Table 2 with its authorization policy, the group key (out/keys/fleet-1.key) and an X25519 identity per
-    entity (out/keys/{entity}.x25519, mode 0600, made at run time; out/keys/peers.txt the public keys)."""
-    cfg = signed_config(TABLE2_POLICY, out, name="table2.insider.json")
+def identities_wired() -> bool:
+    """True once identities key origin authentication in uavbus_node and the Python Node (branch idglue)."""
+    from uavbus.node import Security
+
+    return hasattr(Security, "_origin_from_identity")
+
+
+ROLES = {"gcs1": "admin", "rmax1ob1": "vehicle,relay", "rmax1ob2": "vehicle", "fcs20": "vehicle"}
+
+
+def insider_config(out: Path, identities: bool = True) -> Path:
+    """Table 2 with its authorization policy and the group key (out/keys/fleet-1.key), and per entity:
+    `identities` an identity certified by a fleet authority made at run time (`uavbus keys authority create`,
+    `issue`: out/keys/{entity}.id, mode 0600; the configuration names them, so every node checks origin tags
+    keyed by the certificates and honours revocations), else a bare X25519 key file (out/keys/{entity}.x25519,
+    out/keys/peers.txt the public keys: `uavbus_node --origin-key/--origin-peers`, no revocation)."""
     keys = out / "keys"
+    if identities:
+        from uavbus import keys as keytool
+
+        keys.mkdir(parents=True, exist_ok=True, mode=0o700)
+        for old in ("authority.key", "authority.pub", "authority.issued", "fleet.certs", "revocations.ubr",
+                    *(f"{e}.id" for e in ENTITIES)):
+            (keys / old).unlink(missing_ok=True)
+        keytool.authority_create(str(keys))
+        for entity, roles in ROLES.items():
+            keytool.issue(entity, roles, 30, None, str(keys), None, False)
+    cfg = signed_config(TABLE2_POLICY, out, name="table2.insider.json")
+    doc: dict[str, Any] = json.loads(cfg.read_text(encoding="utf-8"))
+    if identities:
+        for entity in ENTITIES:  # each node its own copy of the certificates (a node rewrites its copy)
+            shutil.copyfile(keys / "fleet.certs", out / "state" / f"{entity}.certs")
+            (out / "state" / f"{entity}.revocations.ubr").unlink(missing_ok=True)
+        doc["security"].update({"authority": str(keys / "authority.pub"), "identity": str(keys / "{entity}.id"),
+                                "certificates": "state/{entity}.certs",
+                                "revocations": "state/{entity}.revocations.ubr"})
+        cfg.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+        return cfg
     lines = ["# entity  X25519 public key (made at run time)\n"]
     for entity in ENTITIES:
         path = keys / f"{entity}.x25519"
-        if path.exists():
-            path.unlink()
+        path.unlink(missing_ok=True)
         ub_sec.ub_keyfile_new(str(path), 1)
         pk = ub_origin.ub_origin_public_key(ub_sec.ub_keyfile_load(str(path))[1])
         lines.append(f"{entity} {pk.hex()}\n")
@@ -82,9 +116,16 @@ def insider_config(out: Path) -> Path:
     return cfg
 
 
+def uses_identities(config: Path) -> bool:
+    return "identity" in json.loads(Path(config).read_text(encoding="utf-8")).get("security", {})
+
+
 def insider_options(program: Path | None, config: Path, **kw: Any) -> HitlOptions:
-    """attack_options() with origin authentication on every C node."""
+    """attack_options() with origin authentication on every C node: from the identities the configuration
+    names, or (without them) from --origin-key/--origin-peers."""
     opts = attack_options(program, config, **kw)
+    if uses_identities(config):
+        return opts
     keys = config.parent / "keys"
     origin = ["--origin-key", str(keys / "{entity}.x25519"), "--origin-peers", str(keys / "peers.txt")]
     for node in ("primary", "secondary", "backup"):
@@ -92,7 +133,11 @@ def insider_options(program: Path | None, config: Path, **kw: Any) -> HitlOption
     return opts
 
 
-def _load(keys: Path, entity: str) -> bytes:
+def _load(keys: Path, entity: str, identities: bool) -> bytes:
+    """`entity`'s X25519 secret key: what the attacker holds for rmax1ob2, what the test reads for the others
+    (to compute the public keys an attacker reads off the certificates anyway)."""
+    if identities:
+        return ub_ident.identfile_load(keys / f"{entity}.id")[2]
     return ub_sec.ub_keyfile_load(str(keys / f"{entity}.x25519"))[1]
 
 
@@ -103,12 +148,14 @@ class InsiderCampaign(Campaign):
         super().__init__(h, tap, say)
         keys = config.parent / "keys"
         self.keys = keys
-        self.sk = {e: _load(keys, e) for e in ENTITIES}
+        self.identities = uses_identities(config)
+        self.sk = {e: _load(keys, e, self.identities) for e in ENTITIES}
         self.pk = {e: ub_origin.ub_origin_public_key(sk) for e, sk in self.sk.items()}
         self.group_id, self.group_key = ub_sec.ub_keyfile_load(str(keys / "fleet-1.key"))
         self.revoked: dict[str, float] = {}            # entity -> when gcs1's store learnt its revocation
         self._next: dict[str, int] = {}
-        h.gcs.security.enable_origin({"gcs1": self.sk["gcs1"]}, self._lookup, recheck_ms=200)
+        if not self.identities:       # with identities, gcs1's Node keys origin authentication from its store
+            h.gcs.security.enable_origin({"gcs1": self.sk["gcs1"]}, self._lookup, recheck_ms=200)
 
     def _lookup(self, entity: str, _now_s: int) -> bytes | None:
         """gcs1's identity store: the peers' X25519 keys, minus what the operator revoked."""
@@ -246,32 +293,76 @@ class InsiderCampaign(Campaign):
         return r
 
     # ---- revocation -------------------------------------------------------------------------------------
-    def revoke(self, timeout: float = 4.0) -> dict[str, Any]:
-        """The operator revokes rmax1ob2. gcs1's store learns it at once (its lookup now refuses rmax1ob2);
-        the captured vehicle then sends in its own name, rightly origin-tagged, a fresh request every 50 ms
-        until each node refuses them. Returns {node: ms from the revocation reaching it to the first refusal},
-        None for a node that never refused within `timeout` (the C nodes' static peers file)."""
-        payload = struct.pack("<III12s", 0xA000, 1000, 0, CAPTURED.encode().ljust(12, b"\0"))
-        where = {"gcs": ("gcs", UDP_LINK["gcs"]), "primary": ("primary", UDP_LINK["primary"])}
-        t_rev = time.monotonic()
-        self.revoked[CAPTURED] = t_rev
-        before = self._snap("gcs", "primary")
-        refused: dict[str, float | None] = {"gcs": None, "primary": None}
+    def _no_identity(self, node: str) -> int:
+        """Frames `node` dropped `no_identity` so far, on all its links."""
+        links = self.h.gcs.link_counters() if node == "gcs" else self.h.child_stats(node)["links"]
+        return sum(int(c["drops"].get("no_identity", 0)) for c in links.values())
+
+    def _holds_revocation(self, node: str) -> bool:
+        if node == "gcs":
+            if not self.identities:
+                return CAPTURED in self.revoked
+            return self.h.gcs.identity.stats()["accepted"] + self.h.gcs.identity.stats()["known"] >= 1
+        if not self.identities:
+            return False
+        return int(self.h.child_stats(node)["identity"]["revocations"]) >= 1
+
+    def _own_frames(self) -> list[tuple[str, bytes]]:
+        """What the revoked vehicle keeps sending in its own name, rightly origin-tagged: data to gcs1, a
+        request to rmax1ob1, and one to fcs20 (relayed by rmax1ob1)."""
+        req = struct.pack("<III12s", 0xA000, 1000, 0, CAPTURED.encode().ljust(12, b"\0"))
+        nav = bytes(self.cat.instance("navFilterState").type.packed_size)
+        return [("b>a", self.insider_frame("navFilterState", CAPTURED, "gcs1", nav)),
+                ("a>b", self.insider_frame("gpsOut", CAPTURED, "rmax1ob1", req, admin=PUB_REQUEST)),
+                ("a>b", self.insider_frame("imuOut", CAPTURED, "fcs20", req, admin=PUB_REQUEST))]
+
+    def revoke(self, timeout: float = 5.0) -> dict[str, Any]:
+        """The operator revokes rmax1ob2 (`uavbus keys revoke rmax1ob2`) and hands the record to rmax1ob1
+        (`revoke FILE` on its stdin); the revocation service spreads it. Meanwhile the captured vehicle sends
+        in its own name, rightly origin-tagged, to gcs1, rmax1ob1 and fcs20 every 50 ms. Per node: when the
+        revocation reached it and when it first refused rmax1ob2's frames (`no_identity`), in ms from the
+        submission; `refused_ms` - `reached_ms` is what issue 23 bounds (2 s). Then the revoked vehicle
+        restarts with the same identity: `restart` says what happened."""
+        nodes = {"gcs": "gcs1", "primary": "rmax1ob1", "backup": "fcs20"}
+        base = {n: self._no_identity(n) for n in nodes}
+        t0 = time.monotonic()
+        if self.identities:
+            from uavbus import keys as keytool
+
+            keytool.revoke(CAPTURED, None, None, str(self.keys), None)
+            self.h.group["primary"].send(f"revoke {self.keys / 'revocations.ubr'}")
+        else:
+            self.revoked[CAPTURED] = t0       # gcs1's lookup only: the C nodes' peers file is static
+        reached: dict[str, float | None] = dict.fromkeys(nodes)
+        refused: dict[str, float | None] = dict.fromkeys(nodes)
         sent = 0
-        while time.monotonic() - t_rev < timeout and None in refused.values():
-            self.tap.inject("b>a", self.insider_frame("navFilterState", CAPTURED, "gcs1",
-                                                      bytes(self.cat.instance("navFilterState").type.packed_size)))
-            self.tap.inject("a>b", self.insider_frame("gpsOut", CAPTURED, "rmax1ob1", payload, admin=PUB_REQUEST))
-            sent += 2
+        while time.monotonic() - t0 < timeout and None in refused.values():
+            for direction, frame in self._own_frames():
+                self.tap.inject(direction, frame)
+                sent += 1
             self.h.run_for(0.05)
-            now = self._snap("gcs", "primary")
-            for node, (n, link) in where.items():
-                d = self._dropped(before, now, [(n, link)])
-                if refused[node] is None and d.get("no_identity", 0) > 0:
-                    refused[node] = (time.monotonic() - t_rev) * 1000.0
-        after = self._snap("gcs", "primary")
-        return {"refused_ms": {"gcs1" if k == "gcs" else "rmax1ob1": v for k, v in refused.items()}, "sent": sent,
-                "dropped_as": self._dropped(before, after, list(where.values()))}
+            for n in nodes:
+                now_ms = (time.monotonic() - t0) * 1000.0
+                if reached[n] is None and self._holds_revocation(n):
+                    reached[n] = now_ms
+                if refused[n] is None and self._no_identity(n) > base[n]:
+                    refused[n] = now_ms
+        out: dict[str, Any] = {"sent": sent, "nodes": {}}
+        for n, name in nodes.items():
+            delay = None if refused[n] is None else max(0.0, refused[n] - (reached[n] or 0.0))
+            out["nodes"][name] = {"reached_ms": reached[n], "refused_ms": refused[n], "delay_ms": delay}
+        out["restart"] = self._restart_revoked() if self.identities else "not tried (no identities: nothing to revoke)"
+        return out
+
+    def _restart_revoked(self) -> str:
+        """rmax1ob2's node restarts with the identity the operator revoked (its own store holds the record)."""
+        from uavbus.sim.process import NodeError
+
+        try:
+            self.h.restart("secondary")
+        except NodeError as e:
+            return "refused to start: " + str(e).strip().splitlines()[-1][:300]
+        return "STARTED"
 
     # ---- running ----------------------------------------------------------------------------------------
     def run(self, names: tuple[str, ...] | list[str] = INSIDER_ATTACKS, record_s: float = 2.5) -> list[AttackResult]:
