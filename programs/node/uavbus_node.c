@@ -133,8 +133,9 @@ static void usage(FILE *f) {
             "                   [--impair loss=P,dup=P,reorder=P,delay=MS,jitter=MS,seed=N] [--stats-ms MS]\n"
             "                   [--duration-ms MS] [--subscribe ENTITY:CONTENT@SOURCE/PERIOD_MS]...\n"
             "                   [--publish ENTITY:CONTENT>DEST/PERIOD_MS]...\n"
-            "                   [--origin-key KEYFILE --origin-peers FILE]  (origin authentication; KEYFILE may\n"
-            "                   contain {entity}; FILE: \"ENTITY HEX_X25519_PUBLIC_KEY\" lines)\n"
+            "                   [--origin-key KEYFILE --origin-peers FILE]  (origin authentication without identities:\n"
+            "                   a config naming security.identity has it already; KEYFILE may contain {entity};\n"
+            "                   FILE: \"ENTITY HEX_X25519_PUBLIC_KEY\" lines)\n"
             "SPEC: udp:bind=HOST:PORT[,peer=HOST:PORT][,accept=peer|learn|any] | tcp:listen=HOST:PORT |\n"
             "      tcp:connect=HOST:PORT |"
             "      serial:device=PATH[,baud=N]\n"
@@ -315,8 +316,8 @@ static void out_security(ub_app_t *app) {
         s->signed_out, s->encrypted_out, s->verified_in, s->decrypted_in, s->auth_failures, s->unknown_keys,
         s->challenges_sent, s->challenges_completed, s->replies_sent, s->replies_suppressed, s->reservations,
         s->reserve_failures, s->tx_refused, s->rechallenges, s->window_resets, app->counter.mark);
-    /* Origin authentication (--origin-key): its counters, or null. */
-    if (app->origin_key_path == NULL) {
+    /* Origin authentication (identities, or --origin-key): its counters, or null. */
+    if (!app->origin_on) {
         ub_app_out(app, ",\"origin\":null}");
         return;
     }

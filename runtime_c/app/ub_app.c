@@ -254,7 +254,8 @@ void ub_app_parse(ub_app_t *app, const ub_app_program_t *prog, int argc, char **
 }
 
 /* ---- origin authentication (--origin-key, --origin-peers) ---------------------------------------------------
- * A stand-in for the identity store (issue 23 item 1) until the configuration names identity files: each
+ * Without an authority in the configuration (a bench, or a fleet without identities), these stand in for the
+ * identity store (start_origin_identities() below is what a fleet with identities uses): each
  * hosted entity's X25519 secret key in a key file (`uavbus keys new`: any 32 random bytes are an X25519 secret
  * key; "{entity}" in the path is the entity's name), and the peers' public keys in a text file, one
  * "ENTITY HEX_X25519_PUBLIC_KEY" a line, '#' comments. No validity periods or revocation: that is the store's. */
@@ -310,7 +311,45 @@ static void load_origin_peers(ub_app_t *app, const char *path) {
     fclose(f);
 }
 
+/* Origin authentication from the identity store (issue 23: one feature): each hosted entity's X25519 secret key
+ * is its identity file's, a peer's public key is its certificate's, valid and unrevoked at the wall clock
+ * (ub_ident_peer_kx_key()), and a revocation the revocation service accepts ends the peer's cached pairs at
+ * once. Origin blocks are required on every frame to a hosted entity (fail closed: `no_origin`). */
+static void start_origin_identities(ub_app_t *app) {
+    const char *name = app->prog->name;
+    if (app->origin_key_path != NULL || app->origin_peers_path != NULL)
+        ub_app_die(app, "%s: --origin-key/--origin-peers and a configuration naming identities (security.identity) "
+                   "exclude each other: the identities give origin authentication its keys (drop the options)", name);
+    if (ub_node_security(&app->node) == NULL)
+        ub_app_die(app, "%s: security.identity needs the fleet's group key too (security.keys): origin tags ride on "
+                   "signed frames (docs/security.md, \"Origin authentication\")", app->config_path);
+    ub_origin_options_t o = {.lookup = ub_ident_peer_kx_key, .lookup_user = &app->ident, .clock_s = ub_identfile_unix_s};
+    if (ub_origin_init(&app->origin, &o) != UB_OK) ub_app_die(app, "%s: origin authentication failed to start", name);
+    for (int h = 0; h < app->cfg.host_count; h++) {
+        const char *entity = app->cfg.entities[app->cfg.hosts[h]].name;
+        uint8_t id[UB_ENTITY_ID_LEN];
+        const uint8_t *sk = ub_entity_id(entity, id) == UB_OK ? ub_ident_self_kx_sk_for(&app->ident, id) : NULL;
+        if (sk == NULL) {
+            char msg[256];
+            snprintf(msg, sizeof msg, "%s: hosted entity %s has no identity (put {entity} in security.identity): it "
+                     "cannot send to other entities (counted no_identity)", app->config_path, entity);
+            ub_app_warning(app, msg);
+            continue;
+        }
+        int rc = ub_origin_add_identity(&app->origin, id, sk);
+        if (rc != UB_OK) ub_app_die(app, "%s: identity of %s refused by origin authentication: %s", name, entity, ub_strerror(rc));
+    }
+    if (ub_origin_attach(&app->origin, &app->node) != UB_OK) ub_app_die(app, "%s: the node refused origin authentication", name);
+    if (ub_revoke_set_peer_hook(&app->revoke, ub_origin_forget_hook, &app->origin) != UB_OK)
+        ub_app_die(app, "%s: the revocation service refused its hook", name);
+    app->origin_on = true;
+}
+
 static void start_origin(ub_app_t *app) {
+    if (app->ident_on) {
+        start_origin_identities(app);
+        return;
+    }
     if (app->origin_key_path == NULL && app->origin_peers_path == NULL) return;
     const char *name = app->prog->name;
     if (app->origin_key_path == NULL || app->origin_peers_path == NULL)
@@ -338,6 +377,7 @@ static void start_origin(ub_app_t *app) {
                        path, entity, ub_strerror(rc));
     }
     if (ub_origin_attach(&app->origin, &app->node) != UB_OK) ub_app_die(app, "%s: the node refused origin authentication", name);
+    app->origin_on = true;
 }
 
 /* ---- the node ---------------------------------------------------------------------------------------- */

@@ -122,9 +122,11 @@ struct ub_app {
     ub_revoke_t revoke;
     char revocations_path[UB_NODECFG_PATH_MAX + 128];
     char certificates_path[UB_NODECFG_PATH_MAX + 128];
-    /* Origin authentication (--origin-key, --origin-peers; docs/security.md, "Origin authentication"): until
-     * the identity store names identity files in the configuration, a key file holding the hosted entity's
-     * X25519 secret key and a peers file of "ENTITY HEX_X25519_PUBLIC_KEY" lines stand in for it. */
+    /* Origin authentication (docs/security.md, "Origin authentication"): on whenever the configuration names
+     * identities (keys from the identity store, required on every frame to a hosted entity); without them,
+     * --origin-key (the hosted entity's X25519 secret key) and --origin-peers ("ENTITY HEX_X25519_PUBLIC_KEY"
+     * lines) stand in for the store. */
+    bool origin_on;
     const char *origin_key_path;
     const char *origin_peers_path;
     ub_origin_t origin;

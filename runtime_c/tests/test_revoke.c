@@ -216,12 +216,56 @@ static void test_certificates_spread(void **state) {
     line_free(l);
 }
 
+typedef struct told {
+    unsigned calls;
+    uint8_t last[UB_ENTITY_ID_LEN];
+} told_t;
+
+static void on_peer(void *user, const uint8_t entity[UB_ENTITY_ID_LEN]) {
+    told_t *t = user;
+    t->calls++;
+    memcpy(t->last, entity, UB_ENTITY_ID_LEN);
+}
+
+/* The peer hook (what the program shell gives ub_origin_forget_hook()): every node is told of the revoked
+ * entity once, when its revocation changes the store (not for the copies it already holds), and of a
+ * replacement's certificate once. */
+static void test_peer_hook_tells_each_node_once(void **state) {
+    (void)state;
+    line_t *l = line_new();
+    told_t told[N];
+    memset(told, 0, sizeof told);
+    ub_revoke_options_t opt = {.clock_s = fixed_clock}; /* certificates' validity: unix time */
+    for (int i = 0; i < N; i++) {
+        assert_int_equal(ub_revoke_remove(&l->rv[i]), UB_OK);
+        assert_int_equal(ub_revoke_init(&l->rv[i], l->node[i], &l->store[i], &opt, NULL, NULL), UB_OK);
+        assert_int_equal(ub_revoke_set_peer_hook(&l->rv[i], on_peer, &told[i]), UB_OK);
+    }
+    assert_int_equal(ub_revoke_set_peer_hook(NULL, on_peer, NULL), UB_ERR_INVAL);
+    uint8_t rec[UB_REVOCATION_LEN];
+    assert_int_equal(test_revoke_record(rec, &l->auth, "rmax2ob1", 8, T0 + 1), UB_OK);
+    world_run(l->w, 10, 10);
+    assert_int_equal(ub_revoke_submit(&l->rv[0], rec, sizeof rec, l->w->now_ms), UB_OK);
+    world_run(l->w, l->w->now_ms + 5000, 10);
+    for (int i = 0; i < N; i++) {
+        assert_int_equal(told[i].calls, 1);
+        assert_memory_equal(told[i].last, l->victim.cert.entity, UB_ENTITY_ID_LEN);
+    }
+    test_entity_t repl;
+    assert_int_equal(test_issue(&repl, &l->auth, "rmax2ob1", UB_ROLE_VEHICLE, 12, T0, T0 + 86400), UB_OK);
+    assert_int_equal(ub_revoke_submit_certificate(&l->rv[0], repl.cert_bytes, UB_CERT_LEN, l->w->now_ms), UB_OK);
+    world_run(l->w, l->w->now_ms + 5000, 10);
+    for (int i = 0; i < N; i++) assert_int_equal(told[i].calls, 2);
+    line_free(l);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_spreads_to_the_far_end),
         cmocka_unit_test(test_foreign_and_junk_records_stay_put),
         cmocka_unit_test(test_flood_is_bounded),
         cmocka_unit_test(test_certificates_spread),
+        cmocka_unit_test(test_peer_hook_tells_each_node_once),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -70,7 +70,8 @@ USAGE = """usage: uavbus [--version] {gen,check,selftest,log,spy,echo,hz,bw,tabl
   get       ENTITY NAME[.FIELD]: read a directory of a remote entity over the bus (C or Python)
   set       ENTITY NAME.FIELD VALUE: write it (docs/inspect.md)
   sim       run a fleet scenario file (vehicles, links, events; docs/scenarios.md)
-  keys      new FILE | show FILE | authority create | issue ENTITY | revoke ENTITY: keys and identities (docs/security.md)
+  keys      new FILE | show FILE | authority create | issue ENTITY | revoke ENTITY | fleet CONFIG --out DIR:
+            keys and identities (docs/security.md)
   bridge    zenoh: join uavbus sites through Zenoh sessions (docs/bridges.md)
 
 `uavbus COMMAND --help` says more. Exit status: 0 ok, 1 no (check/selftest), 2 bad command line,

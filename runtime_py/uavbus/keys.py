@@ -17,6 +17,17 @@
                                      a signed revocation record of ENTITY's serials up to its last one (or N),
                                      added to the revocations file (default DIR/revocations.ubr)
 
+    uavbus keys fleet CONFIG --out DIR [--admins gcs1,...] [--roles ENTITY=ROLES]... [--days N] [--force]
+                                     every entity of a configuration at once: the authority (made if DIR has
+                                     none), one identity per entity (DIR/ENTITY.id, 0600), DIR/fleet.certs and
+                                     each node's own copy DIR/ENTITY.certs, the group key DIR/fleet-1.key (made
+                                     if absent: origin tags ride on signed frames), and DIR/STEM.identity.json:
+                                     the configuration with a "security" section naming all of them.
+                                     Roles: --admins (default: the config's security.administrators, else every
+                                     entity whose name starts with "gcs": the ground stations) get `admin`;
+                                     every other entity `vehicle`, plus `relay` when it has more than one link
+                                     (it can forward between them); --roles ENTITY=ROLES overrides one entity.
+
 Re-keying a lost vehicle's replacement: `uavbus keys revoke rmax1ob1` then
 `uavbus keys issue rmax1ob1 --roles vehicle --force` (a new serial; the old one stays refused).
 
@@ -199,6 +210,64 @@ def _describe(cert: ub_ident.Certificate, path: str) -> str:
             f"authority {cert.authority.hex()}, Ed25519 {cert.sign_pk.hex()[:16]}..., X25519 {cert.kx_pk.hex()[:16]}...")
 
 
+def fleet_roles(doc: dict, admins: list[str] | None = None,
+                overrides: dict[str, str] | None = None) -> dict[str, str]:
+    """Each entity of configuration `doc` and its roles (the rule in this module's docstring)."""
+    names = [e["name"] for e in doc.get("entities", []) if isinstance(e, dict) and "name" in e]
+    if admins is None:
+        admins = list(doc.get("security", {}).get("administrators", [])) or [n for n in names if n.startswith("gcs")]
+    unknown = [a for a in admins if a not in names] + [e for e in (overrides or {}) if e not in names]
+    if unknown:
+        raise KeysError(f"{', '.join(unknown)}: not an entity of the configuration (its entities: {', '.join(names)})")
+    roles = {}
+    for e in doc.get("entities", []):
+        name = e["name"]
+        if name in admins:
+            roles[name] = "admin"
+        else:
+            roles[name] = "vehicle,relay" if len(e.get("links", [])) > 1 else "vehicle"
+    for name, r in (overrides or {}).items():
+        _roles(r)  # refuses an unknown role
+        roles[name] = r
+    return roles
+
+
+def fleet(config: str, out: str, admins: list[str] | None = None, overrides: dict[str, str] | None = None,
+          days: int = 365, force: bool = False, now: int | None = None) -> tuple[Path, dict[str, str]]:
+    """`uavbus keys fleet`: identities for every entity of `config` under `out`; returns the identity
+    configuration written (DIR/STEM.identity.json) and each entity's roles."""
+    import json
+
+    src = Path(config)
+    try:
+        doc = json.loads(src.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise KeysError(f"{src}: {exc} (give a uavbus configuration file)") from None
+    roles = fleet_roles(doc, admins, overrides)
+    d = Path(out)
+    d.mkdir(parents=True, exist_ok=True)
+    (d / "state").mkdir(exist_ok=True)
+    if not (d / "authority.key").exists():
+        authority_create(str(d))
+    for entity, r in roles.items():
+        issue(entity, r, days, None, str(d), None, force, now)
+    certs = (d / CERTS_NAME).read_bytes()
+    for entity in roles:  # each node its own copy: a node rewrites its copy when it learns a certificate
+        (d / f"{entity}.certs").write_bytes(certs)
+    group = d / "fleet-1.key"
+    if not group.exists():
+        ub_sec.ub_keyfile_new(str(group), 1)
+    security = dict(doc.get("security", {}))
+    security.update({"keys": [group.name], "counter_file": "state/{entity}.counter",
+                     "authority": "authority.pub", "identity": "{entity}.id", "certificates": "{entity}.certs",
+                     "revocations": "state/{entity}.revocations.ubr"})
+    security.pop("tx_key", None)
+    doc["security"] = security
+    target = d / f"{src.stem}.identity.json"
+    target.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    return target, roles
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="uavbus keys",
                                      description="group keys and per-entity identities (docs/security.md)")
@@ -227,6 +296,15 @@ def main(argv: list[str] | None = None) -> int:
     rev.add_argument("--dir", default=DEFAULT_DIR)
     rev.add_argument("--authority", help="the authority's secret key file (default DIR/authority.key)")
     rev.add_argument("--out", help="the revocations file (default DIR/revocations.ubr)")
+    fl = sub.add_parser("fleet", help="identities for every entity of a configuration, and the config naming them")
+    fl.add_argument("config")
+    fl.add_argument("--out", required=True, metavar="DIR", help="where the authority, identities and config go")
+    fl.add_argument("--admins", help="comma-separated administrators (default: the config's security.administrators,"
+                                     " else entities named gcs*)")
+    fl.add_argument("--roles", action="append", default=[], metavar="ENTITY=ROLES",
+                    help="one entity's roles, e.g. fcs20=vehicle,observer (repeatable)")
+    fl.add_argument("--days", type=int, default=365)
+    fl.add_argument("--force", action="store_true", help="replace existing identity files (new keys and serials)")
     args = parser.parse_args(argv)
     try:
         if args.cmd == "new":
@@ -238,6 +316,19 @@ def main(argv: list[str] | None = None) -> int:
             print(show(args.file))
         elif args.cmd == "authority":
             print(authority_create(args.dir))
+        elif args.cmd == "fleet":
+            overrides = {}
+            for item in args.roles:
+                entity, sep, r = item.partition("=")
+                if not sep:
+                    raise KeysError(f"--roles {item}: expected ENTITY=ROLES, e.g. fcs20=vehicle")
+                overrides[entity] = r
+            admins = [a for a in args.admins.split(",") if a] if args.admins is not None else None
+            target, roles = fleet(args.config, args.out, admins, overrides, args.days, args.force)
+            for entity, r in roles.items():
+                print(f"{entity}: {r}")
+            print(f"{target}: the configuration naming them (copy {args.out} to the nodes: each needs authority.pub, "
+                  "its ENTITY.id and ENTITY.certs, fleet-1.key; keep authority.key offline)")
         elif args.cmd == "issue":
             print(issue(args.entity, args.roles, args.days, args.authority, args.dir, args.out, args.force))
         else:

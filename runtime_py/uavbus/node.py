@@ -213,6 +213,11 @@ class Node:
                     self.identity = ub_ident.NodeIdentity(cfg.c_config, self._c, int(time.time()))
                 except UbError as exc:
                     raise ConfigError(exc.detail, cfg.path) from None
+                # ... and origin authentication from the same store, required on every frame to a local entity
+                if applied is None:
+                    raise ConfigError("field 'security.identity': identities need the fleet's group key too "
+                                      "(security.keys): origin tags ride on signed frames", cfg.path)
+                self.security._origin_from_identity(self.identity)
             self.config = cfg
 
     # -- time ----------------------------------------------------------------------------------
@@ -1025,6 +1030,22 @@ class Security:
 
     def _attach(self, sec: Any, counter: Any) -> None:
         self._sec, self._counter = sec, counter
+
+    def _origin_from_identity(self, identity: ub_ident.NodeIdentity) -> None:
+        """Origin authentication keyed by the identity store, all in C (as uavbus_node does): each local
+        entity's X25519 secret from its identity file, peers' keys from valid unrevoked certificates
+        (ub_ident_peer_kx_key, wall clock), required on every frame to a local entity, and a revocation the
+        revocation service accepts forgets the peer's pairwise keys at once."""
+        names = self.node.local_entities
+        ctx, missing = ub_origin.OriginContext.from_store(identity.store.c, [ub_node.entity_id(n) for n in names])
+        ctx.attach(self.node._c)
+        identity.forget_on_revocation(ctx.c)
+        self._origin = ctx
+        for eid in missing:
+            text = (f"local entity {ub_node.entity_name(eid)} has no identity (put {{entity}} in security.identity): "
+                    "it cannot send to other entities (counted no_identity)")
+            self.node.notices.append(text)
+            log.warning("%s", text)
 
     @property
     def enabled(self) -> bool:

@@ -112,6 +112,9 @@ def test_administered_flows_moves_and_signing() -> None:
     move = sc.events[-1]
     assert move.kind == "move" and move.target == ("gcs1",) and move.motion.startswith("waypoints:v=50")
     assert sc.signed and not parse_scenario(GOOD, "good.yaml").signed
+    assert sc.signed_mode == "identity"   # `true`: each station its own identity; `group`: the fleet key alone
+    group = parse_scenario("signed: group\n" + text, "good.yaml")
+    assert group.signed and group.signed_mode == "group"
     # A flow listed twice (even under another name) would be two administrators of one flow in one table.
     twice = GOOD.replace("flows:\n", "flows:\n  - {name: x, content: gpsOut, source: a, destination: gcs1, "
                                       "period_ms: 200}\n")

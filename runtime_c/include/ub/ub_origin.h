@@ -144,6 +144,10 @@ UB_CHECK int ub_origin_detach(ub_origin_t *o, ub_node_t *node);
 /** Forgets every cached pair with peer `peer_id` (e.g. at once on a revocation). @return pairs forgotten. */
 size_t ub_origin_forget(ub_origin_t *o, const uint8_t peer_id[UB_ENTITY_ID_LEN]);
 
+/** ub_origin_forget() with the signature of a revocation hook (ub_revoke_set_peer_hook(): `origin` is the
+ *  ub_origin_t), so a revocation accepted by the revocation service ends the revoked peer's pairs at once. */
+void ub_origin_forget_hook(void *origin, const uint8_t peer_id[UB_ENTITY_ID_LEN]);
+
 /** @return cached pairs in use. */
 size_t ub_origin_cached(const ub_origin_t *o);
 

@@ -59,6 +59,11 @@ typedef int (*ub_revoke_persist_fn)(void *user, const ub_ident_store_t *store);
 /** Stores one newly learned certificate durably (UB_CERT_LEN bytes); UB_OK or a negative error (counted). */
 typedef int (*ub_revoke_persist_cert_fn)(void *user, const uint8_t *cert, size_t len);
 
+/** Told at once that what the store holds for peer `entity` changed: a revocation of it was accepted, or a
+ *  new certificate (a replacement's keys). The origin service's ub_origin_forget_hook() fits: the revoked
+ *  peer's cached pairwise keys go at once, not at the next recheck. */
+typedef void (*ub_revoke_peer_fn)(void *user, const uint8_t entity[UB_ENTITY_ID_LEN]);
+
 /** Certificates waiting to be spread at once (a newer one for the same entity takes its place). */
 #ifndef UB_REVOKE_CERT_QUEUE
 #define UB_REVOKE_CERT_QUEUE 8
@@ -121,6 +126,8 @@ typedef struct ub_revoke {
         int8_t from_link;
         uint64_t due_ms;
     } certs[UB_REVOKE_CERT_QUEUE];
+    ub_revoke_peer_fn on_peer;
+    void *on_peer_user;
     ub_revoke_stats_t stats;
 } ub_revoke_t;
 
@@ -144,6 +151,10 @@ UB_CHECK int ub_revoke_spread_certificates(ub_revoke_t *rv, ub_revoke_persist_ce
 /** A certificate from the operator, handled as if received. @return UB_OK (new: spread); UB_ERR_EXISTS;
  *  UB_ERR_AUTH (refused); UB_ERR_FULL; UB_ERR_INVAL. */
 UB_CHECK int ub_revoke_submit_certificate(ub_revoke_t *rv, const uint8_t *cert, size_t len, uint64_t now_ms);
+
+/** Sets (or clears, NULL) the hook called when a revocation or a certificate of a peer is accepted
+ *  (ub_revoke_peer_fn). @return UB_OK; UB_ERR_INVAL. */
+UB_CHECK int ub_revoke_set_peer_hook(ub_revoke_t *rv, ub_revoke_peer_fn fn, void *user);
 
 /** Unregisters the service. @return as ub_node_remove_service(). */
 UB_CHECK int ub_revoke_remove(ub_revoke_t *rv);

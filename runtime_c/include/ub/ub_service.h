@@ -145,6 +145,12 @@ struct ub_service {
     uint8_t n_reply_codes;
     const uint8_t *link_local_codes; /**< codes accepted link-local */
     uint8_t n_link_local_codes;
+    /** Its link-local frames prove themselves (an authority's signature over the payload, checked by the
+     *  service) and are idempotent (a replay changes nothing): taken from a signed source this node holds no
+     *  freshness state for, without challenging it first. The revocation service's certificates and
+     *  revocations: a re-keyed entity must be learned before its frames -- its challenge replies included --
+     *  can pass origin authentication (docs/security.md, "Revocation"). */
+    bool link_local_self_proving;
     uint8_t order;                   /**< UB_SVC_ORDER_* */
     ub_service_frame_fn on_frame;
     ub_service_reply_fn on_reply;

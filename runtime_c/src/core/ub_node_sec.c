@@ -191,6 +191,13 @@ void ub_priv_window_note_own(ub_node_t *node, int slot, const ub_frame_header_t 
     }
 }
 
+/* A link-local frame of a service whose link-local frames prove themselves (ub_service_t.link_local_self_proving). */
+static bool self_proving(const ub_node_t *node, const ub_frame_header_t *h) {
+    if (!ub_entity_id_is_link_local(h->dest_id)) return false;
+    uint8_t i = node->svc_by_code[UB_SVC_LINK_LOCAL][h->admin];
+    return i != 0 && node->services[i - 1]->link_local_self_proving;
+}
+
 static bool is_challenge_code(uint8_t admin) {
     return admin == UB_ADMIN_CHALLENGE || admin == UB_ADMIN_CHALLENGE_REPLY;
 }
@@ -319,7 +326,7 @@ ub_priv_window_t ub_priv_window_pass(ub_node_t *node, int slot, int link_id, con
     /* No freshness state (or none under a key still held): the counter proves nothing (it may be a captured
      * frame). A challenge and its reply are the exception that builds the state: they are idempotent and
      * bound to a nonce. */
-    if (is_challenge_code(h->admin)) return UB_PRIV_WINDOW_PASS;
+    if (is_challenge_code(h->admin) || self_proving(node, h)) return UB_PRIV_WINDOW_PASS;
     ub_priv_count_drop(node, link_id, UB_DROP_UNVERIFIED);
     challenge(node, slot, link_id, e, h->src_id, now_ms);
     return UB_PRIV_WINDOW_UNVERIFIED;

@@ -316,6 +316,10 @@ size_t ub_origin_forget(ub_origin_t *o, const uint8_t peer_id[UB_ENTITY_ID_LEN])
     return n;
 }
 
+void ub_origin_forget_hook(void *origin, const uint8_t peer_id[UB_ENTITY_ID_LEN]) {
+    (void)ub_origin_forget(origin, peer_id);
+}
+
 size_t ub_origin_cached(const ub_origin_t *o) {
     size_t n = 0;
     if (o == NULL) return 0;

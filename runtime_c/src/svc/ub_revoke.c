@@ -36,6 +36,8 @@ static int take(ub_revoke_t *rv, const uint8_t *record, size_t len, int from_lin
     int rc = ub_ident_add_revocation(rv->store, record, len, &why);
     if (rc >= 0) {
         rv->stats.accepted++;
+        ub_revocation_t rec;
+        if (rv->on_peer != NULL && ub_revocation_decode(&rec, record, len) == UB_OK) rv->on_peer(rv->on_peer_user, rec.entity);
         schedule(rv, rc, from_link, now_ms);
         return UB_OK;
     }
@@ -94,6 +96,7 @@ static int take_cert(ub_revoke_t *rv, const uint8_t *cert, size_t len, int from_
         return rc;
     }
     rv->stats.certs_accepted++;
+    if (rv->on_peer != NULL && ub_cert_decode(&c, cert, len) == UB_OK) rv->on_peer(rv->on_peer_user, c.entity);
     if (rv->persist_cert != NULL) {
         if (rv->persist_cert(rv->persist_cert_user, cert, len) == UB_OK) rv->stats.persisted++;
         else rv->stats.persist_failures++;
@@ -241,11 +244,19 @@ int ub_revoke_init(ub_revoke_t *rv, ub_node_t *node, ub_ident_store_t *store, co
     rv->svc.n_codes = 2;
     rv->svc.link_local_codes = REVOKE_CODES;
     rv->svc.n_link_local_codes = 2;
+    rv->svc.link_local_self_proving = true; /* certificates and records carry the authority's signature */
     rv->svc.order = UB_SVC_ORDER_USER;
     rv->svc.on_frame = on_frame;
     rv->svc.tick = tick;
     rv->svc.user = rv;
     return ub_node_add_service(node, &rv->svc);
+}
+
+int ub_revoke_set_peer_hook(ub_revoke_t *rv, ub_revoke_peer_fn fn, void *user) {
+    if (rv == NULL) return UB_ERR_INVAL;
+    rv->on_peer = fn;
+    rv->on_peer_user = user;
+    return UB_OK;
 }
 
 int ub_revoke_remove(ub_revoke_t *rv) {

@@ -318,6 +318,13 @@ class NodeIdentity:
                                                  self._certs if persist_cert != ffi.NULL else ffi.NULL, 0),
                "certificates")
 
+    def forget_on_revocation(self, origin: Any) -> None:
+        """Hands every accepted revocation (or new certificate) to origin context `origin` (a ub_origin_t *):
+        the peer's cached pairwise keys go at once (ub_origin_forget_hook, all in C)."""
+        ensure(lib.ub_revoke_set_peer_hook(self._rv, ffi.addressof(lib, "ub_origin_forget_hook"), origin),
+               "ub_revoke_set_peer_hook")
+        self._origin = origin
+
     def submit(self, record: bytes, now_ms: int) -> str:
         """A revocation record from the operator: 'accepted', 'known', or why it was refused."""
         rc = lib.ub_revoke_submit(self._rv, record, len(record), now_ms)

@@ -56,19 +56,42 @@ def ub_origin_tag(key: bytes, header: FrameHeader, payload: bytes) -> bytes:
 
 
 class OriginContext:
-    """A ub_origin_t with its lookup callback; keep it as long as the node it is attached to."""
+    """A ub_origin_t with its lookup; keep it as long as the node it is attached to. The lookup is a Python
+    callback (`lookup`), or an identity store's C lookup (from_store(): no Python on the frame path)."""
 
-    def __init__(self, lookup: Lookup, recheck_ms: int = 0, optional: bool = False) -> None:
+    def __init__(self, lookup: Lookup | None, recheck_ms: int = 0, optional: bool = False, *,
+                 store: Any = None) -> None:
         self._lookup = lookup
+        self._store = store  # kept alive: the C lookup reads it
         self._handle = ffi.new_handle(self)
         self.c = ffi.new("ub_origin_t *")
         opt = ffi.new("ub_origin_options_t *")
-        opt.lookup = lib.ub_py_origin_lookup
-        opt.lookup_user = self._handle
+        if store is not None:
+            opt.lookup = ffi.addressof(lib, "ub_ident_peer_kx_key")  # valid, unrevoked certificates only
+            opt.lookup_user = store
+            opt.clock_s = ffi.addressof(lib, "ub_identfile_unix_s")  # validity periods: the wall clock
+        else:
+            opt.lookup = lib.ub_py_origin_lookup
+            opt.lookup_user = self._handle
         opt.recheck_ms = recheck_ms
         opt.optional = optional
         ensure(lib.ub_origin_init(self.c, opt), "ub_origin_init")
         self.error: BaseException | None = None  # an exception the lookup raised (the frame was refused)
+
+    @classmethod
+    def from_store(cls, store: Any, entity_ids: list[bytes], recheck_ms: int = 0) -> tuple[OriginContext, list[bytes]]:
+        """A context over identity store `store` (a ub_ident_store_t *): each of `entity_ids` that has an
+        identity there gets its X25519 secret key straight from the store (the key never becomes a Python
+        object). Returns the context and the entity IDs that had no identity."""
+        ctx = cls(None, recheck_ms, False, store=store)
+        missing = []
+        for eid in entity_ids:
+            sk = lib.ub_ident_self_kx_sk_for(store, _bytes(eid, 12, "entity id"))
+            if sk == ffi.NULL:
+                missing.append(eid)
+                continue
+            ensure(lib.ub_origin_add_identity(ctx.c, eid, sk), "ub_origin_add_identity")
+        return ctx, missing
 
     def add_identity(self, entity_id: bytes, sk: bytes) -> None:
         ensure(lib.ub_origin_add_identity(self.c, _bytes(entity_id, 12, "entity id"), _bytes(sk, SK_LEN, "secret key")),

@@ -87,6 +87,7 @@ size_t ub_ident_revocation_count(const ub_ident_store_t *store);
 int ub_ident_revocation_at(const ub_ident_store_t *store, size_t index, uint8_t out[]);
 const ub_cert_t *ub_ident_self(const ub_ident_store_t *store);
 ub_ident_status_t ub_ident_peer_status(const ub_ident_store_t *store, const uint8_t entity_id[], uint64_t now_s);
+const uint8_t *ub_ident_self_kx_sk_for(const ub_ident_store_t *store, const uint8_t entity_id[]);
 int ub_ident_peer_kx_key(void *store, const uint8_t entity_id[], uint64_t now_s, uint8_t pk[]);
 int ub_ident_peer_roles(const ub_ident_store_t *store, const uint8_t entity_id[], uint64_t now_s, uint16_t *roles);
 const ub_ident_stats_t *ub_ident_stats(const ub_ident_store_t *store);

@@ -44,6 +44,7 @@ int ub_origin_add_identity(ub_origin_t *o, const uint8_t entity_id[], const uint
 int ub_origin_attach(ub_origin_t *o, ub_node_t *node);
 int ub_origin_detach(ub_origin_t *o, ub_node_t *node);
 size_t ub_origin_forget(ub_origin_t *o, const uint8_t peer_id[]);
+void ub_origin_forget_hook(void *origin, const uint8_t peer_id[]);
 size_t ub_origin_cached(const ub_origin_t *o);
 const ub_origin_stats_t *ub_origin_stats(const ub_origin_t *o);
 int ub_origin_public_key(const uint8_t sk[], uint8_t pk[]);

@@ -44,3 +44,5 @@ int ub_revoke_submit(ub_revoke_t *rv, const uint8_t *record, size_t len, uint64_
 const ub_revoke_stats_t *ub_revoke_stats(const ub_revoke_t *rv);
 int ub_revoke_spread_certificates(ub_revoke_t *rv, ub_revoke_persist_cert_fn persist_cert, void *user, uint64_t now_ms);
 int ub_revoke_submit_certificate(ub_revoke_t *rv, const uint8_t *cert, size_t len, uint64_t now_ms);
+typedef void (*ub_revoke_peer_fn)(void *user, const uint8_t entity[]);
+int ub_revoke_set_peer_hook(ub_revoke_t *rv, ub_revoke_peer_fn fn, void *user);

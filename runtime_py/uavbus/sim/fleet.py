@@ -18,7 +18,10 @@ How the parts meet (docs/scenarios.md):
  - a vehicle that joins gets its links created on the running peers at run time (`link add`,
    Node.add_link), and the ground station announces it to everybody (MEMBERSHIP add_entity);
  - a ground station may `move` (a new motion from the event on): its radio links follow the range model;
- - `signed: true`: one fleet key, every node signs and refuses unsigned frames (routing frames included).
+ - `signed: true` (or `identity`): one fleet key, every node signs and refuses unsigned frames (routing frames
+   included), and every station has its own identity (issued at run time under OUT/keys: ground stations
+   `admin`, vehicles `vehicle,relay`) from which its node takes origin authentication; `signed: group`: the
+   fleet key alone (bench mode: any key holder can speak for anyone, docs/security.md).
 """
 
 from __future__ import annotations
@@ -242,7 +245,34 @@ class FleetRun:
 
             # One fleet key for every node (created once, mode 0600); counters in configs/state/.
             path = signed_config(path, path.parent, keys_dir=self.out / "keys", name=f"{m.name}.signed.json")
+            if self.sc.signed_mode == "identity":
+                self._identity(path)
         return path
+
+    def _identity(self, path: Path) -> None:
+        """Names the stations' identities in signed config `path`; the first call issues them all (a new
+        authority per output folder, identities replaced on a rerun: new keys, next serials)."""
+        import json
+        import shutil
+
+        from uavbus import keys
+
+        kdir = self.out / "keys"
+        if not getattr(self, "_issued", False):
+            if not (kdir / "authority.key").exists():
+                keys.authority_create(str(kdir))
+            for st in self.sc.stations:
+                keys.issue(st.name, "admin" if st.kind == "gcs" else "vehicle,relay", 30, None, str(kdir), None, True)
+            self._issued = True
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        name = doc["entities"][0]["name"]
+        certs = path.parent / "state" / f"{name}.certs"   # each node its own copy (it rewrites it as it learns)
+        shutil.copyfile(kdir / keys.CERTS_NAME, certs)
+        doc["security"].update({"authority": str((kdir / "authority.pub").resolve()),
+                                "identity": str(kdir.resolve() / "{entity}.id"),
+                                "certificates": f"state/{name}.certs",
+                                "revocations": f"state/{name}.revocations.ubr"})
+        path.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
 
     def _argv(self, m: Member) -> list[str]:
         argv = [str(self.program), "--config", str(self._config(m)), "--node", m.name, "--stats-ms", "0",
@@ -630,8 +660,15 @@ class FleetRun:
         for name, m in self.members.items():
             if m.node is not None:
                 out[name] = m.node.counters()
+                origin = m.node.security.origin_status()
             elif name in self.final_stats:
                 out[name] = dict(self.final_stats[name].get("node", {}))
+                origin = (self.final_stats[name].get("security") or {}).get("origin")
+            else:
+                continue
+            if origin is not None:   # signed with identities: what origin authentication did
+                out[name]["origin"] = {k: origin[k] for k in ("sealed", "opened", "bad_origin", "no_origin",
+                                                              "no_identity") if k in origin}
         return out
 
     def finish(self) -> dict[str, Any]:

@@ -242,7 +242,9 @@ def summarize(run: FleetRun) -> dict[str, Any]:
                       for m in run.members.values() if m.proc is not None},
         "announcements": [ms.status(row) for ms, row in run.announcements],
         "signed": run.sc.signed,
-        "counters": {name: {k: c.get(k, 0) for k in COUNTERS} for name, c in sorted(run.counters().items())},
+        "signed_mode": run.sc.signed_mode if run.sc.signed else None,   # "identity" or "group"
+        "counters": {name: {**{k: c.get(k, 0) for k in COUNTERS}, **({"origin": c["origin"]} if "origin" in c else {})}
+                     for name, c in sorted(run.counters().items())},
     }
 
 

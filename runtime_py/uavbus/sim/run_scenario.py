@@ -68,6 +68,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", help="output folder (default sim-out/<scenario name>)")
     ap.add_argument("--program", help="uavbus_node to run (default: $UAVBUS_NODE or the build directory's)")
     ap.add_argument("--check", action="store_true", help="only validate the file")
+    ap.add_argument("--signed", nargs="?", const="identity", choices=("identity", "group", "off"),
+                    help="sign every frame whatever the file says: each station its own identity (the default, "
+                         "and what --signed alone means), `group` the fleet key alone (bench mode), `off` unsigned")
     args = ap.parse_args(argv)
 
     from uavbus.sim.scenario import ScenarioError, load_scenario
@@ -77,6 +80,11 @@ def main(argv: list[str] | None = None) -> int:
     except ScenarioError as e:
         print(e, file=sys.stderr)
         return 2
+    if args.signed is not None:
+        import dataclasses
+
+        sc = dataclasses.replace(sc, signed=args.signed != "off",
+                                 signed_mode=args.signed if args.signed != "off" else sc.signed_mode)
     if args.check:
         print(f"{args.scenario}: ok ({len(sc.vehicles)} vehicles, {len(sc.ground_stations)} ground stations, "
               f"{len(sc.links)} links, {len(sc.flows)} flows, {len(sc.events)} events)")

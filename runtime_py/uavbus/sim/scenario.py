@@ -135,6 +135,7 @@ class Scenario:
     events: tuple[EventSpec, ...]
     datum: dict[str, float] = field(default_factory=lambda: dict(DATUM))
     signed: bool = False         # every node signs with one fleet key and refuses unsigned frames
+    signed_mode: str = "identity"  # with `signed`: "identity" (each station its own, origin-authenticated) or "group"
 
     @property
     def admin_flows(self) -> list[FlowSpec]:
@@ -609,12 +610,13 @@ def parse_scenario(text: str, source: str = "<scenario>") -> Scenario:
     if datum != DATUM:
         events = [EventSpec(e.t, e.kind, e.target, e.line, e.motion + suffix) if e.motion else e for e in events]
     name = _scalar(src, m["name"], "name") if "name" in m else Path(source).stem
-    signed = False
+    signed, mode = False, "identity"
     if "signed" in m:
-        text = _choice(src, m["signed"], "signed", ("true", "false"))
-        signed = text == "true"
+        text = _choice(src, m["signed"], "signed", ("true", "false", "identity", "group"))
+        signed = text != "false"
+        mode = "group" if text == "group" else "identity"
     return Scenario(name, source, duration, seed, routing, tuple(stations), tuple(links), tuple(flows), tuple(events),
-                    datum, signed)
+                    datum, signed, mode)
 
 
 def load_scenario(path: str | Path) -> Scenario:
