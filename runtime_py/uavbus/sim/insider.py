@@ -1,8 +1,8 @@
 """Issue 23's insider: a captured vehicle (rmax1ob2) that holds its own valid keys attacks Table 2.
 
-    config = insider_config(out)                     # table2_policy + group key + an X25519 identity per entity
+    config = insider_config(out)                     # table2_policy + group key + uavbus keys fleet identities
     h, tap = start_with_tap(insider_options(program, config))
-    campaign = InsiderCampaign(h, tap, config)       # gcs1 (Python) gets origin authentication too
+    campaign = InsiderCampaign(h, tap, config)       # the attacker: the group key and rmax1ob2's own keys
     campaign.start_flows()
     results = campaign.run()                         # INSIDER_ATTACKS, each an AttackResult (as uavbus.sim.attacks)
     campaign.revoke()                                # the operator cuts rmax1ob2 off: per-node refusal times
@@ -20,17 +20,16 @@ name within its quota (the policy's limits: `max_rows`, `min_period_ms`, `max_le
 run in Table 2 (static masks from the configuration), so route advertisements reach no routing engine:
 the step says so instead of attacking one.
 
-Origin authentication here uses the primitives that exist on main: `uavbus_node --origin-key
-keys/{entity}.x25519 --origin-peers keys/peers.txt` for the C nodes and `node.security.enable_origin()` for
-gcs1, whose lookup honours the operator's revocation; the C nodes' peers file is static, so until the
-identity store answers their origin lookups (the config-driven identities) a revocation is refused at gcs1
-only, and `revoke()` says which nodes refuse it.
+Identities come from `uavbus keys fleet` (`insider_config()`): every node, C and Python, keys origin
+authentication from the certificates its configuration names, and a revocation handed to one node reaches
+all (`revoke()` measures it per node, then restarts the revoked vehicle with its identity). Without
+identities (`insider_config(out, identities=False)`: bare X25519 key files, `uavbus_node --origin-key
+--origin-peers`, the bench mode) the same attacks run; only gcs1's lookup then knows the revocation.
 """
 
 from __future__ import annotations
 
 import json
-import shutil
 import struct
 import time
 from collections.abc import Callable
@@ -47,7 +46,7 @@ from uavbus.sim.build import REPO
 from uavbus.sim.hitl import HitlOptions
 from uavbus.sim.secure import signed_config
 
-__all__ = ["INSIDER_ATTACKS", "CAPTURED", "InsiderCampaign", "identities_wired", "insider_config", "insider_options"]
+__all__ = ["INSIDER_ATTACKS", "CAPTURED", "InsiderCampaign", "insider_config", "insider_options"]
 
 CAPTURED = "rmax1ob2"
 ENTITIES = ("gcs1", "rmax1ob1", "rmax1ob2", "fcs20")
@@ -67,44 +66,20 @@ INSIDER_ATTACKS = (
 FORMS = ("own pairwise key", "no origin block")
 
 
-def identities_wired() -> bool:
-    """True once identities key origin authentication in uavbus_node and the Python Node (branch idglue)."""
-    from uavbus.node import Security
-
-    return hasattr(Security, "_origin_from_identity")
-
-
-ROLES = {"gcs1": "admin", "rmax1ob1": "vehicle,relay", "rmax1ob2": "vehicle", "fcs20": "vehicle"}
-
-
 def insider_config(out: Path, identities: bool = True) -> Path:
-    """Table 2 with its authorization policy and the group key (out/keys/fleet-1.key), and per entity:
-    `identities` an identity certified by a fleet authority made at run time (`uavbus keys authority create`,
-    `issue`: out/keys/{entity}.id, mode 0600; the configuration names them, so every node checks origin tags
-    keyed by the certificates and honours revocations), else a bare X25519 key file (out/keys/{entity}.x25519,
-    out/keys/peers.txt the public keys: `uavbus_node --origin-key/--origin-peers`, no revocation)."""
-    keys = out / "keys"
+    """Table 2 with its authorization policy and the group key, and per entity: `identities` an identity
+    certified by a fleet authority made at run time (`uavbus keys fleet`: out/fleet/{entity}.id, mode 0600,
+    and the identity configuration out/fleet/table2_policy.identity.json that names them, so every node
+    checks origin tags keyed by the certificates and honours revocations); else a bare X25519 key file
+    (out/keys/{entity}.x25519, out/keys/peers.txt the public keys: `uavbus_node --origin-key/--origin-peers`,
+    no revocation). The key directory is `key_dir(config)`."""
     if identities:
         from uavbus import keys as keytool
 
-        keys.mkdir(parents=True, exist_ok=True, mode=0o700)
-        for old in ("authority.key", "authority.pub", "authority.issued", "fleet.certs", "revocations.ubr",
-                    *(f"{e}.id" for e in ENTITIES)):
-            (keys / old).unlink(missing_ok=True)
-        keytool.authority_create(str(keys))
-        for entity, roles in ROLES.items():
-            keytool.issue(entity, roles, 30, None, str(keys), None, False)
-    cfg = signed_config(TABLE2_POLICY, out, name="table2.insider.json")
-    doc: dict[str, Any] = json.loads(cfg.read_text(encoding="utf-8"))
-    if identities:
-        for entity in ENTITIES:  # each node its own copy of the certificates (a node rewrites its copy)
-            shutil.copyfile(keys / "fleet.certs", out / "state" / f"{entity}.certs")
-            (out / "state" / f"{entity}.revocations.ubr").unlink(missing_ok=True)
-        doc["security"].update({"authority": str(keys / "authority.pub"), "identity": str(keys / "{entity}.id"),
-                                "certificates": "state/{entity}.certs",
-                                "revocations": "state/{entity}.revocations.ubr"})
-        cfg.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+        cfg, _roles = keytool.fleet(str(TABLE2_POLICY), str(out / "fleet"), days=30)
         return cfg
+    cfg = signed_config(TABLE2_POLICY, out, name="table2.insider.json")
+    keys = out / "keys"
     lines = ["# entity  X25519 public key (made at run time)\n"]
     for entity in ENTITIES:
         path = keys / f"{entity}.x25519"
@@ -116,6 +91,11 @@ def insider_config(out: Path, identities: bool = True) -> Path:
     return cfg
 
 
+def key_dir(config: Path) -> Path:
+    """Where `insider_config()` put the keys of `config`."""
+    return config.parent if uses_identities(config) else config.parent / "keys"
+
+
 def uses_identities(config: Path) -> bool:
     return "identity" in json.loads(Path(config).read_text(encoding="utf-8")).get("security", {})
 
@@ -124,9 +104,13 @@ def insider_options(program: Path | None, config: Path, **kw: Any) -> HitlOption
     """attack_options() with origin authentication on every C node: from the identities the configuration
     names, or (without them) from --origin-key/--origin-peers."""
     opts = attack_options(program, config, **kw)
+    # rmax1ob2 also sends to rmax1ob1 and fcs20 on its own (its data, which their write policy does not take:
+    # `not_allowed`), so after the revocation every one of them has its frames to refuse
+    opts.node_args["secondary"] = [a for dest in ("rmax1ob1", "fcs20")
+                                   for a in ("--publish", f"{CAPTURED}:navFilterState>{dest}/100")]
     if uses_identities(config):
         return opts
-    keys = config.parent / "keys"
+    keys = key_dir(config)
     origin = ["--origin-key", str(keys / "{entity}.x25519"), "--origin-peers", str(keys / "peers.txt")]
     for node in ("primary", "secondary", "backup"):
         opts.node_args[node] = [*opts.node_args.get(node, []), *origin]
@@ -146,7 +130,7 @@ class InsiderCampaign(Campaign):
 
     def __init__(self, h: Any, tap: Any, config: Path, say: Callable[[str], None] | None = None) -> None:
         super().__init__(h, tap, say)
-        keys = config.parent / "keys"
+        keys = key_dir(config)
         self.keys = keys
         self.identities = uses_identities(config)
         self.sk = {e: _load(keys, e, self.identities) for e in ENTITIES}
@@ -294,9 +278,10 @@ class InsiderCampaign(Campaign):
 
     # ---- revocation -------------------------------------------------------------------------------------
     def _no_identity(self, node: str) -> int:
-        """Frames `node` dropped `no_identity` so far, on all its links."""
-        links = self.h.gcs.link_counters() if node == "gcs" else self.h.child_stats(node)["links"]
-        return sum(int(c["drops"].get("no_identity", 0)) for c in links.values())
+        """Frames `node` dropped `no_identity` so far."""
+        if node == "gcs":
+            return sum(int(c["drops"].get("no_identity", 0)) for c in self.h.gcs.link_counters().values())
+        return int(self.h.child_stats(node)["node"]["drops"].get("no_identity", 0))
 
     def _holds_revocation(self, node: str) -> bool:
         if node == "gcs":
@@ -319,9 +304,10 @@ class InsiderCampaign(Campaign):
     def revoke(self, timeout: float = 5.0) -> dict[str, Any]:
         """The operator revokes rmax1ob2 (`uavbus keys revoke rmax1ob2`) and hands the record to rmax1ob1
         (`revoke FILE` on its stdin); the revocation service spreads it. Meanwhile the captured vehicle sends
-        in its own name, rightly origin-tagged, to gcs1, rmax1ob1 and fcs20 every 50 ms. Per node: when the
+        in its own name, rightly origin-tagged, to gcs1, rmax1ob1 and fcs20 every 20 ms. Per node: when the
         revocation reached it and when it first refused rmax1ob2's frames (`no_identity`), in ms from the
-        submission; `refused_ms` - `reached_ms` is what issue 23 bounds (2 s). Then the revoked vehicle
+        submission, as seen by polling every node each 20 ms plus the polls' own time (`refused_ms` - `reached_ms`,
+        what issue 23 bounds to 2 s, is 0 when both showed in the same poll). Then the revoked vehicle
         restarts with the same identity: `restart` says what happened."""
         nodes = {"gcs": "gcs1", "primary": "rmax1ob1", "backup": "fcs20"}
         base = {n: self._no_identity(n) for n in nodes}
@@ -333,6 +319,7 @@ class InsiderCampaign(Campaign):
             self.h.group["primary"].send(f"revoke {self.keys / 'revocations.ubr'}")
         else:
             self.revoked[CAPTURED] = t0       # gcs1's lookup only: the C nodes' peers file is static
+        step_s = 0.02                       # the measurement's resolution: one poll of every node per step
         reached: dict[str, float | None] = dict.fromkeys(nodes)
         refused: dict[str, float | None] = dict.fromkeys(nodes)
         sent = 0
@@ -340,29 +327,52 @@ class InsiderCampaign(Campaign):
             for direction, frame in self._own_frames():
                 self.tap.inject(direction, frame)
                 sent += 1
-            self.h.run_for(0.05)
+            self.h.run_for(step_s)
             for n in nodes:
                 now_ms = (time.monotonic() - t0) * 1000.0
                 if reached[n] is None and self._holds_revocation(n):
                     reached[n] = now_ms
                 if refused[n] is None and self._no_identity(n) > base[n]:
                     refused[n] = now_ms
-        out: dict[str, Any] = {"sent": sent, "nodes": {}}
+        out: dict[str, Any] = {"sent": sent, "nodes": {}, "poll_ms": step_s * 1000.0}
         for n, name in nodes.items():
             delay = None if refused[n] is None else max(0.0, refused[n] - (reached[n] or 0.0))
             out["nodes"][name] = {"reached_ms": reached[n], "refused_ms": refused[n], "delay_ms": delay}
-        out["restart"] = self._restart_revoked() if self.identities else "not tried (no identities: nothing to revoke)"
+        out["restart"] = self._restart_revoked() if self.identities else None
         return out
 
-    def _restart_revoked(self) -> str:
-        """rmax1ob2's node restarts with the identity the operator revoked (its own store holds the record)."""
+    def _restart_revoked(self, watch_s: float = 2.0) -> dict[str, Any]:
+        """rmax1ob2's node restarts with the identity the operator revoked: first as it is (its own store holds
+        the record: it must refuse to start), then with its revocations file thrown away, as a captured vehicle
+        would: it starts, and for `watch_s` nothing of it may get in (`delivered`: messages of rmax1ob2 at
+        gcs1; `refused`: its frames rmax1ob1 dropped `no_identity`)."""
         from uavbus.sim.process import NodeError
 
+        out: dict[str, Any] = {"refused_to_start": False, "delivered": None, "refused": None}
+        try:
+            self.h.restart("secondary")
+            first = "started with its revoked identity"
+        except NodeError as e:
+            out["refused_to_start"] = True
+            text = " ".join(str(e).split())
+            at = max(0, text.find("revoked") - 60)     # the node's own one-line reason
+            first = f"refused to start (...{text[at:at + 220]})"
+        (self.keys / "state" / f"{CAPTURED}.revocations.ubr").unlink(missing_ok=True)
         try:
             self.h.restart("secondary")
         except NodeError as e:
-            return "refused to start: " + str(e).strip().splitlines()[-1][:300]
-        return "STARTED"
+            out["text"] = f"{first}; without its revocations file: refused to start too ({str(e).strip()[:160]})"
+            out["delivered"], out["refused"] = 0, 0
+            return out
+        base = self._no_identity("primary")
+        mark = len(self.h.messages)
+        self.h.run_for(watch_s)
+        out["delivered"] = sum(1 for x in self.h.messages[mark:] if x[2] == CAPTURED)
+        out["refused"] = self._no_identity("primary") - base
+        out["text"] = (f"{first}; with its revocations file thrown away it starts: over {watch_s:.0f} s rmax1ob1 "
+                       f"refused {out['refused']} of its frames (no_identity), messages of rmax1ob2 delivered to "
+                       f"gcs1: {out['delivered']}")
+        return out
 
     # ---- running ----------------------------------------------------------------------------------------
     def run(self, names: tuple[str, ...] | list[str] = INSIDER_ATTACKS, record_s: float = 2.5) -> list[AttackResult]:
