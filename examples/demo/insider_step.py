@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from uavbus.sim.attacks import start_with_tap
-from uavbus.sim.insider import INSIDER_ATTACKS, InsiderCampaign, insider_config, insider_options
+from uavbus.sim.insider import INSIDER_ATTACKS, InsiderCampaign, insider_config, key_dir, insider_options
 
 RATE_TOLERANCE = 0.10
 REQUESTED_HZ = {"gpsOut": 10.0, "imuOut": 50.0}
@@ -57,7 +57,7 @@ def insider_part(args: argparse.Namespace, check: Callable[[str, bool, str], boo
     shutil.rmtree(out, ignore_errors=True)     # a new authority and new identities every run
     config = insider_config(out)
     say(f"\n== Insider step (issue 23): a captured vehicle (rmax1ob2) with its own valid keys, "
-        f"{len(INSIDER_ATTACKS)} attacks (identities made at run time: {out / 'keys'})")
+        f"{len(INSIDER_ATTACKS)} attacks (identities made at run time: {key_dir(config)})")
     say("  it holds the group key and rmax1ob2's X25519 secret key; it is in range of the gcs1<->rmax1ob1 "
         "datalink; every node checks origin tags")
     h, tap = start_with_tap(insider_options(args.program, config))
