@@ -46,7 +46,7 @@ from uavbus.sim.build import REPO
 from uavbus.sim.hitl import HitlOptions
 from uavbus.sim.secure import signed_config
 
-__all__ = ["INSIDER_ATTACKS", "CAPTURED", "InsiderCampaign", "insider_config", "insider_options"]
+__all__ = ["INSIDER_ATTACKS", "CAPTURED", "GROUP_LOCKOUT", "group_key_lockout", "InsiderCampaign", "insider_config", "insider_options"]
 
 CAPTURED = "rmax1ob2"
 ENTITIES = ("gcs1", "rmax1ob1", "rmax1ob2", "fcs20")
@@ -398,3 +398,49 @@ class InsiderCampaign(Campaign):
         r.name = name
         return r
 
+
+
+GROUP_LOCKOUT = "lockout: one frame each in gcs1's and rmax1ob1's names, counter 2^48-2, group key"
+
+
+def group_key_lockout(campaign: Campaign, key_file: Path, watch_s: float = 2.0) -> AttackResult:
+    """The lockout in the group-key mode (no identities: a key holder signs as anyone) for the victims the
+    attacker step's own line (fcs20's name, `Campaign.insider_lockout`) leaves out: one frame in gcs1's name to
+    rmax1ob1 and one in rmax1ob1's name to gcs1, each with counter 2^48-2. Each must be dropped `counter_jump`
+    (docs/security.md, "Lockout") and silence nobody: gcs1 still administers rmax1ob1 (a new row becomes
+    active) and rmax1ob1's gpsOut keeps its 10 Hz at gcs1. `accepted`: frames not dropped, plus 1 per victim
+    silenced."""
+    from uavbus.sim.attacker import forge
+
+    h = campaign.h
+    key_id, key = ub_sec.ub_keyfile_load(str(key_file))
+    stop = struct.pack("<I12s", 1, b"gcs1".ljust(12, b"\0"))
+    gps = bytes(campaign.cat.instance("gpsOut").type.packed_size)
+    to_vehicle = forge(campaign.cat, "gpsOut", "gcs1", "rmax1ob1", stop, admin=PUB_STOP, counter=LOCKOUT_COUNTER,
+                       mode="signed", key=key, key_id=key_id)
+    to_gcs = forge(campaign.cat, "gpsOut", "rmax1ob1", "gcs1", gps, counter=LOCKOUT_COUNTER, mode="signed", key=key,
+                   key_id=key_id)
+    where = [("primary", UDP_LINK["primary"]), ("gcs", UDP_LINK["gcs"])]
+    before = campaign._snap("gcs", "primary")
+    campaign.tap.inject("a>b", to_vehicle)
+    campaign.tap.inject("b>a", to_gcs)
+    h.run_for(0.3)
+    t0 = time.monotonic()
+    row = h.add_row("publication", "navFilterState", "rmax1ob1", "gcs1", 100)   # gcs1 -> rmax1ob1, after it
+    try:
+        h.wait_status(row, "active", watch_s + 2.0)
+        admin = "gcs1's new row at rmax1ob1 active"
+    except TimeoutError:
+        admin = f"gcs1's new row at rmax1ob1 {h.admin.status(row)}"
+    h.run_for(max(0.0, watch_s - (time.monotonic() - t0)))
+    t1 = time.monotonic()
+    h.admin.deactivate(row)
+    after = campaign._snap("gcs", "primary")
+    rates = campaign.rates(t0, t1)
+    silenced = int(not admin.endswith("active")) + int(rates["gpsOut"] < 9.0)
+    dropped = campaign._dropped(before, after, where)
+    r = AttackResult(GROUP_LOCKOUT, 2, max(2 - sum(dropped.values()), silenced, 0), dropped,
+                     f"{admin}; gpsOut from rmax1ob1 at gcs1 over the next {t1 - t0:.1f} s: {rates['gpsOut']:.1f} Hz",
+                     "rmax1ob1:" + UDP_LINK["primary"] + ", gcs1:" + UDP_LINK["gcs"])
+    r.extra.update(rates, admin=admin)
+    return r
