@@ -17,6 +17,7 @@
 #include "support/ub_test_world.h"
 #include "ub/ub_node.h"
 #include "ub/ub_revoke.h"
+#include "ub/ub_sec.h"
 
 #define N 4
 #define T0 1790000000u
@@ -259,6 +260,52 @@ static void test_peer_hook_tells_each_node_once(void **state) {
     line_free(l);
 }
 
+/* On signed nodes, a certificate from a neighbour this node holds no freshness state for is taken from its first
+ * copy, without a challenge first (ub_service_t.link_local_self_proving): it proves itself. With origin
+ * authentication this matters -- a re-keyed replacement cannot complete a challenge before its neighbours know
+ * its new certificate. */
+static void test_certificates_need_no_challenge_on_signed_links(void **state) {
+    (void)state;
+    static const uint8_t key[32] = {7, 7, 7};
+    world_t *w = world_new();
+    ub_node_t *node[2];
+    ub_ident_store_t *store = calloc(2, sizeof *store);
+    ub_revoke_t *rv = calloc(2, sizeof *rv);
+    ub_sec_t *sec = calloc(2, sizeof *sec);
+    test_authority_t auth;
+    test_entity_t repl;
+    assert_non_null(store);
+    assert_non_null(rv);
+    assert_non_null(sec);
+    assert_int_equal(test_authority(&auth, "fleet authority"), UB_OK);
+    assert_int_equal(test_issue(&repl, &auth, "rmax2ob1", UB_ROLE_VEHICLE, 12, T0, T0 + 86400), UB_OK);
+    ub_revoke_options_t opt = {.clock_s = fixed_clock};
+    int link[2];
+    for (int i = 0; i < 2; i++) {
+        node[i] = world_node(w, &ub_test_cat, NULL);
+        int e = ub_node_add_entity_name(node[i], i == 0 ? "gcs1" : "fcs20", true);
+        assert_true(e >= 0);
+        link[i] = ub_node_add_link(node[i], e, 0, "radio");
+        assert_true(link[i] >= 0);
+        test_sec_on(&sec[i], node[i], key, 1000u * (uint64_t)(i + 1), true);
+        ub_ident_store_init(&store[i]);
+        assert_int_equal(ub_ident_set_authority(&store[i], auth.pk), UB_OK);
+        assert_int_equal(ub_revoke_init(&rv[i], node[i], &store[i], &opt, NULL, NULL), UB_OK);
+    }
+    (void)world_connect(w, node[0], link[0], node[1], link[1], NULL, 1);
+    assert_int_equal(ub_revoke_submit_certificate(&rv[1], repl.cert_bytes, UB_CERT_LEN, w->now_ms), UB_OK);
+    world_run(w, w->now_ms + 30, 10); /* well before the first repeat (200 ms): the first copy got in */
+    uint8_t pk[32];
+    assert_int_equal(ub_ident_peer_kx_key(&store[0], repl.cert.entity, T0 + 10, pk), UB_OK);
+    assert_int_equal(rv[0].stats.certs_accepted, 1);
+    assert_int_equal(ub_node_counters(node[0])->drops[UB_DROP_UNVERIFIED], 0);
+    assert_int_equal(sec[0].stats.challenges_sent, 0);
+    free(sec);
+    free(rv);
+    free(store);
+    free(w);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_spreads_to_the_far_end),
@@ -266,6 +313,7 @@ int main(void) {
         cmocka_unit_test(test_flood_is_bounded),
         cmocka_unit_test(test_certificates_spread),
         cmocka_unit_test(test_peer_hook_tells_each_node_once),
+        cmocka_unit_test(test_certificates_need_no_challenge_on_signed_links),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,7 +1,9 @@
 """Identity per entity from Python: a Node whose config names an authority loads its identity through the C
 loader (ub_nodecfg_apply_identity), runs the revocation service, and decides administrators on certified
-roles. Three nodes of Table 2 on memlinks: a revocation submitted at the GCS reaches rmax1ob1 (1 hop) and
-fcs20 (2 hops), is persisted, and a refused identity file stops the Node with the config line and the fix."""
+roles, and takes origin authentication from the same store. Three nodes of Table 2 on memlinks: a revocation
+submitted at the GCS reaches rmax1ob1 (1 hop) and fcs20 (2 hops), is persisted, ends the GCS's pairwise key
+with fcs20 at once and its frames are refused; a refused identity file stops the Node with the config line and
+the fix."""
 
 from __future__ import annotations
 
@@ -58,8 +60,17 @@ def test_a_revocation_spreads_between_python_nodes(flightsw: Generated, tmp_path
         assert air.identity.store.status(fcs20, now) == "valid"
         keys.revoke("fcs20", None, None, str(tmp_path / "keys"), None)
         record = (tmp_path / "keys" / "revocations.ubr").read_bytes()[8:]
+        # origin authentication came with the identities (all in C): imuOut reached gcs1 origin-tagged by fcs20
+        mine = gcs.security.origin_status()
+        assert mine is not None and mine["opened"] > 0 and mine["bad_origin"] == mine["no_origin"] == 0, mine
+        assert fcs.security.origin_status()["sealed"] > 0
+        cached = mine["cached"]
         assert gcs.identity.submit(record, clock.t) == "accepted"
+        # the revocation service's hook forgot fcs20's pairwise key at once, not at the next recheck
+        assert gcs.security.origin_status()["cached"] == cached - 1
+        refused = sum(c["drops"]["no_identity"] for c in gcs.link_counters().values())
         run_nodes(nodes, clock, 500)   # fcs20 has no freshness state for rmax1ob1 yet: a repeat gets in
+        assert sum(c["drops"]["no_identity"] for c in gcs.link_counters().values()) > refused   # fcs20 refused
         assert air.identity.store.status(fcs20, now) == "revoked"
         assert fcs.identity.store.status(fcs20, now) == "revoked"          # two hops away: its own identity
         for entity in ("gcs1", "rmax1ob1", "fcs20"):
@@ -84,3 +95,16 @@ def test_a_refused_identity_stops_the_node_with_the_line(flightsw: Generated, tm
     line = next(i for i, t in enumerate(cfg.read_text().splitlines(), 1) if '"identity"' in t)
     assert f":{line}: field 'security.identity':" in text and "chmod 600" in text, text
     assert "\n" not in text
+
+
+def test_identities_without_the_group_key_are_refused(flightsw: Generated, tmp_path: Path) -> None:
+    """Origin tags ride on signed frames: a config naming identities but no group key says so, in one line."""
+    cfg = identity_config(tmp_path)
+    doc = json.loads(cfg.read_text(encoding="utf-8"))
+    for key in ("keys", "tx_key", "require_signed", "counter_file"):
+        doc["security"].pop(key, None)
+    cfg.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    with pytest.raises(ConfigError) as refused:
+        Node(flightsw.catalogue, config=cfg, node="primary", clock=FakeClock())
+    text = str(refused.value)
+    assert "security.keys" in text and "\n" not in text, text

@@ -33,6 +33,7 @@ pytestmark = pytest.mark.timeout(180)
 TABLE2 = REPO / "examples" / "configs" / "table2.json"
 DATA, PUB_REQUEST = 0, 1
 NODES = {"primary": "rmax1ob1", "backup": "fcs20", "gcs": "gcs1"}   # rmax1ob2's destinations
+MAGIC_IMU = b"\x5a\xa5\x3c\xc3" * 2                                   # marks every forged imuOut
 
 
 def test_keys_fleet_decides_roles_and_writes_a_config(tmp_path: Path) -> None:
@@ -156,7 +157,7 @@ def test_table2_with_identities_refuses_an_insider_and_revokes_it(program: Path,
         print(f"insider frames: sent {camp.sent}, dropped {dropped}")
         assert dropped["bad_origin"] + dropped["no_origin"] == camp.sent, (dropped, camp.sent)
         assert dropped["bad_origin"] == dropped["no_origin"] == camp.sent // 2
-        assert not [m for m in h.messages if m[1] == "imuOut" and camp.MAGIC_IMU in m[4]]
+        assert not [m for m in h.messages if m[1] == "imuOut" and MAGIC_IMU in m[4]]
 
         # ---- revocation: handed to rmax1ob1 only; every destination of rmax1ob2 refuses it
         out = keys.revoke("rmax1ob2", None, None, str(fleet), None)
@@ -207,19 +208,17 @@ def test_table2_with_identities_refuses_an_insider_and_revokes_it(program: Path,
 def imu_forgery(camp: Insider) -> Any:
     """fcs20's imuOut to gcs1, forged by the insider (toward the GCS end of the datalink)."""
     t = camp.cat.instance("imuOut").type
-    image = bytearray((camp.MAGIC_IMU * (t.packed_size // len(camp.MAGIC_IMU) + 1))[:t.packed_size])
+    image = bytearray((MAGIC_IMU * (t.packed_size // len(MAGIC_IMU) + 1))[:t.packed_size])
     for offset, width in t.refusable:
         image[offset:offset + width] = bytes(width)
     frames = [f for _ in range(5) for f in camp._forms("imuOut", "fcs20", "gcs1", bytes(image))]
     mark = len(camp.h.messages)
 
     def effect() -> tuple[int, str]:
-        shown = sum(1 for *_x, raw in camp.h.messages[mark:] if camp.MAGIC_IMU in raw)
+        shown = sum(1 for *_x, raw in camp.h.messages[mark:] if MAGIC_IMU in raw)
         return shown, f"forged imuOut delivered to gcs1: {shown}"
     return camp._forgery("insider: fcs20's imuOut to gcs1", frames, "b>a", effect)
 
-
-Insider.MAGIC_IMU = b"\x5a\xa5\x3c\xc3" * 2   # type: ignore[attr-defined]
 
 
 SCENARIO = """name: id3
