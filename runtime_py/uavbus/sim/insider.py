@@ -379,7 +379,7 @@ class InsiderCampaign(Campaign):
         handlers: dict[str, Callable[[str], AttackResult]] = {
             INSIDER_ATTACKS[0]: self._insider_admin_request, INSIDER_ATTACKS[1]: self._stop_as_gcs,
             INSIDER_ATTACKS[2]: self._forged_nack, INSIDER_ATTACKS[3]: self._writes, INSIDER_ATTACKS[4]: self._writes,
-            INSIDER_ATTACKS[5]: self._forged_imu, INSIDER_ATTACKS[6]: self._replay, INSIDER_ATTACKS[7]: self._routes,
+            INSIDER_ATTACKS[5]: self._forged_imu, INSIDER_ATTACKS[6]: self._replay_relayed, INSIDER_ATTACKS[7]: self._routes,
             INSIDER_ATTACKS[8]: self._flood_own, INSIDER_ATTACKS[9]: self._lockout,
         }
         unknown = set(names) - set(handlers)
@@ -392,6 +392,12 @@ class InsiderCampaign(Campaign):
             self.say(f"    {name}: {r.line()}")
         self.phases.append(("under insider attack", t0, time.monotonic()))
         return self.results
+
+    def _replay_relayed(self, name: str) -> AttackResult:
+        r = self._replay(name)
+        r.effect = ("what it overheard on the datalink it is in range of, both directions (rmax1ob2 forwards nobody's "
+                    "frames in Table 2's masks); " + r.effect)
+        return r
 
     def _insider_admin_request(self, name: str) -> AttackResult:
         r = self._forged_admin_request(name)
