@@ -12,6 +12,9 @@ Then an insider who holds the group key (issue 23's lockout, in the group-key mo
 fcs20's name with counter 2^48-2, toward the forwarder rmax1ob1 and toward gcs1. Checked: nothing accepted,
 both copies counted `counter_jump`, and imuOut still reaching gcs1 at 50 Hz within 10 %.
 
+Then the same in gcs1's name to rmax1ob1 and in rmax1ob1's name to gcs1 (uavbus.sim.insider.group_key_lockout):
+each counted `counter_jump`, gcs1 still administers rmax1ob1 and gpsOut keeps its 10 Hz.
+
 Returns summary.json's "security" object: {"keys": ..., "attacks": [{"name", "sent", "accepted",
 "dropped_as", "counted_at", "effect"}, ...], "insider": [the same for the group-key lockout],
 "rates": {phase: {"gpsOut": Hz, "imuOut": Hz}}}.
@@ -24,6 +27,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from uavbus.sim.attacks import ATTACKS, SHORT_ATTACKS, AttackResult, Campaign, attack_options, start_with_tap
+from uavbus.sim.insider import group_key_lockout
 from uavbus.sim.secure import signed_config
 
 TABLE2 = Path(__file__).resolve().parents[2] / "examples" / "configs" / "table2.json"
@@ -67,6 +71,11 @@ def attacker_part(args: argparse.Namespace, check: Callable[[str, bool, str], bo
                 check(f"rate kept {label}: {name}", abs(hz - want) <= RATE_TOLERANCE * want,
                       f"{hz:.2f} Hz for {want:g} Hz requested over {t1 - t0:.1f} s")
         insider = [insider_lockout(campaign, config, check, say)]
+        say("  ... and one frame each in gcs1's name to rmax1ob1 and in rmax1ob1's name to gcs1 (issue 23: every "
+            "victim)")
+        r = group_key_lockout(campaign, config.parent / "keys" / "fleet-1.key")
+        check(f"lockout refused: {r.name}", r.accepted == 0 and r.dropped_as == {"counter_jump": r.sent}, r.line())
+        insider.append(r)
     finally:
         status = h.close()
         tap.close()

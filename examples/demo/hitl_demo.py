@@ -4,7 +4,9 @@
 1. HITL configuration (paper Table 2, figure 11) on 127.0.0.1: rmax1ob1, rmax1ob2 and fcs20 as C
    `uavbus_node` processes, gcs1 as the Python GCS in this process; gcs1<->rmax1ob1 over UDP plus a pty
    "wireless serial" link, rmax1ob1<->rmax1ob2 over TCP, rmax1ob1<->fcs20 over a pty serial link. Every
-   frame is signed with a key made at run time (demo-out/secure/keys, never committed).
+   entity has its own identity, certified by a fleet authority made at run time (`uavbus keys fleet`:
+   demo-out/identities, never committed): every frame is signed with the group key (hop tag) and carries an
+   origin tag its destination checks.
 2. From the GCS's global administration table, the paper's two tests: a publication of gpsOut from
    rmax1ob1 to gcs1, and a subscription of gcs1 to imuOut on the backup computer fcs20 (2 hops).
 3. kill -9 rmax1ob1 and restart it: the subscription heals by itself.
@@ -19,6 +21,9 @@
 7. Hardware in the loop (examples/demo/firmware_step.py): the Cortex-M4 firmware boots in QEMU and is fcs20
    in an unsigned Table 2 over its emulated UART; gcs1 subscribes to its imuOut 2 hops away, reads and
    writes its directories, changes its rate; flash and RAM from the ELF (skipped by --short unless --firmware).
+8. The insider step (insider_step.py, issue 23): a captured vehicle (rmax1ob2) with its own valid keys and the
+   group key attacks a Table 2 where every node checks origin tags, then the operator revokes it; each
+   attack is a check (skipped by --short unless --insider; tests/system/test_insider_campaign.py runs it).
 
 Prints a summary table and writes demo-out/summary.json (with "security": {"attacks": [...]}), demo-out/gcs1.ublog (the GCS's binary log)
 and demo-out/imu.png. Exits 0 only if every check held; each failed check names itself and says why.
@@ -161,13 +166,28 @@ def redundant_links(config: Path) -> set[str]:
     return out
 
 
+def identity_table2(out: Path) -> Path:
+    """Table 2 with an identity per entity, certified by a fleet authority made for this run (`uavbus keys
+    fleet`: out/{entity}.id mode 0600, never committed), and the group key for the hop tags: every process
+    signs, and checks the origin tag of every frame to its entities (docs/security.md)."""
+    import shutil
+
+    from uavbus import keys
+
+    shutil.rmtree(out, ignore_errors=True)      # a new authority and new identities every run
+    cfg, _roles = keys.fleet(str(REPO / "examples" / "configs" / "table2.json"), str(out), days=1)
+    return cfg
+
+
 def hitl_part(args: argparse.Namespace, check: Checks, rows: list[SummaryRow], extra: dict[str, Any]) -> dict[str, Any]:
     measure_s, outage_s, after_s = (1.5, 0.7, 1.0) if args.short else (4.0, 1.5, 2.5)
     log = args.out / "gcs1.ublog"
     if log.exists():
         log.unlink()
     say("\n== HITL configuration (paper Table 2, figure 11): 3 C processes + the Python GCS on 127.0.0.1")
-    opts = HitlOptions(program=args.program, config=args.config, record=log, stats_ms=500,
+    say(f"  every entity its own identity (uavbus keys fleet, made at run time: {args.identity_config.parent}); "
+        "every frame signed and origin-tagged")
+    opts = HitlOptions(program=args.program, config=args.identity_config, record=log, stats_ms=500,
                        node_logs=args.out / "nodes")
     with Hitl(opts) as h:
         assert h.topo is not None
@@ -369,9 +389,12 @@ def main(argv: list[str] | None = None) -> int:
                     help="run the fleet step (default: yes, except with --short)")
     ap.add_argument("--firmware", action=argparse.BooleanOptionalAction, default=None,
                     help="run the firmware-in-QEMU step (default: yes, except with --short)")
+    ap.add_argument("--insider", action=argparse.BooleanOptionalAction, default=None,
+                    help="run the insider step (default: yes, except with --short)")
     args = ap.parse_args(argv)
     args.fleet = not args.short if args.fleet is None else args.fleet
     args.firmware = not args.short if args.firmware is None else args.firmware
+    args.insider = not args.short if args.insider is None else args.insider
     args.out.mkdir(parents=True, exist_ok=True)
     # SIGTERM (e.g. from make or a CI timeout) unwinds like Ctrl-C, so every `with` stops its processes.
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
@@ -381,7 +404,8 @@ def main(argv: list[str] | None = None) -> int:
     extra: dict[str, Any] = {}
     try:
         args.program = args.program or node_program()
-        args.config = signed_table2(args.out / "secure", fresh=True)
+        args.config = signed_table2(args.out / "secure", fresh=True)    # the group-key mode: the attacker step's
+        args.identity_config = identity_table2(args.out / "identities")  # an identity per entity: the HITL part's
         plot = hitl_part(args, check, rows, extra)
         table1_part(args, check, rows)
         make_plot(args, check, plot)
@@ -406,6 +430,16 @@ def main(argv: list[str] | None = None) -> int:
             return 130
         except Exception as e:  # noqa: BLE001
             check("firmware step ran to the end", False, f"{type(e).__name__}: {e}")
+    if args.insider and args.program is not None:   # its own network, keys and identities, like the firmware's
+        from insider_step import insider_part
+
+        try:
+            extra["insider"] = insider_part(args, check, say)
+        except KeyboardInterrupt:
+            say("\ninterrupted: every process the demo started has been stopped")
+            return 130
+        except Exception as e:  # noqa: BLE001
+            check("insider step ran to the end", False, f"{type(e).__name__}: {e}")
     if rows:
         write_summary(args.out / "summary.json", rows, {"checks": [c.__dict__ for c in check.items],
                                                         "short": args.short, **extra})
