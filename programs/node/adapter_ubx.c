@@ -19,6 +19,7 @@
 #include <string.h>
 
 #include "adapter_serial.h"
+#include "ub/ub_gps_fields.h"
 #include "ub/ub_ubx.h"
 #include "ub/ub_wire.h"
 #include "ubx_gps.h"
@@ -39,31 +40,14 @@ typedef struct ubx_adapter {
 
 static void ubx_reset(adapter_serial_t *a) { ub_ubx_init(&((ubx_adapter_t *)a)->ubx); }
 
-static void on_pvt(ubx_adapter_t *a, const ub_ubx_pvt_t *p) {
+/* The members and their sources are ub_gps_fields.h's lists, shared with Python's adapter. */
+#define PUT(member, ctype, expr) d->member = (ctype)(expr);
+
+static void on_pvt(ubx_adapter_t *a, const ub_ubx_t *u) {
     ubxGps_t *d = a->base.dir;
     d->time.seconds = (uint32_t)(a->base.now_ms / 1000u);
     d->time.microseconds = (uint32_t)(a->base.now_ms % 1000u * 1000u);
-    d->latitudeDeg = p->lat_1e7 / 1e7;
-    d->longitudeDeg = p->lon_1e7 / 1e7;
-    d->altitudeMsl = p->hmsl_mm / 1000.0;
-    d->heightEllipsoid = p->height_mm / 1000.0;
-    d->groundSpeedMps = p->g_speed_mms / 1000.0;
-    d->headingDeg = p->head_mot_1e5 / 1e5;
-    d->velNorth = (float)(p->vel_n_mms / 1000.0);
-    d->velEast = (float)(p->vel_e_mms / 1000.0);
-    d->velDown = (float)(p->vel_d_mms / 1000.0);
-    d->hAccuracy = (float)(p->h_acc_mm / 1000.0);
-    d->vAccuracy = (float)(p->v_acc_mm / 1000.0);
-    d->pdop = (float)(p->p_dop_1e2 / 100.0);
-    d->iTowMs = p->itow_ms;
-    d->year = p->year;
-    d->month = p->month;
-    d->day = p->day;
-    d->hour = p->hour;
-    d->minute = p->min;
-    d->second = p->sec;
-    d->fixType = p->fix_type;
-    d->satellitesUsed = p->num_sv;
+    UB_UBX_DIR_FIX(PUT)
 }
 
 /* An ACK-ACK or ACK-NAK: it settles the pending CFG-RATE when it names CFG-RATE (an answer to something
@@ -83,7 +67,7 @@ static void on_ack(ubx_adapter_t *a, const ub_ubx_ack_t *ack) {
 
 static void on_message(void *user, const ub_ubx_t *ubx) {
     if (ubx->cls == UB_UBX_CLASS_ACK) on_ack(user, &ubx->ack);
-    else on_pvt(user, &ubx->pvt);
+    else on_pvt(user, ubx);
 }
 
 /* Every byte that is not a uavbus frame; the parser takes all (what is not a message is noise). */
@@ -91,11 +75,9 @@ static size_t ubx_feed(adapter_serial_t *base, const uint8_t *run, size_t len) {
     ubx_adapter_t *a = (ubx_adapter_t *)base;
     int decoded = ub_ubx_feed(&a->ubx, run, len, on_message, a);
     (void)decoded; /* the parser's own counters say it */
-    const ub_ubx_stats_t *s = &a->ubx.stats;
+    const ub_ubx_t *u = &a->ubx;
     ubxGps_t *d = base->dir;
-    d->navPvtOk = (uint32_t)s->nav_pvt;
-    d->badChecksums = (uint32_t)s->bad_checksum;
-    d->badMessages = (uint32_t)(s->bad_length + s->too_long);
+    UB_UBX_DIR_COUNTS(PUT)
     return len;
 }
 

@@ -1,0 +1,138 @@
+"""COTS device adapters for a Python node (issue #24): a GPS on a link becomes a catalogued directory.
+
+The same adapters uavbus_node runs by port spec (`nmea:` and `ubx:`, programs/node/adapter_*.c), with one
+implementation of each part, in C: the link's decoder splits uavbus frames from the device's bytes (the
+node's foreign-traffic handler, Node.set_foreign_handler), the C parsers (ub_nmea.h, ub_ubx.h) decode the
+device's protocol, and ub_gps_fields.h says which directory member gets which decoded value — the C
+adapters expand that list at compile time, these classes read it through cffi. Python only moves values:
+
+    node.open_port("gpsPort", "serial:device=/dev/ttyUSB0,baud=9600")
+    gps = NmeaAdapter(node, "gpsPort", "gpsNmea")       # gpsNmea is now hosted and kept current
+    node.publish("fcs20", "gpsNmea", "gcs1", 200)
+    ... node.poll() ...; gps.stats["bad_checksum"]
+
+Per run of foreign bytes the adapter feeds the parser once and then writes the directory: the fix (and the
+time tag, node time) when at least one good sentence/message was merged, the counters always. The parser
+merges sentence by sentence, so the directory ends each run exactly as the C adapter's does.
+"""
+
+from __future__ import annotations
+
+import struct
+from typing import Any, Callable
+
+from uavbus._bindings import ub_gps
+from uavbus.directory import Directory
+from uavbus._bindings.ub_error import InvalidArgumentError
+
+
+class _GpsAdapter:
+    """What both adapters share: the directory, the foreign handler, writing the mapped members."""
+
+    _values: Callable[[Any], list[tuple[str, float, bool]]]
+
+    def __init__(self, node: Any, link: str, directory: str, parser: Any, type_name: str) -> None:
+        self.node, self.link, self._parser = node, link, parser
+        d = node.bind(directory)
+        missing = [m for m, _, _ in self._values(parser) if m not in d.fields]
+        if missing or "time" not in d.fields:
+            raise InvalidArgumentError(
+                f"directory {directory!r} is of type {d.type.name}, not {type_name}: no member "
+                f"{', '.join(missing or ['time'])} (catalogue it from examples/flightsw, docs/adapters.md)")
+        self.directory: Directory = d
+        node.set_foreign_handler(link, self._feed)
+
+    def _feed(self, data: bytes) -> None:  # the link's foreign-traffic handler: takes every byte
+        if self._feed_parser(data) > 0:
+            now = self.node.now()
+            self.directory.time.seconds = now // 1000
+            self.directory.time.microseconds = now % 1000 * 1000
+            self._write(counters=False)
+        self._write(counters=True)
+        self._after_feed()
+
+    def _feed_parser(self, data: bytes) -> int:
+        raise NotImplementedError
+
+    def _after_feed(self) -> None:
+        pass
+
+    def _write(self, counters: bool) -> None:
+        d = self.directory
+        for member, value, is_counter in self._values(self._parser):
+            if is_counter == counters:
+                # Integers arrive widened to double (exactly); the member's own packer wants an int.
+                setattr(d, member, value if isinstance(getattr(d, member), float) else int(value))
+
+    def close(self) -> None:
+        """Removes the foreign-traffic handler (the directory stays hosted, with its last values)."""
+        self.node.set_foreign_handler(self.link, None)
+
+
+class NmeaAdapter(_GpsAdapter):
+    """An NMEA 0183 GPS on `link`: good GGA/RMC/VTG/GSA sentences into `directory` (type nmeaGps_t);
+    bad ones counted (stats, and the directory's badChecksums/badSentences), never merged."""
+
+    _values = staticmethod(ub_gps.nmea_dir_values)
+
+    def __init__(self, node: Any, link: str, directory: str = "gpsNmea") -> None:
+        super().__init__(node, link, directory, ub_gps.ub_nmea_new(), "nmeaGps_t")
+
+    def _feed_parser(self, data: bytes) -> int:
+        return ub_gps.ub_nmea_feed(self._parser, data)
+
+    @property
+    def stats(self) -> dict[str, int]:
+        """The parser's counters (the names uavbus_node's `nmea:` port reports)."""
+        return ub_gps.nmea_stats(self._parser)
+
+
+class UbxAdapter(_GpsAdapter):
+    """A u-blox receiver speaking UBX on `link`: good NAV-PVT into `directory` (type ubxGps_t). Writing:
+    configure() sends a UBX-CFG-RATE and the receiver's ACK-ACK/ACK-NAK naming it is counted in the
+    directory (cfgSent, cfgAcked, cfgNaked, cfgMeasRateMs), as uavbus_node's `ubx:` port does."""
+
+    _values = staticmethod(ub_gps.ubx_dir_values)
+
+    def __init__(self, node: Any, link: str, directory: str = "gpsUbx") -> None:
+        super().__init__(node, link, directory, ub_gps.ub_ubx_new(), "ubxGps_t")
+        self._pending: int | None = None  # measRateMs of the CFG-RATE waiting for its answer
+        self._answers = 0
+
+    def _feed_parser(self, data: bytes) -> int:
+        return ub_gps.ub_ubx_feed(self._parser, data)
+
+    def _after_feed(self) -> None:
+        s = ub_gps.ubx_stats(self._parser)
+        answers = s["ack"] + s["nak"]
+        if answers == self._answers:
+            return
+        self._answers = answers
+        cls, msg_id, ok = ub_gps.ubx_ack(self._parser)  # the run's last answer
+        if self._pending is None or (cls, msg_id) != (ub_gps.CLASS_CFG, ub_gps.ID_CFG_RATE):
+            return
+        d = self.directory
+        if ok:
+            d.cfgAcked += 1
+            d.cfgMeasRateMs = self._pending
+        else:
+            d.cfgNaked += 1
+        self._pending = None
+
+    def configure(self, meas_rate_ms: int, nav_rate: int = 1, time_ref: int = 0) -> bytes:
+        """Writes UBX-CFG-RATE (measurement period, measurements per solution, 0 UTC / 1 GPS) onto the link
+        between uavbus frames. The answer arrives with the link's traffic (node.poll()). Returns the message."""
+        try:
+            payload = struct.pack("<HHH", meas_rate_ms, nav_rate, time_ref)
+        except struct.error as exc:
+            raise InvalidArgumentError(f"CFG-RATE: {exc} (each value is 0..65535)") from exc
+        msg = ub_gps.ub_ubx_build(ub_gps.CLASS_CFG, ub_gps.ID_CFG_RATE, payload)
+        self.node.write_foreign(self.link, msg)
+        self._pending = meas_rate_ms
+        self.directory.cfgSent += 1
+        return msg
+
+    @property
+    def stats(self) -> dict[str, int]:
+        """The parser's counters (the names uavbus_node's `ubx:` port reports)."""
+        return ub_gps.ubx_stats(self._parser)
