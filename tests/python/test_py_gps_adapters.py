@@ -190,3 +190,17 @@ def test_ubx_adapter_reads_nav_pvt_and_writes_cfg_rate(pty: _Pty) -> None:
     pty.write(UBXMessage("ACK", "ACK-NAK", 0, clsID=0x06, msgID=0x08).serialize())
     pty.wait(lambda: d.cfgNaked == 1)
     assert (d.cfgSent, d.cfgAcked, d.cfgNaked, d.cfgMeasRateMs) == (2, 1, 1, 200)
+
+
+def test_the_shared_mapping_covers_every_member_of_the_catalogued_types(pty: _Pty) -> None:
+    """ub_gps_fields.h against the catalogue the generator made from examples/flightsw: a member added to
+    nmeaGps_t/ubxGps_t and not mapped (or mapped under a name the type lacks) fails here, in both languages'
+    adapters at once. The time tag and the UBX adapter's CFG bookkeeping are the adapters' own."""
+    from uavbus._bindings import ub_gps
+
+    nmea = {m for m, _, _ in ub_gps.nmea_dir_values(ub_gps.ub_nmea_new())}
+    ubx = {m for m, _, _ in ub_gps.ubx_dir_values(ub_gps.ub_ubx_new())}
+    cat = pty.node.catalogue
+    assert nmea == {f.name for f in cat.instance("gpsNmea").type.packed_fields} - {"time"}
+    assert ubx == {f.name for f in cat.instance("gpsUbx").type.packed_fields} - {"time"} - {
+        "cfgSent", "cfgAcked", "cfgNaked", "cfgTimeouts", "cfgMeasRateMs"}
