@@ -10,7 +10,7 @@
  * ub_nmea_dir_values() / ub_ubx_dir_values() and writes them by name. A member added here reaches both.
  *
  * Each entry is X(member, C type of the member, expression over `n` (const ub_nmea_t *) or `u` (const
- * ub_ubx_t *)). The `_FIX` lists are written when a good sentence/message was merged, the `_COUNTS` lists
+ * ub_ubx_t *), or `c` (const ub_ubx_cfg_t *)). The `_FIX` lists are written when a good sentence/message was merged, the `_COUNTS` lists
  * after every run fed (they change on bad input too). The time tag is the adapter's own (node time).
  */
 #ifndef UB_GPS_FIELDS_H
@@ -76,6 +76,14 @@ extern "C" {
     X(badChecksums, uint32_t, u->stats.bad_checksum)        \
     X(badMessages, uint32_t, u->stats.bad_length + u->stats.too_long)
 
+/* The receiver's answers to the rate written (ub_ubx_cfg_t, `c`), counted in the same directory. */
+#define UB_UBX_DIR_CFG(X)                                   \
+    X(cfgSent, uint32_t, c->sent_count)                     \
+    X(cfgAcked, uint32_t, c->acked)                         \
+    X(cfgNaked, uint32_t, c->naked)                         \
+    X(cfgTimeouts, uint32_t, c->timeouts)                   \
+    X(cfgMeasRateMs, uint16_t, c->acked_meas_rate_ms)
+
 /** One directory member's value, as the member's C type holds it (converted, then widened to double:
  *  exact for every type above). */
 typedef struct ub_dir_value {
@@ -93,6 +101,9 @@ size_t ub_nmea_dir_values(const ub_nmea_t *n, ub_dir_value_t *out, size_t cap);
 
 /** The gpsUbx members from the parser's last NAV-PVT and its counters, as ub_nmea_dir_values(). */
 size_t ub_ubx_dir_values(const ub_ubx_t *u, ub_dir_value_t *out, size_t cap);
+
+/** The gpsUbx members of the CFG-RATE exchange (UB_UBX_DIR_CFG, all flagged counters). */
+size_t ub_ubx_cfg_dir_values(const ub_ubx_cfg_t *c, ub_dir_value_t *out, size_t cap);
 
 #ifdef __cplusplus
 }

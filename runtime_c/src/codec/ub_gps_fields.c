@@ -20,3 +20,9 @@ size_t ub_ubx_dir_values(const ub_ubx_t *u, ub_dir_value_t *out, size_t cap) {
     const ub_dir_value_t all[] = {UB_UBX_DIR_FIX(UB_DIR_FIX) UB_UBX_DIR_COUNTS(UB_DIR_COUNT)};
     return put_values(all, sizeof all / sizeof all[0], out, cap);
 }
+
+size_t ub_ubx_cfg_dir_values(const ub_ubx_cfg_t *c, ub_dir_value_t *out, size_t cap) {
+    if (c == NULL) return 0;
+    const ub_dir_value_t all[] = {UB_UBX_DIR_CFG(UB_DIR_COUNT)};
+    return put_values(all, sizeof all / sizeof all[0], out, cap);
+}
