@@ -87,11 +87,58 @@ static void test_short_cap_and_null(void **state) {
     assert_int_equal(ub_ubx_dir_values(NULL, v, 3), 0);
 }
 
+/* The CFG-RATE exchange both adapters run: sent when the wanted rate changes, not again once answered, a NAK
+ * not retried, a time-out counted and sent again, and a stale (earlier) clock never taken for "overdue". */
+static void test_cfg_rate_exchange(void **state) {
+    (void)state;
+    ub_ubx_cfg_t c;
+    ub_ubx_cfg_init(&c);
+    uint8_t msg[8 + UB_UBX_CFG_RATE_LEN];
+    ub_ubx_rate_t want = {0, 1, 0};
+    assert_int_equal(ub_ubx_cfg_poll(&c, &want, 0, msg, sizeof msg), 0); /* measRateMs 0: nothing */
+    want.meas_rate_ms = 200;
+    assert_int_equal(ub_ubx_cfg_poll(&c, &want, 10, msg, sizeof msg), (int)sizeof msg);
+    assert_int_equal(msg[2], UB_UBX_CLASS_CFG);
+    assert_int_equal(msg[3], UB_UBX_ID_CFG_RATE);
+    assert_int_equal(msg[6] | msg[7] << 8, 200);
+    ub_ubx_cfg_sent(&c, &want, 10);
+    assert_int_equal(ub_ubx_cfg_poll(&c, &want, 5, msg, sizeof msg), 0);    /* stale clock: not overdue */
+    assert_int_equal(ub_ubx_cfg_poll(&c, &want, 1009, msg, sizeof msg), 0); /* still waiting */
+    ub_ubx_ack_t other = {UB_UBX_CLASS_NAV, UB_UBX_ID_NAV_PVT, 1}, ack = {UB_UBX_CLASS_CFG, UB_UBX_ID_CFG_RATE, 1};
+    assert_int_equal(ub_ubx_cfg_answer(&c, &other), 0);
+    assert_int_equal(ub_ubx_cfg_answer(&c, &ack), 1);
+    assert_int_equal(ub_ubx_cfg_answer(&c, &ack), 0); /* nothing pending any more */
+    assert_int_equal(ub_ubx_cfg_poll(&c, &want, 5000, msg, sizeof msg), 0); /* answered: not sent again */
+    assert_int_equal(c.acked, 1);
+    assert_int_equal(c.acked_meas_rate_ms, 200);
+    want.meas_rate_ms = 25; /* refused */
+    assert_true(ub_ubx_cfg_poll(&c, &want, 6000, msg, sizeof msg) > 0);
+    ub_ubx_cfg_sent(&c, &want, 6000);
+    ack.ok = 0;
+    assert_int_equal(ub_ubx_cfg_answer(&c, &ack), 1);
+    assert_int_equal(ub_ubx_cfg_poll(&c, &want, 9000, msg, sizeof msg), 0); /* a NAK is not retried */
+    assert_int_equal(c.naked, 1);
+    assert_int_equal(c.acked_meas_rate_ms, 200);
+    want.meas_rate_ms = 1000; /* no answer */
+    assert_true(ub_ubx_cfg_poll(&c, &want, 10000, msg, sizeof msg) > 0);
+    ub_ubx_cfg_sent(&c, &want, 10000);
+    assert_true(ub_ubx_cfg_poll(&c, &want, 11000, msg, sizeof msg) > 0);
+    assert_int_equal(c.timeouts, 1);
+    assert_int_equal(ub_ubx_cfg_poll(&c, &want, 11000, msg, 4), UB_ERR_NOSPACE);
+    ub_dir_value_t v[UB_DIR_VALUES_MAX];
+    size_t count = ub_ubx_cfg_dir_values(&c, v, UB_DIR_VALUES_MAX);
+    assert_int_equal(count, 5);
+    assert_float_equal(find(v, count, "cfgSent")->value, 3.0, 0.0);
+    assert_float_equal(find(v, count, "cfgMeasRateMs")->value, 200.0, 0.0);
+    assert_int_equal(ub_ubx_cfg_poll(NULL, &want, 0, msg, sizeof msg), UB_ERR_INVAL);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_nmea_values_are_the_fix_and_the_counters),
         cmocka_unit_test(test_ubx_values_are_the_last_nav_pvt),
         cmocka_unit_test(test_short_cap_and_null),
+        cmocka_unit_test(test_cfg_rate_exchange),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

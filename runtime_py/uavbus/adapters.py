@@ -18,12 +18,11 @@ merges sentence by sentence, so the directory ends each run exactly as the C ada
 
 from __future__ import annotations
 
-import struct
 from typing import Any, Callable
 
 from uavbus._bindings import ub_gps
 from uavbus.directory import Directory
-from uavbus._bindings.ub_error import InvalidArgumentError
+from uavbus._bindings.ub_error import InvalidArgumentError, UbError
 
 
 class _GpsAdapter:
@@ -32,7 +31,7 @@ class _GpsAdapter:
     _values: Callable[[Any], list[tuple[str, float, bool]]]
 
     def __init__(self, node: Any, link: str, directory: str, parser: Any, type_name: str) -> None:
-        self.node, self.link, self._parser = node, link, parser
+        self.node, self.link, self.name, self._parser = node, link, directory, parser
         d = node.bind(directory)
         missing = [m for m, _, _ in self._values(parser) if m not in d.fields]
         if missing or "time" not in d.fields:
@@ -88,16 +87,26 @@ class NmeaAdapter(_GpsAdapter):
 
 
 class UbxAdapter(_GpsAdapter):
-    """A u-blox receiver speaking UBX on `link`: good NAV-PVT into `directory` (type ubxGps_t). Writing:
-    configure() sends a UBX-CFG-RATE and the receiver's ACK-ACK/ACK-NAK naming it is counted in the
-    directory (cfgSent, cfgAcked, cfgNaked, cfgMeasRateMs), as uavbus_node's `ubx:` port does."""
+    """A u-blox receiver speaking UBX on `link`: good NAV-PVT into `directory` (type ubxGps_t).
+
+    Writing, as uavbus_node's `ubx:` port: the directory `<directory>Cfg` (ubxCfg_t, hosted by this node when
+    the catalogue has it) is the receiver's navigation rate. Whoever writes it (configure() here, or a
+    publication from anywhere in the fleet), the adapter's service turn (Node.on_service) writes a
+    UBX-CFG-RATE onto the link when it differs from what the receiver last answered, and the receiver's
+    ACK-ACK/ACK-NAK, a time-out (one second, then sent again) are counted in the directory (cfgSent,
+    cfgAcked, cfgNaked, cfgTimeouts, cfgMeasRateMs). The exchange is the C runtime's (ub_ubx_cfg_t)."""
 
     _values = staticmethod(ub_gps.ubx_dir_values)
 
     def __init__(self, node: Any, link: str, directory: str = "gpsUbx") -> None:
         super().__init__(node, link, directory, ub_gps.ub_ubx_new(), "ubxGps_t")
-        self._pending: int | None = None  # measRateMs of the CFG-RATE waiting for its answer
+        self._rate = ub_gps.CfgRate()
         self._answers = 0
+        self.cfg: Directory | None = None
+        inst = node.catalogue.find(directory + "Cfg")
+        if inst is not None and {"measRateMs", "navRate", "timeRef"} <= {f.name for f in inst.type.packed_fields}:
+            self.cfg = node.bind(inst.name)
+            node.on_service(self._service)
 
     def _feed_parser(self, data: bytes) -> int:
         return ub_gps.ub_ubx_feed(self._parser, data)
@@ -105,32 +114,39 @@ class UbxAdapter(_GpsAdapter):
     def _after_feed(self) -> None:
         s = ub_gps.ubx_stats(self._parser)
         answers = s["ack"] + s["nak"]
-        if answers == self._answers:
-            return
-        self._answers = answers
-        cls, msg_id, ok = ub_gps.ubx_ack(self._parser)  # the run's last answer
-        if self._pending is None or (cls, msg_id) != (ub_gps.CLASS_CFG, ub_gps.ID_CFG_RATE):
-            return
-        d = self.directory
-        if ok:
-            d.cfgAcked += 1
-            d.cfgMeasRateMs = self._pending
-        else:
-            d.cfgNaked += 1
-        self._pending = None
+        if answers != self._answers:  # the run's last answer (several in one run: the last one counts)
+            self._answers = answers
+            if self._rate.answer(self._parser):
+                self._write_cfg()
 
-    def configure(self, meas_rate_ms: int, nav_rate: int = 1, time_ref: int = 0) -> bytes:
-        """Writes UBX-CFG-RATE (measurement period, measurements per solution, 0 UTC / 1 GPS) onto the link
-        between uavbus frames. The answer arrives with the link's traffic (node.poll()). Returns the message."""
-        try:
-            payload = struct.pack("<HHH", meas_rate_ms, nav_rate, time_ref)
-        except struct.error as exc:
-            raise InvalidArgumentError(f"CFG-RATE: {exc} (each value is 0..65535)") from exc
-        msg = ub_gps.ub_ubx_build(ub_gps.CLASS_CFG, ub_gps.ID_CFG_RATE, payload)
-        self.node.write_foreign(self.link, msg)
-        self._pending = meas_rate_ms
-        self.directory.cfgSent += 1
-        return msg
+    def _write_cfg(self) -> None:
+        d = self.directory
+        for member, value, _ in ub_gps.ubx_cfg_dir_values(self._rate.c):
+            setattr(d, member, int(value))
+
+    def _service(self, now_ms: int) -> None:
+        c = self.cfg
+        if c is None:
+            return
+        msg = self._rate.poll(c.measRateMs, c.navRate, c.timeRef, now_ms)
+        if msg:
+            try:
+                self.node.write_foreign(self.link, msg)
+                self._rate.sent(now_ms)
+            except UbError:
+                pass  # transmit buffer full or link down (counted by the link): the next turn tries again
+        self._write_cfg()  # a time-out counts even when the resend could not be written
+
+    def configure(self, meas_rate_ms: int, nav_rate: int = 1, time_ref: int = 0) -> None:
+        """Writes the wanted rate into `<directory>Cfg`: the next service turn sends it (measRateMs 0: none)."""
+        if self.cfg is None:
+            raise InvalidArgumentError(f"{self.name}Cfg is not catalogued as ubxCfg_t: the receiver cannot be "
+                                       "configured (examples/flightsw/ubx_gps.h declares gpsUbxCfg)")
+        self.cfg.measRateMs, self.cfg.navRate, self.cfg.timeRef = meas_rate_ms, nav_rate, time_ref
+
+    def close(self) -> None:
+        self.node.remove_on_service(self._service)
+        super().close()
 
     @property
     def stats(self) -> dict[str, int]:

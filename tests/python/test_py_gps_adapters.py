@@ -2,7 +2,8 @@
 wrote (pynmea2's NMEA sentences, pyubx2's UBX messages) interleaved with uavbus frames, on a real pty; the
 adapter (uavbus.adapters: the C decoder splits the stream, the C parsers decode, ub_gps_fields.h maps, all
 through cffi) keeps the catalogued directory at the values the library encoded; corrupted input is counted,
-never merged; every uavbus frame is still delivered. The UBX adapter writes a CFG-RATE and reads its ACK."""
+never merged; every uavbus frame is still delivered. The UBX adapter writes a CFG-RATE when gpsUbxCfg changes (from Python or from a uavbus frame) and counts the
+ACK-ACK, ACK-NAK and time-out."""
 
 from __future__ import annotations
 
@@ -48,12 +49,13 @@ class _Pty:
         self.from_node = bytearray()
         self.seq = 0
 
-    def frame(self) -> bytes:
-        inst = self.node.catalogue.instance("gpsOut")
+    def frame(self, directory: str = "gpsOut", values: dict | None = None) -> bytes:
+        """The next DATA frame of `directory` from rmax1ob1 to gcs1 (zeroes unless `values`)."""
+        inst = self.node.catalogue.instance(directory)
+        payload = self.node.catalogue.encode(directory, values) if values else bytes(inst.type.packed_size)
         self.seq += 1
         return ub_frame_finish(FrameHeader(dir_id=inst.id, dest_id=entity_id("gcs1"), src_id=entity_id("rmax1ob1"),
-                                           admin=0, seq=self.seq, fingerprint=inst.type.fingerprint),
-                               bytes(inst.type.packed_size))
+                                           admin=0, seq=self.seq, fingerprint=inst.type.fingerprint), payload)
 
     def write(self, data: bytes) -> None:
         while data:
@@ -177,19 +179,46 @@ def test_ubx_adapter_reads_nav_pvt_and_writes_cfg_rate(pty: _Pty) -> None:
     assert (d.navPvtOk, d.badChecksums, d.badMessages) == (EPOCHS, EPOCHS, 0)
     assert len(pty.got) == EPOCHS
 
-    # Writing: CFG-RATE onto the pty, as pyubx2 reads it; the receiver's ACK-ACK, then an ACK-NAK.
-    msg = gps.configure(200, 1, 1)
-    pty.wait(lambda: msg in pty.from_node)
-    cfg = UBXReader.parse(msg)
+    # Writing: the rate into gpsUbxCfg; the adapter's service turn writes CFG-RATE onto the pty, as pyubx2
+    # reads it; the receiver's ACK-ACK, then (a rate written by a uavbus frame, as the fleet would) an ACK-NAK,
+    # then no answer: a time-out, and the same message again.
+    def cfg_rates() -> list:
+        out, data = [], bytes(pty.from_node)
+        at = data.find(b"\xb5\x62\x06\x08")
+        while at >= 0:
+            out.append(UBXReader.parse(data[at:at + 14]))
+            at = data.find(b"\xb5\x62\x06\x08", at + 14)
+        return out
+
+    gps.configure(200, 1, 1)
+    pty.wait(lambda: len(cfg_rates()) == 1)
+    cfg = cfg_rates()[0]
     assert (cfg.identity, cfg.measRate, cfg.navRate, cfg.timeRef) == ("CFG-RATE", 200, 1, 1)
     assert d.cfgSent == 1 and d.cfgAcked == 0
     pty.write(UBXMessage("ACK", "ACK-ACK", 0, clsID=0x06, msgID=0x08).serialize())
     pty.wait(lambda: d.cfgAcked == 1)
     assert d.cfgMeasRateMs == 200
-    gps.configure(25)
+    for _ in range(5):  # the receiver answered: nothing is sent again
+        pty.node.poll(0.005)
+    assert len(cfg_rates()) == 1 and d.cfgSent == 1
+
+    pty.write(pty.frame("gpsUbxCfg", {"measRateMs": 25, "navRate": 1, "timeRef": 0}))
+    pty.wait(lambda: len(cfg_rates()) == 2)
+    assert cfg_rates()[1].measRate == 25
     pty.write(UBXMessage("ACK", "ACK-NAK", 0, clsID=0x06, msgID=0x08).serialize())
     pty.wait(lambda: d.cfgNaked == 1)
     assert (d.cfgSent, d.cfgAcked, d.cfgNaked, d.cfgMeasRateMs) == (2, 1, 1, 200)
+
+    gps.configure(1000)
+    pty.wait(lambda: len(cfg_rates()) == 3)
+    pty.node.service(now_ms=pty.node.now() + 1100)  # a second later, no answer
+    assert (d.cfgSent, d.cfgTimeouts) == (4, 1), (d.cfgSent, d.cfgTimeouts, pty.node.port_info(LINK))
+    pty.wait(lambda: len(cfg_rates()) == 4)
+    for _ in range(5):  # polled again at the real (earlier) time: not overdue, not sent again
+        pty.node.poll(0.005)
+    assert (len(cfg_rates()), d.cfgSent, d.cfgTimeouts) == (4, 4, 1)
+    assert (d.cfgSent, d.cfgTimeouts, cfg_rates()[3].measRate) == (4, 1, 1000)
+    gps.close()
 
 
 def test_the_shared_mapping_covers_every_member_of_the_catalogued_types(pty: _Pty) -> None:
@@ -202,5 +231,5 @@ def test_the_shared_mapping_covers_every_member_of_the_catalogued_types(pty: _Pt
     ubx = {m for m, _, _ in ub_gps.ubx_dir_values(ub_gps.ub_ubx_new())}
     cat = pty.node.catalogue
     assert nmea == {f.name for f in cat.instance("gpsNmea").type.packed_fields} - {"time"}
-    assert ubx == {f.name for f in cat.instance("gpsUbx").type.packed_fields} - {"time"} - {
-        "cfgSent", "cfgAcked", "cfgNaked", "cfgTimeouts", "cfgMeasRateMs"}
+    cfg = {m for m, _, _ in ub_gps.ubx_cfg_dir_values(ub_gps.ub_ubx_cfg_new())}
+    assert ubx | cfg == {f.name for f in cat.instance("gpsUbx").type.packed_fields} - {"time"}

@@ -174,7 +174,9 @@ static int same_rate(const ub_ubx_rate_t *x, const ub_ubx_rate_t *y) {
 int ub_ubx_cfg_poll(ub_ubx_cfg_t *cfg, const ub_ubx_rate_t *want, uint64_t now_ms, uint8_t *out, size_t cap) {
     if (cfg == NULL || want == NULL || out == NULL) return UB_ERR_INVAL;
     if (cfg->pending) {
-        if (now_ms - cfg->sent_ms < UB_UBX_ACK_TIMEOUT_MS) return 0;
+        /* not `now - sent < timeout`: a clock read before the sending one (a caller's stale now) must not
+         * wrap around into "overdue" and resend at every call */
+        if (now_ms < cfg->sent_ms + UB_UBX_ACK_TIMEOUT_MS) return 0;
         cfg->pending = 0; /* no answer: counted, and sent again below */
         cfg->timeouts++;
     } else if (same_rate(want, &cfg->applied)) {

@@ -17,8 +17,6 @@ NMEA_STATS = ("bytes_in", "noise_bytes", "bytes_in_sentences", "sentences_ok", "
 NMEA_KINDS = ("gga", "rmc", "vtg", "gsa")
 UBX_STATS = ("bytes_in", "noise_bytes", "bytes_in_messages", "nav_pvt", "bad_checksum", "bad_length", "ack",
              "nak", "too_long", "unsupported")
-CLASS_CFG = int(lib.UB_UBX_CLASS_CFG)
-ID_CFG_RATE = int(lib.UB_UBX_ID_CFG_RATE)
 
 
 def ub_nmea_new() -> Any:
@@ -56,9 +54,33 @@ def ubx_stats(ubx: Any) -> dict[str, int]:
     return {k: int(getattr(ubx.stats, k)) for k in UBX_STATS}
 
 
-def ubx_ack(ubx: Any) -> tuple[int, int, bool]:
-    """The last ACK-ACK/ACK-NAK: (class, id, acknowledged)."""
-    return int(ubx.ack.cls), int(ubx.ack.id), bool(ubx.ack.ok)
+def ub_ubx_cfg_new() -> Any:
+    """A fresh CFG-RATE exchange (ub_ubx_cfg_t: what to send, the answer awaited, its counters)."""
+    cfg = ffi.new("ub_ubx_cfg_t *")
+    lib.ub_ubx_cfg_init(cfg)
+    return cfg
+
+
+class CfgRate:
+    """One turn of the CFG-RATE exchange: poll() builds what to write for the wanted rate (b"" if nothing),
+    sent() records that it was written whole, answer() gives it the parser's last ACK-ACK/ACK-NAK."""
+
+    def __init__(self) -> None:
+        self.c = ub_ubx_cfg_new()
+        self._want = ffi.new("ub_ubx_rate_t *")
+        self._out = ffi.new("uint8_t[]", 8 + int(lib.UB_UBX_CFG_RATE_LEN))
+
+    def poll(self, meas_rate_ms: int, nav_rate: int, time_ref: int, now_ms: int) -> bytes:
+        w = self._want
+        w.meas_rate_ms, w.nav_rate, w.time_ref = meas_rate_ms, nav_rate, time_ref
+        n = ensure(lib.ub_ubx_cfg_poll(self.c, w, now_ms, self._out, len(self._out)), "ub_ubx_cfg_poll")
+        return bytes(ffi.buffer(self._out, n))
+
+    def sent(self, now_ms: int) -> None:
+        lib.ub_ubx_cfg_sent(self.c, self._want, now_ms)
+
+    def answer(self, ubx: Any) -> bool:
+        return bool(lib.ub_ubx_cfg_answer(self.c, ffi.addressof(ubx, "ack")))
 
 
 def ub_ubx_build(cls: int, msg_id: int, payload: bytes) -> bytes:
@@ -74,6 +96,11 @@ def _values(fn: Any, parser: Any) -> list[tuple[str, float, bool]]:
     if n > len(out):
         raise RuntimeError(f"ub_gps_fields.h maps {n} members, more than UB_DIR_VALUES_MAX ({len(out)})")
     return [(ffi.string(out[i].member).decode("ascii"), float(out[i].value), bool(out[i].counter)) for i in range(n)]
+
+
+def ubx_cfg_dir_values(cfg: Any) -> list[tuple[str, float, bool]]:
+    """gpsUbx's cfgSent/cfgAcked/cfgNaked/cfgTimeouts/cfgMeasRateMs from the CFG-RATE exchange."""
+    return _values(lib.ub_ubx_cfg_dir_values, cfg)
 
 
 def nmea_dir_values(nmea: Any) -> list[tuple[str, float, bool]]:

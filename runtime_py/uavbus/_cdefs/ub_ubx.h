@@ -60,3 +60,22 @@ int ub_ubx_build(uint8_t cls, uint8_t id, const uint8_t *payload, uint16_t len, 
 /* ub_gps_fields.h's functions (ub_dir_value_t is in that file's cdefs). */
 size_t ub_nmea_dir_values(const ub_nmea_t *n, ub_dir_value_t *out, size_t cap);
 size_t ub_ubx_dir_values(const ub_ubx_t *u, ub_dir_value_t *out, size_t cap);
+
+/* The CFG-RATE exchange (ub_ubx_cfg_t), shared by the C and Python adapters. */
+#define UB_UBX_ACK_TIMEOUT_MS ...
+typedef struct ub_ubx_rate {
+    uint16_t meas_rate_ms;
+    uint16_t nav_rate;
+    uint16_t time_ref;
+} ub_ubx_rate_t;
+typedef struct ub_ubx_cfg {
+    uint8_t pending;
+    uint32_t sent_count, acked, naked, timeouts;
+    uint16_t acked_meas_rate_ms;
+    ...;
+} ub_ubx_cfg_t;
+void ub_ubx_cfg_init(ub_ubx_cfg_t *cfg);
+int ub_ubx_cfg_poll(ub_ubx_cfg_t *cfg, const ub_ubx_rate_t *want, uint64_t now_ms, uint8_t *out, size_t cap);
+void ub_ubx_cfg_sent(ub_ubx_cfg_t *cfg, const ub_ubx_rate_t *want, uint64_t now_ms);
+int ub_ubx_cfg_answer(ub_ubx_cfg_t *cfg, const ub_ubx_ack_t *ack);
+size_t ub_ubx_cfg_dir_values(const ub_ubx_cfg_t *c, ub_dir_value_t *out, size_t cap);
