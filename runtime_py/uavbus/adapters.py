@@ -28,17 +28,23 @@ from uavbus._bindings.ub_error import InvalidArgumentError, UbError
 class _GpsAdapter:
     """What both adapters share: the directory, the foreign handler, writing the mapped members."""
 
-    _values: Callable[[Any], list[tuple[str, float, bool]]]
+    _values: Callable[..., list[tuple[str, float, bool]]]
 
     def __init__(self, node: Any, link: str, directory: str, parser: Any, type_name: str) -> None:
         self.node, self.link, self.name, self._parser = node, link, directory, parser
-        d = node.bind(directory)
-        missing = [m for m, _, _ in self._values(parser) if m not in d.fields]
-        if missing or "time" not in d.fields:
+        self._out = ub_gps.values_buffer()  # reused at every run: no allocation per run
+        mapped = [m for m, _, _ in self._values(parser, self._out)]
+        t = node.catalogue.instance(directory).type
+        fields = {f.name for f in t.packed_fields}
+        missing = [m for m in ["time", *mapped] if m not in fields]
+        if missing:  # checked before binding: a refused directory is not hosted
             raise InvalidArgumentError(
-                f"directory {directory!r} is of type {d.type.name}, not {type_name}: no member "
-                f"{', '.join(missing or ['time'])} (catalogue it from examples/flightsw, docs/adapters.md)")
+                f"directory {directory!r} is of type {t.name}, not {type_name}: no member "
+                f"{', '.join(missing)} (catalogue it from examples/flightsw, docs/adapters.md)")
+        d = node.bind(directory)
         self.directory: Directory = d
+        # Integers arrive widened to double (exactly); an integer member's packer wants an int.
+        self._float = {m for m in mapped if isinstance(getattr(d, m), float)}
         node.set_foreign_handler(link, self._feed)
 
     def _feed(self, data: bytes) -> None:  # the link's foreign-traffic handler: takes every byte
@@ -57,11 +63,10 @@ class _GpsAdapter:
         pass
 
     def _write(self, counters: bool) -> None:
-        d = self.directory
-        for member, value, is_counter in self._values(self._parser):
+        d, floats = self.directory, self._float
+        for member, value, is_counter in self._values(self._parser, self._out):
             if is_counter == counters:
-                # Integers arrive widened to double (exactly); the member's own packer wants an int.
-                setattr(d, member, value if isinstance(getattr(d, member), float) else int(value))
+                setattr(d, member, value if member in floats else int(value))
 
     def close(self) -> None:
         """Removes the foreign-traffic handler (the directory stays hosted, with its last values)."""
@@ -121,7 +126,7 @@ class UbxAdapter(_GpsAdapter):
 
     def _write_cfg(self) -> None:
         d = self.directory
-        for member, value, _ in ub_gps.ubx_cfg_dir_values(self._rate.c):
+        for member, value, _ in ub_gps.ubx_cfg_dir_values(self._rate.c, self._out):
             setattr(d, member, int(value))
 
     def _service(self, now_ms: int) -> None:

@@ -150,6 +150,7 @@ def test_an_adapter_refuses_a_directory_of_another_type(pty: _Pty) -> None:
         NmeaAdapter(pty.node, LINK, "gpsOut")
     with pytest.raises(InvalidArgumentError, match="not ubxGps_t"):
         UbxAdapter(pty.node, LINK, "gpsNmea")
+    assert pty.node.directory("gpsNmea") is None  # refused before binding: not hosted
 
 
 def _pvt(k: int) -> bytes:

@@ -90,24 +90,29 @@ def ub_ubx_build(cls: int, msg_id: int, payload: bytes) -> bytes:
     return bytes(ffi.buffer(out, n))
 
 
-def _values(fn: Any, parser: Any) -> list[tuple[str, float, bool]]:
-    out = ffi.new("ub_dir_value_t[]", int(lib.UB_DIR_VALUES_MAX))
+def values_buffer() -> Any:
+    """Room for any of the value lists (UB_DIR_VALUES_MAX), to pass to the *_dir_values() calls again."""
+    return ffi.new("ub_dir_value_t[]", int(lib.UB_DIR_VALUES_MAX))
+
+
+def _values(fn: Any, parser: Any, out: Any = None) -> list[tuple[str, float, bool]]:
+    out = values_buffer() if out is None else out
     n = int(fn(parser, out, len(out)))
     if n > len(out):
         raise RuntimeError(f"ub_gps_fields.h maps {n} members, more than UB_DIR_VALUES_MAX ({len(out)})")
     return [(ffi.string(out[i].member).decode("ascii"), float(out[i].value), bool(out[i].counter)) for i in range(n)]
 
 
-def ubx_cfg_dir_values(cfg: Any) -> list[tuple[str, float, bool]]:
+def ubx_cfg_dir_values(cfg: Any, out: Any = None) -> list[tuple[str, float, bool]]:
     """gpsUbx's cfgSent/cfgAcked/cfgNaked/cfgTimeouts/cfgMeasRateMs from the CFG-RATE exchange."""
-    return _values(lib.ub_ubx_cfg_dir_values, cfg)
+    return _values(lib.ub_ubx_cfg_dir_values, cfg, out)
 
 
-def nmea_dir_values(nmea: Any) -> list[tuple[str, float, bool]]:
+def nmea_dir_values(nmea: Any, out: Any = None) -> list[tuple[str, float, bool]]:
     """gpsNmea's (member, value, is_counter) from the parser's state (ub_gps_fields.h's lists)."""
-    return _values(lib.ub_nmea_dir_values, nmea)
+    return _values(lib.ub_nmea_dir_values, nmea, out)
 
 
-def ubx_dir_values(ubx: Any) -> list[tuple[str, float, bool]]:
+def ubx_dir_values(ubx: Any, out: Any = None) -> list[tuple[str, float, bool]]:
     """gpsUbx's (member, value, is_counter) from the parser's last NAV-PVT and counters."""
-    return _values(lib.ub_ubx_dir_values, ubx)
+    return _values(lib.ub_ubx_dir_values, ubx, out)
