@@ -234,3 +234,38 @@ def test_the_shared_mapping_covers_every_member_of_the_catalogued_types(pty: _Pt
     assert nmea == {f.name for f in cat.instance("gpsNmea").type.packed_fields} - {"time"}
     cfg = {m for m, _, _ in ub_gps.ubx_cfg_dir_values(ub_gps.ub_ubx_cfg_new())}
     assert ubx | cfg == {f.name for f in cat.instance("gpsUbx").type.packed_fields} - {"time"}
+
+
+def test_nmea_adapter_on_a_udp_link(flightsw: Generated) -> None:
+    """The datagram path (a GPS forwarded over UDP, as NMEA-over-IP gateways do): one sentence per datagram,
+    a uavbus frame in its own datagram between them, a corrupted sentence counted."""
+    import socket
+
+    node = Node(flightsw.catalogue, config=TABLE2, node="gcs")
+    peer = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    peer.bind(("127.0.0.1", 0))
+    try:
+        node.open_port(LINK, f"udp:bind=127.0.0.1:0,peer=127.0.0.1:{peer.getsockname()[1]}")
+        gps = NmeaAdapter(node, LINK)
+        node.bind("gpsOut")
+        got: list = []
+        node.on_data(got.append)
+        port = node.local_port(LINK)
+        gga = _epoch(2)[0]
+        inst = node.catalogue.instance("gpsOut")
+        frame = ub_frame_finish(FrameHeader(dir_id=inst.id, dest_id=entity_id("gcs1"), src_id=entity_id("rmax1ob1"),
+                                            admin=0, seq=1, fingerprint=inst.type.fingerprint),
+                                bytes(inst.type.packed_size))
+        for data in ((str(gga) + "\r\n").encode(), frame, _corrupt(str(_epoch(3)[0]))):
+            peer.sendto(data, ("127.0.0.1", port))
+        end = time.monotonic() + 5
+        while time.monotonic() < end and not (len(got) == 1 and gps.stats["bad_checksum"] == 1):
+            node.poll(0.005)
+        want = pynmea2.parse(str(gga))
+        d = gps.directory
+        assert (len(got), d.sentencesOk, d.badChecksums) == (1, 1, 1)
+        assert d.latitudeDeg == pytest.approx(float(want.latitude), abs=1e-9)
+        assert d.altitudeMsl == pytest.approx(float(want.altitude))
+    finally:
+        peer.close()
+        node.close()
