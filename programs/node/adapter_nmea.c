@@ -18,6 +18,7 @@
  */
 #include "adapter_serial.h"
 #include "nmea_gps.h"
+#include "ub/ub_gps_fields.h"
 #include "ub/ub_nmea.h"
 
 typedef struct nmea_adapter {
@@ -27,28 +28,16 @@ typedef struct nmea_adapter {
 
 static void nmea_reset(adapter_serial_t *a) { ub_nmea_init(&((nmea_adapter_t *)a)->nmea); }
 
-static void on_sentence(void *user, ub_nmea_kind_t kind, const ub_nmea_t *nmea) {
+/* The members and their sources are ub_gps_fields.h's lists, shared with Python's adapter. */
+#define PUT(member, ctype, expr) d->member = (ctype)(expr);
+
+static void on_sentence(void *user, ub_nmea_kind_t kind, const ub_nmea_t *n) {
     (void)kind;
     nmea_adapter_t *a = user;
-    const ub_nmea_fix_t *f = &nmea->fix;
     nmeaGps_t *d = a->base.dir;
     d->time.seconds = (uint32_t)(a->base.now_ms / 1000u);
     d->time.microseconds = (uint32_t)(a->base.now_ms % 1000u * 1000u);
-    d->latitudeDeg = f->lat_deg;
-    d->longitudeDeg = f->lon_deg;
-    d->altitudeMsl = f->alt_msl_m;
-    d->geoidSeparation = f->geoid_sep_m;
-    d->speedMps = f->speed_mps;
-    d->courseDeg = f->course_deg;
-    d->hdop = (float)f->hdop;
-    d->pdop = (float)f->pdop;
-    d->vdop = (float)f->vdop;
-    d->utcMilliseconds = f->utc_ms;
-    d->utcDate = f->date_ddmmyy;
-    d->fixQuality = f->quality;
-    d->fixType = f->fix_type;
-    d->satellitesUsed = f->satellites;
-    d->statusValid = f->valid;
+    UB_NMEA_DIR_FIX(PUT)
 }
 
 /* Every byte that is not a uavbus frame. The parser takes all of them (what is not a sentence it counts as
@@ -57,11 +46,9 @@ static size_t nmea_feed(adapter_serial_t *base, const uint8_t *run, size_t len) 
     nmea_adapter_t *a = (nmea_adapter_t *)base;
     int merged = ub_nmea_feed(&a->nmea, run, len, on_sentence, a);
     (void)merged; /* the parser's own counters say it */
-    const ub_nmea_stats_t *s = &a->nmea.stats;
+    const ub_nmea_t *n = &a->nmea;
     nmeaGps_t *d = base->dir;
-    d->sentencesOk = (uint32_t)s->sentences_ok;
-    d->badChecksums = (uint32_t)s->bad_checksum;
-    d->badSentences = (uint32_t)(s->no_checksum + s->malformed + s->overlong);
+    UB_NMEA_DIR_COUNTS(PUT)
     return len;
 }
 

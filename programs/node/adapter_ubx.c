@@ -12,78 +12,53 @@
  * Writing (R1's "reading and writing"): the directory `<dir>Cfg` (gpsUbxCfg, type ubxCfg_t) is the
  * receiver's navigation rate. When its value differs from what the receiver last acknowledged, the next
  * service call writes a UBX-CFG-RATE onto the link (between uavbus frames, never inside one) and waits for
- * the receiver's ACK-ACK or ACK-NAK naming CFG-RATE; no answer within UBX_ACK_TIMEOUT_MS is counted and
- * the message sent again. Every outcome is counted in the directory (cfgSent, cfgAcked, cfgNaked,
+ * the receiver's ACK-ACK or ACK-NAK naming CFG-RATE; no answer within UB_UBX_ACK_TIMEOUT_MS is counted
+ * and the message sent again (the exchange is ub_ubx.h's ub_ubx_cfg_t, which Python's adapter uses too).
+ * Every outcome is counted in the directory (cfgSent, cfgAcked, cfgNaked,
  * cfgTimeouts, cfgMeasRateMs), so the node that wrote the configuration reads the answer two hops away.
  */
 #include <string.h>
 
 #include "adapter_serial.h"
+#include "ub/ub_gps_fields.h"
 #include "ub/ub_ubx.h"
-#include "ub/ub_wire.h"
 #include "ubx_gps.h"
-
-/* u-blox receivers answer a CFG within one navigation epoch; a second covers 1 Hz and a busy link. */
-#define UBX_ACK_TIMEOUT_MS 1000u
 
 typedef struct ubx_adapter {
     adapter_serial_t base; /* first (adapter_serial.h) */
     ub_ubx_t ubx;
     ubxCfg_t *cfg;         /* the configuration directory's storage; NULL: none, nothing is written */
-    ubxCfg_t sent;         /* what the last CFG-RATE carried */
-    ubxCfg_t applied;      /* what the receiver last answered (ACK or NAK): not sent again */
-    uint8_t pending;       /* a CFG-RATE waits for its ACK */
+    ub_ubx_cfg_t rate;     /* the CFG-RATE exchange (ub_ubx.h, shared with Python's adapter) */
     uint8_t cfg_looked;    /* the configuration directory was looked up (once attached) */
-    uint64_t sent_ms;
 } ubx_adapter_t;
 
-static void ubx_reset(adapter_serial_t *a) { ub_ubx_init(&((ubx_adapter_t *)a)->ubx); }
+static void ubx_reset(adapter_serial_t *a) {
+    ub_ubx_init(&((ubx_adapter_t *)a)->ubx);
+    ub_ubx_cfg_init(&((ubx_adapter_t *)a)->rate);
+}
 
-static void on_pvt(ubx_adapter_t *a, const ub_ubx_pvt_t *p) {
+/* The members and their sources are ub_gps_fields.h's lists, shared with Python's adapter. */
+#define PUT(member, ctype, expr) d->member = (ctype)(expr);
+
+static void on_pvt(ubx_adapter_t *a, const ub_ubx_t *u) {
     ubxGps_t *d = a->base.dir;
     d->time.seconds = (uint32_t)(a->base.now_ms / 1000u);
     d->time.microseconds = (uint32_t)(a->base.now_ms % 1000u * 1000u);
-    d->latitudeDeg = p->lat_1e7 / 1e7;
-    d->longitudeDeg = p->lon_1e7 / 1e7;
-    d->altitudeMsl = p->hmsl_mm / 1000.0;
-    d->heightEllipsoid = p->height_mm / 1000.0;
-    d->groundSpeedMps = p->g_speed_mms / 1000.0;
-    d->headingDeg = p->head_mot_1e5 / 1e5;
-    d->velNorth = (float)(p->vel_n_mms / 1000.0);
-    d->velEast = (float)(p->vel_e_mms / 1000.0);
-    d->velDown = (float)(p->vel_d_mms / 1000.0);
-    d->hAccuracy = (float)(p->h_acc_mm / 1000.0);
-    d->vAccuracy = (float)(p->v_acc_mm / 1000.0);
-    d->pdop = (float)(p->p_dop_1e2 / 100.0);
-    d->iTowMs = p->itow_ms;
-    d->year = p->year;
-    d->month = p->month;
-    d->day = p->day;
-    d->hour = p->hour;
-    d->minute = p->min;
-    d->second = p->sec;
-    d->fixType = p->fix_type;
-    d->satellitesUsed = p->num_sv;
+    UB_UBX_DIR_FIX(PUT)
 }
 
 /* An ACK-ACK or ACK-NAK: it settles the pending CFG-RATE when it names CFG-RATE (an answer to something
  * else, or with nothing pending, changes nothing: the parser counted it). */
 static void on_ack(ubx_adapter_t *a, const ub_ubx_ack_t *ack) {
-    if (!a->pending || ack->cls != UB_UBX_CLASS_CFG || ack->id != UB_UBX_ID_CFG_RATE) return;
+    if (!ub_ubx_cfg_answer(&a->rate, ack)) return;
     ubxGps_t *d = a->base.dir;
-    a->pending = 0;
-    a->applied = a->sent;
-    if (ack->ok) {
-        d->cfgAcked++;
-        d->cfgMeasRateMs = a->sent.measRateMs;
-    } else {
-        d->cfgNaked++;
-    }
+    const ub_ubx_cfg_t *c = &a->rate;
+    UB_UBX_DIR_CFG(PUT)
 }
 
 static void on_message(void *user, const ub_ubx_t *ubx) {
     if (ubx->cls == UB_UBX_CLASS_ACK) on_ack(user, &ubx->ack);
-    else on_pvt(user, &ubx->pvt);
+    else on_pvt(user, ubx);
 }
 
 /* Every byte that is not a uavbus frame; the parser takes all (what is not a message is noise). */
@@ -91,16 +66,10 @@ static size_t ubx_feed(adapter_serial_t *base, const uint8_t *run, size_t len) {
     ubx_adapter_t *a = (ubx_adapter_t *)base;
     int decoded = ub_ubx_feed(&a->ubx, run, len, on_message, a);
     (void)decoded; /* the parser's own counters say it */
-    const ub_ubx_stats_t *s = &a->ubx.stats;
+    const ub_ubx_t *u = &a->ubx;
     ubxGps_t *d = base->dir;
-    d->navPvtOk = (uint32_t)s->nav_pvt;
-    d->badChecksums = (uint32_t)s->bad_checksum;
-    d->badMessages = (uint32_t)(s->bad_length + s->too_long);
+    UB_UBX_DIR_COUNTS(PUT)
     return len;
-}
-
-static bool same_cfg(const ubxCfg_t *x, const ubxCfg_t *y) {
-    return x->measRateMs == y->measRateMs && x->navRate == y->navRate && x->timeRef == y->timeRef;
 }
 
 /* Before the link is read: a configuration to write, or an answer overdue. */
@@ -118,25 +87,13 @@ static void ubx_service(adapter_serial_t *base, uint64_t now_ms) {
     }
     if (a->cfg == NULL) return;
     ubxGps_t *d = base->dir;
-    if (a->pending) {
-        if (now_ms - a->sent_ms < UBX_ACK_TIMEOUT_MS) return;
-        a->pending = 0; /* no answer: counted, and sent again below */
-        d->cfgTimeouts++;
-    } else if (a->cfg->measRateMs == 0 || same_cfg(a->cfg, &a->applied)) {
-        return;
-    }
-    ubxCfg_t want = *a->cfg;
-    if (want.measRateMs == 0) return;
-    uint8_t payload[UB_UBX_CFG_RATE_LEN], msg[8 + UB_UBX_CFG_RATE_LEN];
-    ub_put_u16le(payload + 0, want.measRateMs);
-    ub_put_u16le(payload + 2, want.navRate);
-    ub_put_u16le(payload + 4, want.timeRef);
-    int n = ub_ubx_build(UB_UBX_CLASS_CFG, UB_UBX_ID_CFG_RATE, payload, sizeof payload, msg, sizeof msg);
-    if (n < 0 || adapter_serial_write(base, msg, (size_t)n) != UB_OK) return; /* full or down: counted by the link; next call tries again */
-    a->sent = want;
-    a->sent_ms = now_ms;
-    a->pending = 1;
-    d->cfgSent++;
+    const ub_ubx_cfg_t *c = &a->rate;
+    const ub_ubx_rate_t want = {a->cfg->measRateMs, a->cfg->navRate, a->cfg->timeRef};
+    uint8_t msg[8 + UB_UBX_CFG_RATE_LEN];
+    int n = ub_ubx_cfg_poll(&a->rate, &want, now_ms, msg, sizeof msg);
+    /* full or down: counted by the link; the next call tries again */
+    if (n > 0 && adapter_serial_write(base, msg, (size_t)n) == UB_OK) ub_ubx_cfg_sent(&a->rate, &want, now_ms);
+    UB_UBX_DIR_CFG(PUT) /* a time-out counts even when the resend could not be written */
 }
 
 static size_t ubx_counters(const adapter_serial_t *base, ub_driver_counter_t *out, size_t cap) {

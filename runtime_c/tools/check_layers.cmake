@@ -23,7 +23,7 @@ if(NOT CODEC_DIR)
 endif()
 
 # Public headers of the wire layer: what codec/ may include (and what they include, checked below).
-set(wire_headers ub_admin_wire.h ub_catalogue.h ub_compact.h ub_config.h ub_crc32c.h ub_error.h ub_frag.h ub_ident.h ub_legacy.h ub_nmea.h ub_ubx.h
+set(wire_headers ub_admin_wire.h ub_catalogue.h ub_compact.h ub_config.h ub_crc32c.h ub_error.h ub_frag.h ub_gps_fields.h ub_ident.h ub_legacy.h ub_nmea.h ub_ubx.h
                  ub_frame.h ub_random.h ub_sec.h ub_wire.h)
 # Members only struct ub_node has (the generic names, counters or opt, are every engine's own too).
 set(node_members locals entities bindings n_bindings bind_table next_seq rng_state require_signed use_stamp

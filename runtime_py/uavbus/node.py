@@ -180,6 +180,7 @@ class Node:
         self._callback_errors = 0
         self._refused_payloads = 0
         self._memlinks: list[MemLink] = []
+        self._service_hooks: list[Callable[[int], Any]] = []  # on_service(): adapters writing to devices
         self._kept: list[Any] = []  # Python transports (uavbus.pylink) C holds pointers to
         self._admins: dict[str, Admin] = {}
         self.routing = Routing(self)
@@ -506,6 +507,8 @@ class Node:
         """The non-blocking part of poll(): ports, memlinks, tick, dispatch (at `now_ms` or now; with
         `dispatch=False` the deliveries wait in the ring for receive())."""
         now = self.now() if now_ms is None else now_ms
+        for hook in self._service_hooks:
+            hook(now)
         if self._ports is not None:
             ub_ports.ub_ports_service(self._ports, now)
             for text in ub_ports.ub_ports_notices(self._ports):  # each reported once, e.g. a refused sender
@@ -579,6 +582,16 @@ class Node:
         (one implementation); the port keeps the handler across a runtime switch. None removes it."""
         handle = ub_ports.ub_ports_set_foreign(self._ports_obj(), link, handler)
         self._foreign_handlers[link] = handle  # alive while C may call it
+
+    def on_service(self, hook: Callable[[int], Any]) -> None:
+        """Calls `hook(now_ms)` at each service() (poll()), before the ports are read: what a device adapter
+        does on time (uavbus.adapters.UbxAdapter writes its receiver's configuration, keeps its time-out)."""
+        self._service_hooks.append(hook)
+
+    def remove_on_service(self, hook: Callable[[int], Any]) -> None:
+        """Stops calling `hook` (no error when it was not set)."""
+        if hook in self._service_hooks:
+            self._service_hooks.remove(hook)
 
     def write_foreign(self, link: str, data: bytes) -> None:
         """Writes `data`, bytes that are not a uavbus frame (a legacy datalink message on a `legacy:` port, a

@@ -108,6 +108,48 @@ UB_CHECK int ub_ubx_feed(ub_ubx_t *ubx, const uint8_t *data, size_t len, ub_ubx_
  */
 UB_CHECK int ub_ubx_build(uint8_t cls, uint8_t id, const uint8_t *payload, uint16_t len, uint8_t *out, size_t cap);
 
+/** A receiver answers a CFG within one navigation epoch; a second covers 1 Hz and a busy link. */
+#define UB_UBX_ACK_TIMEOUT_MS 1000u
+
+/** The navigation rate a UBX-CFG-RATE carries. */
+typedef struct ub_ubx_rate {
+    uint16_t meas_rate_ms; /**< measurement period; 0 means "write nothing" */
+    uint16_t nav_rate;     /**< measurements per navigation solution */
+    uint16_t time_ref;     /**< 0 UTC, 1 GPS time */
+} ub_ubx_rate_t;
+
+/**
+ * Writing the rate to the receiver and checking its answer, one exchange at a time (the adapters of
+ * uavbus_node and Python share it): ub_ubx_cfg_poll() says what to write when the wanted rate differs from
+ * what the receiver last answered, or when an answer is overdue (counted, sent again); the caller writes it
+ * and calls ub_ubx_cfg_sent(); each ACK-ACK/ACK-NAK the parser decodes goes to ub_ubx_cfg_answer(). A NAK is
+ * not retried (the receiver refused that rate); only a changed wanted rate is sent again. Caller-owned.
+ */
+typedef struct ub_ubx_cfg {
+    ub_ubx_rate_t sent;    /**< what the last CFG-RATE carried */
+    ub_ubx_rate_t applied; /**< what the receiver last answered (ACK or NAK) */
+    uint64_t sent_ms;
+    uint8_t pending;       /**< a CFG-RATE waits for its answer */
+    uint32_t sent_count, acked, naked, timeouts;
+    uint16_t acked_meas_rate_ms; /**< the period last acknowledged; 0 none yet */
+} ub_ubx_cfg_t;
+
+void ub_ubx_cfg_init(ub_ubx_cfg_t *cfg);
+
+/**
+ * What to write now for `want` at `now_ms`: a CFG-RATE built into `out`.
+ * @return its length, 0 when nothing is to be written, UB_ERR_NOSPACE / UB_ERR_INVAL.
+ */
+UB_CHECK int ub_ubx_cfg_poll(ub_ubx_cfg_t *cfg, const ub_ubx_rate_t *want, uint64_t now_ms, uint8_t *out,
+                             size_t cap);
+
+/** The message ub_ubx_cfg_poll() built for `want` was written whole at `now_ms`: its answer is awaited. */
+void ub_ubx_cfg_sent(ub_ubx_cfg_t *cfg, const ub_ubx_rate_t *want, uint64_t now_ms);
+
+/** An ACK-ACK/ACK-NAK (ub_ubx_t.ack): settles the pending CFG-RATE when it names CFG-RATE, else nothing.
+ *  @return 1 when it settled it. */
+int ub_ubx_cfg_answer(ub_ubx_cfg_t *cfg, const ub_ubx_ack_t *ack);
+
 #ifdef __cplusplus
 }
 #endif

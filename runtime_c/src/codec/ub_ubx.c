@@ -162,3 +162,52 @@ int ub_ubx_build(uint8_t cls, uint8_t id, const uint8_t *payload, uint16_t len, 
     out[7 + len] = b;
     return (int)(8u + len);
 }
+
+void ub_ubx_cfg_init(ub_ubx_cfg_t *cfg) {
+    if (cfg != NULL) memset(cfg, 0, sizeof *cfg);
+}
+
+static int same_rate(const ub_ubx_rate_t *x, const ub_ubx_rate_t *y) {
+    return x->meas_rate_ms == y->meas_rate_ms && x->nav_rate == y->nav_rate && x->time_ref == y->time_ref;
+}
+
+int ub_ubx_cfg_poll(ub_ubx_cfg_t *cfg, const ub_ubx_rate_t *want, uint64_t now_ms, uint8_t *out, size_t cap) {
+    if (cfg == NULL || want == NULL || out == NULL) return UB_ERR_INVAL;
+    if (cfg->pending) {
+        /* not `now - sent < timeout`: a clock read before the sending one (a caller's stale now) must not
+         * wrap around into "overdue" and resend at every call */
+        if (now_ms < cfg->sent_ms + UB_UBX_ACK_TIMEOUT_MS) return 0;
+        cfg->pending = 0; /* no answer: counted, and sent again below */
+        cfg->timeouts++;
+    } else if (same_rate(want, &cfg->applied)) {
+        return 0;
+    }
+    if (want->meas_rate_ms == 0) return 0;
+    uint8_t payload[UB_UBX_CFG_RATE_LEN];
+    ub_put_u16le(payload + 0, want->meas_rate_ms);
+    ub_put_u16le(payload + 2, want->nav_rate);
+    ub_put_u16le(payload + 4, want->time_ref);
+    return ub_ubx_build(UB_UBX_CLASS_CFG, UB_UBX_ID_CFG_RATE, payload, sizeof payload, out, cap);
+}
+
+void ub_ubx_cfg_sent(ub_ubx_cfg_t *cfg, const ub_ubx_rate_t *want, uint64_t now_ms) {
+    if (cfg == NULL || want == NULL) return;
+    cfg->sent = *want;
+    cfg->sent_ms = now_ms;
+    cfg->pending = 1;
+    cfg->sent_count++;
+}
+
+int ub_ubx_cfg_answer(ub_ubx_cfg_t *cfg, const ub_ubx_ack_t *ack) {
+    if (cfg == NULL || ack == NULL || !cfg->pending || ack->cls != UB_UBX_CLASS_CFG || ack->id != UB_UBX_ID_CFG_RATE)
+        return 0;
+    cfg->pending = 0;
+    cfg->applied = cfg->sent;
+    if (ack->ok) {
+        cfg->acked++;
+        cfg->acked_meas_rate_ms = cfg->sent.meas_rate_ms;
+    } else {
+        cfg->naked++;
+    }
+    return 1;
+}
