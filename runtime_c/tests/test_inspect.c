@@ -305,6 +305,150 @@ static void test_retry_after_loss_and_silence(void **state) {
     chain_free(c);
 }
 
+/* SET_MASK answered with whether it changed anything, and refused for an entity the node does not know; an
+ * ADMIN_ROW change refused on a node with no administration table (issue #29 item 6: every refusal counted). */
+static void test_set_mask_and_admin_row_refusals(void **state) {
+    (void)state;
+    chain_t *c = chain_new(0, 0);
+    int f_relay = ub_node_find_entity(c->fcs_node, c->relay_id);
+    assert_true(f_relay >= 0);
+    ub_inspect_spec_t m = {.op = UB_INSPECT_SET_MASK, .value = 0x00};
+    memcpy(m.subject, c->relay_id, UB_ENTITY_ID_LEN);
+    ub_inspect_result_t r = ask(c, m, 1000);
+    assert_int_equal(r.status, UB_INSPECT_DONE);
+    assert_true(r.changed);
+    uint8_t mask = 0xFF;
+    assert_int_equal(ub_node_get_mask(c->fcs_node, c->fcs, f_relay, &mask), UB_OK);
+    assert_int_equal(mask, 0x00);
+    r = ask(c, m, 1000); /* the same mask again: done, nothing changed */
+    assert_int_equal(r.status, UB_INSPECT_DONE);
+    assert_false(r.changed);
+    test_eid("nobody", m.subject);
+    r = ask(c, m, 1000);
+    assert_int_equal(r.status, UB_INSPECT_FAILED);
+    assert_int_equal(r.nack_reason, UB_NACK_NO_SUCH_ROW);
+    r = ask(c, (ub_inspect_spec_t){.op = UB_INSPECT_ADMIN_ROW, .arg = UB_INSPECT_ADMIN_PERIOD, .value = 50}, 1000);
+    assert_int_equal(r.status, UB_INSPECT_FAILED);
+    assert_int_equal(r.nack_reason, UB_NACK_NO_SUCH_ROW);
+    r = ask(c, (ub_inspect_spec_t){.op = UB_INSPECT_SET_PERIOD, .offset = UB_MAX_PUBSUB_ROWS, .value = 5}, 1000);
+    assert_int_equal(r.status, UB_INSPECT_FAILED);
+    assert_int_equal(r.nack_reason, UB_NACK_NO_SUCH_ROW);
+    const ub_node_counters_t *k = ub_node_counters(c->fcs_node);
+    assert_int_equal(k->inspect_served, 2);
+    assert_int_equal(k->inspect_refused, 3);
+    const ub_inspect_counters_t *ic = ub_inspect_counters(&c->in);
+    assert_non_null(ic);
+    assert_int_equal(ic->done, 2);
+    assert_int_equal(ic->failed, 3);
+    assert_null(ub_inspect_counters(NULL));
+    chain_free(c);
+}
+
+/* A directory the answering node hosts nowhere: refused UNBOUND, not read from nowhere. */
+static void test_read_of_an_unbound_directory_is_refused(void **state) {
+    (void)state;
+    chain_t *c = chain_on(catalogue_with_big(), 0, 0); /* zBigBlob: in the catalogue, bound by no one */
+    ub_inspect_result_t r = ask(c, (ub_inspect_spec_t){.op = UB_INSPECT_READ, .instance = TEST_BIG}, 1000);
+    assert_int_equal(r.status, UB_INSPECT_FAILED);
+    assert_int_equal(r.nack_reason, UB_NACK_UNBOUND);
+    assert_int_equal(ub_node_counters(c->fcs_node)->inspect_refused, 1);
+    chain_free(c);
+}
+
+/* Requests the requester refuses before sending anything (ub_inspect_request's contract), the row table's
+ * bound, the names, and detaching. */
+static void test_request_refusals_and_bounds(void **state) {
+    (void)state;
+    chain_t *c = chain_new(0, 0);
+    uint64_t now = c->w->now_ms;
+    ub_inspect_spec_t ok = {.op = UB_INSPECT_READ, .instance = TEST_IMU};
+    memcpy(ok.target, c->fcs_id, UB_ENTITY_ID_LEN);
+    ub_inspect_spec_t s = ok;
+    memset(s.target, 0, UB_ENTITY_ID_LEN); /* no target */
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s = ok;
+    s.instance = c->gcs_node->cat->n_instances;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s = ok;
+    s.op = UB_INSPECT_WRITE;
+    s.len = 0;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s.len = UB_INSPECT_CHUNK + 1;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s.len = 1;
+    s.instance = c->gcs_node->cat->n_instances;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s = ok;
+    s.op = UB_INSPECT_LIST;
+    s.arg = 0;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s.arg = UB_INSPECT_ADMIN + 1;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s = ok;
+    s.op = UB_INSPECT_SET_PERIOD;
+    s.value = 0;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s = ok;
+    s.op = UB_INSPECT_SET_MASK; /* subject left zero */
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    memcpy(s.subject, c->relay_id, UB_ENTITY_ID_LEN);
+    s.value = 0x100;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s = ok;
+    s.op = UB_INSPECT_ADMIN_ROW;
+    s.arg = 0;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s.op = 0x7F;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    assert_int_equal(ub_inspect_request(&c->in, NULL, now), UB_ERR_INVAL);
+    assert_int_equal(ub_inspect_request(NULL, &ok, now), UB_ERR_INVAL);
+    assert_int_equal(ub_inspect_counters(&c->in)->sent, 0);
+
+    /* The row table's bound, then rows that do not exist. */
+    for (int i = 0; i < UB_MAX_INSPECT_REQUESTS; i++) assert_int_equal(ub_inspect_request(&c->in, &ok, now), i);
+    assert_int_equal(ub_inspect_request(&c->in, &ok, now), UB_ERR_FULL);
+    ub_inspect_result_t r;
+    assert_int_equal(ub_inspect_result(&c->in, -1, &r), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_inspect_result(&c->in, UB_MAX_INSPECT_REQUESTS, &r), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_inspect_result(&c->in, 0, NULL), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_inspect_result(NULL, 0, &r), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_inspect_forget(&c->in, 0), UB_OK);
+    assert_int_equal(ub_inspect_forget(&c->in, 0), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_inspect_result(&c->in, 0, &r), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_inspect_forget(&c->in, UB_MAX_INSPECT_REQUESTS), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_inspect_forget(NULL, 1), UB_ERR_NOTFOUND);
+
+    assert_string_equal(ub_inspect_op_name(UB_INSPECT_READ), "read");
+    assert_string_equal(ub_inspect_op_name(UB_INSPECT_ADMIN_ROW), "admin_row");
+    assert_string_equal(ub_inspect_op_name((ub_inspect_op_t)0), "?");
+    assert_string_equal(ub_inspect_op_name((ub_inspect_op_t)99), "?");
+    assert_string_equal(ub_inspect_status_name(UB_INSPECT_DONE), "done");
+    assert_string_equal(ub_inspect_status_name((ub_inspect_status_t)99), "?");
+
+    /* Detached, the requester takes no more requests; the node goes on serving (a request from fcs's
+     * side is answered by gcs's node). */
+    ub_inspect_detach(&c->in);
+    assert_int_equal(ub_inspect_request(&c->in, &ok, now), UB_ERR_INVAL);
+    ub_inspect_detach(&c->in); /* twice: nothing */
+    ub_inspect_detach(NULL);
+    ub_inspect_t back;
+    assert_int_equal(ub_inspect_init(&back, c->fcs_node, c->fcs, NULL), UB_OK);
+    assert_int_equal(back.opt.retry_ms, 200u); /* the default */
+    ub_inspect_spec_t list = {.op = UB_INSPECT_LIST, .arg = UB_INSPECT_ENTITIES};
+    memcpy(list.target, c->gcs_id, UB_ENTITY_ID_LEN);
+    int row = ub_inspect_request(&back, &list, c->w->now_ms);
+    assert_true(row >= 0);
+    world_run(c->w, c->w->now_ms + 100, 1);
+    assert_int_equal(ub_inspect_result(&back, row, &r), UB_OK);
+    assert_int_equal(r.status, UB_INSPECT_DONE);
+    assert_int_equal(r.total, 3);
+    assert_int_equal(ub_node_counters(c->gcs_node)->inspect_served, 1);
+    assert_int_equal(ub_inspect_init(NULL, c->fcs_node, c->fcs, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_inspect_init(&back, NULL, c->fcs, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_inspect_init(&back, c->fcs_node, 99, NULL), UB_ERR_INVAL);
+    chain_free(c);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_read_through_bind_table_and_hand_binding_first),
@@ -313,6 +457,9 @@ int main(void) {
         cmocka_unit_test(test_list_tables_and_set_period),
         cmocka_unit_test(test_policy_refusal_has_its_reason),
         cmocka_unit_test(test_retry_after_loss_and_silence),
+        cmocka_unit_test(test_set_mask_and_admin_row_refusals),
+        cmocka_unit_test(test_read_of_an_unbound_directory_is_refused),
+        cmocka_unit_test(test_request_refusals_and_bounds),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
