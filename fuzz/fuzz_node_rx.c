@@ -9,8 +9,8 @@
  *
  *   byte 0: which node (bit 0: primary or gcs) of which file (bit 1: table2 or table2_policy); bit 2: the
  *           first link carries the compact encoding (ub_compact.h: COBS packets, LINK_HELLO dictionaries);
- *           bit 3: the first link has the smallest MTU, so directories leave on it in fragments. The node
- *           always holds fragment state (ub_node_set_frag()), so FRAGMENT frames are reassembled.
+ *           bit 3: the first link has the smallest MTU, so directories leave on it in fragments; bit 4: the
+ *           node holds no fragment state (else ub_node_set_frag(): FRAGMENT frames are reassembled).
  *   then, repeated: op u8 | arg u8 | len u16le | len bytes
  *     op % 8 = 0  stream bytes into ub_node_rx() on link arg
  *              1  the bytes resealed into a frame (see below), into ub_node_rx()
@@ -160,7 +160,7 @@ static void setup(uint8_t mode) {
         fuzz_ignore(ub_node_link_attach(&g_node, l, &k_capture_ops, &g_link_tag[l]));
     }
     ub_frag_init(&g_frag, NULL, 1);
-    FUZZ_CHECK(ub_node_set_frag(&g_node, &g_frag) == UB_OK, "frag");
+    if (!(mode & 16)) FUZZ_CHECK(ub_node_set_frag(&g_node, &g_frag) == UB_OK, "frag");
     if (first >= 0 && (mode & 4)) {
         ub_compact_init(&g_compact, &flightsw_catalogue, 7, NULL);
         FUZZ_CHECK(ub_node_link_set_compact(&g_node, first, &g_compact, NULL) == UB_OK, "compact");
@@ -474,6 +474,35 @@ static void seed_fragments(const char *dir, uint8_t *f) {
     seed_op(&s, 4, 255, tick, 0); /* past the reassembly timeout */
     seed_op(&s, 4, 255, tick, 0);
     seed_write(dir, "fragments", &s);
+
+    /* What DATA would be refused for, refused per fragment: an unknown content, another layout, a size
+     * that is not the type's, an unbound directory; then more transfers than slots (refused, counted). */
+    memset(&s, 0, sizeof s);
+    s.buf[s.len++] = 0;
+    n = ub_frag_write(pl, sizeof pl, 9, 0, 2, image, total);
+    size_t len = seed_frame(f, "gpsOut", "gcs1", "rmax1ob1", UB_ADMIN_FRAGMENT, pl, (uint16_t)n, 100);
+    f[UB_FRAME_OFF_DIR_ID] ^= 0x5A; /* no such content */
+    fuzz_ignore(ub_frame_set_hop_limit(f, len, f[UB_FRAME_OFF_HOP_LIMIT]));
+    seed_op(&s, 0, 0, f, len);
+    len = seed_frame(f, "gpsOut", "gcs1", "rmax1ob1", UB_ADMIN_FRAGMENT, pl, (uint16_t)n, 101);
+    f[UB_FRAME_OFF_FINGERPRINT] ^= 1; /* another layout */
+    fuzz_ignore(ub_frame_set_hop_limit(f, len, f[UB_FRAME_OFF_HOP_LIMIT]));
+    seed_op(&s, 0, 0, f, len);
+    n = ub_frag_write(pl, sizeof pl, 9, 0, 2, image, total - 1); /* not the type's size */
+    seed_op(&s, 0, 0, f, seed_frame(f, "gpsOut", "gcs1", "rmax1ob1", UB_ADMIN_FRAGMENT, pl, (uint16_t)n, 102));
+    const ub_type_desc_t *t2 = cat->instances[ub_catalogue_find_name(cat, "gcsMissionRmax1[1]")].type;
+    n = ub_frag_write(pl, sizeof pl, 9, 0, 2, image, t2->packed_size);
+    seed_op(&s, 0, 0, f, seed_frame(f, "gcsMissionRmax1[1]", "gcs1", "rmax1ob1", UB_ADMIN_FRAGMENT, pl, (uint16_t)n, 103));
+    static const char *const srcs[3] = {"gcs1", "fcs20", "rmax1ob2"};
+    for (uint16_t k = 0; k < 6; k++) { /* 3 sources x 2 transfers: more than UB_FRAG_SLOTS */
+        n = ub_frag_write(pl, sizeof pl, (uint16_t)(200 + k), 0, 2, image, total);
+        seed_op(&s, 0, 0, f, seed_frame(f, "gpsOut", srcs[k % 3], "rmax1ob1", UB_ADMIN_FRAGMENT, pl, (uint16_t)n, 110u + k));
+    }
+    seed_op(&s, 4, 255, tick, 0);
+    seed_write(dir, "fragments_refused", &s);
+    /* A node without fragment state: FRAGMENT frames dropped too_big. */
+    s.buf[0] = 16;
+    seed_write(dir, "fragments_no_state", &s);
 }
 
 /* The first link compact (byte 0 bit 2), then also with the smallest MTU (bit 3): packets a peer's compact
