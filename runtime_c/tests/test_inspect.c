@@ -449,6 +449,35 @@ static void test_request_refusals_and_bounds(void **state) {
     chain_free(c);
 }
 
+/* A reply to a request forgotten before it came (the operator gave up on it) is counted unmatched, never
+ * taken as an answer to another row. A read from an offset inside the image returns the rest; one at its
+ * end is refused NO_SUCH_ROW. */
+static void test_duplicate_replies_and_read_offsets(void **state) {
+    (void)state;
+    chain_t *c = chain_new(0, 0);
+    size_t size = c->fcs_node->cat->instances[TEST_IMU].type->packed_size;
+    ub_inspect_result_t r = ask(c, (ub_inspect_spec_t){.op = UB_INSPECT_READ, .instance = TEST_IMU, .offset = 24}, 1000);
+    assert_int_equal(r.status, UB_INSPECT_DONE);
+    assert_int_equal(r.len, size - 24);
+    assert_int_equal(ub_get_u32le(r.data), c->imu.t_ms);
+    r = ask(c, (ub_inspect_spec_t){.op = UB_INSPECT_READ, .instance = TEST_IMU, .offset = (uint16_t)size}, 1000);
+    assert_int_equal(r.status, UB_INSPECT_FAILED);
+    assert_int_equal(r.nack_reason, UB_NACK_NO_SUCH_ROW);
+    ub_inspect_spec_t s = {.op = UB_INSPECT_READ, .instance = TEST_IMU};
+    memcpy(s.target, c->fcs_id, UB_ENTITY_ID_LEN);
+    c->near->faults.delay_ms = 50; /* the request is in flight for a while */
+    int row = ub_inspect_request(&c->in, &s, c->w->now_ms);
+    assert_true(row >= 0);
+    world_run(c->w, c->w->now_ms + 5, 1); /* sent, not yet answered */
+    assert_int_equal(ub_inspect_result(&c->in, row, &r), UB_OK);
+    assert_int_equal(r.status, UB_INSPECT_PENDING);
+    assert_int_equal(ub_inspect_forget(&c->in, row), UB_OK);
+    world_run(c->w, c->w->now_ms + 200, 1);
+    assert_int_equal(ub_inspect_counters(&c->in)->unmatched_replies, 1);
+    assert_int_equal(ub_inspect_counters(&c->in)->done, 1);
+    chain_free(c);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_read_through_bind_table_and_hand_binding_first),
@@ -460,6 +489,7 @@ int main(void) {
         cmocka_unit_test(test_set_mask_and_admin_row_refusals),
         cmocka_unit_test(test_read_of_an_unbound_directory_is_refused),
         cmocka_unit_test(test_request_refusals_and_bounds),
+        cmocka_unit_test(test_duplicate_replies_and_read_offsets),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
