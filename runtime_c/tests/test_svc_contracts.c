@@ -13,6 +13,7 @@
 #include "ub/ub_driver.h"
 #include "ub/ub_ident.h"
 #include "ub/ub_impair.h"
+#include "ub/ub_member.h"
 #include "ub/ub_node.h"
 #include "ub/ub_revoke.h"
 #include "ub/ub_service.h"
@@ -136,11 +137,77 @@ static void test_revoke_and_impair_contracts(void **state) {
     assert_null(ub_impair_stats(NULL));
 }
 
+/* The membership requester: names, and every spec it refuses before sending (ub_member_request()). */
+static ub_member_t g_m;
+static void test_member_contracts(void **state) {
+    (void)state;
+    assert_string_equal(ub_member_op_name(UB_MEMBER_ADD_LINK), "add_link");
+    assert_string_equal(ub_member_op_name((ub_member_op_t)0), "?");
+    assert_string_equal(ub_member_op_name((ub_member_op_t)77), "?");
+    assert_string_equal(ub_member_status_name((ub_member_status_t)77), "?");
+    assert_int_equal(ub_node_init(&g_node, &k_cat, NULL), UB_OK);
+    uint8_t me[UB_ENTITY_ID_LEN] = "me";
+    int e = ub_node_add_entity(&g_node, me, true);
+    assert_true(e >= 0);
+    assert_int_equal(ub_member_init(NULL, &g_node, e, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_member_init(&g_m, NULL, e, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_member_init(&g_m, &g_node, 9, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_member_init(&g_m, &g_node, e, NULL), UB_OK);
+    ub_member_spec_t ok = {.op = UB_MEMBER_ADD_ENTITY};
+    memcpy(ok.target, "target", 6);
+    memcpy(ok.subject, "subject", 7);
+    ub_member_spec_t sp = ok;
+    memset(sp.target, 0, sizeof sp.target);
+    assert_int_equal(ub_member_request(&g_m, &sp, 0), UB_ERR_INVAL); /* no target */
+    sp = ok;
+    memset(sp.subject, 0, sizeof sp.subject);
+    assert_int_equal(ub_member_request(&g_m, &sp, 0), UB_ERR_INVAL); /* no subject */
+    sp.op = UB_MEMBER_SET_MASK;
+    assert_int_equal(ub_member_request(&g_m, &sp, 0), UB_ERR_INVAL);
+    sp = ok;
+    sp.op = UB_MEMBER_ADD_LINK; /* no link name */
+    assert_int_equal(ub_member_request(&g_m, &sp, 0), UB_ERR_INVAL);
+    strcpy(sp.link_name, "radio");
+    sp.link_index = UB_MAX_LINKS_PER_ENTITY;
+    assert_int_equal(ub_member_request(&g_m, &sp, 0), UB_ERR_INVAL);
+    sp.link_index = 0;
+    memset(sp.port_spec, 'x', sizeof sp.port_spec); /* not terminated */
+    assert_int_equal(ub_member_request(&g_m, &sp, 0), UB_ERR_INVAL);
+    sp = ok;
+    sp.op = UB_MEMBER_REMOVE_LINK;
+    memset(sp.link_name, 'y', sizeof sp.link_name); /* not terminated */
+    assert_int_equal(ub_member_request(&g_m, &sp, 0), UB_ERR_INVAL);
+    sp.op = 99;
+    assert_int_equal(ub_member_request(&g_m, &sp, 0), UB_ERR_INVAL);
+    assert_int_equal(ub_member_request(&g_m, NULL, 0), UB_ERR_INVAL);
+    assert_int_equal(ub_member_request(NULL, &ok, 0), UB_ERR_INVAL);
+    int row = ub_member_request(&g_m, &ok, 0);
+    assert_true(row >= 0);
+    ub_member_info_t info;
+    assert_int_equal(ub_member_status(&g_m, row, &info), UB_OK);
+    assert_int_equal(info.status, UB_MEMBER_PENDING);
+    assert_int_equal(ub_member_status(&g_m, row, NULL), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_member_status(&g_m, -1, &info), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_member_status(NULL, row, &info), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_member_forget(&g_m, UB_MAX_MEMBER_REQUESTS), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_member_forget(NULL, row), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_member_forget(&g_m, row), UB_OK);
+    assert_int_equal(ub_member_forget(&g_m, row), UB_ERR_NOTFOUND);
+    assert_null(ub_member_counters(NULL));
+    assert_int_equal(ub_member_counters(&g_m)->sent, 0);
+    ub_member_set_link_handler(NULL, NULL, NULL);
+    ub_member_detach(&g_m);
+    assert_int_equal(ub_member_request(&g_m, &ok, 0), UB_ERR_INVAL); /* detached */
+    ub_member_detach(&g_m);
+    ub_member_detach(NULL);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_service_registry_refusals),
         cmocka_unit_test(test_driver_helpers),
         cmocka_unit_test(test_revoke_and_impair_contracts),
+        cmocka_unit_test(test_member_contracts),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
