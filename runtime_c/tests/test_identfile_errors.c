@@ -253,11 +253,41 @@ static void test_revocation_and_certificate_files(void **state) {
     assert_true(ub_certfile_put(badc, cert, sizeof cert, g_err, sizeof g_err) < 0); /* cannot add to a broken file */
 }
 
+/* The one-call set-ups: NULLs, an identity expired or not yet valid at start (refused with the reason), a
+ * revocations file with only its header (no records), then the set-up that works. */
+static void test_store_setup(void **state) {
+    (void)state;
+    ub_cert_t c;
+    uint8_t seed[UB_IDENT_SEED_LEN], kx_sk[UB_IDENT_KX_SK_LEN];
+    make_cert(&c, seed, kx_sk);
+    const char *id = path_of("setup.id"), *pub = path_of("setup.pub"), *rv = path_of("setup.rv");
+    assert_int_equal(ub_identfile_write(id, &c, seed, kx_sk, true, g_err, sizeof g_err), UB_OK);
+    assert_int_equal(ub_authfile_write_public(pub, g_auth_pk, true, g_err, sizeof g_err), UB_OK);
+    uint8_t h[UB_IDENTFILE_HEADER_LEN];
+    header(h, "UBRV", 1);
+    write_raw(rv, h, sizeof h, 0644);
+    ub_ident_store_init(&g_store);
+    assert_int_equal(ub_identfile_load_store(NULL, id, pub, rv, NOW, g_err, sizeof g_err), UB_ERR_INVAL);
+    assert_int_equal(ub_identfile_load_store(&g_store, id, NULL, rv, NOW, g_err, sizeof g_err), UB_ERR_INVAL);
+    assert_int_equal(ub_identfile_load_self(NULL, id, rv, NOW, g_err, sizeof g_err), UB_ERR_INVAL);
+    assert_int_equal(ub_identfile_load_self(&g_store, NULL, rv, NOW, g_err, sizeof g_err), UB_ERR_INVAL);
+    assert_int_equal(ub_identfile_load_store(&g_store, id, pub, rv, NOW + 100, g_err, sizeof g_err), UB_ERR_CONFIG);
+    one_line_about("setup.id");
+    assert_non_null(strstr(g_err, "expired"));
+    assert_int_equal(ub_identfile_load_store(&g_store, id, pub, rv, NOW - 100, g_err, sizeof g_err), UB_ERR_CONFIG);
+    assert_int_equal(ub_identfile_load_store(&g_store, id, path_of("none.pub"), rv, NOW, g_err, sizeof g_err),
+                     UB_ERR_IO); /* no authority file */
+    assert_int_equal(ub_identfile_load_store(&g_store, id, pub, rv, NOW, g_err, sizeof g_err), UB_OK);
+    assert_int_equal(ub_ident_self_count(&g_store), 1);
+    assert_int_equal(ub_ident_revocation_count(&g_store), 0);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_identity_file_refusals),
         cmocka_unit_test(test_authority_files),
         cmocka_unit_test(test_revocation_and_certificate_files),
+        cmocka_unit_test(test_store_setup),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
