@@ -109,6 +109,13 @@ static void test_identity_file_refusals(void **state) {
     assert_int_equal(ub_identfile_load(id, NULL, sk, kx, g_err, sizeof g_err), UB_ERR_INVAL);
     assert_int_equal(ub_identfile_load(id, &got, NULL, kx, g_err, sizeof g_err), UB_ERR_INVAL);
     assert_int_equal(ub_identfile_load(id, &got, sk, NULL, g_err, sizeof g_err), UB_ERR_INVAL);
+    /* A path too long for its temporary twin (replace: written beside it, then renamed over it). */
+    char longp[5000];
+    memset(longp, 'a', sizeof longp - 1);
+    longp[0] = '/';
+    longp[sizeof longp - 1] = '\0';
+    assert_int_equal(ub_identfile_write(longp, &c, seed, kx_sk, true, g_err, sizeof g_err), UB_ERR_IO);
+    assert_true(strlen(g_err) > 0);
     /* A path in a directory that does not exist: cannot be written. */
     assert_true(ub_identfile_write(path_of("no/such/dir.id"), &c, seed, kx_sk, false, g_err, sizeof g_err) < 0);
 
@@ -217,6 +224,7 @@ static void test_revocation_and_certificate_files(void **state) {
     assert_int_equal(ub_revfile_read(rv, out, 2, g_err, sizeof g_err), 1);
     assert_memory_equal(out, rec, sizeof rec);
     assert_int_equal(ub_revfile_read(rv, out, 0, g_err, sizeof g_err), 0); /* room for none */
+    assert_int_equal(ub_revfile_read(rv, NULL, 0, g_err, sizeof g_err), 0);  /* nowhere to put them, none asked */
     uint8_t b[UB_IDENTFILE_HEADER_LEN + UB_REVOCATION_LEN + 3];
     header(b, "UBRV", 1);
     memcpy(b + UB_IDENTFILE_HEADER_LEN, rec, sizeof rec);
