@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "support/ub_test_world.h"
+#include "ub/ub_frag.h"
 #include "ub/ub_inspect.h"
 #include "ub/ub_policy.h"
 #include "ub/ub_pubsub.h"
@@ -478,6 +479,37 @@ static void test_duplicate_replies_and_read_offsets(void **state) {
     chain_free(c);
 }
 
+/* A directory above UB_MAX_PAYLOAD sent from fcs (issue #29 item 6, ub_node_wire.c): to another entity of the
+ * same node it is handed over whole, which needs fragment state (a transmit slot holds the image): without
+ * it refused UB_ERR_RANGE and counted too_big; to an entity with no route, refused UB_ERR_NOROUTE and counted
+ * no_route; over a link without fragment state, refused too_big. */
+static void test_big_directory_local_unrouted_and_without_fragments(void **state) {
+    (void)state;
+    chain_t *c = chain_on(catalogue_with_big(), 0, 0);
+    static uint8_t big[BIG_SIZE];
+    memset(big, 0x3C, sizeof big);
+    assert_int_equal(ub_node_bind(c->fcs_node, TEST_BIG, big), UB_OK);
+    uint8_t peer_id[UB_ENTITY_ID_LEN], nobody[UB_ENTITY_ID_LEN];
+    test_eid("fcs2", peer_id);
+    test_eid("nobody", nobody);
+    assert_true(ub_node_add_entity(c->fcs_node, peer_id, true) >= 0);
+    const ub_node_counters_t *k = ub_node_counters(c->fcs_node);
+    uint64_t now = c->w->now_ms;
+    uint64_t too_big = k->drops[UB_DROP_TOO_BIG], no_route = k->drops[UB_DROP_NO_ROUTE];
+    assert_int_equal(ub_node_send_data(c->fcs_node, c->fcs, TEST_BIG, peer_id, now), UB_ERR_RANGE);
+    assert_int_equal(k->drops[UB_DROP_TOO_BIG], too_big + 1);
+    assert_int_equal(ub_node_send_data(c->fcs_node, c->fcs, TEST_BIG, c->gcs_id, now), UB_ERR_RANGE); /* a link */
+    assert_int_equal(k->drops[UB_DROP_TOO_BIG], too_big + 2);
+    assert_int_equal(ub_node_send_data(c->fcs_node, c->fcs, TEST_BIG, nobody, now), UB_ERR_NOROUTE);
+    assert_int_equal(k->drops[UB_DROP_NO_ROUTE], no_route + 1);
+    static ub_frag_t frag;
+    ub_frag_init(&frag, NULL, 1);
+    assert_int_equal(ub_node_set_frag(c->fcs_node, &frag), UB_OK);
+    assert_true(ub_node_send_data(c->fcs_node, c->fcs, TEST_BIG, peer_id, now) >= 0); /* handed over whole */
+    assert_int_equal(k->drops[UB_DROP_TOO_BIG], too_big + 2);
+    chain_free(c);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_read_through_bind_table_and_hand_binding_first),
@@ -490,6 +522,7 @@ int main(void) {
         cmocka_unit_test(test_read_of_an_unbound_directory_is_refused),
         cmocka_unit_test(test_request_refusals_and_bounds),
         cmocka_unit_test(test_duplicate_replies_and_read_offsets),
+        cmocka_unit_test(test_big_directory_local_unrouted_and_without_fragments),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
