@@ -1,0 +1,131 @@
+/*
+ * The private helpers of the stream and socket drivers (drivers/ub_stream_tx_private.h,
+ * drivers/ub_sock_private.h), driven directly (issue #29 item 6). The transmit buffer gets a write function
+ * that answers as a descriptor can (short writes, EINTR, EAGAIN, EPIPE, ECONNRESET, EIO, 0): whole frames go
+ * in or nothing does, the unwritten rest stays in order, every byte written is counted, a dead peer is
+ * UB_ERR_CLOSED and other failures UB_ERR_IO. The scenario tests reach only what a live socket answers.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <errno.h>
+#include <string.h>
+
+#include "drivers/ub_sock_private.h"
+#include "drivers/ub_stream_tx_private.h"
+
+/* A scripted descriptor: each call takes the next answer (>0: bytes accepted, at most what is asked; <= 0:
+ * that return with `err` in errno); past the script it takes everything. What it accepted is in `wire`. */
+typedef struct answer {
+    long n;
+    int err;
+} answer_t;
+static const answer_t *g_script;
+static size_t g_steps, g_at;
+static uint8_t g_wire[256];
+static size_t g_wire_len;
+
+static long scripted_write(int fd, const uint8_t *data, size_t len) {
+    (void)fd;
+    long n = (long)len;
+    if (g_at < g_steps) {
+        const answer_t *a = &g_script[g_at++];
+        if (a->n <= 0) {
+            errno = a->err;
+            return a->n;
+        }
+        if ((size_t)a->n < len) n = a->n;
+    }
+    memcpy(g_wire + g_wire_len, data, (size_t)n);
+    g_wire_len += (size_t)n;
+    return n;
+}
+
+static void script(const answer_t *a, size_t n) {
+    g_script = a;
+    g_steps = n;
+    g_at = 0;
+    g_wire_len = 0;
+}
+
+static void test_stream_tx_answers(void **state) {
+    (void)state;
+    uint8_t buf[16], frame[10];
+    for (int i = 0; i < 10; i++) frame[i] = (uint8_t)(0xA0 + i);
+    size_t len = 0;
+    uint64_t written = 0;
+    /* Short writes and EINTR: all of it goes, in order. */
+    static const answer_t a1[] = {{3, 0}, {-1, EINTR}, {2, 0}};
+    script(a1, 3);
+    assert_int_equal(ub_stream_tx_send(0, scripted_write, buf, sizeof buf, &len, frame, 10, &written), UB_OK);
+    assert_int_equal(len, 0);
+    assert_int_equal(written, 10);
+    assert_memory_equal(g_wire, frame, 10);
+    /* EAGAIN after 4 bytes: the rest stays queued; a second frame does not fit beside it (nothing of it
+     * is taken); the next flush sends the rest in order. */
+    static const answer_t a2[] = {{4, 0}, {-1, EAGAIN}, {-1, EWOULDBLOCK}};
+    script(a2, 3);
+    assert_int_equal(ub_stream_tx_send(0, scripted_write, buf, sizeof buf, &len, frame, 10, &written), UB_OK);
+    assert_int_equal(len, 6);
+    assert_int_equal(ub_stream_tx_send(0, scripted_write, buf, sizeof buf, &len, frame, 11, &written), UB_ERR_AGAIN);
+    assert_int_equal(len, 6);
+    script(NULL, 0);
+    assert_int_equal(ub_stream_tx_flush(0, scripted_write, buf, &len, &written), UB_OK);
+    assert_int_equal(len, 0);
+    assert_memory_equal(g_wire, frame + 4, 6);
+    assert_int_equal(written, 20);
+    /* A dead peer: EPIPE and ECONNRESET are UB_ERR_CLOSED; EIO and a zero write are UB_ERR_IO; the bytes
+     * written before the failure are counted and gone from the buffer. */
+    static const answer_t dead[][2] = {{{2, 0}, {-1, EPIPE}}, {{2, 0}, {-1, ECONNRESET}}, {{2, 0}, {-1, EIO}},
+                                      {{2, 0}, {0, 0}}};
+    static const int want[] = {UB_ERR_CLOSED, UB_ERR_CLOSED, UB_ERR_IO, UB_ERR_IO};
+    for (int k = 0; k < 4; k++) {
+        len = 0;
+        written = 0;
+        script(dead[k], 2);
+        assert_int_equal(ub_stream_tx_send(0, scripted_write, buf, sizeof buf, &len, frame, 10, &written), want[k]);
+        assert_int_equal(written, 2);
+        assert_int_equal(len, 8);
+        assert_int_equal(buf[0], frame[2]);
+        /* with bytes queued, the next send's flush fails first: the new frame is not taken */
+        script(dead[k] + 1, 1);
+        assert_int_equal(ub_stream_tx_send(0, scripted_write, buf, sizeof buf, &len, frame, 2, &written), want[k]);
+        assert_int_equal(len, 8);
+    }
+}
+
+static void test_sock_helpers(void **state) {
+    (void)state;
+    struct sockaddr_in a;
+    assert_int_equal(ub_sock_address(NULL, 1, &a), UB_ERR_INVAL);
+    assert_int_equal(ub_sock_address("300.1.1.1", 1, &a), UB_ERR_INVAL);
+    assert_int_equal(ub_sock_address("127.0.0.1", 5001, &a), UB_OK);
+    assert_int_equal(ntohs(a.sin_port), 5001);
+    assert_int_equal(ub_sock_set_nonblocking(-1), UB_ERR_IO); /* not a descriptor */
+    uint16_t port = 0;
+    assert_int_equal(ub_sock_local_port(-1, &port), UB_ERR_IO);
+    errno = EAGAIN;
+    ub_sock_close_keep_errno(-1);
+    assert_int_equal(errno, EAGAIN); /* close()'s EBADF does not replace the caller's errno */
+    char host[32];
+    assert_true(ub_sock_parse_hostport("localhost:5001", host, sizeof host, &port));
+    assert_string_equal(host, "127.0.0.1");
+    assert_int_equal(port, 5001);
+    assert_false(ub_sock_parse_hostport("5001", host, sizeof host, &port));           /* no colon */
+    assert_false(ub_sock_parse_hostport(":5001", host, sizeof host, &port));          /* no host */
+    assert_false(ub_sock_parse_hostport("127.0.0.1:5001", host, 4, &port));           /* no room */
+    assert_false(ub_sock_parse_hostport("127.0.0.1:5001", host, 300, &port));         /* cap beyond the copy */
+    assert_false(ub_sock_parse_hostport("example.org:5001", host, sizeof host, &port)); /* not dotted IPv4 */
+    assert_false(ub_sock_parse_hostport("127.0.0.1:65536", host, sizeof host, &port));
+    assert_false(ub_sock_parse_hostport("127.0.0.1:x", host, sizeof host, &port));
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_stream_tx_answers),
+        cmocka_unit_test(test_sock_helpers),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
