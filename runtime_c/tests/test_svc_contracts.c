@@ -122,6 +122,20 @@ static void test_revoke_and_impair_contracts(void **state) {
     assert_null(ub_revoke_stats(NULL));
     assert_int_equal(ub_revoke_spread_certificates(NULL, NULL, NULL, 0), UB_ERR_INVAL);
     assert_int_equal(ub_revoke_init(&g_rv, &g_node, &g_store, NULL, NULL, NULL), UB_OK);
+    assert_non_null(ub_revoke_stats(&g_rv));
+    uint8_t cert[UB_CERT_LEN] = {0};
+    assert_int_equal(ub_revoke_submit_certificate(NULL, cert, sizeof cert, 0), UB_ERR_INVAL);
+    assert_int_equal(ub_revoke_submit_certificate(&g_rv, NULL, sizeof cert, 0), UB_ERR_INVAL);
+    assert_int_equal(ub_revoke_remove(&g_rv), UB_OK);
+    static ub_revoke_t never; /* never initialised: nothing to remove */
+    assert_int_equal(ub_revoke_remove(&never), UB_ERR_INVAL);
+    /* Options given are kept (0 means the default). */
+    ub_revoke_options_t opt = {.min_interval_ms = 7, .repeat_ms = 11, .repeats = 2, .verify_per_s = 3};
+    assert_int_equal(ub_revoke_init(&g_rv, &g_node, &g_store, &opt, NULL, NULL), UB_OK);
+    assert_int_equal(g_rv.opt.min_interval_ms, 7);
+    assert_int_equal(g_rv.opt.repeat_ms, 11);
+    assert_int_equal(g_rv.opt.repeats, 2);
+    assert_int_equal(g_rv.opt.verify_per_s, 3);
     assert_int_equal(ub_revoke_remove(&g_rv), UB_OK);
 
     ub_impair_init(NULL, NULL, 1);
