@@ -15,6 +15,7 @@
 
 #include "drivers/ub_sock_private.h"
 #include "drivers/ub_stream_tx_private.h"
+#include "ub/ub_tcp.h"
 
 /* A scripted descriptor: each call takes the next answer (>0: bytes accepted, at most what is asked; <= 0:
  * that return with `err` in errno); past the script it takes everything. What it accepted is in `wire`. */
@@ -122,10 +123,44 @@ static void test_sock_helpers(void **state) {
     assert_false(ub_sock_parse_hostport("127.0.0.1:x", host, sizeof host, &port));
 }
 
+/* ub_tcp.h called the wrong way (a real listening socket on 127.0.0.1): NULLs, a node it is not attached
+ * to, a port of a client, a bind that cannot work. */
+static ub_tcp_t g_srv, g_cli;
+static void test_tcp_contracts(void **state) {
+    (void)state;
+    assert_int_equal(ub_tcp_server_open(&g_srv, "127.0.0.1", 0, NULL), UB_OK);
+    uint16_t port = 0;
+    assert_int_equal(ub_tcp_local_port(&g_srv, &port), UB_OK);
+    assert_true(port > 0);
+    assert_int_equal(ub_tcp_local_port(NULL, &port), UB_ERR_INVAL);
+    assert_int_equal(ub_tcp_local_port(&g_srv, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_tcp_client_init(&g_cli, "127.0.0.1", port, NULL), UB_OK);
+    assert_int_equal(ub_tcp_local_port(&g_cli, &port), UB_ERR_INVAL); /* a client does not listen */
+    assert_int_equal(ub_tcp_client_init(NULL, "127.0.0.1", port, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_tcp_client_init(&g_cli, "127.0.0.1", 0, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_tcp_client_init(&g_cli, "not-an-address", port, NULL), UB_ERR_INVAL);
+    ub_tcp_t other;
+    assert_int_equal(ub_tcp_server_open(NULL, "127.0.0.1", 0, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_tcp_server_open(&other, "1.2.3.256", 0, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_tcp_server_open(&other, "127.0.0.1", port, NULL), UB_ERR_IO); /* taken: bind fails */
+    assert_int_equal(ub_tcp_service(NULL, NULL, 0), UB_ERR_INVAL);
+    assert_int_equal(ub_tcp_service(&g_srv, NULL, 0), UB_ERR_INVAL); /* not attached to that node */
+    assert_int_equal(ub_tcp_set_batching(NULL, 1), UB_ERR_INVAL);
+    assert_int_equal(ub_tcp_flush(NULL, 0), UB_ERR_INVAL);
+    assert_int_equal(ub_tcp_flush(&g_srv, 0), 0); /* nothing queued, not connected */
+    assert_int_equal(ub_tcp_candidates(NULL), 0);
+    assert_int_equal(ub_tcp_candidates(&g_srv), 0);
+    assert_null(ub_tcp_stats(NULL));
+    ub_tcp_close(&g_srv);
+    ub_tcp_close(&g_cli);
+    ub_tcp_close(NULL);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_stream_tx_answers),
         cmocka_unit_test(test_sock_helpers),
+        cmocka_unit_test(test_tcp_contracts),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
