@@ -16,6 +16,7 @@
 #include "drivers/ub_sock_private.h"
 #include "drivers/ub_stream_tx_private.h"
 #include "ub/ub_tcp.h"
+#include "ub/ub_udp.h"
 
 /* A scripted descriptor: each call takes the next answer (>0: bytes accepted, at most what is asked; <= 0:
  * that return with `err` in errno); past the script it takes everything. What it accepted is in `wire`. */
@@ -156,11 +157,41 @@ static void test_tcp_contracts(void **state) {
     ub_tcp_close(NULL);
 }
 
+/* ub_udp.h called the wrong way on a real 127.0.0.1 socket. */
+static ub_udp_t g_udp;
+static void test_udp_contracts(void **state) {
+    (void)state;
+    assert_int_equal(ub_udp_open(&g_udp, "127.0.0.1", 0, "127.0.0.1", 0), UB_ERR_INVAL); /* peer port 0 */
+    assert_int_equal(ub_udp_open(&g_udp, "127.0.0.1", 0, "nowhere", 5000), UB_ERR_INVAL);
+    assert_int_equal(ub_udp_open(&g_udp, "127.0.0.1", 0, "127.0.0.1", 5000), UB_OK);
+    uint16_t port = 0;
+    assert_int_equal(ub_udp_local_port(&g_udp, &port), UB_OK);
+    assert_true(port > 0);
+    assert_int_equal(ub_udp_set_peer(NULL, "127.0.0.1", 1), UB_ERR_INVAL);
+    assert_int_equal(ub_udp_set_peer(&g_udp, "127.0.0.1", 0), UB_ERR_INVAL);
+    assert_int_equal(ub_udp_set_accept(NULL, UB_UDP_ACCEPT_ANY), UB_ERR_INVAL);
+    assert_int_equal(ub_udp_set_accept(&g_udp, (ub_udp_accept_t)(UB_UDP_ACCEPT_ANY + 1)), UB_ERR_INVAL);
+    char host[16];
+    assert_int_equal(ub_udp_peer_at(NULL, 0, host, &port), UB_ERR_INVAL);
+    assert_int_equal(ub_udp_peer_at(&g_udp, 0, NULL, &port), UB_ERR_INVAL);
+    assert_int_equal(ub_udp_peer_at(&g_udp, 0, host, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_udp_peer_at(&g_udp, -1, host, &port), UB_ERR_INVAL);
+    assert_int_equal(ub_udp_peer_at(&g_udp, 0, host, &port), UB_OK);
+    assert_string_equal(host, "127.0.0.1");
+    assert_int_equal(port, 5000);
+    assert_int_equal(ub_udp_service(NULL, NULL, 0), UB_ERR_INVAL);
+    assert_int_equal(ub_udp_service(&g_udp, NULL, 0), UB_ERR_INVAL); /* not attached */
+    ub_udp_close(&g_udp);
+    assert_int_equal(ub_udp_fileno(&g_udp), -1);
+    ub_udp_close(NULL);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_stream_tx_answers),
         cmocka_unit_test(test_sock_helpers),
         cmocka_unit_test(test_tcp_contracts),
+        cmocka_unit_test(test_udp_contracts),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
