@@ -11,6 +11,7 @@
 #include <stdint.h>
 #include <cmocka.h>
 #include <errno.h>
+#include <poll.h>
 #include <string.h>
 
 #include "drivers/ub_sock_private.h"
@@ -152,6 +153,21 @@ static void test_tcp_contracts(void **state) {
     assert_int_equal(ub_tcp_candidates(NULL), 0);
     assert_int_equal(ub_tcp_candidates(&g_srv), 0);
     assert_null(ub_tcp_stats(NULL));
+    /* The driver table's hooks (what ub_ports calls): counters counted without a place to put them or with
+     * room for two, a poll set with no room, the retry time only a waiting client has. */
+    ub_driver_counter_t two[2];
+    size_t all = ub_tcp_driver.counters(&g_srv, NULL, 0);
+    assert_true(all > 2);
+    assert_int_equal(ub_tcp_driver.counters(&g_srv, two, 2), all);
+    assert_string_equal(two[0].name, "connects");
+    struct pollfd fds[2];
+    assert_int_equal(ub_tcp_driver.pollfds(&g_srv, fds, 0), UB_ERR_NOSPACE);
+    assert_int_equal(ub_tcp_driver.pollfds(&g_srv, fds, 2), 1); /* the listener */
+    assert_int_equal(fds[0].events, POLLIN);
+    uint64_t due = 0;
+    assert_false(ub_tcp_driver.next_due(&g_srv, &due));
+    assert_int_equal(ub_tcp_client_init(&g_cli, "127.0.0.1", port, NULL), UB_OK);
+    assert_true(ub_tcp_driver.next_due(&g_cli, &due));
     ub_tcp_close(&g_srv);
     ub_tcp_close(&g_cli);
     ub_tcp_close(NULL);
@@ -181,8 +197,15 @@ static void test_udp_contracts(void **state) {
     assert_int_equal(port, 5000);
     assert_int_equal(ub_udp_service(NULL, NULL, 0), UB_ERR_INVAL);
     assert_int_equal(ub_udp_service(&g_udp, NULL, 0), UB_ERR_INVAL); /* not attached */
+    ub_driver_counter_t two[2];
+    size_t all = ub_udp_driver.counters(&g_udp, NULL, 0);
+    assert_true(all > 2);
+    assert_int_equal(ub_udp_driver.counters(&g_udp, two, 2), all);
+    struct pollfd fds[1];
+    assert_int_equal(ub_udp_driver.pollfds(&g_udp, fds, 0), UB_ERR_NOSPACE);
     ub_udp_close(&g_udp);
     assert_int_equal(ub_udp_fileno(&g_udp), -1);
+    assert_int_equal(ub_udp_driver.pollfds(&g_udp, fds, 1), 0); /* closed: nothing to wait on */
     ub_udp_close(NULL);
 }
 
