@@ -11,11 +11,14 @@
 #include <stdint.h>
 #include <cmocka.h>
 #include <errno.h>
+#include <fcntl.h>
+#include <stdlib.h>
 #include <poll.h>
 #include <string.h>
 
 #include "drivers/ub_sock_private.h"
 #include "drivers/ub_stream_tx_private.h"
+#include "ub/ub_serial.h"
 #include "ub/ub_tcp.h"
 #include "ub/ub_udp.h"
 
@@ -209,12 +212,48 @@ static void test_udp_contracts(void **state) {
     ub_udp_close(NULL);
 }
 
+/* ub_serial.h on a real pseudo-terminal: the decoder and foreign-traffic hooks set and removed, NULLs, the
+ * driver table's counters and poll set without room, a node it is not attached to. */
+static ub_serial_t g_ser;
+static size_t on_foreign(void *user, const uint8_t *run, size_t len) {
+    (void)user, (void)run;
+    return len;
+}
+static void test_serial_contracts(void **state) {
+    (void)state;
+    int master = posix_openpt(O_RDWR | O_NOCTTY);
+    assert_true(master >= 0);
+    assert_int_equal(grantpt(master), 0);
+    assert_int_equal(unlockpt(master), 0);
+    const char *slave = ptsname(master);
+    assert_non_null(slave);
+    assert_int_equal(ub_serial_open(&g_ser, slave, 57600), UB_OK);
+    assert_int_equal(ub_serial_set_decoder(NULL, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_serial_set_foreign(NULL, on_foreign, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_serial_set_foreign(&g_ser, on_foreign, NULL), UB_OK);
+    assert_int_equal(ub_serial_set_foreign(&g_ser, NULL, NULL), UB_OK); /* removed again */
+    assert_int_equal(ub_serial_tx_pending(&g_ser), 0);
+    assert_false(ub_serial_next_retry(&g_ser, NULL)); /* open, not hung up: nothing to retry */
+    assert_int_equal(ub_serial_service(&g_ser, NULL, 0), UB_ERR_INVAL); /* not attached */
+    ub_driver_counter_t two[2];
+    size_t all = ub_serial_driver.counters(&g_ser, NULL, 0);
+    assert_true(all > 2);
+    assert_int_equal(ub_serial_driver.counters(&g_ser, two, 2), all);
+    struct pollfd fds[1];
+    assert_int_equal(ub_serial_driver.pollfds(&g_ser, fds, 0), UB_ERR_NOSPACE);
+    assert_int_equal(ub_serial_driver.pollfds(&g_ser, fds, 1), 1);
+    assert_int_equal(fds[0].events, POLLIN); /* nothing queued: no POLLOUT */
+    ub_serial_close(&g_ser);
+    close(master);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_stream_tx_answers),
         cmocka_unit_test(test_sock_helpers),
         cmocka_unit_test(test_tcp_contracts),
         cmocka_unit_test(test_udp_contracts),
+        cmocka_unit_test(test_serial_contracts),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
