@@ -19,6 +19,7 @@
 #include "drivers/ub_sock_private.h"
 #include "drivers/ub_stream_tx_private.h"
 #include "ub/ub_serial.h"
+#include "ub/ub_ports.h"
 #include "ub/ub_tcp.h"
 #include "ub/ub_udp.h"
 
@@ -203,11 +204,33 @@ static void test_udp_contracts(void **state) {
     ub_driver_counter_t two[2];
     size_t all = ub_udp_driver.counters(&g_udp, NULL, 0);
     assert_true(all > 2);
+    assert_int_equal(ub_udp_driver.counters(&g_udp, NULL, 5), all); /* room asked, nowhere to put it */
     assert_int_equal(ub_udp_driver.counters(&g_udp, two, 2), all);
+    /* describe: the JSON of the counters and peers, measured when the buffer is too small (snprintf-like) */
+    char d[512], tiny[8];
+    int dn = ub_udp_driver.describe(&g_udp, d, sizeof d);
+    assert_true(dn > 0 && (size_t)dn < sizeof d);
+    assert_non_null(strstr(d, "\"127.0.0.1:5000\"]"));
+    assert_int_equal(ub_udp_driver.describe(&g_udp, tiny, sizeof tiny), dn);
+    assert_int_equal(ub_udp_driver.notice(&g_udp, "l0", d, sizeof d), 0); /* nothing refused yet */
+    /* the accept parameter: one of three words, once */
+    ub_port_spec_t spec;
+    char err[UB_PORTS_ERR_LEN];
+    assert_int_equal(ub_port_spec_parse("udp:bind=127.0.0.1:0,accept=some", &spec, err, sizeof err), UB_ERR_INVAL);
+    assert_non_null(strstr(err, "use peer"));
+    assert_int_equal(ub_port_spec_parse("udp:bind=127.0.0.1:0,accept=any,accept=any", &spec, err, sizeof err),
+                     UB_ERR_INVAL);
+    assert_non_null(strstr(err, "given twice"));
     struct pollfd fds[1];
     assert_int_equal(ub_udp_driver.pollfds(&g_udp, fds, 0), UB_ERR_NOSPACE);
     ub_udp_close(&g_udp);
     assert_int_equal(ub_udp_fileno(&g_udp), -1);
+    /* Without a configured peer, accepting only "the peer" is refused. */
+    ub_udp_t alone;
+    assert_int_equal(ub_udp_open(&alone, "127.0.0.1", 0, NULL, 0), UB_OK);
+    assert_int_equal(ub_udp_set_accept(&alone, UB_UDP_ACCEPT_PEER), UB_ERR_INVAL);
+    assert_int_equal(ub_udp_set_accept(&alone, UB_UDP_ACCEPT_LEARN), UB_OK);
+    ub_udp_close(&alone);
     assert_int_equal(ub_udp_driver.pollfds(&g_udp, fds, 1), 0); /* closed: nothing to wait on */
     ub_udp_close(NULL);
 }
