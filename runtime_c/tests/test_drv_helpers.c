@@ -270,6 +270,38 @@ static void test_serial_contracts(void **state) {
     close(master);
 }
 
+/* Batched UDP sends between two real sockets: frames share a datagram while they fit, a full queue is sent
+ * before the next frame is taken, the poll set asks for POLLOUT while frames wait, turning batching off sends
+ * them; a frame above the datagram limit, a sender without a peer and a closed socket are refused. */
+static ub_udp_t g_rx, g_tx;
+static void test_udp_batching(void **state) {
+    (void)state;
+    assert_int_equal(ub_udp_open(&g_rx, "127.0.0.1", 0, NULL, 0), UB_OK);
+    uint16_t port = 0;
+    assert_int_equal(ub_udp_local_port(&g_rx, &port), UB_OK);
+    static uint8_t frame[UB_UDP_DATAGRAM_MAX + 1];
+    memset(frame, 0x5A, sizeof frame);
+    const ub_link_ops_t *ops = ub_udp_driver.link_ops;
+    assert_int_equal(ops->send(&g_rx, frame, 10, 0), UB_ERR_NOROUTE); /* no peer yet */
+    assert_int_equal(ub_udp_open(&g_tx, "127.0.0.1", 0, "127.0.0.1", port), UB_OK);
+    assert_int_equal(ops->send(&g_tx, frame, sizeof frame, 0), UB_ERR_INVAL); /* above the datagram limit */
+    assert_int_equal(ub_udp_set_batching(&g_tx, 1), UB_OK);
+    assert_int_equal(ops->send(&g_tx, frame, 20, 0), UB_OK);
+    assert_int_equal(ops->send(&g_tx, frame, 20, 0), UB_OK); /* shares the first datagram */
+    size_t half = UB_UDP_DATAGRAM_MAX / 2 + 1;                /* one datagram each from here */
+    for (int i = 0; i < UB_UDP_TX_SLOTS + 2; i++) assert_int_equal(ops->send(&g_tx, frame, half, 0), UB_OK);
+    assert_true(ub_udp_tx_pending(&g_tx) > 0);
+    struct pollfd fds[1];
+    assert_int_equal(ub_udp_driver.pollfds(&g_tx, fds, 1), 1);
+    assert_true(fds[0].events & POLLOUT);
+    assert_int_equal(ub_udp_set_batching(&g_tx, 0), UB_OK); /* sends what waits */
+    assert_int_equal(ub_udp_tx_pending(&g_tx), 0);
+    assert_int_equal(ub_udp_flush(NULL), UB_ERR_INVAL);
+    ub_udp_close(&g_tx);
+    assert_int_equal(ops->send(&g_tx, frame, 10, 0), UB_ERR_CLOSED);
+    ub_udp_close(&g_rx);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_stream_tx_answers),
@@ -277,6 +309,7 @@ int main(void) {
         cmocka_unit_test(test_tcp_contracts),
         cmocka_unit_test(test_udp_contracts),
         cmocka_unit_test(test_serial_contracts),
+        cmocka_unit_test(test_udp_batching),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
