@@ -36,18 +36,19 @@ static size_t g_wire_len;
 
 static long scripted_write(int fd, const uint8_t *data, size_t len) {
     (void)fd;
-    long n = (long)len;
+    size_t take = len;
     if (g_at < g_steps) {
         const answer_t *a = &g_script[g_at++];
         if (a->n <= 0) {
             errno = a->err;
             return a->n;
         }
-        if ((size_t)a->n < len) n = a->n;
+        if ((size_t)a->n < len) take = (size_t)a->n;
     }
-    memcpy(g_wire + g_wire_len, data, (size_t)n);
-    g_wire_len += (size_t)n;
-    return n;
+    if (take > sizeof g_wire - g_wire_len) take = sizeof g_wire - g_wire_len;
+    memcpy(g_wire + g_wire_len, data, take);
+    g_wire_len += take;
+    return (long)take;
 }
 
 static void script(const answer_t *a, size_t n) {
@@ -59,8 +60,8 @@ static void script(const answer_t *a, size_t n) {
 
 static void test_stream_tx_answers(void **state) {
     (void)state;
-    uint8_t buf[16], frame[10];
-    for (int i = 0; i < 10; i++) frame[i] = (uint8_t)(0xA0 + i);
+    uint8_t buf[16], frame[12];
+    for (int i = 0; i < 12; i++) frame[i] = (uint8_t)(0xA0 + i);
     size_t len = 0;
     uint64_t written = 0;
     /* Short writes and EINTR: all of it goes, in order. */
