@@ -11,6 +11,7 @@
 #include <cmocka.h>
 #include <arpa/inet.h>
 #include <stdlib.h>
+#include <stdio.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -291,6 +292,13 @@ static void test_learn_takes_the_sender_of_accepted_frames(void **state) {
     assert_int_equal(ub_node_send_data(p->sub_node, p->sub, TEST_GPS, p->pub_id, 9), 1);
     assert_int_equal(count_received(&c), 1);
     assert_int_equal(u->b.stats.foreign, 0);
+    /* A peer configured now takes the first place; the learned one moves to the next, kept. */
+    assert_int_equal(ub_udp_set_peer(&u->b, "127.0.0.1", u->port_a), UB_OK);
+    assert_int_equal(ub_udp_peer_at(&u->b, 0, host, &port), UB_OK);
+    assert_int_equal(port, u->port_a);
+    assert_int_equal(ub_udp_peer_at(&u->b, 1, host, &port), UB_OK);
+    assert_int_equal(port, port_c);
+    assert_int_equal(ub_udp_set_peer(&u->b, "not-an-address", 5), UB_ERR_INVAL);
     ub_udp_close(&c);
     udp_pair_free(u);
 }
@@ -349,6 +357,12 @@ static void test_refused_sender_is_remembered(void **state) {
     assert_int_equal(u->b.stats.foreign, 2);
     assert_int_equal(ntohs(u->b.refused_from.sin_port), port_s);
     assert_int_equal(u->b.stats.peers_learned, 0);
+    /* The one-time notice names the sender, the peer and what to do. */
+    char notice[512], want[32];
+    assert_int_equal(ub_udp_driver.notice(&u->b, "subPort", notice, sizeof notice), 1);
+    snprintf(want, sizeof want, "127.0.0.1:%u", (unsigned)port_s);
+    assert_non_null(strstr(notice, want));
+    assert_non_null(strstr(notice, "accept=any"));
     ub_udp_close(&stranger);
     udp_pair_free(u);
 }
