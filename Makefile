@@ -130,13 +130,14 @@ test: lint test-c test-cross test-fuzz test-py
 # Line and branch coverage of runtime_c/src from the C tests (corpus replay included) and the multi-process
 # tests run against the instrumented uavbus_node (-O0 and the instrumentation make gcc warn about flows and
 # lengths it cannot follow: those two warnings are off here). The short demo is left out: it checks timings,
-# which an -O0 instrumented node does not keep (make test runs it). Prints the totals and every file's
-# missed lines.
+# which an -O0 instrumented node does not keep (make test runs it). Prints the totals, every file's
+# missed lines and every file's branch figure; fails when a runtime_c/src file but the OS fallback is
+# below 80 % of branches (issue #29 item 6; the exemption and its reason are in coverage.sh).
 coverage: setup
 	@$(call apt_install,$(COV_APT_PKGS))
 	cmake -S . -B $(BUILD_COV) -G Ninja -DUAVBUS_PYTHON=$(abspath $(VPY)) -DCMAKE_BUILD_TYPE=Debug \
 	  "-DCMAKE_C_FLAGS=--coverage -Wno-maybe-uninitialized -Wno-format-truncation" "-DCMAKE_EXE_LINKER_FLAGS=--coverage" >/dev/null
-	cmake --build $(BUILD_COV)
+	cmake --build $(BUILD_COV) -j2
 	find $(BUILD_COV) -name '*.gcda' -delete
 	ctest --test-dir $(BUILD_COV) --output-on-failure
 	UAVBUS_BUILD_DIR=$(abspath $(BUILD_COV)) $(VPY) -m pytest -q tests/system -k 'not demo_short'

@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "support/ub_test_world.h"
+#include "ub/ub_frag.h"
 #include "ub/ub_inspect.h"
 #include "ub/ub_policy.h"
 #include "ub/ub_pubsub.h"
@@ -305,6 +306,210 @@ static void test_retry_after_loss_and_silence(void **state) {
     chain_free(c);
 }
 
+/* SET_MASK answered with whether it changed anything, and refused for an entity the node does not know; an
+ * ADMIN_ROW change refused on a node with no administration table (issue #29 item 6: every refusal counted). */
+static void test_set_mask_and_admin_row_refusals(void **state) {
+    (void)state;
+    chain_t *c = chain_new(0, 0);
+    int f_relay = ub_node_find_entity(c->fcs_node, c->relay_id);
+    assert_true(f_relay >= 0);
+    ub_inspect_spec_t m = {.op = UB_INSPECT_SET_MASK, .value = 0x00};
+    memcpy(m.subject, c->relay_id, UB_ENTITY_ID_LEN);
+    ub_inspect_result_t r = ask(c, m, 1000);
+    assert_int_equal(r.status, UB_INSPECT_DONE);
+    assert_true(r.changed);
+    uint8_t mask = 0xFF;
+    assert_int_equal(ub_node_get_mask(c->fcs_node, c->fcs, f_relay, &mask), UB_OK);
+    assert_int_equal(mask, 0x00);
+    r = ask(c, m, 1000); /* the same mask again: done, nothing changed */
+    assert_int_equal(r.status, UB_INSPECT_DONE);
+    assert_false(r.changed);
+    test_eid("nobody", m.subject);
+    r = ask(c, m, 1000);
+    assert_int_equal(r.status, UB_INSPECT_FAILED);
+    assert_int_equal(r.nack_reason, UB_NACK_NO_SUCH_ROW);
+    r = ask(c, (ub_inspect_spec_t){.op = UB_INSPECT_ADMIN_ROW, .arg = UB_INSPECT_ADMIN_PERIOD, .value = 50}, 1000);
+    assert_int_equal(r.status, UB_INSPECT_FAILED);
+    assert_int_equal(r.nack_reason, UB_NACK_NO_SUCH_ROW);
+    r = ask(c, (ub_inspect_spec_t){.op = UB_INSPECT_SET_PERIOD, .offset = UB_MAX_PUBSUB_ROWS, .value = 5}, 1000);
+    assert_int_equal(r.status, UB_INSPECT_FAILED);
+    assert_int_equal(r.nack_reason, UB_NACK_NO_SUCH_ROW);
+    const ub_node_counters_t *k = ub_node_counters(c->fcs_node);
+    assert_int_equal(k->inspect_served, 2);
+    assert_int_equal(k->inspect_refused, 3);
+    const ub_inspect_counters_t *ic = ub_inspect_counters(&c->in);
+    assert_non_null(ic);
+    assert_int_equal(ic->done, 2);
+    assert_int_equal(ic->failed, 3);
+    assert_null(ub_inspect_counters(NULL));
+    chain_free(c);
+}
+
+/* A directory the answering node hosts nowhere: refused UNBOUND, not read from nowhere. */
+static void test_read_of_an_unbound_directory_is_refused(void **state) {
+    (void)state;
+    chain_t *c = chain_on(catalogue_with_big(), 0, 0); /* zBigBlob: in the catalogue, bound by no one */
+    ub_inspect_result_t r = ask(c, (ub_inspect_spec_t){.op = UB_INSPECT_READ, .instance = TEST_BIG}, 1000);
+    assert_int_equal(r.status, UB_INSPECT_FAILED);
+    assert_int_equal(r.nack_reason, UB_NACK_UNBOUND);
+    assert_int_equal(ub_node_counters(c->fcs_node)->inspect_refused, 1);
+    chain_free(c);
+}
+
+/* Requests the requester refuses before sending anything (ub_inspect_request's contract), the row table's
+ * bound, the names, and detaching. */
+static void test_request_refusals_and_bounds(void **state) {
+    (void)state;
+    chain_t *c = chain_new(0, 0);
+    uint64_t now = c->w->now_ms;
+    ub_inspect_spec_t ok = {.op = UB_INSPECT_READ, .instance = TEST_IMU};
+    memcpy(ok.target, c->fcs_id, UB_ENTITY_ID_LEN);
+    ub_inspect_spec_t s = ok;
+    memset(s.target, 0, UB_ENTITY_ID_LEN); /* no target */
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s = ok;
+    s.instance = c->gcs_node->cat->n_instances;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s = ok;
+    s.op = UB_INSPECT_WRITE;
+    s.len = 0;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s.len = UB_INSPECT_CHUNK + 1;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s.len = 1;
+    s.instance = c->gcs_node->cat->n_instances;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s = ok;
+    s.op = UB_INSPECT_LIST;
+    s.arg = 0;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s.arg = UB_INSPECT_ADMIN + 1;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s = ok;
+    s.op = UB_INSPECT_SET_PERIOD;
+    s.value = 0;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s = ok;
+    s.op = UB_INSPECT_SET_MASK; /* subject left zero */
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    memcpy(s.subject, c->relay_id, UB_ENTITY_ID_LEN);
+    s.value = 0x100;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s = ok;
+    s.op = UB_INSPECT_ADMIN_ROW;
+    s.arg = 0;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    s.op = 0x7F;
+    assert_int_equal(ub_inspect_request(&c->in, &s, now), UB_ERR_INVAL);
+    assert_int_equal(ub_inspect_request(&c->in, NULL, now), UB_ERR_INVAL);
+    assert_int_equal(ub_inspect_request(NULL, &ok, now), UB_ERR_INVAL);
+    assert_int_equal(ub_inspect_counters(&c->in)->sent, 0);
+
+    /* The row table's bound, then rows that do not exist. */
+    for (int i = 0; i < UB_MAX_INSPECT_REQUESTS; i++) assert_int_equal(ub_inspect_request(&c->in, &ok, now), i);
+    assert_int_equal(ub_inspect_request(&c->in, &ok, now), UB_ERR_FULL);
+    ub_inspect_result_t r;
+    assert_int_equal(ub_inspect_result(&c->in, -1, &r), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_inspect_result(&c->in, UB_MAX_INSPECT_REQUESTS, &r), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_inspect_result(&c->in, 0, NULL), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_inspect_result(NULL, 0, &r), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_inspect_forget(&c->in, 0), UB_OK);
+    assert_int_equal(ub_inspect_forget(&c->in, 0), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_inspect_result(&c->in, 0, &r), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_inspect_forget(&c->in, UB_MAX_INSPECT_REQUESTS), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_inspect_forget(NULL, 1), UB_ERR_NOTFOUND);
+
+    assert_string_equal(ub_inspect_op_name(UB_INSPECT_READ), "read");
+    assert_string_equal(ub_inspect_op_name(UB_INSPECT_ADMIN_ROW), "admin_row");
+    assert_string_equal(ub_inspect_op_name((ub_inspect_op_t)0), "?");
+    assert_string_equal(ub_inspect_op_name((ub_inspect_op_t)99), "?");
+    assert_string_equal(ub_inspect_status_name(UB_INSPECT_DONE), "done");
+    assert_string_equal(ub_inspect_status_name((ub_inspect_status_t)99), "?");
+
+    /* Detached, the requester takes no more requests; the node goes on serving (a request from fcs's
+     * side is answered by gcs's node). */
+    ub_inspect_detach(&c->in);
+    assert_int_equal(ub_inspect_request(&c->in, &ok, now), UB_ERR_INVAL);
+    ub_inspect_detach(&c->in); /* twice: nothing */
+    ub_inspect_detach(NULL);
+    ub_inspect_t back;
+    assert_int_equal(ub_inspect_init(&back, c->fcs_node, c->fcs, NULL), UB_OK);
+    assert_int_equal(back.opt.retry_ms, 200u); /* the default */
+    ub_inspect_spec_t list = {.op = UB_INSPECT_LIST, .arg = UB_INSPECT_ENTITIES};
+    memcpy(list.target, c->gcs_id, UB_ENTITY_ID_LEN);
+    int row = ub_inspect_request(&back, &list, c->w->now_ms);
+    assert_true(row >= 0);
+    world_run(c->w, c->w->now_ms + 100, 1);
+    assert_int_equal(ub_inspect_result(&back, row, &r), UB_OK);
+    assert_int_equal(r.status, UB_INSPECT_DONE);
+    assert_int_equal(r.total, 3);
+    assert_int_equal(ub_node_counters(c->gcs_node)->inspect_served, 1);
+    assert_int_equal(ub_inspect_init(NULL, c->fcs_node, c->fcs, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_inspect_init(&back, NULL, c->fcs, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_inspect_init(&back, c->fcs_node, 99, NULL), UB_ERR_INVAL);
+    chain_free(c);
+}
+
+/* A reply to a request forgotten before it came (the operator gave up on it) is counted unmatched, never
+ * taken as an answer to another row. A read from an offset inside the image returns the rest; one at its
+ * end is refused NO_SUCH_ROW. */
+static void test_duplicate_replies_and_read_offsets(void **state) {
+    (void)state;
+    chain_t *c = chain_new(0, 0);
+    size_t size = c->fcs_node->cat->instances[TEST_IMU].type->packed_size;
+    ub_inspect_result_t r = ask(c, (ub_inspect_spec_t){.op = UB_INSPECT_READ, .instance = TEST_IMU, .offset = 24}, 1000);
+    assert_int_equal(r.status, UB_INSPECT_DONE);
+    assert_int_equal(r.len, size - 24);
+    assert_int_equal(ub_get_u32le(r.data), c->imu.t_ms);
+    r = ask(c, (ub_inspect_spec_t){.op = UB_INSPECT_READ, .instance = TEST_IMU, .offset = (uint16_t)size}, 1000);
+    assert_int_equal(r.status, UB_INSPECT_FAILED);
+    assert_int_equal(r.nack_reason, UB_NACK_NO_SUCH_ROW);
+    ub_inspect_spec_t s = {.op = UB_INSPECT_READ, .instance = TEST_IMU};
+    memcpy(s.target, c->fcs_id, UB_ENTITY_ID_LEN);
+    c->near->faults.delay_ms = 50; /* the request is in flight for a while */
+    int row = ub_inspect_request(&c->in, &s, c->w->now_ms);
+    assert_true(row >= 0);
+    world_run(c->w, c->w->now_ms + 5, 1); /* sent, not yet answered */
+    assert_int_equal(ub_inspect_result(&c->in, row, &r), UB_OK);
+    assert_int_equal(r.status, UB_INSPECT_PENDING);
+    assert_int_equal(ub_inspect_forget(&c->in, row), UB_OK);
+    world_run(c->w, c->w->now_ms + 200, 1);
+    assert_int_equal(ub_inspect_counters(&c->in)->unmatched_replies, 1);
+    assert_int_equal(ub_inspect_counters(&c->in)->done, 1);
+    chain_free(c);
+}
+
+/* A directory above UB_MAX_PAYLOAD sent from fcs (issue #29 item 6, ub_node_wire.c): to another entity of the
+ * same node it is handed over whole, which needs fragment state (a transmit slot holds the image): without
+ * it refused UB_ERR_RANGE and counted too_big; to an entity with no route, refused UB_ERR_NOROUTE and counted
+ * no_route; over a link without fragment state, refused too_big. */
+static void test_big_directory_local_unrouted_and_without_fragments(void **state) {
+    (void)state;
+    chain_t *c = chain_on(catalogue_with_big(), 0, 0);
+    static uint8_t big[BIG_SIZE];
+    memset(big, 0x3C, sizeof big);
+    assert_int_equal(ub_node_bind(c->fcs_node, TEST_BIG, big), UB_OK);
+    uint8_t peer_id[UB_ENTITY_ID_LEN], nobody[UB_ENTITY_ID_LEN];
+    test_eid("fcs2", peer_id);
+    test_eid("nobody", nobody);
+    assert_true(ub_node_add_entity(c->fcs_node, peer_id, true) >= 0);
+    const ub_node_counters_t *k = ub_node_counters(c->fcs_node);
+    uint64_t now = c->w->now_ms;
+    uint64_t too_big = k->drops[UB_DROP_TOO_BIG], no_route = k->drops[UB_DROP_NO_ROUTE];
+    assert_int_equal(ub_node_send_data(c->fcs_node, c->fcs, TEST_BIG, peer_id, now), UB_ERR_RANGE);
+    assert_int_equal(k->drops[UB_DROP_TOO_BIG], too_big + 1);
+    assert_int_equal(ub_node_send_data(c->fcs_node, c->fcs, TEST_BIG, c->gcs_id, now), UB_ERR_RANGE); /* a link */
+    assert_int_equal(k->drops[UB_DROP_TOO_BIG], too_big + 2);
+    assert_int_equal(ub_node_send_data(c->fcs_node, c->fcs, TEST_BIG, nobody, now), UB_ERR_NOROUTE);
+    assert_int_equal(k->drops[UB_DROP_NO_ROUTE], no_route + 1);
+    static ub_frag_t frag;
+    ub_frag_init(&frag, NULL, 1);
+    assert_int_equal(ub_node_set_frag(c->fcs_node, &frag), UB_OK);
+    assert_true(ub_node_send_data(c->fcs_node, c->fcs, TEST_BIG, peer_id, now) >= 0); /* handed over whole */
+    assert_int_equal(k->drops[UB_DROP_TOO_BIG], too_big + 2);
+    chain_free(c);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_read_through_bind_table_and_hand_binding_first),
@@ -313,6 +518,11 @@ int main(void) {
         cmocka_unit_test(test_list_tables_and_set_period),
         cmocka_unit_test(test_policy_refusal_has_its_reason),
         cmocka_unit_test(test_retry_after_loss_and_silence),
+        cmocka_unit_test(test_set_mask_and_admin_row_refusals),
+        cmocka_unit_test(test_read_of_an_unbound_directory_is_refused),
+        cmocka_unit_test(test_request_refusals_and_bounds),
+        cmocka_unit_test(test_duplicate_replies_and_read_offsets),
+        cmocka_unit_test(test_big_directory_local_unrouted_and_without_fragments),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -99,7 +99,9 @@ static void test_parse_errors(void **state) {
     m.radius_m = 1234.0;
     const char *bad[] = {"spiral:r=1", "orbit:r=0", "orbit:r=abc", "orbit:rr=1", "orbit:dir=up", "waypoints:v=3",
                          "waypoints:pts=1/2", "waypoints:pts=1/2;x/3", "orbit:pts=0/0;1/1", "waypoints:v=0,pts=0/0;1/1",
-                         "orbit:r"};
+                         "orbit:r", "orbit:loop=2", "orbit:r=inf", "orbit:r=", "waypoints:v=5,pts=1/2/3/4;5/6",
+                         "waypoints:v=5,pts=0/0;1/1;2/2;3/3;4/4;5/5;6/6;7/7;8/8;9/9;10/10;11/11;12/12;13/13;14/14;15/15;16/16",
+                         "orbit:r=1e999999", "static:n=1,e=2,q=3"};
     char err[160];
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         err[0] = '\0';
@@ -107,6 +109,20 @@ static void test_parse_errors(void **state) {
         assert_true(strncmp(err, "motion: '", 9) == 0);
     }
     NEAR(m.radius_m, 1234.0, 0.0); /* untouched on failure */
+    assert_int_equal(ub_motion_parse(NULL, &m, err, sizeof err), UB_ERR_INVAL);
+    assert_int_equal(ub_motion_parse("orbit", NULL, err, sizeof err), UB_ERR_INVAL);
+    assert_int_equal(ub_motion_parse("spiral", &m, NULL, 0), -1); /* no room for a message: still refused */
+    /* the origin keys, the loop flag and clockwise orbits */
+    assert_int_equal(ub_motion_parse("orbit:r=50,v=5,dir=cw,lat0=33.5,lon0=-84.25,alt0=300", &m, err, sizeof err), 0);
+    assert_true(m.clockwise);
+    NEAR(m.lat0_deg, 33.5, 0.0);
+    NEAR(m.lon0_deg, -84.25, 0.0);
+    NEAR(m.alt0_m, 300.0, 0.0);
+    assert_int_equal(ub_motion_parse("waypoints:v=5,loop=1,pts=0/0;0/0;10/0", &m, err, sizeof err), 0);
+    assert_true(m.loop);
+    ub_motion_state_t st;
+    ub_motion_sample(&m, 1.0, &st); /* a zero-length leg first: no division by its length */
+    assert_true(isfinite(st.north_m) && isfinite(st.east_m));
     assert_int_equal(ub_motion_parse("orbit", &m, err, sizeof err), 0);
     NEAR(m.radius_m, 200.0, 0.0);
 }

@@ -132,8 +132,93 @@ static void test_southern_western_hemispheres_and_empty_fields(void **state) {
     assert_float_equal(n.fix.speed_mps, 0.0, 0.0); /* empty: unchanged */
 }
 
+/* Sentences with a right checksum (computed here) and one field that does not parse: each counted
+ * malformed, none merged, the fix unchanged (issue #29 item 6: every refusal counted). Then the good edge
+ * cases: empty fields, a lower-case checksum, southern and western hemispheres. */
+static void sealed(char *out, size_t cap, const char *body) {
+    uint8_t sum = 0;
+    for (const char *c = body; *c; c++) sum ^= (uint8_t)*c;
+    snprintf(out, cap, "$%s*%02X\r\n", body, sum);
+}
+
+static void test_malformed_fields_each_counted(void **state) {
+    (void)state;
+    static const char *const bad[] = {
+        "GPGGA,123519,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M",            /* too few fields */
+        "GPGGA,1235,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,",            /* short time */
+        "GPGGA,253519,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,",          /* hour 25 */
+        "GPGGA,126019,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,",          /* minute 60 */
+        "GPGGA,123519,9107.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,",          /* latitude 91 */
+        "GPGGA,123519,4807.038,X,01131.000,E,1,08,0.9,545.4,M,46.9,M,,",          /* hemisphere X */
+        "GPGGA,123519,4807.038,N,18131.000,E,1,08,0.9,545.4,M,46.9,M,,",          /* longitude 181 */
+        "GPGGA,123519,4807.038,N,01131.000,EW,1,08,0.9,545.4,M,46.9,M,,",         /* two letters */
+        "GPGGA,123519,-4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,",         /* negative angle */
+        "GPGGA,123519,4807.038,N,01131.000,E,x,08,0.9,545.4,M,46.9,M,,",          /* quality x */
+        "GPGGA,123519,4807.038,N,01131.000,E,1,100,0.9,545.4,M,46.9,M,,",         /* 100 satellites */
+        "GPGGA,123519,4807.038,N,01131.000,E,1,0123456789,0.9,545.4,M,46.9,M,,",  /* ten digits */
+        "GPGGA,123519,4807.038,N,01131.000,E,1,08,0.9.1,545.4,M,46.9,M,,",        /* two points */
+        "GPGGA,123519,4807.038,N,01131.000,E,1,08,0.9,abc,M,46.9,M,,",            /* altitude abc */
+        "GPGGA,123519,4807.038,N,01131.000,E,1,08,0.9,545.4,M,-,M,,",             /* a sign alone */
+        "GPRMC,123519,A,4807.038,N,01131.000,E,022.4,084.4",                       /* too few fields */
+        "GPRMC,123519,Q,4807.038,N,01131.000,E,022.4,084.4,230394,003.1,W",        /* status Q */
+        "GPRMC,123519,A,4807.038,N,01131.000,E,fast,084.4,230394,003.1,W",         /* speed */
+        "GPRMC,123519,A,4807.038,N,01131.000,E,022.4,east,230394,003.1,W",         /* course */
+        "GPRMC,123519,A,4807.038,N,01131.000,E,022.4,084.4,2303,003.1,W",          /* short date */
+        "GPRMC,123519,A,4807.038,N,01131.000,E,022.4,084.4,999999,003.1,W",        /* date out of range */
+        "GPRMC,1x3519,A,4807.038,N,01131.000,E,022.4,084.4,230394,003.1,W",        /* time */
+        "GPRMC,123519,A,4807.038,N,01131.000,Z,022.4,084.4,230394,003.1,W",        /* hemisphere Z */
+        "GPVTG,054.7,T,034.4,M,005.5,N,010.2",                                     /* too few fields */
+        "GPVTG,north,T,034.4,M,005.5,N,010.2,K",                                   /* course */
+        "GPVTG,054.7,T,034.4,M,slow,N,010.2,K",                                    /* speed */
+        "GPGSA,A,3,04,05,,09,12,,,24,,,,,2.5,1.3",                                 /* too few fields */
+        "GPGSA,A,0,04,05,,09,12,,,24,,,,,2.5,1.3,2.1",                             /* fix mode 0 */
+        "GPGSA,A,4,04,05,,09,12,,,24,,,,,2.5,1.3,2.1",                             /* fix mode 4 */
+        "GPGSA,A,3,04,05,,09,12,,,24,,,,,x,1.3,2.1",                               /* pdop */
+        "GPGSA,A,3,04,05,,09,12,,,24,,,,,2.5,x,2.1",                               /* hdop */
+        "GPGSA,A,3,04,05,,09,12,,,24,,,,,2.5,1.3,x",                               /* vdop */
+        "GPGGAX,123519",                                                           /* a type of 4 letters */
+    };
+    ub_nmea_t n;
+    ub_nmea_init(&n);
+    seen_t seen = {{0}};
+    char line[160];
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        sealed(line, sizeof line, bad[i]);
+        uint64_t ok = n.stats.sentences_ok;
+        feed_text(&n, line, 0, &seen);
+        check_accounting(&n);
+        if (n.stats.sentences_ok != ok) fail_msg("accepted: %s", bad[i]);
+    }
+    assert_int_equal(n.stats.sentences_ok, 0);
+    assert_int_equal(n.stats.malformed, sizeof bad / sizeof bad[0]);
+    assert_int_equal(n.stats.bad_checksum, 0);
+    for (int k = 0; k < UB_NMEA_KIND_COUNT; k++) assert_int_equal(seen.calls[k], 0);
+    assert_float_equal(n.fix.lat_deg, 0.0, 0.0);
+
+    /* Empty fields are "not reported", a lower-case checksum is a checksum, S and W are negative. */
+    sealed(line, sizeof line, "GPGGA,,3345.000,S,08420.000,W,,,,,,,,,");
+    for (char *c = line; *c; c++)
+        if (*c >= 'A' && *c <= 'F' && c > strchr(line, '*')) *c = (char)(*c - 'A' + 'a');
+    feed_text(&n, line, 0, &seen);
+    assert_int_equal(n.stats.sentences_ok, 1);
+    assert_float_equal(n.fix.lat_deg, -(33.0 + 45.0 / 60.0), 1e-9);
+    assert_float_equal(n.fix.lon_deg, -(84.0 + 20.0 / 60.0), 1e-9);
+    sealed(line, sizeof line, "GPRMC,,,,,,,,,,,");
+    feed_text(&n, line, 0, &seen);
+    sealed(line, sizeof line, "GPVTG,,T,,M,,N,,K");
+    feed_text(&n, line, 0, &seen);
+    assert_int_equal(n.stats.sentences_ok, 3);
+    check_accounting(&n);
+    assert_int_equal(ub_nmea_feed(NULL, (const uint8_t *)line, 1, NULL, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_nmea_feed(&n, NULL, 1, NULL, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_nmea_feed(&n, NULL, 0, NULL, NULL), 0);
+    ub_nmea_init(NULL);
+    assert_string_equal(ub_nmea_kind_name((ub_nmea_kind_t)99), "?");
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_malformed_fields_each_counted),
         cmocka_unit_test(test_four_sentences_merge_into_one_fix),
         cmocka_unit_test(test_bad_sentences_are_counted_not_merged),
         cmocka_unit_test(test_southern_western_hemispheres_and_empty_fields),

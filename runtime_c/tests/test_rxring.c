@@ -149,12 +149,61 @@ static void send_many_sends_each_value_in_order(void **state) {
     free(f);
 }
 
+/* Every argument refusal, a record too small for the image (each delivery dropped, counted), detaching
+ * (deliveries no longer recorded) and send_many's edge cases (issue #29 item 6). */
+static void refusals_small_records_and_detach(void **state) {
+    (void)state;
+    fixture_t *f = setup_ring(0);
+    ub_rxring_t r2;
+    assert_int_equal(ub_rxring_init(NULL, f->mem, sizeof f->mem, STRIDE), UB_ERR_INVAL);
+    assert_int_equal(ub_rxring_init(&r2, NULL, sizeof f->mem, STRIDE), UB_ERR_INVAL);
+    assert_int_equal(ub_rxring_init(&r2, f->mem, sizeof f->mem, UB_RXREC_HEADER), UB_ERR_INVAL);
+    assert_int_equal(ub_rxring_attach(NULL, f->p->sub_node, NULL, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_rxring_attach(&r2, NULL, NULL, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_rxring_drain(NULL, f->out, 4), 0);
+    assert_int_equal(ub_rxring_drain(&f->ring, NULL, 4), 0);
+    assert_int_equal(ub_rxring_pending(NULL), 0);
+    assert_int_equal(ub_rxring_get_counters(NULL).recorded, 0);
+
+    /* A stride whose image room (8 bytes) is smaller than gpsOut's image: each delivery dropped, counted. */
+    assert_int_equal(ub_rxring_init(&f->ring, f->mem, sizeof f->mem, UB_RXREC_HEADER + 8u), 0);
+    assert_int_equal(ub_rxring_attach(&f->ring, f->p->sub_node, NULL, NULL), 0);
+    burst(f, 3);
+    ub_rxring_counters_t c = ub_rxring_get_counters(&f->ring);
+    assert_int_equal(c.recorded, 0);
+    assert_int_equal(c.dropped, 3);
+    assert_int_equal(ub_rxring_pending(&f->ring), 0);
+
+    /* Detached: the node delivers as before, the ring records nothing. */
+    ub_rxring_detach(&f->ring);
+    burst(f, 2);
+    assert_int_equal(ub_rxring_get_counters(&f->ring).dropped, 3);
+    ub_rxring_detach(&f->ring); /* twice: nothing */
+    ub_rxring_detach(NULL);
+
+    uint32_t v = 7;
+    assert_int_equal(ub_send_many(NULL, f->p->pub, TEST_GPS, f->p->sub_id, 0, 0, 4, (const uint8_t *)&v, 1), UB_ERR_INVAL);
+    assert_int_equal(ub_send_many(f->p->pub_node, f->p->pub, TEST_GPS, NULL, 0, 0, 4, (const uint8_t *)&v, 1), UB_ERR_INVAL);
+    assert_int_equal(ub_send_many(f->p->pub_node, f->p->pub, TEST_GPS, f->p->sub_id, 0, 0, 4, NULL, 1), UB_ERR_INVAL);
+    assert_int_equal(ub_send_many(f->p->pub_node, f->p->pub, 99, f->p->sub_id, 0, 0, 4, (const uint8_t *)&v, 1),
+                     UB_ERR_NOTFOUND);
+    assert_int_equal(ub_send_many(f->p->pub_node, f->p->pub, TEST_GPS, f->p->sub_id, 0, 0, 4, (const uint8_t *)&v, 0), 0);
+    /* size 0: the storage as it is, sent n times */
+    assert_int_equal(ub_send_many(f->p->pub_node, f->p->pub, TEST_GPS, f->p->sub_id, 0, 0, 0, NULL, 2), 2);
+    assert_int_equal(ub_memlink_pump(f->p->ml, 0), 2);
+    /* A send the node refuses (an entity that is not local) ends the loop with its code. */
+    assert_true(ub_send_many(f->p->pub_node, 99, TEST_GPS, f->p->sub_id, 0, 0, 4, (const uint8_t *)&v, 3) < 0);
+    pair_free(f->p);
+    free(f);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(burst_larger_than_the_ring_loses_nothing_and_keeps_order),
         cmocka_unit_test(without_spill_the_overflow_is_dropped_and_counted),
         cmocka_unit_test(ring_wraps_in_order),
         cmocka_unit_test(send_many_sends_each_value_in_order),
+        cmocka_unit_test(refusals_small_records_and_detach),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -11,6 +11,7 @@
 #include <cmocka.h>
 #include <arpa/inet.h>
 #include <stdlib.h>
+#include <stdio.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -291,6 +292,13 @@ static void test_learn_takes_the_sender_of_accepted_frames(void **state) {
     assert_int_equal(ub_node_send_data(p->sub_node, p->sub, TEST_GPS, p->pub_id, 9), 1);
     assert_int_equal(count_received(&c), 1);
     assert_int_equal(u->b.stats.foreign, 0);
+    /* A peer configured now takes the first place; the learned one moves to the next, kept. */
+    assert_int_equal(ub_udp_set_peer(&u->b, "127.0.0.1", u->port_a), UB_OK);
+    assert_int_equal(ub_udp_peer_at(&u->b, 0, host, &port), UB_OK);
+    assert_int_equal(port, u->port_a);
+    assert_int_equal(ub_udp_peer_at(&u->b, 1, host, &port), UB_OK);
+    assert_int_equal(port, port_c);
+    assert_int_equal(ub_udp_set_peer(&u->b, "not-an-address", 5), UB_ERR_INVAL);
     ub_udp_close(&c);
     udp_pair_free(u);
 }
@@ -332,6 +340,38 @@ static void test_any_serves_several_peers(void **state) {
     udp_pair_free(u);
 }
 
+/* accept=any past UB_UDP_MAX_PEERS senders: the least recently heard peer makes room for the newcomer
+ * (counted forgotten), so the table never overflows and the newest sender is served. */
+static void test_any_beyond_the_peer_table(void **state) {
+    (void)state;
+    udp_pair_t *u = udp_pair_new();
+    pair_t *p = u->p;
+    ub_udp_close(&u->b);
+    assert_int_equal(ub_udp_open(&u->b, "127.0.0.1", u->port_b, NULL, 0), UB_OK);
+    assert_int_equal(ub_udp_attach(&u->b, p->sub_node, p->sub_link), UB_OK);
+    ub_udp_t s[UB_UDP_MAX_PEERS + 1];
+    uint16_t last_port = 0;
+    for (int i = 0; i <= UB_UDP_MAX_PEERS; i++) {
+        assert_int_equal(ub_udp_open(&s[i], "127.0.0.1", 0, "127.0.0.1", u->port_b), UB_OK);
+        assert_int_equal(ub_udp_local_port(&s[i], &last_port), UB_OK);
+        uint8_t f[UB_FRAME_MAX];
+        size_t n = frame_from_pub(f, 4000u + (uint32_t)i);
+        send_raw(ub_udp_fileno(&s[i]), u->port_b, f, n);
+        run(u, 1u + 2u * (uint64_t)i, 2u + 2u * (uint64_t)i);
+    }
+    /* Each eviction counted once: learned - forgotten is what the table holds. Before, an eviction under
+     * accept=any was counted twice (in learn() and again in put_learned()): 5 learned, 2 forgotten, 4 held. */
+    assert_int_equal(u->b.stats.peers_learned, UB_UDP_MAX_PEERS + 1);
+    assert_int_equal(u->b.stats.peers_forgotten, 1);
+    char host[16];
+    uint16_t port = 0;
+    bool newest = false;
+    for (int k = 0; ub_udp_peer_at(&u->b, k, host, &port) == UB_OK; k++) newest = newest || port == last_port;
+    assert_true(newest);
+    for (int i = 0; i <= UB_UDP_MAX_PEERS; i++) ub_udp_close(&s[i]);
+    udp_pair_free(u);
+}
+
 /* accept=peer (the default with a peer): a stranger's valid frame is refused, counted, and its address
  * kept for the one-time report. */
 static void test_refused_sender_is_remembered(void **state) {
@@ -349,6 +389,12 @@ static void test_refused_sender_is_remembered(void **state) {
     assert_int_equal(u->b.stats.foreign, 2);
     assert_int_equal(ntohs(u->b.refused_from.sin_port), port_s);
     assert_int_equal(u->b.stats.peers_learned, 0);
+    /* The one-time notice names the sender, the peer and what to do. */
+    char notice[512], want[32];
+    assert_int_equal(ub_udp_driver.notice(&u->b, "subPort", notice, sizeof notice), 1);
+    snprintf(want, sizeof want, "127.0.0.1:%u", (unsigned)port_s);
+    assert_non_null(strstr(notice, want));
+    assert_non_null(strstr(notice, "accept=any"));
     ub_udp_close(&stranger);
     udp_pair_free(u);
 }
@@ -469,6 +515,7 @@ int main(void) {
         cmocka_unit_test(test_multi_frame_datagram_with_a_bad_frame),
         cmocka_unit_test(test_learn_takes_the_sender_of_accepted_frames),
         cmocka_unit_test(test_any_serves_several_peers),
+        cmocka_unit_test(test_any_beyond_the_peer_table),
         cmocka_unit_test(test_refused_sender_is_remembered),
         cmocka_unit_test(test_signed_link_learns_provisional_peers),
         cmocka_unit_test(test_argument_errors),

@@ -157,7 +157,7 @@ int ub_ident_random(uint8_t *out, size_t len) {
     if (out == NULL && len > 0) return UB_ERR_INVAL;
 #if HAVE_SODIUM
     if (sodium_init() < 0) return UB_ERR_IO;
-    randombytes_buf(out, len);
+    if (len > 0) randombytes_buf(out, len); /* out may be NULL when len is 0: randombytes_buf() takes no NULL */
     return UB_OK;
 #else
     return UB_ERR_UNSUPPORTED;

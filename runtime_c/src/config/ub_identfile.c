@@ -334,7 +334,7 @@ int ub_revfile_read(const char *path, uint8_t *records, size_t cap, char *err, s
                      path, (unsigned long)body, (unsigned)UB_REVOCATION_LEN);
     size_t n = body / UB_REVOCATION_LEN;
     if (n > cap) n = cap;
-    memcpy(records, buf + UB_IDENTFILE_HEADER_LEN, n * UB_REVOCATION_LEN);
+    if (n > 0) memcpy(records, buf + UB_IDENTFILE_HEADER_LEN, n * UB_REVOCATION_LEN); /* records may be NULL with cap 0 */
     return (int)n;
 }
 

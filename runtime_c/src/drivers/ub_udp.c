@@ -359,8 +359,7 @@ static void learn(ub_udp_t *udp, ub_node_t *node, const struct sockaddr_in *from
         }
     }
     if (slot < 0) return;
-    if (udp->peers[slot].in_use) udp->stats.peers_forgotten++;
-    put_learned(udp, slot, from, provisional, now_ms);
+    put_learned(udp, slot, from, provisional, now_ms); /* counts the peer it replaces as forgotten */
 }
 
 static void forget_idle(ub_udp_t *udp, uint64_t now_ms) {
