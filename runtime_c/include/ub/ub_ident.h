@@ -144,8 +144,9 @@ UB_CHECK int ub_ident_sign_keypair(const uint8_t seed[UB_IDENT_SEED_LEN], uint8_
 UB_CHECK int ub_ident_kx_keypair(const uint8_t seed[UB_IDENT_SEED_LEN], uint8_t pk[UB_IDENT_KX_PK_LEN],
                                  uint8_t sk[UB_IDENT_KX_SK_LEN]);
 
-/** X25519 public key of a secret key (crypto_scalarmult_base). @return UB_OK, UB_ERR_AUTH (a zero key),
- *  UB_ERR_UNSUPPORTED. */
+/** X25519 public key of a secret key (crypto_scalarmult_base; the scalar is clamped, so every 32 bytes, zeros
+ *  included, give a key). @return UB_OK, UB_ERR_AUTH (libsodium refused the result: an all-zero point, which a
+ *  clamped scalar never gives), UB_ERR_UNSUPPORTED (a build without libsodium). */
 UB_CHECK int ub_ident_kx_public(const uint8_t sk[UB_IDENT_KX_SK_LEN], uint8_t pk[UB_IDENT_KX_PK_LEN]);
 
 /** Fills `out` with `len` random bytes from libsodium. @return UB_OK, UB_ERR_UNSUPPORTED. */
