@@ -193,14 +193,13 @@ static void test_config_refusals(void **state) {
     free(cfg);
 }
 
-/* A real UDP or TCP socket on 127.0.0.1 holding an ephemeral port: what makes a port's open fail. */
-static int hold_port(int type, uint16_t *port) {
-    int fd = socket(AF_INET, type, 0);
+/* A real UDP socket on 127.0.0.1 holding an ephemeral port: what makes a port's open fail (and a stranger). */
+static int hold_port(uint16_t *port) {
+    int fd = socket(AF_INET, SOCK_DGRAM, 0);
     assert_true(fd >= 0);
     struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = 0};
     a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
     assert_int_equal(bind(fd, (struct sockaddr *)&a, sizeof a), 0);
-    if (type == SOCK_STREAM) assert_int_equal(listen(fd, 1), 0);
     socklen_t len = sizeof a;
     assert_int_equal(getsockname(fd, (struct sockaddr *)&a, &len), 0);
     *port = ntohs(a.sin_port);
@@ -257,7 +256,7 @@ static void test_open_refusals(void **state) {
 
     /* A first open on an address another socket holds: refused with the system's reason, nothing attached. */
     uint16_t held = 0;
-    int holder = hold_port(SOCK_DGRAM, &held);
+    int holder = hold_port(&held);
     snprintf(spec, sizeof spec, "udp:bind=127.0.0.1:%u", (unsigned)held);
     assert_int_equal(ub_ports_open_text(e.ports, "pubPort", spec, 0, err, sizeof err), UB_ERR_IO);
     char want[160];
@@ -269,7 +268,7 @@ static void test_open_refusals(void **state) {
     assert_null(ub_node_link(e.p->pub_node, e.p->pub_link)->ops);
 
     /* A switch to a held address: the old transport is closed to free an address it may hold, the new one still
-     * fails, and the message and the slot say the link is detached. */
+     * fails: the message does not promise the old transport, and the slot is detached. */
     assert_int_equal(ub_ports_open_text(e.ports, "pubPort", "udp:bind=127.0.0.1:0,mtu=200", 0, err, sizeof err),
                      UB_OK);
     assert_int_equal(ub_node_link(e.p->pub_node, e.p->pub_link)->mtu, 200);
@@ -281,9 +280,8 @@ static void test_open_refusals(void **state) {
     assert_null(ub_ports_find(e.ports, "pubPort"));
     assert_null(ub_node_link(e.p->pub_node, e.p->pub_link)->ops);
 
-    /* A switch that fails for another reason (an unknown host cannot happen after parsing; a TCP listen on a held
-     * TCP port from a UDP port): the same EADDRINUSE path. A switch to a serial device that does not exist
-     * keeps the old transport running, and says so. */
+    /* A switch that fails for another reason than a held address (a serial device that does not exist) keeps
+     * the old transport running, and says so. */
     assert_int_equal(ub_ports_open_text(e.ports, "pubPort", "udp:bind=127.0.0.1:0", 0, err, sizeof err), UB_OK);
     assert_int_equal(ub_ports_local_port(e.ports, "pubPort", &before), UB_OK);
     assert_int_equal(ub_ports_open_text(e.ports, "pubPort", "serial:device=/nonexistent/ttyUB0", 0, err, sizeof err),
@@ -413,7 +411,7 @@ static void test_impairment_queue_seed_and_close(void **state) {
     const ub_impair_params_t loss = {.loss_ppm = 1000000};
     assert_int_equal(ub_ports_set_impairment(ports, &loss, 9), UB_OK);
     assert_int_equal(p->impair.params.delay_ms, 500);
-    /* Frames through the node: the subscription reply/heartbeats go out of the pub link. */
+    /* Three frames into the link's transport (the impairment in front of the socket) wait out the delay. */
     const ub_link_t *link = ub_node_link(e.p->pub_node, e.p->pub_link);
     static const uint8_t frame[64] = {0};
     for (int i = 0; i < 3; i++) assert_int_equal(link->ops->send(link->impl, frame, sizeof frame, 0), UB_OK);
@@ -449,7 +447,7 @@ static void test_notice_once_per_port(void **state) {
     uint16_t port = 0;
     assert_int_equal(ub_ports_local_port(e.ports, "pubPort", &port), UB_OK);
     uint16_t mine = 0;
-    int fd = hold_port(SOCK_DGRAM, &mine);
+    int fd = hold_port(&mine);
     struct sockaddr_in to = {.sin_family = AF_INET, .sin_port = htons(port)};
     to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
     static const char junk[] = "stranger";
