@@ -18,7 +18,7 @@
 #define SEP " \t\r"
 
 const char fleet_usage[] =
-    "fleet options: [--route on|hello=MS,update=MS,dead=N,parallel=all|best,learn=0|1,learn_expiry=MS,gap=MS]\n"
+    "fleet options: [--route on|hello=MS,update=MS,dead=N,parallel=all|best,learn=0|1,learn_expiry=MS,max_dests=N,gap=MS]\n"
     "               [--produce ENTITY] [--motion orbit:...|waypoints:...|static:...] [--epoch-ms MONO_MS]\n"
     "               [--flows-ms MS] [--flow-gap-ms MS]\n"
     "fleet commands: entity add|remove NAME | link add ENTITY INDEX NAME [SPEC] | link remove NAME |\n"
@@ -100,7 +100,7 @@ static void parse_route(const char *text, ub_route_options_t *ro) {
     char *save = NULL;
     for (char *kv = strtok_r(buf, ",", &save); kv != NULL; kv = strtok_r(NULL, ",", &save)) {
         char *eq = strchr(kv, '=');
-        if (eq == NULL) ub_app_die(g_app, "uavbus_node: --route '%s': expected KEY=VALUE (hello, update, dead, parallel, learn, learn_expiry, gap)", kv);
+        if (eq == NULL) ub_app_die(g_app, "uavbus_node: --route '%s': expected KEY=VALUE (hello, update, dead, parallel, learn, learn_expiry, max_dests, gap)", kv);
         *eq = '\0';
         const char *v = eq + 1;
         char *end = NULL;
@@ -124,10 +124,12 @@ static void parse_route(const char *text, ub_route_options_t *ro) {
             ro->no_learn = n == 0;
         } else if (strcmp(kv, "learn_expiry") == 0 && (uint64_t)n <= UINT32_MAX) {
             ro->learn_expiry_ms = (uint32_t)n;
+        } else if (strcmp(kv, "max_dests") == 0 && n >= 1 && n <= UB_MAX_ENTITIES) {
+            ro->max_dests = (uint16_t)n;
         } else {
             ub_app_die(g_app, "uavbus_node: --route %s=%s: unknown key or value out of range (hello, update, gap: ms; dead: 1..16; "
-                "learn: 0|1; learn_expiry: ms; parallel: all|best)",
-                kv, v);
+                "learn: 0|1; learn_expiry: ms; max_dests: 1..%d; parallel: all|best)",
+                kv, v, UB_MAX_ENTITIES);
         }
     }
 }
@@ -136,7 +138,8 @@ void fleet_stats(ub_app_t *app) {
     if (!g_route_on) return;
     const ub_route_counters_t *c = ub_route_counters(&g_route);
     ub_app_out(app, ",\"routing\":{\"learned\":%" PRIu64 ",\"learn_full\":%" PRIu64 ",\"learn_refused\":%" PRIu64
-        ",\"learn_expired\":%" PRIu64 "}", c->learned, c->learn_full, c->learn_refused, c->learn_expired);
+        ",\"learn_expired\":%" PRIu64 ",\"neighbour_limit\":%" PRIu64 "}", c->learned, c->learn_full, c->learn_refused,
+        c->learn_expired, c->neighbour_limit);
 }
 
 /* ---- membership ------------------------------------------------------------------------------------- */
@@ -451,9 +454,10 @@ static void event_routes(uint64_t now_ms) {
         ub_app_out(g_app, ",\"counters\":{\"route_changes\":%" PRIu64 ",\"routes_found\":%" PRIu64 ",\"routes_lost\":%" PRIu64
             ",\"unfeasible\":%" PRIu64 ",\"expired\":%" PRIu64 ",\"starvation_requests\":%" PRIu64
             ",\"seqno_bumps\":%" PRIu64 ",\"learned\":%" PRIu64 ",\"learn_full\":%" PRIu64 ",\"learn_expired\":%" PRIu64
-            ",\"pinned_skips\":%" PRIu64 "}",
+            ",\"pinned_skips\":%" PRIu64 ",\"neighbour_limit\":%" PRIu64 ",\"dest_refused\":%" PRIu64 "}",
             c->route_changes, c->routes_found, c->routes_lost, c->unfeasible, c->expired, c->starvation_requests,
-            c->seqno_bumps, c->learned, c->learn_full, c->learn_expired, c->pinned_skips);
+            c->seqno_bumps, c->learned, c->learn_full, c->learn_expired, c->pinned_skips, c->neighbour_limit,
+            c->dest_refused);
     }
     const ub_node_counters_t *n = ub_node_counters(g_node_p);
     ub_app_out(g_app, ",\"membership\":{\"entities_added\":%" PRIu64 ",\"entities_removed\":%" PRIu64 ",\"links_added\":%" PRIu64
