@@ -7,6 +7,8 @@
 #include <string.h>
 
 #include "flightsw.h"
+#include "ub/ub_ident.h"
+#include "ub/ub_identfile.h"
 #include "ub/ub_impair.h"
 #include "ub/ub_link.h"
 #include "ub/ub_member.h"
@@ -18,7 +20,7 @@
 #define SEP " \t\r"
 
 const char fleet_usage[] =
-    "fleet options: [--route on|hello=MS,update=MS,dead=N,parallel=all|best,learn=0|1,learn_expiry=MS,gap=MS]\n"
+    "fleet options: [--route on|hello=MS,update=MS,dead=N,parallel=all|best,learn=0|1,learn_expiry=MS,max_dests=N,certified=0|1,gap=MS]\n"
     "               [--produce ENTITY] [--motion orbit:...|waypoints:...|static:...] [--epoch-ms MONO_MS]\n"
     "               [--flows-ms MS] [--flow-gap-ms MS]\n"
     "fleet commands: entity add|remove NAME | link add ENTITY INDEX NAME [SPEC] | link remove NAME |\n"
@@ -52,6 +54,7 @@ static ub_node_t *g_node_p;
 static ub_ports_t *g_ports_p;
 static ub_route_t g_route;
 static bool g_route_on;
+static bool g_route_certified; /* --route certified=1: only destinations the identity store certifies */
 static ub_member_t g_member;
 static bool g_member_on;
 static uint8_t g_reported[UB_MAX_MEMBER_REQUESTS];
@@ -90,6 +93,16 @@ const char *fleet_producer(const char *name, const char *dflt) {
 
 uint64_t fleet_epoch_ms(uint64_t start_ms) { return g_opt.has_epoch ? g_opt.epoch_ms : start_ms; }
 
+/* --route certified=1: an advertised destination gets a route only if the identity store holds a valid,
+ * unrevoked certificate for it (docs/security.md, "Routing from insiders"): an insider cannot make this node
+ * learn entities that do not exist. It does not stop false metrics for certified ones. */
+static bool certified_dest(void *user, const uint8_t dest[UB_ENTITY_ID_LEN], const uint8_t neighbour[UB_ENTITY_ID_LEN],
+                           uint16_t metric) {
+    (void)neighbour;
+    (void)metric;
+    return ub_ident_peer_status(user, dest, ub_identfile_unix_s(NULL)) == UB_IDENT_VALID;
+}
+
 /* "on" or KEY=VALUE,...: the routing options. */
 static void parse_route(const char *text, ub_route_options_t *ro) {
     memset(ro, 0, sizeof *ro);
@@ -100,7 +113,7 @@ static void parse_route(const char *text, ub_route_options_t *ro) {
     char *save = NULL;
     for (char *kv = strtok_r(buf, ",", &save); kv != NULL; kv = strtok_r(NULL, ",", &save)) {
         char *eq = strchr(kv, '=');
-        if (eq == NULL) ub_app_die(g_app, "uavbus_node: --route '%s': expected KEY=VALUE (hello, update, dead, parallel, learn, learn_expiry, gap)", kv);
+        if (eq == NULL) ub_app_die(g_app, "uavbus_node: --route '%s': expected KEY=VALUE (hello, update, dead, parallel, learn, learn_expiry, max_dests, certified, gap)", kv);
         *eq = '\0';
         const char *v = eq + 1;
         char *end = NULL;
@@ -124,10 +137,14 @@ static void parse_route(const char *text, ub_route_options_t *ro) {
             ro->no_learn = n == 0;
         } else if (strcmp(kv, "learn_expiry") == 0 && (uint64_t)n <= UINT32_MAX) {
             ro->learn_expiry_ms = (uint32_t)n;
+        } else if (strcmp(kv, "max_dests") == 0 && n >= 1 && n <= UB_MAX_ENTITIES) {
+            ro->max_dests = (uint16_t)n;
+        } else if (strcmp(kv, "certified") == 0 && n <= 1) {
+            g_route_certified = n == 1;
         } else {
             ub_app_die(g_app, "uavbus_node: --route %s=%s: unknown key or value out of range (hello, update, gap: ms; dead: 1..16; "
-                "learn: 0|1; learn_expiry: ms; parallel: all|best)",
-                kv, v);
+                "learn: 0|1; learn_expiry: ms; max_dests: 1..%d; certified: 0|1; parallel: all|best)",
+                kv, v, UB_MAX_ENTITIES);
         }
     }
 }
@@ -136,7 +153,8 @@ void fleet_stats(ub_app_t *app) {
     if (!g_route_on) return;
     const ub_route_counters_t *c = ub_route_counters(&g_route);
     ub_app_out(app, ",\"routing\":{\"learned\":%" PRIu64 ",\"learn_full\":%" PRIu64 ",\"learn_refused\":%" PRIu64
-        ",\"learn_expired\":%" PRIu64 "}", c->learned, c->learn_full, c->learn_refused, c->learn_expired);
+        ",\"learn_expired\":%" PRIu64 ",\"neighbour_limit\":%" PRIu64 "}", c->learned, c->learn_full, c->learn_refused,
+        c->learn_expired, c->neighbour_limit);
 }
 
 /* ---- membership ------------------------------------------------------------------------------------- */
@@ -451,9 +469,10 @@ static void event_routes(uint64_t now_ms) {
         ub_app_out(g_app, ",\"counters\":{\"route_changes\":%" PRIu64 ",\"routes_found\":%" PRIu64 ",\"routes_lost\":%" PRIu64
             ",\"unfeasible\":%" PRIu64 ",\"expired\":%" PRIu64 ",\"starvation_requests\":%" PRIu64
             ",\"seqno_bumps\":%" PRIu64 ",\"learned\":%" PRIu64 ",\"learn_full\":%" PRIu64 ",\"learn_expired\":%" PRIu64
-            ",\"pinned_skips\":%" PRIu64 "}",
+            ",\"pinned_skips\":%" PRIu64 ",\"neighbour_limit\":%" PRIu64 ",\"dest_refused\":%" PRIu64 "}",
             c->route_changes, c->routes_found, c->routes_lost, c->unfeasible, c->expired, c->starvation_requests,
-            c->seqno_bumps, c->learned, c->learn_full, c->learn_expired, c->pinned_skips);
+            c->seqno_bumps, c->learned, c->learn_full, c->learn_expired, c->pinned_skips, c->neighbour_limit,
+            c->dest_refused);
     }
     const ub_node_counters_t *n = ub_node_counters(g_node_p);
     ub_app_out(g_app, ",\"membership\":{\"entities_added\":%" PRIu64 ",\"entities_removed\":%" PRIu64 ",\"links_added\":%" PRIu64
@@ -541,6 +560,13 @@ void fleet_setup(ub_app_t *app, node_motion_t *motion, uint64_t now_ms) {
     if (g_opt.route != NULL) {
         ub_route_options_t ro;
         parse_route(g_opt.route, &ro);
+        if (g_route_certified) {
+            if (!app->ident_on)
+                ub_app_die(g_app, "uavbus_node: --route certified=1 needs identities: name an authority in the configuration's "
+                    "\"security\" section (uavbus keys fleet), or drop certified=1");
+            ro.accept_dest = certified_dest;
+            ro.accept_user = &app->ident;
+        }
         if (ub_route_attach(&g_route, node, &ro, now_ms) != UB_OK)
             ub_app_die(g_app, "uavbus_node: --route %s: out of range (hello 10..65535 ms, update >= hello)", g_opt.route);
         g_route_on = true;

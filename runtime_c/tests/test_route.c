@@ -687,7 +687,8 @@ static int fakes_known(fleet_t *f, int node, unsigned n) {
  * update advertises any more leaves it after learn_expiry_ms, and the table takes genuine entities again. */
 static void test_learned_entities_expire_when_nobody_advertises_them(void **state) {
     (void)state;
-    ub_route_options_t ro = {.learn_expiry_ms = 10 * HELLO_MS};
+    ub_route_options_t ro = {.learn_expiry_ms = 10 * HELLO_MS, .max_dests = UB_MAX_ENTITIES}; /* no per-neighbour bound:
+                                                                  this test is about the table filling up and emptying */
     fleet_t *f = fleet_new(3, &ro);
     int e01 = fleet_link(f, 0, 1);
     fleet_link(f, 1, 2);
@@ -717,6 +718,154 @@ static void test_learned_entities_expire_when_nobody_advertises_them(void **stat
     assert_true(fakes_known(f, 0, 24) == 0);
     forge_update(f, 0, f->edge[e01].la, "evil2", 100, 0, 1); /* learnable again at once: no tombstone */
     assert_int_equal(fakes_known(f, 0, 1), 1);
+    fleet_free(f);
+}
+
+/* An insider: a neighbour "evil" whose frames are genuine (it holds a valid key, so signatures would not stop
+ * them) on its own link of node `node`. Its hello part is well-formed -- consecutive hello seqnos, an IHU of a
+ * loss-free link about v<node> -- so the link is up and its routes are usable. Entries: "f<first>".."f<first+n-1>"
+ * at metric 256, then, if `extra` is set, `extra` with `extra_seqno` at metric 0 (a false low metric). */
+typedef struct insider {
+    int node, link;
+    uint16_t hello_seq;
+    uint32_t seq;
+} insider_t;
+
+static void insider_send(fleet_t *f, insider_t *in, unsigned first, unsigned n, const char *extra, uint16_t extra_seqno) {
+    uint8_t frame[UB_FRAME_MAX];
+    uint8_t *p = frame + UB_FRAME_HEADER_LEN;
+    unsigned total = n + (extra != NULL);
+    size_t len = UB_ROUTE_HDR_LEN + total * UB_ROUTE_ENTRY_LEN;
+    assert_true(len <= UB_MAX_PAYLOAD && total <= 255);
+    memset(p, 0, len);
+    p[0] = UB_ROUTE_WIRE_VERSION;
+    ub_put_u16le(p + 2, in->hello_seq++);
+    ub_put_u16le(p + 4, HELLO_MS);
+    ub_put_u16le(p + 6, 4 * HELLO_MS);
+    ub_put_u16le(p + 8, UB_ROUTE_LINK_COST); /* it hears us perfectly */
+    p[10] = (uint8_t)total;
+    vid(in->node, p + 12);
+    for (unsigned i = 0; i < total; i++) {
+        uint8_t *e = p + UB_ROUTE_HDR_LEN + i * UB_ROUTE_ENTRY_LEN;
+        char name[16];
+        snprintf(name, sizeof name, "f%u", first + i);
+        test_eid(i < n ? name : extra, e);
+        ub_put_u16le(e + 12, i < n ? 1 : extra_seqno);
+        ub_put_u16le(e + 14, i < n ? UB_ROUTE_LINK_COST : 0);
+    }
+    ub_frame_header_t h;
+    memset(&h, 0, sizeof h);
+    memset(h.dest_id, UB_LINK_LOCAL_BYTE, UB_ENTITY_ID_LEN);
+    test_eid("evil", h.src_id);
+    h.admin = UB_ADMIN_ROUTE_UPDATE;
+    h.hop_limit = 1;
+    h.payload_size = (uint16_t)len;
+    h.seq = ++in->seq;
+    int fl = ub_frame_finish(frame, sizeof frame, &h);
+    assert_true(fl > 0);
+    assert_int_equal(ub_node_rx_frame(&f->w->nodes[in->node], in->link, frame, (size_t)fl, f->w->now_ms), UB_OK);
+}
+
+/* Node 0 -- node 1 -- node 2, and an insider on a second link of node 0 (no transport: node 0's frames to it go
+ * nowhere, which an insider does not need). */
+static fleet_t *insider_fleet(const ub_route_options_t *ro, int *e01, insider_t *in) {
+    fleet_t *f = fleet_new(3, ro);
+    *e01 = fleet_link(f, 0, 1);
+    fleet_link(f, 1, 2);
+    *in = (insider_t){.node = 0, .link = ub_node_add_link(&f->w->nodes[0], f->self[0], f->next_index[0]++, "insider")};
+    assert_true(in->link >= 0);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    assert_true(route(f, 0, 2).reachable);
+    return f;
+}
+
+/* Issue 23 item 6: a key-holding insider advertises 1,000 destinations, then a false metric 0 (with a newer
+ * seqno) for the genuine v2. The per-neighbour bound keeps max_dests of them: the route table and the entity
+ * table keep room for everyone else, every entry beyond is counted, and its claim for v2 -- beyond the bound --
+ * does not take v2's traffic from the genuine route. */
+static void test_insider_destinations_are_bounded_per_neighbour(void **state) {
+    (void)state;
+    int e01;
+    insider_t in;
+    fleet_t *f = insider_fleet(NULL, &e01, &in);
+    const unsigned bound = UB_ROUTE_MAX_DESTS_PER_NEIGHBOUR; /* the default */
+    assert_int_equal(f->rt[0].opt.max_dests, bound);
+    const ub_route_counters_t *c = ub_route_counters(&f->rt[0]);
+    uint16_t v2_seqno = route(f, 0, 2).seqno;
+    for (unsigned k = 0; k < 20; k++) insider_send(f, &in, 50 * k, 50, NULL, 0); /* f0..f999 */
+    insider_send(f, &in, 1000, 0, "v2", (uint16_t)(v2_seqno + 1));
+    for (unsigned t = 0; t < 5; t++) { /* it keeps the link up and refreshes the claim */
+        world_run(f->w, f->w->now_ms + HELLO_MS, 1);
+        insider_send(f, &in, 1000, 0, "v2", (uint16_t)(v2_seqno + 1));
+    }
+    /* bounded: exactly `bound` of its destinations got a row (and were learned), the rest counted */
+    assert_int_equal(fakes_known(f, 0, 1000), (int)bound);
+    assert_int_equal(c->learn_full, 0);
+    assert_int_equal(c->neighbour_limit, 1000 - bound + 6);
+    ub_route_link_info_t li;
+    assert_int_equal(ub_route_link_info(&f->rt[0], in.link, &li), UB_OK);
+    assert_true(li.neighbour && li.cost == UB_ROUTE_LINK_COST); /* its link is up and cheap: the bound did that */
+    assert_int_equal(li.stats.over_limit_in, c->neighbour_limit);
+    /* the admitted ones are routed through it (within the bound, it attracts traffic: not protected) */
+    uint8_t id[UB_ENTITY_ID_LEN];
+    test_eid("f0", id);
+    ub_route_info_t ri;
+    assert_int_equal(ub_route_get(&f->rt[0], f->self[0], ub_node_find_entity(&f->w->nodes[0], id), &ri), UB_OK);
+    assert_true(ri.reachable && ri.link_id == in.link);
+    /* genuine routes: v2 still through node 1, whatever metric it claimed; v1 too */
+    ri = route(f, 0, 2);
+    assert_true(ri.reachable);
+    assert_int_equal(ri.link_id, f->edge[e01].la);
+    assert_int_equal(route(f, 0, 1).link_id, f->edge[e01].la);
+    /* the entity table keeps room: a genuine newcomer is still accepted */
+    assert_true(ub_node_add_entity_name(&f->w->nodes[0], "newcomer", false) >= 0);
+    /* node 1, the insider's victim's neighbour, learned nothing of it: the fakes stop at node 0's bound, and node 0
+     * re-advertises at most `bound` of them */
+    assert_true(fakes_known(f, 1, 1000) <= (int)bound);
+    fleet_free(f);
+}
+
+/* The accept_dest hook (e.g. "certified entities only", from the application's identity store): destinations
+ * it refuses get no row and are not learned (dest_refused); a certified destination with a false low metric is
+ * accepted -- what the threat model says stays open. */
+static const char *const g_certified[] = {"v0", "v1", "v2", "evil"};
+static bool certified_only(void *user, const uint8_t dest[UB_ENTITY_ID_LEN], const uint8_t neighbour[UB_ENTITY_ID_LEN],
+                           uint16_t metric) {
+    (void)neighbour;
+    (void)metric;
+    (*(unsigned *)user)++;
+    for (size_t i = 0; i < sizeof g_certified / sizeof g_certified[0]; i++) {
+        uint8_t id[UB_ENTITY_ID_LEN];
+        test_eid(g_certified[i], id);
+        if (memcmp(id, dest, UB_ENTITY_ID_LEN) == 0) return true;
+    }
+    return false;
+}
+
+static void test_insider_uncertified_destinations_are_refused(void **state) {
+    (void)state;
+    unsigned asked = 0;
+    ub_route_options_t ro = {.accept_dest = certified_only, .accept_user = &asked, .max_dests = 4};
+    int e01;
+    insider_t in;
+    fleet_t *f = insider_fleet(&ro, &e01, &in);
+    const ub_route_counters_t *c = ub_route_counters(&f->rt[0]);
+    uint64_t refused0 = c->dest_refused;
+    uint16_t v2_seqno = route(f, 0, 2).seqno;
+    for (unsigned k = 0; k < 20; k++) insider_send(f, &in, 50 * k, 50, NULL, 0);
+    assert_int_equal(fakes_known(f, 0, 1000), 0);
+    assert_int_equal(c->dest_refused - refused0, 1000);
+    assert_int_equal(c->neighbour_limit, 0);
+    assert_true(asked >= 1000);
+    /* a certified destination at a false metric 0 and a newer seqno: accepted, and it takes v2's traffic */
+    for (unsigned t = 0; t < 3; t++) {
+        insider_send(f, &in, 0, 0, "v2", (uint16_t)(v2_seqno + 1));
+        world_run(f->w, f->w->now_ms + HELLO_MS, 1);
+    }
+    ub_route_info_t ri = route(f, 0, 2);
+    assert_true(ri.reachable);
+    assert_int_equal(ri.link_id, in.link);
     fleet_free(f);
 }
 
@@ -776,12 +925,13 @@ static void test_options_checked(void **state) {
     ub_route_t *rt = calloc(1, sizeof *rt);
     assert_non_null(rt);
     ub_route_options_t bad[] = {{.hello_ms = 5}, {.hello_ms = 100, .update_ms = 50}, {.dead_misses = 17}, {.parallel = 2},
-                                {.hello_ms = 70000}};
+                                {.hello_ms = 70000}, {.max_dests = UB_MAX_ENTITIES + 1}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) assert_int_equal(ub_route_attach(rt, n, &bad[i], 0), UB_ERR_INVAL);
     assert_null(ub_node_service_for(n, UB_SVC_LINK_LOCAL, UB_ADMIN_HELLO));
     assert_int_equal(ub_route_attach(rt, n, NULL, 0), UB_OK);
     assert_int_equal(rt->opt.hello_ms, 1000);
     assert_int_equal(rt->opt.update_ms, 4000);
+    assert_int_equal(rt->opt.max_dests, UB_ROUTE_MAX_DESTS_PER_NEIGHBOUR);
     free(rt);
     free(w);
 }
@@ -800,6 +950,8 @@ int main(void) {
         cmocka_unit_test(test_manual_mask_pins_a_route),
         cmocka_unit_test(test_removed_entity_is_not_relearned_at_once),
         cmocka_unit_test(test_learned_entities_expire_when_nobody_advertises_them),
+        cmocka_unit_test(test_insider_destinations_are_bounded_per_neighbour),
+        cmocka_unit_test(test_insider_uncertified_destinations_are_refused),
         cmocka_unit_test(test_link_local_addressing),
         cmocka_unit_test(test_options_checked),
     };

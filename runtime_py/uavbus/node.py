@@ -949,7 +949,9 @@ class Routing:
     def enable(self, parallel: str = "all", learn: bool = True, **options: int) -> None:
         """Starts (or restarts) the engine. Options: hello_ms (default 1000), update_ms, trigger_gap_ms,
         source_gc_ms, dead_misses, initial_seqno, learn_expiry_ms (a learned entity no update advertised this
-        long is removed; default source_gc_ms); parallel "all" | "best"; learn."""
+        long is removed; default source_gc_ms), max_dests (destinations one neighbour may advertise; entries for
+        more are ignored and counted neighbour_limit; default UB_ROUTE_MAX_DESTS_PER_NEIGHBOUR, 3/4 of the
+        entity table); parallel "all" | "best"; learn."""
         if self._c is not None:
             ub_route.ub_route_detach(self._c)
         self._c = ub_route.ub_route_new(self.node._c, self.node.now(), parallel, learn, **options)

@@ -59,6 +59,24 @@ def test_routes_build_themselves_and_carry_data(line) -> None:
     assert nodes[1].routing.counters()["learned"] == 3
 
 
+def test_max_dests_bounds_what_one_neighbour_teaches(line) -> None:
+    """Issue 23 item 6: u1 advertises three destinations (u1, u2, u3) to u0, whose bound is 2: the third gets no
+    route and is not learned, counted on the engine and on the link."""
+    nodes, links, clock = line
+    with pytest.raises(InvalidArgumentError):
+        nodes[0].routing.enable(hello_ms=100, max_dests=10_000)
+    nodes[0].routing.enable(hello_ms=100, max_dests=2)
+    for n in nodes[1:]:
+        n.routing.enable(hello_ms=100)
+    run(nodes, clock, 600)
+    reachable = sorted(d for d, r in nodes[0].routing.table().items() if r["reachable"] and not r["local"])
+    assert len(reachable) == 2 and "u1" in reachable  # the neighbour itself came first
+    c = nodes[0].routing.counters()
+    assert c["neighbour_limit"] > 0 and c["learn_full"] == 0
+    assert nodes[0].routing.links()["u0L1"]["over_limit_in"] == c["neighbour_limit"]
+    assert nodes[1].routing.counters()["neighbour_limit"] == 0  # the default bound (12) holds a line of four
+
+
 def test_link_failure_reroutes_and_manual_mask_pins(flightsw: Generated) -> None:
     clock = Clock()
     a, b, c = (vehicle(flightsw.catalogue, clock, n, 3) for n in ("ra", "rb", "rc"))

@@ -98,6 +98,12 @@
 #ifndef UB_ROUTE_TOMBSTONES
 #define UB_ROUTE_TOMBSTONES 8
 #endif
+/** Default bound on the destinations one neighbour (one link) may have route entries for (ub_route.h
+ * `max_dests`): a key-holding insider advertising a thousand destinations takes at most this many rows of
+ * the route table and of the learned-entity table, leaving the rest to the other neighbours. */
+#ifndef UB_ROUTE_MAX_DESTS_PER_NEIGHBOUR
+#define UB_ROUTE_MAX_DESTS_PER_NEIGHBOUR (UB_MAX_ENTITIES * 3 / 4)
+#endif
 
 /* ---- identity per entity (ub_ident.h, issue 23) ---- */
 /** Peers' certificates one identity store holds (184 bytes each: with 64 revocations the store is 18,872

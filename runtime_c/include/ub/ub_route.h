@@ -56,6 +56,13 @@
  *    retraction is no route) for `learn_expiry_ms` is removed again
  *    (`learn_expired`), so entities from forged or stale updates do not
  *    fill the entity table for good (issue 29).
+ *  - Insiders (docs/security.md, "Routing from insiders"): one neighbour may
+ *    have route entries for at most `max_dests` destinations; entries for
+ *    further ones are ignored before they are learned (`neighbour_limit`),
+ *    so one key holder cannot fill the route or entity table. An optional
+ *    `accept_dest` filter can refuse destinations (`dest_refused`), e.g.
+ *    entities no certificate names. False metrics within the bound are NOT
+ *    detected: they attract traffic (loss of availability, not forgery).
  *
  * All state is in the caller-owned ub_route_t (fixed size from ub_config.h,
  * no allocation). Time comes only from ub_node_tick() and the receive path.
@@ -111,6 +118,15 @@ typedef struct ub_route_options {
     uint8_t no_learn;        /**< 1: never add entities to the table from updates */
     uint16_t initial_seqno;  /**< first seqno of every local entity; default 0 */
     uint32_t learn_expiry_ms; /**< a learned entity no update advertised a route to this long is removed; default source_gc_ms */
+    uint16_t max_dests;      /**< destinations one neighbour may have route entries for (new ones beyond: ignored,
+                                  `neighbour_limit`); 1..UB_MAX_ENTITIES, default UB_ROUTE_MAX_DESTS_PER_NEIGHBOUR */
+    /** Optional filter, asked before an advertised destination gets a route entry (or is learned): false
+     *  ignores the entry (`dest_refused`). Generic on purpose: the application decides -- e.g. "only
+     *  entities the identity store certifies" or "metric 0 only for the neighbour itself". NULL: all accepted.
+     *  `neighbour` is the advertising entity, `metric` the advertised metric (UB_ROUTE_INFINITY: retraction). */
+    bool (*accept_dest)(void *user, const uint8_t dest[UB_ENTITY_ID_LEN], const uint8_t neighbour[UB_ENTITY_ID_LEN],
+                        uint16_t metric);
+    void *accept_user;
 } ub_route_options_t;
 
 /** Per-link routing counters. */
@@ -128,6 +144,7 @@ typedef struct ub_route_link_stats {
     uint64_t bad_in;         /**< unusable routing payloads (also counted bad_payload by the node) */
     uint64_t neighbour_changes; /**< a different entity started answering on this link */
     uint64_t link_downs;     /**< the neighbour went silent for 16 hello intervals and was forgotten */
+    uint64_t over_limit_in;  /**< entries ignored: the neighbour already had max_dests destinations */
 } ub_route_link_stats_t;
 
 /** Engine-wide counters. */
@@ -147,6 +164,8 @@ typedef struct ub_route_counters {
     uint64_t learn_refused;       /**< not learned: no_learn, or removed recently */
     uint64_t learn_expired;       /**< learned entities removed: no update advertised a route to them for learn_expiry_ms */
     uint64_t pinned_skips;        /**< masks not written because the operator pinned them */
+    uint64_t neighbour_limit;     /**< entries ignored: their neighbour already advertised max_dests destinations */
+    uint64_t dest_refused;        /**< entries ignored: the accept_dest filter refused the destination */
 } ub_route_counters_t;
 
 /** Per-link state. Private: read it with ub_route_link_info(). */
@@ -229,6 +248,7 @@ typedef struct ub_route {
  * its hello and full table.
  * @return UB_OK; UB_ERR_INVAL (NULL, or an option out of range: hello_ms not
  *         10..65535, update_ms < hello_ms or > 65535, dead_misses > 16,
+ *         max_dests > UB_MAX_ENTITIES,
  *         parallel unknown); UB_ERR_FULL (the node's service table,
  *         UB_MAX_SERVICES, is full: nothing attached).
  */

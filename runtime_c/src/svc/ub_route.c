@@ -308,9 +308,34 @@ static int destination(ub_route_t *rt, const uint8_t id[UB_ENTITY_ID_LEN], uint1
     return e;
 }
 
+/* Destinations the neighbour on `link_id` has route entries for. */
+static unsigned link_dests(const ub_route_t *rt, int link_id) {
+    unsigned n = 0;
+    for (int e = 0; e < UB_MAX_ENTITIES; e++) n += rt->routes[e][link_id].in_use != 0;
+    return n;
+}
+
+/* Insider bounds, asked before an entry may take a route-table row (and before its destination is learned):
+ * the accept_dest filter, then at most max_dests destinations per neighbour. Entries the neighbour already
+ * has a row for are always refreshed, so the bound never evicts a route it let in. */
+static bool admit(ub_route_t *rt, int link_id, const uint8_t *ent, uint16_t metric) {
+    ub_route_link_t *l = &rt->links[link_id];
+    if (rt->opt.accept_dest != NULL && !rt->opt.accept_dest(rt->opt.accept_user, ent + ENT_ID, l->nb_id, metric)) {
+        rt->counters.dest_refused++;
+        return false;
+    }
+    int known = ub_node_find_entity(rt->node, ent + ENT_ID);
+    if (known >= 0 && (rt->routes[known][link_id].in_use || entity_local(rt, known))) return true;
+    if (link_dests(rt, link_id) < rt->opt.max_dests) return true;
+    rt->counters.neighbour_limit++;
+    l->stats.over_limit_in++;
+    return false;
+}
+
 static void on_update(ub_route_t *rt, int slot, int link_id, const uint8_t *ent, uint32_t update_ms, uint64_t now_ms) {
     uint16_t seqno = ub_get_u16le(ent + ENT_SEQNO);
     uint16_t metric = ub_get_u16le(ent + ENT_METRIC);
+    if (!admit(rt, link_id, ent, metric)) return;
     int e = destination(rt, ent + ENT_ID, metric, now_ms);
     if (e < 0 || entity_local(rt, e)) return; /* ours: we are the source */
     ub_route_entry_t *r = &rt->routes[e][link_id];
@@ -724,8 +749,9 @@ int ub_route_attach(ub_route_t *rt, ub_node_t *node, const ub_route_options_t *o
     if (o.source_gc_ms == 0) o.source_gc_ms = 16u * o.update_ms;
     if (o.learn_expiry_ms == 0) o.learn_expiry_ms = o.source_gc_ms;
     if (o.dead_misses == 0) o.dead_misses = 2;
+    if (o.max_dests == 0) o.max_dests = UB_ROUTE_MAX_DESTS_PER_NEIGHBOUR;
     if (o.hello_ms < 10u || o.hello_ms > 0xFFFFu || o.update_ms < o.hello_ms || o.update_ms > 0xFFFFu ||
-        o.dead_misses > HISTORY_BITS || o.parallel > UB_ROUTE_PARALLEL_BEST)
+        o.dead_misses > HISTORY_BITS || o.parallel > UB_ROUTE_PARALLEL_BEST || o.max_dests > UB_MAX_ENTITIES)
         return UB_ERR_INVAL;
     /* One routing engine per node: a second attach takes the routing codes over, as it always did. */
     const ub_service_t *prev = ub_node_service_for(node, UB_SVC_LINK_LOCAL, UB_ADMIN_HELLO);

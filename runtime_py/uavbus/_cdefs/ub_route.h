@@ -16,6 +16,7 @@ typedef struct ub_route_options {
     uint8_t no_learn;
     uint16_t initial_seqno;
     uint32_t learn_expiry_ms;
+    uint16_t max_dests;
     ...;
 } ub_route_options_t;
 
@@ -33,6 +34,7 @@ typedef struct ub_route_link_stats {
     uint64_t bad_in;
     uint64_t neighbour_changes;
     uint64_t link_downs;
+    uint64_t over_limit_in;
     ...;
 } ub_route_link_stats_t;
 
@@ -52,6 +54,8 @@ typedef struct ub_route_counters {
     uint64_t learn_expired;
     uint64_t learn_refused;
     uint64_t pinned_skips;
+    uint64_t neighbour_limit;
+    uint64_t dest_refused;
     ...;
 } ub_route_counters_t;
 

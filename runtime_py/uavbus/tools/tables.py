@@ -91,7 +91,8 @@ _FRAG_BOUNDS = (("rx_refused", "fragments of new transfers refused: every slot b
                 ("rx_timeouts", "transfers dropped after timeout_ms without a new fragment"))
 _ROUTE_BOUNDS = (("learned", "entities learned from route updates"),
                  ("learn_full", "entities not learned: the entity table was full"),
-                 ("learn_expired", "learned entities removed: no update advertised them for learn_expiry_ms"))
+                 ("learn_expired", "learned entities removed: no update advertised them for learn_expiry_ms"),
+                 ("neighbour_limit", "route entries ignored: their neighbour already advertised max_dests destinations"))
 _COMPACT_BOUNDS = (("dict_changes", "the peer's dictionary replaced (epoch, catalogue or entity list)"),
                    ("dict_limited", "dictionary changes refused: unsigned, within change_min_ms of the last"))
 
