@@ -123,10 +123,17 @@ say "figure 1c: origin authentication"
 for p in 1 2 3; do sample "$raw/origin.tsv" 600 taskset -c 0 "$bin/origin_bench"; done
 
 # ---- figure 2: router in-process over memlinks ----
+# With BENCH_BASE, RUNS rounds alternate this tree's process and the base's (ABAB...), so a change of the
+# machine's state during the run (another process, a frequency step) falls on both columns alike; one
+# process each, back to back, once showed 10 % between two builds whose instruction counts differ by 1 %.
 say "figure 2: router, 1 and 3 hops"
+rounds=1
+[ -n "$base_bin" ] && rounds=$RUNS
 for h in 1 3; do
-  sample "$raw/router.txt" 600 taskset -c 0 "$bin/router_hops" "$h"
-  if [ -n "$base_bin" ]; then "$SAMPLE" "$raw/base_router.txt" 600 taskset -c 0 "$base_bin/router_hops" "$h"; fi
+  for r in $(seq "$rounds"); do
+    sample "$raw/router.txt" 600 taskset -c 0 "$bin/router_hops" "$h"
+    if [ -n "$base_bin" ]; then "$SAMPLE" "$raw/base_router.txt" 600 taskset -c 0 "$base_bin/router_hops" "$h"; fi
+  done
 done
 
 # ---- figure 3: loopback between 2 processes, in a private network namespace (only lo) ----

@@ -94,7 +94,7 @@ def before_after(raw: Path) -> list[str]:
     out = [f"## Before and after: figures 1-3 with this tree's runtime and with {ref}'s", "",
            f"`make bench BENCH_BASE={ref}`: the same bench programs, catalogue and peers, linked once with this tree's "
            "runtime and once with the runtime of that commit, run interleaved (figure 1: 3 processes each, figure 2: "
-           "7 samples each, figure 3: the uavbus UDP/TCP rows in every round). Median [min - max]; "
+           "RUNS processes each, alternating, of 7 samples, figure 3: the uavbus UDP/TCP rows in every round). Median [min - max]; "
            "ratio = this tree / base.", "",
            "| figure | case | this tree | base | ratio |", "|---|---|---:|---:|---:|"]
     new_ns, _, _ = read_codec(raw)
