@@ -788,8 +788,9 @@ static void test_insider_destinations_are_bounded_per_neighbour(void **state) {
     (void)state;
     int e01;
     insider_t in;
-    fleet_t *f = insider_fleet(NULL, &e01, &in);
-    const unsigned bound = UB_ROUTE_MAX_DESTS_PER_NEIGHBOUR; /* the default */
+    const unsigned bound = UB_MAX_ENTITIES * 3 / 4; /* a node that knows its neighbours teach at most that many */
+    ub_route_options_t ro = {.max_dests = (uint16_t)bound};
+    fleet_t *f = insider_fleet(&ro, &e01, &in);
     assert_int_equal(f->rt[0].opt.max_dests, bound);
     const ub_route_counters_t *c = ub_route_counters(&f->rt[0]);
     uint16_t v2_seqno = route(f, 0, 2).seqno;

@@ -950,7 +950,7 @@ class Routing:
         """Starts (or restarts) the engine. Options: hello_ms (default 1000), update_ms, trigger_gap_ms,
         source_gc_ms, dead_misses, initial_seqno, learn_expiry_ms (a learned entity no update advertised this
         long is removed; default source_gc_ms), max_dests (destinations one neighbour may advertise; entries for
-        more are ignored and counted neighbour_limit; default UB_ROUTE_MAX_DESTS_PER_NEIGHBOUR, 3/4 of the
+        more are ignored and counted neighbour_limit; default UB_ROUTE_MAX_DESTS_PER_NEIGHBOUR, the whole
         entity table); parallel "all" | "best"; learn."""
         if self._c is not None:
             ub_route.ub_route_detach(self._c)
