@@ -7,6 +7,7 @@
  * bounds-checked byte work and runs without it; everything that signs or verifies returns
  * UB_ERR_UNSUPPORTED / refuses without it (UB_SECURITY off), so nothing unverified ever enters a store. */
 #include "ub/ub_ident.h"
+#include "codec/ub_wipe_private.h"
 
 #include <string.h>
 
@@ -55,15 +56,6 @@ enum {
     R_AUTHORITY = 32,
     R_SIG = 40
 };
-
-static void wipe(void *p, size_t n) {
-#if HAVE_SODIUM
-    sodium_memzero(p, n);
-#else
-    volatile uint8_t *v = p;
-    while (n--) *v++ = 0;
-#endif
-}
 
 static bool id_eq(const uint8_t *a, const uint8_t *b) { return memcmp(a, b, UB_ENTITY_ID_LEN) == 0; }
 
@@ -322,7 +314,7 @@ ub_ident_status_t ub_revocation_verify(const ub_revocation_t *rev, const uint8_t
 
 void ub_ident_store_init(ub_ident_store_t *store) {
     if (store == NULL) return;
-    wipe(store, sizeof *store);
+    ub_priv_wipe(store, sizeof *store);
 }
 
 void ub_ident_store_clear(ub_ident_store_t *store) { ub_ident_store_init(store); }
@@ -346,7 +338,7 @@ int ub_ident_set_authority(ub_ident_store_t *store, const uint8_t pk[UB_IDENT_SI
     if (rc != UB_OK) return rc;
     if (store->has_authority && memcmp(kid, store->authority_kid, UB_IDENT_KID_LEN) != 0) {
         /* Another authority: nothing it did not sign may stay. */
-        wipe(store->selves, sizeof store->selves);
+        ub_priv_wipe(store->selves, sizeof store->selves);
         store->n_selves = 0;
         memset(store->peers, 0, sizeof store->peers);
         store->n_peers = 0;
@@ -383,8 +375,8 @@ int ub_ident_set_self(ub_ident_store_t *store, const ub_cert_t *cert, const uint
     int rc = ub_ident_sign_keypair(seed, pk, sk);
     bool match = rc == UB_OK && memcmp(pk, cert->sign_pk, sizeof pk) == 0 && memcmp(sk, sign_sk, sizeof sk) == 0 &&
                  ub_ident_kx_public(kx_sk, kx_pk) == UB_OK && memcmp(kx_pk, cert->kx_pk, sizeof kx_pk) == 0;
-    wipe(seed, sizeof seed);
-    wipe(sk, sizeof sk);
+    ub_priv_wipe(seed, sizeof seed);
+    ub_priv_wipe(sk, sizeof sk);
     if (!match) {
         *why = UB_IDENT_MALFORMED;
         return UB_ERR_AUTH;

@@ -7,6 +7,7 @@
  * cffi build) switches it in; without it every cryptographic entry point returns UB_ERR_UNSUPPORTED,
  * so nothing can be signed and nothing flagged can be accepted. */
 #include "ub/ub_sec.h"
+#include "codec/ub_wipe_private.h"
 
 #include <string.h>
 
@@ -33,15 +34,6 @@ _Static_assert(crypto_aead_xchacha20poly1305_ietf_KEYBYTES == UB_SEC_KEY_LEN, "A
 _Static_assert(DOMAIN_LEN == 11, "domain string is 11 bytes");
 
 bool ub_sec_available(void) { return HAVE_SODIUM; }
-
-static void wipe(void *p, size_t n) {
-#if HAVE_SODIUM
-    sodium_memzero(p, n);
-#else
-    volatile uint8_t *v = p;
-    while (n--) *v++ = 0;
-#endif
-}
 
 static ub_sec_key_t *find_key(ub_sec_t *sec, uint8_t id) {
     if (id == 0) return NULL;
@@ -96,7 +88,7 @@ int ub_sec_add_key(ub_sec_t *sec, uint8_t id, const uint8_t key[UB_SEC_KEY_LEN])
     /* Key separation, once per key: the tag and the AEAD never use the same key, nor the file's key. */
     if (crypto_kdf_derive_from_key(slot->sig_key, UB_SEC_SIG_KEY_LEN, UB_SEC_SUBKEY_ID, UB_SEC_SIG_CONTEXT, key) != 0 ||
         crypto_kdf_derive_from_key(slot->aead_key, UB_SEC_KEY_LEN, UB_SEC_SUBKEY_ID, UB_SEC_AEAD_CONTEXT, key) != 0) {
-        wipe(slot, sizeof *slot);
+        ub_priv_wipe(slot, sizeof *slot);
         return UB_ERR_INVAL;
     }
     slot->id = id;
@@ -111,7 +103,7 @@ int ub_sec_remove_key(ub_sec_t *sec, uint8_t id) {
     ub_sec_key_t *k = find_key(sec, id);
     if (k == NULL) return UB_ERR_NOTFOUND;
     if (sec->tx_key == id) return UB_ERR_INVAL;
-    wipe(k, sizeof *k);
+    ub_priv_wipe(k, sizeof *k);
     return UB_OK;
 }
 

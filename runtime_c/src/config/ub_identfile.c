@@ -1,6 +1,7 @@
 /* Identity files (contracts in ub/ub_identfile.h). POSIX open/read/write/fsync/rename only, like
  * ub_secfile.c: stdio may allocate, and the runtime never touches the heap. */
 #include "ub/ub_identfile.h"
+#include "codec/ub_wipe_private.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -31,11 +32,6 @@ static int failf(char *err, size_t cap, int rc, const char *fmt, ...) {
         va_end(ap);
     }
     return rc;
-}
-
-static void wipe(void *p, size_t n) {
-    volatile uint8_t *v = p;
-    while (n--) *v++ = 0;
 }
 
 static void put_header(uint8_t *out, const char *magic) {
@@ -184,7 +180,7 @@ int ub_identfile_write(const char *path, const ub_cert_t *cert, const uint8_t si
     rc = write_file(path, buf, sizeof buf, 0600, force, "identity",
                     "an identity is never overwritten: revoke the old one first, then issue with --force", err,
                     err_cap);
-    wipe(buf, sizeof buf);
+    ub_priv_wipe(buf, sizeof buf);
     return rc;
 }
 
@@ -217,10 +213,10 @@ int ub_identfile_load(const char *path, ub_cert_t *cert, uint8_t sign_sk[UB_IDEN
                        "it again: uavbus keys issue ENTITY --force)", path);
     }
     if (rc != UB_OK) {
-        wipe(sign_sk, UB_IDENT_SIGN_SK_LEN);
-        wipe(kx_sk, UB_IDENT_KX_SK_LEN);
+        ub_priv_wipe(sign_sk, UB_IDENT_SIGN_SK_LEN);
+        ub_priv_wipe(kx_sk, UB_IDENT_KX_SK_LEN);
     }
-    wipe(buf, sizeof buf);
+    ub_priv_wipe(buf, sizeof buf);
     return rc;
 }
 
@@ -233,7 +229,7 @@ int ub_authfile_write_secret(const char *path, const uint8_t seed[UB_IDENT_SEED_
     memcpy(buf + UB_IDENTFILE_HEADER_LEN, seed, UB_IDENT_SEED_LEN);
     int rc = write_file(path, buf, sizeof buf, 0600, false, "authority",
                         "an authority key is never overwritten: every identity it issued depends on it", err, err_cap);
-    wipe(buf, sizeof buf);
+    ub_priv_wipe(buf, sizeof buf);
     return rc;
 }
 
@@ -262,7 +258,7 @@ int ub_authfile_load_secret(const char *path, uint8_t sk[UB_IDENT_SIGN_SK_LEN], 
         rc = ub_ident_sign_keypair(buf + UB_IDENTFILE_HEADER_LEN, pk, sk);
         if (rc != UB_OK) rc = failf(err, err_cap, rc, "%s: cannot derive the authority key (%s)", path, ub_strerror(rc));
     }
-    wipe(buf, sizeof buf);
+    ub_priv_wipe(buf, sizeof buf);
     return rc;
 }
 
@@ -449,8 +445,8 @@ int ub_identfile_load_self(ub_ident_store_t *store, const char *identity_path, c
     if (rc != UB_OK) return rc;
     ub_ident_status_t why;
     rc = ub_ident_set_self(store, &cert, sign_sk, kx_sk, now_s, &why);
-    wipe(sign_sk, sizeof sign_sk);
-    wipe(kx_sk, sizeof kx_sk);
+    ub_priv_wipe(sign_sk, sizeof sign_sk);
+    ub_priv_wipe(kx_sk, sizeof kx_sk);
     if (rc == UB_OK) return UB_OK;
     if (rc == UB_ERR_FULL)
         return failf(err, err_cap, rc, "%s: this node holds %u identities already (UB_MAX_LOCAL_ENTITIES)", identity_path,

@@ -1,6 +1,7 @@
 /* Key files and counter files (contracts in ub/ub_secfile.h). POSIX open/read/write/fsync/rename
  * only: stdio's FILE may allocate, and nothing in the runtime touches the heap. */
 #include "ub/ub_secfile.h"
+#include "codec/ub_wipe_private.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -25,11 +26,6 @@ static int failf(char *err, size_t cap, int rc, const char *fmt, ...) {
         va_end(ap);
     }
     return rc;
-}
-
-static void wipe(void *p, size_t n) {
-    volatile uint8_t *v = p;
-    while (n--) *v++ = 0;
 }
 
 static int hex_value(char c) {
@@ -87,7 +83,7 @@ static int parse_key_line(const char *line, size_t len, const char *source, uint
     for (size_t i = 0; i < UB_SEC_KEY_LEN; i++) {
         int hi = hex_value(tok[3][2 * i]), lo = hex_value(tok[3][2 * i + 1]);
         if (hi < 0 || lo < 0) {
-            wipe(key, UB_SEC_KEY_LEN);
+            ub_priv_wipe(key, UB_SEC_KEY_LEN);
             return failf(err, cap, UB_ERR_CONFIG, "%s:%lu: the key has a character that is not a hex digit (0-9, a-f)",
                          source, (unsigned long)lineno);
         }
@@ -114,7 +110,7 @@ int ub_keyfile_parse(const char *text, size_t len, const char *source, uint8_t *
         while (k < line_len && (line[k] == ' ' || line[k] == '\t')) k++;
         if (k == line_len || line[k] == '#') continue;
         if (key_line != 0) {
-            wipe(key, UB_SEC_KEY_LEN);
+            ub_priv_wipe(key, UB_SEC_KEY_LEN);
             return failf(err, err_cap, UB_ERR_CONFIG,
                          "%s:%lu: a second key (the key is on line %lu; a key file holds one key: use one file per key)",
                          source, (unsigned long)lineno, (unsigned long)key_line);
@@ -158,21 +154,21 @@ int ub_keyfile_load(const char *path, uint8_t *id, uint8_t key[UB_SEC_KEY_LEN], 
         if (n < 0) {
             int e = errno;
             close(fd);
-            wipe(text, sizeof text);
+            ub_priv_wipe(text, sizeof text);
             return failf(err, err_cap, UB_ERR_IO, "%s: cannot read the key file: %s", path, strerror(e));
         }
         if (n == 0) break;
         len += (size_t)n;
         if (len == sizeof text) {
             close(fd);
-            wipe(text, sizeof text);
+            ub_priv_wipe(text, sizeof text);
             return failf(err, err_cap, UB_ERR_CONFIG, "%s: larger than %u bytes: not a key file", path,
                          (unsigned)UB_KEYFILE_MAX);
         }
     }
     close(fd);
     int rc = ub_keyfile_parse(text, len, path, id, key, err, err_cap);
-    wipe(text, sizeof text);
+    ub_priv_wipe(text, sizeof text);
     return rc;
 }
 
@@ -210,7 +206,7 @@ int ub_keyfile_write(const char *path, uint8_t id, const uint8_t key[UB_SEC_KEY_
     /* fchmod as well: the umask may only have removed bits, but a pre-set ACL default must not add any. */
     int rc = fchmod(fd, 0600) < 0 || write_all(fd, text, len) != UB_OK || fsync(fd) < 0 ? UB_ERR_IO : UB_OK;
     int e = errno;
-    wipe(text, sizeof text);
+    ub_priv_wipe(text, sizeof text);
     if (close(fd) < 0 && rc == UB_OK) {
         rc = UB_ERR_IO;
         e = errno;
@@ -240,7 +236,7 @@ int ub_keyfile_new(const char *path, uint8_t id, uint8_t *id_out, char *err, siz
         id = r;
     }
     rc = ub_keyfile_write(path, id, key, err, err_cap);
-    wipe(key, sizeof key);
+    ub_priv_wipe(key, sizeof key);
     if (rc == UB_OK && id_out != NULL) *id_out = id;
     return rc;
 }

@@ -4,6 +4,7 @@
  * Cryptography is libsodium's alone: X25519 (crypto_scalarmult), BLAKE2b (crypto_generichash), its KDF,
  * SipHash-2-4 (crypto_shorthash_siphash24), constant-time comparison (sodium_memcmp). */
 #include "ub/ub_origin.h"
+#include "codec/ub_wipe_private.h"
 
 #include <string.h>
 
@@ -28,15 +29,6 @@ _Static_assert(sizeof UB_ORIGIN_DOMAIN - 1u == 11u, "the origin domain replaces 
 _Static_assert(sizeof UB_ORIGIN_AGREE_DOMAIN - 1u == 16u, "agreement domain is 16 bytes");
 
 #define AGREE_INPUT_LEN (16u + 32u + 2u * (UB_ENTITY_ID_LEN + UB_ORIGIN_PK_LEN))
-
-static void wipe(void *p, size_t n) {
-#if HAVE_SODIUM
-    sodium_memzero(p, n);
-#else
-    volatile uint8_t *v = p;
-    while (n--) *v++ = 0;
-#endif
-}
 
 /* ---- pure functions ---------------------------------------------------------------------------- */
 
@@ -65,7 +57,7 @@ int ub_origin_pair_keys(const uint8_t self_id[UB_ENTITY_ID_LEN], const uint8_t s
     p += 16;
     /* libsodium refuses (returns -1) an all-zero result: a small-order public key contributes nothing. */
     if (crypto_scalarmult(p, self_sk, peer_pk) != 0) {
-        wipe(in, sizeof in);
+        ub_priv_wipe(in, sizeof in);
         return UB_ERR_AUTH;
     }
     p += 32;
@@ -87,10 +79,10 @@ int ub_origin_pair_keys(const uint8_t self_id[UB_ENTITY_ID_LEN], const uint8_t s
         memcpy(k_tx, order < 0 ? k_ab : k_ba, UB_ORIGIN_KEY_LEN);
         memcpy(k_rx, order < 0 ? k_ba : k_ab, UB_ORIGIN_KEY_LEN);
     }
-    wipe(in, sizeof in);
-    wipe(master, sizeof master);
-    wipe(k_ab, sizeof k_ab);
-    wipe(k_ba, sizeof k_ba);
+    ub_priv_wipe(in, sizeof in);
+    ub_priv_wipe(master, sizeof master);
+    ub_priv_wipe(k_ab, sizeof k_ab);
+    ub_priv_wipe(k_ba, sizeof k_ba);
     return rc == 0 ? UB_OK : UB_ERR_INVAL;
 #else
     return UB_ERR_UNSUPPORTED;
@@ -157,7 +149,7 @@ static ub_origin_peer_t *pair_get(ub_origin_t *o, int li, const uint8_t peer[UB_
     uint8_t pk[UB_ORIGIN_PK_LEN];
     o->stats.lookups++;
     if (o->opt.lookup(o->opt.lookup_user, peer, now_s(o, now_ms), pk) < 0) {
-        if (hit != NULL) wipe(hit, sizeof *hit);
+        if (hit != NULL) ub_priv_wipe(hit, sizeof *hit);
         return NULL;
     }
     if (hit != NULL && memcmp(hit->peer_pk, pk, UB_ORIGIN_PK_LEN) == 0) {
@@ -173,8 +165,8 @@ static ub_origin_peer_t *pair_get(ub_origin_t *o, int li, const uint8_t peer[UB_
     ub_origin_peer_t fresh;
     memset(&fresh, 0, sizeof fresh);
     if (ub_origin_pair_keys(o->idents[li].id, o->idents[li].sk, peer, pk, fresh.k_tx, fresh.k_rx) < 0) {
-        wipe(&fresh, sizeof fresh);
-        if (hit != NULL) wipe(hit, sizeof *hit);
+        ub_priv_wipe(&fresh, sizeof fresh);
+        if (hit != NULL) ub_priv_wipe(hit, sizeof *hit);
         return NULL;
     }
     o->stats.derivations++;
@@ -185,7 +177,7 @@ static ub_origin_peer_t *pair_get(ub_origin_t *o, int li, const uint8_t peer[UB_
     fresh.local = (uint8_t)li;
     fresh.in_use = 1;
     *e = fresh;
-    wipe(&fresh, sizeof fresh);
+    ub_priv_wipe(&fresh, sizeof fresh);
     return e;
 }
 
@@ -309,7 +301,7 @@ size_t ub_origin_forget(ub_origin_t *o, const uint8_t peer_id[UB_ENTITY_ID_LEN])
     for (size_t i = 0; i < UB_ORIGIN_PEERS; i++) {
         ub_origin_peer_t *e = &o->peers[i];
         if (e->in_use && ub_entity_id_eq(e->peer_id, peer_id)) {
-            wipe(e, sizeof *e);
+            ub_priv_wipe(e, sizeof *e);
             n++;
         }
     }
