@@ -474,7 +474,9 @@ _QEMU = (("__aarch64__", "__AARCH64EB__", "qemu-aarch64", "qemu-aarch64_be"),
          ("__powerpc__", None, "qemu-ppc", None),
          ("__mips64", "__MIPSEL__", "qemu-mips64", "qemu-mips64el"),
          ("__mips__", "__MIPSEL__", "qemu-mips", "qemu-mipsel"),
-         ("__riscv", None, "qemu-riscv64", None))
+         ("__s390x__", None, "qemu-s390x", None),
+         ("__riscv_xlen 64", None, "qemu-riscv64", None),
+         ("__riscv_xlen 32", None, "qemu-riscv32", None))
 _HOST_ARCH = {"x86_64": ("__x86_64__", "__i386__"), "amd64": ("__x86_64__", "__i386__"),
               "aarch64": ("__aarch64__",), "arm64": ("__aarch64__",)}
 
@@ -492,7 +494,8 @@ def run_plan(job: Job) -> RunPlan:
                               capture_output=True, text=True, timeout=60, check=False, stdin=subprocess.DEVNULL).stdout
     except (OSError, subprocess.SubprocessError) as exc:
         raise SelftestError(f"cannot run {cc} ({exc})") from None
-    macros = set(re.findall(r"^#define (\w+)", defs, re.M))
+    # Names, and `NAME VALUE` for the few an architecture tells by value (__riscv_xlen 32 or 64).
+    macros = set(re.findall(r"^#define (\w+)", defs, re.M)) | set(re.findall(r"^#define (\w+ \w+)$", defs, re.M))
     host = _HOST_ARCH.get(platform.machine().lower(), ())
     linux = "__linux__" in macros
     if linux and any(m in macros for m in host):
