@@ -276,25 +276,34 @@ class Loaded:
 
 def with_target(job: Job) -> Job:
     """The job with the target compiler's ABI resolved (--target-cc, or a cross compiler named by
-    --compile-commands) and checked against clang's; unchanged without one."""
+    --compile-commands) and checked against clang's; with or without one, the build's flags clang does not
+    know are found (they are left out of parsing)."""
     cc = job.target_cc
     if cc is None and job.opts.compile_commands:
         named = frontend.compile_commands_compiler(job.opts.compile_commands)
         if named and frontend.is_cross_compiler(named):
             cc = named
             _say(f"note: parsing with the ABI of {named}, the compiler of {job.opts.compile_commands} (--target-cc)")
-    if cc is None:
-        return job
     flags = list(job.opts.extra_args)
-    if job.opts.compile_commands:
-        flags = frontend.first_compile_args(job.opts.compile_commands) + flags
-    target = frontend.query_target(cc, frontend.abi_flags(flags))
-    opts = dataclasses.replace(job.opts, target=target)
-    skip = frontend.clang_unknown_args(opts, flags)
+    # Every entry's flags are asked about, not only the first one's: a build compiles some files
+    # with flags of their own (betaflight: its speed-optimised files), and one flag clang does not
+    # know fails every input that carries it.
+    flag_sets = ([s + flags for s in frontend.compile_args_sets(job.opts.compile_commands)]
+                 if job.opts.compile_commands else [flags])
+    flags = flag_sets[0]
+    opts = job.opts
+    if cc is not None:
+        opts = dataclasses.replace(opts, target=frontend.query_target(cc, frontend.abi_flags(flags)))
+    skip = tuple(dict.fromkeys(a for fs in flag_sets if fs for a in frontend.clang_unknown_args(opts, fs)))
     if skip:
-        _say(f"note: clang does not know {', '.join(skip)} (flags of {cc}): left out of parsing; they still "
+        whose = f"flags of {cc}" if cc else "flags of the build"
+        _say(f"note: clang does not know {', '.join(skip)} ({whose}): left out of parsing; they still "
              "reach the compiler in selftest")
         opts = dataclasses.replace(opts, clang_skip=skip)
+    if cc is None:
+        return dataclasses.replace(job, opts=opts)
+    target = opts.target
+    assert target is not None
     frontend.check_target_abi(opts, flags)
     if job.verbose:
         _say(f"note: --target-cc {cc}: {target.triple}, clang {' '.join(target.clang_args)}")
@@ -490,7 +499,7 @@ def run_plan(job: Job) -> RunPlan:
     try:
         triple = subprocess.run([cc, "-dumpmachine"], capture_output=True, text=True, timeout=60,
                                 check=False).stdout.strip() or "unknown"
-        defs = subprocess.run([cc, *frontend.abi_flags(job.opts.extra_args), "-dM", "-E", "-x", "c", os.devnull],
+        defs = subprocess.run([cc, *frontend.abi_flags(build_flags(job)), "-dM", "-E", "-x", "c", os.devnull],
                               capture_output=True, text=True, timeout=60, check=False, stdin=subprocess.DEVNULL).stdout
     except (OSError, subprocess.SubprocessError) as exc:
         raise SelftestError(f"cannot run {cc} ({exc})") from None
@@ -520,11 +529,35 @@ def run_plan(job: Job) -> RunPlan:
 def _has_newlib(cc: str, job: Job) -> bool:
     """The compiler links newlib's nosys.specs (what the qemu-arm shim builds on)."""
     try:
-        out = subprocess.run([cc, *frontend.abi_flags(job.opts.extra_args), "-print-file-name=nosys.specs"],
+        out = subprocess.run([cc, *frontend.abi_flags(build_flags(job)), "-print-file-name=nosys.specs"],
                              capture_output=True, text=True, timeout=60, check=False).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         return False
     return os.path.isabs(out) and os.path.isfile(out)
+
+
+# Flags of a compile command that the self-test leaves out: its own optimisation level and debug
+# information (-O0 -g0 keep a large straight-line test fast to build), -Werror (warnings are judged by
+# where they are), LTO, and dependency files.
+_NOT_FOR_SELFTEST = re.compile(r"^(-O.*|-g.*|-Werror(=.*)?|-pedantic-errors|-flto.*|-fuse-linker-plugin|-M[MDP]|-MMD)$")
+_NOT_FOR_SELFTEST_WITH_VALUE = ("-MF", "-MT", "-MQ")
+
+
+def build_flags(job: Job) -> list[str]:
+    """The build's flags the self-test compiles and links with: with --compile-commands, its first entry's
+    (the ones headers are parsed with: -mcpu, -mfloat-abi, -D, -I...), then everything after `--`."""
+    out: list[str] = []
+    if job.opts.compile_commands:
+        args = frontend.first_compile_args(job.opts.compile_commands)
+        i = 0
+        while i < len(args):
+            if args[i] in _NOT_FOR_SELFTEST_WITH_VALUE:
+                i += 2
+                continue
+            if not _NOT_FOR_SELFTEST.match(args[i]):
+                out.append(args[i])
+            i += 1
+    return out + list(job.opts.extra_args)
 
 
 def _cc_base(job: Job, tmp: str, cc: str) -> list[str]:
@@ -540,7 +573,7 @@ def _cc_base(job: Job, tmp: str, cc: str) -> list[str]:
     cmd += ["-I", str(RUNTIME_INCLUDE), "-I", tmp]
     for d in dict.fromkeys(job.opts.include_dirs):
         cmd += ["-I", d]
-    return cmd + [f"-D{d}" for d in job.opts.defines] + list(job.opts.extra_args)
+    return cmd + [f"-D{d}" for d in job.opts.defines] + build_flags(job)
 
 
 _WARNING = re.compile(r"^(?P<file>[^:\n]+):\d+(?::\d+)?: (?:warning|error): .*$", re.M)
@@ -572,7 +605,7 @@ def _run_c(job: Job, tmp: str, sources: list[str], plan: RunPlan, deadline: floa
             return None
     exe = os.path.join(tmp, f"{job.name}_selftest")
     # The build's own flags reach the link too (-m32, -mcpu/-mfloat-abi pick the libraries).
-    link_cmd = [plan.cc, *(a for a in base if a.startswith("-fsanitize")), *objects, *job.opts.extra_args]
+    link_cmd = [plan.cc, *(a for a in base if a.startswith("-fsanitize")), *objects, *build_flags(job)]
     if plan.shim:
         link_cmd += ["--specs=nosys.specs", "-nostartfiles"]
     link = _tool(link_cmd + ["-o", exe], deadline, "C link")

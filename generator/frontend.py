@@ -9,6 +9,7 @@ objects; the model (model.py) decides what is packed, skipped or refused.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -265,6 +266,20 @@ def first_compile_args(db_path: str) -> list[str]:
     return _clean_compile_args(entries[0])
 
 
+def compile_args_sets(db_path: str) -> list[list[str]]:
+    """The flags of the entries that bring flags no earlier entry had (in file order, the first entry
+    always): what must be asked about to know every flag parsing will meet, without asking about
+    each of a large build's entries (they mostly share one set)."""
+    seen: set[str] = set()
+    sets: list[list[str]] = []
+    for entry in json.loads(Path(db_path).read_text()):
+        args = _clean_compile_args(entry)
+        if not sets or not seen.issuperset(args):
+            sets.append(args)
+            seen.update(args)
+    return sets
+
+
 def _clean_compile_args(entry: dict) -> list[str]:
     """Compiler flags of one entry with the compiler, -c, -o X and the source removed; relative
     include paths made absolute against the entry's directory."""
@@ -303,6 +318,29 @@ def _absolute(directory: str, path: str) -> str:
     return path if os.path.isabs(path) else os.path.normpath(os.path.join(directory, path))
 
 
+# Left out of parsing: a build's -Werror judges the build compiler's warnings; clang warns about other
+# things (a header parsed as a main file: `#pragma once in main file`), and under -Werror each of them
+# would fail the input (what is an error in C stays one). Dependency-file flags (-MMD -MP, which make's
+# builds carry) would have clang write a .d file per input into the current folder: the user's tree.
+_NOT_FOR_PARSING = re.compile(r"^(-Werror(=.*)?|-pedantic-errors|-M|-MM|-MD|-MMD|-MP|-MG)$")
+_NOT_FOR_PARSING_WITH_VALUE = ("-MF", "-MT", "-MQ")
+
+
+def _for_parsing(flags: Iterable[str], skip: tuple[str, ...]) -> list[str]:
+    """The build's flags as clang parses with them: without those it does not know, -Werror and the
+    dependency-file flags."""
+    out: list[str] = []
+    drop_next = False
+    for a in flags:
+        if drop_next:
+            drop_next = False
+        elif a in _NOT_FOR_PARSING_WITH_VALUE:
+            drop_next = True
+        elif a not in skip and not _NOT_FOR_PARSING.match(a):
+            out.append(a)
+    return out
+
+
 def args_for(opts: ParseOptions, source: str) -> list[str]:
     """Every clang argument for one input file (builtin headers first; with a target, its headers)."""
     if opts.target is not None:
@@ -312,13 +350,14 @@ def args_for(opts: ParseOptions, source: str) -> list[str]:
     if opts.compile_commands:
         db_args = _args_from_compile_commands(opts.compile_commands, source)
         # A header has no entry of its own: it takes the first entry's flags (docs/catalogue.md).
-        args += db_args if db_args is not None else first_compile_args(opts.compile_commands)
+        args += _for_parsing(db_args if db_args is not None else first_compile_args(opts.compile_commands),
+                             opts.clang_skip)
         if not any(a.startswith("-std=") for a in args):
             args.append(f"-std={opts.std}")
         args += [f"-I{d}" for d in opts.include_dirs] + [f"-D{d}" for d in opts.defines]
     else:
         args += opts.base_args()
-    return args + [a for a in opts.extra_args if a not in opts.clang_skip]
+    return args + _for_parsing(opts.extra_args, opts.clang_skip)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -461,7 +500,7 @@ def check_target_abi(opts: ParseOptions, flags: Iterable[str] | None = None) -> 
 
 
 _UNKNOWN_ARG = re.compile(r"^(?:unknown argument|unsupported option|unknown target CPU|unknown warning option|"
-                          r"the clang compiler does not support):? '([^']+)'")
+                          r"the clang compiler does not support|optimization flag):? '([^']+)'")
 
 
 def clang_unknown_args(opts: ParseOptions, flags: Iterable[str]) -> tuple[str, ...]:
@@ -470,11 +509,25 @@ def clang_unknown_args(opts: ParseOptions, flags: Iterable[str]) -> tuple[str, .
     no layout clang must match (the ABI probe checks that), so parsing leaves them out."""
     target = opts.target
     base = ["-x", "c", *(target.clang_args if target else ("-isystem", opts.builtin_include or find_builtin_include()))]
-    flags = list(flags)
+    flags = _for_parsing(flags, ())
     path = "uavbus_flags_probe.c"
-    tu = ci.Index.create().parse(path, args=[*base, *flags], unsaved_files=[(path, "int uavbus_flags_probe;\n")])
+    with _quiet_stderr():  # libclang's driver prints what it refuses; the note says it once, with what is done
+        tu = ci.Index.create().parse(path, args=[*base, *flags], unsaved_files=[(path, "int uavbus_flags_probe;\n")])
     unknown = [m.group(1) for d in tu.diagnostics if (m := _UNKNOWN_ARG.match(d.spelling))]
     return tuple(a for a in dict.fromkeys(unknown) if a in flags)
+
+
+@contextlib.contextmanager
+def _quiet_stderr() -> Iterator[None]:
+    """Descriptor 2 to /dev/null for a while (libclang writes driver diagnostics there itself)."""
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 def _clang_abi_values(opts: ParseOptions, flags: list[str]) -> list[int]:
@@ -483,7 +536,7 @@ def _clang_abi_values(opts: ParseOptions, flags: list[str]) -> list[int]:
     assert target is not None
     src = _ABI_PROBE_TYPES + "".join(f"{decl} ub_abi_v{k};\n" for k, (_, _, _, decl, _) in enumerate(_ABI_CHECKS))
     path = "uavbus_abi_probe.c"
-    args = ["-x", "c", *target.clang_args, *(f for f in flags if f not in opts.clang_skip), "-std=gnu11"]
+    args = ["-x", "c", *target.clang_args, *_for_parsing(flags, opts.clang_skip), "-std=gnu11"]
     tu = ci.Index.create().parse(path, args=args, unsaved_files=[(path, src)])
     errors = [d.spelling for d in tu.diagnostics if d.severity >= ci.Diagnostic.Error]
     if errors:

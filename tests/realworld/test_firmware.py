@@ -412,3 +412,70 @@ def test_gcc_only_flags_of_the_firmware_build_are_left_out_of_parsing_only() -> 
     assert proc.returncode == 0, describe(proc)
     assert sorted(M4.rglob("*")) == before
     assert f"note: clang does not know {', '.join(gcc_only)} (flags of {ARM_CC}): left out of parsing" in proc.stderr
+
+
+# ---------------------------------------------------------------------------------------------
+# A build described only by compile_commands.json (betaflight style: make's flags, -Werror, -MMD,
+# GCC-only flags in some entries only, `#pragma once` headers, instances from macros)
+
+
+PGFW = CORPUS / "pgfw"
+
+
+def pgfw_compile_commands(tmp_path: Path) -> Path:
+    """compile_commands.json for the pgfw tree as make writes it (one entry per .c, arguments form)."""
+    build = json.loads((PGFW / "build.json").read_text())
+    entries = [{"directory": str(PGFW), "file": e["file"],
+                "arguments": [ARM_CC, "-c", "-o", f"obj/{e['file']}.o", *build["common"], *e["flags"], e["file"]]}
+               for e in build["entries"]]
+    db = tmp_path / "compile_commands.json"
+    db.write_text(json.dumps(entries, indent=1))
+    return db
+
+
+@needs_arm
+def test_compile_commands_build_parses_with_every_entrys_flags(tmp_path: Path) -> None:
+    db = pgfw_compile_commands(tmp_path)
+    before = sorted(PGFW.rglob("*"))
+    proc = uavbus("check", ".", "--compile-commands", str(db), "--id-scheme", "hashed", cwd=PGFW)
+    # -Werror is the build compiler's: clang's own warnings (`#pragma once in main file` for each header
+    # parsed alone) fail no input; the GCC-only flags of the second entry (pid.c) alone are found too.
+    assert proc.returncode == 0, describe(proc)
+    assert "check: 8 instances of 3 types" in proc.stdout
+    assert (f"note: clang does not know -fuse-linker-plugin, -Wunsafe-loop-optimizations (flags of {ARM_CC}): "
+            "left out of parsing") in proc.stderr
+    assert "error" not in proc.stderr.replace("-Werror", "")
+    # -MMD -MP make clang write a .d file per input: never into the user's tree.
+    assert sorted(PGFW.rglob("*")) == before
+
+
+@needs_arm
+def test_compile_commands_build_generated_c_compiles_with_the_builds_own_flags(tmp_path: Path) -> None:
+    db = pgfw_compile_commands(tmp_path)
+    out = tmp_path / "gen"
+    proc = uavbus("gen", ".", "--compile-commands", str(db), "--id-scheme", "hashed", "--name", "pg", "-o", str(out),
+                  cwd=PGFW)
+    assert proc.returncode == 0, describe(proc)
+    doc = json.loads((out / "pg.catalogue.json").read_text())
+    gyro = {f["name"]: f for t in doc["types"] if t["name"] == "struct gyroConfig_s" for f in t["fields"]}
+    assert gyro["lpf_mode"]["wire"] == "u8" and gyro["gyro_lpf1_static_hz"]["offset"] == 2  # the EABI's short enums
+    # The first entry's command line, -Werror -Wextra -Wdouble-promotion included: every layout assertion holds.
+    entry = json.loads(db.read_text())[0]["arguments"]
+    flags = [a for a in entry[1:-1] if a != "-c"]
+    del flags[flags.index("-o"):flags.index("-o") + 2]
+    comp = run([ARM_CC, *flags, "-I", str(RUNTIME_INCLUDE), "-I", str(out), "-c", str(out / "pg.c"),
+                "-o", str(tmp_path / "pg.o")], PGFW)
+    assert comp.returncode == 0, comp.stderr[-4000:]
+
+
+@needs_arm
+def test_compile_commands_build_selftest_builds_with_the_entrys_flags(tmp_path: Path) -> None:
+    # No flags after `--`: the self-test compiles and links with the first entry's (-mcpu, -mfloat-abi, -D,
+    # -I: target.h refuses any other build), without its -O/-Werror/-flto/-MMD, and runs under qemu-arm.
+    db = pgfw_compile_commands(tmp_path)
+    proc = uavbus("selftest", ".", "--compile-commands", str(db), "--id-scheme", "hashed", "--name", "pg", "-j", "2",
+                  cwd=PGFW)
+    if shutil.which("qemu-arm") is None:
+        assert proc.returncode == 0 and "run skipped: qemu-arm is not installed" in proc.stdout, describe(proc)
+        pytest.skip("qemu-arm not installed: the C self-test was built but not run (make setup installs qemu-user)")
+    assert_selftest_passed(proc, 3)

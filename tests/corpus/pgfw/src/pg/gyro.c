@@ -1,0 +1,3 @@
+#include "pg/gyro.h"
+
+PG_REGISTER(gyroConfig_t, gyroConfig);
