@@ -110,3 +110,17 @@ def test_left_out_header_the_generated_header_includes_anyway_keeps_its_instance
     assert "left out" not in err.split("warning: 1 of 3 inputs cannot be parsed")[-1]
     proc = gcc(["-std=c11", *PEDANTIC, "-I", str(RUNTIME_INCLUDE), "-I", "out", "-c", "out/usr.c", "-o", "u.o"], tmp_path)
     assert proc.returncode == 0, proc.stderr
+
+
+def test_host_build_flags_of_gcc_alone_fail_no_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # Without --target-cc: a make build's -Werror (clang's `#pragma once in main file` for a header parsed
+    # alone), -MMD -MP -MF (clang would write .d files into the tree) and a GCC-only warning flag.
+    write(tmp_path, "fw/imu.h", "#pragma once\n#include <stdint.h>\nstruct imu { int16_t acc[3]; };\n"
+                                "extern struct imu imu_raw;\n")
+    before = sorted(tmp_path.rglob("*"))
+    code, out, err = run_cli(["check", "fw", "--", "-Werror", "-Wall", "-Wunsafe-loop-optimizations", "-MMD", "-MP",
+                              "-MF", "deps.d"], tmp_path, capsys)
+    assert code == 0 and "check: 1 instances of 1 types" in out, err
+    assert ("note: clang does not know -Wunsafe-loop-optimizations (flags of the build): left out of parsing"
+            in err)
+    assert sorted(tmp_path.rglob("*")) == before
