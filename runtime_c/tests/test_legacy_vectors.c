@@ -2,7 +2,8 @@
  * tests/vectors/make_legacy_vectors.py) reproduced by the C runtime: every message rebuilt byte for byte from its
  * type and payload, and the mixed stream (noise, messages, a bad header checksum, a bad message checksum, a
  * false sync) parsed to exactly its good messages and counters, whole and one byte at a time. The legacy link
- * driver (ub_legacy_link.h) is tested end to end in tests/python/test_legacy_link.py. */
+ * driver (ub_legacy_link.h) is tested end to end in tests/python/test_legacy_link.py and, on a pty in C, in
+ * test_legacy_link.c. test_limits_and_refusals covers what the vectors do not (too long, in place, NULLs). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
