@@ -275,8 +275,8 @@ static void test_hangup_reopens_and_starts_the_parser_afresh(void **state) {
     assert_int_equal(lk(ports)->serial.stats.reopens, 1);
     assert_int_equal(counter(ports, "noise_bytes"), noise + 20); /* the old stream's half message */
     assert_int_equal(ub_legacy_pending(&lk(ports)->parser), 0);
-    /* The new stream's first message: delivered (had the 20 old bytes stayed, it would have been read as
-     * their continuation, and lost). */
+    /* The new stream's first message: delivered, and nothing counted against a stream that had no error (had
+     * the 20 old bytes stayed, the message would first have been read as their continuation: a bad checksum). */
     write_all(master, msg, mlen);
     SERVE_UNTIL(ports, now, counter(ports, "frames_in") == 1);
     assert_int_equal(p->log.n, 1);
