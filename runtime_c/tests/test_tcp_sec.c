@@ -334,6 +334,49 @@ static void test_a_proven_candidate_is_not_evicted(void **state) {
     rig_free(r);
 }
 
+/* Every slot holds a proven candidate (genuine connections of the client's node, each proven by its hello,
+ * while the established peer is alive and keeps its place): a newcomer finds nothing it may evict and is
+ * closed at once, counted `candidates_refused`; the proven ones and the established peer stay. */
+static void test_every_slot_proven_refuses_a_newcomer(void **state) {
+    (void)state;
+    rig_t *r = rig_new();
+    assert_true(ub_pubsub_publish(r->p->pub_node, r->p->pub, TEST_GPS, r->p->sub_id, 10, 0) >= 0);
+    run(r, 100, 1);
+    assert_int_equal(ub_tcp_state(&r->server), UB_TCP_UP);
+    static ub_tcp_t extra[UB_TCP_MAX_CANDIDATES];
+    ub_tcp_options_t co = {.backoff_initial_ms = 20, .backoff_max_ms = 160};
+    const ub_tcp_stats_t *s = ub_tcp_stats(&r->server);
+    for (int i = 0; i < UB_TCP_MAX_CANDIDATES; i++) {
+        assert_int_equal(ub_tcp_client_init(&extra[i], "127.0.0.1", r->port, &co), UB_OK);
+        assert_int_equal(ub_tcp_attach(&extra[i], r->client_node, r->p->pub_link), UB_OK);
+        for (int k = 0; k < 2000 && (ub_tcp_stats(&extra[i])->hellos == 0 || ub_tcp_candidates(&r->server) <= i ||
+                                     !r->server.cand[i].proven);
+             k++) {
+            (void)poll(&(struct pollfd){.fd = ub_tcp_fileno(&extra[i]), .events = POLLOUT}, 1, 1);
+            assert_true(ub_tcp_service(&extra[i], r->client_node, r->now) >= 0);
+            step(r, 1);
+        }
+        assert_int_equal(ub_tcp_stats(&extra[i])->hellos, 1);
+    }
+    int proven = 0;
+    for (int i = 0; i < UB_TCP_MAX_CANDIDATES; i++) proven += r->server.cand[i].fd >= 0 && r->server.cand[i].proven;
+    assert_int_equal(proven, UB_TCP_MAX_CANDIDATES);
+    assert_int_equal(s->adopted, 1); /* the established peer is alive: nobody was adopted in its place */
+    int newcomer = attacker_connect_from(r->port, 42);
+    for (int k = 0; k < 200 && s->candidates_refused == 0; k++) step(r, 1);
+    assert_int_equal(s->candidates_refused, 1);
+    assert_int_equal(s->candidates_evicted, 0);
+    assert_int_equal(ub_tcp_candidates(&r->server), UB_TCP_MAX_CANDIDATES);
+    assert_int_equal(ub_tcp_state(&r->server), UB_TCP_UP);
+    uint8_t b;
+    struct pollfd pf = {.fd = newcomer, .events = POLLIN};
+    assert_int_equal(poll(&pf, 1, 2000), 1);
+    assert_int_equal(read(newcomer, &b, 1), 0); /* closed by the server: end of stream */
+    close(newcomer);
+    for (int i = 0; i < UB_TCP_MAX_CANDIDATES; i++) ub_tcp_close(&extra[i]);
+    rig_free(r);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_signed_link_comes_up_and_resists_takeover),
@@ -341,6 +384,7 @@ int main(void) {
         cmocka_unit_test(test_a_listener_that_only_publishes_is_adopted_by_the_client_hello),
         cmocka_unit_test(test_plain_connections_renewed_before_expiry_cannot_keep_the_client_out),
         cmocka_unit_test(test_a_proven_candidate_is_not_evicted),
+        cmocka_unit_test(test_every_slot_proven_refuses_a_newcomer),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

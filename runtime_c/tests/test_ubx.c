@@ -138,11 +138,103 @@ static void test_build_matches_layout(void **state) {
     assert_int_equal(u.stats.bad_checksum, 0);
 }
 
+/* The messages around a CFG exchange (issue #29 item 6): an ACK-NAK decoded as a refusal, an ACK of the wrong
+ * length counted and not decoded, another ACK id and another NAV message unsupported, a message without
+ * payload (a poll request) read whole, a parser without callback counting all the same; NULL refusals. */
+static void test_acks_and_short_messages(void **state) {
+    (void)state;
+    uint8_t buf[64];
+    ub_ubx_t u;
+    ub_ubx_init(&u);
+    g_calls = 0;
+    const uint8_t answered[3] = {UB_UBX_CLASS_CFG, UB_UBX_ID_CFG_RATE, 0};
+    size_t n = message(buf, UB_UBX_CLASS_ACK, UB_UBX_ID_ACK_NAK, answered, 2);
+    assert_int_equal(ub_ubx_feed(&u, buf, n, on_pvt, NULL), 0);
+    assert_int_equal(g_calls, 1);
+    assert_int_equal(u.stats.nak, 1);
+    assert_int_equal(u.ack.ok, 0);
+    assert_int_equal(u.ack.cls, UB_UBX_CLASS_CFG);
+    assert_int_equal(u.ack.id, UB_UBX_ID_CFG_RATE);
+    n = message(buf, UB_UBX_CLASS_ACK, UB_UBX_ID_ACK_ACK, (const uint8_t[3]){UB_UBX_CLASS_NAV, 0x99, 0}, 3);
+    assert_int_equal(ub_ubx_feed(&u, buf, n, on_pvt, NULL), 0);
+    assert_int_equal(u.stats.bad_length, 1);
+    assert_int_equal(u.ack.id, UB_UBX_ID_CFG_RATE); /* the wrong-length ACK was not decoded */
+    assert_int_equal(g_calls, 1);
+    n = message(buf, UB_UBX_CLASS_ACK, 0x02, answered, 2); /* neither ACK nor NAK */
+    assert_int_equal(ub_ubx_feed(&u, buf, n, on_pvt, NULL), 0);
+    n = message(buf, UB_UBX_CLASS_NAV, 0x03, answered, 2); /* NAV-STATUS-like: not NAV-PVT */
+    assert_int_equal(ub_ubx_feed(&u, buf, n, on_pvt, NULL), 0);
+    assert_int_equal(u.stats.unsupported, 2);
+    /* a poll request has no payload: its checksum follows the length at once */
+    int m = ub_ubx_build(UB_UBX_CLASS_CFG, UB_UBX_ID_CFG_RATE, NULL, 0, buf, sizeof buf);
+    assert_int_equal(m, 8);
+    assert_int_equal(buf[4] | buf[5] << 8, 0);
+    assert_int_equal(ub_ubx_feed(&u, buf, (size_t)m, on_pvt, NULL), 0);
+    assert_int_equal(u.stats.unsupported, 3);
+    assert_int_equal(u.stats.bad_checksum, 0);
+    /* no callback: an ACK still decoded and counted */
+    n = message(buf, UB_UBX_CLASS_ACK, UB_UBX_ID_ACK_ACK, answered, 2);
+    assert_int_equal(ub_ubx_feed(&u, buf, n, NULL, NULL), 0);
+    assert_int_equal(u.stats.ack, 1);
+    assert_int_equal(u.ack.ok, 1);
+    assert_int_equal(g_calls, 1);
+    assert_int_equal(u.stats.bytes_in, u.stats.noise_bytes + u.stats.bytes_in_messages);
+    assert_int_equal(u.stats.noise_bytes, 0);
+    /* refusals */
+    uint64_t in = u.stats.bytes_in;
+    assert_int_equal(ub_ubx_feed(&u, NULL, 1, NULL, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_ubx_feed(&u, NULL, 0, NULL, NULL), 0);
+    assert_int_equal(u.stats.bytes_in, in);
+    assert_int_equal(ub_ubx_build(1, 2, NULL, 0, NULL, 64), UB_ERR_INVAL);
+    assert_int_equal(ub_ubx_build(1, 2, NULL, 4, buf, sizeof buf), UB_ERR_INVAL);
+    ub_ubx_init(NULL);
+}
+
+/* The CFG-RATE exchange beside test_gps_fields' (issue #29 item 6): a wanted rate that differs from the
+ * answered one only in its navigation rate, or only in its time reference, is written again; an ACK of
+ * another CFG message does not settle it; the NULL refusals change nothing. */
+static void test_cfg_rate_every_field_counts(void **state) {
+    (void)state;
+    ub_ubx_cfg_t c;
+    ub_ubx_cfg_init(&c);
+    uint8_t msg[8 + UB_UBX_CFG_RATE_LEN];
+    ub_ubx_rate_t want = {200, 1, 0};
+    ub_ubx_ack_t ack = {UB_UBX_CLASS_CFG, UB_UBX_ID_CFG_RATE, 1};
+    ub_ubx_ack_t other_cfg = {UB_UBX_CLASS_CFG, 0x01 /* CFG-MSG */, 1};
+    assert_int_equal(ub_ubx_cfg_poll(&c, &want, 0, msg, sizeof msg), (int)sizeof msg);
+    ub_ubx_cfg_sent(&c, &want, 0);
+    assert_int_equal(ub_ubx_cfg_answer(&c, &other_cfg), 0);
+    assert_int_equal(c.pending, 1);
+    assert_int_equal(ub_ubx_cfg_answer(&c, &ack), 1);
+    assert_int_equal(ub_ubx_cfg_poll(&c, &want, 10, msg, sizeof msg), 0); /* applied: nothing to write */
+    want.nav_rate = 2;
+    assert_int_equal(ub_ubx_cfg_poll(&c, &want, 20, msg, sizeof msg), (int)sizeof msg);
+    assert_int_equal(msg[8] | msg[9] << 8, 2);
+    ub_ubx_cfg_sent(&c, &want, 20);
+    assert_int_equal(ub_ubx_cfg_answer(&c, &ack), 1);
+    want.time_ref = 1;
+    assert_int_equal(ub_ubx_cfg_poll(&c, &want, 30, msg, sizeof msg), (int)sizeof msg);
+    assert_int_equal(msg[10] | msg[11] << 8, 1);
+    assert_int_equal(c.sent_count, 2);
+    /* refusals and NULLs: nothing moves */
+    assert_int_equal(ub_ubx_cfg_poll(&c, NULL, 30, msg, sizeof msg), UB_ERR_INVAL);
+    assert_int_equal(ub_ubx_cfg_poll(&c, &want, 30, NULL, sizeof msg), UB_ERR_INVAL);
+    ub_ubx_cfg_sent(NULL, &want, 30);
+    ub_ubx_cfg_sent(&c, NULL, 30);
+    assert_int_equal(c.sent_count, 2);
+    assert_int_equal(c.pending, 0);
+    assert_int_equal(ub_ubx_cfg_answer(NULL, &ack), 0);
+    assert_int_equal(ub_ubx_cfg_answer(&c, NULL), 0);
+    ub_ubx_cfg_init(NULL);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_nav_pvt_decoded_in_any_cut),
         cmocka_unit_test(test_bad_messages_counted_not_decoded),
         cmocka_unit_test(test_build_matches_layout),
+        cmocka_unit_test(test_acks_and_short_messages),
+        cmocka_unit_test(test_cfg_rate_every_field_counts),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

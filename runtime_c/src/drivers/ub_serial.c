@@ -138,10 +138,9 @@ static void try_reopen(ub_serial_t *serial, uint64_t now_ms) {
     serial->hung = 0;
     serial->backoff_ms = UB_SERIAL_RETRY_MIN_MS;
     serial->stats.reopens++;
-    if (serial->node != NULL) {
-        int attached = ub_driver_reattach(serial->node, serial->link_id, serial->ops, serial->ops_impl);
-        (void)attached; /* cannot fail: ub_serial_attach() succeeded with these arguments */
-    }
+    /* Only ub_serial_service() gets here, which checked that `serial->node` is the (non-NULL) node it serves. */
+    int attached = ub_driver_reattach(serial->node, serial->link_id, serial->ops, serial->ops_impl);
+    (void)attached; /* cannot fail: ub_serial_attach() succeeded with these arguments */
     ub_decoder_restart(serial->dec); /* the same restart for the caller's decoder, keeping its handler (NULL: none) */
 }
 
