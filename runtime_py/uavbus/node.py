@@ -455,9 +455,9 @@ class Node:
         if self._sink.frames:
             self._dispatch_frames()
         pending = self._drain()
-        instances, names = self.catalogue.instances, self._local_names
+        instances, names, refusable = self.catalogue.instances, self._local_names, self._refusable
         for k, (entity, instance, src_id, dest_id, seq, now_ms, raw, hop_limit) in enumerate(pending):
-            if refused(instances[instance].type, raw) is not None:
+            if refusable and refused(instances[instance].type, raw) is not None:
                 # What a C node's generated unpack refuses (UB_ERR_RANGE, counted as bad_payload); this
                 # node's wire-image storage took it as is, so the delivery is dropped and counted here.
                 self._refused_payloads += 1
