@@ -15,6 +15,8 @@ Every case is calibrated to ~0.1 s per sample and sampled 5 times round-robin (d
 - pymavlink: msg.pack(mav) with the timestamp changed (encode); mav.decode(frame) (decode).
 - LCM Python: obj.encode() with the timestamp changed; T.decode(bytes).
 - uavbus catalogue codec (no node): Catalogue.encode(dict) / decode(bytes).
+- "calls/msg <case>" lines: Python-level calls (Python functions + builtins, cffi functions included) per
+  message over one warm batch of 32, counted with sys.setprofile: a figure the machine's load cannot move.
 """
 
 from __future__ import annotations
@@ -84,18 +86,24 @@ def cases_for(cat: Catalogue, lcm_mod, label: str) -> tuple[list[Case], dict[str
 
     spent = {"pub": 0.0, "recv": 0.0}
 
+    def publish_batch(first: int) -> None:
+        pub.send_many(range(first, first + BATCH), field=ts)
+
+    def receive_batch() -> None:
+        link.pump(1)
+        rx.service(dispatch=False)
+        rows = rx.receive().rows(inst)
+        assert len(rows) == BATCH
+
     def node_roundtrip(n: int) -> int:
         """Batched: n publishes (send_many) and their receptions (one drain, rows); books each side's time."""
         done = 0
         while done < n:
             t0 = time.perf_counter()
-            pub.send_many(range(done, done + BATCH), field=ts)
+            publish_batch(done)
             t1 = time.perf_counter()
-            link.pump(1)
-            rx.service(dispatch=False)
-            rows = rx.receive().rows(inst)
+            receive_batch()
             t2 = time.perf_counter()
-            assert len(rows) == BATCH
             spent["pub"] += t1 - t0
             spent["recv"] += t2 - t1
             done += BATCH
@@ -154,11 +162,48 @@ def cases_for(cat: Catalogue, lcm_mod, label: str) -> tuple[list[Case], dict[str
             cat.decode(inst, payload)
         return n
 
+    def publish_each(first: int) -> None:
+        for i in range(BATCH):
+            setattr(d, ts, first + i)
+            pub.send()
+
+    def receive_each() -> None:
+        rx.on_data(on_data)
+        link.pump(1)
+        rx.service()
+        rx._callbacks.clear()  # noqa: SLF001
+
+    def calls_per_message() -> list[tuple[str, float]]:
+        """Python-level calls (Python functions and builtins, cffi's included) per message over one batch of
+        each path: a count the machine's load cannot move, beside the rates it does."""
+        def count(fn: Callable[[], object]) -> float:
+            events = [0]
+
+            def profile(frame, event, arg) -> None:  # noqa: ANN001 - sys.setprofile's signature
+                if event in ("call", "c_call"):
+                    events[0] += 1
+
+            sys.setprofile(profile)
+            try:
+                fn()
+            finally:
+                sys.setprofile(None)
+            return (events[0] - 1) / BATCH  # less the setprofile(None) call itself
+
+        publish_batch(0), receive_batch(), publish_each(0), receive_each()  # warm: caches built on first use
+        out = [("uavbus publish", count(lambda: publish_batch(0))), ("uavbus receive", count(receive_batch)),
+               ("uavbus publish, send() each", count(lambda: publish_each(0))),
+               ("uavbus receive, Message each", count(receive_each))]
+        for name, fn in (("pymavlink encode", mav_encode), ("pymavlink decode", mav_decode),
+                         ("lcm encode", lcm_encode), ("lcm decode", lcm_decode)):
+            out.append((name, count(lambda fn=fn: fn(BATCH))))
+        return out
+
     return [("node", label, node_roundtrip), ("node each", label, node_roundtrip_each),
             ("pymavlink encode", label, mav_encode),
             ("pymavlink decode", label, mav_decode), ("lcm encode", label, lcm_encode),
             ("lcm decode", label, lcm_decode), ("uavbus catalogue encode", label, cat_encode),
-            ("uavbus catalogue decode", label, cat_decode)], spent
+            ("uavbus catalogue decode", label, cat_decode)], spent, calls_per_message
 
 
 def main() -> None:
@@ -168,10 +213,12 @@ def main() -> None:
 
     all_cases = []
     spents = {}
+    counts = []
     for label in MESSAGES:
-        cases, spent = cases_for(cat, benchlcm, label)
+        cases, spent, calls_per_message = cases_for(cat, benchlcm, label)
         all_cases += cases
         spents[label] = spent
+        counts += [(name, label, c) for name, c in calls_per_message()]
     iters = {}
     for name, label, fn in all_cases:  # calibrate
         n = 256
@@ -201,6 +248,8 @@ def main() -> None:
             rates.setdefault((name, label), []).append(n / (time.perf_counter() - t0))
     for (name, label), r in rates.items():
         print("\t".join([name, label] + [f"{x:.0f}" for x in r]))
+    for name, label, c in counts:  # "calls/msg <case>": one value, load-independent
+        print(f"calls/msg {name}\t{label}\t{c:.2f}")
 
 
 if __name__ == "__main__":

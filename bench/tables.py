@@ -534,6 +534,18 @@ def main() -> None:
                 worst[(ours, peer)] = min(rs)
                 w(f"| {ours} / {peer} | " + " | ".join(f"{r:.2f}x" for r in rs) + f" | {goal} |")
             w("")
+            counted = [c for c in ("uavbus publish", "uavbus receive", "uavbus publish, send() each",
+                                   "uavbus receive, Message each", "pymavlink encode", "pymavlink decode",
+                                   "lcm encode", "lcm decode") if all((f"calls/msg {c}", m) in py for m in MSGS)]
+            if counted:
+                w("Python-level calls per message (py_bench, sys.setprofile over one warm batch of 32: Python functions")
+                w("and builtins, cffi's included): a count the machine's load cannot move.")
+                w("")
+                w("| calls per message | " + " | ".join(MSGS) + " |")
+                w("|---|" + "---:|" * len(MSGS))
+                for c in counted:
+                    w(f"| {c} | " + " | ".join(f"{statistics.median(py[(f'calls/msg {c}', m)]):.2f}" for m in MSGS) + " |")
+                w("")
             rx_mav, rx_lcm = worst[("uavbus receive", "pymavlink decode")], worst[("uavbus receive", "lcm decode")]
             tx_mav, tx_lcm = worst[("uavbus publish", "pymavlink encode")], worst[("uavbus publish", "lcm encode")]
             goals.append(("Python receive", ">= 4x pymavlink decode and >= 1x LCM decode",

@@ -39,6 +39,10 @@ INBOX_MAX = 10000  # messages kept for messages() when no on_data callback consu
 # per-delivery callback instead (counted as "spilled" in counters()["python"]["ring"]), never lost.
 RING_BYTES = 1 << 20
 RING_MAX_RECORDS = 4096
+# Deliveries held in Python after a full ring spilled them, until the next drain (dispatch or receive()).
+# A node run with dispatch=False whose owner never calls receive() would otherwise grow without bound;
+# beyond this they are dropped, counted in counters()["python"]["ring"]["spill_dropped"].
+SPILL_MAX = 65536
 
 
 def monotonic_ms() -> float:
@@ -99,9 +103,13 @@ class _Sink:
         self.node = node
         self.pending: list[tuple[int, int, bytes, bytes, int, int, bytes, int]] = []
         self.frames: list[tuple[int, int, bytes, int]] = []
+        self.spill_dropped = 0
 
     def on_deliver(self, entity: int, instance: int, src_id: bytes, dest_id: bytes, seq: int, now_ms: int,
                    hop_limit: int = 0) -> None:
+        if len(self.pending) >= SPILL_MAX:
+            self.spill_dropped += 1
+            return
         # Copy the image now: a later delivery in the same C call overwrites the bound storage.
         d = self.node._dirs.get(instance)  # a top-level Directory's buffer is exactly the wire image
         self.pending.append((entity, instance, src_id, dest_id, seq, now_ms, d._buf[:] if d is not None else b"",
@@ -447,9 +455,9 @@ class Node:
         if self._sink.frames:
             self._dispatch_frames()
         pending = self._drain()
-        instances, names = self.catalogue.instances, self._local_names
+        instances, names, refusable = self.catalogue.instances, self._local_names, self._refusable
         for k, (entity, instance, src_id, dest_id, seq, now_ms, raw, hop_limit) in enumerate(pending):
-            if refused(instances[instance].type, raw) is not None:
+            if refusable and refused(instances[instance].type, raw) is not None:
                 # What a C node's generated unpack refuses (UB_ERR_RANGE, counted as bad_payload); this
                 # node's wire-image storage took it as is, so the delivery is dropped and counted here.
                 self._refused_payloads += 1
@@ -673,7 +681,8 @@ class Node:
             out["security"] = self.security.status()
         out["python"] = {"inbox_dropped": self._inbox_dropped, "callback_errors": self._callback_errors,
                          "frames_dropped": self._frames_dropped, "refused_payloads": self._refused_payloads,
-                         "ring": ub_rxring.ub_rxring_counters(self._ring)}
+                         "ring": {**ub_rxring.ub_rxring_counters(self._ring),
+                                  "spill_dropped": self._sink.spill_dropped}}
         if self._log is not None:
             out["log"] = ub_log.ub_log_stats(self._log)
         return out
@@ -825,15 +834,23 @@ class Deliveries:
         inst = node.catalogue.instance(content)
         t, idx = inst.type, inst.index
         key = (idx, "")
-        row = node._columns.get(key)
-        if row is None:
+        rows = node._columns.get(key)
+        if rows is None:
             fmt = t._struct.format
             fits = sys.byteorder == "little" and isinstance(fmt, str) and fmt.startswith("<")
             pad = node._ring.stride - ub_rxring.HEADER - t._struct.size
-            row = struct.Struct(f"<8xI{ub_rxring.HEADER - 12}x{fmt[1:]}{pad}x") if fits and pad >= 0 else False
-            node._columns[key] = row
-        if row and self.n:
-            out = [r[1:] for r in row.iter_unpack(self.records) if r[0] == idx]
+            # (instance, leaves...) of any record; and the leaves alone, for a batch of this content only
+            rows = (struct.Struct(f"<8xI{ub_rxring.HEADER - 12}x{fmt[1:]}{pad}x"),
+                    struct.Struct(f"<{ub_rxring.HEADER}x{fmt[1:]}{pad}x")) if fits and pad >= 0 else False
+            node._columns[key] = rows
+        if rows and self.n:
+            # Each record's instance (u32 at byte 8): a batch of one content, the usual case, is unpacked
+            # as is, with no per-row filtering or slicing.
+            kinds = memoryview(self.records).cast("I")[2::node._ring.stride // 4]
+            if kinds.tolist().count(idx) == self.n:
+                out = list(rows[1].iter_unpack(self.records))
+            else:
+                out = [r[1:] for r in rows[0].iter_unpack(self.records) if r[0] == idx]
         else:
             out = [t._struct.unpack_from(img) for _, i, _, _, _, _, img, _ in self._tuples() if i == idx]
             return out

@@ -148,6 +148,7 @@ def test_tables_renders_what_ran_and_names_what_did_not(tmp_path: Path) -> None:
                        ("uavbus receive", 500), ("pymavlink decode", 100), ("lcm decode", 600)):
         for m in tables.MSGS:
             rows.append("\t".join([case, m, str(rate), str(rate + 10), str(rate - 10)]))
+    rows += [f"calls/msg uavbus receive\t{m}\t0.72" for m in tables.MSGS]  # one count per process
     (raw / "py.txt").write_text("\n".join(rows) + "\n")
     (raw / "failures.txt").write_text('status=timeout exit=124 deadline_s=150 out=loop.txt '
                                       'cmd="loop_bench rtt tcp 10000 split" reason="no result"\n')
@@ -158,6 +159,7 @@ def test_tables_renders_what_ran_and_names_what_did_not(tmp_path: Path) -> None:
     assert "**figure 3: not produced from this run's raw outputs** (FileNotFoundError" in text
     assert "| uavbus publish / pymavlink encode | 9.00x | 9.00x | 9.00x | >= 4x |" in text
     assert "| uavbus receive / lcm decode | 0.83x | 0.83x | 0.83x | >= 1x |" in text
+    assert "| uavbus receive | 0.72 | 0.72 | 0.72 |" in text  # calls per message
     misses = text.split("## What holds a miss back", 1)[1]
     assert "**Python receive**: goal >= 4x pymavlink decode and >= 1x LCM decode; measured worst 5.00x pymavlink, " \
            "0.83x LCM." in misses

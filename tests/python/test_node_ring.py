@@ -128,3 +128,110 @@ def test_rows_decode_every_field_in_order(cat: Catalogue) -> None:
     rx.service(dispatch=False)
     rows = rx.receive().rows("tickOut")
     assert rows == [(i, -i, i / 4) for i in range(BURST)]  # 16 from the ring, 44 spilled, one stream
+
+
+# A catalogue with no bool or narrow bitfield: receive() takes the records as the C ring wrote them (the
+# struct passes over the drained memory), the path of figure 4. `cat` above has a bool, so its batches are
+# checked tuples instead; both paths must keep the same order and lose nothing.
+PLAIN = """#include <stdint.h>
+typedef struct tick { uint32_t n; int16_t k; double x; } tick_t;
+tick_t tickOut;
+typedef struct pos { int32_t lat; int32_t lon; float alt; } pos_t;
+pos_t posOut;
+"""
+
+
+@pytest.fixture(scope="module")
+def plain(tmp_path_factory: pytest.TempPathFactory) -> Catalogue:
+    d = tmp_path_factory.mktemp("ringplain")
+    (d / "plain.h").write_text(PLAIN)
+    subprocess.run([sys.executable, "-m", "uavbus.cli", "gen", str(d / "plain.h"), "--name", "plain", "-o",
+                    str(d / "out")], check=True, capture_output=True)
+    return Catalogue.load(d / "out" / "plain.catalogue.json")
+
+
+def plain_pair(cat: Catalogue, ring_records: int | None = None) -> tuple[Node, Node, MemLink]:
+    tx = Node(cat, clock=lambda: 5.0)
+    rx = Node(cat, clock=lambda: 5.0, ring_records=ring_records)
+    tx.add_entity("tx", local=True), tx.add_entity("rx")
+    rx.add_entity("rx", local=True), rx.add_entity("tx")
+    tx.add_link("tx", 0, "l0"), rx.add_link("rx", 0, "l0")
+    tx.set_mask("tx", "rx", 1)
+    rx.bind("tickOut")
+    rx.bind("posOut")
+    return tx, rx, MemLink(tx, "l0", rx, "l0")
+
+
+def test_overflow_over_several_c_calls_before_one_drain(plain: Catalogue) -> None:
+    # Three bursts, each its own C call, none drained in between: the ring takes 16, then spills until
+    # it is drained (a delivery never overtakes an older one), and one receive() hands over all 60.
+    assert not any(i.type.refusable for i in plain.instances)  # the record path, not checked tuples
+    tx, rx, link = plain_pair(plain, ring_records=16)
+    pub = tx.publisher("tx", "tickOut", "rx")
+    for burst in range(3):
+        pub.send_many([burst * 20 + i for i in range(20)], field="n")
+        link.pump(10)
+        rx.service(dispatch=False)
+    delivered = rx.counters()["delivered"]
+    batch = rx.receive()
+    assert batch.column("tickOut", "n") == list(range(60))
+    assert [r[0] for r in batch.rows("tickOut")] == list(range(60))
+    assert [m.value["n"] for m in batch] == list(range(60))  # Message objects when asked, same order
+    ring = rx.counters()["python"]["ring"]
+    assert (ring["recorded"], ring["spilled"], ring["dropped"], ring["spill_dropped"]) == (16, 44, 0, 0)
+    assert ring["recorded"] + ring["spilled"] == delivered == 60  # every C delivery reached Python
+    assert ring["high_water"] == 16
+    # The spill ended with the drain: the next burst goes to the ring again.
+    pub.send_many(list(range(100, 110)), field="n")
+    link.pump(10)
+    rx.service(dispatch=False)
+    assert rx.receive().column("tickOut", "n") == list(range(100, 110))
+    assert rx.counters()["python"]["ring"]["recorded"] == 26
+
+
+def test_two_contents_interleaved_through_the_overflow(plain: Catalogue) -> None:
+    tx, rx, link = plain_pair(plain, ring_records=16)
+    ticks = tx.publisher("tx", "tickOut", "rx")
+    posts = tx.publisher("tx", "posOut", "rx")
+    for i in range(30):  # 60 deliveries in one C call, alternating contents
+        ticks.directory.n, ticks.directory.k, ticks.directory.x = i, -i, i / 8
+        ticks.send()
+        posts.directory.lat, posts.directory.lon, posts.directory.alt = i, 2 * i, 0.5
+        posts.send()
+    link.pump(10)
+    rx.service(dispatch=False)
+    batch = rx.receive()
+    assert len(batch) == 60
+    assert [(m.name, m.value["n"] if m.name == "tickOut" else m.value["lat"]) for m in batch] == \
+        [(name, i) for i in range(30) for name in ("tickOut", "posOut")]
+    # rows() of a mixed batch: each content's deliveries only, in order, ring records then spilled ones.
+    assert batch.rows("tickOut") == [(i, -i, i / 8) for i in range(30)]
+    assert batch.rows("posOut") == [(i, 2 * i, 0.5) for i in range(30)]
+    assert rx.counters()["python"]["ring"]["spilled"] == 60 - 16
+
+
+def test_rows_of_one_content_from_the_records(plain: Catalogue) -> None:
+    tx, rx, link = plain_pair(plain)  # the default ring holds the whole burst: no spill
+    pub = tx.publisher("tx", "tickOut", "rx")
+    pub.send_many(b"".join(plain.encode("tickOut", {"n": i, "k": -i, "x": i / 4}) for i in range(40)))
+    link.pump(10)
+    rx.service(dispatch=False)
+    batch = rx.receive()
+    assert batch.rows("tickOut") == [(i, -i, i / 4) for i in range(40)]
+    assert batch.rows("posOut") == []
+    assert rx.counters()["python"]["ring"]["spilled"] == 0
+
+
+def test_spill_bound_counts_what_it_drops(plain: Catalogue, monkeypatch: pytest.MonkeyPatch) -> None:
+    # Spilled deliveries wait in Python until the next drain; past SPILL_MAX (a receiver run with
+    # dispatch=False that never calls receive()) they are dropped and counted, never silently.
+    import uavbus.node
+
+    monkeypatch.setattr(uavbus.node, "SPILL_MAX", 10)
+    tx, rx, link = plain_pair(plain, ring_records=16)
+    tx.publisher("tx", "tickOut", "rx").send_many(list(range(BURST)), field="n")
+    link.pump(10)
+    rx.service(dispatch=False)
+    assert rx.receive().column("tickOut", "n") == list(range(26))  # the oldest kept, in order
+    ring = rx.counters()["python"]["ring"]
+    assert (ring["recorded"], ring["spilled"], ring["spill_dropped"]) == (16, BURST - 16, BURST - 26)
