@@ -1138,6 +1138,22 @@ class Security:
         ctx.attach(self.node._c)
         self._origin = ctx
 
+    def enable_origin_table(self, table: bytes | str | Path) -> dict[str, Any]:
+        """Origin authentication from a provisioning table (`uavbus keys pairwise`: bytes or its path), as the
+        microcontroller firmware runs it: the table's entity tags and checks origins with the pairwise keys
+        the authority computed for it, no key agreement and no store (a peer outside the table is refused,
+        `no_identity`). Its group key must be this node's too (configured, or added with add_key()). Returns
+        the table's entity name and its number of pairs."""
+        self._need()
+        if getattr(self, "_origin", None) is not None:
+            raise InvalidArgumentError("origin authentication is already enabled on this node")
+        raw = table if isinstance(table, bytes) else Path(table).read_bytes()
+        ctx, info = ub_origin.OriginContext.provisioned(raw)
+        ctx.attach(self.node._c)
+        self._origin = ctx
+        return {"entity": ub_node.entity_name(info["entity"]), "pairs": info["pairs"],
+                "group_key_id": info["group_key_id"]}
+
     def origin_forget(self, entity: str) -> int:
         """Forgets the cached pairwise keys with `entity` at once (e.g. on its revocation)."""
         ctx = getattr(self, "_origin", None)

@@ -270,7 +270,7 @@ int ub_origin_init(ub_origin_t *o, const ub_origin_options_t *opt) {
     o->svc.open = origin_open;
     o->svc.user = o;
 #if HAVE_SODIUM
-    if (sodium_init() < 0) return UB_ERR_IO;
+    if (UB_SODIUM_INIT() < 0) return UB_ERR_IO;
     o->initialised = 1;
     return UB_OK;
 #else
