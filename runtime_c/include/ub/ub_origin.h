@@ -178,9 +178,11 @@ typedef struct ub_origin_provision {
 /**
  * Installs the pairs of provisioning table `table` (`len` bytes; e.g. a flash area) with
  * ub_origin_add_pair() and reports the rest in `out` (the caller adds the group key to its ub_sec_t, then
- * wipes `out`). Checks everything before installing anything.
- * @return the number of pairs (>= 0); UB_ERR_INVAL (NULL, not initialised); UB_ERR_CONFIG (no table: wrong
- *         magic or version, a length that does not match n, a bad CRC, a pair with itself); UB_ERR_FULL.
+ * wipes `out`). Checks everything before installing anything; a refused table leaves no pair of its own.
+ * A peer listed twice keeps the later keys.
+ * @return the number of entries (>= 0); UB_ERR_INVAL (NULL, not initialised); UB_ERR_CONFIG (no table: wrong
+ *         magic or version, a length that does not match n, a bad CRC, a pair with itself); UB_ERR_FULL (more
+ *         pairs than UB_ORIGIN_PEERS, or than rows not already provisioned).
  */
 UB_CHECK int ub_origin_load_pairs(ub_origin_t *o, const uint8_t *table, size_t len, ub_origin_provision_t *out);
 

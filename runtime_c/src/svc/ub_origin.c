@@ -348,6 +348,7 @@ int ub_origin_load_pairs(ub_origin_t *o, const uint8_t *table, size_t len, ub_or
     for (size_t i = 0; i < n; i++)
         if (ub_entity_id_eq(table + UB_ORIGIN_PAIRS_HEADER_LEN + i * UB_ORIGIN_PAIRS_ENTRY_LEN, self))
             return UB_ERR_CONFIG;
+    if (n > UB_ORIGIN_PEERS) return UB_ERR_FULL; /* nothing installed */
     memset(out, 0, sizeof *out);
     memcpy(out->entity_id, self, UB_ENTITY_ID_LEN);
     out->group_key_id = table[20];
@@ -356,7 +357,9 @@ int ub_origin_load_pairs(ub_origin_t *o, const uint8_t *table, size_t len, ub_or
     for (size_t i = 0; i < n; i++) {
         const uint8_t *e = table + UB_ORIGIN_PAIRS_HEADER_LEN + i * UB_ORIGIN_PAIRS_ENTRY_LEN;
         int rc = ub_origin_add_pair(o, self, e, e + UB_ENTITY_ID_LEN, e + UB_ENTITY_ID_LEN + UB_ORIGIN_KEY_LEN);
-        if (rc < 0) {
+        if (rc < 0) { /* no room left among pinned rows: take back what this table installed */
+            for (size_t j = 0; j < i; j++)
+                (void)ub_origin_forget(o, table + UB_ORIGIN_PAIRS_HEADER_LEN + j * UB_ORIGIN_PAIRS_ENTRY_LEN);
             ub_priv_wipe(out, sizeof *out);
             return rc;
         }
