@@ -26,7 +26,8 @@
                                      Roles: --admins (default: the config's security.administrators, else every
                                      entity whose name starts with "gcs": the ground stations) get `admin`;
                                      every other entity `vehicle`, plus `relay` when it has more than one link
-                                     (it can forward between them); --roles ENTITY=ROLES overrides one entity.
+                                     (it can forward between them); --roles ENTITY=ROLES overrides one entity;
+                                     --mcu ENTITY also writes ENTITY's pairwise table (below).
 
     uavbus keys pairwise ENTITY [--dir DIR] [--out FILE] [--peers a,b,...]
                                      for a microcontroller entity (no X25519 on board): the table of its
@@ -367,6 +368,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="one entity's roles, e.g. fcs20=vehicle,observer (repeatable)")
     fl.add_argument("--days", type=int, default=365)
     fl.add_argument("--force", action="store_true", help="replace existing identity files (new keys and serials)")
+    fl.add_argument("--mcu", action="append", default=[], metavar="ENTITY",
+                    help="also write ENTITY's pairwise table DIR/ENTITY.pairs (a microcontroller: uavbus keys "
+                         "pairwise); repeatable")
     pw = sub.add_parser("pairwise", help="a microcontroller entity's table of pairwise origin keys (no X25519 on board)")
     pw.add_argument("entity")
     pw.add_argument("--dir", default=DEFAULT_DIR)
@@ -391,11 +395,25 @@ def main(argv: list[str] | None = None) -> int:
                     raise KeysError(f"--roles {item}: expected ENTITY=ROLES, e.g. fcs20=vehicle")
                 overrides[entity] = r
             admins = [a for a in args.admins.split(",") if a] if args.admins is not None else None
+            if args.mcu:   # refused before anything is written
+                import json
+
+                try:
+                    names = [e.get("name") for e in json.loads(Path(args.config).read_text(encoding="utf-8"))["entities"]]
+                except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+                    raise KeysError(f"{args.config}: {exc} (give a uavbus configuration file)") from None
+                for mcu in args.mcu:
+                    if mcu not in names:
+                        raise KeysError(f"--mcu {mcu}: not an entity of {args.config} ({', '.join(map(str, names))})")
             target, roles = fleet(args.config, args.out, admins, overrides, args.days, args.force)
             for entity, r in roles.items():
                 print(f"{entity}: {r}")
             print(f"{target}: the configuration naming them (copy {args.out} to the nodes: each needs authority.pub, "
                   "its ENTITY.id and ENTITY.certs, fleet-1.key; keep authority.key offline)")
+            for mcu in args.mcu:
+                table, names = pairwise(mcu, args.out)
+                print(f"{table}: {mcu}'s pairwise keys with {', '.join(names)} (flash it to the board's PROVISION "
+                      "sector)")
         elif args.cmd == "pairwise":
             wanted = [p for p in args.peers.split(",") if p] if args.peers else None
             target, names = pairwise(args.entity, args.dir, args.out, wanted)

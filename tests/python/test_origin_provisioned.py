@@ -120,3 +120,18 @@ def test_a_damaged_table_is_refused() -> None:
                 body[:56] + un.entity_id("fcs20") + bytes(32)):
         with pytest.raises(UbError, match="provisioning table"):
             ub_origin.OriginContext.provisioned(bad)
+
+
+def test_keys_fleet_writes_a_boards_table_and_refuses_a_stranger(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from binding_testutil import TABLE2
+
+    out = tmp_path / "fleet"
+    assert keys.main(["fleet", str(TABLE2), "--out", str(out), "--mcu", "nobody"]) == 1
+    assert "--mcu nobody: not an entity of" in capsys.readouterr().err
+    assert not out.exists()                                     # refused before anything was written
+    assert keys.main(["fleet", str(TABLE2), "--out", str(out), "--mcu", "fcs20"]) == 0
+    table = (out / "fcs20.pairs").read_bytes()
+    ctx, info = ub_origin.OriginContext.provisioned(table)
+    assert info["entity"] == un.entity_id("fcs20") and info["pairs"] == 3 and info["group_key_id"] == 1
+    assert keys.main(["pairwise", "fcs20", "--dir", str(out), "--peers", "gcs1,ghost"]) == 1
+    assert "no valid certificate" in capsys.readouterr().err
