@@ -80,10 +80,15 @@ test-c: setup
 
 # The flight-controller firmware (examples/mcu) for QEMU's mps2-an386 board: tests/hitl and the demo's HITL
 # step boot it (uavbus.sim.qemu); the linker script fails the build if it outgrows 128 KiB flash / 64 KiB RAM.
+# Its libsodium is built from libsodium's own sources (PyNaCl 1.5.0's sdist on PyPI bundles 1.0.18): fetched
+# once into build-mcu/deps by pip, SHA-256 checked (examples/mcu/fetch_libsodium.sh); the program never downloads.
 BUILD_MCU   := build-mcu
+MCU_SODIUM  := $(abspath $(BUILD_MCU))/deps/libsodium-1.0.18/src/libsodium
 firmware: setup
+	sh examples/mcu/fetch_libsodium.sh $(abspath $(BUILD_MCU))/deps $(abspath $(VPY))
 	cmake -S examples/mcu -B $(BUILD_MCU) -G Ninja -DCMAKE_BUILD_TYPE=MinSizeRel -DUAVBUS_PYTHON=$(abspath $(VPY)) \
-	  -DCMAKE_TOOLCHAIN_FILE=$(abspath cmake/toolchains/arm-none-eabi-cortex-m4.cmake) >/dev/null
+	  -DCMAKE_TOOLCHAIN_FILE=$(abspath cmake/toolchains/arm-none-eabi-cortex-m4.cmake) \
+	  -DUAVBUS_MCU_SODIUM_SRC=$(MCU_SODIUM) >/dev/null
 	cmake --build $(BUILD_MCU)
 
 test-py: setup firmware

@@ -9,7 +9,7 @@ set -euo pipefail
 build=${1:?usage: fuzz/make_corpus.sh BUILD_DIR (a CMake build with the fuzz_replay_* targets)}
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
-for h in node_rx nodecfg log_reader codecs mixed_stream ident origin; do
+for h in node_rx nodecfg log_reader codecs mixed_stream ident origin pairs; do
   rm -rf "$here/corpus/$h"
   mkdir -p "$here/corpus/$h"
   "$build/fuzz/fuzz_replay_$h" --seed "$here/corpus/$h"

@@ -10,7 +10,7 @@ build=${1:?usage: fuzz/run.sh BUILD_DIR SECONDS [HARNESS...]}
 secs=${2:?usage: fuzz/run.sh BUILD_DIR SECONDS [HARNESS...]}
 shift 2
 here=$(cd "$(dirname "$0")" && pwd)
-harnesses=${*:-node_rx nodecfg log_reader codecs mixed_stream ident origin}
+harnesses=${*:-node_rx nodecfg log_reader codecs mixed_stream ident origin pairs}
 out=$build/fuzz-out
 mkdir -p "$out/artifacts"
 report=$out/report.md

@@ -12,7 +12,9 @@ the victim. gpsOut and imuOut keep their rates within 10 %. Then the operator re
 rmax1ob1, spread by the revocation service): the time from the revocation reaching gcs1, rmax1ob1 and fcs20
 to their first refusal of rmax1ob2's frames is measured per node (bound 2 s), and rmax1ob2's node restarts
 with its revoked identity: it refuses to start, and with its revocations file thrown away it starts but
-gets nothing in.
+gets nothing in. Routing does not run in Table 2, so the routes attack runs on a small routed identity network
+of the same fleet beside it: rmax1ob2 advertises entities that have no certificate to rmax1ob1 (C, `--route
+certified=1`) and gcs1 (Python, `certified=True`), which refuse them (`dest_refused`).
 
 The group-key half of the lockout line runs in the attacker step (attack_step.insider_lockout).
 """
@@ -35,6 +37,8 @@ EXPECTED = {
     "replay of frames it relayed": {"replay", "duplicate"},
     "lockout: one frame in each victim's name, counter 2^48-2": {"bad_origin", "no_origin", "counter_jump"},
     "as itself: write rmax1ob1's armed = 1 and a waypoint": {"not_allowed", "not_authorized"},
+    # on the small routed network beside Table 2 (uavbus.sim.insider.routed_insider): the certified filter
+    "routes for entities it does not own": {"dest_refused"},
 }
 FORGED = {"bad_origin", "no_origin"}
 
@@ -44,10 +48,8 @@ def judge(r: Any) -> tuple[bool, str]:
     if r.extra.get("allowed"):       # requests in its own name: the threat model allows them within the quota
         ok = r.extra["rows"] <= 8 and r.extra["fast"] == 0 and r.extra["unleased"] == 0 and r.sent > 0
         return ok, r.line()
-    if r.sent == 0:                  # routing: not run in Table 2 (the line says so); nothing to judge
-        return True, r.effect
     want = EXPECTED.get(r.name, FORGED)
-    ok = r.accepted == 0 and sum(r.dropped_as.values()) == r.sent and set(r.dropped_as) <= want
+    ok = r.sent > 0 and r.accepted == 0 and sum(r.dropped_as.values()) == r.sent and set(r.dropped_as) <= want
     return ok, r.line()
 
 

@@ -32,4 +32,14 @@
 #define UB_DEDUP_SOURCES 16 /* one duplicate window per entity it may hear from */
 #endif
 
+/* Frame security on the board (built with libsodium's sources, examples/mcu/sodium): the firmware installs
+ * the board's random source itself, so libsodium's initialisation is not run (ub_config.h, UB_SODIUM_INIT);
+ * origin authentication holds the authority's pairs of its few peers only. */
+#ifndef UB_SODIUM_INIT
+#define UB_SODIUM_INIT() 0
+#endif
+#ifndef UB_ORIGIN_PEERS
+#define UB_ORIGIN_PEERS 8
+#endif
+
 #endif /* MCU_UB_CONFIG_H */

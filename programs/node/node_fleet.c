@@ -93,16 +93,6 @@ const char *fleet_producer(const char *name, const char *dflt) {
 
 uint64_t fleet_epoch_ms(uint64_t start_ms) { return g_opt.has_epoch ? g_opt.epoch_ms : start_ms; }
 
-/* --route certified=1: an advertised destination gets a route only if the identity store holds a valid,
- * unrevoked certificate for it (docs/security.md, "Routing from insiders"): an insider cannot make this node
- * learn entities that do not exist. It does not stop false metrics for certified ones. */
-static bool certified_dest(void *user, const uint8_t dest[UB_ENTITY_ID_LEN], const uint8_t neighbour[UB_ENTITY_ID_LEN],
-                           uint16_t metric) {
-    (void)neighbour;
-    (void)metric;
-    return ub_ident_peer_status(user, dest, ub_identfile_unix_s(NULL)) == UB_IDENT_VALID;
-}
-
 /* "on" or KEY=VALUE,...: the routing options. */
 static void parse_route(const char *text, ub_route_options_t *ro) {
     memset(ro, 0, sizeof *ro);
@@ -564,7 +554,7 @@ void fleet_setup(ub_app_t *app, node_motion_t *motion, uint64_t now_ms) {
             if (!app->ident_on)
                 ub_app_die(g_app, "uavbus_node: --route certified=1 needs identities: name an authority in the configuration's "
                     "\"security\" section (uavbus keys fleet), or drop certified=1");
-            ro.accept_dest = certified_dest;
+            ro.accept_dest = ub_identfile_route_certified; /* only entities the store certifies */
             ro.accept_user = &app->ident;
         }
         if (ub_route_attach(&g_route, node, &ro, now_ms) != UB_OK)

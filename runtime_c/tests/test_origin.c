@@ -436,6 +436,118 @@ static void test_pair_cache_evicts_the_least_recently_used(void **state) {
     free(w);
 }
 
+/* Issue 23 item 8: b is a microcontroller entity with no key agreement. The authority computed its
+ * directional keys with a and f from b's secret key (what `uavbus keys pairwise` writes); b holds only those
+ * (ub_origin_add_pair(), no store, no secret key), a and f derive theirs from b's public key as always.
+ * Traffic and challenges flow both ways; f (the group key and its own pair with b) cannot forge for a. */
+static void test_provisioned_pairs_interoperate_with_derived_ones(void **state) {
+    (void)state;
+    line_t *L = line_new();
+    member_t *b = &L->m[2];
+    assert_int_equal(ub_origin_detach(&b->org, b->n), UB_OK);
+    ub_origin_options_t none = {0};                                  /* no lookup: provisioned pairs only */
+    assert_int_equal(ub_origin_init(&b->org, &none), UB_OK);
+    for (int peer = 0; peer < 2; peer++) {                           /* the authority's table for b */
+        uint8_t k_tx[16], k_rx[16];
+        assert_int_equal(ub_origin_pair_keys(L->b_id, L->fleet.sk[2], L->fleet.id[peer], L->fleet.pk[peer], k_tx, k_rx),
+                         UB_OK);
+        assert_int_equal(ub_origin_add_pair(&b->org, L->b_id, L->fleet.id[peer], k_tx, k_rx), UB_OK);
+        assert_int_equal(ub_origin_add_pair(&b->org, L->b_id, L->fleet.id[peer], k_tx, k_rx), UB_OK); /* replaced */
+    }
+    uint8_t k[16] = {0};
+    assert_int_equal(ub_origin_add_pair(&b->org, L->b_id, L->b_id, k, k), UB_ERR_INVAL);
+    assert_int_equal(ub_origin_cached(&b->org), 2);
+    assert_int_equal(ub_origin_attach(&b->org, b->n), UB_OK);
+
+    assert_true(ub_pubsub_publish(L->m[0].n, L->m[0].self, TEST_GPS, L->b_id, 10, 0) >= 0);
+    world_run(L->w, 1000, 1);
+    assert_in_range(delivered(L, 0, 1001), 96, 99);   /* b challenged a once: its challenge went out tagged */
+    assert_memory_equal(&L->dst, &L->src, sizeof L->src);
+    const ub_origin_stats_t *sb = ub_origin_stats(&b->org);
+    assert_true(sb->opened >= 96);
+    assert_true(sb->sealed >= 1);                     /* b's challenge to a, verified by a's derived key */
+    assert_int_equal(sb->derivations, 0);
+    assert_int_equal(sb->lookups, 0);
+    assert_int_equal(drops(&L->m[0], UB_DROP_BAD_ORIGIN) + drops(&L->m[0], UB_DROP_NO_IDENTITY), 0);
+    /* f's forgeries in a's name: its own pairwise key with b, a guess, no block */
+    uint8_t frame[UB_FRAME_MAX];
+    for (int i = 0; i < 5; i++) {
+        uint64_t counter = UINT64_C(0x10000000) + (uint64_t)i;
+        size_t n = forge_as_a(L, frame, counter, true, true);
+        assert_int_equal(ub_node_rx_frame(b->n, b->link[0], frame, n, 1001), UB_OK);
+        n = forge_as_a(L, frame, counter, false, false);
+        assert_int_equal(ub_node_rx_frame(b->n, b->link[0], frame, n, 1001), UB_OK);
+    }
+    assert_int_equal(drops(b, UB_DROP_BAD_ORIGIN), 5);
+    assert_int_equal(drops(b, UB_DROP_NO_ORIGIN), 5);
+    assert_memory_equal(&L->dst, &L->src, sizeof L->src);
+    /* a peer outside the table: refused (no store to ask, and no secret key to derive with) */
+    ub_frame_header_t h;
+    memset(&h, 0, sizeof h);
+    test_eid("stranger", h.dest_id);
+    h.hop_limit = 8;
+    ub_drop_reason_t drop = UB_DROP_NO_ROUTE;
+    uint8_t payload[4] = {0};
+    h.payload_size = sizeof payload;
+    assert_true(b->org.svc.seal(&b->org.svc, b->n, ub_node_entity_slot(b->n, b->self), &h, payload, 1001, &drop) < 0);
+    assert_int_equal(drop, UB_DROP_NO_IDENTITY);
+    /* revocation on b's side: the operator's forget (or a new table) ends the pair */
+    assert_int_equal(ub_origin_forget(&b->org, L->a_id), 1);
+    uint64_t refused = drops(b, UB_DROP_NO_IDENTITY);
+    world_run(L->w, 1300, 1);
+    assert_true(drops(b, UB_DROP_NO_IDENTITY) > refused);
+    line_free(L);
+}
+
+/* Provisioned pairs are pinned: a full cache of derived pairs never evicts them, and they take no store. */
+static void test_provisioned_pairs_are_never_evicted(void **state) {
+    (void)state;
+    static fleet_t fl;
+    memset(&fl, 0, sizeof fl);
+    fleet_add(&fl, "me");
+    char name[16];
+    for (int i = 0; i < UB_ORIGIN_PEERS + 8; i++) {
+        snprintf(name, sizeof name, "p%d", i);
+        fleet_add(&fl, name);
+    }
+    world_t *w = world_new();
+    ub_node_t *n = world_node(w, &ub_test_cat, NULL);
+    int slot = ub_node_entity_slot(n, ub_node_add_entity_name(n, "me", true));
+    static ub_origin_t org;
+    ub_origin_options_t o = {.lookup = fleet_lookup, .lookup_user = &fl};
+    assert_int_equal(ub_origin_init(&org, &o), UB_OK);
+    assert_int_equal(ub_origin_add_identity(&org, fl.id[0], fl.sk[0]), UB_OK);
+    uint8_t k_tx[16], k_rx[16];
+    assert_int_equal(ub_origin_pair_keys(fl.id[0], fl.sk[0], fl.id[1], fl.pk[1], k_tx, k_rx), UB_OK);
+    assert_int_equal(ub_origin_add_pair(&org, fl.id[0], fl.id[1], k_tx, k_rx), UB_OK);
+    uint8_t payload[4] = {1, 2, 3, 4};
+    for (int i = 2; i <= UB_ORIGIN_PEERS + 8; i++) {
+        ub_frame_header_t h;
+        memset(&h, 0, sizeof h);
+        memcpy(h.dest_id, fl.id[i], UB_ENTITY_ID_LEN);
+        memcpy(h.src_id, fl.id[0], UB_ENTITY_ID_LEN);
+        h.hop_limit = 8;
+        h.payload_size = sizeof payload;
+        ub_drop_reason_t drop = UB_DROP_NO_ROUTE;
+        assert_int_equal(org.svc.seal(&org.svc, n, slot, &h, payload, 10, &drop), 1);
+    }
+    uint64_t lookups = ub_origin_stats(&org)->lookups;
+    ub_frame_header_t h;
+    memset(&h, 0, sizeof h);
+    memcpy(h.dest_id, fl.id[1], UB_ENTITY_ID_LEN);
+    memcpy(h.src_id, fl.id[0], UB_ENTITY_ID_LEN);
+    h.hop_limit = 8;
+    h.payload_size = sizeof payload;
+    ub_drop_reason_t drop = UB_DROP_NO_ROUTE;
+    assert_int_equal(org.svc.seal(&org.svc, n, slot, &h, payload, 10000, &drop), 1);   /* long after any recheck */
+    uint8_t want[8];
+    assert_int_equal(ub_origin_tag(k_tx, &h, payload, want), UB_OK);
+    assert_memory_equal(h.origin_tag, want, 8);
+    assert_int_equal(ub_origin_stats(&org)->lookups, lookups);      /* the pinned pair asked nobody */
+    assert_int_equal(ub_origin_cached(&org), UB_ORIGIN_PEERS);
+    free(w);
+}
+
 /* A compact link carries the origin block unchanged (ctl1 bit 5): the frame decoded is the frame encoded,
  * SIGNED and ENCRYPTED; ORIGIN without a protection is refused. */
 static void test_compact_encoding_carries_the_origin_block(void **state) {
@@ -494,6 +606,8 @@ int main(void) {
         cmocka_unit_test(test_revoked_peer_is_refused_within_the_recheck),
         cmocka_unit_test(test_pair_cache_evicts_the_least_recently_used),
         cmocka_unit_test(test_compact_encoding_carries_the_origin_block),
+        cmocka_unit_test(test_provisioned_pairs_interoperate_with_derived_ones),
+        cmocka_unit_test(test_provisioned_pairs_are_never_evicted),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

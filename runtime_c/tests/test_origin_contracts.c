@@ -86,7 +86,17 @@ static void test_context_contracts(void **state) {
     assert_int_equal(ub_origin_init(NULL, &opt), UB_ERR_INVAL);
     assert_int_equal(ub_origin_init(&g_o, NULL), UB_ERR_INVAL);
     ub_origin_options_t none = {0};
-    assert_int_equal(ub_origin_init(&g_o, &none), UB_ERR_INVAL); /* a lookup is required */
+    uint8_t peer[UB_ENTITY_ID_LEN] = {'p'}, k16[UB_ORIGIN_KEY_LEN] = {1};
+    assert_int_equal(ub_origin_add_pair(&g_o, id, peer, k16, k16), UB_ERR_INVAL); /* not initialised */
+    assert_int_equal(ub_origin_init(&g_o, &none), UB_OK); /* no lookup: provisioned pairs only */
+    assert_int_equal(ub_origin_add_pair(NULL, id, peer, k16, k16), UB_ERR_INVAL);
+    assert_int_equal(ub_origin_add_pair(&g_o, NULL, peer, k16, k16), UB_ERR_INVAL);
+    assert_int_equal(ub_origin_add_pair(&g_o, id, NULL, k16, k16), UB_ERR_INVAL);
+    assert_int_equal(ub_origin_add_pair(&g_o, id, peer, NULL, k16), UB_ERR_INVAL);
+    assert_int_equal(ub_origin_add_pair(&g_o, id, peer, k16, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_origin_add_pair(&g_o, id, id, k16, k16), UB_ERR_INVAL);
+    assert_int_equal(ub_origin_add_pair(&g_o, id, peer, k16, k16), UB_OK);
+    assert_int_equal(ub_origin_cached(&g_o), 1);
     assert_int_equal(ub_origin_init(&g_o, &opt), UB_OK);
     assert_int_equal(ub_origin_add_identity(NULL, id, sk), UB_ERR_INVAL);
     assert_int_equal(ub_origin_add_identity(&g_o, NULL, sk), UB_ERR_INVAL);

@@ -26,7 +26,16 @@
                                      Roles: --admins (default: the config's security.administrators, else every
                                      entity whose name starts with "gcs": the ground stations) get `admin`;
                                      every other entity `vehicle`, plus `relay` when it has more than one link
-                                     (it can forward between them); --roles ENTITY=ROLES overrides one entity.
+                                     (it can forward between them); --roles ENTITY=ROLES overrides one entity;
+                                     --mcu ENTITY also writes ENTITY's pairwise table (below).
+
+    uavbus keys pairwise ENTITY [--dir DIR] [--out FILE] [--peers a,b,...]
+                                     for a microcontroller entity (no X25519 on board): the table of its
+                                     directional origin keys with each valid, unrevoked peer of DIR/fleet.certs
+                                     (the keys those peers derive from ENTITY's certificate) and the group key
+                                     DIR/fleet-1.key, default DIR/ENTITY.pairs (mode 0600): the firmware's
+                                     PROVISION flash sector (docs/security.md, "Microcontrollers"). Run it again
+                                     after a revocation or a new peer: the board's revocation is its new table.
 
 Re-keying a lost vehicle's replacement: `uavbus keys revoke rmax1ob1` then
 `uavbus keys issue rmax1ob1 --roles vehicle --force` (a new serial; the old one stays refused).
@@ -268,6 +277,60 @@ def fleet(config: str, out: str, admins: list[str] | None = None, overrides: dic
     return target, roles
 
 
+def pairwise(entity: str, directory: str, out: str | None = None, peers: list[str] | None = None,
+             now: int | None = None) -> tuple[Path, list[str]]:
+    """`uavbus keys pairwise`: ENTITY's provisioning table (ub_origin.h, UB_ORIGIN_PAIRS_MAGIC); returns its path
+    and the peers in it. Every key in it is computed by the C runtime (ub_origin_pair_keys: X25519, BLAKE2b,
+    KDF) from ENTITY's X25519 secret key and each peer's certified public key: what the peers derive."""
+    import struct
+
+    from uavbus._bindings import ub_frame, ub_origin
+
+    d = Path(directory)
+    now_s = int(time.time()) if now is None else now
+    ident = d / f"{entity}.id"
+    if not ident.exists():
+        raise KeysError(f"{ident}: no identity for {entity}; issue it first (uavbus keys issue {entity} --roles "
+                        "vehicle --dir " + str(d) + ")")
+    cert, _sign, kx_sk = ub_ident.identfile_load(ident)
+    store = ub_ident.Store.load(d / "authority.pub", None,
+                                d / "revocations.ubr" if (d / "revocations.ubr").exists() else None, now_s)
+    data = (d / CERTS_NAME).read_bytes() if (d / CERTS_NAME).exists() else b""
+    header = 8
+    if len(data) < header or (len(data) - header) % ub_ident.CERT_LEN:
+        raise KeysError(f"{d / CERTS_NAME}: not a certificates file (uavbus keys issue writes it)")
+    rows: list[tuple[bytes, bytes, bytes]] = []
+    names: list[str] = []
+    for k in range(header, len(data), ub_ident.CERT_LEN):
+        raw = data[k:k + ub_ident.CERT_LEN]
+        c = ub_ident.cert_decode(raw)
+        if c.entity == cert.entity or (peers is not None and c.entity_name not in peers):
+            continue
+        if store.add_peer(raw, now_s) != "valid":      # expired, revoked, another authority's: no pair
+            continue
+        k_tx, k_rx = ub_origin.ub_origin_pair_keys(cert.entity, kx_sk, c.entity, c.kx_pk)
+        rows.append((c.entity, k_tx, k_rx))
+        names.append(c.entity_name)
+    if len(rows) > 255:
+        raise KeysError(f"{entity}: {len(rows)} peers; a table holds 255 (name them with --peers)")
+    missing = sorted(set(peers or []) - set(names))
+    if missing:
+        raise KeysError(f"--peers: no valid certificate in {d / CERTS_NAME} for {', '.join(missing)}")
+    group = d / "fleet-1.key"
+    key_id, key = ub_sec.ub_keyfile_load(str(group)) if group.exists() else (0, bytes(32))
+    body = (b"UBPR" + bytes([1, len(rows), 0, 0]) + cert.entity + bytes([key_id, 1 if group.exists() else 0, 0, 0])
+            + key + b"".join(p + t + r for p, t, r in rows))
+    table = body + struct.pack("<I", ub_frame.ub_crc32c(body))
+    target = Path(out) if out else d / f"{entity}.pairs"
+    tmp = target.with_name(target.name + ".tmp")
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "wb") as f:
+        f.write(table)
+    os.chmod(tmp, 0o600)
+    os.replace(tmp, target)
+    return target, names
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="uavbus keys",
                                      description="group keys and per-entity identities (docs/security.md)")
@@ -305,6 +368,14 @@ def main(argv: list[str] | None = None) -> int:
                     help="one entity's roles, e.g. fcs20=vehicle,observer (repeatable)")
     fl.add_argument("--days", type=int, default=365)
     fl.add_argument("--force", action="store_true", help="replace existing identity files (new keys and serials)")
+    fl.add_argument("--mcu", action="append", default=[], metavar="ENTITY",
+                    help="also write ENTITY's pairwise table DIR/ENTITY.pairs (a microcontroller: uavbus keys "
+                         "pairwise); repeatable")
+    pw = sub.add_parser("pairwise", help="a microcontroller entity's table of pairwise origin keys (no X25519 on board)")
+    pw.add_argument("entity")
+    pw.add_argument("--dir", default=DEFAULT_DIR)
+    pw.add_argument("--out", help="the table (default DIR/ENTITY.pairs, mode 0600)")
+    pw.add_argument("--peers", help="comma-separated peers (default: every valid certificate of DIR/fleet.certs)")
     args = parser.parse_args(argv)
     try:
         if args.cmd == "new":
@@ -324,11 +395,30 @@ def main(argv: list[str] | None = None) -> int:
                     raise KeysError(f"--roles {item}: expected ENTITY=ROLES, e.g. fcs20=vehicle")
                 overrides[entity] = r
             admins = [a for a in args.admins.split(",") if a] if args.admins is not None else None
+            if args.mcu:   # refused before anything is written
+                import json
+
+                try:
+                    names = [e.get("name") for e in json.loads(Path(args.config).read_text(encoding="utf-8"))["entities"]]
+                except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+                    raise KeysError(f"{args.config}: {exc} (give a uavbus configuration file)") from None
+                for mcu in args.mcu:
+                    if mcu not in names:
+                        raise KeysError(f"--mcu {mcu}: not an entity of {args.config} ({', '.join(map(str, names))})")
             target, roles = fleet(args.config, args.out, admins, overrides, args.days, args.force)
             for entity, r in roles.items():
                 print(f"{entity}: {r}")
             print(f"{target}: the configuration naming them (copy {args.out} to the nodes: each needs authority.pub, "
                   "its ENTITY.id and ENTITY.certs, fleet-1.key; keep authority.key offline)")
+            for mcu in args.mcu:
+                table, names = pairwise(mcu, args.out)
+                print(f"{table}: {mcu}'s pairwise keys with {', '.join(names)} (flash it to the board's PROVISION "
+                      "sector)")
+        elif args.cmd == "pairwise":
+            wanted = [p for p in args.peers.split(",") if p] if args.peers else None
+            target, names = pairwise(args.entity, args.dir, args.out, wanted)
+            print(f"{target}: {args.entity}'s pairwise keys with {', '.join(names) or 'nobody'} and the group key "
+                  "(mode 0600: the board's PROVISION sector; QEMU: -device loader,file=...,addr=0x1F000)")
         elif args.cmd == "issue":
             print(issue(args.entity, args.roles, args.days, args.authority, args.dir, args.out, args.force))
         else:

@@ -358,9 +358,10 @@ class Node:
         return rows
 
     # -- automatic routes and membership -------------------------------------------------------------
-    def enable_routing(self, parallel: str = "all", learn: bool = True, **options: int) -> None:
+    def enable_routing(self, parallel: str = "all", learn: bool = True, certified: bool = False,
+                       **options: int) -> None:
         """Same as `node.routing.enable()` (kept for callers of the flat API)."""
-        self.routing.enable(parallel, learn, **options)
+        self.routing.enable(parallel, learn, certified, **options)
 
     def route_links(self) -> dict[str, dict[str, Any]]:
         """Same as `node.routing.links()` (kept for callers of the flat API)."""
@@ -963,15 +964,25 @@ class Routing:
         self.node = node
         self._c: Any = None  # ub_route_t while enabled
 
-    def enable(self, parallel: str = "all", learn: bool = True, **options: int) -> None:
+    def enable(self, parallel: str = "all", learn: bool = True, certified: bool = False, **options: int) -> None:
         """Starts (or restarts) the engine. Options: hello_ms (default 1000), update_ms, trigger_gap_ms,
         source_gc_ms, dead_misses, initial_seqno, learn_expiry_ms (a learned entity no update advertised this
         long is removed; default source_gc_ms), max_dests (destinations one neighbour may advertise; entries for
         more are ignored and counted neighbour_limit; default UB_ROUTE_MAX_DESTS_PER_NEIGHBOUR, the whole
-        entity table); parallel "all" | "best"; learn."""
+        entity table); parallel "all" | "best"; learn; certified: advertised destinations get routes only if the
+        node's identity store certifies them (valid, unrevoked certificate at the wall clock; others are ignored
+        and counted dest_refused), as `uavbus_node --route certified=1` (docs/security.md, "Routing from
+        insiders"); needs identities (Node(config=...) naming an authority)."""
+        store = None
+        if certified:
+            if self.node.identity is None:
+                raise InvalidArgumentError("routing certified=True needs identities: name an authority in the "
+                                           "configuration's \"security\" section (uavbus keys fleet), or drop "
+                                           "certified=True")
+            store = self.node.identity.store.c
         if self._c is not None:
             ub_route.ub_route_detach(self._c)
-        self._c = ub_route.ub_route_new(self.node._c, self.node.now(), parallel, learn, **options)
+        self._c = ub_route.ub_route_new(self.node._c, self.node.now(), parallel, learn, store, **options)
 
     def disable(self) -> None:
         """Detaches the engine; the masks it wrote are cleared (pinned ones stay)."""
@@ -1143,6 +1154,22 @@ class Security:
             ctx.add_identity(ub_node.entity_id(name), sk)
         ctx.attach(self.node._c)
         self._origin = ctx
+
+    def enable_origin_table(self, table: bytes | str | Path) -> dict[str, Any]:
+        """Origin authentication from a provisioning table (`uavbus keys pairwise`: bytes or its path), as the
+        microcontroller firmware runs it: the table's entity tags and checks origins with the pairwise keys
+        the authority computed for it, no key agreement and no store (a peer outside the table is refused,
+        `no_identity`). Its group key must be this node's too (configured, or added with add_key()). Returns
+        the table's entity name and its number of pairs."""
+        self._need()
+        if getattr(self, "_origin", None) is not None:
+            raise InvalidArgumentError("origin authentication is already enabled on this node")
+        raw = table if isinstance(table, bytes) else Path(table).read_bytes()
+        ctx, info = ub_origin.OriginContext.provisioned(raw)
+        ctx.attach(self.node._c)
+        self._origin = ctx
+        return {"entity": ub_node.entity_name(info["entity"]), "pairs": info["pairs"],
+                "group_key_id": info["group_key_id"]}
 
     def origin_forget(self, entity: str) -> int:
         """Forgets the cached pairwise keys with `entity` at once (e.g. on its revocation)."""

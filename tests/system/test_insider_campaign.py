@@ -47,7 +47,11 @@ def test_a_captured_vehicle_speaks_for_nobody_else_and_is_cut_off(program: Path,
         assert replay.accepted == 0 and replay.sent > 100, replay.line()
         assert set(replay.dropped_as) <= {"replay", "duplicate"} and sum(replay.dropped_as.values()) == replay.sent
         routes = results["routes for entities it does not own"]
-        assert routes.sent == 0 and "routing does not run" in routes.effect
+        if identities:   # the routed identity network beside Table 2: every uncertified entry refused
+            assert routes.sent > 0 and routes.accepted == 0, routes.line()
+            assert routes.dropped_as == {"dest_refused": routes.sent}, routes.line()
+        else:
+            assert routes.sent == 0 and "not run" in routes.effect
         flood = results["flood within its own quota (30 requests, 1 ms and 100 ms, no lease)"]
         assert flood.extra["rows"] <= 8 and flood.extra["fast"] == 0 and flood.extra["unleased"] == 0, flood.line()
         assert flood.extra["limited"] >= 15, flood.line()                     # every 1 ms request refused
@@ -59,7 +63,8 @@ def test_a_captured_vehicle_speaks_for_nobody_else_and_is_cut_off(program: Path,
         assert lockout.extra["imuOut"] == pytest.approx(50, rel=0.10), lockout.line()
         assert lockout.extra["gpsOut"] == pytest.approx(10, rel=0.10), lockout.line()
         for r in results.values():
-            assert judge(r)[0], r.line()
+            if identities or r is not routes:     # without identities the routes attack is not run (said so)
+                assert judge(r)[0], r.line()
         for label, t0, t1 in campaign.phases:
             rates = campaign.rates(t0, t1)
             assert rates["gpsOut"] == pytest.approx(10, rel=0.10), (label, rates)

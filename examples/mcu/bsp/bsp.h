@@ -44,4 +44,9 @@ uint32_t bsp_uart_rx_overruns(void);
 /** Waits for the next interrupt when nothing is queued for transmission. */
 void bsp_idle(void);
 
+/** Fills `out` with what the board has of unpredictability: a TRNG's output where the part has one; on the
+ *  MPS2/QEMU board (none) the free-running timer's low bits sampled around UART bytes — NOT an entropy
+ *  source, a stand-in for the emulator (docs/security.md, "Microcontrollers"). @return 0, or -1: none. */
+int bsp_entropy(uint8_t *out, size_t len);
+
 #endif /* BSP_H */

@@ -128,6 +128,19 @@
 #ifndef UB_ORIGIN_LOCALS
 #define UB_ORIGIN_LOCALS UB_MAX_LOCAL_ENTITIES
 #endif
+/* How the frame security (ub_sec.c, ub_origin.c) initialises libsodium: sodium_init(). A bare-metal board
+ * whose libsodium has no OS random source installs its own (randombytes_set_implementation()) and may define
+ * this as 0: there sodium_init() would only pick x86 SIMD code (the portable implementations are libsodium's
+ * static defaults) and link every primitive it can pick (X25519 and Argon2: 40 KiB of flash). */
+#ifndef UB_SODIUM_INIT
+#define UB_SODIUM_INIT() sodium_init()
+#endif
+
+/* Key agreement in origin authentication (X25519 + BLAKE2b + KDF, ub_origin_pair_keys()). 0: provisioned
+ * pairs only (ub_origin_add_pair(), `uavbus keys pairwise`), for a microcontroller: no X25519 is linked. */
+#ifndef UB_ORIGIN_AGREEMENT
+#define UB_ORIGIN_AGREEMENT 1
+#endif
 
 #if UB_MAX_PAYLOAD < 64 || UB_MAX_PAYLOAD > 65000
 #error "UB_MAX_PAYLOAD must be between 64 and 65000 (the frame's payload size field is 16 bits)"

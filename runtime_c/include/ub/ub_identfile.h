@@ -124,6 +124,16 @@ int ub_revfile_persist(void *user, const ub_ident_store_t *store);
 /** The wall clock in unix seconds (time(NULL)), for ub_revoke_options_t.clock_s (`user` unused). */
 uint64_t ub_identfile_unix_s(void *user);
 
+/**
+ * A routing destination filter (ub_route_options_t.accept_dest) over an identity store: `user` is the
+ * `ub_ident_store_t`; accepts `dest` only if the store holds a valid, unrevoked certificate for it at the wall
+ * clock (ub_identfile_unix_s()). An insider then cannot make a node learn entities that do not exist; it does
+ * not stop false metrics for certified ones (docs/security.md, "Routing from insiders"). Used by
+ * `uavbus_node --route certified=1` and Python's `node.routing.enable(certified=True)`.
+ */
+bool ub_identfile_route_certified(void *user, const uint8_t dest[UB_ENTITY_ID_LEN],
+                                  const uint8_t neighbour[UB_ENTITY_ID_LEN], uint16_t metric);
+
 /** ub_revoke_persist_cert_fn (ub_revoke.h) over ub_certfile_put(): `user` is the path. */
 int ub_certfile_persist(void *user, const uint8_t *cert, size_t len);
 

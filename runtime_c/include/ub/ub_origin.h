@@ -25,6 +25,12 @@
  * least recently used evicted (counted), each asked of the store again after `recheck_ms`. No allocation,
  * no statics.
  *
+ * **Provisioned pairs** (microcontrollers, issue 23 item 8): an entity that cannot run X25519 takes the
+ * directional keys the fleet authority computed for it (`uavbus keys pairwise`, the same keys its peers
+ * derive from its certificate) with ub_origin_add_pair(): pinned, never evicted, never asked of a store,
+ * removed only by ub_origin_forget() or a new provisioning. Built with UB_ORIGIN_AGREEMENT 0 (ub_config.h)
+ * the context has no key agreement at all (no X25519 linked): provisioned pairs only.
+ *
  *     static ub_origin_t org;                           // caller-owned (7.1 KiB with 64 peers, 64-bit host)
  *     ub_origin_options_t o = {.lookup = store_lookup, .lookup_user = &store};
  *     ub_origin_init(&org, &o);
@@ -67,7 +73,8 @@ typedef uint64_t (*ub_origin_clock_fn)(void *user);
 
 /** Options; zero fields mean the defaults. */
 typedef struct ub_origin_options {
-    ub_origin_lookup_fn lookup; /**< required */
+    ub_origin_lookup_fn lookup; /**< required, unless every pair is provisioned (ub_origin_add_pair()): NULL
+                                     then refuses every peer without one (`no_identity`) */
     void *lookup_user;
     ub_origin_clock_fn clock_s; /**< NULL: the node's now_ms / 1000 */
     void *clock_user;
@@ -96,6 +103,7 @@ typedef struct ub_origin_local {
     uint8_t sk[UB_ORIGIN_SK_LEN];
     uint8_t pk[UB_ORIGIN_PK_LEN];
     uint8_t in_use;
+    uint8_t has_sk; /**< 0: provisioned pairs only (ub_origin_add_pair()), nothing to derive with */
 } ub_origin_local_t;
 
 /** One cached pair. Treat as private. */
@@ -108,6 +116,7 @@ typedef struct ub_origin_peer {
     uint64_t last_used;              /**< LRU stamp */
     uint8_t local;                   /**< index into idents[] */
     uint8_t in_use;
+    uint8_t pinned;                  /**< provisioned (ub_origin_add_pair()): no store, no eviction */
 } ub_origin_peer_t;
 
 /** The context: caller-owned, embeds its service record. Treat the fields as private. */
@@ -123,7 +132,7 @@ typedef struct ub_origin {
 
 /**
  * Initialises an empty context.
- * @return UB_OK; UB_ERR_INVAL (NULL, no lookup); UB_ERR_UNSUPPORTED (built without security); UB_ERR_IO
+ * @return UB_OK; UB_ERR_INVAL (NULL); UB_ERR_UNSUPPORTED (built without security); UB_ERR_IO
  *         (libsodium failed to initialise).
  */
 UB_CHECK int ub_origin_init(ub_origin_t *o, const ub_origin_options_t *opt);
@@ -134,6 +143,48 @@ UB_CHECK int ub_origin_init(ub_origin_t *o, const ub_origin_options_t *opt);
  */
 UB_CHECK int ub_origin_add_identity(ub_origin_t *o, const uint8_t entity_id[UB_ENTITY_ID_LEN],
                                     const uint8_t x25519_sk[UB_ORIGIN_SK_LEN]);
+
+/**
+ * A provisioned pair (no key agreement): local entity `entity_id` uses `k_tx` for its frames to `peer_id` and
+ * checks `peer_id`'s frames with `k_rx` (16 bytes each, from the authority's table: `uavbus keys pairwise`).
+ * The local entity needs no secret key (one is added without one if absent); the pair is pinned: never
+ * evicted, never re-checked with the store; a second call for the same pair replaces its keys.
+ * @return UB_OK; UB_ERR_INVAL (NULL, equal IDs, not initialised); UB_ERR_FULL (UB_ORIGIN_LOCALS, or
+ *         UB_ORIGIN_PEERS all pinned).
+ */
+UB_CHECK int ub_origin_add_pair(ub_origin_t *o, const uint8_t entity_id[UB_ENTITY_ID_LEN],
+                                const uint8_t peer_id[UB_ENTITY_ID_LEN], const uint8_t k_tx[UB_ORIGIN_KEY_LEN],
+                                const uint8_t k_rx[UB_ORIGIN_KEY_LEN]);
+
+/* A microcontroller's provisioning table (`uavbus keys pairwise`, docs/security.md "Microcontrollers"), all
+ * integers little-endian: "UBPR", version 1, n, 2 reserved; the entity ID (12); the group key id, flags
+ * (bit 0: a group key follows), 2 reserved; the group master key (32, zero without one); n x (peer ID 12,
+ * key entity->peer 16, key peer->entity 16); CRC-32C of everything before it (4). The CRC finds a damaged
+ * or half-written flash area; who may write that area is the board's protection, not the table's. */
+#define UB_ORIGIN_PAIRS_MAGIC "UBPR"
+#define UB_ORIGIN_PAIRS_HEADER_LEN 56u
+#define UB_ORIGIN_PAIRS_ENTRY_LEN 44u
+#define UB_ORIGIN_PAIRS_LEN(n) (UB_ORIGIN_PAIRS_HEADER_LEN + (n) * UB_ORIGIN_PAIRS_ENTRY_LEN + 4u)
+
+/** What a provisioning table holds besides its pairs. */
+typedef struct ub_origin_provision {
+    uint8_t entity_id[UB_ENTITY_ID_LEN];
+    uint8_t group_key[32]; /**< the fleet's group master key (ub_sec_add_key()), if has_group_key */
+    uint8_t group_key_id;
+    bool has_group_key;
+    uint8_t pairs;         /**< pairs installed */
+} ub_origin_provision_t;
+
+/**
+ * Installs the pairs of provisioning table `table` (`len` bytes; e.g. a flash area) with
+ * ub_origin_add_pair() and reports the rest in `out` (the caller adds the group key to its ub_sec_t, then
+ * wipes `out`). Checks everything before installing anything; a refused table leaves no pair of its own.
+ * A peer listed twice keeps the later keys.
+ * @return the number of entries (>= 0); UB_ERR_INVAL (NULL, not initialised); UB_ERR_CONFIG (no table: wrong
+ *         magic or version, a length that does not match n, a bad CRC, a pair with itself); UB_ERR_FULL (more
+ *         pairs than UB_ORIGIN_PEERS, or than rows not already provisioned).
+ */
+UB_CHECK int ub_origin_load_pairs(ub_origin_t *o, const uint8_t *table, size_t len, ub_origin_provision_t *out);
 
 /** Registers the context's service with `node` (ub_node_add_service()). @return as that. */
 UB_CHECK int ub_origin_attach(ub_origin_t *o, ub_node_t *node);
@@ -156,14 +207,15 @@ const ub_origin_stats_t *ub_origin_stats(const ub_origin_t *o);
 
 /* ---- pure functions (vectors, bench, other bindings) ---- */
 
-/** X25519 public key of a secret key. @return UB_OK or UB_ERR_UNSUPPORTED. */
+/** X25519 public key of a secret key. @return UB_OK or UB_ERR_UNSUPPORTED (no security, or
+ *  UB_ORIGIN_AGREEMENT 0). */
 UB_CHECK int ub_origin_public_key(const uint8_t sk[UB_ORIGIN_SK_LEN], uint8_t pk[UB_ORIGIN_PK_LEN]);
 
 /**
  * The directional pairwise keys of entity `self_id` (secret key `self_sk`) with `peer_id` (public key
  * `peer_pk`): `k_tx` for frames self -> peer, `k_rx` for peer -> self.
  * @return UB_OK; UB_ERR_INVAL (NULL, equal IDs); UB_ERR_AUTH (a small-order peer key: all-zero agreement);
- *         UB_ERR_UNSUPPORTED.
+ *         UB_ERR_UNSUPPORTED (no security, or UB_ORIGIN_AGREEMENT 0).
  */
 UB_CHECK int ub_origin_pair_keys(const uint8_t self_id[UB_ENTITY_ID_LEN], const uint8_t self_sk[UB_ORIGIN_SK_LEN],
                                  const uint8_t peer_id[UB_ENTITY_ID_LEN], const uint8_t peer_pk[UB_ORIGIN_PK_LEN],

@@ -68,7 +68,7 @@ int ub_sec_init(ub_sec_t *sec, const ub_sec_options_t *opt) {
     if (sec->opt.replay_streak == 0) sec->opt.replay_streak = UB_SEC_DEFAULT_REPLAY_STREAK;
     if (sec->opt.rechallenge_min_ms == 0) sec->opt.rechallenge_min_ms = UB_SEC_DEFAULT_RECHALLENGE_MIN_MS;
 #if HAVE_SODIUM
-    if (sodium_init() < 0) return UB_ERR_IO;
+    if (UB_SODIUM_INIT() < 0) return UB_ERR_IO;
     sec->initialised = 1;
     return UB_OK;
 #else
@@ -313,7 +313,7 @@ void ub_sec_random(ub_sec_t *sec, uint8_t *out, size_t len) {
 int ub_sec_keygen(uint8_t key[UB_SEC_KEY_LEN]) {
     if (key == NULL) return UB_ERR_INVAL;
 #if HAVE_SODIUM
-    if (sodium_init() < 0) return UB_ERR_IO;
+    if (UB_SODIUM_INIT() < 0) return UB_ERR_IO;
     randombytes_buf(key, UB_SEC_KEY_LEN);
     return UB_OK;
 #else

@@ -420,6 +420,13 @@ uint64_t ub_identfile_unix_s(void *user) {
     return now > 0 ? (uint64_t)now : 0u;
 }
 
+bool ub_identfile_route_certified(void *user, const uint8_t dest[UB_ENTITY_ID_LEN],
+                                  const uint8_t neighbour[UB_ENTITY_ID_LEN], uint16_t metric) {
+    (void)neighbour;
+    (void)metric;
+    return ub_ident_peer_status((const ub_ident_store_t *)user, dest, ub_identfile_unix_s(NULL)) == UB_IDENT_VALID;
+}
+
 int ub_certfile_persist(void *user, const uint8_t *cert, size_t len) {
     return ub_certfile_put((const char *)user, cert, len, NULL, 0);
 }

@@ -15,6 +15,7 @@
 #if defined(UB_SECURITY) && UB_SECURITY
 #include <sodium.h>
 #define HAVE_SODIUM 1
+#define HAVE_AGREEMENT UB_ORIGIN_AGREEMENT
 _Static_assert(crypto_scalarmult_BYTES == UB_ORIGIN_PK_LEN, "X25519 public key length");
 _Static_assert(crypto_scalarmult_SCALARBYTES == UB_ORIGIN_SK_LEN, "X25519 secret key length");
 _Static_assert(crypto_shorthash_siphash24_KEYBYTES == UB_ORIGIN_KEY_LEN, "SipHash-2-4 key = a directional key");
@@ -23,6 +24,7 @@ _Static_assert(crypto_kdf_CONTEXTBYTES == sizeof UB_ORIGIN_KDF_CONTEXT - 1u, "KD
 _Static_assert(UB_ORIGIN_KEY_LEN >= crypto_kdf_BYTES_MIN, "KDF subkey length");
 #else
 #define HAVE_SODIUM 0
+#define HAVE_AGREEMENT 0
 #endif
 
 _Static_assert(sizeof UB_ORIGIN_DOMAIN - 1u == 11u, "the origin domain replaces the 11-byte signing domain");
@@ -34,7 +36,7 @@ _Static_assert(sizeof UB_ORIGIN_AGREE_DOMAIN - 1u == 16u, "agreement domain is 1
 
 int ub_origin_public_key(const uint8_t sk[UB_ORIGIN_SK_LEN], uint8_t pk[UB_ORIGIN_PK_LEN]) {
     if (sk == NULL || pk == NULL) return UB_ERR_INVAL;
-#if HAVE_SODIUM
+#if HAVE_AGREEMENT
     return crypto_scalarmult_base(pk, sk) == 0 ? UB_OK : UB_ERR_INVAL;
 #else
     return UB_ERR_UNSUPPORTED;
@@ -48,7 +50,7 @@ int ub_origin_pair_keys(const uint8_t self_id[UB_ENTITY_ID_LEN], const uint8_t s
         return UB_ERR_INVAL;
     int order = memcmp(self_id, peer_id, UB_ENTITY_ID_LEN);
     if (order == 0) return UB_ERR_INVAL;
-#if HAVE_SODIUM
+#if HAVE_AGREEMENT
     uint8_t self_pk[UB_ORIGIN_PK_LEN];
     if (crypto_scalarmult_base(self_pk, self_sk) != 0) return UB_ERR_INVAL;
     uint8_t in[AGREE_INPUT_LEN];
@@ -131,15 +133,23 @@ static ub_origin_peer_t *pair_get(ub_origin_t *o, int li, const uint8_t peer[UB_
         ub_origin_peer_t *e = &o->peers[i];
         if (e->in_use && e->local == li && ub_entity_id_eq(e->peer_id, peer)) hit = e;
     }
-    if (hit == NULL) { /* a free row, else the least recently used */
+    if (hit != NULL && hit->pinned) { /* provisioned: the authority's keys, no store to ask */
+        hit->last_used = ++o->lru_tick;
+        return hit;
+    }
+    /* provisioned pairs only: no store, or a local entity without a secret key (a zero key would derive
+     * keys anyone can compute) */
+    if (o->opt.lookup == NULL || !o->idents[li].has_sk) return NULL;
+    if (hit == NULL) { /* a free row, else the least recently used (never a provisioned one) */
         for (size_t i = 0; i < UB_ORIGIN_PEERS; i++) {
             ub_origin_peer_t *e = &o->peers[i];
             if (!e->in_use) {
                 victim = e;
                 break;
             }
-            if (victim == NULL || e->last_used < victim->last_used) victim = e;
+            if (!e->pinned && (victim == NULL || e->last_used < victim->last_used)) victim = e;
         }
+        if (victim == NULL) return NULL; /* every row provisioned */
     }
     /* A clock that went backwards counts as due, so a revocation is never postponed for good. */
     if (hit != NULL && now_ms >= hit->checked_ms && now_ms - hit->checked_ms < o->opt.recheck_ms) {
@@ -250,7 +260,7 @@ static bool origin_open(const ub_service_t *svc, ub_node_t *node, const ub_servi
 /* ---- set-up -------------------------------------------------------------------------------------------- */
 
 int ub_origin_init(ub_origin_t *o, const ub_origin_options_t *opt) {
-    if (o == NULL || opt == NULL || opt->lookup == NULL) return UB_ERR_INVAL;
+    if (o == NULL || opt == NULL) return UB_ERR_INVAL;
     memset(o, 0, sizeof *o);
     o->opt = *opt;
     if (o->opt.recheck_ms == 0) o->opt.recheck_ms = UB_ORIGIN_DEFAULT_RECHECK_MS;
@@ -260,7 +270,7 @@ int ub_origin_init(ub_origin_t *o, const ub_origin_options_t *opt) {
     o->svc.open = origin_open;
     o->svc.user = o;
 #if HAVE_SODIUM
-    if (sodium_init() < 0) return UB_ERR_IO;
+    if (UB_SODIUM_INIT() < 0) return UB_ERR_IO;
     o->initialised = 1;
     return UB_OK;
 #else
@@ -280,9 +290,82 @@ int ub_origin_add_identity(ub_origin_t *o, const uint8_t entity_id[UB_ENTITY_ID_
         memcpy(l->id, entity_id, UB_ENTITY_ID_LEN);
         memcpy(l->sk, x25519_sk, UB_ORIGIN_SK_LEN);
         l->in_use = 1;
+        l->has_sk = 1;
         return UB_OK;
     }
     return UB_ERR_FULL;
+}
+
+int ub_origin_add_pair(ub_origin_t *o, const uint8_t entity_id[UB_ENTITY_ID_LEN], const uint8_t peer_id[UB_ENTITY_ID_LEN],
+                       const uint8_t k_tx[UB_ORIGIN_KEY_LEN], const uint8_t k_rx[UB_ORIGIN_KEY_LEN]) {
+    if (o == NULL || entity_id == NULL || peer_id == NULL || k_tx == NULL || k_rx == NULL || !o->initialised ||
+        ub_entity_id_eq(entity_id, peer_id))
+        return UB_ERR_INVAL;
+    int li = local_index(o, entity_id);
+    for (size_t i = 0; i < UB_ORIGIN_LOCALS && li < 0; i++) { /* a local entity without a secret key */
+        ub_origin_local_t *l = &o->idents[i];
+        if (l->in_use) continue;
+        memset(l, 0, sizeof *l);
+        memcpy(l->id, entity_id, UB_ENTITY_ID_LEN);
+        l->in_use = 1;
+        li = (int)i;
+    }
+    if (li < 0) return UB_ERR_FULL;
+    ub_origin_peer_t *row = NULL;
+    for (size_t i = 0; i < UB_ORIGIN_PEERS; i++) { /* the pair's row, else a free one, else a derived one */
+        ub_origin_peer_t *e = &o->peers[i];
+        if (e->in_use && e->local == li && ub_entity_id_eq(e->peer_id, peer_id)) {
+            row = e;
+            break;
+        }
+        if (row == NULL && !e->in_use) row = e;
+    }
+    for (size_t i = 0; i < UB_ORIGIN_PEERS && row == NULL; i++)
+        if (!o->peers[i].pinned) row = &o->peers[i];
+    if (row == NULL) return UB_ERR_FULL;
+    ub_priv_wipe(row, sizeof *row);
+    memcpy(row->peer_id, peer_id, UB_ENTITY_ID_LEN);
+    memcpy(row->k_tx, k_tx, UB_ORIGIN_KEY_LEN);
+    memcpy(row->k_rx, k_rx, UB_ORIGIN_KEY_LEN);
+    row->local = (uint8_t)li;
+    row->last_used = ++o->lru_tick;
+    row->pinned = 1;
+    row->in_use = 1;
+    return UB_OK;
+}
+
+int ub_origin_load_pairs(ub_origin_t *o, const uint8_t *table, size_t len, ub_origin_provision_t *out) {
+    if (o == NULL || table == NULL || out == NULL || !o->initialised) return UB_ERR_INVAL;
+    if (len < UB_ORIGIN_PAIRS_LEN(0) || memcmp(table, UB_ORIGIN_PAIRS_MAGIC, 4) != 0 || table[4] != 1u)
+        return UB_ERR_CONFIG;
+    size_t n = table[5];
+    if (len != UB_ORIGIN_PAIRS_LEN(n)) return UB_ERR_CONFIG;
+    size_t body = len - 4u;
+    uint32_t crc = (uint32_t)table[body] | (uint32_t)table[body + 1u] << 8 | (uint32_t)table[body + 2u] << 16 |
+                   (uint32_t)table[body + 3u] << 24;
+    if (ub_crc32c(table, body) != crc) return UB_ERR_CONFIG;
+    const uint8_t *self = table + 8;
+    for (size_t i = 0; i < n; i++)
+        if (ub_entity_id_eq(table + UB_ORIGIN_PAIRS_HEADER_LEN + i * UB_ORIGIN_PAIRS_ENTRY_LEN, self))
+            return UB_ERR_CONFIG;
+    if (n > UB_ORIGIN_PEERS) return UB_ERR_FULL; /* nothing installed */
+    memset(out, 0, sizeof *out);
+    memcpy(out->entity_id, self, UB_ENTITY_ID_LEN);
+    out->group_key_id = table[20];
+    out->has_group_key = (table[21] & 1u) != 0;
+    if (out->has_group_key) memcpy(out->group_key, table + 24, sizeof out->group_key);
+    for (size_t i = 0; i < n; i++) {
+        const uint8_t *e = table + UB_ORIGIN_PAIRS_HEADER_LEN + i * UB_ORIGIN_PAIRS_ENTRY_LEN;
+        int rc = ub_origin_add_pair(o, self, e, e + UB_ENTITY_ID_LEN, e + UB_ENTITY_ID_LEN + UB_ORIGIN_KEY_LEN);
+        if (rc < 0) { /* no room left among pinned rows: take back what this table installed */
+            for (size_t j = 0; j < i; j++)
+                (void)ub_origin_forget(o, table + UB_ORIGIN_PAIRS_HEADER_LEN + j * UB_ORIGIN_PAIRS_ENTRY_LEN);
+            ub_priv_wipe(out, sizeof *out);
+            return rc;
+        }
+        out->pairs++;
+    }
+    return (int)n;
 }
 
 int ub_origin_attach(ub_origin_t *o, ub_node_t *node) {

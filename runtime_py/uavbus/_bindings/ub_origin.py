@@ -55,6 +55,9 @@ def ub_origin_tag(key: bytes, header: FrameHeader, payload: bytes) -> bytes:
     return bytes(tag)
 
 
+_NO_STORE = object()   # OriginContext(store=_NO_STORE): no lookup at all (provisioned pairs only)
+
+
 class OriginContext:
     """A ub_origin_t with its lookup; keep it as long as the node it is attached to. The lookup is a Python
     callback (`lookup`), or an identity store's C lookup (from_store(): no Python on the frame path)."""
@@ -66,7 +69,9 @@ class OriginContext:
         self._handle = ffi.new_handle(self)
         self.c = ffi.new("ub_origin_t *")
         opt = ffi.new("ub_origin_options_t *")
-        if store is not None:
+        if store is _NO_STORE:
+            opt.lookup = ffi.NULL                                    # provisioned pairs only
+        elif store is not None:
             opt.lookup = ffi.addressof(lib, "ub_ident_peer_kx_key")  # valid, unrevoked certificates only
             opt.lookup_user = store
             opt.clock_s = ffi.addressof(lib, "ub_identfile_unix_s")  # validity periods: the wall clock
@@ -92,6 +97,25 @@ class OriginContext:
                 continue
             ensure(lib.ub_origin_add_identity(ctx.c, eid, sk), "ub_origin_add_identity")
         return ctx, missing
+
+    @classmethod
+    def provisioned(cls, table: bytes) -> tuple[OriginContext, dict[str, Any]]:
+        """A context holding only the pairs of provisioning table `table` (`uavbus keys pairwise`), as the
+        microcontroller firmware loads it (ub_origin_load_pairs: no store, no key agreement). Returns the
+        context and the table's entity, group key id and key, and number of pairs."""
+        ctx = cls(None, 0, False, store=_NO_STORE)
+        prov = ffi.new("ub_origin_provision_t *")
+        n = ensure(lib.ub_origin_load_pairs(ctx.c, table, len(table), prov),
+                   "not a provisioning table (magic, version, length or CRC): write it with uavbus keys pairwise")
+        info = {"entity": bytes(prov.entity_id), "pairs": n, "group_key_id": int(prov.group_key_id),
+                "group_key": bytes(prov.group_key) if prov.has_group_key else None}
+        ffi.memmove(prov, bytes(ffi.sizeof("ub_origin_provision_t")), ffi.sizeof("ub_origin_provision_t"))
+        return ctx, info
+
+    def add_pair(self, entity_id: bytes, peer_id: bytes, k_tx: bytes, k_rx: bytes) -> None:
+        """A provisioned pair (ub_origin_add_pair): pinned, never asked of the store."""
+        ensure(lib.ub_origin_add_pair(self.c, _bytes(entity_id, 12, "entity id"), _bytes(peer_id, 12, "entity id"),
+                                      _bytes(k_tx, KEY_LEN, "key"), _bytes(k_rx, KEY_LEN, "key")), "ub_origin_add_pair")
 
     def add_identity(self, entity_id: bytes, sk: bytes) -> None:
         ensure(lib.ub_origin_add_identity(self.c, _bytes(entity_id, 12, "entity id"), _bytes(sk, SK_LEN, "secret key")),

@@ -20,9 +20,15 @@ _COUNTERS = ("route_changes", "routes_found", "routes_lost", "unfeasible", "expi
              "learn_refused", "learn_expired", "pinned_skips", "neighbour_limit", "dest_refused")
 
 
-def ub_route_new(node: Any, now_ms: int, parallel: str = "all", learn: bool = True, **options: int) -> Any:
-    """An engine attached to `node`; the caller keeps the cdata (and the node) alive."""
+def ub_route_new(node: Any, now_ms: int, parallel: str = "all", learn: bool = True, certified_by: Any = None,
+                 **options: int) -> Any:
+    """An engine attached to `node`; the caller keeps the cdata (and the node, and `certified_by`) alive.
+    `certified_by` (a ub_ident_store_t *): advertised destinations get routes only if that store certifies
+    them (ub_identfile_route_certified, the filter of `uavbus_node --route certified=1`)."""
     opt = ffi.new("ub_route_options_t *")
+    if certified_by is not None:
+        opt.accept_dest = ffi.addressof(lib, "ub_identfile_route_certified")
+        opt.accept_user = certified_by
     for key, value in options.items():
         if key not in OPTION_FIELDS:
             raise InvalidArgumentError(f"unknown routing option {key!r} (one of {', '.join(OPTION_FIELDS)}, "

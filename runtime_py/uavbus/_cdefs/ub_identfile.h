@@ -21,4 +21,5 @@ int ub_revfile_read(const char *path, uint8_t *records, size_t cap, char *err, s
 int ub_revfile_persist(void *user, const ub_ident_store_t *store);
 int ub_ident_roles_now(void *store, const uint8_t id[], uint16_t *roles);
 uint64_t ub_identfile_unix_s(void *user);
+bool ub_identfile_route_certified(void *user, const uint8_t dest[], const uint8_t neighbour[], uint16_t metric);
 int ub_certfile_persist(void *user, const uint8_t *cert, size_t len);

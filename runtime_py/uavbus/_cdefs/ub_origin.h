@@ -41,6 +41,18 @@ typedef struct ub_origin {
 
 int ub_origin_init(ub_origin_t *o, const ub_origin_options_t *opt);
 int ub_origin_add_identity(ub_origin_t *o, const uint8_t entity_id[], const uint8_t x25519_sk[]);
+int ub_origin_add_pair(ub_origin_t *o, const uint8_t entity_id[], const uint8_t peer_id[], const uint8_t k_tx[],
+                       const uint8_t k_rx[]);
+#define UB_ORIGIN_PAIRS_HEADER_LEN ...
+#define UB_ORIGIN_PAIRS_ENTRY_LEN ...
+typedef struct ub_origin_provision {
+    uint8_t entity_id[12];
+    uint8_t group_key[32];
+    uint8_t group_key_id;
+    bool has_group_key;
+    uint8_t pairs;
+} ub_origin_provision_t;
+int ub_origin_load_pairs(ub_origin_t *o, const uint8_t *table, size_t len, ub_origin_provision_t *out);
 int ub_origin_attach(ub_origin_t *o, ub_node_t *node);
 int ub_origin_detach(ub_origin_t *o, ub_node_t *node);
 size_t ub_origin_forget(ub_origin_t *o, const uint8_t peer_id[]);

@@ -17,6 +17,8 @@ typedef struct ub_route_options {
     uint16_t initial_seqno;
     uint32_t learn_expiry_ms;
     uint16_t max_dests;
+    bool (*accept_dest)(void *user, const uint8_t dest[], const uint8_t neighbour[], uint16_t metric);
+    void *accept_user;
     ...;
 } ub_route_options_t;
 

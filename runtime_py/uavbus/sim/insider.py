@@ -16,9 +16,10 @@ pairwise key with the destination (`bad_origin` at the destination) and with no 
 link the attack came in on, between just before and just after the attack, plus the effect looked for.
 
 What the threat model lets it do, and what the step counts as accepted by name: requests in its **own**
-name within its quota (the policy's limits: `max_rows`, `min_period_ms`, `max_lease_ms`). Routing does not
-run in Table 2 (static masks from the configuration), so route advertisements reach no routing engine:
-the step says so instead of attacking one.
+name within its quota (the policy's limits: `max_rows`, `min_period_ms`, `max_lease_ms`), and false metrics
+for certified entities (docs/security.md, "Routing from insiders"). Routing does not run in Table 2 (static
+masks from the configuration), so the routes attack runs on a small routed identity network beside it
+(`routed_insider()`: rmax1ob2 between a C and a Python node, both `certified` routing) from the same fleet.
 
 Identities come from `uavbus keys fleet` (`insider_config()`): every node, C and Python, keys origin
 authentication from the certificates its configuration names, and a revocation handed to one node reaches
@@ -46,7 +47,7 @@ from uavbus.sim.build import REPO
 from uavbus.sim.hitl import HitlOptions
 from uavbus.sim.secure import signed_config
 
-__all__ = ["INSIDER_ATTACKS", "CAPTURED", "GROUP_LOCKOUT", "group_key_lockout", "InsiderCampaign", "insider_config", "insider_options"]
+__all__ = ["INSIDER_ATTACKS", "CAPTURED", "routed_insider", "GROUP_LOCKOUT", "group_key_lockout", "InsiderCampaign", "insider_config", "insider_options"]
 
 CAPTURED = "rmax1ob2"
 ENTITIES = ("gcs1", "rmax1ob1", "rmax1ob2", "fcs20")
@@ -211,8 +212,13 @@ class InsiderCampaign(Campaign):
         return self._forgery(name, frames, "b>a", effect)
 
     def _routes(self, name: str) -> AttackResult:
-        r = AttackResult(name, 0, 0, {}, "not run: routing does not run in Table 2 (static masks from the "
-                         "configuration; no node has --route), so no route advertisement is heard", "")
+        program = getattr(self.h, "program", None)
+        if program is None or not self.identities:
+            r = AttackResult(name, 0, 0, {}, "not run: the routed network needs identities and the C node program "
+                             "(Table 2's masks are static; no route advertisement reaches a routing engine there)", "")
+        else:
+            r = routed_insider(self.keys, Path(program), self.cat, self.h.alloc, pump=lambda: self.h.run_for(0.01))
+            r.name = name
         self.results.append(r)
         return r
 
@@ -404,6 +410,146 @@ class InsiderCampaign(Campaign):
         r.name = name
         return r
 
+
+
+# ---- routes for entities it does not own: a small routed identity network ------------------------------------
+GHOSTS = ("uav90", "uav91")              # no certificate: entities that do not exist in the fleet
+CLAIMED = "fcs20"                       # certified, but not the captured vehicle's: the threat model's open case
+ROUTE_HELLO_MS, ROUTE_UPDATE_MS = 100, 200
+ROUTE_UPDATE = 10                       # UB_ADMIN_ROUTE_UPDATE (docs/routing.md, "Frame layouts")
+
+
+def route_entries(frame: bytes) -> list[tuple[str, int]]:
+    """The (destination, metric) update entries of a ROUTE_UPDATE frame (docs/routing.md: a 24-byte hello
+    part, then 16-byte entries); [] for any other frame."""
+    try:
+        h = uf.ub_frame_parse(frame)
+    except Exception:
+        return []
+    if h.admin != ROUTE_UPDATE:
+        return []
+    p = frame[uf.FRAME_HEADER_LEN:uf.FRAME_HEADER_LEN + h.payload_size]
+    return [(p[o:o + 12].rstrip(b"\0").decode("ascii", "replace"), int.from_bytes(p[o + 14:o + 16], "little"))
+            for o in range(24, 24 + 16 * p[10], 16)]
+
+
+def routes_config(keys: Path) -> Path:
+    """The routed identity network of the routes attack, in the fleet's key directory: rmax1ob2 (the captured
+    vehicle) between rmax1ob1 and gcs1, one UDP link each; the fleet's group key, authority and identities;
+    counters, certificate copies and revocations in routes-state/ (apart from Table 2's running nodes)."""
+    state = keys / "routes-state"
+    state.mkdir(exist_ok=True)
+    for e in ("rmax1ob1", "rmax1ob2", "gcs1"):
+        (state / f"{e}.certs").write_bytes((keys / "fleet.certs").read_bytes())
+    doc = {"system": "insider-routes",
+           "entities": [{"name": "rmax1ob2", "links": ["toRmax1ob1", "toGcs1"]},
+                        {"name": "rmax1ob1", "links": ["toRmax1ob2"]},
+                        {"name": "gcs1", "links": ["toRmax1ob2"]}],
+           "nodes": {"r2": ["rmax1ob2"], "r1": ["rmax1ob1"], "g1": ["gcs1"]},
+           "security": {"keys": ["fleet-1.key"], "counter_file": "routes-state/{entity}.counter",
+                        "authority": "authority.pub", "identity": "{entity}.id",
+                        "certificates": "routes-state/{entity}.certs",
+                        "revocations": "routes-state/{entity}.revocations.ubr"}}
+    path = keys / "routes.identity.json"
+    path.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+    return path
+
+
+def routed_insider(keys: Path, program: Path, cat: Any, alloc: Any, pump: Callable[[], None] | None = None,
+                   settle_s: float = 0.6, attack_s: float = 1.0) -> AttackResult:
+    """Routes for entities it does not own, on a routed identity network (Table 2 runs no routing): the
+    captured vehicle rmax1ob2 (a Python node with its own valid identity, running the routing engine) sits
+    between rmax1ob1 (the C program, `--route certified=1`) and gcs1 (a Python node,
+    `routing.enable(certified=True)`), each link through a recording UDP tap. Once both have verified it
+    (`settle_s`), it starts advertising, at metric 0 as its own, GHOSTS (no certificate) and CLAIMED
+    (fcs20: certified, not its own) for `attack_s`. `sent`: ghost entries that crossed the taps; `accepted`:
+    ghosts routed at either victim; `dropped_as`: the victims' `dest_refused`. fcs20's claim is what the
+    threat model leaves open (false metrics for certified entities: attraction, not forgery); the effect says
+    what became of it. `pump` keeps another harness serviced meanwhile (Table 2's GCS)."""
+    from uavbus import Node
+    from uavbus.sim.attacker import UdpTap
+    from uavbus.sim.process import NodeProcess
+
+    cfg = routes_config(keys)
+    ep = {k: alloc.addr() for k in ("r2a", "r2b", "r1", "g1", "tap_r2a", "tap_r1", "tap_r2b", "tap_g1")}
+    tap_r1 = UdpTap(ep["r2a"], ep["r1"], ep["tap_r2a"], ep["tap_r1"])      # a>b: rmax1ob2 -> rmax1ob1
+    tap_g1 = UdpTap(ep["r2b"], ep["g1"], ep["tap_r2b"], ep["tap_g1"])      # a>b: rmax1ob2 -> gcs1
+    ropt = {"hello_ms": ROUTE_HELLO_MS, "update_ms": ROUTE_UPDATE_MS}
+    proc = NodeProcess([str(program), "--config", str(cfg), "--node", "r1", "--stats-ms", "0",
+                        "--route", f"certified=1,hello={ROUTE_HELLO_MS},update={ROUTE_UPDATE_MS}",
+                        "--port", f"toRmax1ob2=udp:bind={ep['r1']},peer={ep['tap_r1']}"], "routes-rmax1ob1")
+    nodes: list[Any] = []
+    try:
+        proc.start()
+        proc.wait_ready(5.0)
+        gcs = Node(cat, config=cfg, node="g1")
+        nodes.append(gcs)
+        gcs.open_port("toRmax1ob2", f"udp:bind={ep['g1']},peer={ep['tap_g1']}")
+        gcs.routing.enable(certified=True, **ropt)
+        att = Node(cat, config=cfg, node="r2")
+        nodes.append(att)
+        att.open_port("toRmax1ob1", f"udp:bind={ep['r2a']},peer={ep['tap_r2a']}")
+        att.open_port("toGcs1", f"udp:bind={ep['r2b']},peer={ep['tap_r2b']}")
+        att.routing.enable(**ropt)
+
+        def run(seconds: float) -> None:
+            end = time.monotonic() + seconds
+            while time.monotonic() < end:
+                for n in nodes:
+                    n.poll(0)
+                if pump is not None:
+                    pump()
+                else:
+                    time.sleep(0.005)
+
+        def c_routes() -> dict[str, Any]:
+            since = proc.mark()
+            proc.send("routes")
+            return proc.wait_event("routes", 3.0, since)
+
+        run(settle_s)                       # hellos both ways; each victim challenges and verifies rmax1ob2
+        base_c = c_routes()["counters"]["dest_refused"]
+        base_py = gcs.routing.counters()["dest_refused"]
+        t0 = time.monotonic()
+        for e in (*GHOSTS, CLAIMED):       # its engine now advertises them at metric 0, as its own
+            att.add_entity(e, local=True)
+        run(attack_s)
+        table_c = c_routes()["entities"].get("rmax1ob1", {})     # the tables while the links are up
+        table_py = gcs.routing.table("gcs1")
+        t1 = {}
+        for tap in (tap_r1, tap_g1):        # nothing more reaches the victims: exact accounting (under the
+            with tap._lock:                 # tap's lock: a frame captured before t1 was forwarded, after it not)
+                tap.forwarding = False
+                t1[id(tap)] = time.monotonic()
+        run(0.2)
+        ev = c_routes()
+        sent = {v: sum(1 for t, d, f in tap.captured if d == "a>b" and t0 <= t < t1[id(tap)]
+                       for dest, _m in route_entries(f) if dest in GHOSTS)
+                for v, tap in (("rmax1ob1", tap_r1), ("gcs1", tap_g1))}
+        refused = {"rmax1ob1": ev["counters"]["dest_refused"] - base_c,
+                   "gcs1": gcs.routing.counters()["dest_refused"] - base_py}
+        learned = {"rmax1ob1": [g for g in GHOSTS if table_c.get(g, {}).get("reachable")],
+                   "gcs1": [g for g in GHOSTS if table_py.get(g, {}).get("reachable")]}
+        claim = {"rmax1ob1": table_c.get(CLAIMED, {}).get("via"), "gcs1": table_py.get(CLAIMED, {}).get("next_hop")}
+        accepted = sum(len(v) for v in learned.values())
+        r = AttackResult("routes for entities it does not own", sum(sent.values()), accepted,
+                         {"dest_refused": sum(refused.values())} if sum(refused.values()) else {},
+                         f"{len(GHOSTS)} uncertified entities advertised at metric 0 by rmax1ob2 for {attack_s:.1f} s "
+                         f"(entries: rmax1ob1 {sent['rmax1ob1']}, gcs1 {sent['gcs1']}; refused: rmax1ob1 "
+                         f"{refused['rmax1ob1']}, gcs1 {refused['gcs1']}); routed: rmax1ob1 {learned['rmax1ob1'] or 'none'}, "
+                         f"gcs1 {learned['gcs1'] or 'none'}; allowed by the threat model: its metric-0 claim for "
+                         f"{CLAIMED} (certified, not its own) routes {CLAIMED} via "
+                         f"{claim['rmax1ob1'] or 'nobody'} at rmax1ob1, {claim['gcs1'] or 'nobody'} at gcs1 "
+                         "(attraction, not forgery: origin tags still hold)",
+                         "rmax1ob1 (C, --route certified=1) and gcs1 (Python, certified=True), routing engines")
+        r.extra.update(sent=sent, refused=refused, learned=learned, claimed=claim)
+        return r
+    finally:
+        for n in nodes:
+            n.close()
+        proc.stop()
+        tap_r1.close()
+        tap_g1.close()
 
 
 GROUP_LOCKOUT = "lockout: one frame each in gcs1's and rmax1ob1's names, counter 2^48-2, group key"

@@ -118,3 +118,15 @@ void bsp_idle(void) {
     if (bsp_ring_fill(&tx_ring) == 0 && bsp_ring_fill(&rx_ring) == 0) cm_wfi();
     cm_irq_enable();
 }
+
+int bsp_entropy(uint8_t *out, size_t len) {
+    /* No TRNG on this board: the 25 MHz timer's low bits, read between busy waits of varying length. Under
+     * QEMU they follow the host's scheduling; that is unpredictability for a demonstration, not entropy. */
+    for (size_t i = 0; i < len; i++) {
+        uint32_t t = TIMER_VALUE;
+        for (volatile uint32_t spin = (t & 0x3Fu) + 16u; spin > 0; spin--) {
+        }
+        out[i] = (uint8_t)(t ^ (TIMER_VALUE >> 3) ^ (uint32_t)clock_ticks);
+    }
+    return 0;
+}

@@ -95,3 +95,11 @@ void bsp_idle(void) {
     if (bsp_ring_fill(&tx_ring) == 0 && bsp_ring_fill(&rx_ring) == 0) cm_wfi();
     cm_irq_enable();
 }
+
+int bsp_entropy(uint8_t *out, size_t len) {
+    /* The STM32F4's RNG peripheral is the source to use here; not written yet: no randomness (the firmware
+     * then refuses to turn security on rather than run with a guessable generator). */
+    (void)out;
+    (void)len;
+    return -1;
+}
