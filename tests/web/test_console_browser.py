@@ -9,6 +9,7 @@ with a policy in which gcs1 is not an administrator.
 from __future__ import annotations
 
 import csv
+import json
 import time
 from pathlib import Path
 from typing import Any
@@ -200,6 +201,21 @@ def test_field_written_in_browser_is_read_back_over_the_bus(table2: ConsoleTable
     cat = Catalogue.load(table2.hitl.catalogue_path)
     assert int(cat.decode("fcsSet", bytes.fromhex(ev["packed"]))["mode"]) == 3, ev
 
+    # The whole directory as JSON (live refresh off, so the text edited is the text sent).
+    browser.find_element(By.ID, "var-live").click()
+    browser.execute_script("const t = document.getElementById('var-json'); const v = JSON.parse(t.value); "
+                           "v.mode = 4; v.switches.logLevel = 5; t.value = JSON.stringify(v);")
+    click(browser, '//button[@id="var-write-all"]')
+    msg = confirm(browser, "write fcsSet = {")
+    assert "fcsSet written; read back over the bus: {" in msg, msg
+    back = json.loads(msg.split("read back over the bus: ", 1)[1])
+    assert back["mode"] == 4 and back["switches"]["logLevel"] == 5, back
+    mark = proc.mark()
+    proc.send("dump fcsSet")
+    ev = proc.wait_event("dump", 5.0, since=mark)
+    mine = cat.decode("fcsSet", bytes.fromhex(ev["packed"]))
+    assert int(mine["mode"]) == 4 and int(mine["switches"]["logLevel"]) == 5, ev
+
 
 def test_plot_of_imu_p_receives_points_at_50_hz(table2: ConsoleTable2, browser: Any, shots: Path,
                                                 downloads: Path) -> None:
@@ -222,6 +238,11 @@ def test_plot_of_imu_p_receives_points_at_50_hz(table2: ConsoleTable2, browser: 
     legend = browser.find_element(By.CSS_SELECTOR, f'#plot-legend span[data-series="{key}"]')
     assert legend.get_attribute("data-unit") == "rad/s" and "[rad/s]" in legend.text  # imu.h's comment
     assert int(legend.get_attribute("data-points")) == len(ts) or int(legend.get_attribute("data-points")) > 100
+    # Several at once: imuOut.q beside it, each its own series with its own points.
+    Select(browser.find_element(By.CSS_SELECTOR, 'select[data-key="imuOut@fcs20"]')).select_by_value("q")
+    click(browser, '//tr[@data-flow="imuOut@fcs20"]//button[text()="Plot"]')
+    wait_for(lambda: len(browser.execute_script(points, "imuOut@fcs20:q")) > 20, 10, "points of imuOut.q")
+    assert browser.execute_script("return Array.from(state.plot.series.keys()).sort();") == [key, "imuOut@fcs20:q"]
     browser.save_screenshot(str(shots / "plot.png"))
     # Pause holds the plot still; the CSV export writes what it shows.
     browser.find_element(By.ID, "plot-pause").click()
@@ -232,7 +253,9 @@ def test_plot_of_imu_p_receives_points_at_50_hz(table2: ConsoleTable2, browser: 
     path = downloads / "uavbus-plot.csv"
     wait_for(path.exists, 5, "the exported CSV")
     with path.open() as fh:
-        rows = [r for r in csv.DictReader(fh) if r["series"] == key]
+        every = list(csv.DictReader(fh))
+    rows = [r for r in every if r["series"] == key]
+    assert {r["series"] for r in every} == {key, "imuOut@fcs20:q"}
     assert len(rows) == n and all(abs(float(r["value"])) < 10 and r["unit"] == "rad/s" for r in rows)
     # The variable browser shows the unit and the description beside the live value.
     tab(browser, "vars")
@@ -244,6 +267,22 @@ def test_plot_of_imu_p_receives_points_at_50_hz(table2: ConsoleTable2, browser: 
     row = wait_for(lambda: browser.find_element(By.CSS_SELECTOR, '#var-table tr[data-field="imuOut.p"]'), 10, "imuOut.p")
     assert row.find_element(By.CSS_SELECTOR, "td.unit").text == "rad/s" and "roll rate" in row.text
     browser.save_screenshot(str(shots / "variables_units.png"))
+
+    # Discovery: what fcs20 offers (each catalogued directory hosted or not, its flows now).
+    browser.find_element(By.ID, "var-offer").click()
+    offered = wait_for(lambda: (rows := browser.execute_script(
+        "return Object.fromEntries(Array.from(document.querySelectorAll('#var-table tr[data-dir]')).map("
+        "tr => [tr.dataset.dir, Array.from(tr.children).map(td => td.textContent)]))")) and "fcsSet" in rows and rows,
+        30, "fcs20's offer")
+    assert offered["fcsSet"][3] == "yes" and offered["imuOut"][3] == "yes", offered
+    assert "publication to gcs1 every 20 ms" in offered["imuOut"][4], offered["imuOut"]  # the row added above
+    from uavbus import Catalogue
+
+    # Every catalogued directory answered (uavbus_node hosts them all; a probe with no answer would show "?").
+    assert set(offered) == {inst.name for inst in Catalogue.load(table2.hitl.catalogue_path)}
+    assert all(r[3] in ("yes", "no") for r in offered.values()), [k for k, r in offered.items() if r[3] not in ("yes", "no")]
+    assert not browser.find_element(By.ID, "var-whole").is_displayed()  # no directory to write as a whole
+    browser.save_screenshot(str(shots / "variables_offer.png"))
 
 
 @pytest.fixture(scope="module")

@@ -255,6 +255,7 @@ async function loadLeaf() {
     : `/api/entity/${encodeURIComponent(leaf.entity)}/dir/${encodeURIComponent(leaf.name)}`;
   const d = await get(path);
   if (state.varLeaf !== leaf) return;
+  $("#var-whole").classList.toggle("hidden", leaf.kind !== "dir" || !!d.error);  // only a directory read is written whole
   const title = $("#var-title");
   if (d.error) {
     title.textContent = `${leaf.entity}: ${leaf.name}: ${d.reason ? "refused (" + d.reason + ")" : d.error}`;
