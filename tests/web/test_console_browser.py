@@ -173,6 +173,20 @@ def test_admin_row_added_in_page_becomes_active_and_flows_at_its_rate(table2: Co
     rate = flow_rate(browser, "gpsOut@rmax1ob1")
     assert rate is not None and 17.0 <= rate <= 23.0, rate
 
+    # Deactivate, then activate again, each through the confirm step: the flow stops, then comes back.
+    tab(browser, "admin")
+    click(browser, f'//tr[@data-row="{row["row"]}"]//button[text()="Deactivate…"]')
+    assert "deactivated" in confirm(browser, f"deactivate administration row {row['row']} (gpsOut")
+    wait_for(lambda: admin_status(browser, "gpsOut", "rmax1ob1")["status"] != "active", 10, "the row deactivated")
+    tab(browser, "plots")
+    wait_for(lambda: (r := flow_rate(browser, "gpsOut@rmax1ob1")) is None or r < 5.0, 15, "gpsOut stopped")
+    tab(browser, "admin")
+    click(browser, f'//tr[@data-row="{row["row"]}"]//button[text()="Activate…"]')
+    assert "activated" in confirm(browser, f"activate administration row {row['row']} (gpsOut")
+    wait_for(lambda: admin_status(browser, "gpsOut", "rmax1ob1")["status"] == "active", 10, "the row active again")
+    tab(browser, "plots")
+    wait_for(lambda: (r := flow_rate(browser, "gpsOut@rmax1ob1")) is not None and r > 15.0, 15, "gpsOut back at 20 Hz")
+
 
 def test_field_written_in_browser_is_read_back_over_the_bus(table2: ConsoleTable2, browser: Any,
                                                               shots: Path) -> None:
