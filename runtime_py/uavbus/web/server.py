@@ -570,6 +570,11 @@ class ServerThread:
             await runner.cleanup()
 
     def stop(self) -> None:
-        if self._loop is not None and self._stop is not None:
-            self._loop.call_soon_threadsafe(self._stop.set)
-        self._thread.join(5.0)
+        """Stops the server; a second call (or one after it ended) does nothing."""
+        if self._loop is not None and self._stop is not None and self._thread.is_alive():
+            try:
+                self._loop.call_soon_threadsafe(self._stop.set)
+            except RuntimeError:  # its loop ended meanwhile
+                pass
+        if self._thread.ident is not None:
+            self._thread.join(5.0)
