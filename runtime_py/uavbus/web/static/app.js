@@ -402,7 +402,8 @@ function drawPlot(now, canvas, series, window_s) {
   for (let i = 0; i <= 4; i++) {
     const v = lo + (hi - lo) * i / 4;
     g.beginPath(); g.moveTo(L, y(v)); g.lineTo(W - R, y(v)); g.stroke();
-    g.fillText(String(Number(v.toPrecision(3))), 4, y(v) + 4);
+    const near0 = Math.abs(v) < (hi - lo) * 1e-3;  // the middle of a symmetric range: 0, not 0.0000189
+    g.fillText(String(near0 ? 0 : Number(v.toPrecision(3))), 4, y(v) + 4);
   }
   for (let s = 0; s <= win; s += win / 6) g.fillText(`-${(win - s).toFixed(0)} s`, x(now - win + s) - 10, H - 6);
   for (const s of series.values()) {
