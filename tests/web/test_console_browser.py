@@ -20,7 +20,7 @@ from selenium.webdriver.support.ui import Select
 
 from uavbus.web.table2 import ConsoleTable2
 
-from web_testutil import wait_for
+from web_testutil import identity_security, wait_for
 
 pytestmark = pytest.mark.timeout(90)
 TABLE2 = {"rmax1ob1", "rmax1ob2", "fcs20", "gcs1"}
@@ -327,3 +327,36 @@ def test_refusal_not_an_administrator_is_shown_with_its_reason(refused_table2: C
                      "the refusal of fcs20's link table")
     assert title.get_attribute("data-reason") == "not_authorized" and "refused (not_authorized)" in title.text
     browser.save_screenshot(str(shots / "variables_refused.png"))
+
+
+@pytest.mark.parametrize("gcs_roles", ["admin", "observer"])
+def test_the_console_writes_as_its_identity_and_the_certificate_decides(program: Path, browser: Any, shots: Path,
+                                                                        tmp_path: Path, gcs_roles: str) -> None:
+    """Signed Table 2 with an identity per entity: the console's request leaves as gcs1, signed with gcs1's
+    key, and rmax1ob1 judges it on gcs1's certificate. Same keys, names and configuration: served when the
+    certificate says admin, refused with its reason when it says observer (the console adds no authority)."""
+    roles = {"gcs1": gcs_roles, "rmax1ob1": "vehicle,relay", "rmax1ob2": "vehicle", "fcs20": "vehicle"}
+    sec = identity_security(tmp_path / "ids", roles)
+    with ConsoleTable2(tmp_path / "ids", program=program, routing=False, security=sec) as t:
+        load(browser, t.url)
+        admin_add(browser, "gpsOut", "rmax1ob1", "rmax1ob2", 100, "publication")  # data to a third party
+        confirm(browser, "add publication gpsOut rmax1ob1 -> rmax1ob2")
+        want = "active" if gcs_roles == "admin" else "failed"
+        row = wait_for(lambda: (s := admin_status(browser, "gpsOut", "rmax1ob1")) and s["status"] == want and s,
+                       10, f"the row {want} ({admin_status(browser, 'gpsOut', 'rmax1ob1')})")
+        policy = browser.find_element(By.ID, "admin-policy")
+        assert policy.get_attribute("data-roles") == gcs_roles, policy.text  # gcs1's own certificate, read here
+        assert policy.text.startswith(f"gcs1's certificate says {gcs_roles}: ")
+        assert ("targets let it administer" in policy.text) == (gcs_roles == "admin"), policy.text
+        if gcs_roles == "observer":
+            assert row["reason"] == "not_authorized", row
+            browser.save_screenshot(str(shots / "admin_refused_by_certificate.png"))
+        # rmax1ob1's own counters: the refusal is its policy's, on the certificate (a frame it could not verify
+        # would be dropped before the policy, and the row would stay pending, not failed).
+        stats = t.hitl.child_stats("primary")
+        drops = stats["node"]["drops"]
+        if gcs_roles == "observer":
+            assert drops["not_authorized"] >= 1, drops
+        else:
+            assert drops.get("not_authorized", 0) == 0, drops
+        assert stats["identity"]["lookups"] >= 1 and stats["identity"]["lookups_refused"] == 0, stats["identity"]

@@ -216,11 +216,17 @@ function renderFleet(fleet) {
 // ---- administration table -------------------------------------------------------------------------------
 function renderAdmin(a) {
   if (unchanged("admin", [a.rows.map(r => [r.row, r.content, r.source, r.destination, r.period_ms, r.type, r.status,
-    r.active, r.reason, r.relayed]), a.administrators])) return;
-  const admins = a.administrators;
-  $("#admin-policy").textContent = admins === null ? "No administrator list in the configuration: every target decides by its own policy."
-    : `Administrators by the configuration: ${admins.join(", ") || "none"}` + (admins.includes(a.me) ? "" :
-      ` — ${a.me} is not one of them: targets will refuse its requests (not_authorized).`);
+    r.active, r.reason, r.relayed]), a.administrators, a.certified_roles])) return;
+  const admins = a.administrators, roles = a.certified_roles;
+  const byName = admins === null ? "" : `Administrators by the configuration: ${admins.join(", ") || "none"}` +
+    (admins.includes(a.me) ? "." : ` — ${a.me} is not one of them: targets will refuse its requests (not_authorized).`);
+  // With identities the targets decide on the requester's certificate; a name list only narrows it.
+  const byRole = roles === null || roles === undefined ? "" : `${a.me}'s certificate says ${roles.join(", ") || "no role"}` +
+    (roles.includes("admin") ? ": targets let it administer." : ": not admin, so targets will refuse its requests for others (not_authorized).");
+  const policy = $("#admin-policy");
+  policy.textContent = [byRole, byName].filter(Boolean).join(" ") ||
+    "No administrator list in the configuration: every target decides by its own policy.";
+  policy.dataset.roles = roles ? roles.join(",") : "";
   const tb = $("#admin-table tbody");
   tb.replaceChildren();
   for (const r of a.rows) {
