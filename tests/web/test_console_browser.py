@@ -282,6 +282,18 @@ def test_plot_of_imu_p_receives_points_at_50_hz(table2: ConsoleTable2, browser: 
     assert row.find_element(By.CSS_SELECTOR, "td.unit").text == "rad/s" and "roll rate" in row.text
     browser.save_screenshot(str(shots / "variables_units.png"))
 
+    # fcs20's tables over the bus: its publish/subscribe table has the flow asked above, its entity table
+    # Table 2's entities, its administration table is there (empty: fcs20 administers nothing).
+    def table(name: str, want: Any) -> list[str]:
+        browser.find_element(By.CSS_SELECTOR, f'.var-table[data-table="{name}"]').click()
+        return wait_for(lambda: browser.find_element(By.ID, "var-title").text.startswith(f"fcs20: {name} (read")
+                        and want(rows := [tr.text for tr in browser.find_elements(By.CSS_SELECTOR, "#var-table tbody tr")])
+                        and (rows,), 10, f"fcs20's {name} table")[0]
+    table("pubsub", lambda rows: any("imuOut" in r and "gcs1" in r and " 20" in r for r in rows))
+    entities = table("entities", lambda rows: all(any(n in r for r in rows) for n in TABLE2))
+    assert len(entities) >= 4, entities
+    table("admin", lambda rows: rows == [])
+
     # Discovery: what fcs20 offers (each catalogued directory hosted or not, its flows now).
     browser.find_element(By.ID, "var-offer").click()
     offered = wait_for(lambda: (rows := browser.execute_script(
