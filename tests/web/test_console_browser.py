@@ -51,6 +51,14 @@ def fleet_rows(driver: Any) -> dict[str, dict[str, str]]:
     return out
 
 
+def row_text(driver: Any, css: str) -> str:
+    """A row's text read in the page in one step: the tables are rebuilt as they refresh, so an element
+    found first and read after may be gone (StaleElementReference under load)."""
+    text = wait_for(lambda: driver.execute_script("const e = document.querySelector(arguments[0]); "
+                                                  "return e ? e.innerText : null;", css), 10, css)
+    return " ".join(text.split())  # cells: tab-separated in innerText, space-separated as .text gives them
+
+
 def confirm(driver: Any, expect: str) -> str:
     """The confirm step: the dialog says what will happen; Confirm sends it. Returns the page's message."""
     box = wait_for(lambda: driver.find_element(By.ID, "confirm").is_displayed() and driver.find_element(By.ID, "confirm"),
@@ -123,7 +131,7 @@ def test_fleet_shows_table2_then_a_late_vehicle_without_reload(table2: ConsoleTa
         "r.dataset.link)")) and {"fcs20:onboardPortDatalink1", "rmax1ob2:onboard2PortIPC",
                                  "rmax1ob1:onboardPortRelay"} <= set(x) and x, 10, "the entities' link tables")
     assert sum(1 for x in remote if x.startswith("rmax1ob1:")) == 5  # its four Table 2 links and the spare
-    fcs = browser.find_element(By.CSS_SELECTOR, '#fleet-table tr[data-entity="fcs20"]').text
+    fcs = row_text(browser, '#fleet-table tr[data-entity="fcs20"]')
     assert "rmax1ob1" in fcs and " 2 " in f" {fcs} ", fcs  # two hops, via rmax1ob1
     wait_for(lambda: "N " in browser.find_element(By.CSS_SELECTOR, '#fleet-table tr[data-entity="rmax1ob1"]').text,
              10, "rmax1ob1's position (navFilterState.positionNed read over the bus)")
@@ -278,8 +286,10 @@ def test_plot_of_imu_p_receives_points_at_50_hz(table2: ConsoleTable2, browser: 
     field.clear()
     field.send_keys("imuOut")
     browser.find_element(By.ID, "var-open").click()
-    row = wait_for(lambda: browser.find_element(By.CSS_SELECTOR, '#var-table tr[data-field="imuOut.p"]'), 10, "imuOut.p")
-    assert row.find_element(By.CSS_SELECTOR, "td.unit").text == "rad/s" and "roll rate" in row.text
+    unit, text = wait_for(lambda: browser.execute_script(
+        "const tr = document.querySelector('#var-table tr[data-field=\"imuOut.p\"]');"
+        "return tr && [tr.querySelector('td.unit').textContent, tr.textContent];"), 10, "imuOut.p")
+    assert unit == "rad/s" and "roll rate" in text, text
     browser.save_screenshot(str(shots / "variables_units.png"))
 
     # fcs20's tables over the bus: its publish/subscribe table has the flow asked above, its entity table
