@@ -158,6 +158,9 @@ def test_every_message_validates_and_equals_the_log(recorded, tmp_path):
         summary = reader.get_summary()
         assert {a.name for a in reader.iter_attachments()} == {"catalogue.json"}
         validators = {sid: jsonschema.Draft202012Validator(json.loads(s.data)) for sid, s in summary.schemas.items()}
+        # The units reach the file itself (imu.h: `double p; /**< [rad/s] roll rate, body x */`).
+        imu = [json.loads(s.data) for s in summary.schemas.values() if s.name == cat.type_of("imuOut").name]
+        assert len(imu) == 1 and imu[0]["properties"]["p"]["unit"] == "rad/s", imu
         for sid, s in summary.schemas.items():
             assert s.encoding == "jsonschema"
             jsonschema.Draft202012Validator.check_schema(json.loads(s.data))

@@ -89,6 +89,49 @@ def test_writes_need_the_csrf_header_json_and_the_same_origin(console: Console) 
     run_app(console, None, body)
 
 
+def test_without_a_token_only_loopback_names_reach_the_console(console: Console) -> None:
+    """DNS rebinding: a page of evil.example whose name now points at 127.0.0.1 is same-origin with itself,
+    so it could read the page's CSRF value and send it with a matching Origin; its Host header gives it away."""
+    add = {"op": "admin_add", "content": "gpsOut", "source": "rmax1ob1", "destination": "gcs1", "period_ms": 100}
+
+    async def body(client: Any) -> None:
+        evil = {"Host": "evil.example:8080"}
+        r = await client.get("/", headers=evil)
+        assert r.status == 403 and "not a loopback name" in await r.text()
+        assert "csrf-secret" not in await r.text()
+        assert (await client.get("/api/fleet", headers=evil)).status == 403
+        r = await client.post("/api/prepare", json=add, headers={**evil, "Origin": "http://evil.example:8080",
+                                                                 CSRF_HEADER: "csrf-secret"})
+        assert r.status == 403
+        assert console.admin.rows() == []
+        for ok_host in ("127.0.0.1:8080", "localhost:8080", "[::1]:8080", "127.0.0.2"):
+            assert (await client.get("/api/info", headers={"Host": ok_host})).status == 200, ok_host
+    run_app(console, None, body)
+
+    async def with_token(client: Any) -> None:  # a token decides beyond localhost, whatever name was used
+        r = await client.get("/api/info", headers={"Host": "uav-gcs.lan:8080", "Authorization": f"Bearer {TOKEN}"})
+        assert r.status == 200
+    run_app(console, TOKEN, with_token)
+
+
+def test_the_token_beyond_localhost(tmp_path: Path) -> None:
+    """What `uavbus web` and ServerThread listen with: none needed on loopback, one made beyond it (tests
+    listen on 127.0.0.1 only, so the decision is tested here), a token file's first line everywhere."""
+    from uavbus.web.server import ServerThread, listen_token
+
+    assert listen_token("127.0.0.1", None) is None and listen_token("localhost", None) is None
+    made = [listen_token(h, None) for h in ("0.0.0.0", "192.168.1.20", "::")]
+    assert all(t is not None and len(t) >= 16 for t in made) and len(set(made)) == 3
+    f = tmp_path / "token"
+    f.write_text(TOKEN + "\nignored\n")
+    assert listen_token("127.0.0.1", str(f)) == TOKEN == listen_token("0.0.0.0", str(f))
+    with pytest.raises(SystemExit, match=r"nosuch:1: cannot read the token"):
+        listen_token("0.0.0.0", str(tmp_path / "nosuch"))
+    assert ServerThread(None, "127.0.0.1").token is None
+    wide = ServerThread(None, "0.0.0.0")
+    assert wide.token is not None and len(wide.token) >= 16
+
+
 def test_nothing_happens_before_confirm_and_a_confirm_works_once(console: Console) -> None:
     h = {CSRF_HEADER: "csrf-secret"}
 

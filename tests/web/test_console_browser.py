@@ -9,6 +9,7 @@ with a policy in which gcs1 is not an administrator.
 from __future__ import annotations
 
 import csv
+import json
 import time
 from pathlib import Path
 from typing import Any
@@ -19,7 +20,7 @@ from selenium.webdriver.support.ui import Select
 
 from uavbus.web.table2 import ConsoleTable2
 
-from web_testutil import wait_for
+from web_testutil import identity_security, wait_for
 
 pytestmark = pytest.mark.timeout(90)
 TABLE2 = {"rmax1ob1", "rmax1ob2", "fcs20", "gcs1"}
@@ -48,6 +49,14 @@ def fleet_rows(driver: Any) -> dict[str, dict[str, str]]:
         out[tr.get_attribute("data-entity")] = {"state": tr.get_attribute("data-state"),
                                                 "origin": tr.get_attribute("data-origin"), "text": tr.text}
     return out
+
+
+def row_text(driver: Any, css: str) -> str:
+    """A row's text read in the page in one step: the tables are rebuilt as they refresh, so an element
+    found first and read after may be gone (StaleElementReference under load)."""
+    text = wait_for(lambda: driver.execute_script("const e = document.querySelector(arguments[0]); "
+                                                  "return e ? e.innerText : null;", css), 10, css)
+    return " ".join(text.split())  # cells: tab-separated in innerText, space-separated as .text gives them
 
 
 def confirm(driver: Any, expect: str) -> str:
@@ -122,7 +131,7 @@ def test_fleet_shows_table2_then_a_late_vehicle_without_reload(table2: ConsoleTa
         "r.dataset.link)")) and {"fcs20:onboardPortDatalink1", "rmax1ob2:onboard2PortIPC",
                                  "rmax1ob1:onboardPortRelay"} <= set(x) and x, 10, "the entities' link tables")
     assert sum(1 for x in remote if x.startswith("rmax1ob1:")) == 5  # its four Table 2 links and the spare
-    fcs = browser.find_element(By.CSS_SELECTOR, '#fleet-table tr[data-entity="fcs20"]').text
+    fcs = row_text(browser, '#fleet-table tr[data-entity="fcs20"]')
     assert "rmax1ob1" in fcs and " 2 " in f" {fcs} ", fcs  # two hops, via rmax1ob1
     wait_for(lambda: "N " in browser.find_element(By.CSS_SELECTOR, '#fleet-table tr[data-entity="rmax1ob1"]').text,
              10, "rmax1ob1's position (navFilterState.positionNed read over the bus)")
@@ -172,6 +181,20 @@ def test_admin_row_added_in_page_becomes_active_and_flows_at_its_rate(table2: Co
     rate = flow_rate(browser, "gpsOut@rmax1ob1")
     assert rate is not None and 17.0 <= rate <= 23.0, rate
 
+    # Deactivate, then activate again, each through the confirm step: the flow stops, then comes back.
+    tab(browser, "admin")
+    click(browser, f'//tr[@data-row="{row["row"]}"]//button[text()="Deactivate…"]')
+    assert "deactivated" in confirm(browser, f"deactivate administration row {row['row']} (gpsOut")
+    wait_for(lambda: admin_status(browser, "gpsOut", "rmax1ob1")["status"] != "active", 10, "the row deactivated")
+    tab(browser, "plots")
+    wait_for(lambda: (r := flow_rate(browser, "gpsOut@rmax1ob1")) is None or r < 5.0, 15, "gpsOut stopped")
+    tab(browser, "admin")
+    click(browser, f'//tr[@data-row="{row["row"]}"]//button[text()="Activate…"]')
+    assert "activated" in confirm(browser, f"activate administration row {row['row']} (gpsOut")
+    wait_for(lambda: admin_status(browser, "gpsOut", "rmax1ob1")["status"] == "active", 10, "the row active again")
+    tab(browser, "plots")
+    wait_for(lambda: (r := flow_rate(browser, "gpsOut@rmax1ob1")) is not None and r > 15.0, 15, "gpsOut back at 20 Hz")
+
 
 def test_field_written_in_browser_is_read_back_over_the_bus(table2: ConsoleTable2, browser: Any,
                                                               shots: Path) -> None:
@@ -200,6 +223,21 @@ def test_field_written_in_browser_is_read_back_over_the_bus(table2: ConsoleTable
     cat = Catalogue.load(table2.hitl.catalogue_path)
     assert int(cat.decode("fcsSet", bytes.fromhex(ev["packed"]))["mode"]) == 3, ev
 
+    # The whole directory as JSON (live refresh off, so the text edited is the text sent).
+    browser.find_element(By.ID, "var-live").click()
+    browser.execute_script("const t = document.getElementById('var-json'); const v = JSON.parse(t.value); "
+                           "v.mode = 4; v.switches.logLevel = 5; t.value = JSON.stringify(v);")
+    click(browser, '//button[@id="var-write-all"]')
+    msg = confirm(browser, "write fcsSet = {")
+    assert "fcsSet written; read back over the bus: {" in msg, msg
+    back = json.loads(msg.split("read back over the bus: ", 1)[1])
+    assert back["mode"] == 4 and back["switches"]["logLevel"] == 5, back
+    mark = proc.mark()
+    proc.send("dump fcsSet")
+    ev = proc.wait_event("dump", 5.0, since=mark)
+    mine = cat.decode("fcsSet", bytes.fromhex(ev["packed"]))
+    assert int(mine["mode"]) == 4 and int(mine["switches"]["logLevel"]) == 5, ev
+
 
 def test_plot_of_imu_p_receives_points_at_50_hz(table2: ConsoleTable2, browser: Any, shots: Path,
                                                 downloads: Path) -> None:
@@ -222,6 +260,11 @@ def test_plot_of_imu_p_receives_points_at_50_hz(table2: ConsoleTable2, browser: 
     legend = browser.find_element(By.CSS_SELECTOR, f'#plot-legend span[data-series="{key}"]')
     assert legend.get_attribute("data-unit") == "rad/s" and "[rad/s]" in legend.text  # imu.h's comment
     assert int(legend.get_attribute("data-points")) == len(ts) or int(legend.get_attribute("data-points")) > 100
+    # Several at once: imuOut.q beside it, each its own series with its own points.
+    Select(browser.find_element(By.CSS_SELECTOR, 'select[data-key="imuOut@fcs20"]')).select_by_value("q")
+    click(browser, '//tr[@data-flow="imuOut@fcs20"]//button[text()="Plot"]')
+    wait_for(lambda: len(browser.execute_script(points, "imuOut@fcs20:q")) > 20, 10, "points of imuOut.q")
+    assert browser.execute_script("return Array.from(state.plot.series.keys()).sort();") == [key, "imuOut@fcs20:q"]
     browser.save_screenshot(str(shots / "plot.png"))
     # Pause holds the plot still; the CSV export writes what it shows.
     browser.find_element(By.ID, "plot-pause").click()
@@ -232,7 +275,9 @@ def test_plot_of_imu_p_receives_points_at_50_hz(table2: ConsoleTable2, browser: 
     path = downloads / "uavbus-plot.csv"
     wait_for(path.exists, 5, "the exported CSV")
     with path.open() as fh:
-        rows = [r for r in csv.DictReader(fh) if r["series"] == key]
+        every = list(csv.DictReader(fh))
+    rows = [r for r in every if r["series"] == key]
+    assert {r["series"] for r in every} == {key, "imuOut@fcs20:q"}
     assert len(rows) == n and all(abs(float(r["value"])) < 10 and r["unit"] == "rad/s" for r in rows)
     # The variable browser shows the unit and the description beside the live value.
     tab(browser, "vars")
@@ -241,9 +286,39 @@ def test_plot_of_imu_p_receives_points_at_50_hz(table2: ConsoleTable2, browser: 
     field.clear()
     field.send_keys("imuOut")
     browser.find_element(By.ID, "var-open").click()
-    row = wait_for(lambda: browser.find_element(By.CSS_SELECTOR, '#var-table tr[data-field="imuOut.p"]'), 10, "imuOut.p")
-    assert row.find_element(By.CSS_SELECTOR, "td.unit").text == "rad/s" and "roll rate" in row.text
+    unit, text = wait_for(lambda: browser.execute_script(
+        "const tr = document.querySelector('#var-table tr[data-field=\"imuOut.p\"]');"
+        "return tr && [tr.querySelector('td.unit').textContent, tr.textContent];"), 10, "imuOut.p")
+    assert unit == "rad/s" and "roll rate" in text, text
     browser.save_screenshot(str(shots / "variables_units.png"))
+
+    # fcs20's tables over the bus: its publish/subscribe table has the flow asked above, its entity table
+    # Table 2's entities, its administration table is there (empty: fcs20 administers nothing).
+    def table(name: str, want: Any) -> list[str]:
+        browser.find_element(By.CSS_SELECTOR, f'.var-table[data-table="{name}"]').click()
+        return wait_for(lambda: browser.find_element(By.ID, "var-title").text.startswith(f"fcs20: {name} (read")
+                        and want(rows := [tr.text for tr in browser.find_elements(By.CSS_SELECTOR, "#var-table tbody tr")])
+                        and (rows,), 10, f"fcs20's {name} table")[0]
+    table("pubsub", lambda rows: any("imuOut" in r and "gcs1" in r and " 20" in r for r in rows))
+    entities = table("entities", lambda rows: all(any(n in r for r in rows) for n in TABLE2))
+    assert len(entities) >= 4, entities
+    table("admin", lambda rows: rows == [])
+
+    # Discovery: what fcs20 offers (each catalogued directory hosted or not, its flows now).
+    browser.find_element(By.ID, "var-offer").click()
+    offered = wait_for(lambda: (rows := browser.execute_script(
+        "return Object.fromEntries(Array.from(document.querySelectorAll('#var-table tr[data-dir]')).map("
+        "tr => [tr.dataset.dir, Array.from(tr.children).map(td => td.textContent)]))")) and "fcsSet" in rows and rows,
+        30, "fcs20's offer")
+    assert offered["fcsSet"][3] == "yes" and offered["imuOut"][3] == "yes", offered
+    assert "publication to gcs1 every 20 ms" in offered["imuOut"][4], offered["imuOut"]  # the row added above
+    from uavbus import Catalogue
+
+    # Every catalogued directory answered (uavbus_node hosts them all; a probe with no answer would show "?").
+    assert set(offered) == {inst.name for inst in Catalogue.load(table2.hitl.catalogue_path)}
+    assert all(r[3] in ("yes", "no") for r in offered.values()), [k for k, r in offered.items() if r[3] not in ("yes", "no")]
+    assert not browser.find_element(By.ID, "var-whole").is_displayed()  # no directory to write as a whole
+    browser.save_screenshot(str(shots / "variables_offer.png"))
 
 
 @pytest.fixture(scope="module")
@@ -274,3 +349,36 @@ def test_refusal_not_an_administrator_is_shown_with_its_reason(refused_table2: C
                      "the refusal of fcs20's link table")
     assert title.get_attribute("data-reason") == "not_authorized" and "refused (not_authorized)" in title.text
     browser.save_screenshot(str(shots / "variables_refused.png"))
+
+
+@pytest.mark.parametrize("gcs_roles", ["admin", "observer"])
+def test_the_console_writes_as_its_identity_and_the_certificate_decides(program: Path, browser: Any, shots: Path,
+                                                                        tmp_path: Path, gcs_roles: str) -> None:
+    """Signed Table 2 with an identity per entity: the console's request leaves as gcs1, signed with gcs1's
+    key, and rmax1ob1 judges it on gcs1's certificate. Same keys, names and configuration: served when the
+    certificate says admin, refused with its reason when it says observer (the console adds no authority)."""
+    roles = {"gcs1": gcs_roles, "rmax1ob1": "vehicle,relay", "rmax1ob2": "vehicle", "fcs20": "vehicle"}
+    sec = identity_security(tmp_path / "ids", roles)
+    with ConsoleTable2(tmp_path / "ids", program=program, routing=False, security=sec) as t:
+        load(browser, t.url)
+        admin_add(browser, "gpsOut", "rmax1ob1", "rmax1ob2", 100, "publication")  # data to a third party
+        confirm(browser, "add publication gpsOut rmax1ob1 -> rmax1ob2")
+        want = "active" if gcs_roles == "admin" else "failed"
+        row = wait_for(lambda: (s := admin_status(browser, "gpsOut", "rmax1ob1")) and s["status"] == want and s,
+                       10, f"the row {want} ({admin_status(browser, 'gpsOut', 'rmax1ob1')})")
+        policy = browser.find_element(By.ID, "admin-policy")
+        assert policy.get_attribute("data-roles") == gcs_roles, policy.text  # gcs1's own certificate, read here
+        assert policy.text.startswith(f"gcs1's certificate says {gcs_roles}: ")
+        assert ("targets let it administer" in policy.text) == (gcs_roles == "admin"), policy.text
+        if gcs_roles == "observer":
+            assert row["reason"] == "not_authorized", row
+            browser.save_screenshot(str(shots / "admin_refused_by_certificate.png"))
+        # rmax1ob1's own counters: the refusal is its policy's, on the certificate (a frame it could not verify
+        # would be dropped before the policy, and the row would stay pending, not failed).
+        stats = t.hitl.child_stats("primary")
+        drops = stats["node"]["drops"]
+        if gcs_roles == "observer":
+            assert drops["not_authorized"] >= 1, drops
+        else:
+            assert drops.get("not_authorized", 0) == 0, drops
+        assert stats["identity"]["lookups"] >= 1 and stats["identity"]["lookups_refused"] == 0, stats["identity"]

@@ -392,7 +392,8 @@ class Console:
                          "reason": r.get("nack_reason"), "relayed": r.get("nack_relayed"),
                          "attempts": r.get("attempts")})
         policy = _policy_of(self.node)
-        return {"me": self.me, "rows": rows, "administrators": policy}
+        return {"me": self.me, "rows": rows, "administrators": policy,
+                "certified_roles": _certified_roles(self.node, self.me)}
 
     # -- flows and plots -----------------------------------------------------------------------------
     def flows_now(self, window_s: float = 5.0) -> list[dict[str, Any]]:
@@ -494,6 +495,21 @@ def _policy_of(node: Any) -> list[str] | None:
     sec = doc.get("security") if isinstance(doc, dict) else None
     admins = sec.get("administrators") if isinstance(sec, dict) else None
     return list(admins) if isinstance(admins, list) else None
+
+
+def _certified_roles(node: Any, me: str) -> list[str] | None:
+    """The roles `me`'s certificate gives it, when the node has identities (then targets decide who
+    administers on the requester's certificate, a name list only narrowing it); None without identities."""
+    ident = getattr(node, "identity", None)
+    if ident is None:
+        return None
+    from uavbus._bindings import ub_ident
+
+    try:
+        bits = ident.store.roles(ub_ident.entity_id(me), int(time.time()))
+    except UbError:  # no valid certificate of its own (expired, revoked): no role at all
+        return []
+    return [name for name, bit in ub_ident.ROLES.items() if bits & bit]
 
 
 def describe_fields(catalogue: Any, name: str, value: Any) -> list[dict[str, Any]]:

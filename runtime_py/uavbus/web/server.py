@@ -54,6 +54,32 @@ def _is_loopback(host: str) -> bool:
         return False
 
 
+def _host_name(host_header: str) -> str:
+    """The name in a Host header ("127.0.0.1:8080", "[::1]:8080", "localhost") without its port."""
+    from urllib.parse import urlsplit
+
+    try:
+        return urlsplit("//" + host_header).hostname or ""
+    except ValueError:
+        return "\x00"  # not a host at all: matches nothing
+
+
+def listen_token(host: str, token_file: str | None) -> str | None:
+    """The token every request needs: the first line of `token_file` (at least 16 characters), else one made
+    now when `host` is beyond localhost, else None (a loopback console may go without; docs/web.md#security)."""
+    if token_file:
+        try:
+            lines = Path(token_file).read_text(encoding="utf-8").splitlines()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise SystemExit(f"{token_file}:1: cannot read the token ({getattr(exc, 'strerror', None) or exc})") \
+                from None
+        token = lines[0].strip() if lines else ""
+        if len(token) < 16:
+            raise SystemExit(f"{token_file}:1: the token must be at least 16 characters")
+        return token
+    return None if _is_loopback(host) else secrets.token_urlsafe(24)
+
+
 def _static(name: str) -> bytes:
     return resources.files("uavbus.web").joinpath("static", name).read_bytes()
 
@@ -70,6 +96,12 @@ def make_app(console: Any, *, token: str | None, csrf: str | None = None, review
 
     @web.middleware
     async def guard(request: web.Request, handler: Any) -> web.StreamResponse:
+        if token is None and not _is_loopback(_host_name(request.host)):
+            # Without a token only the loopback names reach the console: a page of another site whose name
+            # was re-pointed at 127.0.0.1 (DNS rebinding) is same-origin with itself, so the Origin and CSRF
+            # checks below would let it read the CSRF value and write; its Host header still names that site.
+            return web.Response(status=403, text=f"uavbus web: refused: Host {request.host!r} is not a loopback "
+                                "name (open http://127.0.0.1:PORT/, or give the console a --token-file)\n")
         if token is not None:
             given = request.cookies.get(COOKIE, "")
             auth = request.headers.get("Authorization", "")
@@ -416,14 +448,7 @@ def main(argv: list[str] | None = None) -> int:
     if not port_text.isdigit():
         raise SystemExit(f"--http {args.http}: expected HOST:PORT, e.g. 127.0.0.1:8080")
     host = host or "127.0.0.1"
-    token = None
-    if args.token_file:
-        lines = Path(args.token_file).read_text(encoding="utf-8").splitlines()
-        token = lines[0].strip() if lines else ""
-        if len(token) < 16:
-            raise SystemExit(f"{args.token_file}:1: the token must be at least 16 characters")
-    elif not _is_loopback(host):
-        token = secrets.token_urlsafe(24)
+    token = listen_token(host, args.token_file)
     try:
         import aiohttp  # noqa: F401
     except ImportError:
@@ -501,7 +526,9 @@ class ServerThread:
     def __init__(self, console: Any, host: str = "127.0.0.1", port: int = 0, token: str | None = None) -> None:
         import threading
 
-        self.console, self.host, self.port, self.token = console, host, port, token
+        # Beyond localhost a token, as for `uavbus web` (made here when none is given; it is in self.url).
+        self.console, self.host, self.port = console, host, port
+        self.token = token if token is not None else None if _is_loopback(host) else secrets.token_urlsafe(24)
         self.url = ""
         self._ready = threading.Event()
         self._error: BaseException | None = None
@@ -543,6 +570,11 @@ class ServerThread:
             await runner.cleanup()
 
     def stop(self) -> None:
-        if self._loop is not None and self._stop is not None:
-            self._loop.call_soon_threadsafe(self._stop.set)
-        self._thread.join(5.0)
+        """Stops the server; a second call (or one after it ended) does nothing."""
+        if self._loop is not None and self._stop is not None and self._thread.is_alive():
+            try:
+                self._loop.call_soon_threadsafe(self._stop.set)
+            except RuntimeError:  # its loop ended meanwhile
+                pass
+        if self._thread.ident is not None:
+            self._thread.join(5.0)

@@ -216,11 +216,17 @@ function renderFleet(fleet) {
 // ---- administration table -------------------------------------------------------------------------------
 function renderAdmin(a) {
   if (unchanged("admin", [a.rows.map(r => [r.row, r.content, r.source, r.destination, r.period_ms, r.type, r.status,
-    r.active, r.reason, r.relayed]), a.administrators])) return;
-  const admins = a.administrators;
-  $("#admin-policy").textContent = admins === null ? "No administrator list in the configuration: every target decides by its own policy."
-    : `Administrators by the configuration: ${admins.join(", ") || "none"}` + (admins.includes(a.me) ? "" :
-      ` — ${a.me} is not one of them: targets will refuse its requests (not_authorized).`);
+    r.active, r.reason, r.relayed]), a.administrators, a.certified_roles])) return;
+  const admins = a.administrators, roles = a.certified_roles;
+  const byName = admins === null ? "" : `Administrators by the configuration: ${admins.join(", ") || "none"}` +
+    (admins.includes(a.me) ? "." : ` — ${a.me} is not one of them: targets will refuse its requests (not_authorized).`);
+  // With identities the targets decide on the requester's certificate; a name list only narrows it.
+  const byRole = roles === null || roles === undefined ? "" : `${a.me}'s certificate says ${roles.join(", ") || "no role"}` +
+    (roles.includes("admin") ? ": targets let it administer." : ": not admin, so targets will refuse its requests for others (not_authorized).");
+  const policy = $("#admin-policy");
+  policy.textContent = [byRole, byName].filter(Boolean).join(" ") ||
+    "No administrator list in the configuration: every target decides by its own policy.";
+  policy.dataset.roles = roles ? roles.join(",") : "";
   const tb = $("#admin-table tbody");
   tb.replaceChildren();
   for (const r of a.rows) {
@@ -255,6 +261,7 @@ async function loadLeaf() {
     : `/api/entity/${encodeURIComponent(leaf.entity)}/dir/${encodeURIComponent(leaf.name)}`;
   const d = await get(path);
   if (state.varLeaf !== leaf) return;
+  $("#var-whole").classList.toggle("hidden", leaf.kind !== "dir" || !!d.error);  // only a directory read is written whole
   const title = $("#var-title");
   if (d.error) {
     title.textContent = `${leaf.entity}: ${leaf.name}: ${d.reason ? "refused (" + d.reason + ")" : d.error}`;
@@ -401,7 +408,8 @@ function drawPlot(now, canvas, series, window_s) {
   for (let i = 0; i <= 4; i++) {
     const v = lo + (hi - lo) * i / 4;
     g.beginPath(); g.moveTo(L, y(v)); g.lineTo(W - R, y(v)); g.stroke();
-    g.fillText(String(Number(v.toPrecision(3))), 4, y(v) + 4);
+    const near0 = Math.abs(v) < (hi - lo) * 1e-3;  // the middle of a symmetric range: 0, not 0.0000189
+    g.fillText(String(near0 ? 0 : Number(v.toPrecision(3))), 4, y(v) + 4);
   }
   for (let s = 0; s <= win; s += win / 6) g.fillText(`-${(win - s).toFixed(0)} s`, x(now - win + s) - 10, H - 6);
   for (const s of series.values()) {
