@@ -1,6 +1,7 @@
 """Turns the raw outputs of bench/run.sh (build-bench/raw/) into bench/results.md.
 
     python bench/tables.py build-bench/raw bench/results.md
+    python bench/tables.py --core build-bench/raw bench/results-core.md   (BENCH_ONLY=core: figures 1-3)
 
 Every figure is median [min - max] over the pooled samples; C codec rows also carry callgrind
 instructions per operation; ratios are uavbus / peer on medians of the same run.
@@ -30,7 +31,20 @@ def kfmt(x: float) -> str:
     return f"{x / 1000:,.0f}k"
 
 
-def read_codec(raw: Path, name: str = "codec.tsv") -> tuple[dict, dict, dict]:
+def read_dumps(d: Path) -> dict[str, int]:
+    """Instructions per callgrind dump in directory d, by the name the program gave it
+    (CALLGRIND_DUMP_STATS_AT: "case/MESSAGE", "router/hops=H", "loop/rtt-udp/tx")."""
+    ir: dict[str, int] = {}
+    for f in glob.glob(str(d / "cg.*")):
+        text = Path(f).read_text(errors="replace")
+        m = re.search(r"desc: Trigger: Client Request: (\S+)", text)
+        t = re.search(r"^summary: (\d+)", text, re.M) or re.search(r"^totals: (\d+)", text, re.M)
+        if m and t:
+            ir[m.group(1)] = int(t.group(1))
+    return ir
+
+
+def read_codec(raw: Path, name: str = "codec.tsv", cg: str = "callgrind") -> tuple[dict, dict, dict]:
     ns: dict[tuple[str, str], list[float]] = defaultdict(list)
     size: dict[tuple[str, str], int] = {}
     for line in (raw / name).read_text().splitlines():
@@ -38,13 +52,38 @@ def read_codec(raw: Path, name: str = "codec.tsv") -> tuple[dict, dict, dict]:
         ns[(parts[0], parts[1])] += [float(x) for x in parts[3:]]
         size[(parts[0], parts[1])] = int(parts[2])
     ir: dict[tuple[str, str], float] = {}
-    for f in glob.glob(str(raw / "callgrind" / "cg.*")):
-        text = Path(f).read_text(errors="replace")
-        m = re.search(r"desc: Trigger: Client Request: (\S+)/(\S+)", text)
-        t = re.search(r"^(?:totals|summary): (\d+)", text, re.M)
-        if m and t:
-            ir[(m.group(1), m.group(2))] = int(t.group(1)) / 20000
+    for dump, n in read_dumps(raw / cg).items():
+        case, _, msg = dump.partition("/")
+        if msg in MSGS:
+            ir[(case, msg)] = n / 20000  # codec_bench's BENCH_ITERS
     return ns, size, ir
+
+
+# Fixed work per callgrind dump of figures 2 and 3 (router_hops.c CG_N; bench/run.sh's loop_bench rtt N).
+ROUTER_CG_FRAMES = 20000
+LOOP_CG_ROUNDTRIPS = 2000
+
+
+def instruction_rows(raw: Path) -> list[tuple[str, str, float, float]]:
+    """Figures 1-3 by instruction count, this tree and the base: (figure, what, this tree, base) per operation."""
+    new, old = read_dumps(raw / "callgrind"), read_dumps(raw / "base_callgrind")
+    rows = []
+    for case, title in (("ub_frame_build", "frame build"), ("ub_frame_parse", "streaming parse")):
+        for m in MSGS:
+            k = f"{case}/{m}"
+            if k in new and k in old:
+                rows.append(("1", f"{title}, {m}: instructions per frame", new[k] / 20000, old[k] / 20000))
+    for h in (1, 3):
+        k = f"router/hops={h}"
+        if k in new and k in old:
+            rows.append(("2", f"{h} hop(s): instructions per delivered frame", new[k] / ROUTER_CG_FRAMES,
+                         old[k] / ROUTER_CG_FRAMES))
+    for t in ("udp", "tcp"):
+        tx, rx = f"loop/rtt-{t}/tx", f"loop/rtt-{t}/rx"
+        if all(k in d for k in (tx, rx) for d in (new, old)):
+            rows.append(("3", f"RTT {t}: user-space instructions per round trip (both processes)",
+                         (new[tx] + new[rx]) / LOOP_CG_ROUNDTRIPS, (old[tx] + old[rx]) / LOOP_CG_ROUNDTRIPS))
+    return rows
 
 
 def read_router(path: Path) -> tuple[dict, dict, dict, dict]:
@@ -95,8 +134,14 @@ def before_after(raw: Path) -> list[str]:
            f"`make bench BENCH_BASE={ref}`: the same bench programs, catalogue and peers, linked once with this tree's "
            "runtime and once with the runtime of that commit, run interleaved (figure 1: 3 processes each, figure 2: "
            "RUNS processes each, alternating, of 7 samples, figure 3: the uavbus UDP/TCP rows in every round). Median [min - max]; "
-           "ratio = this tree / base.", "",
+           "ratio = this tree / base. The instruction rows come first: callgrind counts of the same programs over a "
+           "fixed amount of work (figure 1: 20,000 frames per case; figure 2: 20,000 frames through 1 and 3 hops; "
+           "figure 3: 2,000 round trips, user space of both processes, kernel not counted), which a busy machine "
+           "does not change; the time rows below them are this run's samples, which it does.", "",
            "| figure | case | this tree | base | ratio |", "|---|---|---:|---:|---:|"]
+    irows = instruction_rows(raw)
+    if irows:
+        out += [f"| {fig} | {what} | {a:,.0f} | {b:,.0f} | {a / b:.3f} |" for fig, what, a, b in irows]
     new_ns, _, _ = read_codec(raw)
     old_ns, _, _ = read_codec(raw, "base_codec.tsv")
     for case, title in (("ub_frame_build", "frame build ns"), ("ub_frame_parse", "streaming parse ns")):
@@ -120,7 +165,16 @@ def before_after(raw: Path) -> list[str]:
         a, b = new_rtt[key]["p50"], v["p50"]
         out.append(f"| 3 | RTT {key[0]}, {key[1]}: p50 us | {band(a)} | {band(b)} | "
                    f"{statistics.median(a) / statistics.median(b):.3f} |")
-    return out + [""]
+    out.append("")
+    if irows:
+        worst = max(irows, key=lambda r: r[2] / r[3])
+        out += [f"By instruction count (this run's callgrind dumps): this tree / {ref} from "
+                f"{min(a / b for _f, _w, a, b in irows):.3f} to {worst[2] / worst[3]:.3f} "
+                f"(the most: figure {worst[0]}, {worst[1].split(':')[0]}).", ""]
+    else:
+        out += ["No instruction counts for the base in this run (raw/base_callgrind missing): judge by the time rows.",
+                ""]
+    return out
 
 
 def read_failures(raw: Path) -> list[dict[str, str]]:
@@ -146,7 +200,7 @@ def failures_section(fails: list[dict[str, str]]) -> list[str]:
     return out + [""]
 
 
-def misses_section(goals: list, notes: Path) -> list[str]:
+def misses_section(goals: list, notes: Path | None) -> list[str]:
     """"What holds a miss back": the misses with this run's figures (generated), then the hand-kept analysis
     labelled with the run it analysed: its figures are that run's, never presented as this one's."""
     out = ["## What holds a miss back", "", "Goals missed in this run, with this run's figures (generated):", ""]
@@ -154,7 +208,7 @@ def misses_section(goals: list, notes: Path) -> list[str]:
     out += [f"- **{fig}**: goal {goal}; measured {measured}." for fig, goal, measured, _ok, _note in missed] or [
         "- none"]
     out.append("")
-    if notes.exists():
+    if notes is not None and notes.exists():
         text = notes.read_text().rstrip().splitlines()
         m = next((re.match(r"^analysed-run:\s*(.+)$", ln) for ln in text if ln.startswith("analysed-run:")), None)
         body = [ln for ln in text if not ln.startswith("analysed-run:") and not ln.startswith("# ")]
@@ -169,13 +223,19 @@ class section:  # noqa: N801 - used as `with section(...)`, a statement about a 
     """One figure of results.md: if its raw outputs are missing or incomplete (every sample failed, a
     program died), the figure says so in one line and the other figures still render (issue #28)."""
 
+    skip: tuple[str, ...] | None = None  # titles a core run (--core) renders; None: every figure
+
     def __init__(self, out: list[str], broken: list[str], title: str) -> None:
         self.out, self.broken, self.title = out, broken, title
 
     def __enter__(self) -> None:
+        self.start = len(self.out)
         return None
 
     def __exit__(self, kind: type | None, exc: BaseException | None, tb: object) -> bool:
+        if section.skip is not None and self.title not in section.skip:
+            del self.out[self.start:]  # a core run did not measure this figure: nothing to say about it
+            return kind is None or issubclass(kind, Exception)
         if kind is None or not issubclass(kind, Exception):
             return False
         why = f"{kind.__name__}: {exc}"
@@ -183,6 +243,15 @@ class section:  # noqa: N801 - used as `with section(...)`, a statement about a 
                      "timed-out samples'.", ""]
         self.broken.append(f"{self.title} ({why})")
         return True
+
+
+def tree() -> str:
+    """The commit the bench ran on (and whether the work tree had changes), so the file names what it measured."""
+    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                          cwd=Path(__file__).parent).stdout.strip() or "?"
+    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True, text=True,
+                           cwd=Path(__file__).parent).stdout.strip()
+    return f"{head}{' with uncommitted changes' if dirty else ''}"
 
 
 def machine() -> str:
@@ -197,21 +266,30 @@ def machine() -> str:
             f"Python {platform.python_version()}; load average at the end {load:.2f}")
 
 
+CORE_FIGURES = ("figure 1", "figure 1b: signing", "figure 2", "figure 3", "before and after (BENCH_BASE)")
+
+
 def main() -> None:
-    raw, out_path = Path(sys.argv[1]), Path(sys.argv[2])
+    args = sys.argv[1:]
+    core = "--core" in args  # BENCH_ONLY=core (make bench-core): figures 1-3 and their before-and-after only
+    args = [a for a in args if a != "--core"]
+    raw, out_path = Path(args[0]), Path(args[1])
     out: list[str] = []
     goals: list[tuple[str, str, str, bool, str]] = []  # figure, goal, measured, ok, note
     broken: list[str] = []  # figures whose raw outputs were missing or incomplete
     w = out.append
 
-    w("# uavbus benchmark results: side by side with MAVLink, LCM and the floors")
+    w("# uavbus benchmark results: side by side with MAVLink, LCM and the floors" +
+      (" (figures 1-3 only)" if core else ""))
     w("")
-    w(f"Written by `make bench` (bench/run.sh, then bench/tables.py) on {machine()}.")
+    w(f"Written by `make {'bench-core' if core else 'bench'}` (bench/run.sh, then bench/tables.py) on {machine()}, "
+      f"tree {tree()}.")
     w("All peers ran in the same run on the same machine; compare the **ratios**, not absolute values")
     w("(figures drift between runs and machines; ../shared/anchors/peers.md has the method and earlier peer")
     w("figures). Each figure is median [min - max] over repeated, interleaved samples.")
     w("")
     out.extend(failures_section(read_failures(raw)))
+    section.skip = CORE_FIGURES if core else None
 
     with section(out, broken, "figure 1"):
         # ---- figure 1 ----
@@ -270,7 +348,9 @@ def main() -> None:
                 ia = sum(ir.get((c, m), 0) for c in num)
                 ib = sum(ir.get((c, m), 0) for c in den)
                 rs.append(a / b)
-                cells.append(f"{a / b:.3f} = 1/{b / a:.1f} ({ia / ib:.3f})" if a < b else f"{a / b:.2f}x ({ia / ib:.2f}x)")
+                # No instruction ratio when a count is missing (the callgrind sample failed: see failures).
+                icell = (f" ({ia / ib:.3f})" if a < b else f" ({ia / ib:.2f}x)") if ia and ib else ""
+                cells.append(f"{a / b:.3f} = 1/{b / a:.1f}{icell}" if a < b else f"{a / b:.2f}x{icell}")
             w(f"| {title} | " + " | ".join(cells) + f" | {goal} |")
             return rs
 
@@ -701,7 +781,8 @@ def main() -> None:
         w("## Figures not produced in this run")
         w("")
         w("".join(f"- {b}\n" for b in broken))
-    out.extend(misses_section(goals, Path(__file__).with_name("results_notes.md")))
+    # The hand-kept analysis is about full runs; a core run lists its misses only.
+    out.extend(misses_section(goals, None if core else Path(__file__).with_name("results_notes.md")))
 
     # ---- commands and raw internals ----
     w("## Exact commands")
