@@ -9,6 +9,8 @@
 #                           change), interleaved with ours in the same run: results.md gains "Before and after"
 #                           (make bench BENCH_BASE=REF), with time (noisy on a shared machine) and callgrind
 #                           instruction counts of both runtimes (the same on a busy machine as on a quiet one)
+#   BENCH_COUNTS_AT="REF ..." bench/run.sh  also figures 1-3 by instruction count over the runtime of each REF
+#                           (oldest first), beside this tree's: which commit changed the frame path's cost
 #   BENCH_ONLY=core bench/run.sh  figures 1-3 only (and their before-and-after with BENCH_BASE), written to
 #                           bench/results-core.md; bench/results.md is left as it is (make bench-core)
 #
@@ -34,7 +36,7 @@ case $ONLY in all | core) ;; *) echo "bench: BENCH_ONLY=$ONLY: use core (figures
 mkdir -p "$raw" "$peers" "$gen" "$bin"
 rm -rf "${raw:?}"/*   # raw/callgrind is a directory: a second run must not stop here
 
-say() { echo "bench: $*" >&2; }
+say() { echo "bench: [$(date +%T)] $*" >&2; }   # the time: how long each figure took
 # Every child of the bench runs with a deadline (bench/tools/sample.sh): a sample that fails or times out is
 # written to $raw/failures.txt, reported in results.md ("Failed or timed-out samples"), and the run goes on.
 # Deadlines are generous (several times a quiet run's duration): they exist so a hung child cannot stop the run.
@@ -191,12 +193,32 @@ echo "unshare -rn: loop_bench blast udp|tcp 1000000, udp 300000 nobatch, raw-udp
   "rtt 10000 each; placements split and same; $RUNS interleaved rounds (see bench/run.sh)" >>"$raw/commands.txt"
 
 # ---- before and after by instruction count: figures 2 and 3 for both runtimes, figure 1 for the base ----
-if [ -n "$base_bin" ]; then
-  say "figures 1-3 by instruction count (callgrind), this tree and $BENCH_BASE"
+if [ -n "$base_bin" ] || [ -n "${BENCH_COUNTS_AT:-}" ]; then
+  say "figures 1-3 by instruction count (callgrind), this tree${BENCH_BASE:+ and $BENCH_BASE}"
   counts_for "$bin" "$raw/callgrind" 2 3
-  counts_for "$base_bin" "$raw/base_callgrind" 1 2 3
+  [ -z "$base_bin" ] || counts_for "$base_bin" "$raw/base_callgrind" 1 2 3
   echo "valgrind --tool=callgrind: codec_bench callgrind; router_hops 1|3 callgrind; loop_bench rtt udp|tcp 2000 same" \
-    "(this tree's programs and the base's)" >>"$raw/commands.txt"
+    "(the programs of this tree${BENCH_BASE:+ and of the base})" >>"$raw/commands.txt"
+fi
+# BENCH_COUNTS_AT: the same three programs over each ref's runtime, counted only (deterministic: no rounds needed).
+if [ -n "${BENCH_COUNTS_AT:-}" ]; then
+  mkdir -p "$raw/counts_at"
+  for ref in $BENCH_COUNTS_AT; do
+    short=$(git rev-parse --short "$ref")
+    say "figures 1-3 by instruction count over the runtime of $ref ($short)"
+    at=$build/at/$short
+    "$root/bench/tools/runtime_at.sh" "$ref" "$at"
+    mkdir -p "$bin/at-$short"
+    ACFLAGS=("${CFLAGS[@]/-Iruntime_c\/include/-I$at/src/runtime_c/include}")
+    gcc "${ACFLAGS[@]}" -Wno-address-of-packed-member -I"$peers/mavlink" -I"$peers/lcmgen" -I"$lcm_inc" \
+      bench/src/codec_bench.c "$gen/benchcat.c" "$peers"/lcmgen/*.c "$at/lib/libub.a" $SODIUM -L"$lcm_lib" -llcm \
+      -Wl,-rpath,"$lcm_lib" -o "$bin/at-$short/codec_bench"
+    gcc "${ACFLAGS[@]}" bench/src/router_hops.c "$gen/benchcat.c" "$at/lib/libub.a" $SODIUM -ldl -o "$bin/at-$short/router_hops"
+    gcc "${ACFLAGS[@]}" bench/src/loop_bench.c "$gen/benchcat.c" "$at/lib/libub.a" $SODIUM -o "$bin/at-$short/loop_bench"
+    counts_for "$bin/at-$short" "$raw/counts_at/$short" 1 2 3
+    echo "$short $(git log -1 --format=%s "$ref" | cut -c1-80)" >>"$raw/counts_at/order.txt"
+  done
+  echo "BENCH_COUNTS_AT=\"$BENCH_COUNTS_AT\": the same programs over bench/tools/runtime_at.sh REF, counted by callgrind" >>"$raw/commands.txt"
 fi
 
 if [ "$ONLY" = core ]; then

@@ -64,26 +64,52 @@ ROUTER_CG_FRAMES = 20000
 LOOP_CG_ROUNDTRIPS = 2000
 
 
-def instruction_rows(raw: Path) -> list[tuple[str, str, float, float]]:
-    """Figures 1-3 by instruction count, this tree and the base: (figure, what, this tree, base) per operation."""
-    new, old = read_dumps(raw / "callgrind"), read_dumps(raw / "base_callgrind")
-    rows = []
+def instruction_values(d: Path) -> dict[tuple[str, str], float]:
+    """Figures 1-3 by instruction count from one directory of callgrind dumps: {(figure, what): per operation}."""
+    ir = read_dumps(d)
+    vals: dict[tuple[str, str], float] = {}
     for case, title in (("ub_frame_build", "frame build"), ("ub_frame_parse", "streaming parse")):
         for m in MSGS:
-            k = f"{case}/{m}"
-            if k in new and k in old:
-                rows.append(("1", f"{title}, {m}: instructions per frame", new[k] / 20000, old[k] / 20000))
+            if f"{case}/{m}" in ir:
+                vals[("1", f"{title}, {m}: instructions per frame")] = ir[f"{case}/{m}"] / 20000
     for h in (1, 3):
-        k = f"router/hops={h}"
-        if k in new and k in old:
-            rows.append(("2", f"{h} hop(s): instructions per delivered frame", new[k] / ROUTER_CG_FRAMES,
-                         old[k] / ROUTER_CG_FRAMES))
+        if f"router/hops={h}" in ir:
+            vals[("2", f"{h} hop(s): instructions per delivered frame")] = ir[f"router/hops={h}"] / ROUTER_CG_FRAMES
     for t in ("udp", "tcp"):
         tx, rx = f"loop/rtt-{t}/tx", f"loop/rtt-{t}/rx"
-        if all(k in d for k in (tx, rx) for d in (new, old)):
-            rows.append(("3", f"RTT {t}: user-space instructions per round trip (both processes)",
-                         (new[tx] + new[rx]) / LOOP_CG_ROUNDTRIPS, (old[tx] + old[rx]) / LOOP_CG_ROUNDTRIPS))
-    return rows
+        if tx in ir and rx in ir:
+            vals[("3", f"RTT {t}: user-space instructions per round trip (both processes)")] = \
+                (ir[tx] + ir[rx]) / LOOP_CG_ROUNDTRIPS
+    return vals
+
+
+def instruction_rows(raw: Path) -> list[tuple[str, str, float, float]]:
+    """Figures 1-3 by instruction count, this tree and the base: (figure, what, this tree, base) per operation."""
+    new, old = instruction_values(raw / "callgrind"), instruction_values(raw / "base_callgrind")
+    return [(fig, what, new[(fig, what)], old[(fig, what)]) for fig, what in new if (fig, what) in old]
+
+
+def history_section(raw: Path) -> list[str]:
+    """BENCH_COUNTS_AT=REFS: figures 1-3 by instruction count over the runtime of each ref, oldest first, and
+    this tree's: which commit changed the cost of the frame path, read without interleaving (counts do not drift)."""
+    order = raw / "counts_at" / "order.txt"
+    if not order.exists():
+        return []
+    refs = [ln.split(None, 1) for ln in order.read_text().splitlines() if ln.strip()]
+    cols = [(r[0], instruction_values(raw / "counts_at" / r[0])) for r in refs]
+    cols.append(("this tree", instruction_values(raw / "callgrind")))
+    keys = [k for k in cols[-1][1] if all(k in c for _, c in cols)]
+    out = ["## Figures 1-3 by instruction count along the history (BENCH_COUNTS_AT)", "",
+           "callgrind counts of the same bench programs (this tree's sources, catalogue and peers) linked with the "
+           "runtime of each commit, the same fixed work as the before-and-after rows; deterministic, so commits "
+           "are compared across the run without interleaving. Last column: this tree / the first commit.", "",
+           "| figure | case | " + " | ".join(c for c, _ in cols) + f" | this tree / {cols[0][0]} |",
+           "|---|---|" + "---:|" * (len(cols) + 1)]
+    for k in keys:
+        out.append(f"| {k[0]} | {k[1]} | " + " | ".join(f"{c[k]:,.0f}" for _, c in cols) +
+                   f" | {cols[-1][1][k] / cols[0][1][k]:.3f} |")
+    out += ["", "Commits: " + "; ".join(f"{r[0]} {r[1] if len(r) > 1 else ''}".strip() for r in refs) + ".", ""]
+    return out
 
 
 def read_router(path: Path) -> tuple[dict, dict, dict, dict]:
@@ -131,7 +157,7 @@ def before_after(raw: Path) -> list[str]:
         return []
     ref = (raw / "base_ref.txt").read_text().strip()
     out = [f"## Before and after: figures 1-3 with this tree's runtime and with {ref}'s", "",
-           f"`make bench BENCH_BASE={ref}`: the same bench programs, catalogue and peers, linked once with this tree's "
+           f"`BENCH_BASE={ref}`: the same bench programs, catalogue and peers, linked once with this tree's "
            "runtime and once with the runtime of that commit, run interleaved (figure 1: 3 processes each, figure 2: "
            "RUNS processes each, alternating, of 7 samples, figure 3: the uavbus UDP/TCP rows in every round). Median [min - max]; "
            "ratio = this tree / base. The instruction rows come first: callgrind counts of the same programs over a "
@@ -266,7 +292,8 @@ def machine() -> str:
             f"Python {platform.python_version()}; load average at the end {load:.2f}")
 
 
-CORE_FIGURES = ("figure 1", "figure 1b: signing", "figure 2", "figure 3", "before and after (BENCH_BASE)")
+CORE_FIGURES = ("figure 1", "figure 1b: signing", "figure 2", "figure 3", "before and after (BENCH_BASE)",
+                "instruction counts along the history (BENCH_COUNTS_AT)")
 
 
 def main() -> None:
@@ -768,6 +795,8 @@ def main() -> None:
 
     with section(out, broken, "before and after (BENCH_BASE)"):
         out.extend(before_after(raw))
+    with section(out, broken, "instruction counts along the history (BENCH_COUNTS_AT)"):
+        out.extend(history_section(raw))
 
     # ---- goals ----
     w("## Goals")
@@ -788,7 +817,8 @@ def main() -> None:
     w("## Exact commands")
     w("")
     w("```")
-    w("make bench        # = bench/run.sh (setup: pip install -e '.[bench]' (pymavlink, lcm); apt valgrind if missing)")
+    w(f"make {'bench-core  # = BENCH_ONLY=core' if core else 'bench       # ='} bench/run.sh (setup: pip install -e "
+      "'.[bench]' (pymavlink, lcm); apt valgrind if missing)")
     w((raw / "commands.txt").read_text().rstrip() if (raw / "commands.txt").exists() else "(no commands.txt)")
     w("```")
     w("")

@@ -249,3 +249,20 @@ def test_router_hops_count_mode_carries_every_frame(router_hops: Path, hops: str
     r = subprocess.run([str(router_hops), hops, "callgrind"], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == f"callgrind hops={hops} frames={tables.ROUTER_CG_FRAMES}"
+
+
+def test_counts_along_the_history_name_each_commit_and_compare_with_the_first(tmp_path: Path) -> None:
+    # BENCH_COUNTS_AT="A B": one column per commit (oldest first) and this tree's, from callgrind dumps only.
+    raw = tmp_path / "raw"
+    (raw / "counts_at").mkdir(parents=True)
+    (raw / "counts_at" / "order.txt").write_text("aaaaaaa before the core\nbbbbbbb the core narrowed\n")
+    for d, k in ((raw / "counts_at" / "aaaaaaa", 1.0), (raw / "counts_at" / "bbbbbbb", 0.99), (raw / "callgrind", 1.05)):
+        _dump(d, 1, "router/hops=1", int(k * 1800 * tables.ROUTER_CG_FRAMES))
+        _dump(d, 2, "ub_frame_build/ATTITUDE", int(k * 240 * 20000))
+    _dump(raw / "callgrind", 3, "router/hops=3", 4000 * tables.ROUTER_CG_FRAMES)  # absent from the refs: no row
+    text = "\n".join(tables.history_section(raw))
+    assert "| figure | case | aaaaaaa | bbbbbbb | this tree | this tree / aaaaaaa |" in text
+    assert "| 2 | 1 hop(s): instructions per delivered frame | 1,800 | 1,782 | 1,890 | 1.050 |" in text
+    assert "| 1 | frame build, ATTITUDE: instructions per frame | 240 | 238 | 252 | 1.050 |" in text
+    assert "3 hop(s)" not in text and "aaaaaaa before the core; bbbbbbb the core narrowed" in text
+    assert tables.history_section(tmp_path) == []  # no BENCH_COUNTS_AT in the run: no section
