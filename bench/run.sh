@@ -82,7 +82,7 @@ for f in runtime_c/src/*/*.c; do
 done
 ar rcs "$build/bench-lib/libub.a" "$build"/bench-lib/*.o
 SODIUM=$(pkg-config --libs libsodium)   # frame security (ub_sec.c); the same libsodium the runtime links
-"$root/.venv/bin/uavbus" gen bench/catalogue/bench_msgs.h --name benchcat -o "$gen" >/dev/null
+timeout -k 5 600 "$root/.venv/bin/uavbus" gen bench/catalogue/bench_msgs.h --name benchcat -o "$gen" >/dev/null
 echo "uavbus gen bench/catalogue/bench_msgs.h --name benchcat -o $gen" >>"$raw/commands.txt"
 CFLAGS=(-O2 -std=gnu11 -Wall -Wextra -Werror -D_POSIX_C_SOURCE=200809L -Iruntime_c/include -Ibench/catalogue -I"$gen")
 LIBUB=$build/bench-lib/libub.a
@@ -222,7 +222,7 @@ if [ -n "${BENCH_COUNTS_AT:-}" ]; then
 fi
 
 if [ "$ONLY" = core ]; then
-  "$VPY" bench/tables.py --core "$raw" bench/results-core.md
+  timeout -k 5 300 "$VPY" bench/tables.py --core "$raw" bench/results-core.md
   say "wrote bench/results-core.md (figures 1-3$([ -n "$base_bin" ] && echo " and their before-and-after with $BENCH_BASE"))"
   exit 0
 fi
@@ -234,7 +234,7 @@ for p in 1 2 3; do sample "$raw/py.txt" 900 taskset -c 0 .venv/bin/python bench/
 # ---- figure 5: generator time on synthetic headers ----
 say "figure 5: generator"
 for n in 100 700 3000 10000; do
-  "$VPY" bench/tools/gen_synth.py "$n" "$gen/synth$n.h"
+  sample "$raw/gen_synth.log" 300 "$VPY" bench/tools/gen_synth.py "$n" "$gen/synth$n.h"
   for r in 1 2 3; do
     t0=$(date +%s%N)
     if timeout -k 5 600 "$root/.venv/bin/uavbus" gen "$gen/synth$n.h" --name synth -o "$gen/synth$n" >/dev/null; then
@@ -250,7 +250,7 @@ echo "uavbus gen build-bench/bench-gen/synthN.h --name synth -o ... (N = 100, 70
 # ---- figure 5b: generator and selftest at scale (issue #13): tests/corpus/big/make_big.py, N/4 types ----
 say "figure 5b: gen and selftest at 1,000 and 10,000 instances"
 for n in 1000 10000; do
-  "$VPY" tests/corpus/big/make_big.py "$gen/big$n" --instances "$n"
+  sample "$raw/make_big.log" 600 "$VPY" tests/corpus/big/make_big.py "$gen/big$n" --instances "$n"
   t0=$(date +%s%N)
   timeout -k 5 1200 "$root/.venv/bin/uavbus" gen "$gen/big$n/big_all.h" -I "$gen/big$n/include" --name big -o "$gen/big$n/out" >/dev/null 2>&1 || true
   t1=$(date +%s%N)
@@ -271,7 +271,8 @@ for f in runtime_c/src/*/*.c; do
     -o "$build/ref-obj/$(basename "$f" .c).o"
 done
 gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L "${REF[@]}" -Iruntime_c/include bench/src/ram_bench.c -o "$bin/ram_bench"
-{ "$bin/ram_bench"; size -t "$build"/ref-obj/*.o | tail -1 | sed 's/^/size /'; } >"$raw/ram.txt"
+sample "$raw/ram.txt" 120 "$bin/ram_bench"
+size -t "$build"/ref-obj/*.o | tail -1 | sed 's/^/size /' >>"$raw/ram.txt"
 echo "gcc -O2 ${REF[*]} runtime_c/src/*/*.c; size -t; bench/src/ram_bench.c" >>"$raw/commands.txt"
 
 # ---- figure 6b: the core on a microcontroller (examples/mcu, Cortex-M4F, arm-none-eabi-gcc -Os) ----
@@ -337,5 +338,5 @@ sample "$raw/inspect.txt" 900 "$VPY" bench/inspect_bench.py --n "${INSPECT_N:-30
 "$SAMPLE" "$raw/router_bench.txt" 600 "$build/runtime_c/ub_router_bench"
 "$SAMPLE" "$raw/far.txt" 600 "$build/runtime_c/ub_far" 200000
 
-"$VPY" bench/tables.py "$raw" bench/results.md
+timeout -k 5 300 "$VPY" bench/tables.py "$raw" bench/results.md
 say "wrote bench/results.md"
