@@ -157,8 +157,9 @@ demo: setup firmware
 bench: setup
 	bench/run.sh
 
-# Figures 1-3 only (C codecs, in-process router, loopback), ~7 minutes on 2 vCPUs with RUNS=5; with
-# BENCH_BASE=REF beside the runtime of REF, by time and by instruction count. Writes bench/results-core.md.
+# Figures 1-3 only (C codecs, in-process router, loopback), ~10 minutes on 2 vCPUs with RUNS=5; with
+# BENCH_BASE=REF beside the runtime of REF, by time and by instruction count; BENCH_COUNTS_AT="REF ..." adds
+# the instruction counts over each commit's runtime. Writes bench/results-core.md (bench/results.md untouched).
 bench-core: setup
 	BENCH_ONLY=core bench/run.sh
 
