@@ -123,21 +123,7 @@ for p in 1 2 3; do
 done
 # Instruction counts (callgrind): figure 1's cases here; with BENCH_BASE, the base's too and figures 2 and 3's
 # (counts_for, after figure 3): what the before-and-after is judged on when the machine is not quiet.
-counts_for() { # counts_for BIN_DIR OUT_DIR FIGURES...: callgrind dumps of the named figures' programs into OUT_DIR
-  local b=$1 o=$2 f
-  shift 2
-  mkdir -p "$o"
-  for f in "$@"; do
-    case $f in
-      1) (cd "$o" && "$SAMPLE" "$root/$o.log" 1800 valgrind --tool=callgrind --callgrind-out-file=cg.%p \
-           "$root/$b/codec_bench" callgrind 2>/dev/null) ;;
-      2) for h in 1 3; do (cd "$o" && "$SAMPLE" "$root/$o.log" 600 valgrind --tool=callgrind \
-           --callgrind-out-file=cg.%p "$root/$b/router_hops" "$h" callgrind 2>/dev/null); done ;;
-      3) for t in udp tcp; do (cd "$o" && LOOP_BENCH_DEADLINE_S=300 "$SAMPLE" "$root/$o.log" 400 valgrind \
-           --tool=callgrind --callgrind-out-file=cg.%p "$root/$b/loop_bench" rtt "$t" 2000 same 2>/dev/null); done ;;
-    esac
-  done
-}
+counts_for() { "$root/bench/tools/counts.sh" "$@"; }   # BIN_DIR OUT_DIR FIGURES...: callgrind dumps
 counts_for "$bin" "$raw/callgrind" 1
 echo "valgrind --tool=callgrind $bin/codec_bench callgrind" >>"$raw/commands.txt"
 
@@ -202,7 +188,6 @@ if [ -n "$base_bin" ] || [ -n "${BENCH_COUNTS_AT:-}" ]; then
 fi
 # BENCH_COUNTS_AT: the same three programs over each ref's runtime, counted only (deterministic: no rounds needed).
 if [ -n "${BENCH_COUNTS_AT:-}" ]; then
-  mkdir -p "$raw/counts_at"
   for ref in $BENCH_COUNTS_AT; do
     short=$(git rev-parse --short "$ref")
     say "figures 1-3 by instruction count over the runtime of $ref ($short)"
@@ -215,8 +200,8 @@ if [ -n "${BENCH_COUNTS_AT:-}" ]; then
       -Wl,-rpath,"$lcm_lib" -o "$bin/at-$short/codec_bench"
     gcc "${ACFLAGS[@]}" bench/src/router_hops.c "$gen/benchcat.c" "$at/lib/libub.a" $SODIUM -ldl -o "$bin/at-$short/router_hops"
     gcc "${ACFLAGS[@]}" bench/src/loop_bench.c "$gen/benchcat.c" "$at/lib/libub.a" $SODIUM -o "$bin/at-$short/loop_bench"
-    counts_for "$bin/at-$short" "$raw/counts_at/$short" 1 2 3
-    echo "$short $(git log -1 --format=%s "$ref" | cut -c1-80)" >>"$raw/counts_at/order.txt"
+    counts_for "$bin/at-$short" "$raw/at-$short" 1 2 3
+    echo "$short $(git log -1 --format=%s "$ref" | cut -c1-80)" >>"$raw/counts_at.txt"
   done
   echo "BENCH_COUNTS_AT=\"$BENCH_COUNTS_AT\": the same programs over bench/tools/runtime_at.sh REF, counted by callgrind" >>"$raw/commands.txt"
 fi

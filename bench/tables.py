@@ -92,11 +92,11 @@ def instruction_rows(raw: Path) -> list[tuple[str, str, float, float]]:
 def history_section(raw: Path) -> list[str]:
     """BENCH_COUNTS_AT=REFS: figures 1-3 by instruction count over the runtime of each ref, oldest first, and
     this tree's: which commit changed the cost of the frame path, read without interleaving (counts do not drift)."""
-    order = raw / "counts_at" / "order.txt"
+    order = raw / "counts_at.txt"  # "SHORT subject" per commit, oldest first; its dumps in raw/at-SHORT/
     if not order.exists():
         return []
     refs = [ln.split(None, 1) for ln in order.read_text().splitlines() if ln.strip()]
-    cols = [(r[0], instruction_values(raw / "counts_at" / r[0])) for r in refs]
+    cols = [(r[0], instruction_values(raw / f"at-{r[0]}")) for r in refs]
     cols.append(("this tree", instruction_values(raw / "callgrind")))
     keys = [k for k in cols[-1][1] if all(k in c for _, c in cols)]
     out = ["## Figures 1-3 by instruction count along the history (BENCH_COUNTS_AT)", "",
