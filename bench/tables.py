@@ -97,13 +97,16 @@ def history_section(raw: Path) -> list[str]:
         return []
     refs = [ln.split(None, 1) for ln in order.read_text().splitlines() if ln.strip()]
     cols = [(r[0], instruction_values(raw / f"at-{r[0]}")) for r in refs]
+    base = raw / "base_ref.txt"  # BENCH_BASE's counts, first, unless it is one of the refs already
+    if base.exists() and (raw / "base_callgrind").is_dir() and base.read_text().strip() not in [r[0] for r in refs]:
+        cols.insert(0, (f"{base.read_text().strip()} (BENCH_BASE)", instruction_values(raw / "base_callgrind")))
     cols.append(("this tree", instruction_values(raw / "callgrind")))
     keys = [k for k in cols[-1][1] if all(k in c for _, c in cols)]
     out = ["## Figures 1-3 by instruction count along the history (BENCH_COUNTS_AT)", "",
            "callgrind counts of the same bench programs (this tree's sources, catalogue and peers) linked with the "
            "runtime of each commit, the same fixed work as the before-and-after rows; deterministic, so commits "
-           "are compared across the run without interleaving. Last column: this tree / the first commit.", "",
-           "| figure | case | " + " | ".join(c for c, _ in cols) + f" | this tree / {cols[0][0]} |",
+           "are compared across the run without interleaving. Last column: this tree / the first column.", "",
+           "| figure | case | " + " | ".join(c for c, _ in cols) + f" | this tree / {cols[0][0].split()[0]} |",
            "|---|---|" + "---:|" * (len(cols) + 1)]
     for k in keys:
         out.append(f"| {k[0]} | {k[1]} | " + " | ".join(f"{c[k]:,.0f}" for _, c in cols) +

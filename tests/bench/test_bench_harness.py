@@ -267,6 +267,13 @@ def test_counts_along_the_history_name_each_commit_and_compare_with_the_first(tm
     assert "| 1 | frame build, ATTITUDE: instructions per frame | 240 | 238 | 252 | 1.050 |" in text
     assert "3 hop(s)" not in text and "aaaaaaa before the core; bbbbbbb the core narrowed" in text
     assert tables.history_section(tmp_path) == []  # no BENCH_COUNTS_AT in the run: no section
+    # With BENCH_BASE in the same run, its counts are the first column.
+    (raw / "base_ref.txt").write_text("0000000\n")
+    _dump(raw / "base_callgrind", 1, "router/hops=1", 2000 * tables.ROUTER_CG_FRAMES)
+    _dump(raw / "base_callgrind", 2, "ub_frame_build/ATTITUDE", 200 * 20000)
+    text = "\n".join(tables.history_section(raw))
+    assert "| figure | case | 0000000 (BENCH_BASE) | aaaaaaa | bbbbbbb | this tree | this tree / 0000000 |" in text
+    assert "| 2 | 1 hop(s): instructions per delivered frame | 2,000 | 1,800 | 1,782 | 1,890 | 0.945 |" in text
 
 
 BEFORE_CORE = "681a8a9"  # the last commit before the narrow core (#22): flat runtime_c/src, no ub_origin.h
