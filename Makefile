@@ -40,7 +40,7 @@ FUZZ_SMOKE_SECONDS ?= 5
 FUZZ_CC     ?= clang-14
 FUZZ_FLAGS  := -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 
-.PHONY: setup test lint test-c test-py test-fuzz test-cross demo bench clean apt-deps fuzz fuzz-build fuzz-corpus \
+.PHONY: setup test lint test-c test-py test-fuzz test-cross demo bench bench-core clean apt-deps fuzz fuzz-build fuzz-corpus \
         coverage firmware
 
 setup: apt-deps $(SETUP_STAMP)
@@ -161,6 +161,12 @@ demo: setup firmware
 # figures 1-3 over the runtime of git REF, interleaved in the same run (before and after a core change).
 bench: setup
 	bench/run.sh
+
+# Figures 1-3 only (C codecs, in-process router, loopback), ~10 minutes on 2 vCPUs with RUNS=5; with
+# BENCH_BASE=REF beside the runtime of REF, by time and by instruction count; BENCH_COUNTS_AT="REF ..." adds
+# the instruction counts over each commit's runtime. Writes bench/results-core.md (bench/results.md untouched).
+bench-core: setup
+	BENCH_ONLY=core bench/run.sh
 
 clean:
 	rm -rf $(BUILD) $(BUILD_ASAN) $(BUILD_FUZZ) $(BUILD_COV) $(BUILD_CROSS) build-bench build-mcu demo-out

@@ -7,7 +7,16 @@
 #   RUNS=3 bench/run.sh     fewer loopback rounds
 #   BENCH_BASE=REF bench/run.sh   also figures 1-3 with the runtime of git REF (e.g. the commit before a core
 #                           change), interleaved with ours in the same run: results.md gains "Before and after"
-#                           (make bench BENCH_BASE=REF)
+#                           (make bench BENCH_BASE=REF), with time (noisy on a shared machine) and callgrind
+#                           instruction counts of both runtimes (the same on a busy machine as on a quiet one)
+#   BENCH_COUNTS_AT="REF ..." bench/run.sh  also figures 1-3 by instruction count over the runtime of each REF
+#                           (oldest first), beside this tree's: which commit changed the frame path's cost
+#   BENCH_ONLY=core bench/run.sh  figures 1-3 only (and their before-and-after with BENCH_BASE), written to
+#                           bench/results-core.md; bench/results.md is left as it is (make bench-core)
+#
+# A sample that fails or passes its deadline is listed in results.md and the run goes on; the run exits 0
+# with the failures stated in the file (and on stderr as they happen): a bench is a measurement, and one
+# lost sample must not throw away the hour of figures around it. A failed build or missing peer still stops it.
 #
 # Peers are installed at run time from PyPI into .venv (the `bench` extra: pymavlink, lcm); their
 # generated code goes to build-bench/peers/ and is never committed. valgrind (Debian) is installed
@@ -22,10 +31,12 @@ gen=$build/bench-gen
 bin=$build/bench-bin
 VPY=$root/.venv/bin/python
 RUNS=${RUNS:-5}
+ONLY=${BENCH_ONLY:-all}
+case $ONLY in all | core) ;; *) echo "bench: BENCH_ONLY=$ONLY: use core (figures 1-3) or leave it unset" >&2; exit 2 ;; esac
 mkdir -p "$raw" "$peers" "$gen" "$bin"
 rm -rf "${raw:?}"/*   # raw/callgrind is a directory: a second run must not stop here
 
-say() { echo "bench: $*" >&2; }
+say() { echo "bench: [$(date +%T)] $*" >&2; }   # the time: how long each figure took
 # Every child of the bench runs with a deadline (bench/tools/sample.sh): a sample that fails or times out is
 # written to $raw/failures.txt, reported in results.md ("Failed or timed-out samples"), and the run goes on.
 # Deadlines are generous (several times a quiet run's duration): they exist so a hung child cannot stop the run.
@@ -61,7 +72,7 @@ timeout -k 5 600 "$root/.venv/bin/mavgen.py" --lang=C --wire-protocol=2.0 --outp
 # ---- 1. our side: runtime (Release), bench catalogue, bench programs ----
 say "building the runtime (Release) and the bench catalogue"
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DUAVBUS_PYTHON="$VPY" >/dev/null
-cmake --build "$build" --target ub_frame_bench ub_router_bench ub_far >/dev/null
+[ "$ONLY" = core ] || cmake --build "$build" --target ub_frame_bench ub_router_bench ub_far >/dev/null
 # The runtime for the bench programs: every runtime_c/src/*/*.c at -O2 (as the peers are built), in one archive.
 mkdir -p "$build/bench-lib"
 rm -f "$build"/bench-lib/*
@@ -71,7 +82,7 @@ for f in runtime_c/src/*/*.c; do
 done
 ar rcs "$build/bench-lib/libub.a" "$build"/bench-lib/*.o
 SODIUM=$(pkg-config --libs libsodium)   # frame security (ub_sec.c); the same libsodium the runtime links
-"$root/.venv/bin/uavbus" gen bench/catalogue/bench_msgs.h --name benchcat -o "$gen" >/dev/null
+timeout -k 5 600 "$root/.venv/bin/uavbus" gen bench/catalogue/bench_msgs.h --name benchcat -o "$gen" >/dev/null
 echo "uavbus gen bench/catalogue/bench_msgs.h --name benchcat -o $gen" >>"$raw/commands.txt"
 CFLAGS=(-O2 -std=gnu11 -Wall -Wextra -Werror -D_POSIX_C_SOURCE=200809L -Iruntime_c/include -Ibench/catalogue -I"$gen")
 LIBUB=$build/bench-lib/libub.a
@@ -80,32 +91,28 @@ gcc "${CFLAGS[@]}" -Wno-address-of-packed-member -I"$peers/mavlink" -I"$peers/lc
   -Wl,-rpath,"$lcm_lib" -o "$bin/codec_bench"
 gcc "${CFLAGS[@]}" bench/src/router_hops.c "$gen/benchcat.c" "$LIBUB" $SODIUM -ldl -o "$bin/router_hops"
 gcc "${CFLAGS[@]}" bench/src/loop_bench.c "$gen/benchcat.c" "$LIBUB" $SODIUM -o "$bin/loop_bench"
-gcc "${CFLAGS[@]}" bench/src/origin_bench.c "$LIBUB" $SODIUM -o "$bin/origin_bench"
+[ "$ONLY" = core ] || gcc "${CFLAGS[@]}" bench/src/origin_bench.c "$LIBUB" $SODIUM -o "$bin/origin_bench"
 gcc "${CFLAGS[@]}" -I"$lcm_inc" bench/src/lcm_loop.c -L"$lcm_lib" -llcm -Wl,-rpath,"$lcm_lib" -o "$bin/lcm_loop"
 
 # ---- the same bench programs over the runtime of BENCH_BASE (a git ref), for figures 1-3 before and after ----
 # Only the runtime differs: the bench sources, the generated catalogue and the peers are this tree's, so a
-# difference between the two columns is the runtime's. The base's sources are found wherever its tree put them.
+# difference between the two columns is the runtime's. bench/tools/runtime_at.sh finds the base's sources
+# wherever its tree put them; a bench case the base's API lacks is left out by the program (__has_include).
 base_bin=""
 if [ -n "${BENCH_BASE:-}" ]; then
   base=$build/base
   base_bin=$bin/base
   say "building the runtime of BENCH_BASE=$BENCH_BASE for figures 1-3 before and after"
-  rm -rf "$base" && mkdir -p "$base/src" "$base/lib" "$base_bin"
-  git archive "$BENCH_BASE" runtime_c | tar -x -C "$base/src"
+  rm -rf "$base_bin" && mkdir -p "$base_bin"
+  "$root/bench/tools/runtime_at.sh" "$BENCH_BASE" "$base"
   git rev-parse --short "$BENCH_BASE" >"$raw/base_ref.txt"
-  while IFS= read -r f; do
-    gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L -DUB_SECURITY=1 -I"$base/src/runtime_c/include" \
-      -I"$base/src/runtime_c/src" -c "$f" -o "$base/lib/$(basename "$f" .c).o"
-  done < <(find "$base/src/runtime_c/src" -name '*.c' | sort)
-  ar rcs "$base/lib/libub.a" "$base"/lib/*.o
   BCFLAGS=("${CFLAGS[@]/-Iruntime_c\/include/-I$base/src/runtime_c/include}")
   gcc "${BCFLAGS[@]}" -Wno-address-of-packed-member -I"$peers/mavlink" -I"$peers/lcmgen" -I"$lcm_inc" \
     bench/src/codec_bench.c "$gen/benchcat.c" "$peers"/lcmgen/*.c "$base/lib/libub.a" $SODIUM -L"$lcm_lib" -llcm \
     -Wl,-rpath,"$lcm_lib" -o "$base_bin/codec_bench"
   gcc "${BCFLAGS[@]}" bench/src/router_hops.c "$gen/benchcat.c" "$base/lib/libub.a" $SODIUM -ldl -o "$base_bin/router_hops"
   gcc "${BCFLAGS[@]}" bench/src/loop_bench.c "$gen/benchcat.c" "$base/lib/libub.a" $SODIUM -o "$base_bin/loop_bench"
-  echo "BENCH_BASE=$BENCH_BASE: the same bench programs over git archive $BENCH_BASE runtime_c, interleaved" >>"$raw/commands.txt"
+  echo "BENCH_BASE=$BENCH_BASE: the same bench programs over bench/tools/runtime_at.sh $BENCH_BASE, interleaved" >>"$raw/commands.txt"
 fi
 
 # ---- figure 1: C codecs (3 processes x 11 interleaved samples; callgrind once) ----
@@ -114,13 +121,17 @@ for p in 1 2 3; do
   sample "$raw/codec.tsv" 600 taskset -c 0 "$bin/codec_bench"
   if [ -n "$base_bin" ]; then "$SAMPLE" "$raw/base_codec.tsv" 600 taskset -c 0 "$base_bin/codec_bench"; fi
 done
-(mkdir -p "$raw/callgrind" && cd "$raw/callgrind" &&
-  "$SAMPLE" "$root/$raw/callgrind.log" 1800 valgrind --tool=callgrind --callgrind-out-file=cg.%p "$root/$bin/codec_bench" callgrind 2>/dev/null)
+# Instruction counts (callgrind): figure 1's cases here; with BENCH_BASE, the base's too and figures 2 and 3's
+# (counts_for, after figure 3): what the before-and-after is judged on when the machine is not quiet.
+counts_for() { "$root/bench/tools/counts.sh" "$@"; }   # BIN_DIR OUT_DIR FIGURES...: callgrind dumps
+counts_for "$bin" "$raw/callgrind" 1
 echo "valgrind --tool=callgrind $bin/codec_bench callgrind" >>"$raw/commands.txt"
 
 # ---- figure 1c: origin authentication (per-frame cost, pairwise derivation, RAM) ----
-say "figure 1c: origin authentication"
-for p in 1 2 3; do sample "$raw/origin.tsv" 600 taskset -c 0 "$bin/origin_bench"; done
+if [ "$ONLY" = all ]; then
+  say "figure 1c: origin authentication"
+  for p in 1 2 3; do sample "$raw/origin.tsv" 600 taskset -c 0 "$bin/origin_bench"; done
+fi
 
 # ---- figure 2: router in-process over memlinks ----
 # With BENCH_BASE, RUNS rounds alternate this tree's process and the base's (ABAB...), so a change of the
@@ -167,6 +178,40 @@ unshare -rn bash -c '
 echo "unshare -rn: loop_bench blast udp|tcp 1000000, udp 300000 nobatch, raw-udp 300000; lcm_loop blast 200000;" \
   "rtt 10000 each; placements split and same; $RUNS interleaved rounds (see bench/run.sh)" >>"$raw/commands.txt"
 
+# ---- before and after by instruction count: figures 2 and 3 for both runtimes, figure 1 for the base ----
+if [ -n "$base_bin" ] || [ -n "${BENCH_COUNTS_AT:-}" ]; then
+  say "figures 1-3 by instruction count (callgrind), this tree${BENCH_BASE:+ and $BENCH_BASE}"
+  counts_for "$bin" "$raw/callgrind" 2 3
+  [ -z "$base_bin" ] || counts_for "$base_bin" "$raw/base_callgrind" 1 2 3
+  echo "valgrind --tool=callgrind: codec_bench callgrind; router_hops 1|3 callgrind; loop_bench rtt udp|tcp 2000 same" \
+    "(the programs of this tree${BENCH_BASE:+ and of the base})" >>"$raw/commands.txt"
+fi
+# BENCH_COUNTS_AT: the same three programs over each ref's runtime, counted only (deterministic: no rounds needed).
+if [ -n "${BENCH_COUNTS_AT:-}" ]; then
+  for ref in $BENCH_COUNTS_AT; do
+    short=$(git rev-parse --short "$ref")
+    say "figures 1-3 by instruction count over the runtime of $ref ($short)"
+    at=$build/at/$short
+    "$root/bench/tools/runtime_at.sh" "$ref" "$at"
+    mkdir -p "$bin/at-$short"
+    ACFLAGS=("${CFLAGS[@]/-Iruntime_c\/include/-I$at/src/runtime_c/include}")
+    gcc "${ACFLAGS[@]}" -Wno-address-of-packed-member -I"$peers/mavlink" -I"$peers/lcmgen" -I"$lcm_inc" \
+      bench/src/codec_bench.c "$gen/benchcat.c" "$peers"/lcmgen/*.c "$at/lib/libub.a" $SODIUM -L"$lcm_lib" -llcm \
+      -Wl,-rpath,"$lcm_lib" -o "$bin/at-$short/codec_bench"
+    gcc "${ACFLAGS[@]}" bench/src/router_hops.c "$gen/benchcat.c" "$at/lib/libub.a" $SODIUM -ldl -o "$bin/at-$short/router_hops"
+    gcc "${ACFLAGS[@]}" bench/src/loop_bench.c "$gen/benchcat.c" "$at/lib/libub.a" $SODIUM -o "$bin/at-$short/loop_bench"
+    counts_for "$bin/at-$short" "$raw/at-$short" 1 2 3
+    echo "$short $(git log -1 --format=%s "$ref" | cut -c1-80)" >>"$raw/counts_at.txt"
+  done
+  echo "BENCH_COUNTS_AT=\"$BENCH_COUNTS_AT\": the same programs over bench/tools/runtime_at.sh REF, counted by callgrind" >>"$raw/commands.txt"
+fi
+
+if [ "$ONLY" = core ]; then
+  timeout -k 5 300 "$VPY" bench/tables.py --core "$raw" bench/results-core.md
+  say "wrote bench/results-core.md (figures 1-3$([ -n "$base_bin" ] && echo " and their before-and-after with $BENCH_BASE"))"
+  exit 0
+fi
+
 # ---- figure 4: Python ----
 say "figure 4: Python"
 for p in 1 2 3; do sample "$raw/py.txt" 900 taskset -c 0 .venv/bin/python bench/py_bench.py "$gen/benchcat.catalogue.json" "$peers/lcmpy"; done
@@ -174,7 +219,7 @@ for p in 1 2 3; do sample "$raw/py.txt" 900 taskset -c 0 .venv/bin/python bench/
 # ---- figure 5: generator time on synthetic headers ----
 say "figure 5: generator"
 for n in 100 700 3000 10000; do
-  "$VPY" bench/tools/gen_synth.py "$n" "$gen/synth$n.h"
+  sample "$raw/gen_synth.log" 300 "$VPY" bench/tools/gen_synth.py "$n" "$gen/synth$n.h"
   for r in 1 2 3; do
     t0=$(date +%s%N)
     if timeout -k 5 600 "$root/.venv/bin/uavbus" gen "$gen/synth$n.h" --name synth -o "$gen/synth$n" >/dev/null; then
@@ -190,7 +235,7 @@ echo "uavbus gen build-bench/bench-gen/synthN.h --name synth -o ... (N = 100, 70
 # ---- figure 5b: generator and selftest at scale (issue #13): tests/corpus/big/make_big.py, N/4 types ----
 say "figure 5b: gen and selftest at 1,000 and 10,000 instances"
 for n in 1000 10000; do
-  "$VPY" tests/corpus/big/make_big.py "$gen/big$n" --instances "$n"
+  sample "$raw/make_big.log" 600 "$VPY" tests/corpus/big/make_big.py "$gen/big$n" --instances "$n"
   t0=$(date +%s%N)
   timeout -k 5 1200 "$root/.venv/bin/uavbus" gen "$gen/big$n/big_all.h" -I "$gen/big$n/include" --name big -o "$gen/big$n/out" >/dev/null 2>&1 || true
   t1=$(date +%s%N)
@@ -211,7 +256,8 @@ for f in runtime_c/src/*/*.c; do
     -o "$build/ref-obj/$(basename "$f" .c).o"
 done
 gcc -O2 -std=c11 -D_POSIX_C_SOURCE=200809L "${REF[@]}" -Iruntime_c/include bench/src/ram_bench.c -o "$bin/ram_bench"
-{ "$bin/ram_bench"; size -t "$build"/ref-obj/*.o | tail -1 | sed 's/^/size /'; } >"$raw/ram.txt"
+sample "$raw/ram.txt" 120 "$bin/ram_bench"
+size -t "$build"/ref-obj/*.o | tail -1 | sed 's/^/size /' >>"$raw/ram.txt"
 echo "gcc -O2 ${REF[*]} runtime_c/src/*/*.c; size -t; bench/src/ram_bench.c" >>"$raw/commands.txt"
 
 # ---- figure 6b: the core on a microcontroller (examples/mcu, Cortex-M4F, arm-none-eabi-gcc -Os) ----
@@ -283,5 +329,5 @@ sample "$raw/inspect.txt" 900 "$VPY" bench/inspect_bench.py --n "${INSPECT_N:-30
 "$SAMPLE" "$raw/router_bench.txt" 600 "$build/runtime_c/ub_router_bench"
 "$SAMPLE" "$raw/far.txt" 600 "$build/runtime_c/ub_far" 200000
 
-"$VPY" bench/tables.py "$raw" bench/results.md
+timeout -k 5 300 "$VPY" bench/tables.py "$raw" bench/results.md
 say "wrote bench/results.md"

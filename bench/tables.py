@@ -1,6 +1,7 @@
 """Turns the raw outputs of bench/run.sh (build-bench/raw/) into bench/results.md.
 
     python bench/tables.py build-bench/raw bench/results.md
+    python bench/tables.py --core build-bench/raw bench/results-core.md   (BENCH_ONLY=core: figures 1-3)
 
 Every figure is median [min - max] over the pooled samples; C codec rows also carry callgrind
 instructions per operation; ratios are uavbus / peer on medians of the same run.
@@ -30,7 +31,20 @@ def kfmt(x: float) -> str:
     return f"{x / 1000:,.0f}k"
 
 
-def read_codec(raw: Path, name: str = "codec.tsv") -> tuple[dict, dict, dict]:
+def read_dumps(d: Path) -> dict[str, int]:
+    """Instructions per callgrind dump in directory d, by the name the program gave it
+    (CALLGRIND_DUMP_STATS_AT: "case/MESSAGE", "router/hops=H", "loop/rtt-udp/tx")."""
+    ir: dict[str, int] = {}
+    for f in glob.glob(str(d / "cg.*")):
+        text = Path(f).read_text(errors="replace")
+        m = re.search(r"desc: Trigger: Client Request: (\S+)", text)
+        t = re.search(r"^summary: (\d+)", text, re.M) or re.search(r"^totals: (\d+)", text, re.M)
+        if m and t:
+            ir[m.group(1)] = int(t.group(1))
+    return ir
+
+
+def read_codec(raw: Path, name: str = "codec.tsv", cg: str = "callgrind") -> tuple[dict, dict, dict]:
     ns: dict[tuple[str, str], list[float]] = defaultdict(list)
     size: dict[tuple[str, str], int] = {}
     for line in (raw / name).read_text().splitlines():
@@ -38,13 +52,67 @@ def read_codec(raw: Path, name: str = "codec.tsv") -> tuple[dict, dict, dict]:
         ns[(parts[0], parts[1])] += [float(x) for x in parts[3:]]
         size[(parts[0], parts[1])] = int(parts[2])
     ir: dict[tuple[str, str], float] = {}
-    for f in glob.glob(str(raw / "callgrind" / "cg.*")):
-        text = Path(f).read_text(errors="replace")
-        m = re.search(r"desc: Trigger: Client Request: (\S+)/(\S+)", text)
-        t = re.search(r"^(?:totals|summary): (\d+)", text, re.M)
-        if m and t:
-            ir[(m.group(1), m.group(2))] = int(t.group(1)) / 20000
+    for dump, n in read_dumps(raw / cg).items():
+        case, _, msg = dump.partition("/")
+        if msg in MSGS:
+            ir[(case, msg)] = n / 20000  # codec_bench's BENCH_ITERS
     return ns, size, ir
+
+
+# Fixed work per callgrind dump of figures 2 and 3 (router_hops.c CG_N; bench/run.sh's loop_bench rtt N).
+ROUTER_CG_FRAMES = 20000
+LOOP_CG_ROUNDTRIPS = 2000
+
+
+def instruction_values(d: Path) -> dict[tuple[str, str], float]:
+    """Figures 1-3 by instruction count from one directory of callgrind dumps: {(figure, what): per operation}."""
+    ir = read_dumps(d)
+    vals: dict[tuple[str, str], float] = {}
+    for case, title in (("ub_frame_build", "frame build"), ("ub_frame_parse", "streaming parse")):
+        for m in MSGS:
+            if f"{case}/{m}" in ir:
+                vals[("1", f"{title}, {m}: instructions per frame")] = ir[f"{case}/{m}"] / 20000
+    for h in (1, 3):
+        if f"router/hops={h}" in ir:
+            vals[("2", f"{h} hop(s): instructions per delivered frame")] = ir[f"router/hops={h}"] / ROUTER_CG_FRAMES
+    for t in ("udp", "tcp"):
+        tx, rx = f"loop/rtt-{t}/tx", f"loop/rtt-{t}/rx"
+        if tx in ir and rx in ir:
+            vals[("3", f"RTT {t}: user-space instructions per round trip (both processes)")] = \
+                (ir[tx] + ir[rx]) / LOOP_CG_ROUNDTRIPS
+    return vals
+
+
+def instruction_rows(raw: Path) -> list[tuple[str, str, float, float]]:
+    """Figures 1-3 by instruction count, this tree and the base: (figure, what, this tree, base) per operation."""
+    new, old = instruction_values(raw / "callgrind"), instruction_values(raw / "base_callgrind")
+    return [(fig, what, new[(fig, what)], old[(fig, what)]) for fig, what in new if (fig, what) in old]
+
+
+def history_section(raw: Path) -> list[str]:
+    """BENCH_COUNTS_AT=REFS: figures 1-3 by instruction count over the runtime of each ref, oldest first, and
+    this tree's: which commit changed the cost of the frame path, read without interleaving (counts do not drift)."""
+    order = raw / "counts_at.txt"  # "SHORT subject" per commit, oldest first; its dumps in raw/at-SHORT/
+    if not order.exists():
+        return []
+    refs = [ln.split(None, 1) for ln in order.read_text().splitlines() if ln.strip()]
+    cols = [(r[0], instruction_values(raw / f"at-{r[0]}")) for r in refs]
+    base = raw / "base_ref.txt"  # BENCH_BASE's counts, first, unless it is one of the refs already
+    if base.exists() and (raw / "base_callgrind").is_dir() and base.read_text().strip() not in [r[0] for r in refs]:
+        cols.insert(0, (f"{base.read_text().strip()} (BENCH_BASE)", instruction_values(raw / "base_callgrind")))
+    cols.append(("this tree", instruction_values(raw / "callgrind")))
+    keys = [k for k in cols[-1][1] if all(k in c for _, c in cols)]
+    out = ["## Figures 1-3 by instruction count along the history (BENCH_COUNTS_AT)", "",
+           "callgrind counts of the same bench programs (this tree's sources, catalogue and peers) linked with the "
+           "runtime of each commit, the same fixed work as the before-and-after rows; deterministic, so commits "
+           "are compared across the run without interleaving. Last column: this tree / the first column.", "",
+           "| figure | case | " + " | ".join(c for c, _ in cols) + f" | this tree / {cols[0][0].split()[0]} |",
+           "|---|---|" + "---:|" * (len(cols) + 1)]
+    for k in keys:
+        out.append(f"| {k[0]} | {k[1]} | " + " | ".join(f"{c[k]:,.0f}" for _, c in cols) +
+                   f" | {cols[-1][1][k] / cols[0][1][k]:.3f} |")
+    out += ["", "Commits: " + "; ".join(f"{r[0]} {r[1] if len(r) > 1 else ''}".strip() for r in refs) + ".", ""]
+    return out
 
 
 def read_router(path: Path) -> tuple[dict, dict, dict, dict]:
@@ -92,11 +160,18 @@ def before_after(raw: Path) -> list[str]:
         return []
     ref = (raw / "base_ref.txt").read_text().strip()
     out = [f"## Before and after: figures 1-3 with this tree's runtime and with {ref}'s", "",
-           f"`make bench BENCH_BASE={ref}`: the same bench programs, catalogue and peers, linked once with this tree's "
+           f"`BENCH_BASE={ref}`: the same bench programs, catalogue and peers, linked once with this tree's "
            "runtime and once with the runtime of that commit, run interleaved (figure 1: 3 processes each, figure 2: "
            "RUNS processes each, alternating, of 7 samples, figure 3: the uavbus UDP/TCP rows in every round). Median [min - max]; "
-           "ratio = this tree / base.", "",
+           "ratio = this tree / base. The instruction rows come first: callgrind counts of the same programs over a "
+           "fixed amount of work (figure 1: 20,000 frames per case; figure 2: 20,000 frames through 1 and 3 hops; "
+           "figure 3: 2,000 round trips, user space of both processes, kernel not counted), which a busy machine "
+           "does not change (figures 1-2 and UDP are exact; TCP's varies by ~0.3 % with how the kernel splits the "
+           "stream into reads); the time rows below them are this run's samples, which it does.", "",
            "| figure | case | this tree | base | ratio |", "|---|---|---:|---:|---:|"]
+    irows = instruction_rows(raw)
+    if irows:
+        out += [f"| {fig} | {what} | {a:,.0f} | {b:,.0f} | {a / b:.3f} |" for fig, what, a, b in irows]
     new_ns, _, _ = read_codec(raw)
     old_ns, _, _ = read_codec(raw, "base_codec.tsv")
     for case, title in (("ub_frame_build", "frame build ns"), ("ub_frame_parse", "streaming parse ns")):
@@ -120,7 +195,16 @@ def before_after(raw: Path) -> list[str]:
         a, b = new_rtt[key]["p50"], v["p50"]
         out.append(f"| 3 | RTT {key[0]}, {key[1]}: p50 us | {band(a)} | {band(b)} | "
                    f"{statistics.median(a) / statistics.median(b):.3f} |")
-    return out + [""]
+    out.append("")
+    if irows:
+        worst = max(irows, key=lambda r: r[2] / r[3])
+        out += [f"By instruction count (this run's callgrind dumps): this tree / {ref} from "
+                f"{min(a / b for _f, _w, a, b in irows):.3f} to {worst[2] / worst[3]:.3f} "
+                f"(the most: figure {worst[0]}, {worst[1].split(':')[0]}).", ""]
+    else:
+        out += ["No instruction counts for the base in this run (raw/base_callgrind missing): judge by the time rows.",
+                ""]
+    return out
 
 
 def read_failures(raw: Path) -> list[dict[str, str]]:
@@ -146,7 +230,7 @@ def failures_section(fails: list[dict[str, str]]) -> list[str]:
     return out + [""]
 
 
-def misses_section(goals: list, notes: Path) -> list[str]:
+def misses_section(goals: list, notes: Path | None) -> list[str]:
     """"What holds a miss back": the misses with this run's figures (generated), then the hand-kept analysis
     labelled with the run it analysed: its figures are that run's, never presented as this one's."""
     out = ["## What holds a miss back", "", "Goals missed in this run, with this run's figures (generated):", ""]
@@ -154,7 +238,7 @@ def misses_section(goals: list, notes: Path) -> list[str]:
     out += [f"- **{fig}**: goal {goal}; measured {measured}." for fig, goal, measured, _ok, _note in missed] or [
         "- none"]
     out.append("")
-    if notes.exists():
+    if notes is not None and notes.exists():
         text = notes.read_text().rstrip().splitlines()
         m = next((re.match(r"^analysed-run:\s*(.+)$", ln) for ln in text if ln.startswith("analysed-run:")), None)
         body = [ln for ln in text if not ln.startswith("analysed-run:") and not ln.startswith("# ")]
@@ -169,13 +253,19 @@ class section:  # noqa: N801 - used as `with section(...)`, a statement about a 
     """One figure of results.md: if its raw outputs are missing or incomplete (every sample failed, a
     program died), the figure says so in one line and the other figures still render (issue #28)."""
 
+    skip: tuple[str, ...] | None = None  # titles a core run (--core) renders; None: every figure
+
     def __init__(self, out: list[str], broken: list[str], title: str) -> None:
         self.out, self.broken, self.title = out, broken, title
 
     def __enter__(self) -> None:
+        self.start = len(self.out)
         return None
 
     def __exit__(self, kind: type | None, exc: BaseException | None, tb: object) -> bool:
+        if section.skip is not None and self.title not in section.skip:
+            del self.out[self.start:]  # a core run did not measure this figure: nothing to say about it
+            return kind is None or issubclass(kind, Exception)
         if kind is None or not issubclass(kind, Exception):
             return False
         why = f"{kind.__name__}: {exc}"
@@ -183,6 +273,15 @@ class section:  # noqa: N801 - used as `with section(...)`, a statement about a 
                      "timed-out samples'.", ""]
         self.broken.append(f"{self.title} ({why})")
         return True
+
+
+def tree() -> str:
+    """The commit the bench ran on (and whether the work tree had changes), so the file names what it measured."""
+    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                          cwd=Path(__file__).parent).stdout.strip() or "?"
+    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True, text=True,
+                           cwd=Path(__file__).parent).stdout.strip()
+    return f"{head}{' with uncommitted changes' if dirty else ''}"
 
 
 def machine() -> str:
@@ -197,21 +296,31 @@ def machine() -> str:
             f"Python {platform.python_version()}; load average at the end {load:.2f}")
 
 
+CORE_FIGURES = ("figure 1", "figure 1b: signing", "figure 2", "figure 3", "before and after (BENCH_BASE)",
+                "instruction counts along the history (BENCH_COUNTS_AT)")
+
+
 def main() -> None:
-    raw, out_path = Path(sys.argv[1]), Path(sys.argv[2])
+    args = sys.argv[1:]
+    core = "--core" in args  # BENCH_ONLY=core (make bench-core): figures 1-3 and their before-and-after only
+    args = [a for a in args if a != "--core"]
+    raw, out_path = Path(args[0]), Path(args[1])
     out: list[str] = []
     goals: list[tuple[str, str, str, bool, str]] = []  # figure, goal, measured, ok, note
     broken: list[str] = []  # figures whose raw outputs were missing or incomplete
     w = out.append
 
-    w("# uavbus benchmark results: side by side with MAVLink, LCM and the floors")
+    w("# uavbus benchmark results: side by side with MAVLink, LCM and the floors" +
+      (" (figures 1-3 only)" if core else ""))
     w("")
-    w(f"Written by `make bench` (bench/run.sh, then bench/tables.py) on {machine()}.")
+    w(f"Written by `make {'bench-core' if core else 'bench'}` (bench/run.sh, then bench/tables.py) on {machine()}, "
+      f"tree {tree()}.")
     w("All peers ran in the same run on the same machine; compare the **ratios**, not absolute values")
     w("(figures drift between runs and machines; ../shared/anchors/peers.md has the method and earlier peer")
     w("figures). Each figure is median [min - max] over repeated, interleaved samples.")
     w("")
     out.extend(failures_section(read_failures(raw)))
+    section.skip = CORE_FIGURES if core else None
 
     with section(out, broken, "figure 1"):
         # ---- figure 1 ----
@@ -270,7 +379,9 @@ def main() -> None:
                 ia = sum(ir.get((c, m), 0) for c in num)
                 ib = sum(ir.get((c, m), 0) for c in den)
                 rs.append(a / b)
-                cells.append(f"{a / b:.3f} = 1/{b / a:.1f} ({ia / ib:.3f})" if a < b else f"{a / b:.2f}x ({ia / ib:.2f}x)")
+                # No instruction ratio when a count is missing (the callgrind sample failed: see failures).
+                icell = (f" ({ia / ib:.3f})" if a < b else f" ({ia / ib:.2f}x)") if ia and ib else ""
+                cells.append(f"{a / b:.3f} = 1/{b / a:.1f}{icell}" if a < b else f"{a / b:.2f}x{icell}")
             w(f"| {title} | " + " | ".join(cells) + f" | {goal} |")
             return rs
 
@@ -702,6 +813,8 @@ def main() -> None:
 
     with section(out, broken, "before and after (BENCH_BASE)"):
         out.extend(before_after(raw))
+    with section(out, broken, "instruction counts along the history (BENCH_COUNTS_AT)"):
+        out.extend(history_section(raw))
 
     # ---- goals ----
     w("## Goals")
@@ -715,13 +828,15 @@ def main() -> None:
         w("## Figures not produced in this run")
         w("")
         w("".join(f"- {b}\n" for b in broken))
-    out.extend(misses_section(goals, Path(__file__).with_name("results_notes.md")))
+    # The hand-kept analysis is about full runs; a core run lists its misses only.
+    out.extend(misses_section(goals, None if core else Path(__file__).with_name("results_notes.md")))
 
     # ---- commands and raw internals ----
     w("## Exact commands")
     w("")
     w("```")
-    w("make bench        # = bench/run.sh (setup: pip install -e '.[bench]' (pymavlink, lcm); apt valgrind if missing)")
+    w(f"make {'bench-core  # = BENCH_ONLY=core' if core else 'bench       # ='} bench/run.sh (setup: pip install -e "
+      "'.[bench]' (pymavlink, lcm); apt valgrind if missing)")
     w((raw / "commands.txt").read_text().rstrip() if (raw / "commands.txt").exists() else "(no commands.txt)")
     w("```")
     w("")

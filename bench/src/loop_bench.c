@@ -26,6 +26,11 @@
  * counted (send_errors=); it is a failure only once the receiver is gone or the deadline has passed.
  * Faults for the harness test (tests/bench/): LOOP_BENCH_FAULT=echo-exit:K (the receiver/echo child
  * exits after K messages without a result) or send-fail-once (the first send reports ECONNREFUSED).
+ *
+ * Instruction counts (make bench's before-and-after, figure 3): run under valgrind --tool=callgrind, each
+ * process counts only its measured loop (CALLGRIND_ZERO_STATS before it, CALLGRIND_DUMP_STATS_AT after it,
+ * named "loop/MODE-TRANSPORT/tx" and ".../rx"; no-ops outside valgrind): an RTT sample's two dumps divided
+ * by N are the user-space instructions of one round trip through both nodes, whatever the machine's load.
  */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
@@ -42,6 +47,7 @@
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
+#include <valgrind/callgrind.h>
 
 #include "benchcat.h"
 #include "ub/ub_node.h"
@@ -213,6 +219,13 @@ static void raw_connect(int fd, uint16_t port) {
     }
 }
 
+/* The callgrind dump of one side's measured loop (see the banner). */
+static void count_dump(const char *side) {
+    char name[64];
+    snprintf(name, sizeof name, "loop/%s-%s/%s", smp.mode, smp.transport, side);
+    CALLGRIND_DUMP_STATS_AT(name);
+}
+
 static int cmp_u64(const void *a, const void *b) {
     uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
     return x < y ? -1 : x > y;
@@ -353,6 +366,7 @@ int main(int argc, char **argv) {
                 }
                 big_buffers(ub_tcp_fileno(&e->tcp));
             }
+            CALLGRIND_ZERO_STATS;
             for (;;) {
                 int was_done = done;
                 int got_input = child_wait(end_fd(e), done_pipe[0], &done, done ? 300 : 200);
@@ -362,6 +376,7 @@ int main(int argc, char **argv) {
                 if (e->received >= (uint64_t)n_msgs || (was_done && !got_input)) break;
                 if (!is_udp && ub_tcp_state(&e->tcp) != UB_TCP_UP) break; /* the sender hung up */
             }
+            count_dump("rx");
             received = e->received;
             t_first = e->t_first;
             t_last = e->t_last;
@@ -452,6 +467,7 @@ int main(int argc, char **argv) {
             big_buffers(ub_tcp_fileno(&e->tcp));
         }
         const uint8_t *dest = ub_node_entity_id(&e->node, e->other);
+        CALLGRIND_ZERO_STATS;
         t0 = now_ns();
         for (long i = 0; i < n_msgs; i++) {
             benchBlob64.seq = (uint64_t)i;
@@ -496,6 +512,7 @@ int main(int argc, char **argv) {
             check_alive(n_msgs);
         }
         t1 = now_ns();
+        count_dump("tx");
     }
     /* Done: the receiver drains what is in flight and reports. */
     close(done_pipe[1]);

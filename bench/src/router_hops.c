@@ -4,6 +4,10 @@
  * nodes between forward (verify + dedup + hop rewrite + send). h = 1 or 3 hops.
  *
  *   router_hops HOPS   -> "hops=H msgs_per_s=... p50_ns=... p99_ns=..." for SAMPLES samples
+ *   router_hops HOPS callgrind  (under valgrind --tool=callgrind) CG_N frames originated and carried through
+ *                      every hop, in the throughput loop's batches of 32, between CALLGRIND_ZERO_STATS and
+ *                      CALLGRIND_DUMP_STATS_AT("router/hops=H"): instructions per delivered frame, the
+ *                      load-independent figure make bench's before-and-after judges figure 2 by
  *
  * Throughput: originate a batch of 32 frames, pump every memlink in order; delivered frames per
  * second at the last node over ~50 ms per sample. Latency: one frame at a time, from just before
@@ -16,6 +20,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <valgrind/callgrind.h>
 
 #include "benchcat.h"
 #include "ub/ub_memlink.h"
@@ -47,6 +52,7 @@ void *realloc(void *p, size_t n) {
 #define MAX_HOPS 3
 #define SAMPLES 7
 #define LAT_N 20000
+#define CG_N 20000 /* callgrind mode: frames per count (a multiple of 32) */
 
 static ub_node_t nodes[MAX_HOPS + 1];
 static ub_memlink_t links[MAX_HOPS];
@@ -82,6 +88,7 @@ static int cmp_u64(const void *a, const void *b) {
 
 int main(int argc, char **argv) {
     int hops = argc > 1 ? atoi(argv[1]) : 1;
+    int callgrind = argc > 2 && strcmp(argv[2], "callgrind") == 0;
     if (hops < 1 || hops > MAX_HOPS) return 2;
     char name[16];
     for (int i = 0; i <= hops; i++) {
@@ -113,6 +120,28 @@ int main(int argc, char **argv) {
     uint64_t ms = 1;
     unsigned long runtime_allocs = 0; /* counted around the runtime calls only (printf and qsort may allocate) */
 
+    if (callgrind) { /* a warm-up round outside the count, then CG_N frames counted */
+        for (int round = 0; round < 2; round++) {
+            uint64_t d0 = delivered;
+            if (round == 1) CALLGRIND_ZERO_STATS;
+            for (int k = 0; k < CG_N / 32; k++) {
+                for (int b = 0; b < 32; b++) {
+                    benchBlob64.seq++;
+                    if (ub_node_send_data(&nodes[0], self_ent[0], benchcat_INST_benchBlob64, dest, ms) != 1)
+                        fail("send refused", UB_ERR_AGAIN);
+                }
+                for (int i = 0; i < hops; i++) (void)ub_memlink_pump(&links[i], ms);
+            }
+            if (round == 1) {
+                char dump[32];
+                snprintf(dump, sizeof dump, "router/hops=%d", hops);
+                CALLGRIND_DUMP_STATS_AT(dump);
+            }
+            if (delivered - d0 != CG_N) fail("frames not delivered", UB_ERR_NOROUTE);
+        }
+        printf("callgrind hops=%d frames=%d\n", hops, CG_N);
+        return 0;
+    }
     for (int s = 0; s < SAMPLES; s++) {
         unsigned long a0 = allocations;
         uint64_t d0 = delivered, t0 = now_ns(), t1;
