@@ -627,9 +627,12 @@ static bool pubsub_may_write(const ub_service_t *svc, const ub_node_t *node, int
 static void pubsub_on_data(const ub_service_t *svc, ub_node_t *node, int slot, uint32_t instance,
                            const uint8_t src_id[UB_ENTITY_ID_LEN], uint64_t now_ms) {
     (void)svc;
-    for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) { /* administration rows whose data this is (not stale) */
-        ub_admin_t *adm = ub_node_slot_entity(node, s) >= 0 ? table_of(node, s)->admin : NULL;
-        if (adm != NULL) ub_priv_admin_on_data(adm, instance, src_id, self_id(node, slot), now_ms);
+    /* Administration rows whose data this is (not stale). This runs for every delivered frame, and most
+     * nodes host no administration table: the table pointer is read first, the slot asked only when set. */
+    for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) {
+        ub_admin_t *adm = table_of(node, s)->admin;
+        if (adm != NULL && ub_node_slot_entity(node, s) >= 0)
+            ub_priv_admin_on_data(adm, instance, src_id, self_id(node, slot), now_ms);
     }
     ub_pubsub_table_t *t = table_of(node, slot);
     int r = find_row(t, UB_PS_SUBSCRIPTION, instance, src_id, false);
