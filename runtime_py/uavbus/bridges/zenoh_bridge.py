@@ -4,7 +4,7 @@
                         [--link zenoh] [--mode peer|router|client]
                         [--listen ENDPOINT]... [--connect ENDPOINT]...
                         [--prefix KEY] [--flow DEST[/SOURCE[/DIRECTORY]]]... [--batch]
-                        [--stats-s S] [--duration-s S]
+                        [--batch-bytes N] [--batch-delay-us US] [--stats-s S] [--duration-s S]
 
 The bridge is a uavbus node like any other: its entity (the one owning --link) has links to its own
 site (ports of the configuration) and one link whose transport is this Zenoh session (a
@@ -13,9 +13,12 @@ rows of the entity table whose masks point at the Zenoh link, so they are reacha
 this site like any entity a few hops away; the one router does the work (verification, duplicates,
 hop limit, forwarding, counters).
 
-**Frames are carried unchanged**: each frame the router sends on the Zenoh link is one Zenoh sample,
-payload = the frame's bytes as they left the router (hop limit already decremented), so a signed or
-encrypted frame's trailer arrives intact and is verified end to end by its destination. On a signed
+**Frames are carried unchanged, many per sample**: the frames the router sent on the Zenoh link since
+the loop's last turn go out as batches (docs/bridges.md "Batches"): consecutive frames of one key
+expression share one Zenoh sample, each frame's bytes as they left the router (hop limit already
+decremented) behind a 2-byte length, so a signed or encrypted frame's trailer arrives intact and is
+verified end to end by its destination. Nothing waits for company unless asked (--batch-delay-us): a
+lone frame leaves at once, a burst leaves as few samples. On a signed
 network the bridges verify like any forwarder (they hold the fleet key, docs/security.md) but never
 re-sign: the tag the destination checks is the source's.
 
@@ -49,6 +52,8 @@ from typing import Any, TextIO
 
 from uavbus._bindings.ub_error import UbError
 from uavbus._bindings.ub_frame import ub_frame_parse
+from uavbus._bindings.ub_link import ERR_AGAIN
+from uavbus._bindings.ub_node import ub_node_rx_spans
 from uavbus.catalogue import Catalogue
 from uavbus.errors import ConfigError
 from uavbus.pylink import PyLink
@@ -58,6 +63,16 @@ LIVE_CHUNK = "@live"
 INBOX_MAX = 65536          # frames from Zenoh waiting for the loop; beyond: counted rx_overflow
 PUBLISHERS_MAX = 4096      # declared publishers kept (one per key); beyond: plain put, counted
 LOOP_WAIT_MS = 10          # the loop wakes for descriptors and Zenoh samples anyway; this bounds ticks
+
+# Batch format 1 (docs/bridges.md "Batches"): one Zenoh sample carries one or more frames of one key.
+#   0: 0xA5 (a frame's first sync byte)   1: 0xBA (a frame has 0x5B: a bare frame is told apart)
+#   2: version (1)   3-4: frame count, little-endian (1..65535)
+#   then per frame: length (2 bytes, little-endian, 1..65535) and the frame's bytes; nothing after.
+BATCH_SYNC, BATCH_MARK, BATCH_VERSION, BATCH_HEADER = 0xA5, 0xBA, 1, 5
+FRAME_MARK = 0x5B          # byte 1 of a bare frame (wire-format.md): what a bridge before batches sent
+BATCH_BYTES = 16384        # default bound of one sample's payload (a frame larger than it goes alone)
+BATCH_REFUSALS = ("batch_foreign", "batch_version", "batch_malformed")
+KEY_BYTES = slice(8, 49)   # dir_id, dest_id, src_id, admin: everything frame_key() reads from a frame
 
 
 class BridgeError(RuntimeError):
@@ -70,6 +85,60 @@ def frame_key(prefix: str, frame: bytes, catalogue: Catalogue) -> str:
     inst = catalogue.find(bytes(h.dir_id))
     directory = inst.name if inst is not None else "_" + bytes(h.dir_id).hex()
     return f"{prefix}/{entity_name(h.dest_id)}/{entity_name(h.src_id)}/{directory}/{admin_name(h.admin)}"
+
+
+class BatchError(ValueError):
+    """A sample that is not a batch this bridge reads; `reason` is the counter that counts it."""
+
+    def __init__(self, reason: str, message: str) -> None:
+        super().__init__(message)
+        self.reason = reason
+
+
+def encode_batch(frames: list[bytes]) -> bytes:
+    """One sample's payload: `frames` (1..65535 of them, each 1..65535 bytes) in batch format 1."""
+    n = len(frames)
+    if not 1 <= n <= 0xFFFF:
+        raise ValueError(f"a batch holds 1..65535 frames, not {n}")
+    parts = [bytes((BATCH_SYNC, BATCH_MARK, BATCH_VERSION, n & 0xFF, n >> 8))]
+    for f in frames:
+        size = len(f)
+        if not 1 <= size <= 0xFFFF:
+            raise ValueError(f"a batched frame has 1..65535 bytes, not {size}")
+        parts.append(bytes((size & 0xFF, size >> 8)))
+        parts.append(f)
+    return b"".join(parts)
+
+
+def batch_spans(payload: bytes) -> list[tuple[int, int]]:
+    """(offset, length) of each frame of a batch-format-1 payload, in order; BatchError (with the counter
+    naming why) for anything else, checked whole before any frame is used: a sample is taken or not."""
+    end = len(payload)
+    if end < 2 or payload[0] != BATCH_SYNC or payload[1] not in (BATCH_MARK, FRAME_MARK):
+        raise BatchError("batch_foreign", "not a uavbus batch (another publisher on the bridges' keys?)")
+    if payload[1] == FRAME_MARK:
+        raise BatchError("batch_version", "a bare frame: the other bridge predates batch format 1 "
+                                          "(run the same uavbus version on both sides)")
+    if end < BATCH_HEADER:
+        raise BatchError("batch_malformed", f"a batch of {end} bytes has no complete header")
+    if payload[2] != BATCH_VERSION:
+        raise BatchError("batch_version", f"batch format {payload[2]}, this bridge reads {BATCH_VERSION} "
+                                          "(run the same uavbus version on both sides)")
+    n = payload[3] | payload[4] << 8
+    spans = []
+    at = BATCH_HEADER
+    for _ in range(n):
+        if at + 2 > end:
+            raise BatchError("batch_malformed", f"batch cut short: frame {len(spans) + 1} of {n} has no length")
+        size = payload[at] | payload[at + 1] << 8
+        at += 2
+        if size == 0 or at + size > end:
+            raise BatchError("batch_malformed", f"frame {len(spans) + 1} of {n}: length {size} does not fit")
+        spans.append((at, size))
+        at += size
+    if n == 0 or at != end:
+        raise BatchError("batch_malformed", f"{n} frames but {end - at} bytes after them" if n else "no frames")
+    return spans
 
 
 def flow_keyexpr(prefix: str, flow: str) -> str:
@@ -85,17 +154,48 @@ def flow_keyexpr(prefix: str, flow: str) -> str:
     return f"{prefix}/{'/'.join(parts)}{tail}"
 
 
+class BatchLink(PyLink):
+    """The Zenoh link's outbox, counting the bytes a batch of it would take (flush on size)."""
+
+    def __init__(self, node: Any, link: str) -> None:
+        super().__init__(node, link, kind="zenoh")
+        self.pending_bytes = 0
+
+    def send(self, frame: bytes, now_ms: int) -> int:
+        if len(self.outbox) >= self.capacity:
+            self.refused += 1
+            return ERR_AGAIN
+        self.outbox.append(frame)
+        self.pending_bytes += len(frame) + 2
+        return 0
+
+    def take(self) -> list[bytes]:
+        self.pending_bytes = 0
+        out, self.outbox = self.outbox, deque()
+        return list(out)
+
+
 class ZenohBridge:
-    """One node's Zenoh link: outbound frames -> samples, subscribed samples -> the router."""
+    """One node's Zenoh link: outbound frames -> batched samples, subscribed samples -> the router.
+
+    `batch_bytes` bounds a sample's payload; `batch_delay_us` (default 0) lets frames wait up to that
+    long for company while less than `batch_bytes` is pending: 0 sends whatever the loop has at each
+    turn, so a lone frame leaves at once and a burst leaves in as few samples as it fills."""
 
     def __init__(self, node: Any, link: str, session: Any, prefix: str, flows: list[str] | None = None,
-                 express: bool = True) -> None:
+                 express: bool = True, batch_bytes: int = BATCH_BYTES, batch_delay_us: int = 0) -> None:
         import zenoh
 
+        if not BATCH_HEADER + 2 <= batch_bytes <= 1 << 24:
+            raise BridgeError(f"--batch-bytes {batch_bytes}: give {BATCH_HEADER + 2}..{1 << 24}")
+        if not 0 <= batch_delay_us <= 1_000_000:
+            raise BridgeError(f"--batch-delay-us {batch_delay_us}: give 0..1000000 (0: no waiting)")
         self.node, self.link, self.session, self.prefix = node, link, session, prefix
         self.express = express
+        self.batch_bytes, self.batch_delay_s = batch_bytes, batch_delay_us / 1e6
+        self._held_since: float | None = None
         self.entity, self.local_site, self.remote_site = self._sites()
-        self.pylink = PyLink(node, link, kind="zenoh")
+        self.pylink = BatchLink(node, link)
         self.flows = [flow_keyexpr(prefix, f) for f in flows] if flows else \
             [f"{prefix}/{e}/**" for e in self.local_site]
         self._inbox: deque[bytes] = deque()
@@ -104,7 +204,9 @@ class ZenohBridge:
         os.set_blocking(self._wake_w, False)
         self._lock = threading.Lock()
         self.counters = {"published": 0, "received": 0, "rejected": 0, "rx_overflow": 0, "put_errors": 0,
-                         "publishers_full": 0}
+                         "publishers_full": 0, "samples_out": 0, "samples_in": 0,
+                         **{r: 0 for r in BATCH_REFUSALS}}
+        self._keys: dict[bytes, tuple[str, Any]] = {}   # a frame's KEY_BYTES -> (key expression, publisher)
         self.remote_alive: dict[str, bool] = {}
         self.events: deque[dict[str, Any]] = deque()
         self._publishers: dict[str, Any] = {}
@@ -152,7 +254,8 @@ class ZenohBridge:
                 self.counters["rx_overflow"] += 1
             return
         self._inbox.append(sample.payload.to_bytes())
-        self._wake()
+        if len(self._inbox) == 1:  # else the loop has a wake-up pending and will drain to empty anyway
+            self._wake()
 
     def _on_live(self, sample: Any) -> None:
         import zenoh
@@ -171,6 +274,13 @@ class ZenohBridge:
     def fileno(self) -> int:
         return self._wake_r
 
+    def wait_ms(self) -> int:
+        """How long the loop may sleep: until held frames are due (--batch-delay-us), else LOOP_WAIT_MS."""
+        if self._held_since is None:
+            return LOOP_WAIT_MS
+        left = self._held_since + self.batch_delay_s - time.monotonic()
+        return max(0, min(LOOP_WAIT_MS, int(left * 1000 + 0.999)))
+
     def pump(self, now_ms: int | None = None) -> int:
         """Frames from Zenoh into the router, then the router's frames out to Zenoh. Returns frames moved."""
         try:
@@ -179,32 +289,77 @@ class ZenohBridge:
         except BlockingIOError:
             pass
         moved = 0
-        while self._inbox:
-            frame = self._inbox.popleft()
-            self.counters["received"] += 1
-            if not self.pylink.receive(frame, now_ms):
-                self.counters["rejected"] += 1
-            moved += 1
-        for frame in self.pylink.drain():
-            self._publish(frame)
-            moved += 1
+        if self._inbox:
+            now = self.node.now() if now_ms is None else now_ms
+            c, link, counters = self.node._c, self.pylink.link_id, self.counters
+            while self._inbox:
+                payload = self._inbox.popleft()
+                try:
+                    spans = batch_spans(payload)
+                except BatchError as exc:
+                    self._refuse(exc)
+                    continue
+                counters["samples_in"] += 1
+                counters["received"] += len(spans)
+                counters["rejected"] += ub_node_rx_spans(c, link, payload, spans, now)
+                moved += len(spans)
+        out = self.pylink
+        if out.outbox:
+            if self.batch_delay_s and out.pending_bytes < self.batch_bytes:
+                t = time.monotonic()
+                if self._held_since is None:
+                    self._held_since = t
+                if t - self._held_since < self.batch_delay_s:
+                    return moved
+            self._held_since = None
+            frames = out.take()
+            self._publish_all(frames)
+            moved += len(frames)
         return moved
 
-    def _publish(self, frame: bytes) -> None:
+    def _refuse(self, exc: BatchError) -> None:
+        """A sample that is no batch of ours: counted by reason, said once per reason (not per sample)."""
+        self.counters[exc.reason] += 1
+        if self.counters[exc.reason] == 1:
+            self.events.append({"event": "refused", "reason": exc.reason, "message": f"zenoh sample refused: {exc}"})
+
+    def _publish_all(self, frames: list[bytes]) -> None:
+        """Runs of consecutive frames with one key, each cut at batch_bytes, as one sample each."""
+        limit = self.batch_bytes
+        run = [frames[0]]
+        key = frames[0][KEY_BYTES]
+        size = BATCH_HEADER + 2 + len(frames[0])
+        for f in frames[1:]:
+            k = f[KEY_BYTES]
+            size += 2 + len(f)
+            if k != key or size > limit or len(run) == 0xFFFF:
+                self._publish(run, key)
+                run, key, size = [f], k, BATCH_HEADER + 2 + len(f)
+            else:
+                run.append(f)
+        self._publish(run, key)
+
+    def _publish(self, frames: list[bytes], key_bytes: bytes) -> None:
         try:
-            key = frame_key(self.prefix, frame, self.node.catalogue)
-            pub = self._publishers.get(key)
-            if pub is None and len(self._publishers) < PUBLISHERS_MAX:
-                pub = self._publishers[key] = self.session.declare_publisher(
-                    key, congestion_control=self._cc, express=self.express)
+            known = self._keys.get(key_bytes)
+            if known is None:
+                key = frame_key(self.prefix, frames[0], self.node.catalogue)
+                pub = None
+                if len(self._publishers) < PUBLISHERS_MAX:
+                    pub = self._publishers[key] = self.session.declare_publisher(
+                        key, congestion_control=self._cc, express=self.express)
+                    self._keys[key_bytes] = known = (key, pub)
+            else:
+                key, pub = known
             if pub is not None:
-                pub.put(frame)
+                pub.put(encode_batch(frames))
             else:
                 self.counters["publishers_full"] += 1
-                self.session.put(key, frame, congestion_control=self._cc, express=self.express)
-            self.counters["published"] += 1
+                self.session.put(key, encode_batch(frames), congestion_control=self._cc, express=self.express)
+            self.counters["published"] += len(frames)
+            self.counters["samples_out"] += 1
         except Exception:  # noqa: BLE001 (a Zenoh error must not stop the bridge: counted)
-            self.counters["put_errors"] += 1
+            self.counters["put_errors"] += len(frames)
 
     def stats(self) -> dict[str, Any]:
         with self._lock:
@@ -261,7 +416,8 @@ def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
         except zenoh.ZError as exc:
             raise BridgeError(f"zenoh: cannot open a {args.mode} session (listen {args.listen}, connect "
                               f"{args.connect}): {exc}") from None
-        bridge = ZenohBridge(node, args.link, session, prefix, args.flow, express=not args.batch)
+        bridge = ZenohBridge(node, args.link, session, prefix, args.flow, express=not args.batch,
+                             batch_bytes=args.batch_bytes, batch_delay_us=args.batch_delay_us)
         ports = {}
         for name, c in node.link_counters().items():
             if c.get("port") is not None:
@@ -283,7 +439,7 @@ def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
             poller.register(bridge.fileno(), select.POLLIN)
             if stdin_open:
                 poller.register(sys.stdin.fileno(), select.POLLIN)
-            ready = dict(poller.poll(LOOP_WAIT_MS))
+            ready = dict(poller.poll(bridge.wait_ms()))
             if stdin_open and sys.stdin.fileno() in ready:
                 line = sys.stdin.readline()
                 if not line:
@@ -333,6 +489,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--flow", action="append", metavar="DEST[/SOURCE[/DIRECTORY]]",
                    help="receive only these flows ('*' = any); default: everything for this site's entities")
     p.add_argument("--batch", action="store_true", help="let Zenoh batch samples (throughput) instead of express")
+    p.add_argument("--batch-bytes", type=int, default=BATCH_BYTES, metavar="N",
+                   help=f"largest sample payload: consecutive frames of one key share a sample up to N bytes "
+                        f"(default {BATCH_BYTES})")
+    p.add_argument("--batch-delay-us", type=int, default=0, metavar="US",
+                   help="let frames wait up to US microseconds for a fuller sample (default 0: send what the "
+                        "loop has at once, a lone frame included)")
     p.add_argument("--stats-s", type=float, default=0.0, help="print stats every S seconds (0: on request)")
     p.add_argument("--duration-s", type=float, default=0.0, help="stop after S seconds (0: run until quit)")
     return p
