@@ -1,10 +1,11 @@
 """The Zenoh bridge's batch format 1 (docs/bridges.md "Batches") and a burst through two bridges.
 
-  - encode/decode round trip, edge sizes included (1 frame, 1-byte and 65535-byte frames, 65535 frames);
-  - every damaged or foreign payload is refused whole with the counter that names why;
+  - encode/decode round trip, edge sizes included (1 frame, 1-byte and 65535-byte frames, 65535 frames),
+    read by both readers: Python's (batch_spans, the reference) and C's (ub_batch_check, the bridge's);
+  - every damaged or foreign payload is refused whole, by both readers, with the counter that names why;
   - two ZenohBridge objects with real Zenoh sessions on tcp/127.0.0.1 (in this process, so the test drives
     both loops): a burst larger than one sample from node A reaches node B complete and in order, in fewer
-    samples than frames; a foreign, a bare-frame (pre-batch bridge) and a truncated sample published on the
+    samples than frames (packed by the C batch link, ub_batchlink.h); a foreign, a bare-frame (pre-batch bridge) and a truncated sample published on the
     bridge's keys are counted by reason and dropped, and frames after them still pass.
 """
 
@@ -16,6 +17,7 @@ import time
 import pytest
 
 from uavbus import Node
+from uavbus._bindings import ub_batchlink
 from uavbus.bridges.zenoh_bridge import (BATCH_HEADER, BatchError, ZenohBridge, batch_spans, encode_batch,
                                          zenoh_config)
 from uavbus.sim.hitl import catalogue_for
@@ -25,6 +27,8 @@ zenoh = pytest.importorskip("zenoh", reason="eclipse-zenoh is in the `test` extr
 
 
 def frames_of(payload: bytes) -> list[bytes]:
+    """The Python reader's frames, after checking that the C reader (ub_batch_check) agrees."""
+    assert ub_batchlink.ub_batch_check(payload) == (ub_batchlink.OK, len(batch_spans(payload)))
     return [payload[at:at + n] for at, n in batch_spans(payload)]
 
 
@@ -55,8 +59,11 @@ def test_batch_of_65535_frames_and_the_limits():
 
 
 def _reason(payload: bytes) -> str:
+    """Why the Python reader refuses `payload`, checked to be the C reader's reason (the bridge's)."""
     with pytest.raises(BatchError) as exc:
         batch_spans(payload)
+    status, count = ub_batchlink.ub_batch_check(payload)
+    assert (ub_batchlink.REASONS.get(status), count) == (exc.value.reason, 0), payload[:8]
     return exc.value.reason
 
 

@@ -7,8 +7,8 @@
                         [--batch-bytes N] [--batch-delay-us US] [--stats-s S] [--duration-s S]
 
 The bridge is a uavbus node like any other: its entity (the one owning --link) has links to its own
-site (ports of the configuration) and one link whose transport is this Zenoh session (a
-uavbus.pylink.PyLink: the C router routes onto it as onto a UDP link). Entities of the other sites are
+site (ports of the configuration) and one link whose transport is this Zenoh session (a C batch link,
+ub_batchlink.h: the C router routes onto it as onto a UDP link). Entities of the other sites are
 rows of the entity table whose masks point at the Zenoh link, so they are reachable from every node of
 this site like any entity a few hops away; the one router does the work (verification, duplicates,
 hop limit, forwarding, counters).
@@ -17,8 +17,9 @@ hop limit, forwarding, counters).
 the loop's last turn go out as batches (docs/bridges.md "Batches"): consecutive frames of one key
 expression share one Zenoh sample, each frame's bytes as they left the router (hop limit already
 decremented) behind a 2-byte length, so a signed or encrypted frame's trailer arrives intact and is
-verified end to end by its destination. Nothing waits for company unless asked (--batch-delay-us): a
-lone frame leaves at once, a burst leaves as few samples. On a signed
+verified end to end by its destination. The per-frame work is C's (ub_batchlink.h packs what the router
+sends, ub_batch_rx() unpacks into the router); the loop handles samples. Nothing waits for company
+unless asked (--batch-delay-us): a lone frame leaves at once, a burst leaves as few samples. On a signed
 network the bridges verify like any forwarder (they hold the fleet key, docs/security.md) but never
 re-sign: the tag the destination checks is the source's.
 
@@ -52,11 +53,9 @@ from typing import Any, TextIO
 
 from uavbus._bindings.ub_error import UbError
 from uavbus._bindings.ub_frame import ub_frame_parse
-from uavbus._bindings.ub_link import ERR_AGAIN
-from uavbus._bindings.ub_node import ub_node_rx_spans
+from uavbus._bindings import ub_batchlink, ub_link
 from uavbus.catalogue import Catalogue
 from uavbus.errors import ConfigError
-from uavbus.pylink import PyLink
 from uavbus.tools.common import admin_name, entity_name
 
 LIVE_CHUNK = "@live"
@@ -72,7 +71,9 @@ BATCH_SYNC, BATCH_MARK, BATCH_VERSION, BATCH_HEADER = 0xA5, 0xBA, 1, 5
 FRAME_MARK = 0x5B          # byte 1 of a bare frame (wire-format.md): what a bridge before batches sent
 BATCH_BYTES = 16384        # default bound of one sample's payload (a frame larger than it goes alone)
 BATCH_REFUSALS = ("batch_foreign", "batch_version", "batch_malformed")
-KEY_BYTES = slice(8, 49)   # dir_id, dest_id, src_id, admin: everything frame_key() reads from a frame
+KEY_AT, KEY_LEN = 8, 41    # dir_id, dest_id, src_id, admin: everything frame_key() reads from a frame
+OUTBOX_BYTES = 1 << 22     # frames from the router waiting for the loop, packed; beyond: backpressure
+OUTBOX_BATCHES = 4096
 
 
 class BridgeError(RuntimeError):
@@ -154,25 +155,36 @@ def flow_keyexpr(prefix: str, flow: str) -> str:
     return f"{prefix}/{'/'.join(parts)}{tail}"
 
 
-class BatchLink(PyLink):
-    """The Zenoh link's outbox, counting the bytes a batch of it would take (flush on size)."""
+class ZenohLink:
+    """The Zenoh link's transport: a C batch link (ub_batchlink.h) packing the router's frames into
+    batches of one flow each in memory owned here; the loop takes whole batches, never single frames."""
 
-    def __init__(self, node: Any, link: str) -> None:
-        super().__init__(node, link, kind="zenoh")
-        self.pending_bytes = 0
+    def __init__(self, node: Any, link: str, batch_bytes: int) -> None:
+        self.node, self.link_id = node, node.link_id(link)
+        self.bl = ub_batchlink.BatchLink(OUTBOX_BYTES, OUTBOX_BATCHES, batch_bytes)
+        ub_batchlink.ub_batchlink_attach(self.bl, node._c, self.link_id)
+        node._keep_alive(self)  # C points at our memory until the node is closed
 
-    def send(self, frame: bytes, now_ms: int) -> int:
-        if len(self.outbox) >= self.capacity:
-            self.refused += 1
-            return ERR_AGAIN
-        self.outbox.append(frame)
-        self.pending_bytes += len(frame) + 2
-        return 0
+    @property
+    def pending_bytes(self) -> int:
+        return int(self.bl.c.len)
 
-    def take(self) -> list[bytes]:
-        self.pending_bytes = 0
-        out, self.outbox = self.outbox, deque()
-        return list(out)
+    @property
+    def pending(self) -> int:
+        return int(self.bl.c.n)
+
+    @property
+    def refused(self) -> int:
+        return int(self.bl.c.refused)
+
+    def take(self) -> tuple[bytes, list[int]]:
+        return ub_batchlink.ub_batchlink_take(self.bl)
+
+    def detach(self) -> None:
+        try:
+            ub_link.ub_node_link_detach(self.node._c, self.link_id)
+        except UbError:
+            pass
 
 
 class ZenohBridge:
@@ -195,7 +207,8 @@ class ZenohBridge:
         self.batch_bytes, self.batch_delay_s = batch_bytes, batch_delay_us / 1e6
         self._held_since: float | None = None
         self.entity, self.local_site, self.remote_site = self._sites()
-        self.pylink = BatchLink(node, link)
+        self.zlink = ZenohLink(node, link, batch_bytes)
+        self._counts = ub_batchlink.new_counts()
         self.flows = [flow_keyexpr(prefix, f) for f in flows] if flows else \
             [f"{prefix}/{e}/**" for e in self.local_site]
         self._inbox: deque[bytes] = deque()
@@ -247,6 +260,8 @@ class ZenohBridge:
             os.write(self._wake_w, b"\0")
         except BlockingIOError:
             pass  # the loop has wake-ups pending already
+        except OSError:
+            pass  # closing: a sample that raced close() has no loop left to wake
 
     def _on_sample(self, sample: Any) -> None:
         if len(self._inbox) >= INBOX_MAX:
@@ -291,20 +306,20 @@ class ZenohBridge:
         moved = 0
         if self._inbox:
             now = self.node.now() if now_ms is None else now_ms
-            c, link, counters = self.node._c, self.pylink.link_id, self.counters
+            c, link, counters, counts = self.node._c, self.zlink.link_id, self.counters, self._counts
+            rx = ub_batchlink.ub_batch_rx
             while self._inbox:
                 payload = self._inbox.popleft()
-                try:
-                    spans = batch_spans(payload)
-                except BatchError as exc:
-                    self._refuse(exc)
+                st, frames, rejected = rx(c, link, payload, now, counts)
+                if st:
+                    self._refuse(payload)
                     continue
                 counters["samples_in"] += 1
-                counters["received"] += len(spans)
-                counters["rejected"] += ub_node_rx_spans(c, link, payload, spans, now)
-                moved += len(spans)
-        out = self.pylink
-        if out.outbox:
+                counters["received"] += frames
+                counters["rejected"] += rejected
+                moved += frames
+        out = self.zlink
+        if out.pending:
             if self.batch_delay_s and out.pending_bytes < self.batch_bytes:
                 t = time.monotonic()
                 if self._held_since is None:
@@ -312,38 +327,36 @@ class ZenohBridge:
                 if t - self._held_since < self.batch_delay_s:
                     return moved
             self._held_since = None
-            frames = out.take()
-            self._publish_all(frames)
-            moved += len(frames)
+            raw, ends = out.take()
+            start = 0
+            for end in ends:
+                moved += self._publish(raw, start, end)
+                start = end
         return moved
 
-    def _refuse(self, exc: BatchError) -> None:
-        """A sample that is no batch of ours: counted by reason, said once per reason (not per sample)."""
+    def _refuse(self, payload: bytes) -> None:
+        """A sample that is no batch of ours: counted by reason, said once per reason (not per sample).
+        The C check decides; the Python reader (batch_spans) words the reason."""
+        try:
+            batch_spans(payload)
+            exc = BatchError("batch_malformed", "refused by the C reader, accepted by batch_spans (a bug)")
+        except BatchError as e:
+            exc = e
         self.counters[exc.reason] += 1
         if self.counters[exc.reason] == 1:
             self.events.append({"event": "refused", "reason": exc.reason, "message": f"zenoh sample refused: {exc}"})
 
-    def _publish_all(self, frames: list[bytes]) -> None:
-        """Runs of consecutive frames with one key, each cut at batch_bytes, as one sample each."""
-        limit = self.batch_bytes
-        run = [frames[0]]
-        key = frames[0][KEY_BYTES]
-        size = BATCH_HEADER + 2 + len(frames[0])
-        for f in frames[1:]:
-            k = f[KEY_BYTES]
-            size += 2 + len(f)
-            if k != key or size > limit or len(run) == 0xFFFF:
-                self._publish(run, key)
-                run, key, size = [f], k, BATCH_HEADER + 2 + len(f)
-            else:
-                run.append(f)
-        self._publish(run, key)
-
-    def _publish(self, frames: list[bytes], key_bytes: bytes) -> None:
+    def _publish(self, raw: bytes, start: int, end: int) -> int:
+        """One batch (raw[start:end], frames of one flow) as one sample under that flow's key. Returns frames."""
+        n = raw[start + 3] | raw[start + 4] << 8
+        first = start + BATCH_HEADER + 2
+        key_bytes = raw[first + KEY_AT:first + KEY_AT + KEY_LEN]
+        payload = raw[start:end] if start or end != len(raw) else raw
         try:
             known = self._keys.get(key_bytes)
             if known is None:
-                key = frame_key(self.prefix, frames[0], self.node.catalogue)
+                flen = raw[start + BATCH_HEADER] | raw[start + BATCH_HEADER + 1] << 8
+                key = frame_key(self.prefix, raw[first:first + flen], self.node.catalogue)
                 pub = None
                 if len(self._publishers) < PUBLISHERS_MAX:
                     pub = self._publishers[key] = self.session.declare_publisher(
@@ -352,20 +365,21 @@ class ZenohBridge:
             else:
                 key, pub = known
             if pub is not None:
-                pub.put(encode_batch(frames))
+                pub.put(payload)
             else:
                 self.counters["publishers_full"] += 1
-                self.session.put(key, encode_batch(frames), congestion_control=self._cc, express=self.express)
-            self.counters["published"] += len(frames)
+                self.session.put(key, payload, congestion_control=self._cc, express=self.express)
+            self.counters["published"] += n
             self.counters["samples_out"] += 1
         except Exception:  # noqa: BLE001 (a Zenoh error must not stop the bridge: counted)
-            self.counters["put_errors"] += len(frames)
+            self.counters["put_errors"] += n
+        return n
 
     def stats(self) -> dict[str, Any]:
         with self._lock:
             out = dict(self.counters)
             out["remote_alive"] = sorted(e for e, up in self.remote_alive.items() if up)
-        out["outbox_refused"] = self.pylink.refused
+        out["outbox_refused"] = self.zlink.refused
         return out
 
     def close(self) -> None:
