@@ -17,7 +17,8 @@ Side by side in one run, each case against the same path without the bridge:
     back (A and B in one process, interleaved: their Python cost is in both columns alike).
     load-proof: Python-level calls per frame in the two bridges (sys.setprofile, calls and C calls, counted
     around the bridges' loop work only), both bridges in this process with real Zenoh sessions on
-    tcp/127.0.0.1; a figure a busy machine does not change.
+    tcp/127.0.0.1; a figure a busy machine does not change. Beside it the loops' CPU time per frame
+    (thread CPU time, unprofiled pass; Zenoh's own threads not included).
 `--only zenoh` runs the Zenoh part alone (`--blast N`, `--lat-n N` for small counts).
 The autopilot role is played by this script (pymavlink's encoder, prebuilt packets). Every loop is
 bounded by a count and a deadline; only 127.0.0.1 is used. Output: one JSON document.
@@ -378,14 +379,18 @@ def zenoh_calls_per_frame(catalogue: str, tmp: Path, n: int = 2000) -> dict:
         got = [0]
         nodes["B"].on_data(lambda m: got.__setitem__(0, got[0] + 1))
 
+        cpu = [0.0]
+
         def turn(profiled: bool) -> None:
             if profiled:
                 sys.setprofile(count)
+            t = time.thread_time()
             for name, bridge in bridges.items():
                 now = nodes[name].now()
                 bridge.pump(now)
                 nodes[name].service(now, dispatch=False)
                 bridge.pump(now)
+            cpu[0] += time.thread_time() - t
             if profiled:
                 sys.setprofile(None)
             nodes["B"].poll(0)
@@ -400,27 +405,34 @@ def zenoh_calls_per_frame(catalogue: str, tmp: Path, n: int = 2000) -> dict:
         for _ in range(50):
             turn(False)
             time.sleep(0.001)
-        got[0] = 0
-        calls[0] = 0
-        base = bridges["gwB"].counters["received"]
-        base_samples = bridges["gwB"].counters.get("samples_in", 0)
-        batch = 25  # within the UDP sockets' buffers between turns
-        for k in range(n // batch):
-            for _ in range(batch):
-                pub.send()
-            turn(True)
-        # Until every frame crossed both bridges (what B's UDP socket then drops on a busy machine is not the
-        # bridges' work): calls per frame the bridges carried.
-        crossed = lambda: bridges["gwB"].counters["received"] - base  # noqa: E731
-        deadline = time.monotonic() + 10
-        while crossed() < n and time.monotonic() < deadline:
-            turn(True)
-            time.sleep(0.0005)
-        for _ in range(5):
-            turn(False)
-        return {"frames": n, "crossed": crossed(), "delivered": got[0], "calls": calls[0],
-                "samples": bridges["gwB"].counters.get("samples_in", 0) - base_samples,
-                "calls_per_frame": calls[0] / crossed() if crossed() else float("nan")}
+        def burst(profiled: bool) -> dict:
+            """n frames from A in turns of 25 (within the UDP sockets' buffers), until all crossed gwB (what
+            B's socket then drops on a busy machine is not the bridges' work)."""
+            got[0] = calls[0] = 0
+            cpu[0] = 0.0
+            base = bridges["gwB"].counters["received"]
+            base_samples = bridges["gwB"].counters.get("samples_in", 0)
+            t0 = time.perf_counter()
+            for _ in range(n // 25):
+                for _ in range(25):
+                    pub.send()
+                turn(profiled)
+            deadline = time.monotonic() + 10
+            while bridges["gwB"].counters["received"] - base < n and time.monotonic() < deadline:
+                turn(profiled)
+                time.sleep(0.0005)
+            crossed = bridges["gwB"].counters["received"] - base
+            wall = time.perf_counter() - t0
+            for _ in range(5):
+                turn(False)
+            return {"crossed": crossed, "samples": bridges["gwB"].counters.get("samples_in", 0) - base_samples,
+                    "calls": calls[0], "cpu_s": cpu[0], "wall_s": wall}
+
+        counted, timed = burst(True), burst(False)
+        return {"frames": n, "crossed": counted["crossed"], "samples": counted["samples"], "calls": counted["calls"],
+                "calls_per_frame": counted["calls"] / counted["crossed"] if counted["crossed"] else float("nan"),
+                "loop_cpu_us_per_frame": timed["cpu_s"] / timed["crossed"] * 1e6 if timed["crossed"] else float("nan"),
+                "in_process_rate": timed["crossed"] / timed["wall_s"] if timed["wall_s"] else 0.0}
     finally:
         for close in reversed(closers):
             try:

@@ -18,8 +18,8 @@ the loop's last turn go out as batches (docs/bridges.md "Batches"): consecutive 
 expression share one Zenoh sample, each frame's bytes as they left the router (hop limit already
 decremented) behind a 2-byte length, so a signed or encrypted frame's trailer arrives intact and is
 verified end to end by its destination. The per-frame work is C's (ub_batchlink.h packs what the router
-sends, ub_batch_rx() unpacks into the router); the loop handles samples. Nothing waits for company
-unless asked (--batch-delay-us): a lone frame leaves at once, a burst leaves as few samples. On a signed
+sends, ub_batch_rx() unpacks into the router); the loop handles samples. A frame after a quiet spell
+leaves at once (no Nagle delay); frames that follow a sample within --batch-delay-us leave together. On a signed
 network the bridges verify like any forwarder (they hold the fleet key, docs/security.md) but never
 re-sign: the tag the destination checks is the source's.
 
@@ -70,6 +70,7 @@ LOOP_WAIT_MS = 10          # the loop wakes for descriptors and Zenoh samples an
 BATCH_SYNC, BATCH_MARK, BATCH_VERSION, BATCH_HEADER = 0xA5, 0xBA, 1, 5
 FRAME_MARK = 0x5B          # byte 1 of a bare frame (wire-format.md): what a bridge before batches sent
 BATCH_BYTES = 16384        # default bound of one sample's payload (a frame larger than it goes alone)
+BATCH_DELAY_US = 1000      # default coalescing window after a sample (pump(): a lone frame never waits)
 BATCH_REFUSALS = ("batch_foreign", "batch_version", "batch_malformed")
 KEY_AT, KEY_LEN = 8, 41    # dir_id, dest_id, src_id, admin: everything frame_key() reads from a frame
 OUTBOX_BYTES = 1 << 22     # frames from the router waiting for the loop, packed; beyond: backpressure
@@ -190,12 +191,12 @@ class ZenohLink:
 class ZenohBridge:
     """One node's Zenoh link: outbound frames -> batched samples, subscribed samples -> the router.
 
-    `batch_bytes` bounds a sample's payload; `batch_delay_us` (default 0) lets frames wait up to that
-    long for company while less than `batch_bytes` is pending: 0 sends whatever the loop has at each
-    turn, so a lone frame leaves at once and a burst leaves in as few samples as it fills."""
+    `batch_bytes` bounds a sample's payload; `batch_delay_us` is the coalescing window (pump()): frames
+    following a sample closer than that wait until the window closes, a frame after a quiet spell leaves
+    at once; 0 sends whatever the loop has at each turn."""
 
     def __init__(self, node: Any, link: str, session: Any, prefix: str, flows: list[str] | None = None,
-                 express: bool = True, batch_bytes: int = BATCH_BYTES, batch_delay_us: int = 0) -> None:
+                 express: bool = True, batch_bytes: int = BATCH_BYTES, batch_delay_us: int = BATCH_DELAY_US) -> None:
         import zenoh
 
         if not BATCH_HEADER + 2 <= batch_bytes <= 1 << 24:
@@ -205,7 +206,8 @@ class ZenohBridge:
         self.node, self.link, self.session, self.prefix = node, link, session, prefix
         self.express = express
         self.batch_bytes, self.batch_delay_s = batch_bytes, batch_delay_us / 1e6
-        self._held_since: float | None = None
+        self._last_put = -1e9              # time.monotonic() of the last sample sent
+        self._held_until: float | None = None  # frames pending, held for company until then
         self.entity, self.local_site, self.remote_site = self._sites()
         self.zlink = ZenohLink(node, link, batch_bytes)
         self._counts = ub_batchlink.new_counts()
@@ -217,7 +219,7 @@ class ZenohBridge:
         os.set_blocking(self._wake_w, False)
         self._lock = threading.Lock()
         self.counters = {"published": 0, "received": 0, "rejected": 0, "rx_overflow": 0, "put_errors": 0,
-                         "publishers_full": 0, "samples_out": 0, "samples_in": 0,
+                         "publishers_full": 0, "samples_out": 0, "samples_in": 0, "loop_turns": 0,
                          **{r: 0 for r in BATCH_REFUSALS}}
         self._keys: dict[bytes, tuple[str, Any]] = {}   # a frame's KEY_BYTES -> (key expression, publisher)
         self.remote_alive: dict[str, bool] = {}
@@ -289,11 +291,15 @@ class ZenohBridge:
     def fileno(self) -> int:
         return self._wake_r
 
+    def holding(self) -> bool:
+        """Frames are held for company (see pump()): the loop need not wake for the site's sockets."""
+        return self._held_until is not None
+
     def wait_ms(self) -> int:
-        """How long the loop may sleep: until held frames are due (--batch-delay-us), else LOOP_WAIT_MS."""
-        if self._held_since is None:
+        """How long the loop may sleep: until held frames are due, else LOOP_WAIT_MS."""
+        if self._held_until is None:
             return LOOP_WAIT_MS
-        left = self._held_since + self.batch_delay_s - time.monotonic()
+        left = self._held_until - time.monotonic()
         return max(0, min(LOOP_WAIT_MS, int(left * 1000 + 0.999)))
 
     def pump(self, now_ms: int | None = None) -> int:
@@ -320,13 +326,17 @@ class ZenohBridge:
                 moved += frames
         out = self.zlink
         if out.pending:
-            if self.batch_delay_s and out.pending_bytes < self.batch_bytes:
-                t = time.monotonic()
-                if self._held_since is None:
-                    self._held_since = t
-                if t - self._held_since < self.batch_delay_s:
-                    return moved
-            self._held_since = None
+            # Nagle-free coalescing: a frame after a quiet spell (no sample for batch_delay) leaves at once;
+            # frames that follow a sample closer than that wait until batch_delay after it (or until
+            # batch_bytes are pending) and leave together. A busy link sends a sample per batch_delay per
+            # flow, not one per loop turn: the fixed cost of a sample (a turn, a put, Zenoh's threads)
+            # is shared by its frames, and a lone frame never waits.
+            t = time.monotonic()
+            if t - self._last_put < self.batch_delay_s and out.pending_bytes < self.batch_bytes:
+                self._held_until = self._last_put + self.batch_delay_s
+                return moved
+            self._held_until = None
+            self._last_put = t
             raw, ends = out.take()
             start = 0
             for end in ends:
@@ -446,13 +456,24 @@ def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
         end = time.monotonic() + args.duration_s if args.duration_s else None
         next_stats = time.monotonic() + args.stats_s if args.stats_s else None
         stdin_open = True
+        poller, registered = select.poll(), {}
         while end is None or time.monotonic() < end:
-            poller = select.poll()
-            for fd, events in node.fds():
-                poller.register(fd, events)
-            poller.register(bridge.fileno(), select.POLLIN)
+            # One poller kept across turns, changed only where the descriptors or their events changed.
+            # While frames are held for company the site's sockets can wait: their datagrams join the
+            # batch when the hold ends (one turn for many frames, not one per datagram).
+            want = {} if bridge.holding() else dict(node.fds())
+            want[bridge.fileno()] = select.POLLIN
             if stdin_open:
-                poller.register(sys.stdin.fileno(), select.POLLIN)
+                want[sys.stdin.fileno()] = select.POLLIN
+            if want != registered:
+                for fd in registered.keys() - want.keys():
+                    poller.unregister(fd)
+                for fd, events in want.items():
+                    if fd not in registered:
+                        poller.register(fd, events)
+                    elif registered[fd] != events:
+                        poller.modify(fd, events)
+                registered = want
             ready = dict(poller.poll(bridge.wait_ms()))
             if stdin_open and sys.stdin.fileno() in ready:
                 line = sys.stdin.readline()
@@ -466,6 +487,7 @@ def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
             bridge.pump(now)
             node.service(now)
             bridge.pump(now)
+            bridge.counters["loop_turns"] += 1
             while bridge.events:
                 _emit(out, bridge.events.popleft())
             if next_stats is not None and time.monotonic() >= next_stats:
@@ -506,9 +528,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--batch-bytes", type=int, default=BATCH_BYTES, metavar="N",
                    help=f"largest sample payload: consecutive frames of one key share a sample up to N bytes "
                         f"(default {BATCH_BYTES})")
-    p.add_argument("--batch-delay-us", type=int, default=0, metavar="US",
-                   help="let frames wait up to US microseconds for a fuller sample (default 0: send what the "
-                        "loop has at once, a lone frame included)")
+    p.add_argument("--batch-delay-us", type=int, default=BATCH_DELAY_US, metavar="US",
+                   help=f"coalescing window: frames following a sample by less than US microseconds wait until "
+                        f"US after it and leave together; a frame after a quiet spell leaves at once "
+                        f"(default {BATCH_DELAY_US}; 0: each loop turn sends what it has)")
     p.add_argument("--stats-s", type=float, default=0.0, help="print stats every S seconds (0: on request)")
     p.add_argument("--duration-s", type=float, default=0.0, help="stop after S seconds (0: run until quit)")
     return p
