@@ -17,7 +17,9 @@ Side by side in one run, each case against the same path without the bridge:
     back (A and B in one process, interleaved: their Python cost is in both columns alike).
     load-proof: Python-level calls per frame in the two bridges (sys.setprofile, calls and C calls, counted
     around the bridges' loop work only), both bridges in this process with real Zenoh sessions on
-    tcp/127.0.0.1; a figure a busy machine does not change. Beside it the loops' CPU time per frame
+    tcp/127.0.0.1; a figure a busy machine does not change.
+    Zenoh alone: one-way latency of a plain Zenoh publisher and subscriber in two Python processes at
+    the same rate, so "added by the bridges" can be read net of Zenoh's own share. Beside it the loops' CPU time per frame
     (thread CPU time, unprofiled pass; Zenoh's own threads not included).
 `--only zenoh` runs the Zenoh part alone (`--blast N`, `--lat-n N` for small counts).
 The autopilot role is played by this script (pymavlink's encoder, prebuilt packets). Every loop is
@@ -346,6 +348,63 @@ class UbPair:
             p.stop()
 
 
+ZENOH_SUB = r"""
+import json, sys, threading, time, zenoh
+c = zenoh.Config()
+c.insert_json5("mode", '"peer"')
+c.insert_json5("listen/endpoints", json.dumps([sys.argv[1]]))
+c.insert_json5("scouting/multicast/enabled", "false")
+s = zenoh.open(c)
+lat, done = [], threading.Event()
+def on(sample):
+    t = time.perf_counter_ns()  # CLOCK_MONOTONIC: one clock for both processes
+    sent = int(sample.payload.to_bytes())
+    if sent == 0:
+        done.set()
+    else:
+        lat.append((t - sent) / 1e9)
+sub = s.declare_subscriber("zbench/alone", on)
+print("ready", flush=True)
+done.wait(120)
+print(json.dumps(lat), flush=True)
+sub.undeclare()
+s.close()
+"""
+
+
+def zenoh_alone_latency() -> list[float]:
+    """One-way latency of plain Zenoh between two Python processes (express, tcp/127.0.0.1), at the
+    latency test's rate: the part of the bridged latency that is Zenoh's, not the bridges'."""
+    import zenoh
+
+    from uavbus.bridges.zenoh_bridge import zenoh_config as zconf
+
+    endpoint = f"tcp/{HOST}:{PortAllocator().port()}"
+    sub = subprocess.Popen([sys.executable, "-c", ZENOH_SUB, endpoint], stdout=subprocess.PIPE, bufsize=0)
+    try:
+        readline_by(sub, 60, "the Zenoh subscriber's start")
+        session = zenoh.open(zconf("peer", [], [endpoint]))
+        try:
+            pub = session.declare_publisher("zbench/alone", express=True,
+                                            congestion_control=zenoh.CongestionControl.BLOCK)
+            time.sleep(0.5)  # the sessions meet and the subscription propagates
+            t0 = time.perf_counter() + 0.05
+            for k in range(LAT_N):
+                while time.perf_counter() < t0 + k / LAT_HZ:
+                    time.sleep(0.0005)
+                pub.put(str(time.perf_counter_ns()))
+            time.sleep(0.2)
+            pub.put("0")
+            lat = json.loads(readline_by(sub, 60, "the Zenoh subscriber's latencies"))
+            pub.undeclare()
+        finally:
+            session.close()
+    finally:
+        sub.kill()
+        sub.wait()
+    return lat
+
+
 def zenoh_calls_per_frame(catalogue: str, tmp: Path, n: int = 2000) -> dict:
     """Python-level calls (function calls + C calls) the two bridges make per frame of a burst (module doc)."""
     import zenoh
@@ -460,7 +519,7 @@ def main() -> int:
     flightsw = str(build / "examples" / "uavbus" / "flightsw" / "flightsw.catalogue.json")
     res: dict[str, list] = {k: [] for k in ("mav_direct_lat", "mav_bridge_lat", "mav_direct_ingest", "mav_bridge_ingest",
                                            "ub_direct_lat", "ub_zenoh_lat", "ub_direct_tput", "ub_zenoh_tput",
-                                           "zenoh_calls")}
+                                           "zenoh_alone_lat", "zenoh_calls")}
     if not args.only:
         info = json.loads((build / "mavbridge.json").read_text())
         packets = attitude_packets(max(LAT_N, BLAST_MAV))
@@ -484,6 +543,7 @@ def main() -> int:
                     res[tput_key].append(pair.throughput())
                 finally:
                     pair.close()
+            res["zenoh_alone_lat"].append(lat_summary(zenoh_alone_latency()))
             res["zenoh_calls"].append(zenoh_calls_per_frame(flightsw, tmp))
             print(f"bridges bench: run {run + 1}/{args.runs} done", file=sys.stderr)
     res["meta"] = [{"lat_n": LAT_N, "lat_hz": LAT_HZ, "blast_mavlink": BLAST_MAV, "blast_uavbus": BLAST_UB,

@@ -218,6 +218,12 @@ class ZenohBridge:
         os.set_blocking(self._wake_r, False)
         os.set_blocking(self._wake_w, False)
         self._lock = threading.Lock()
+        # Held by whoever touches the node: the loop during its turn (run()), a Zenoh thread taking a sample
+        # in the loop's stead (rx_in_callback). Off by default: a caller driving pump() itself (tests, the
+        # bench) keeps every node call on its own thread.
+        self.node_lock = threading.Lock()
+        self.rx_in_callback = False
+        self._closed = False
         self.counters = {"published": 0, "received": 0, "rejected": 0, "rx_overflow": 0, "put_errors": 0,
                          "publishers_full": 0, "samples_out": 0, "samples_in": 0, "loop_turns": 0,
                          **{r: 0 for r in BATCH_REFUSALS}}
@@ -266,13 +272,39 @@ class ZenohBridge:
             pass  # closing: a sample that raced close() has no loop left to wake
 
     def _on_sample(self, sample: Any) -> None:
+        payload = sample.payload.to_bytes()
+        # In the loop's stead (rx_in_callback, run()): when the loop is asleep (node_lock free) and nothing
+        # older waits, the sample goes to the router from this thread at once, a wake-up and a thread
+        # hand-off sooner. Never blocking here: a Zenoh thread that waited for the loop, while the loop
+        # waits in a put for Zenoh, could stall both sessions.
+        if self.rx_in_callback and not self._inbox and self.node_lock.acquire(blocking=False):
+            try:
+                if not self._inbox and not self._closed:
+                    self._take(payload, self.node.now())
+                    if self.zlink.pending:  # the router answered onto Zenoh: the loop publishes
+                        self._wake()
+                    return
+            finally:
+                self.node_lock.release()
         if len(self._inbox) >= INBOX_MAX:
             with self._lock:
                 self.counters["rx_overflow"] += 1
             return
-        self._inbox.append(sample.payload.to_bytes())
+        self._inbox.append(payload)
         if len(self._inbox) == 1:  # else the loop has a wake-up pending and will drain to empty anyway
             self._wake()
+
+    def _take(self, payload: bytes, now: int) -> int:
+        """One received sample into the router (the caller holds node_lock or is the only thread). Frames."""
+        st, frames, rejected = ub_batchlink.ub_batch_rx(self.node._c, self.zlink.link_id, payload, now, self._counts)
+        if st:
+            self._refuse(payload)
+            return 0
+        counters = self.counters
+        counters["samples_in"] += 1
+        counters["received"] += frames
+        counters["rejected"] += rejected
+        return frames
 
     def _on_live(self, sample: Any) -> None:
         import zenoh
@@ -312,18 +344,8 @@ class ZenohBridge:
         moved = 0
         if self._inbox:
             now = self.node.now() if now_ms is None else now_ms
-            c, link, counters, counts = self.node._c, self.zlink.link_id, self.counters, self._counts
-            rx = ub_batchlink.ub_batch_rx
             while self._inbox:
-                payload = self._inbox.popleft()
-                st, frames, rejected = rx(c, link, payload, now, counts)
-                if st:
-                    self._refuse(payload)
-                    continue
-                counters["samples_in"] += 1
-                counters["received"] += frames
-                counters["rejected"] += rejected
-                moved += frames
+                moved += self._take(self._inbox.popleft(), now)
         out = self.zlink
         if out.pending:
             # Nagle-free coalescing: a frame after a quiet spell (no sample for batch_delay) leaves at once;
@@ -393,6 +415,7 @@ class ZenohBridge:
         return out
 
     def close(self) -> None:
+        self._closed = True
         for thing in [*self._subs, self._live_sub, *self._tokens, *self._publishers.values()]:
             try:
                 thing.undeclare()
@@ -457,6 +480,10 @@ def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
         next_stats = time.monotonic() + args.stats_s if args.stats_s else None
         stdin_open = True
         poller, registered = select.poll(), {}
+        # The loop holds node_lock except while it sleeps in poll(): then a Zenoh thread may hand a sample
+        # to the router itself (ZenohBridge._on_sample), without waking the loop.
+        bridge.node_lock.acquire()
+        bridge.rx_in_callback = True
         while end is None or time.monotonic() < end:
             # One poller kept across turns, changed only where the descriptors or their events changed.
             # While frames are held for company the site's sockets can wait: their datagrams join the
@@ -474,7 +501,11 @@ def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
                     elif registered[fd] != events:
                         poller.modify(fd, events)
                 registered = want
-            ready = dict(poller.poll(bridge.wait_ms()))
+            bridge.node_lock.release()
+            try:
+                ready = dict(poller.poll(bridge.wait_ms()))
+            finally:
+                bridge.node_lock.acquire()
             if stdin_open and sys.stdin.fileno() in ready:
                 line = sys.stdin.readline()
                 if not line:
@@ -497,10 +528,13 @@ def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
         return 0
     finally:
         if bridge is not None:
+            bridge.rx_in_callback = False
             bridge.close()
         node.close()
         if session is not None:
             session.close()
+        if bridge is not None and bridge.node_lock.locked():
+            bridge.node_lock.release()
 
 
 def _stats(node: Any, bridge: ZenohBridge) -> dict[str, Any]:
