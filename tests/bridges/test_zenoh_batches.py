@@ -187,3 +187,63 @@ def test_burst_through_two_bridges_arrives_whole_in_order(tmp_path, uavbus_node)
                 close()
             except Exception:  # noqa: BLE001 (closing anyway)
                 pass
+
+
+def test_a_lone_frame_leaves_at_once_and_followers_share_a_sample(tmp_path, uavbus_node):
+    """The coalescing window on an injected clock: a frame after a quiet spell is published by the pump
+    that sees it; frames following a sample within the window wait (holding, the loop told how long) and
+    leave as one sample when it closes, or at once when --batch-bytes are pending."""
+    catalogue = catalogue_for(uavbus_node)
+    ports = PortAllocator()
+    cfg = tmp_path / "zbatch.json"
+    _config(cfg, ports)
+    closers = []
+    try:
+        nodes = {}
+        for name in ("A", "gwA"):
+            n = nodes[name] = Node(catalogue, config=cfg, node=name)
+            closers.append(n.close)
+            n.open_ports_from_config()
+        session = zenoh.open(zenoh_config("peer", [f"tcp/127.0.0.1:{ports.port()}"], []))
+        closers.append(session.close)
+        now = [100.0]
+        gw = ZenohBridge(nodes["gwA"], "zenoh", session, "uavbus/zbatch", batch_bytes=400, batch_delay_us=1000,
+                         clock=lambda: now[0])
+        closers.append(gw.close)
+        pub = nodes["A"].publisher("srcA", "gpsOut", to="dstB")
+
+        def send(k: int) -> None:
+            """k frames from A into gwA's router (real UDP), then one pump."""
+            for _ in range(k):
+                pub.send()
+            deadline = time.monotonic() + 5
+            while gw.zlink.pending_bytes == 0 or gw.zlink.bl.c.frames < sent[0] + k:
+                assert time.monotonic() < deadline, "gwA got nothing from A"
+                nodes["gwA"].service(dispatch=False)
+            sent[0] += k
+            gw.pump()
+
+        sent = [int(gw.zlink.bl.c.frames)]
+        send(1)  # after a quiet spell: out in this very pump
+        assert (gw.counters["samples_out"], gw.counters["published"]) == (1, 1)
+        assert not gw.holding() and gw.zlink.pending == 0
+        now[0] += 0.0002
+        send(1)  # 0.2 ms after a sample: held
+        assert gw.counters["samples_out"] == 1 and gw.holding() and gw.zlink.pending == 1
+        assert 0 < gw.wait_ms() <= 1
+        now[0] += 0.0003
+        send(1)  # still within the window: joins
+        assert gw.counters["samples_out"] == 1 and gw.zlink.pending == 1  # one batch of two frames
+        now[0] += 0.0006  # window closed (1 ms after the first sample)
+        gw.pump()
+        assert (gw.counters["samples_out"], gw.counters["published"]) == (2, 3) and not gw.holding()
+        now[0] += 0.0001
+        send(4)  # within the window again, but more than batch_bytes pending: out at once, cut at 400 bytes
+        assert gw.counters["published"] == 7 and gw.zlink.pending == 0 and not gw.holding()
+        assert gw.counters["samples_out"] >= 3 and gw.counters["put_errors"] == 0
+    finally:
+        for close in reversed(closers):
+            try:
+                close()
+            except Exception:  # noqa: BLE001 (closing anyway)
+                pass

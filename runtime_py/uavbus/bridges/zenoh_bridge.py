@@ -49,7 +49,7 @@ import sys
 import threading
 import time
 from collections import deque
-from typing import Any, TextIO
+from typing import Any, Callable, TextIO
 
 from uavbus._bindings.ub_error import UbError
 from uavbus._bindings.ub_frame import ub_frame_parse
@@ -196,7 +196,8 @@ class ZenohBridge:
     at once; 0 sends whatever the loop has at each turn."""
 
     def __init__(self, node: Any, link: str, session: Any, prefix: str, flows: list[str] | None = None,
-                 express: bool = True, batch_bytes: int = BATCH_BYTES, batch_delay_us: int = BATCH_DELAY_US) -> None:
+                 express: bool = True, batch_bytes: int = BATCH_BYTES, batch_delay_us: int = BATCH_DELAY_US,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         import zenoh
 
         if not BATCH_HEADER + 2 <= batch_bytes <= 1 << 24:
@@ -206,7 +207,8 @@ class ZenohBridge:
         self.node, self.link, self.session, self.prefix = node, link, session, prefix
         self.express = express
         self.batch_bytes, self.batch_delay_s = batch_bytes, batch_delay_us / 1e6
-        self._last_put = -1e9              # time.monotonic() of the last sample sent
+        self._clock = clock                # seconds, monotonic (a test injects its own)
+        self._last_put = -1e9              # clock() at the last sample sent
         self._held_until: float | None = None  # frames pending, held for company until then
         self.entity, self.local_site, self.remote_site = self._sites()
         self.zlink = ZenohLink(node, link, batch_bytes)
@@ -331,7 +333,7 @@ class ZenohBridge:
         """How long the loop may sleep: until held frames are due, else LOOP_WAIT_MS."""
         if self._held_until is None:
             return LOOP_WAIT_MS
-        left = self._held_until - time.monotonic()
+        left = self._held_until - self._clock()
         return max(0, min(LOOP_WAIT_MS, int(left * 1000 + 0.999)))
 
     def pump(self, now_ms: int | None = None) -> int:
@@ -353,7 +355,7 @@ class ZenohBridge:
             # batch_bytes are pending) and leave together. A busy link sends a sample per batch_delay per
             # flow, not one per loop turn: the fixed cost of a sample (a turn, a put, Zenoh's threads)
             # is shared by its frames, and a lone frame never waits.
-            t = time.monotonic()
+            t = self._clock()
             if t - self._last_put < self.batch_delay_s and out.pending_bytes < self.batch_bytes:
                 self._held_until = self._last_put + self.batch_delay_s
                 return moved
