@@ -336,8 +336,10 @@ class ZenohBridge:
         left = self._held_until - self._clock()
         return max(0, min(LOOP_WAIT_MS, int(left * 1000 + 0.999)))
 
-    def pump(self, now_ms: int | None = None) -> int:
-        """Frames from Zenoh into the router, then the router's frames out to Zenoh. Returns frames moved."""
+    def pump(self, now_ms: int | None = None, send: bool = True) -> int:
+        """Frames from Zenoh into the router, then (`send`) the router's frames out to Zenoh. Returns frames
+        moved. run() pumps with send=False before the node's service: what the sockets hold then joins
+        the batches before they leave."""
         try:
             while os.read(self._wake_r, 4096):
                 pass
@@ -349,7 +351,7 @@ class ZenohBridge:
             while self._inbox:
                 moved += self._take(self._inbox.popleft(), now)
         out = self.zlink
-        if out.pending:
+        if send and out.pending:
             # Nagle-free coalescing: a frame after a quiet spell (no sample for batch_delay) leaves at once;
             # frames that follow a sample closer than that wait until batch_delay after it (or until
             # batch_bytes are pending) and leave together. A busy link sends a sample per batch_delay per
@@ -517,7 +519,7 @@ def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
                 elif line.strip() == "stats":
                     _emit(out, _stats(node, bridge))
             now = node.now()
-            bridge.pump(now)
+            bridge.pump(now, send=False)
             node.service(now)
             bridge.pump(now)
             bridge.counters["loop_turns"] += 1
