@@ -15,6 +15,13 @@ Side by side in one run, each case against the same path without the bridge:
       bridged:  node A -> UDP -> uavbus bridge zenoh [gwA] -> Zenoh (tcp) -> [gwB] -> UDP -> node B
     latency at 200 Hz as above; throughput = frames delivered to B per second when A sends N back to
     back (A and B in one process, interleaved: their Python cost is in both columns alike).
+    load-proof: Python-level calls per frame in the two bridges (sys.setprofile, calls and C calls, counted
+    around the bridges' loop work only), both bridges in this process with real Zenoh sessions on
+    tcp/127.0.0.1; a figure a busy machine does not change.
+    Zenoh alone: one-way latency of a plain Zenoh publisher and subscriber in two Python processes at
+    the same rate, so "added by the bridges" can be read net of Zenoh's own share. Beside it the loops' CPU time per frame
+    (thread CPU time, unprofiled pass; Zenoh's own threads not included).
+`--only zenoh` runs the Zenoh part alone (`--blast N`, `--lat-n N` for small counts).
 The autopilot role is played by this script (pymavlink's encoder, prebuilt packets). Every loop is
 bounded by a count and a deadline; only 127.0.0.1 is used. Output: one JSON document.
 """
@@ -341,33 +348,193 @@ class UbPair:
             p.stop()
 
 
+ZENOH_SUB = r"""
+import json, sys, threading, time, zenoh
+c = zenoh.Config()
+c.insert_json5("mode", '"peer"')
+c.insert_json5("listen/endpoints", json.dumps([sys.argv[1]]))
+c.insert_json5("scouting/multicast/enabled", "false")
+s = zenoh.open(c)
+lat, done = [], threading.Event()
+def on(sample):
+    t = time.perf_counter_ns()  # CLOCK_MONOTONIC: one clock for both processes
+    sent = int(sample.payload.to_bytes())
+    if sent == 0:
+        done.set()
+    else:
+        lat.append((t - sent) / 1e9)
+sub = s.declare_subscriber("zbench/alone", on)
+print("ready", flush=True)
+done.wait(120)
+print(json.dumps(lat), flush=True)
+sub.undeclare()
+s.close()
+"""
+
+
+def zenoh_alone_latency() -> list[float]:
+    """One-way latency of plain Zenoh between two Python processes (express, tcp/127.0.0.1), at the
+    latency test's rate: the part of the bridged latency that is Zenoh's, not the bridges'."""
+    import zenoh
+
+    from uavbus.bridges.zenoh_bridge import zenoh_config as zconf
+
+    endpoint = f"tcp/{HOST}:{PortAllocator().port()}"
+    sub = subprocess.Popen([sys.executable, "-c", ZENOH_SUB, endpoint], stdout=subprocess.PIPE, bufsize=0)
+    try:
+        readline_by(sub, 60, "the Zenoh subscriber's start")
+        session = zenoh.open(zconf("peer", [], [endpoint]))
+        try:
+            pub = session.declare_publisher("zbench/alone", express=True,
+                                            congestion_control=zenoh.CongestionControl.BLOCK)
+            time.sleep(0.5)  # the sessions meet and the subscription propagates
+            t0 = time.perf_counter() + 0.05
+            for k in range(LAT_N):
+                while time.perf_counter() < t0 + k / LAT_HZ:
+                    time.sleep(0.0005)
+                pub.put(str(time.perf_counter_ns()))
+            time.sleep(0.2)
+            pub.put("0")
+            lat = json.loads(readline_by(sub, 60, "the Zenoh subscriber's latencies"))
+            pub.undeclare()
+        finally:
+            session.close()
+    finally:
+        sub.kill()
+        sub.wait()
+    return lat
+
+
+def zenoh_calls_per_frame(catalogue: str, tmp: Path, n: int = 2000) -> dict:
+    """Python-level calls (function calls + C calls) the two bridges make per frame of a burst (module doc)."""
+    import zenoh
+
+    from uavbus.bridges.zenoh_bridge import ZenohBridge, zenoh_config as zconf
+
+    cfg, zport = zenoh_config(tmp, True)
+    endpoint = f"tcp/{HOST}:{zport}"
+    closers: list = []
+    calls = [0]
+
+    def count(frame, event, arg) -> None:
+        if event in ("call", "c_call"):
+            calls[0] += 1
+
+    try:
+        nodes = {}
+        for name in ("A", "B", "gwA", "gwB"):
+            nodes[name] = Node(catalogue, config=cfg, node=name)
+            closers.append(nodes[name].close)
+            nodes[name].open_ports_from_config()
+        sa = zenoh.open(zconf("peer", [endpoint], []))
+        closers.append(sa.close)
+        sb = zenoh.open(zconf("peer", [], [endpoint]))
+        closers.append(sb.close)
+        bridges = {"gwA": ZenohBridge(nodes["gwA"], "zenoh", sa, "uavbus/zbench"),
+                   "gwB": ZenohBridge(nodes["gwB"], "zenoh", sb, "uavbus/zbench")}
+        closers += [b.close for b in bridges.values()]
+        pub = nodes["A"].publisher("srcA", "gpsOut", to="dstB")
+        nodes["B"].bind("gpsOut")
+        got = [0]
+        nodes["B"].on_data(lambda m: got.__setitem__(0, got[0] + 1))
+
+        cpu = [0.0]
+
+        def turn(profiled: bool) -> None:
+            if profiled:
+                sys.setprofile(count)
+            t = time.thread_time()
+            for name, bridge in bridges.items():
+                now = nodes[name].now()
+                bridge.pump(now)
+                nodes[name].service(now, dispatch=False)
+                bridge.pump(now)
+            cpu[0] += time.thread_time() - t
+            if profiled:
+                sys.setprofile(None)
+            nodes["B"].poll(0)
+
+        deadline = time.monotonic() + 10
+        while not got[0] and time.monotonic() < deadline:
+            pub.send()
+            turn(False)
+            time.sleep(0.005)
+        if not got[0]:
+            raise RuntimeError("zenoh calls bench: nothing crossed")
+        for _ in range(50):
+            turn(False)
+            time.sleep(0.001)
+        def burst(profiled: bool) -> dict:
+            """n frames from A in turns of 25 (within the UDP sockets' buffers), until all crossed gwB (what
+            B's socket then drops on a busy machine is not the bridges' work)."""
+            got[0] = calls[0] = 0
+            cpu[0] = 0.0
+            base = bridges["gwB"].counters["received"]
+            base_samples = bridges["gwB"].counters.get("samples_in", 0)
+            t0 = time.perf_counter()
+            for _ in range(n // 25):
+                for _ in range(25):
+                    pub.send()
+                turn(profiled)
+            deadline = time.monotonic() + 10
+            while bridges["gwB"].counters["received"] - base < n and time.monotonic() < deadline:
+                turn(profiled)
+                time.sleep(0.0005)
+            crossed = bridges["gwB"].counters["received"] - base
+            wall = time.perf_counter() - t0
+            for _ in range(5):
+                turn(False)
+            return {"crossed": crossed, "samples": bridges["gwB"].counters.get("samples_in", 0) - base_samples,
+                    "calls": calls[0], "cpu_s": cpu[0], "wall_s": wall}
+
+        counted, timed = burst(True), burst(False)
+        return {"frames": n, "crossed": counted["crossed"], "samples": counted["samples"], "calls": counted["calls"],
+                "calls_per_frame": counted["calls"] / counted["crossed"] if counted["crossed"] else float("nan"),
+                "loop_cpu_us_per_frame": timed["cpu_s"] / timed["crossed"] * 1e6 if timed["crossed"] else float("nan"),
+                "in_process_rate": timed["crossed"] / timed["wall_s"] if timed["wall_s"] else 0.0}
+    finally:
+        for close in reversed(closers):
+            try:
+                close()
+            except Exception:  # noqa: BLE001 (closing anyway)
+                pass
+
+
 def lat_summary(xs: list[float]) -> dict:
     return {"n": len(xs), "p50_us": pct(xs, 0.5) * 1e6, "p99_us": pct(xs, 0.99) * 1e6}
 
 
 def main() -> int:
+    global LAT_N, BLAST_UB
     ap = argparse.ArgumentParser()
     ap.add_argument("--build", required=True)
     ap.add_argument("--out", required=True)
     ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--only", choices=("zenoh",), help="run only the Zenoh part (figure 7's last tables)")
+    ap.add_argument("--blast", type=int, help=f"frames per uavbus throughput sample (default {BLAST_UB:,})")
+    ap.add_argument("--lat-n", type=int, help=f"messages per latency sample (default {LAT_N})")
     args = ap.parse_args()
+    LAT_N, BLAST_UB = args.lat_n or LAT_N, args.blast or BLAST_UB
     build = Path(args.build)
-    info = json.loads((build / "mavbridge.json").read_text())
     flightsw = str(build / "examples" / "uavbus" / "flightsw" / "flightsw.catalogue.json")
-    packets = attitude_packets(max(LAT_N, BLAST_MAV))
     res: dict[str, list] = {k: [] for k in ("mav_direct_lat", "mav_bridge_lat", "mav_direct_ingest", "mav_bridge_ingest",
-                                           "ub_direct_lat", "ub_zenoh_lat", "ub_direct_tput", "ub_zenoh_tput")}
+                                           "ub_direct_lat", "ub_zenoh_lat", "ub_direct_tput", "ub_zenoh_tput",
+                                           "zenoh_alone_lat", "zenoh_calls")}
+    if not args.only:
+        info = json.loads((build / "mavbridge.json").read_text())
+        packets = attitude_packets(max(LAT_N, BLAST_MAV))
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         for run in range(args.runs):
-            res["mav_direct_lat"].append(lat_summary(mav_direct_latency(packets)))
-            res["mav_direct_ingest"].append(mav_direct_ingest(packets[:BLAST_MAV]))
-            br = MavBridge(info["program"], info["catalogue"], tmp)
-            try:
-                res["mav_bridge_lat"].append(lat_summary(br.latency(packets)))
-                res["mav_bridge_ingest"].append(br.ingest(packets[:BLAST_MAV]))
-            finally:
-                br.close()
+            if not args.only:
+                res["mav_direct_lat"].append(lat_summary(mav_direct_latency(packets)))
+                res["mav_direct_ingest"].append(mav_direct_ingest(packets[:BLAST_MAV]))
+                br = MavBridge(info["program"], info["catalogue"], tmp)
+                try:
+                    res["mav_bridge_lat"].append(lat_summary(br.latency(packets)))
+                    res["mav_bridge_ingest"].append(br.ingest(packets[:BLAST_MAV]))
+                finally:
+                    br.close()
             for bridged, lat_key, tput_key in ((False, "ub_direct_lat", "ub_direct_tput"),
                                                (True, "ub_zenoh_lat", "ub_zenoh_tput")):
                 pair = UbPair(flightsw, tmp, bridged)
@@ -376,9 +543,11 @@ def main() -> int:
                     res[tput_key].append(pair.throughput())
                 finally:
                     pair.close()
+            res["zenoh_alone_lat"].append(lat_summary(zenoh_alone_latency()))
+            res["zenoh_calls"].append(zenoh_calls_per_frame(flightsw, tmp))
             print(f"bridges bench: run {run + 1}/{args.runs} done", file=sys.stderr)
     res["meta"] = [{"lat_n": LAT_N, "lat_hz": LAT_HZ, "blast_mavlink": BLAST_MAV, "blast_uavbus": BLAST_UB,
-                    "runs": args.runs, "affinity": sorted(os.sched_getaffinity(0))}]
+                    "runs": args.runs, "only": args.only, "affinity": sorted(os.sched_getaffinity(0))}]
     Path(args.out).write_text(json.dumps(res, indent=1))
     return 0
 

@@ -37,26 +37,43 @@ def bridges_section(raw: Path, w: Callable[[str], None]) -> None:
       f"Latency: {meta['lat_n']} messages at {meta['lat_hz']} Hz, receive time minus send time in one process "
       "(p50 and p99 per run; median [min - max] over runs). Each bridged path beside the same path without the bridge.")
     w("")
-    w("| MAVLink: autopilot ATTITUDE -> Python GCS | latency p50 µs | latency p99 µs |")
-    w("|---|---:|---:|")
-    w(lat_row("direct: UDP -> pymavlink parse", "mav_direct_lat"))
-    w(lat_row("bridged: UDP -> uavbus_mavbridge -> uavbus UDP -> uavbus Node (1 ms subscription)", "mav_bridge_lat"))
-    w("")
-    w(f"| MAVLink ingest: {meta['blast_mavlink']:,} ATTITUDE sent back to back by a Python sender | taken in, kmsg/s | taken in, % |")
-    w("|---|---:|---:|")
-    w(rate_row("pymavlink parser in a Python process", "mav_direct_ingest"))
-    w(rate_row("uavbus_mavbridge (C: parse, directory, on-update publication)", "mav_bridge_ingest"))
-    w("")
+    if d["mav_direct_lat"]:  # absent from a `--only zenoh` run
+        w("| MAVLink: autopilot ATTITUDE -> Python GCS | latency p50 µs | latency p99 µs |")
+        w("|---|---:|---:|")
+        w(lat_row("direct: UDP -> pymavlink parse", "mav_direct_lat"))
+        w(lat_row("bridged: UDP -> uavbus_mavbridge -> uavbus UDP -> uavbus Node (1 ms subscription)", "mav_bridge_lat"))
+        w("")
+        w(f"| MAVLink ingest: {meta['blast_mavlink']:,} ATTITUDE sent back to back by a Python sender | taken in, kmsg/s | taken in, % |")
+        w("|---|---:|---:|")
+        w(rate_row("pymavlink parser in a Python process", "mav_direct_ingest"))
+        w(rate_row("uavbus_mavbridge (C: parse, directory, on-update publication)", "mav_bridge_ingest"))
+        w("")
     w("| uavbus across sites: node A -> node B (gpsOut) | latency p50 µs | latency p99 µs |")
     w("|---|---:|---:|")
     w(lat_row("direct: one UDP link", "ub_direct_lat"))
     w(lat_row("bridged: UDP -> bridge zenoh -> Zenoh tcp -> bridge zenoh -> UDP", "ub_zenoh_lat"))
+    if d.get("zenoh_alone_lat"):
+        w(lat_row("Zenoh alone: a plain publisher -> subscriber, two Python processes, same rate", "zenoh_alone_lat"))
     w("")
     w(f"| uavbus across sites: {meta['blast_uavbus']:,} frames sent back to back | delivered, kframes/s | delivered, % |")
     w("|---|---:|---:|")
     w(rate_row("direct: one UDP link", "ub_direct_tput"))
-    w(rate_row("bridged: two Zenoh bridges (Python, express samples)", "ub_zenoh_tput"))
+    w(rate_row("bridged: two Zenoh bridges (frames batched per sample in C, ub_batchlink.h)", "ub_zenoh_tput"))
     w("")
+    ratios = [b["rate"] / a["rate"] for a, b in zip(d["ub_direct_tput"], d["ub_zenoh_tput"]) if a["rate"]]
+    if ratios:
+        w(f"Bridged / direct delivery rate, per run (same run, same load): {_band(ratios, '{:.2f}')}.")
+        w("")
+    calls = d.get("zenoh_calls") or []
+    if calls:
+        w("| the two Zenoh bridges' own work per frame (a burst, both bridges in one process, real sessions) "
+          "| Python-level calls | loop CPU µs | frames per sample |")
+        w("|---|---:|---:|---:|")
+        w(f"| calls and C calls (sys.setprofile) around the bridges' pump/service; thread CPU time | "
+          f"{_band([r['calls_per_frame'] for r in calls], '{:.1f}')} | "
+          f"{_band([r.get('loop_cpu_us_per_frame', float('nan')) for r in calls], '{:.1f}')} | "
+          f"{_band([r['crossed'] / r['samples'] if r.get('samples') else float('nan') for r in calls], '{:.0f}')} |")
+        w("")
     z = d["ub_zenoh_tput"]
     if z and "zenoh_published" in z[0]:
         w("Where the bridged frames went (per run): " + "; ".join(
@@ -72,8 +89,14 @@ def bridges_section(raw: Path, w: Callable[[str], None]) -> None:
     w("")
     for label, a, b in (("MAVLink bridge", "mav_bridge_lat", "mav_direct_lat"),
                         ("Zenoh bridges", "ub_zenoh_lat", "ub_direct_lat")):
+        if not d[a] or not d[b]:
+            continue
         added = statistics.median(col(a, "p50_us")) - statistics.median(col(b, "p50_us"))
-        w(f"- {label}: adds {added:.0f} µs at p50 (medians of this run).")
+        net = ""
+        if a == "ub_zenoh_lat" and d.get("zenoh_alone_lat"):
+            alone = statistics.median(col("zenoh_alone_lat", "p50_us"))
+            net = f"; Zenoh alone takes {alone:.0f} µs of it, the two bridges' hops {added - alone:.0f} µs"
+        w(f"- {label}: adds {added:.0f} µs at p50 (medians of this run){net}.")
     w("")
 
 

@@ -33,6 +33,7 @@ import pytest
 
 from uavbus import Node
 from uavbus._bindings.ub_frame import FLAG_SIGNED, ub_frame_parse
+from uavbus.bridges.zenoh_bridge import batch_spans
 from uavbus.sim.hitl import catalogue_for
 from uavbus.sim.portalloc import PortAllocator
 from uavbus.sim.process import ProcessGroup
@@ -134,7 +135,9 @@ def test_subscription_crosses_two_zenoh_sessions_at_its_rate(tmp_path, uavbus_no
 
         with lock:
             keys = {k for k, _ in seen}
-            data = [f for k, f in seen if k == f"uavbus/zentest/gcs2/rmax1ob1/{DIRECTORY}/data"]
+            # Each sample is a batch of frames (batch format 1, docs/bridges.md): the frames inside it.
+            data = [payload[at:at + n] for k, payload in seen if k == f"uavbus/zentest/gcs2/rmax1ob1/{DIRECTORY}/data"
+                    for at, n in batch_spans(payload)]
         assert f"uavbus/zentest/rmax1ob1/gcs2/{DIRECTORY}/pub_request" in keys, sorted(keys)[:10]
         assert data, sorted(keys)[:10]
         h = ub_frame_parse(data[-1])  # the C codec verifies the frame as carried

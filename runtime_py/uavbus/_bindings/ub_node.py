@@ -122,6 +122,15 @@ def ub_node_rx_frame(node: Any, link_id: int, frame: bytes, now_ms: int) -> None
     ensure(lib.ub_node_rx_frame(node, link_id, frame, len(frame), now_ms), "ub_node_rx_frame")
 
 
+def ub_node_rx_spans(node: Any, link_id: int, buf: bytes, spans: list[tuple[int, int]], now_ms: int) -> int:
+    """ub_node_rx_frame() for each (offset, length) frame inside `buf`, in order, without copying a frame
+    out of it (a batch of frames in one buffer: the Zenoh bridge's samples). Returns how many the router
+    refused as invalid (each counted on the link by its reason, as ub_node_rx_frame's errors)."""
+    base = ffi.from_buffer("uint8_t[]", buf)
+    rx = lib.ub_node_rx_frame
+    return sum(1 for at, size in spans if rx(node, link_id, base + at, size, now_ms) < 0)
+
+
 def ub_node_send_data(node: Any, entity: int, instance: int, dest: str, now_ms: int) -> int:
     return ensure(lib.ub_node_send_data(node, entity, instance, entity_id(dest), now_ms), f"send to {dest!r}")
 

@@ -4,18 +4,22 @@
                         [--link zenoh] [--mode peer|router|client]
                         [--listen ENDPOINT]... [--connect ENDPOINT]...
                         [--prefix KEY] [--flow DEST[/SOURCE[/DIRECTORY]]]... [--batch]
-                        [--stats-s S] [--duration-s S]
+                        [--batch-bytes N] [--batch-delay-us US] [--stats-s S] [--duration-s S]
 
 The bridge is a uavbus node like any other: its entity (the one owning --link) has links to its own
-site (ports of the configuration) and one link whose transport is this Zenoh session (a
-uavbus.pylink.PyLink: the C router routes onto it as onto a UDP link). Entities of the other sites are
+site (ports of the configuration) and one link whose transport is this Zenoh session (a C batch link,
+ub_batchlink.h: the C router routes onto it as onto a UDP link). Entities of the other sites are
 rows of the entity table whose masks point at the Zenoh link, so they are reachable from every node of
 this site like any entity a few hops away; the one router does the work (verification, duplicates,
 hop limit, forwarding, counters).
 
-**Frames are carried unchanged**: each frame the router sends on the Zenoh link is one Zenoh sample,
-payload = the frame's bytes as they left the router (hop limit already decremented), so a signed or
-encrypted frame's trailer arrives intact and is verified end to end by its destination. On a signed
+**Frames are carried unchanged, many per sample**: the frames the router sent on the Zenoh link since
+the loop's last turn go out as batches (docs/bridges.md "Batches"): consecutive frames of one key
+expression share one Zenoh sample, each frame's bytes as they left the router (hop limit already
+decremented) behind a 2-byte length, so a signed or encrypted frame's trailer arrives intact and is
+verified end to end by its destination. The per-frame work is C's (ub_batchlink.h packs what the router
+sends, ub_batch_rx() unpacks into the router); the loop handles samples. A frame after a quiet spell
+leaves at once (no Nagle delay); frames that follow a sample within --batch-delay-us leave together. On a signed
 network the bridges verify like any forwarder (they hold the fleet key, docs/security.md) but never
 re-sign: the tag the destination checks is the source's.
 
@@ -45,19 +49,32 @@ import sys
 import threading
 import time
 from collections import deque
-from typing import Any, TextIO
+from typing import Any, Callable, TextIO
 
 from uavbus._bindings.ub_error import UbError
 from uavbus._bindings.ub_frame import ub_frame_parse
+from uavbus._bindings import ub_batchlink, ub_link
 from uavbus.catalogue import Catalogue
 from uavbus.errors import ConfigError
-from uavbus.pylink import PyLink
 from uavbus.tools.common import admin_name, entity_name
 
 LIVE_CHUNK = "@live"
 INBOX_MAX = 65536          # frames from Zenoh waiting for the loop; beyond: counted rx_overflow
 PUBLISHERS_MAX = 4096      # declared publishers kept (one per key); beyond: plain put, counted
 LOOP_WAIT_MS = 10          # the loop wakes for descriptors and Zenoh samples anyway; this bounds ticks
+
+# Batch format 1 (docs/bridges.md "Batches"): one Zenoh sample carries one or more frames of one key.
+#   0: 0xA5 (a frame's first sync byte)   1: 0xBA (a frame has 0x5B: a bare frame is told apart)
+#   2: version (1)   3-4: frame count, little-endian (1..65535)
+#   then per frame: length (2 bytes, little-endian, 1..65535) and the frame's bytes; nothing after.
+BATCH_SYNC, BATCH_MARK, BATCH_VERSION, BATCH_HEADER = 0xA5, 0xBA, 1, 5
+FRAME_MARK = 0x5B          # byte 1 of a bare frame (wire-format.md): what a bridge before batches sent
+BATCH_BYTES = 16384        # default bound of one sample's payload (a frame larger than it goes alone)
+BATCH_DELAY_US = 1000      # default coalescing window after a sample (pump(): a lone frame never waits)
+BATCH_REFUSALS = ("batch_foreign", "batch_version", "batch_malformed")
+KEY_AT, KEY_LEN = 8, 41    # dir_id, dest_id, src_id, admin: everything frame_key() reads from a frame
+OUTBOX_BYTES = 1 << 22     # frames from the router waiting for the loop, packed; beyond: backpressure
+OUTBOX_BATCHES = 4096
 
 
 class BridgeError(RuntimeError):
@@ -70,6 +87,60 @@ def frame_key(prefix: str, frame: bytes, catalogue: Catalogue) -> str:
     inst = catalogue.find(bytes(h.dir_id))
     directory = inst.name if inst is not None else "_" + bytes(h.dir_id).hex()
     return f"{prefix}/{entity_name(h.dest_id)}/{entity_name(h.src_id)}/{directory}/{admin_name(h.admin)}"
+
+
+class BatchError(ValueError):
+    """A sample that is not a batch this bridge reads; `reason` is the counter that counts it."""
+
+    def __init__(self, reason: str, message: str) -> None:
+        super().__init__(message)
+        self.reason = reason
+
+
+def encode_batch(frames: list[bytes]) -> bytes:
+    """One sample's payload: `frames` (1..65535 of them, each 1..65535 bytes) in batch format 1."""
+    n = len(frames)
+    if not 1 <= n <= 0xFFFF:
+        raise ValueError(f"a batch holds 1..65535 frames, not {n}")
+    parts = [bytes((BATCH_SYNC, BATCH_MARK, BATCH_VERSION, n & 0xFF, n >> 8))]
+    for f in frames:
+        size = len(f)
+        if not 1 <= size <= 0xFFFF:
+            raise ValueError(f"a batched frame has 1..65535 bytes, not {size}")
+        parts.append(bytes((size & 0xFF, size >> 8)))
+        parts.append(f)
+    return b"".join(parts)
+
+
+def batch_spans(payload: bytes) -> list[tuple[int, int]]:
+    """(offset, length) of each frame of a batch-format-1 payload, in order; BatchError (with the counter
+    naming why) for anything else, checked whole before any frame is used: a sample is taken or not."""
+    end = len(payload)
+    if end < 2 or payload[0] != BATCH_SYNC or payload[1] not in (BATCH_MARK, FRAME_MARK):
+        raise BatchError("batch_foreign", "not a uavbus batch (another publisher on the bridges' keys?)")
+    if payload[1] == FRAME_MARK:
+        raise BatchError("batch_version", "a bare frame: the other bridge predates batch format 1 "
+                                          "(run the same uavbus version on both sides)")
+    if end < BATCH_HEADER:
+        raise BatchError("batch_malformed", f"a batch of {end} bytes has no complete header")
+    if payload[2] != BATCH_VERSION:
+        raise BatchError("batch_version", f"batch format {payload[2]}, this bridge reads {BATCH_VERSION} "
+                                          "(run the same uavbus version on both sides)")
+    n = payload[3] | payload[4] << 8
+    spans = []
+    at = BATCH_HEADER
+    for _ in range(n):
+        if at + 2 > end:
+            raise BatchError("batch_malformed", f"batch cut short: frame {len(spans) + 1} of {n} has no length")
+        size = payload[at] | payload[at + 1] << 8
+        at += 2
+        if size == 0 or at + size > end:
+            raise BatchError("batch_malformed", f"frame {len(spans) + 1} of {n}: length {size} does not fit")
+        spans.append((at, size))
+        at += size
+    if n == 0 or at != end:
+        raise BatchError("batch_malformed", f"{n} frames but {end - at} bytes after them" if n else "no frames")
+    return spans
 
 
 def flow_keyexpr(prefix: str, flow: str) -> str:
@@ -85,17 +156,63 @@ def flow_keyexpr(prefix: str, flow: str) -> str:
     return f"{prefix}/{'/'.join(parts)}{tail}"
 
 
+class ZenohLink:
+    """The Zenoh link's transport: a C batch link (ub_batchlink.h) packing the router's frames into
+    batches of one flow each in memory owned here; the loop takes whole batches, never single frames."""
+
+    def __init__(self, node: Any, link: str, batch_bytes: int) -> None:
+        self.node, self.link_id = node, node.link_id(link)
+        self.bl = ub_batchlink.BatchLink(OUTBOX_BYTES, OUTBOX_BATCHES, batch_bytes)
+        ub_batchlink.ub_batchlink_attach(self.bl, node._c, self.link_id)
+        node._keep_alive(self)  # C points at our memory until the node is closed
+
+    @property
+    def pending_bytes(self) -> int:
+        return int(self.bl.c.len)
+
+    @property
+    def pending(self) -> int:
+        return int(self.bl.c.n)
+
+    @property
+    def refused(self) -> int:
+        return int(self.bl.c.refused)
+
+    def take(self) -> tuple[bytes, list[int]]:
+        return ub_batchlink.ub_batchlink_take(self.bl)
+
+    def detach(self) -> None:
+        try:
+            ub_link.ub_node_link_detach(self.node._c, self.link_id)
+        except UbError:
+            pass
+
+
 class ZenohBridge:
-    """One node's Zenoh link: outbound frames -> samples, subscribed samples -> the router."""
+    """One node's Zenoh link: outbound frames -> batched samples, subscribed samples -> the router.
+
+    `batch_bytes` bounds a sample's payload; `batch_delay_us` is the coalescing window (pump()): frames
+    following a sample closer than that wait until the window closes, a frame after a quiet spell leaves
+    at once; 0 sends whatever the loop has at each turn."""
 
     def __init__(self, node: Any, link: str, session: Any, prefix: str, flows: list[str] | None = None,
-                 express: bool = True) -> None:
+                 express: bool = True, batch_bytes: int = BATCH_BYTES, batch_delay_us: int = BATCH_DELAY_US,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         import zenoh
 
+        if not BATCH_HEADER + 2 <= batch_bytes <= 1 << 24:
+            raise BridgeError(f"--batch-bytes {batch_bytes}: give {BATCH_HEADER + 2}..{1 << 24}")
+        if not 0 <= batch_delay_us <= 1_000_000:
+            raise BridgeError(f"--batch-delay-us {batch_delay_us}: give 0..1000000 (0: no waiting)")
         self.node, self.link, self.session, self.prefix = node, link, session, prefix
         self.express = express
+        self.batch_bytes, self.batch_delay_s = batch_bytes, batch_delay_us / 1e6
+        self._clock = clock                # seconds, monotonic (a test injects its own)
+        self._last_put = -1e9              # clock() at the last sample sent
+        self._held_until: float | None = None  # frames pending, held for company until then
         self.entity, self.local_site, self.remote_site = self._sites()
-        self.pylink = PyLink(node, link, kind="zenoh")
+        self.zlink = ZenohLink(node, link, batch_bytes)
+        self._counts = ub_batchlink.new_counts()
         self.flows = [flow_keyexpr(prefix, f) for f in flows] if flows else \
             [f"{prefix}/{e}/**" for e in self.local_site]
         self._inbox: deque[bytes] = deque()
@@ -103,8 +220,16 @@ class ZenohBridge:
         os.set_blocking(self._wake_r, False)
         os.set_blocking(self._wake_w, False)
         self._lock = threading.Lock()
+        # Held by whoever touches the node: the loop during its turn (run()), a Zenoh thread taking a sample
+        # in the loop's stead (rx_in_callback). Off by default: a caller driving pump() itself (tests, the
+        # bench) keeps every node call on its own thread.
+        self.node_lock = threading.Lock()
+        self.rx_in_callback = False
+        self._closed = False
         self.counters = {"published": 0, "received": 0, "rejected": 0, "rx_overflow": 0, "put_errors": 0,
-                         "publishers_full": 0}
+                         "publishers_full": 0, "samples_out": 0, "samples_in": 0, "loop_turns": 0,
+                         **{r: 0 for r in BATCH_REFUSALS}}
+        self._keys: dict[bytes, tuple[str, Any]] = {}   # a frame's KEY_BYTES -> (key expression, publisher)
         self.remote_alive: dict[str, bool] = {}
         self.events: deque[dict[str, Any]] = deque()
         self._publishers: dict[str, Any] = {}
@@ -145,14 +270,43 @@ class ZenohBridge:
             os.write(self._wake_w, b"\0")
         except BlockingIOError:
             pass  # the loop has wake-ups pending already
+        except OSError:
+            pass  # closing: a sample that raced close() has no loop left to wake
 
     def _on_sample(self, sample: Any) -> None:
+        payload = sample.payload.to_bytes()
+        # In the loop's stead (rx_in_callback, run()): when the loop is asleep (node_lock free) and nothing
+        # older waits, the sample goes to the router from this thread at once, a wake-up and a thread
+        # hand-off sooner. Never blocking here: a Zenoh thread that waited for the loop, while the loop
+        # waits in a put for Zenoh, could stall both sessions.
+        if self.rx_in_callback and not self._inbox and self.node_lock.acquire(blocking=False):
+            try:
+                if not self._inbox and not self._closed:
+                    self._take(payload, self.node.now())
+                    if self.zlink.pending:  # the router answered onto Zenoh: the loop publishes
+                        self._wake()
+                    return
+            finally:
+                self.node_lock.release()
         if len(self._inbox) >= INBOX_MAX:
             with self._lock:
                 self.counters["rx_overflow"] += 1
             return
-        self._inbox.append(sample.payload.to_bytes())
-        self._wake()
+        self._inbox.append(payload)
+        if len(self._inbox) == 1:  # else the loop has a wake-up pending and will drain to empty anyway
+            self._wake()
+
+    def _take(self, payload: bytes, now: int) -> int:
+        """One received sample into the router (the caller holds node_lock or is the only thread). Frames."""
+        st, frames, rejected = ub_batchlink.ub_batch_rx(self.node._c, self.zlink.link_id, payload, now, self._counts)
+        if st:
+            self._refuse(payload)
+            return 0
+        counters = self.counters
+        counters["samples_in"] += 1
+        counters["received"] += frames
+        counters["rejected"] += rejected
+        return frames
 
     def _on_live(self, sample: Any) -> None:
         import zenoh
@@ -171,49 +325,101 @@ class ZenohBridge:
     def fileno(self) -> int:
         return self._wake_r
 
-    def pump(self, now_ms: int | None = None) -> int:
-        """Frames from Zenoh into the router, then the router's frames out to Zenoh. Returns frames moved."""
+    def holding(self) -> bool:
+        """Frames are held for company (see pump()): the loop need not wake for the site's sockets."""
+        return self._held_until is not None
+
+    def wait_ms(self) -> int:
+        """How long the loop may sleep: until held frames are due, else LOOP_WAIT_MS."""
+        if self._held_until is None:
+            return LOOP_WAIT_MS
+        left = self._held_until - self._clock()
+        return max(0, min(LOOP_WAIT_MS, int(left * 1000 + 0.999)))
+
+    def pump(self, now_ms: int | None = None, send: bool = True) -> int:
+        """Frames from Zenoh into the router, then (`send`) the router's frames out to Zenoh. Returns frames
+        moved. run() pumps with send=False before the node's service: what the sockets hold then joins
+        the batches before they leave."""
         try:
             while os.read(self._wake_r, 4096):
                 pass
         except BlockingIOError:
             pass
         moved = 0
-        while self._inbox:
-            frame = self._inbox.popleft()
-            self.counters["received"] += 1
-            if not self.pylink.receive(frame, now_ms):
-                self.counters["rejected"] += 1
-            moved += 1
-        for frame in self.pylink.drain():
-            self._publish(frame)
-            moved += 1
+        if self._inbox:
+            now = self.node.now() if now_ms is None else now_ms
+            while self._inbox:
+                moved += self._take(self._inbox.popleft(), now)
+        out = self.zlink
+        if send and out.pending:
+            # Nagle-free coalescing: a frame after a quiet spell (no sample for batch_delay) leaves at once;
+            # frames that follow a sample closer than that wait until batch_delay after it (or until
+            # batch_bytes are pending) and leave together. A busy link sends a sample per batch_delay per
+            # flow, not one per loop turn: the fixed cost of a sample (a turn, a put, Zenoh's threads)
+            # is shared by its frames, and a lone frame never waits.
+            t = self._clock()
+            if t - self._last_put < self.batch_delay_s and out.pending_bytes < self.batch_bytes:
+                self._held_until = self._last_put + self.batch_delay_s
+                return moved
+            self._held_until = None
+            self._last_put = t
+            raw, ends = out.take()
+            start = 0
+            for end in ends:
+                moved += self._publish(raw, start, end)
+                start = end
         return moved
 
-    def _publish(self, frame: bytes) -> None:
+    def _refuse(self, payload: bytes) -> None:
+        """A sample that is no batch of ours: counted by reason, said once per reason (not per sample).
+        The C check decides; the Python reader (batch_spans) words the reason."""
         try:
-            key = frame_key(self.prefix, frame, self.node.catalogue)
-            pub = self._publishers.get(key)
-            if pub is None and len(self._publishers) < PUBLISHERS_MAX:
-                pub = self._publishers[key] = self.session.declare_publisher(
-                    key, congestion_control=self._cc, express=self.express)
+            batch_spans(payload)
+            exc = BatchError("batch_malformed", "refused by the C reader, accepted by batch_spans (a bug)")
+        except BatchError as e:
+            exc = e
+        self.counters[exc.reason] += 1
+        if self.counters[exc.reason] == 1:
+            self.events.append({"event": "refused", "reason": exc.reason, "message": f"zenoh sample refused: {exc}"})
+
+    def _publish(self, raw: bytes, start: int, end: int) -> int:
+        """One batch (raw[start:end], frames of one flow) as one sample under that flow's key. Returns frames."""
+        n = raw[start + 3] | raw[start + 4] << 8
+        first = start + BATCH_HEADER + 2
+        key_bytes = raw[first + KEY_AT:first + KEY_AT + KEY_LEN]
+        payload = raw[start:end] if start or end != len(raw) else raw
+        try:
+            known = self._keys.get(key_bytes)
+            if known is None:
+                flen = raw[start + BATCH_HEADER] | raw[start + BATCH_HEADER + 1] << 8
+                key = frame_key(self.prefix, raw[first:first + flen], self.node.catalogue)
+                pub = None
+                if len(self._publishers) < PUBLISHERS_MAX:
+                    pub = self._publishers[key] = self.session.declare_publisher(
+                        key, congestion_control=self._cc, express=self.express)
+                    self._keys[key_bytes] = known = (key, pub)
+            else:
+                key, pub = known
             if pub is not None:
-                pub.put(frame)
+                pub.put(payload)
             else:
                 self.counters["publishers_full"] += 1
-                self.session.put(key, frame, congestion_control=self._cc, express=self.express)
-            self.counters["published"] += 1
+                self.session.put(key, payload, congestion_control=self._cc, express=self.express)
+            self.counters["published"] += n
+            self.counters["samples_out"] += 1
         except Exception:  # noqa: BLE001 (a Zenoh error must not stop the bridge: counted)
-            self.counters["put_errors"] += 1
+            self.counters["put_errors"] += n
+        return n
 
     def stats(self) -> dict[str, Any]:
         with self._lock:
             out = dict(self.counters)
             out["remote_alive"] = sorted(e for e, up in self.remote_alive.items() if up)
-        out["outbox_refused"] = self.pylink.refused
+        out["outbox_refused"] = self.zlink.refused
         return out
 
     def close(self) -> None:
+        self._closed = True
         for thing in [*self._subs, self._live_sub, *self._tokens, *self._publishers.values()]:
             try:
                 thing.undeclare()
@@ -261,7 +467,8 @@ def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
         except zenoh.ZError as exc:
             raise BridgeError(f"zenoh: cannot open a {args.mode} session (listen {args.listen}, connect "
                               f"{args.connect}): {exc}") from None
-        bridge = ZenohBridge(node, args.link, session, prefix, args.flow, express=not args.batch)
+        bridge = ZenohBridge(node, args.link, session, prefix, args.flow, express=not args.batch,
+                             batch_bytes=args.batch_bytes, batch_delay_us=args.batch_delay_us)
         ports = {}
         for name, c in node.link_counters().items():
             if c.get("port") is not None:
@@ -276,14 +483,33 @@ def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
         end = time.monotonic() + args.duration_s if args.duration_s else None
         next_stats = time.monotonic() + args.stats_s if args.stats_s else None
         stdin_open = True
+        poller, registered = select.poll(), {}
+        # The loop holds node_lock except while it sleeps in poll(): then a Zenoh thread may hand a sample
+        # to the router itself (ZenohBridge._on_sample), without waking the loop.
+        bridge.node_lock.acquire()
+        bridge.rx_in_callback = True
         while end is None or time.monotonic() < end:
-            poller = select.poll()
-            for fd, events in node.fds():
-                poller.register(fd, events)
-            poller.register(bridge.fileno(), select.POLLIN)
+            # One poller kept across turns, changed only where the descriptors or their events changed.
+            # While frames are held for company the site's sockets can wait: their datagrams join the
+            # batch when the hold ends (one turn for many frames, not one per datagram).
+            want = {} if bridge.holding() else dict(node.fds())
+            want[bridge.fileno()] = select.POLLIN
             if stdin_open:
-                poller.register(sys.stdin.fileno(), select.POLLIN)
-            ready = dict(poller.poll(LOOP_WAIT_MS))
+                want[sys.stdin.fileno()] = select.POLLIN
+            if want != registered:
+                for fd in registered.keys() - want.keys():
+                    poller.unregister(fd)
+                for fd, events in want.items():
+                    if fd not in registered:
+                        poller.register(fd, events)
+                    elif registered[fd] != events:
+                        poller.modify(fd, events)
+                registered = want
+            bridge.node_lock.release()
+            try:
+                ready = dict(poller.poll(bridge.wait_ms()))
+            finally:
+                bridge.node_lock.acquire()
             if stdin_open and sys.stdin.fileno() in ready:
                 line = sys.stdin.readline()
                 if not line:
@@ -293,9 +519,10 @@ def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
                 elif line.strip() == "stats":
                     _emit(out, _stats(node, bridge))
             now = node.now()
-            bridge.pump(now)
+            bridge.pump(now, send=False)
             node.service(now)
             bridge.pump(now)
+            bridge.counters["loop_turns"] += 1
             while bridge.events:
                 _emit(out, bridge.events.popleft())
             if next_stats is not None and time.monotonic() >= next_stats:
@@ -305,10 +532,13 @@ def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
         return 0
     finally:
         if bridge is not None:
+            bridge.rx_in_callback = False
             bridge.close()
         node.close()
         if session is not None:
             session.close()
+        if bridge is not None and bridge.node_lock.locked():
+            bridge.node_lock.release()
 
 
 def _stats(node: Any, bridge: ZenohBridge) -> dict[str, Any]:
@@ -333,6 +563,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--flow", action="append", metavar="DEST[/SOURCE[/DIRECTORY]]",
                    help="receive only these flows ('*' = any); default: everything for this site's entities")
     p.add_argument("--batch", action="store_true", help="let Zenoh batch samples (throughput) instead of express")
+    p.add_argument("--batch-bytes", type=int, default=BATCH_BYTES, metavar="N",
+                   help=f"largest sample payload: consecutive frames of one key share a sample up to N bytes "
+                        f"(default {BATCH_BYTES})")
+    p.add_argument("--batch-delay-us", type=int, default=BATCH_DELAY_US, metavar="US",
+                   help=f"coalescing window: frames following a sample by less than US microseconds wait until "
+                        f"US after it and leave together; a frame after a quiet spell leaves at once "
+                        f"(default {BATCH_DELAY_US}; 0: each loop turn sends what it has)")
     p.add_argument("--stats-s", type=float, default=0.0, help="print stats every S seconds (0: on request)")
     p.add_argument("--duration-s", type=float, default=0.0, help="stop after S seconds (0: run until quit)")
     return p

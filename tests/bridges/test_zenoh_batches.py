@@ -1,0 +1,249 @@
+"""The Zenoh bridge's batch format 1 (docs/bridges.md "Batches") and a burst through two bridges.
+
+  - encode/decode round trip, edge sizes included (1 frame, 1-byte and 65535-byte frames, 65535 frames),
+    read by both readers: Python's (batch_spans, the reference) and C's (ub_batch_check, the bridge's);
+  - every damaged or foreign payload is refused whole, by both readers, with the counter that names why;
+  - two ZenohBridge objects with real Zenoh sessions on tcp/127.0.0.1 (in this process, so the test drives
+    both loops): a burst larger than one sample from node A reaches node B complete and in order, in fewer
+    samples than frames (packed by the C batch link, ub_batchlink.h); a foreign, a bare-frame (pre-batch bridge) and a truncated sample published on the
+    bridge's keys are counted by reason and dropped, and frames after them still pass.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+
+import pytest
+
+from uavbus import Node
+from uavbus._bindings import ub_batchlink
+from uavbus.bridges.zenoh_bridge import (BATCH_HEADER, BatchError, ZenohBridge, batch_spans, encode_batch,
+                                         zenoh_config)
+from uavbus.sim.hitl import catalogue_for
+from uavbus.sim.portalloc import PortAllocator
+
+zenoh = pytest.importorskip("zenoh", reason="eclipse-zenoh is in the `test` extras (make setup installs it)")
+
+
+def frames_of(payload: bytes) -> list[bytes]:
+    """The Python reader's frames, after checking that the C reader (ub_batch_check) agrees."""
+    assert ub_batchlink.ub_batch_check(payload) == (ub_batchlink.OK, len(batch_spans(payload)))
+    return [payload[at:at + n] for at, n in batch_spans(payload)]
+
+
+@pytest.mark.parametrize("frames", [
+    [b"\xa5\x5b" + bytes(62)],
+    [b"x"],
+    [bytes([i % 251]) * (1 + i * 37 % 1200) for i in range(50)],
+    [b"\xff" * 0xFFFF, b"z"],
+])
+def test_batch_round_trip(frames):
+    payload = encode_batch(frames)
+    assert payload[:3] == b"\xa5\xba\x01"
+    assert len(payload) == BATCH_HEADER + sum(2 + len(f) for f in frames)
+    assert frames_of(payload) == frames
+
+
+def test_batch_of_65535_frames_and_the_limits():
+    frames = [bytes([i & 0xFF]) for i in range(0xFFFF)]
+    assert frames_of(encode_batch(frames)) == frames
+    with pytest.raises(ValueError):
+        encode_batch(frames + [b"a"])
+    with pytest.raises(ValueError):
+        encode_batch([])
+    with pytest.raises(ValueError):
+        encode_batch([b"a", b""])
+    with pytest.raises(ValueError):
+        encode_batch([bytes(0x10000)])
+
+
+def _reason(payload: bytes) -> str:
+    """Why the Python reader refuses `payload`, checked to be the C reader's reason (the bridge's)."""
+    with pytest.raises(BatchError) as exc:
+        batch_spans(payload)
+    status, count = ub_batchlink.ub_batch_check(payload)
+    assert (ub_batchlink.REASONS.get(status), count) == (exc.value.reason, 0), payload[:8]
+    return exc.value.reason
+
+
+def test_damaged_and_foreign_payloads_are_refused_by_reason():
+    good = encode_batch([b"\xa5\x5b" + bytes(70), b"\xa5\x5b" + bytes(80)])
+    assert _reason(b"") == "batch_foreign"
+    assert _reason(b"hello zenoh") == "batch_foreign"
+    assert _reason(b"\xa5") == "batch_foreign"
+    assert _reason(b"\xa5\x5b" + bytes(70)) == "batch_version"        # a bare frame: a pre-batch bridge
+    assert _reason(b"\xa5\xba\x02" + good[3:]) == "batch_version"     # a later format
+    assert _reason(good[:4]) == "batch_malformed"                      # header cut
+    assert _reason(good[:-1]) == "batch_malformed"                     # last frame cut
+    assert _reason(good + b"\0") == "batch_malformed"                  # bytes after the last frame
+    assert _reason(good[:3] + b"\x03\x00" + good[5:]) == "batch_malformed"  # count says 3, holds 2
+    assert _reason(good[:3] + b"\x00\x00") == "batch_malformed"        # no frames
+    assert _reason(good[:5] + b"\x00\x00" + good[7:]) == "batch_malformed"  # a zero-length frame
+    assert len(batch_spans(good)) == 2
+
+
+def _config(path, ports: PortAllocator) -> None:
+    a = {k: ports.port() for k in ("A", "B", "gwA", "gwB")}
+
+    def udp(bind: str, peer: str) -> dict:
+        return {"transport": "udp", "bind": f"127.0.0.1:{a[bind]}", "peer": f"127.0.0.1:{a[peer]}"}
+
+    path.write_text(json.dumps({
+        "system": "zbatch",
+        "entities": [{"name": "srcA", "links": ["l"], "linktoentity": {"dstB": [0], "gwA": [0], "gwB": [0]}},
+                     {"name": "gwA", "links": ["site", "zenoh"],
+                      "linktoentity": {"srcA": ["site"], "dstB": ["zenoh"], "gwB": ["zenoh"]}},
+                     {"name": "gwB", "links": ["site", "zenoh"],
+                      "linktoentity": {"dstB": ["site"], "srcA": ["zenoh"], "gwA": ["zenoh"]}},
+                     {"name": "dstB", "links": ["l"], "linktoentity": {"srcA": [0], "gwA": [0], "gwB": [0]}}],
+        "nodes": {"A": ["srcA"], "B": ["dstB"], "gwA": ["gwA"], "gwB": ["gwB"]},
+        "ports": {"srcA:l": udp("A", "gwA"), "gwA:site": udp("gwA", "A"),
+                  "gwB:site": udp("gwB", "B"), "dstB:l": udp("B", "gwB")}}))
+
+
+def test_burst_through_two_bridges_arrives_whole_in_order(tmp_path, uavbus_node):
+    catalogue = catalogue_for(uavbus_node)
+    ports = PortAllocator()
+    cfg = tmp_path / "zbatch.json"
+    _config(cfg, ports)
+    endpoint = f"tcp/127.0.0.1:{ports.port()}"
+    closers = []
+    try:
+        nodes = {}
+        for name in ("A", "B", "gwA", "gwB"):
+            n = nodes[name] = Node(catalogue, config=cfg, node=name)
+            closers.append(n.close)
+            n.open_ports_from_config()
+        sa = zenoh.open(zenoh_config("peer", [endpoint], []))
+        closers.append(sa.close)
+        sb = zenoh.open(zenoh_config("peer", [], [endpoint]))
+        closers.append(sb.close)
+        # Small samples (~10 frames of gpsOut each) so that the burst takes many, each checked.
+        ga = ZenohBridge(nodes["gwA"], "zenoh", sa, "uavbus/zbatch", batch_bytes=1024)
+        closers.append(ga.close)
+        gb = ZenohBridge(nodes["gwB"], "zenoh", sb, "uavbus/zbatch", batch_bytes=1024)
+        closers.append(gb.close)
+        pub = nodes["A"].publisher("srcA", "gpsOut", to="dstB")
+        nodes["B"].bind("gpsOut")
+        got: list[int] = []
+        nodes["B"].on_data(lambda m: got.append(m.value["solutionCount"]))
+
+        def turn() -> None:
+            for name, bridge in (("gwA", ga), ("gwB", gb)):
+                now = nodes[name].now()
+                bridge.pump(now)
+                nodes[name].service(now, dispatch=False)
+                bridge.pump(now)
+            nodes["B"].poll(0.001)
+
+        deadline = time.monotonic() + 10
+        while not got and time.monotonic() < deadline:  # sessions and routes up
+            pub.directory.solutionCount = 0
+            pub.send()
+            turn()
+        assert got, f"nothing crossed: gwA {ga.stats()} gwB {gb.stats()}"
+        for _ in range(20):
+            turn()
+        got.clear()
+        n = 600  # many samples; 25 per turn stay within the UDP sockets' buffers (not the bridge's concern)
+        for k in range(1, n + 1):
+            pub.directory.solutionCount = k
+            pub.send()
+            if k % 25 == 0:
+                turn()
+        deadline = time.monotonic() + 10
+        while len(got) < n and time.monotonic() < deadline:
+            turn()
+        assert got == list(range(1, n + 1)), (len(got), got[:5], ga.stats(), gb.stats())
+        a, b = ga.stats(), gb.stats()
+        assert a["published"] >= n and b["received"] >= n and b["rejected"] == 0, (a, b)
+        assert a["samples_out"] < a["published"], a  # batched: fewer samples than frames
+        assert b["samples_in"] == a["samples_out"], (a, b)
+
+        # Foreign, pre-batch and truncated samples on gwB's keys: refused by reason, the next frames pass.
+        spy = sa.declare_publisher("uavbus/zbatch/dstB/srcA/gpsOut/data")
+        closers.insert(0, spy.undeclare)
+        good = encode_batch([b"\xa5\x5b" + bytes(70)])
+        for bad in (b"not a batch", b"\xa5\x5b" + bytes(70), good[:-3]):
+            spy.put(bad)
+        got.clear()
+        pub.directory.solutionCount = 7777
+        pub.send()
+        deadline = time.monotonic() + 10
+        b = gb.stats()
+        while (not got or sum(b[r] for r in ("batch_foreign", "batch_version", "batch_malformed")) < 3) \
+                and time.monotonic() < deadline:
+            turn()
+            b = gb.stats()
+        assert (b["batch_foreign"], b["batch_version"], b["batch_malformed"]) == (1, 1, 1), b
+        assert got == [7777], got
+        assert b["rejected"] == 0, b
+        assert sorted(e["reason"] for e in gb.events if e.get("event") == "refused") == \
+            ["batch_foreign", "batch_malformed", "batch_version"]
+    finally:
+        for close in reversed(closers):
+            try:
+                close()
+            except Exception:  # noqa: BLE001 (closing anyway)
+                pass
+
+
+def test_a_lone_frame_leaves_at_once_and_followers_share_a_sample(tmp_path, uavbus_node):
+    """The coalescing window on an injected clock: a frame after a quiet spell is published by the pump
+    that sees it; frames following a sample within the window wait (holding, the loop told how long) and
+    leave as one sample when it closes, or at once when --batch-bytes are pending."""
+    catalogue = catalogue_for(uavbus_node)
+    ports = PortAllocator()
+    cfg = tmp_path / "zbatch.json"
+    _config(cfg, ports)
+    closers = []
+    try:
+        nodes = {}
+        for name in ("A", "gwA"):
+            n = nodes[name] = Node(catalogue, config=cfg, node=name)
+            closers.append(n.close)
+            n.open_ports_from_config()
+        session = zenoh.open(zenoh_config("peer", [f"tcp/127.0.0.1:{ports.port()}"], []))
+        closers.append(session.close)
+        now = [100.0]
+        gw = ZenohBridge(nodes["gwA"], "zenoh", session, "uavbus/zbatch", batch_bytes=400, batch_delay_us=1000,
+                         clock=lambda: now[0])
+        closers.append(gw.close)
+        pub = nodes["A"].publisher("srcA", "gpsOut", to="dstB")
+
+        def send(k: int) -> None:
+            """k frames from A into gwA's router (real UDP), then one pump."""
+            for _ in range(k):
+                pub.send()
+            deadline = time.monotonic() + 5
+            while gw.zlink.pending_bytes == 0 or gw.zlink.bl.c.frames < sent[0] + k:
+                assert time.monotonic() < deadline, "gwA got nothing from A"
+                nodes["gwA"].service(dispatch=False)
+            sent[0] += k
+            gw.pump()
+
+        sent = [int(gw.zlink.bl.c.frames)]
+        send(1)  # after a quiet spell: out in this very pump
+        assert (gw.counters["samples_out"], gw.counters["published"]) == (1, 1)
+        assert not gw.holding() and gw.zlink.pending == 0
+        now[0] += 0.0002
+        send(1)  # 0.2 ms after a sample: held
+        assert gw.counters["samples_out"] == 1 and gw.holding() and gw.zlink.pending == 1
+        assert 0 < gw.wait_ms() <= 1
+        now[0] += 0.0003
+        send(1)  # still within the window: joins
+        assert gw.counters["samples_out"] == 1 and gw.zlink.pending == 1  # one batch of two frames
+        now[0] += 0.0006  # window closed (1 ms after the first sample)
+        gw.pump()
+        assert (gw.counters["samples_out"], gw.counters["published"]) == (2, 3) and not gw.holding()
+        now[0] += 0.0001
+        send(4)  # within the window again, but more than batch_bytes pending: out at once, cut at 400 bytes
+        assert gw.counters["published"] == 7 and gw.zlink.pending == 0 and not gw.holding()
+        assert gw.counters["samples_out"] >= 3 and gw.counters["put_errors"] == 0
+    finally:
+        for close in reversed(closers):
+            try:
+                close()
+            except Exception:  # noqa: BLE001 (closing anyway)
+                pass
