@@ -406,6 +406,22 @@ __attribute__((unused)) static uint32_t header_words_portable(const uint64_t wor
     return ub_crc32c_update_portable(0, bytes + 4, 56);
 }
 
+/* The table path of ub_crc32c_frame_tail(): the tail word as its 8 bytes, then on over the body. */
+__attribute__((unused)) static uint32_t frame_tail_portable(uint32_t crc_head, uint64_t tail, const uint8_t *body,
+                                                            size_t body_len, uint32_t *header_crc) {
+    uint8_t t[8];
+    ub_put_u64le(t, tail);
+    *header_crc = ub_crc32c_update_portable(crc_head, t, sizeof t);
+    return ub_crc32c_update_portable(*header_crc, body, body_len);
+}
+
+/* Table path of ub_crc32c_zeros(): a zero byte shifts the register by 8 bits and adds the table entry of its
+ * low byte (the same step as ub_crc32c_update_portable()'s byte loop, with the data byte 0). */
+__attribute__((unused)) static uint32_t zeros_portable(uint32_t reg, size_t n) {
+    while (n--) reg = (reg >> 8) ^ crc32c_table[0][reg & 0xFFu];
+    return reg;
+}
+
 #if defined(UB_CRC32C_X86)
 /* Compiled for SSE4.2 on its own, so the rest of the library still runs on any x86-64. */
 __attribute__((target("sse4.2"))) static uint32_t crc32c_sse42(uint32_t crc, const uint8_t *data, size_t len) {
@@ -482,6 +498,69 @@ uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, siz
     return frame_words_sse42(words, body, body_len, header_crc);
 }
 
+/* ub_crc32c_frame_tail(): one step for the tail word (seq, fingerprint) from the template's register, then the
+ * body 8 bytes a step with no loop counter but the end pointer, and its last 0-7 bytes in at most three steps. */
+__attribute__((target("sse4.2"))) static uint32_t frame_tail_sse42(uint32_t crc_head, uint64_t tail,
+                                                                   const uint8_t *body, size_t len,
+                                                                   uint32_t *header_crc) {
+    uint64_t c = _mm_crc32_u64((uint32_t)~crc_head, tail);
+    *header_crc = ~(uint32_t)c;
+    const uint8_t *end8 = body + (len & ~(size_t)7);
+    while (body != end8) {
+        uint64_t word;
+        memcpy(&word, body, sizeof word);
+        c = _mm_crc32_u64(c, word);
+        body += 8;
+    }
+    uint32_t c32 = (uint32_t)c;
+    if (len & 4) {
+        uint32_t word;
+        memcpy(&word, body, sizeof word);
+        c32 = _mm_crc32_u32(c32, word);
+        body += 4;
+    }
+    if (len & 2) {
+        uint16_t word;
+        memcpy(&word, body, sizeof word);
+        c32 = _mm_crc32_u16(c32, word);
+        body += 2;
+    }
+    if (len & 1) c32 = _mm_crc32_u8(c32, *body);
+    return ~c32;
+}
+
+/* ub_crc32c_zeros(): the instruction with a zero operand is exactly "advance over zero bytes"; registers only. */
+__attribute__((target("sse4.2"))) static uint32_t zeros_sse42(uint32_t reg, size_t n) {
+    uint64_t c = reg;
+    for (; n >= 16; n -= 16) c = _mm_crc32_u64(_mm_crc32_u64(c, 0), 0);
+    if (n >= 8) {
+        c = _mm_crc32_u64(c, 0);
+        n -= 8;
+    }
+    uint32_t c32 = (uint32_t)c;
+    if (n >= 4) {
+        c32 = _mm_crc32_u32(c32, 0);
+        n -= 4;
+    }
+    while (n--) c32 = _mm_crc32_u8(c32, 0);
+    return c32;
+}
+
+uint32_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t body_len,
+                              uint32_t *header_crc) {
+#if !defined(__SSE4_2__)
+    if (!__builtin_cpu_supports("sse4.2")) return frame_tail_portable(crc_head, tail, body, body_len, header_crc); /* GCOVR_EXCL_BR_LINE: CPU dispatch */
+#endif
+    return frame_tail_sse42(crc_head, tail, body, body_len, header_crc);
+}
+
+uint32_t ub_crc32c_zeros(uint32_t reg, size_t n) {
+#if !defined(__SSE4_2__)
+    if (!__builtin_cpu_supports("sse4.2")) return zeros_portable(reg, n); /* GCOVR_EXCL_BR_LINE: CPU dispatch */
+#endif
+    return zeros_sse42(reg, n);
+}
+
 #elif defined(UB_CRC32C_ARM)
 static uint32_t crc32c_armv8(uint32_t crc, const uint8_t *data, size_t len) {
     uint32_t c = ~crc;
@@ -513,6 +592,18 @@ uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, siz
     return crc32c_armv8(*header_crc, body, body_len);
 }
 
+uint32_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t body_len,
+                              uint32_t *header_crc) {
+    *header_crc = ~__crc32cd(~crc_head, tail);
+    return crc32c_armv8(*header_crc, body, body_len);
+}
+
+uint32_t ub_crc32c_zeros(uint32_t reg, size_t n) {
+    for (; n >= 8; n -= 8) reg = __crc32cd(reg, 0);
+    while (n--) reg = __crc32cb(reg, 0);
+    return reg;
+}
+
 #else
 int ub_crc32c_hw_available(void) { return 0; }
 
@@ -530,6 +621,12 @@ uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, siz
     *header_crc = header_words_portable(words);
     return ub_crc32c_update_portable(*header_crc, body, body_len);
 }
+uint32_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t body_len,
+                              uint32_t *header_crc) {
+    return frame_tail_portable(crc_head, tail, body, body_len, header_crc);
+}
+
+uint32_t ub_crc32c_zeros(uint32_t reg, size_t n) { return zeros_portable(reg, n); }
 #endif
 
 uint32_t ub_crc32c(const uint8_t *data, size_t len) { return ub_crc32c_update(0, data, len); }

@@ -45,6 +45,23 @@ uint32_t ub_crc32c_header_words(const uint64_t words[8]);
  */
 uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, size_t body_len, uint32_t *header_crc);
 
+/**
+ * The checks of a frame built from a header template (ub_frame_tpl_t): `crc_head` is the CRC-32C
+ * (finished, started from 0) of header bytes [4,52), which a row's template holds; `tail` is header bytes
+ * [52,60) (seq, fingerprint) as a little-endian word. Sets *header_crc to the CRC of [4,60) and returns that
+ * CRC continued over the `body_len` body bytes (the message CRC): the same two values
+ * ub_crc32c_frame_words() gives for the whole header, with 6 of its 7 header steps done once per row.
+ */
+uint32_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t body_len,
+                              uint32_t *header_crc);
+
+/**
+ * The bare CRC-32C register `reg` (no initial or final inversion: the state between two bytes) advanced over
+ * `n` zero bytes, without reading memory. Used to move a checksum difference to where the message ends
+ * (ub_frame_patch_hop_limit(): CRC linearity).
+ */
+uint32_t ub_crc32c_zeros(uint32_t reg, size_t n);
+
 #ifdef __cplusplus
 }
 #endif

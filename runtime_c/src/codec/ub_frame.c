@@ -120,6 +120,51 @@ int ub_frame_finish(uint8_t *frame, size_t cap, const ub_frame_header_t *h) {
     return (int)frame_len;
 }
 
+/* ---- per-row header templates ----
+ * Why it is exact: CRC-32C is computed left to right through a 32-bit state, and ub_crc32c_update(crc(a), b)
+ * == crc(a || b) (ub_frame.h). Header bytes [4,52) are msg_type, msg_size, the three IDs, admin, hop_limit
+ * and payload_size: all fixed for a row once its payload size is. So crc([4,52)) is computed once per row
+ * (crc_head); each frame continues it over bytes [52,60) (seq, fingerprint) to get the header CRC, and on
+ * over the payload to get msg_crc -- the same two values a pass from byte 4 gives. The stored header is the
+ * template's words with seq and the checks or-ed in: the fields are disjoint bit ranges of zero words. */
+static void tpl_prime(ub_frame_tpl_t *t, uint16_t payload_size) {
+    t->words[0] = (t->words[0] & ~(0xFFFFull << 48)) | (uint64_t)(UB_FRAME_HEADER_LEN + payload_size) << 48;
+    t->words[6] = (t->words[6] & 0xFFFFull) | (uint64_t)payload_size << 16; /* seq (bits 32..63) stays 0 */
+    t->payload_size = payload_size;
+    uint8_t bytes[UB_FRAME_HEADER_LEN];
+    for (int k = 0; k < 8; k++) ub_put_u64le(bytes + 8 * k, t->words[k]);
+    t->crc_head = ub_crc32c(bytes + UB_FRAME_CHECKED_OFF, UB_FRAME_OFF_SEQ - UB_FRAME_CHECKED_OFF);
+}
+
+int ub_frame_tpl_init(ub_frame_tpl_t *t, const ub_frame_header_t *h) {
+    if (t == NULL || h == NULL || h->flags != 0) return UB_ERR_INVAL;
+    if (h->payload_size > UB_MAX_PAYLOAD || h->hop_limit == 0) return UB_ERR_RANGE;
+    ub_frame_header_t z = *h;
+    z.seq = 0;
+    header_words(&z, 0, t->words);
+    tpl_prime(t, h->payload_size);
+    return UB_OK;
+}
+
+int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size, uint32_t seq) {
+    if (t == NULL || frame == NULL) return UB_ERR_INVAL;
+    if (__builtin_expect(payload_size != t->payload_size, 0)) {
+        if (payload_size > UB_MAX_PAYLOAD) return UB_ERR_RANGE;
+        tpl_prime(t, payload_size);
+    }
+    size_t frame_len = UB_FRAME_HEADER_LEN + (size_t)payload_size;
+    if (cap < frame_len) return UB_ERR_NOSPACE;
+    uint64_t w6 = t->words[6] | (uint64_t)seq << 32;
+    uint64_t tail = (uint64_t)seq | t->words[7] << 32; /* bytes [52,60): seq, then the fingerprint */
+    uint32_t header_crc;
+    uint32_t msg_crc = ub_crc32c_frame_tail(t->crc_head, tail, frame + UB_FRAME_HEADER_LEN, payload_size, &header_crc);
+    ub_put_u64le(frame, t->words[0] | (uint64_t)fold_crc(header_crc) << 16);
+    for (int k = 1; k < 6; k++) ub_put_u64le(frame + 8 * k, t->words[k]);
+    ub_put_u64le(frame + 48, w6);
+    ub_put_u64le(frame + 56, t->words[7] | (uint64_t)msg_crc << 32);
+    return (int)frame_len;
+}
+
 int ub_frame_parse_reason(const uint8_t *frame, size_t len, ub_frame_header_t *h, ub_rx_reason_t *reason) {
     ub_rx_reason_t why = UB_RX_BAD_SYNC;
     int err = UB_ERR_INVAL;
@@ -157,6 +202,31 @@ int ub_frame_set_hop_limit(uint8_t *frame, size_t len, uint8_t hop_limit) {
         return UB_ERR_INVAL;
     frame[UB_FRAME_OFF_HOP_LIMIT] = hop_limit;
     write_checks(frame, len - UB_FRAME_HEADER_LEN);
+    return UB_OK;
+}
+
+/* Why a few register steps suffice. Write R(m, s) for the CRC-32C register after feeding bytes m from state
+ * s; R is linear over GF(2) in m and s together, and a finished CRC is crc(m) = ~R(m, ~0). For two messages
+ * of equal length, m' = m ^ e, so crc(m') = crc(m) ^ R(e, 0) -- the brief form of the same fact is
+ * crc(a ^ b) = crc(a) ^ crc(b) ^ crc(0), with crc(b) ^ crc(0) = R(b, 0). Changing the hop limit from h to h'
+ * makes e zero everywhere but one byte, d = h ^ h', at offset 49. Leading zero bytes leave R(., 0) at 0, so
+ * R(e, 0) is the register of d alone advanced over the bytes after it: 10 header bytes ([50,60)) for the
+ * header CRC, and 10 + the body for msg_crc (which continues the header CRC over the body). hdr_check is
+ * the XOR of the header CRC's 4 bytes, also linear: it changes by the fold of the header delta. */
+int ub_frame_patch_hop_limit(uint8_t *frame, size_t len, uint8_t hop_limit) {
+    if (hop_limit == 0) return UB_ERR_RANGE;
+    if (frame == NULL || len < UB_FRAME_HEADER_LEN || len != ub_get_u16le(frame + UB_FRAME_OFF_MSG_SIZE))
+        return UB_ERR_INVAL;
+    uint8_t d = frame[UB_FRAME_OFF_HOP_LIMIT] ^ hop_limit;
+    frame[UB_FRAME_OFF_HOP_LIMIT] = hop_limit;
+    /* R(d, 0): the register after the one byte d from state 0, i.e. ~crc started from state ~0 ... */
+    uint32_t delta = ~ub_crc32c_update(0xFFFFFFFFu, &d, 1);
+    /* ... advanced to the end of the header range, then to the end of the body */
+    size_t after_hop = UB_FRAME_CHECKED_OFF + UB_FRAME_CHECKED_LEN - (UB_FRAME_OFF_HOP_LIMIT + 1u);
+    uint32_t header_delta = ub_crc32c_zeros(delta, after_hop);
+    uint32_t msg_delta = ub_crc32c_zeros(header_delta, len - UB_FRAME_HEADER_LEN);
+    frame[UB_FRAME_OFF_HDR_CHECK] ^= fold_crc(header_delta);
+    ub_put_u32le(frame + UB_FRAME_OFF_MSG_CRC, ub_get_u32le(frame + UB_FRAME_OFF_MSG_CRC) ^ msg_delta);
     return UB_OK;
 }
 
