@@ -141,10 +141,10 @@ static void test_crc_helpers(void **state) {
         uint8_t bytes[8 + 200];
         size_t len = rng_below(&r, 201);
         rng_fill(&r, bytes, 8 + len);
-        uint32_t head = (uint32_t)rng_next(&r), hc = 0;
-        uint32_t msg = ub_crc32c_frame_tail(head, ub_get_u64le(bytes), bytes + 8, len, &hc);
-        assert_int_equal(hc, ub_crc32c_update_portable(head, bytes, 8));
-        assert_int_equal(msg, ub_crc32c_update_portable(head, bytes, 8 + len));
+        uint32_t head = (uint32_t)rng_next(&r);
+        uint64_t both = ub_crc32c_frame_tail(head, ub_get_u64le(bytes), bytes + 8, len);
+        assert_int_equal((uint32_t)both, ub_crc32c_update_portable(head, bytes, 8));
+        assert_int_equal((uint32_t)(both >> 32), ub_crc32c_update_portable(head, bytes, 8 + len));
     }
 }
 

@@ -264,9 +264,10 @@ UB_CHECK int ub_frame_patch_hop_limit(uint8_t *frame, size_t len, uint8_t hop_li
  * Treat the fields as private.
  */
 typedef struct ub_frame_tpl {
-    uint64_t words[8];     /* the header, word k = bytes [8k, 8k+8) little-endian; seq and checks zero */
-    uint32_t crc_head;     /* ub_crc32c() of header bytes [4,52) as words[] holds them */
-    uint16_t payload_size; /* the payload size words[] and crc_head are primed for */
+    uint8_t header[UB_FRAME_HEADER_LEN]; /* the header bytes with seq and both checks zero */
+    uint64_t fingerprint_hi;             /* the fingerprint << 32: header bytes [52,60) are seq | this */
+    uint32_t crc_head;                   /* ub_crc32c() of header bytes [4,52) */
+    uint16_t payload_size;               /* the payload size header[] and crc_head are primed for */
 } ub_frame_tpl_t;
 
 /** Defined where the frame layer has header templates (bench code built against older runtimes tests it). */

@@ -407,12 +407,12 @@ __attribute__((unused)) static uint32_t header_words_portable(const uint64_t wor
 }
 
 /* The table path of ub_crc32c_frame_tail(): the tail word as its 8 bytes, then on over the body. */
-__attribute__((unused)) static uint32_t frame_tail_portable(uint32_t crc_head, uint64_t tail, const uint8_t *body,
-                                                            size_t body_len, uint32_t *header_crc) {
+__attribute__((unused)) static uint64_t frame_tail_portable(uint32_t crc_head, uint64_t tail, const uint8_t *body,
+                                                            size_t body_len) {
     uint8_t t[8];
     ub_put_u64le(t, tail);
-    *header_crc = ub_crc32c_update_portable(crc_head, t, sizeof t);
-    return ub_crc32c_update_portable(*header_crc, body, body_len);
+    uint32_t header_crc = ub_crc32c_update_portable(crc_head, t, sizeof t);
+    return header_crc | (uint64_t)ub_crc32c_update_portable(header_crc, body, body_len) << 32;
 }
 
 /* Table path of ub_crc32c_zeros(): a zero byte shifts the register by 8 bits and adds the table entry of its
@@ -498,37 +498,6 @@ uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, siz
     return frame_words_sse42(words, body, body_len, header_crc);
 }
 
-/* ub_crc32c_frame_tail(): one step for the tail word (seq, fingerprint) from the template's register, then the
- * body 8 bytes a step with no loop counter but the end pointer, and its last 0-7 bytes in at most three steps. */
-__attribute__((target("sse4.2"))) static uint32_t frame_tail_sse42(uint32_t crc_head, uint64_t tail,
-                                                                   const uint8_t *body, size_t len,
-                                                                   uint32_t *header_crc) {
-    uint64_t c = _mm_crc32_u64((uint32_t)~crc_head, tail);
-    *header_crc = ~(uint32_t)c;
-    const uint8_t *end8 = body + (len & ~(size_t)7);
-    while (body != end8) {
-        uint64_t word;
-        memcpy(&word, body, sizeof word);
-        c = _mm_crc32_u64(c, word);
-        body += 8;
-    }
-    uint32_t c32 = (uint32_t)c;
-    if (len & 4) {
-        uint32_t word;
-        memcpy(&word, body, sizeof word);
-        c32 = _mm_crc32_u32(c32, word);
-        body += 4;
-    }
-    if (len & 2) {
-        uint16_t word;
-        memcpy(&word, body, sizeof word);
-        c32 = _mm_crc32_u16(c32, word);
-        body += 2;
-    }
-    if (len & 1) c32 = _mm_crc32_u8(c32, *body);
-    return ~c32;
-}
-
 /* ub_crc32c_zeros(): the instruction with a zero operand is exactly "advance over zero bytes"; registers only. */
 __attribute__((target("sse4.2"))) static uint32_t zeros_sse42(uint32_t reg, size_t n) {
     uint64_t c = reg;
@@ -546,12 +515,19 @@ __attribute__((target("sse4.2"))) static uint32_t zeros_sse42(uint32_t reg, size
     return c32;
 }
 
-uint32_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t body_len,
-                              uint32_t *header_crc) {
+/* The hardware body is ub_crc32c_frame_tail_sse42() in ub_crc32c_impl.h (inlined into the template build too). */
+__attribute__((target("sse4.2"))) static uint64_t frame_tail_sse42(uint32_t crc_head, uint64_t tail,
+                                                                   const uint8_t *body, size_t len) {
+    uint32_t header_crc;
+    uint32_t msg_crc = ub_crc32c_frame_tail_sse42(crc_head, tail, body, len, &header_crc);
+    return header_crc | (uint64_t)msg_crc << 32;
+}
+
+uint64_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t body_len) {
 #if !defined(__SSE4_2__)
-    if (!__builtin_cpu_supports("sse4.2")) return frame_tail_portable(crc_head, tail, body, body_len, header_crc); /* GCOVR_EXCL_BR_LINE: CPU dispatch */
+    if (!__builtin_cpu_supports("sse4.2")) return frame_tail_portable(crc_head, tail, body, body_len); /* GCOVR_EXCL_BR_LINE: CPU dispatch */
 #endif
-    return frame_tail_sse42(crc_head, tail, body, body_len, header_crc);
+    return frame_tail_sse42(crc_head, tail, body, body_len);
 }
 
 uint32_t ub_crc32c_zeros(uint32_t reg, size_t n) {
@@ -592,10 +568,9 @@ uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, siz
     return crc32c_armv8(*header_crc, body, body_len);
 }
 
-uint32_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t body_len,
-                              uint32_t *header_crc) {
-    *header_crc = ~__crc32cd(~crc_head, tail);
-    return crc32c_armv8(*header_crc, body, body_len);
+uint64_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t body_len) {
+    uint32_t header_crc = ~__crc32cd(~crc_head, tail);
+    return header_crc | (uint64_t)crc32c_armv8(header_crc, body, body_len) << 32;
 }
 
 uint32_t ub_crc32c_zeros(uint32_t reg, size_t n) {
@@ -621,9 +596,8 @@ uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, siz
     *header_crc = header_words_portable(words);
     return ub_crc32c_update_portable(*header_crc, body, body_len);
 }
-uint32_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t body_len,
-                              uint32_t *header_crc) {
-    return frame_tail_portable(crc_head, tail, body, body_len, header_crc);
+uint64_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t body_len) {
+    return frame_tail_portable(crc_head, tail, body, body_len);
 }
 
 uint32_t ub_crc32c_zeros(uint32_t reg, size_t n) { return zeros_portable(reg, n); }
