@@ -9,6 +9,11 @@
  * second at the last node over ~50 ms per sample. Latency: one frame at a time, from just before
  * ub_node_send_data() to the last node's deliver hook (CLOCK_MONOTONIC), p50/p99 over 20,000.
  * Also counts allocations: malloc/calloc/realloc are interposed and must stay at 0 after init.
+ *
+ *   router_hops HOPS callgrind   -> under valgrind --tool=callgrind: CALLGRIND_BATCHES batches of 32 (the
+ *                                   throughput loop without its clock) between CALLGRIND_ZERO_STATS and
+ *                                   CALLGRIND_DUMP_STATS_AT("router/hopsH"); Ir per message = the dump's
+ *                                   total / (CALLGRIND_BATCHES * 32), every one delivered (checked).
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -16,6 +21,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <valgrind/callgrind.h>
 
 #include "benchcat.h"
 #include "ub/ub_memlink.h"
@@ -47,6 +53,7 @@ void *realloc(void *p, size_t n) {
 #define MAX_HOPS 3
 #define SAMPLES 7
 #define LAT_N 20000
+#define CALLGRIND_BATCHES 2000
 
 static ub_node_t nodes[MAX_HOPS + 1];
 static ub_memlink_t links[MAX_HOPS];
@@ -113,6 +120,27 @@ int main(int argc, char **argv) {
     uint64_t ms = 1;
     unsigned long runtime_allocs = 0; /* counted around the runtime calls only (printf and qsort may allocate) */
 
+    if (argc > 2 && strcmp(argv[2], "callgrind") == 0) {
+        for (int warm = 0; warm < 2; warm++) { /* warm: first-call effects out of the count */
+            char name[32];
+            snprintf(name, sizeof name, "router/hops%d", hops);
+            uint64_t d0 = delivered;
+            int batches = warm == 0 ? 10 : CALLGRIND_BATCHES;
+            if (warm) CALLGRIND_ZERO_STATS;
+            for (int k = 0; k < batches; k++) {
+                for (int b = 0; b < 32; b++) {
+                    benchBlob64.seq++;
+                    if (ub_node_send_data(&nodes[0], self_ent[0], benchcat_INST_benchBlob64, dest, ms) != 1)
+                        fail("send refused", UB_ERR_AGAIN);
+                }
+                for (int i = 0; i < hops; i++) (void)ub_memlink_pump(&links[i], ms);
+            }
+            if (warm) CALLGRIND_DUMP_STATS_AT(name);
+            if (delivered - d0 != (uint64_t)batches * 32) fail("frames not delivered", UB_ERR_NOROUTE);
+        }
+        printf("callgrind hops=%d messages=%d\n", hops, CALLGRIND_BATCHES * 32);
+        return 0;
+    }
     for (int s = 0; s < SAMPLES; s++) {
         unsigned long a0 = allocations;
         uint64_t d0 = delivered, t0 = now_ns(), t1;

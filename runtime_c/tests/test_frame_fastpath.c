@@ -138,9 +138,20 @@ static void test_crc_helpers(void **state) {
         uint32_t reg = (uint32_t)rng_next(&r);
         size_t n = rng_below(&r, UB_FRAME_MAX);
         assert_int_equal(ub_crc32c_zeros(reg, n), zeros_reference(reg, n));
+        if (i % 16 == 0) { /* both constant tables (ub_crc32c_shift.h), any 16-bit length, and beyond */
+            size_t big = rng_below(&r, 0x14000u);
+            uint32_t want = reg;
+            for (size_t left = big; left > 0;) {
+                size_t step = left < UB_FRAME_MAX ? left : UB_FRAME_MAX;
+                want = zeros_reference(want, step);
+                left -= step;
+            }
+            assert_int_equal(ub_crc32c_zeros(reg, big), want);
+        }
         uint8_t bytes[8 + 200];
         size_t len = rng_below(&r, 201);
         rng_fill(&r, bytes, 8 + len);
+        assert_int_equal(ub_crc32c_zeros(reg, i % 300), zeros_reference(reg, i % 300)); /* every small length */
         uint32_t head = (uint32_t)rng_next(&r);
         uint64_t both = ub_crc32c_frame_tail(head, ub_get_u64le(bytes), bytes + 8, len);
         assert_int_equal((uint32_t)both, ub_crc32c_update_portable(head, bytes, 8));

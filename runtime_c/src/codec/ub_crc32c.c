@@ -10,6 +10,8 @@
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #define UB_CRC32C_X86 1
 #include <nmmintrin.h>
+#include <wmmintrin.h> /* _mm_clmulepi64_si128 */
+#include "codec/ub_crc32c_shift.h"
 #elif defined(__ARM_FEATURE_CRC32) && defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
 #define UB_CRC32C_ARM 1
 #include <arm_acle.h>
@@ -498,21 +500,21 @@ uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, siz
     return frame_words_sse42(words, body, body_len, header_crc);
 }
 
-/* ub_crc32c_zeros(): the instruction with a zero operand is exactly "advance over zero bytes"; registers only. */
-__attribute__((target("sse4.2"))) static uint32_t zeros_sse42(uint32_t reg, size_t n) {
-    uint64_t c = reg;
-    for (; n >= 16; n -= 16) c = _mm_crc32_u64(_mm_crc32_u64(c, 0), 0);
-    if (n >= 8) {
-        c = _mm_crc32_u64(c, 0);
-        n -= 8;
-    }
-    uint32_t c32 = (uint32_t)c;
-    if (n >= 4) {
-        c32 = _mm_crc32_u32(c32, 0);
-        n -= 4;
-    }
-    while (n--) c32 = _mm_crc32_u8(c32, 0);
-    return c32;
+/* ub_crc32c_zeros() with a carry-less multiply: register * x^(8n) mod P in two multiplications at most, from
+ * the constants of ub_crc32c_shift.h (K(n) = x^(8n-33) mod P). Why clmul then a CRC instruction multiplies by
+ * K * x^33: the register a and K are reflected (bit i is x^(31-i)), so bit k of their 63-bit carry-less
+ * product is the x^(62-k) term of a*K; read as the instruction's 64-bit input (bit k is x^(63-k)) that is
+ * a*K*x, and the instruction returns its input times x^32 mod P. Total: a * x^(8n-33) * x^33 = a * x^(8n). */
+__attribute__((target("sse4.2,pclmul"))) static uint32_t shift_mul(uint32_t a, uint32_t k) {
+    __m128i p = _mm_clmulepi64_si128(_mm_cvtsi32_si128((int)a), _mm_cvtsi32_si128((int)k), 0);
+    return (uint32_t)_mm_crc32_u64(0, (uint64_t)_mm_cvtsi128_si64(p));
+}
+
+__attribute__((target("sse4.2,pclmul"))) static uint32_t zeros_clmul(uint32_t reg, size_t n) {
+    for (; n > 0xFFFFu; n -= 0xFFFFu) reg = zeros_clmul(reg, 0xFFFFu); /* frames never: msg_size is 16 bits */
+    reg = shift_mul(reg, crc32c_shift_lo[n & 0xFFu]);
+    if (n > 0xFFu) reg = shift_mul(reg, crc32c_shift_hi[n >> 8]);
+    return reg;
 }
 
 /* The hardware body is ub_crc32c_frame_tail_sse42() in ub_crc32c_impl.h (inlined into the template build too). */
@@ -531,10 +533,10 @@ uint64_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *b
 }
 
 uint32_t ub_crc32c_zeros(uint32_t reg, size_t n) {
-#if !defined(__SSE4_2__)
-    if (!__builtin_cpu_supports("sse4.2")) return zeros_portable(reg, n); /* GCOVR_EXCL_BR_LINE: CPU dispatch */
+#if !defined(__SSE4_2__) || !defined(__PCLMUL__)
+    if (!__builtin_cpu_supports("sse4.2") || !__builtin_cpu_supports("pclmul")) return zeros_portable(reg, n); /* GCOVR_EXCL_BR_LINE: CPU dispatch */
 #endif
-    return zeros_sse42(reg, n);
+    return zeros_clmul(reg, n);
 }
 
 #elif defined(UB_CRC32C_ARM)
