@@ -138,6 +138,11 @@ static void test_crc_helpers(void **state) {
         uint32_t reg = (uint32_t)rng_next(&r);
         size_t n = rng_below(&r, UB_FRAME_MAX);
         assert_int_equal(ub_crc32c_zeros(reg, n), zeros_reference(reg, n));
+        uint8_t d = (uint8_t)rng_next(&r);
+        size_t n1 = rng_below(&r, 64), n2 = rng_below(&r, UB_FRAME_MAX);
+        uint32_t d1 = 0, d2 = ub_crc32c_byte_delta(d, n1, n2, &d1);
+        assert_int_equal(d1, zeros_reference(~ub_crc32c_update_portable(0xFFFFFFFFu, &d, 1), n1));
+        assert_int_equal(d2, zeros_reference(d1, n2));
         if (i % 16 == 0) { /* both constant tables (ub_crc32c_shift.h), any 16-bit length, and beyond */
             size_t big = rng_below(&r, 0x14000u);
             uint32_t want = reg;

@@ -505,13 +505,14 @@ uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, siz
  * K * x^33: the register a and K are reflected (bit i is x^(31-i)), so bit k of their 63-bit carry-less
  * product is the x^(62-k) term of a*K; read as the instruction's 64-bit input (bit k is x^(63-k)) that is
  * a*K*x, and the instruction returns its input times x^32 mod P. Total: a * x^(8n-33) * x^33 = a * x^(8n). */
-__attribute__((target("sse4.2,pclmul"))) static uint32_t shift_mul(uint32_t a, uint32_t k) {
+__attribute__((target("sse4.2,pclmul"))) static inline uint32_t shift_mul(uint32_t a, uint32_t k) {
     __m128i p = _mm_clmulepi64_si128(_mm_cvtsi32_si128((int)a), _mm_cvtsi32_si128((int)k), 0);
     return (uint32_t)_mm_crc32_u64(0, (uint64_t)_mm_cvtsi128_si64(p));
 }
 
-__attribute__((target("sse4.2,pclmul"))) static uint32_t zeros_clmul(uint32_t reg, size_t n) {
-    for (; n > 0xFFFFu; n -= 0xFFFFu) reg = zeros_clmul(reg, 0xFFFFu); /* frames never: msg_size is 16 bits */
+__attribute__((target("sse4.2,pclmul"))) static inline uint32_t zeros_clmul(uint32_t reg, size_t n) {
+    for (; n > 0xFFFFu; n -= 0xFFFFu) /* frames never: msg_size is 16 bits */
+        reg = shift_mul(shift_mul(reg, crc32c_shift_lo[0xFFu]), crc32c_shift_hi[0xFFu]);
     reg = shift_mul(reg, crc32c_shift_lo[n & 0xFFu]);
     if (n > 0xFFu) reg = shift_mul(reg, crc32c_shift_hi[n >> 8]);
     return reg;
@@ -530,6 +531,12 @@ uint64_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *b
     if (!__builtin_cpu_supports("sse4.2")) return frame_tail_portable(crc_head, tail, body, body_len); /* GCOVR_EXCL_BR_LINE: CPU dispatch */
 #endif
     return frame_tail_sse42(crc_head, tail, body, body_len);
+}
+
+__attribute__((target("sse4.2,pclmul"))) static uint32_t byte_delta_clmul(uint8_t d, size_t to_end1, size_t to_end2,
+                                                                          uint32_t *delta1) {
+    *delta1 = zeros_clmul(crc32c_table[0][d], to_end1);
+    return zeros_clmul(*delta1, to_end2);
 }
 
 uint32_t ub_crc32c_zeros(uint32_t reg, size_t n) {
@@ -604,5 +611,17 @@ uint64_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *b
 
 uint32_t ub_crc32c_zeros(uint32_t reg, size_t n) { return zeros_portable(reg, n); }
 #endif
+
+/* R(d, 0) is the byte table's entry for d (the byte loop's step from state 0); the rest is ub_crc32c_zeros(). */
+uint32_t ub_crc32c_byte_delta(uint8_t d, size_t to_end1, size_t to_end2, uint32_t *delta1) {
+#if defined(UB_CRC32C_X86)
+#if !defined(__SSE4_2__) || !defined(__PCLMUL__)
+    if (__builtin_cpu_supports("sse4.2") && __builtin_cpu_supports("pclmul")) /* GCOVR_EXCL_BR_LINE: CPU dispatch */
+#endif
+        return byte_delta_clmul(d, to_end1, to_end2, delta1);
+#endif
+    *delta1 = ub_crc32c_zeros(crc32c_table[0][d], to_end1); /* GCOVR_EXCL_LINE: hosts without the instructions */
+    return ub_crc32c_zeros(*delta1, to_end2);               /* GCOVR_EXCL_LINE */
+}
 
 uint32_t ub_crc32c(const uint8_t *data, size_t len) { return ub_crc32c_update(0, data, len); }

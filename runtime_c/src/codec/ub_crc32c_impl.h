@@ -101,6 +101,15 @@ __attribute__((target("sse4.2"), always_inline)) static inline uint32_t ub_crc32
  */
 uint32_t ub_crc32c_zeros(uint32_t reg, size_t n);
 
+/**
+ * The register difference a one-byte change makes, for patching checks by linearity: with d the XOR of the
+ * old and new byte, returns R(d, 0) advanced over `to_end1 + to_end2` zero bytes and sets *delta1 to it
+ * advanced over `to_end1` only (R(m, s): the register after bytes m from state s). A CRC whose range ends
+ * `to_end1` bytes after the changed byte changes by *delta1; one whose range ends `to_end2` bytes later by
+ * the return value. One dispatch, a table lookup and two or three carry-less multiplications.
+ */
+uint32_t ub_crc32c_byte_delta(uint8_t d, size_t to_end1, size_t to_end2, uint32_t *delta1);
+
 #ifdef __cplusplus
 }
 #endif

@@ -246,12 +246,10 @@ int ub_frame_patch_hop_limit(uint8_t *frame, size_t len, uint8_t hop_limit) {
         return UB_ERR_INVAL;
     uint8_t d = frame[UB_FRAME_OFF_HOP_LIMIT] ^ hop_limit;
     frame[UB_FRAME_OFF_HOP_LIMIT] = hop_limit;
-    /* R(d, 0): the register after the one byte d from state 0, i.e. ~crc started from state ~0 ... */
-    uint32_t delta = ~ub_crc32c_update(0xFFFFFFFFu, &d, 1);
-    /* ... advanced to the end of the header range, then to the end of the body */
-    size_t after_hop = UB_FRAME_CHECKED_OFF + UB_FRAME_CHECKED_LEN - (UB_FRAME_OFF_HOP_LIMIT + 1u);
-    uint32_t header_delta = ub_crc32c_zeros(delta, after_hop);
-    uint32_t msg_delta = ub_crc32c_zeros(header_delta, len - UB_FRAME_HEADER_LEN);
+    /* R(d, 0) advanced to the end of the header range, then on to the end of the body */
+    uint32_t header_delta;
+    uint32_t msg_delta = ub_crc32c_byte_delta(d, UB_FRAME_CHECKED_OFF + UB_FRAME_CHECKED_LEN - (UB_FRAME_OFF_HOP_LIMIT + 1u),
+                                              len - UB_FRAME_HEADER_LEN, &header_delta);
     frame[UB_FRAME_OFF_HDR_CHECK] ^= fold_crc(header_delta);
     ub_put_u32le(frame + UB_FRAME_OFF_MSG_CRC, ub_get_u32le(frame + UB_FRAME_OFF_MSG_CRC) ^ msg_delta);
     return UB_OK;
