@@ -3,7 +3,8 @@
  *    sizes (a size change re-primes the template) and sequence numbers;
  *  - patching the hop limit by CRC linearity (ub_frame_patch_hop_limit) writes the bytes recomputing the
  *    checks does (ub_frame_set_hop_limit), plain and flagged frames, every hop limit, chains of hops;
- *  - the CRC helpers under them (ub_crc32c_zeros, ub_crc32c_frame_tail) against the table path and plain CRCs.
+ *  - the CRC helpers under them (ub_crc32c_zeros, ub_crc32c_byte_delta, ub_crc32c_frame_tail, ub_crc32c_header)
+ *    against the table path and plain CRCs.
  * The vectors of tests/vectors/frames.json are reproduced by the same fast paths in test_frame_vectors. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -138,6 +139,9 @@ static void test_crc_helpers(void **state) {
         uint32_t reg = (uint32_t)rng_next(&r);
         size_t n = rng_below(&r, UB_FRAME_MAX);
         assert_int_equal(ub_crc32c_zeros(reg, n), zeros_reference(reg, n));
+        uint8_t hdr[UB_FRAME_HEADER_LEN];
+        rng_fill(&r, hdr, sizeof hdr);
+        assert_int_equal(ub_crc32c_header(hdr), ub_crc32c_update_portable(0, hdr + 4, 56));
         uint8_t d = (uint8_t)rng_next(&r);
         size_t n1 = rng_below(&r, 64), n2 = rng_below(&r, UB_FRAME_MAX);
         uint32_t d1 = 0, d2 = ub_crc32c_byte_delta(d, n1, n2, &d1);

@@ -110,6 +110,13 @@ uint32_t ub_crc32c_zeros(uint32_t reg, size_t n);
  */
 uint32_t ub_crc32c_byte_delta(uint8_t d, size_t to_end1, size_t to_end2, uint32_t *delta1);
 
+/**
+ * ub_crc32c(frame + 4, 56): the CRC of the header bytes both checks cover, read from a frame in memory, as
+ * the decoder judges every candidate. The hardware path is 8 unrolled steps (4 + 6 x 8 + 4 bytes) with no
+ * loop; the result is the same as ub_crc32c_update(0, frame + 4, 56) on every path.
+ */
+uint32_t ub_crc32c_header(const uint8_t *frame);
+
 #ifdef __cplusplus
 }
 #endif

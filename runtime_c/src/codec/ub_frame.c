@@ -89,7 +89,7 @@ static void write_checks(uint8_t *f, size_t body_len) {
  * first, so a corrupted version or length on a real frame is named as such rather
  * than random bytes after a false sync being blamed on "version". */
 static ub_rx_reason_t judge_header(const uint8_t *f, uint32_t *header_crc, size_t *frame_len) {
-    *header_crc = ub_crc32c_update(0, f + UB_FRAME_CHECKED_OFF, UB_FRAME_CHECKED_LEN);
+    *header_crc = ub_crc32c_header(f); /* = ub_crc32c(f + UB_FRAME_CHECKED_OFF, UB_FRAME_CHECKED_LEN), unrolled */
     if (fold_crc(*header_crc) != f[UB_FRAME_OFF_HDR_CHECK]) return UB_RX_BAD_HDR_CHECK;
     size_t trailer_plus_one = k_trailer_plus_one[f[UB_FRAME_OFF_VERSION]];
     if (trailer_plus_one == 0 || ub_get_u16le(f + UB_FRAME_OFF_MSG_TYPE) != UB_MSG_TYPE_PUBSUB) return UB_RX_BAD_VERSION;
