@@ -160,6 +160,14 @@ static inline int tpl_write(const ub_frame_tpl_t *t, uint8_t *frame, uint32_t se
     return (int)frame_len;
 }
 
+/* Hosts without the x86 path: the CRC steps through ub_crc32c_frame_tail(). Kept out of line so the
+ * hardware path's function saves no registers for it. */
+static __attribute__((noinline)) int tpl_finish_other(const ub_frame_tpl_t *t, uint8_t *frame, uint32_t seq,
+                                                      size_t payload_size) {
+    uint64_t crcs = ub_crc32c_frame_tail(t->crc_head, seq | t->fingerprint_hi, frame + UB_FRAME_HEADER_LEN, payload_size);
+    return tpl_write(t, frame, seq, (uint32_t)crcs, (uint32_t)(crcs >> 32), UB_FRAME_HEADER_LEN + payload_size);
+}
+
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 /* The hardware build, compiled for SSE4.2 on its own (the library still runs on any x86-64) so the CRC steps
  * inline into it: one function, no call, nothing spilled. */
@@ -173,14 +181,19 @@ __attribute__((target("sse4.2"))) static int tpl_finish_sse42(const ub_frame_tpl
 #define UB_TPL_HW 1
 #endif
 
+/* A payload size other than the primed one (a variable-size type): re-prime, then build as usual. Out of line,
+ * like tpl_finish_other(), so the common call saves no registers. */
+static __attribute__((noinline)) int tpl_finish_resized(ub_frame_tpl_t *t, uint8_t *frame, size_t cap,
+                                                        uint16_t payload_size, uint32_t seq) {
+    if (payload_size > UB_MAX_PAYLOAD) return UB_ERR_RANGE;
+    tpl_prime(t, payload_size);
+    return ub_frame_tpl_finish(t, frame, cap, payload_size, seq);
+}
+
 int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size, uint32_t seq) {
     if (t == NULL || frame == NULL) return UB_ERR_INVAL;
-    if (__builtin_expect(payload_size != t->payload_size, 0)) {
-        if (payload_size > UB_MAX_PAYLOAD) return UB_ERR_RANGE;
-        tpl_prime(t, payload_size);
-    }
-    size_t frame_len = UB_FRAME_HEADER_LEN + (size_t)payload_size;
-    if (cap < frame_len) return UB_ERR_NOSPACE;
+    if (__builtin_expect(payload_size != t->payload_size, 0)) return tpl_finish_resized(t, frame, cap, payload_size, seq);
+    if (cap < UB_FRAME_HEADER_LEN + (size_t)payload_size) return UB_ERR_NOSPACE;
 #ifdef UB_TPL_HW
 #if defined(__SSE4_2__)
     return tpl_finish_sse42(t, frame, seq, payload_size);
@@ -188,8 +201,7 @@ int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t 
     if (__builtin_cpu_supports("sse4.2")) return tpl_finish_sse42(t, frame, seq, payload_size); /* GCOVR_EXCL_BR_LINE: CPU dispatch */
 #endif
 #endif
-    uint64_t crcs = ub_crc32c_frame_tail(t->crc_head, seq | t->fingerprint_hi, frame + UB_FRAME_HEADER_LEN, payload_size);
-    return tpl_write(t, frame, seq, (uint32_t)crcs, (uint32_t)(crcs >> 32), frame_len);
+    return tpl_finish_other(t, frame, seq, payload_size);
 }
 
 int ub_frame_parse_reason(const uint8_t *frame, size_t len, ub_frame_header_t *h, ub_rx_reason_t *reason) {
