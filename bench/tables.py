@@ -339,7 +339,9 @@ def main() -> None:
         w("| case | " + " | ".join(MSGS) + " |")
         w("|---|" + "---:|" * len(MSGS))
         rows = [
-            ("uavbus frame build: generated pack + ub_frame_finish (header + both checks)", "ub_frame_build"),
+            ("uavbus frame build: generated pack + the row's header template (ub_frame_tpl_finish: header + both checks)",
+             "ub_frame_build"),
+            ("the same without a template: generated pack + ub_frame_finish", "ub_frame_build_finish"),
             ("MAVLink mavlink_msg_X_encode -> _pack (incl. finalize + CRC)", "mav_pack"),
             ("MAVLink pack + mavlink_msg_to_send_buffer", "mav_pack_tobuf"),
             ("uavbus streaming parse: ub_decoder_feed (sync + verify) + generated unpack", "ub_frame_parse"),

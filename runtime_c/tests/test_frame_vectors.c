@@ -144,10 +144,38 @@ static void test_decoder_all_vectors_back_to_back(void **state) {
     free(stream);
 }
 
+/* The fast paths reproduce every vector: a row's header template (ub_frame_tpl_finish) writes the vector's
+ * bytes, and patching the hop limit by CRC linearity (ub_frame_patch_hop_limit) gives the frame built with
+ * that hop limit, for every hop limit 1..255. */
+static void test_fast_paths_reproduce_vectors(void **state) {
+    (void)state;
+    for (size_t i = 0; i < FRAME_VECTOR_COUNT; i++) {
+        const frame_vector_t *v = &frame_vectors[i];
+        uint8_t frame[UB_FRAME_MAX];
+        memset(frame, 0xEE, sizeof frame);
+        memcpy(frame + UB_FRAME_HEADER_LEN, v->payload, v->payload_len);
+        ub_frame_header_t h = vector_header(v);
+        ub_frame_tpl_t t;
+        assert_int_equal(ub_frame_tpl_init(&t, &h), UB_OK);
+        assert_int_equal(ub_frame_tpl_finish(&t, frame, sizeof frame, (uint16_t)v->payload_len, v->seq), (int)v->frame_len);
+        assert_memory_equal(frame, v->frame, v->frame_len);
+        for (unsigned hop = 1; hop <= 255; hop++) {
+            uint8_t want[UB_FRAME_MAX], got[UB_FRAME_MAX];
+            memcpy(want, v->frame, v->frame_len);
+            memcpy(got, v->frame, v->frame_len);
+            h.hop_limit = (uint8_t)hop;
+            assert_int_equal(ub_frame_finish(want, sizeof want, &h), (int)v->frame_len);
+            assert_int_equal(ub_frame_patch_hop_limit(got, v->frame_len, (uint8_t)hop), UB_OK);
+            assert_memory_equal(got, want, v->frame_len);
+        }
+    }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_crc_check_value_from_vectors),
         cmocka_unit_test(test_build_matches_reference_byte_for_byte),
+        cmocka_unit_test(test_fast_paths_reproduce_vectors),
         cmocka_unit_test(test_parse_recovers_inputs),
         cmocka_unit_test(test_decoder_each_vector_every_chunk_size),
         cmocka_unit_test(test_decoder_all_vectors_back_to_back),

@@ -245,6 +245,53 @@ UB_CHECK int ub_frame_parse_reason(const uint8_t *frame, size_t len, ub_frame_he
 UB_CHECK int ub_frame_set_hop_limit(uint8_t *frame, size_t len, uint8_t hop_limit);
 
 /**
+ * Forwarder's fast path: lowers (or sets) the hop limit of a frame whose checks are known good and updates
+ * both checks by CRC linearity in a few register steps (no pass over the frame). Same bytes as
+ * ub_frame_set_hop_limit() on a verified frame; on a frame whose checks were wrong they stay wrong (it
+ * never turns a damaged frame into a valid one). For frames received and verified by the decoder or
+ * ub_frame_parse(); ub_frame_set_hop_limit() remains for re-sealing bytes of unknown state.
+ * @return UB_OK; UB_ERR_RANGE if `hop_limit` is 0; UB_ERR_INVAL if `frame` is NULL or `len` is not the
+ *         frame's msg_size.
+ */
+UB_CHECK int ub_frame_patch_hop_limit(uint8_t *frame, size_t len, uint8_t hop_limit);
+
+/**
+ * A per-row header template: the header bytes a row's frames share (everything but seq and the two checks)
+ * and the CRC-32C state over header bytes [4,52), which hold only such constant fields. Building a frame
+ * from it runs the CRC over 8 header bytes (seq, fingerprint) and the payload instead of the whole header.
+ * Caller-owned (keep one in the row's state, next to its sequence counter); no pointers inside, so it may be
+ * copied. Plain frames only (flags 0): protected frames are built by ub_sec_protect().
+ * Treat the fields as private.
+ */
+typedef struct ub_frame_tpl {
+    uint8_t header[UB_FRAME_HEADER_LEN]; /* the header bytes with seq and both checks zero */
+    uint64_t fingerprint_hi;             /* the fingerprint << 32: header bytes [52,60) are seq | this */
+    uint32_t crc_head;                   /* ub_crc32c() of header bytes [4,52) */
+    uint16_t payload_size;               /* the payload size header[] and crc_head are primed for */
+} ub_frame_tpl_t;
+
+/** Defined where the frame layer has header templates (bench code built against older runtimes tests it). */
+#define UB_FRAME_TPL 1
+
+/**
+ * Primes `t` from `h` (its seq, key_id, counter_hi and origin fields are ignored).
+ * @return UB_OK; UB_ERR_INVAL if `t` or `h` is NULL or h->flags is not 0; UB_ERR_RANGE if
+ *         h->payload_size > UB_MAX_PAYLOAD or h->hop_limit == 0.
+ */
+UB_CHECK int ub_frame_tpl_init(ub_frame_tpl_t *t, const ub_frame_header_t *h);
+
+/**
+ * ub_frame_finish() from a template: the payload (`payload_size` bytes) is already at
+ * `frame + UB_FRAME_HEADER_LEN`; writes the 64 header bytes with `seq` and both checks. The bytes are
+ * those ub_frame_finish() writes for the template's header with that payload size and seq. A payload size
+ * other than the one `t` was primed for re-primes `t` first (one ub_frame_finish()'s worth of work), so a
+ * variable-size type is still right, only not faster.
+ * @return total frame length (64 + payload_size); UB_ERR_INVAL if `t` or `frame` is NULL; UB_ERR_RANGE if
+ *         payload_size > UB_MAX_PAYLOAD; UB_ERR_NOSPACE if `cap` is too small.
+ */
+UB_CHECK int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size, uint32_t seq);
+
+/**
  * Decoder counters. Every byte fed ends up in exactly one place, so
  * `bytes_in == bytes_ok + foreign_bytes + garbage_bytes + ub_decoder_pending(d)` always holds
  * (with no foreign-traffic handler, foreign_bytes stays 0 and these bytes are garbage).

@@ -10,6 +10,8 @@
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #define UB_CRC32C_X86 1
 #include <nmmintrin.h>
+#include <wmmintrin.h> /* _mm_clmulepi64_si128 */
+#include "codec/ub_crc32c_shift.h"
 #elif defined(__ARM_FEATURE_CRC32) && defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
 #define UB_CRC32C_ARM 1
 #include <arm_acle.h>
@@ -406,6 +408,22 @@ __attribute__((unused)) static uint32_t header_words_portable(const uint64_t wor
     return ub_crc32c_update_portable(0, bytes + 4, 56);
 }
 
+/* The table path of ub_crc32c_frame_tail(): the tail word as its 8 bytes, then on over the body. */
+__attribute__((unused)) static uint64_t frame_tail_portable(uint32_t crc_head, uint64_t tail, const uint8_t *body,
+                                                            size_t body_len) {
+    uint8_t t[8];
+    ub_put_u64le(t, tail);
+    uint32_t header_crc = ub_crc32c_update_portable(crc_head, t, sizeof t);
+    return header_crc | (uint64_t)ub_crc32c_update_portable(header_crc, body, body_len) << 32;
+}
+
+/* Table path of ub_crc32c_zeros(): a zero byte shifts the register by 8 bits and adds the table entry of its
+ * low byte (the same step as ub_crc32c_update_portable()'s byte loop, with the data byte 0). */
+__attribute__((unused)) static uint32_t zeros_portable(uint32_t reg, size_t n) {
+    while (n--) reg = (reg >> 8) ^ crc32c_table[0][reg & 0xFFu];
+    return reg;
+}
+
 #if defined(UB_CRC32C_X86)
 /* Compiled for SSE4.2 on its own, so the rest of the library still runs on any x86-64. */
 __attribute__((target("sse4.2"))) static uint32_t crc32c_sse42(uint32_t crc, const uint8_t *data, size_t len) {
@@ -427,6 +445,24 @@ __attribute__((target("sse4.2"))) static uint32_t crc32c_sse42(uint32_t crc, con
     }
     while (len--) c32 = _mm_crc32_u8(c32, *data++);
     return ~c32;
+}
+
+/* ub_crc32c_header(): bytes [4,60) as one 4-byte step, six 8-byte steps, one 4-byte step; no loop. */
+__attribute__((target("sse4.2"))) static uint32_t header_bytes_sse42(const uint8_t *f) {
+    uint32_t w32;
+    uint64_t w64;
+    memcpy(&w32, f + 4, sizeof w32);
+    uint64_t c = _mm_crc32_u32(0xFFFFFFFFu, w32);
+#define UB_HDR_STEP(off) (memcpy(&w64, f + (off), sizeof w64), c = _mm_crc32_u64(c, w64))
+    UB_HDR_STEP(8); /* written out: -O2 keeps a 6-trip loop as a loop */
+    UB_HDR_STEP(16);
+    UB_HDR_STEP(24);
+    UB_HDR_STEP(32);
+    UB_HDR_STEP(40);
+    UB_HDR_STEP(48);
+#undef UB_HDR_STEP
+    memcpy(&w32, f + 56, sizeof w32);
+    return ~_mm_crc32_u32((uint32_t)c, w32);
 }
 
 __attribute__((target("sse4.2"))) static uint32_t header_words_sse42(const uint64_t w[8]) {
@@ -464,6 +500,14 @@ uint32_t ub_crc32c_update(uint32_t crc, const uint8_t *data, size_t len) {
 #endif
 }
 
+uint32_t ub_crc32c_header(const uint8_t *frame) {
+#if defined(__SSE4_2__)
+    return header_bytes_sse42(frame);
+#else
+    return __builtin_cpu_supports("sse4.2") ? header_bytes_sse42(frame) : ub_crc32c_update_portable(0, frame + 4, 56); /* GCOVR_EXCL_BR_LINE: CPU dispatch */
+#endif
+}
+
 uint32_t ub_crc32c_header_words(const uint64_t words[8]) {
 #if defined(__SSE4_2__)
     return header_words_sse42(words);
@@ -480,6 +524,52 @@ uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, siz
     }
 #endif
     return frame_words_sse42(words, body, body_len, header_crc);
+}
+
+/* ub_crc32c_zeros() with a carry-less multiply: register * x^(8n) mod P in two multiplications at most, from
+ * the constants of ub_crc32c_shift.h (K(n) = x^(8n-33) mod P). Why clmul then a CRC instruction multiplies by
+ * K * x^33: the register a and K are reflected (bit i is x^(31-i)), so bit k of their 63-bit carry-less
+ * product is the x^(62-k) term of a*K; read as the instruction's 64-bit input (bit k is x^(63-k)) that is
+ * a*K*x, and the instruction returns its input times x^32 mod P. Total: a * x^(8n-33) * x^33 = a * x^(8n). */
+__attribute__((target("sse4.2,pclmul"))) static inline uint32_t shift_mul(uint32_t a, uint32_t k) {
+    __m128i p = _mm_clmulepi64_si128(_mm_cvtsi32_si128((int)a), _mm_cvtsi32_si128((int)k), 0);
+    return (uint32_t)_mm_crc32_u64(0, (uint64_t)_mm_cvtsi128_si64(p));
+}
+
+__attribute__((target("sse4.2,pclmul"))) static inline uint32_t zeros_clmul(uint32_t reg, size_t n) {
+    for (; n > 0xFFFFu; n -= 0xFFFFu) /* frames never: msg_size is 16 bits */
+        reg = shift_mul(shift_mul(reg, crc32c_shift_lo[0xFFu]), crc32c_shift_hi[0xFFu]);
+    reg = shift_mul(reg, crc32c_shift_lo[n & 0xFFu]);
+    if (n > 0xFFu) reg = shift_mul(reg, crc32c_shift_hi[n >> 8]);
+    return reg;
+}
+
+/* The hardware body is ub_crc32c_frame_tail_sse42() in ub_crc32c_impl.h (inlined into the template build too). */
+__attribute__((target("sse4.2"))) static uint64_t frame_tail_sse42(uint32_t crc_head, uint64_t tail,
+                                                                   const uint8_t *body, size_t len) {
+    uint32_t header_crc;
+    uint32_t msg_crc = ub_crc32c_frame_tail_sse42(crc_head, tail, body, len, &header_crc);
+    return header_crc | (uint64_t)msg_crc << 32;
+}
+
+uint64_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t body_len) {
+#if !defined(__SSE4_2__)
+    if (!__builtin_cpu_supports("sse4.2")) return frame_tail_portable(crc_head, tail, body, body_len); /* GCOVR_EXCL_BR_LINE: CPU dispatch */
+#endif
+    return frame_tail_sse42(crc_head, tail, body, body_len);
+}
+
+__attribute__((target("sse4.2,pclmul"))) static uint32_t byte_delta_clmul(uint8_t d, size_t to_end1, size_t to_end2,
+                                                                          uint32_t *delta1) {
+    *delta1 = zeros_clmul(crc32c_table[0][d], to_end1);
+    return zeros_clmul(*delta1, to_end2);
+}
+
+uint32_t ub_crc32c_zeros(uint32_t reg, size_t n) {
+#if !defined(__SSE4_2__) || !defined(__PCLMUL__)
+    if (!__builtin_cpu_supports("sse4.2") || !__builtin_cpu_supports("pclmul")) return zeros_portable(reg, n); /* GCOVR_EXCL_BR_LINE: CPU dispatch */
+#endif
+    return zeros_clmul(reg, n);
 }
 
 #elif defined(UB_CRC32C_ARM)
@@ -502,6 +592,8 @@ uint32_t ub_crc32c_update_hw(uint32_t crc, const uint8_t *data, size_t len) { re
 
 uint32_t ub_crc32c_update(uint32_t crc, const uint8_t *data, size_t len) { return crc32c_armv8(crc, data, len); }
 
+uint32_t ub_crc32c_header(const uint8_t *frame) { return crc32c_armv8(0, frame + 4, 56); }
+
 uint32_t ub_crc32c_header_words(const uint64_t w[8]) {
     uint32_t c = __crc32cw(0xFFFFFFFFu, (uint32_t)(w[0] >> 32));
     for (int k = 1; k < 7; k++) c = __crc32cd(c, w[k]);
@@ -511,6 +603,17 @@ uint32_t ub_crc32c_header_words(const uint64_t w[8]) {
 uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, size_t body_len, uint32_t *header_crc) {
     *header_crc = ub_crc32c_header_words(words);
     return crc32c_armv8(*header_crc, body, body_len);
+}
+
+uint64_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t body_len) {
+    uint32_t header_crc = ~__crc32cd(~crc_head, tail);
+    return header_crc | (uint64_t)crc32c_armv8(header_crc, body, body_len) << 32;
+}
+
+uint32_t ub_crc32c_zeros(uint32_t reg, size_t n) {
+    for (; n >= 8; n -= 8) reg = __crc32cd(reg, 0);
+    while (n--) reg = __crc32cb(reg, 0);
+    return reg;
 }
 
 #else
@@ -526,10 +629,29 @@ uint32_t ub_crc32c_update(uint32_t crc, const uint8_t *data, size_t len) {
 
 uint32_t ub_crc32c_header_words(const uint64_t words[8]) { return header_words_portable(words); }
 
+uint32_t ub_crc32c_header(const uint8_t *frame) { return ub_crc32c_update_portable(0, frame + 4, 56); }
+
 uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, size_t body_len, uint32_t *header_crc) {
     *header_crc = header_words_portable(words);
     return ub_crc32c_update_portable(*header_crc, body, body_len);
 }
+uint64_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t body_len) {
+    return frame_tail_portable(crc_head, tail, body, body_len);
+}
+
+uint32_t ub_crc32c_zeros(uint32_t reg, size_t n) { return zeros_portable(reg, n); }
 #endif
+
+/* R(d, 0) is the byte table's entry for d (the byte loop's step from state 0); the rest is ub_crc32c_zeros(). */
+uint32_t ub_crc32c_byte_delta(uint8_t d, size_t to_end1, size_t to_end2, uint32_t *delta1) {
+#if defined(UB_CRC32C_X86)
+#if !defined(__SSE4_2__) || !defined(__PCLMUL__)
+    if (__builtin_cpu_supports("sse4.2") && __builtin_cpu_supports("pclmul")) /* GCOVR_EXCL_BR_LINE: CPU dispatch */
+#endif
+        return byte_delta_clmul(d, to_end1, to_end2, delta1);
+#endif
+    *delta1 = ub_crc32c_zeros(crc32c_table[0][d], to_end1); /* GCOVR_EXCL_LINE: hosts without the instructions */
+    return ub_crc32c_zeros(*delta1, to_end2);               /* GCOVR_EXCL_LINE */
+}
 
 uint32_t ub_crc32c(const uint8_t *data, size_t len) { return ub_crc32c_update(0, data, len); }

@@ -45,6 +45,78 @@ uint32_t ub_crc32c_header_words(const uint64_t words[8]);
  */
 uint32_t ub_crc32c_frame_words(const uint64_t words[8], const uint8_t *body, size_t body_len, uint32_t *header_crc);
 
+/**
+ * The checks of a frame built from a header template (ub_frame_tpl_t): `crc_head` is the CRC-32C
+ * (finished, started from 0) of header bytes [4,52), which a row's template holds; `tail` is header bytes
+ * [52,60) (seq, fingerprint) as a little-endian word. Returns the CRC of [4,60) (the header CRC) in the low
+ * 32 bits and that CRC continued over the `body_len` body bytes (the message CRC) in the high 32 bits: the
+ * same two values ub_crc32c_frame_words() gives for the whole header, with 6 of its 7 header steps done once
+ * per row. (One return value rather than an out-parameter: both stay in registers.)
+ */
+uint64_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t body_len);
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <nmmintrin.h>
+#include <string.h>
+/**
+ * ub_crc32c_frame_tail()'s SSE4.2 body, inline for callers compiled with target("sse4.2") themselves
+ * (ub_frame_tpl_finish's hardware path), so the template's whole build is one function with no call
+ * (returns the message CRC, *header_crc the header CRC: inlined, both stay in registers):
+ * the tail word from the template's register, the body 8 bytes a step, its last 0-7 bytes in at most
+ * three steps. Call only when ub_crc32c_hw_available().
+ */
+__attribute__((target("sse4.2"), always_inline)) static inline uint32_t ub_crc32c_frame_tail_sse42(
+    uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t len, uint32_t *header_crc) {
+    uint64_t c = _mm_crc32_u64((uint32_t)~crc_head, tail);
+    *header_crc = ~(uint32_t)c;
+    const uint8_t *end8 = body + (len & ~(size_t)7);
+    while (body != end8) {
+        uint64_t word;
+        memcpy(&word, body, sizeof word); /* x86 is little-endian, as the CRC wants */
+        c = _mm_crc32_u64(c, word);
+        body += 8;
+    }
+    uint32_t c32 = (uint32_t)c;
+    if (len & 4) {
+        uint32_t word;
+        memcpy(&word, body, sizeof word);
+        c32 = _mm_crc32_u32(c32, word);
+        body += 4;
+    }
+    if (len & 2) {
+        uint16_t word;
+        memcpy(&word, body, sizeof word);
+        c32 = _mm_crc32_u16(c32, word);
+        body += 2;
+    }
+    if (len & 1) c32 = _mm_crc32_u8(c32, *body);
+    return ~c32;
+}
+#endif
+
+/**
+ * The bare CRC-32C register `reg` (no initial or final inversion: the state between two bytes) advanced over
+ * `n` zero bytes, without reading memory. Used to move a checksum difference to where the message ends
+ * (ub_frame_patch_hop_limit(): CRC linearity).
+ */
+uint32_t ub_crc32c_zeros(uint32_t reg, size_t n);
+
+/**
+ * The register difference a one-byte change makes, for patching checks by linearity: with d the XOR of the
+ * old and new byte, returns R(d, 0) advanced over `to_end1 + to_end2` zero bytes and sets *delta1 to it
+ * advanced over `to_end1` only (R(m, s): the register after bytes m from state s). A CRC whose range ends
+ * `to_end1` bytes after the changed byte changes by *delta1; one whose range ends `to_end2` bytes later by
+ * the return value. One dispatch, a table lookup and two or three carry-less multiplications.
+ */
+uint32_t ub_crc32c_byte_delta(uint8_t d, size_t to_end1, size_t to_end2, uint32_t *delta1);
+
+/**
+ * ub_crc32c(frame + 4, 56): the CRC of the header bytes both checks cover, read from a frame in memory, as
+ * the decoder judges every candidate. The hardware path is 8 unrolled steps (4 + 6 x 8 + 4 bytes) with no
+ * loop; the result is the same as ub_crc32c_update(0, frame + 4, 56) on every path.
+ */
+uint32_t ub_crc32c_header(const uint8_t *frame);
+
 #ifdef __cplusplus
 }
 #endif

@@ -24,7 +24,11 @@ static const uint8_t k_trailer_plus_one[256] = {
     [UB_WIRE_VERSION | UB_FRAME_FLAG_ENCRYPTED | UB_FRAME_FLAG_ORIGIN] = 1 + UB_FRAME_AEAD_TRAILER_LEN + UB_FRAME_ORIGIN_LEN,
 };
 
-static uint8_t fold_crc(uint32_t crc) { return (uint8_t)(crc ^ (crc >> 8) ^ (crc >> 16) ^ (crc >> 24)); }
+/* XOR of the CRC's 4 bytes: halves, then quarters (b0^b2 ^ b1^b3 in the low byte), 4 operations. */
+static inline uint8_t fold_crc(uint32_t crc) {
+    crc ^= crc >> 16;
+    return (uint8_t)(crc ^ (crc >> 8));
+}
 
 /* The header as eight little-endian words (word k = bytes [8k, 8k+8)), built in
  * registers. finish checksums these words and then stores them whole: checksumming
@@ -85,7 +89,7 @@ static void write_checks(uint8_t *f, size_t body_len) {
  * first, so a corrupted version or length on a real frame is named as such rather
  * than random bytes after a false sync being blamed on "version". */
 static ub_rx_reason_t judge_header(const uint8_t *f, uint32_t *header_crc, size_t *frame_len) {
-    *header_crc = ub_crc32c_update(0, f + UB_FRAME_CHECKED_OFF, UB_FRAME_CHECKED_LEN);
+    *header_crc = ub_crc32c_header(f); /* = ub_crc32c(f + UB_FRAME_CHECKED_OFF, UB_FRAME_CHECKED_LEN), unrolled */
     if (fold_crc(*header_crc) != f[UB_FRAME_OFF_HDR_CHECK]) return UB_RX_BAD_HDR_CHECK;
     size_t trailer_plus_one = k_trailer_plus_one[f[UB_FRAME_OFF_VERSION]];
     if (trailer_plus_one == 0 || ub_get_u16le(f + UB_FRAME_OFF_MSG_TYPE) != UB_MSG_TYPE_PUBSUB) return UB_RX_BAD_VERSION;
@@ -118,6 +122,86 @@ int ub_frame_finish(uint8_t *frame, size_t cap, const ub_frame_header_t *h) {
     w[7] |= (uint64_t)msg_crc << 32;
     for (int k = 0; k < 8; k++) ub_put_u64le(frame + 8 * k, w[k]);
     return (int)frame_len;
+}
+
+/* ---- per-row header templates ----
+ * Why it is exact: CRC-32C is computed left to right through a 32-bit state, and ub_crc32c_update(crc(a), b)
+ * == crc(a || b) (ub_frame.h). Header bytes [4,52) are msg_type, msg_size, the three IDs, admin, hop_limit
+ * and payload_size: all fixed for a row once its payload size is. So crc([4,52)) is computed once per row
+ * (crc_head); each frame continues it over bytes [52,60) (seq, fingerprint) to get the header CRC, and on
+ * over the payload to get msg_crc -- the same two values a pass from byte 4 gives. The header is the
+ * template's bytes copied whole, then seq and the two checks written over their zero bytes. */
+static void tpl_prime(ub_frame_tpl_t *t, uint16_t payload_size) {
+    ub_put_u16le(t->header + UB_FRAME_OFF_MSG_SIZE, (uint16_t)(UB_FRAME_HEADER_LEN + payload_size));
+    ub_put_u16le(t->header + UB_FRAME_OFF_PAYLOAD_SIZE, payload_size);
+    t->payload_size = payload_size;
+    t->crc_head = ub_crc32c(t->header + UB_FRAME_CHECKED_OFF, UB_FRAME_OFF_SEQ - UB_FRAME_CHECKED_OFF);
+}
+
+int ub_frame_tpl_init(ub_frame_tpl_t *t, const ub_frame_header_t *h) {
+    if (t == NULL || h == NULL || h->flags != 0) return UB_ERR_INVAL;
+    if (h->payload_size > UB_MAX_PAYLOAD || h->hop_limit == 0) return UB_ERR_RANGE;
+    uint64_t w[8];
+    header_words(h, 0, w);
+    w[6] &= 0xFFFFFFFFull; /* seq zero; the checks are zero in header_words() already */
+    for (int k = 0; k < 8; k++) ub_put_u64le(t->header + 8 * k, w[k]);
+    t->fingerprint_hi = (uint64_t)h->fingerprint << 32;
+    tpl_prime(t, h->payload_size);
+    return UB_OK;
+}
+
+/* The last step of a template build, given both CRCs. */
+static inline int tpl_write(const ub_frame_tpl_t *t, uint8_t *frame, uint32_t seq, uint32_t header_crc,
+                            uint32_t msg_crc, size_t frame_len) {
+    memcpy(frame, t->header, UB_FRAME_HEADER_LEN);
+    frame[UB_FRAME_OFF_HDR_CHECK] = fold_crc(header_crc);
+    ub_put_u32le(frame + UB_FRAME_OFF_SEQ, seq);
+    ub_put_u32le(frame + UB_FRAME_OFF_MSG_CRC, msg_crc);
+    return (int)frame_len;
+}
+
+/* Hosts without the x86 path: the CRC steps through ub_crc32c_frame_tail(). Kept out of line so the
+ * hardware path's function saves no registers for it. */
+static __attribute__((noinline)) int tpl_finish_other(const ub_frame_tpl_t *t, uint8_t *frame, uint32_t seq,
+                                                      size_t payload_size) {
+    uint64_t crcs = ub_crc32c_frame_tail(t->crc_head, seq | t->fingerprint_hi, frame + UB_FRAME_HEADER_LEN, payload_size);
+    return tpl_write(t, frame, seq, (uint32_t)crcs, (uint32_t)(crcs >> 32), UB_FRAME_HEADER_LEN + payload_size);
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+/* The hardware build, compiled for SSE4.2 on its own (the library still runs on any x86-64) so the CRC steps
+ * inline into it: one function, no call, nothing spilled. */
+__attribute__((target("sse4.2"))) static int tpl_finish_sse42(const ub_frame_tpl_t *t, uint8_t *frame, uint32_t seq,
+                                                              size_t payload_size) {
+    uint32_t header_crc;
+    uint32_t msg_crc = ub_crc32c_frame_tail_sse42(t->crc_head, seq | t->fingerprint_hi, frame + UB_FRAME_HEADER_LEN,
+                                                  payload_size, &header_crc);
+    return tpl_write(t, frame, seq, header_crc, msg_crc, UB_FRAME_HEADER_LEN + payload_size);
+}
+#define UB_TPL_HW 1
+#endif
+
+/* A payload size other than the primed one (a variable-size type): re-prime, then build as usual. Out of line,
+ * like tpl_finish_other(), so the common call saves no registers. */
+static __attribute__((noinline)) int tpl_finish_resized(ub_frame_tpl_t *t, uint8_t *frame, size_t cap,
+                                                        uint16_t payload_size, uint32_t seq) {
+    if (payload_size > UB_MAX_PAYLOAD) return UB_ERR_RANGE;
+    tpl_prime(t, payload_size);
+    return ub_frame_tpl_finish(t, frame, cap, payload_size, seq);
+}
+
+int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size, uint32_t seq) {
+    if (t == NULL || frame == NULL) return UB_ERR_INVAL;
+    if (__builtin_expect(payload_size != t->payload_size, 0)) return tpl_finish_resized(t, frame, cap, payload_size, seq);
+    if (cap < UB_FRAME_HEADER_LEN + (size_t)payload_size) return UB_ERR_NOSPACE;
+#ifdef UB_TPL_HW
+#if defined(__SSE4_2__)
+    return tpl_finish_sse42(t, frame, seq, payload_size);
+#else
+    if (__builtin_cpu_supports("sse4.2")) return tpl_finish_sse42(t, frame, seq, payload_size); /* GCOVR_EXCL_BR_LINE: CPU dispatch */
+#endif
+#endif
+    return tpl_finish_other(t, frame, seq, payload_size);
 }
 
 int ub_frame_parse_reason(const uint8_t *frame, size_t len, ub_frame_header_t *h, ub_rx_reason_t *reason) {
@@ -157,6 +241,29 @@ int ub_frame_set_hop_limit(uint8_t *frame, size_t len, uint8_t hop_limit) {
         return UB_ERR_INVAL;
     frame[UB_FRAME_OFF_HOP_LIMIT] = hop_limit;
     write_checks(frame, len - UB_FRAME_HEADER_LEN);
+    return UB_OK;
+}
+
+/* Why a few register steps suffice. Write R(m, s) for the CRC-32C register after feeding bytes m from state
+ * s; R is linear over GF(2) in m and s together, and a finished CRC is crc(m) = ~R(m, ~0). For two messages
+ * of equal length, m' = m ^ e, so crc(m') = crc(m) ^ R(e, 0) -- the brief form of the same fact is
+ * crc(a ^ b) = crc(a) ^ crc(b) ^ crc(0), with crc(b) ^ crc(0) = R(b, 0). Changing the hop limit from h to h'
+ * makes e zero everywhere but one byte, d = h ^ h', at offset 49. Leading zero bytes leave R(., 0) at 0, so
+ * R(e, 0) is the register of d alone advanced over the bytes after it: 10 header bytes ([50,60)) for the
+ * header CRC, and 10 + the body for msg_crc (which continues the header CRC over the body). hdr_check is
+ * the XOR of the header CRC's 4 bytes, also linear: it changes by the fold of the header delta. */
+int ub_frame_patch_hop_limit(uint8_t *frame, size_t len, uint8_t hop_limit) {
+    if (hop_limit == 0) return UB_ERR_RANGE;
+    if (frame == NULL || len < UB_FRAME_HEADER_LEN || len != ub_get_u16le(frame + UB_FRAME_OFF_MSG_SIZE))
+        return UB_ERR_INVAL;
+    uint8_t d = frame[UB_FRAME_OFF_HOP_LIMIT] ^ hop_limit;
+    frame[UB_FRAME_OFF_HOP_LIMIT] = hop_limit;
+    /* R(d, 0) advanced to the end of the header range, then on to the end of the body */
+    uint32_t header_delta;
+    uint32_t msg_delta = ub_crc32c_byte_delta(d, UB_FRAME_CHECKED_OFF + UB_FRAME_CHECKED_LEN - (UB_FRAME_OFF_HOP_LIMIT + 1u),
+                                              len - UB_FRAME_HEADER_LEN, &header_delta);
+    frame[UB_FRAME_OFF_HDR_CHECK] ^= fold_crc(header_delta);
+    ub_put_u32le(frame + UB_FRAME_OFF_MSG_CRC, ub_get_u32le(frame + UB_FRAME_OFF_MSG_CRC) ^ msg_delta);
     return UB_OK;
 }
 

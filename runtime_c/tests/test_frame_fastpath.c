@@ -1,0 +1,180 @@
+/* The frame layer's fast paths against its reference path, over seeded random rows and hops:
+ *  - a row's header template (ub_frame_tpl_finish) writes the bytes ub_frame_finish writes, across payload
+ *    sizes (a size change re-primes the template) and sequence numbers;
+ *  - patching the hop limit by CRC linearity (ub_frame_patch_hop_limit) writes the bytes recomputing the
+ *    checks does (ub_frame_set_hop_limit), plain and flagged frames, every hop limit, chains of hops;
+ *  - the CRC helpers under them (ub_crc32c_zeros, ub_crc32c_byte_delta, ub_crc32c_frame_tail, ub_crc32c_header)
+ *    against the table path and plain CRCs.
+ * The vectors of tests/vectors/frames.json are reproduced by the same fast paths in test_frame_vectors. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <string.h>
+
+#include "../src/codec/ub_crc32c_impl.h"
+#include "test_frame_util.h"
+#include "ub/ub_frame.h"
+#include "ub/ub_wire.h"
+
+#define ROWS 300
+
+static uint16_t random_size(test_rng_t *r) {
+    /* Mostly small (every 0..8 remainder of the 8-byte steps), sometimes up to the largest payload. */
+    return (uint16_t)(rng_below(r, 4) == 0 ? rng_below(r, UB_MAX_PAYLOAD + 1) : rng_below(r, 130));
+}
+
+static void test_template_equals_finish(void **state) {
+    (void)state;
+    test_rng_t r = {0x28A7u};
+    for (int row = 0; row < ROWS; row++) {
+        ub_frame_header_t h = random_header(&r, random_size(&r));
+        h.admin = (uint8_t)rng_next(&r);
+        ub_frame_tpl_t t;
+        assert_int_equal(ub_frame_tpl_init(&t, &h), UB_OK);
+        for (int k = 0; k < 8; k++) {
+            if (rng_below(&r, 4) == 0) h.payload_size = random_size(&r); /* a variable-size type: re-primed */
+            h.seq = rng_below(&r, 3) == 0 ? h.seq + 1 : (uint32_t)rng_next(&r);
+            uint8_t want[UB_FRAME_MAX], got[UB_FRAME_MAX];
+            rng_fill(&r, want, sizeof want);
+            memcpy(got, want, sizeof got); /* same payload and same bytes past it */
+            int n = ub_frame_finish(want, sizeof want, &h);
+            assert_true(n > 0);
+            assert_int_equal(ub_frame_tpl_finish(&t, got, sizeof got, h.payload_size, h.seq), n);
+            assert_memory_equal(got, want, sizeof got); /* nothing past the frame written either */
+            ub_frame_header_t back;
+            assert_int_equal(ub_frame_parse(got, (size_t)n, &back), UB_OK);
+            assert_int_equal(back.seq, h.seq);
+        }
+    }
+}
+
+static void test_template_errors(void **state) {
+    (void)state;
+    test_rng_t r = {7};
+    ub_frame_header_t h = random_header(&r, 20);
+    ub_frame_tpl_t t;
+    uint8_t frame[UB_FRAME_MAX];
+    assert_int_equal(ub_frame_tpl_init(NULL, &h), UB_ERR_INVAL);
+    assert_int_equal(ub_frame_tpl_init(&t, NULL), UB_ERR_INVAL);
+    h.flags = UB_FRAME_FLAG_SIGNED;
+    assert_int_equal(ub_frame_tpl_init(&t, &h), UB_ERR_INVAL); /* protected frames: ub_sec_protect() */
+    h.flags = 0;
+    h.hop_limit = 0;
+    assert_int_equal(ub_frame_tpl_init(&t, &h), UB_ERR_RANGE);
+    h.hop_limit = 3;
+    h.payload_size = UB_MAX_PAYLOAD + 1;
+    assert_int_equal(ub_frame_tpl_init(&t, &h), UB_ERR_RANGE);
+    h.payload_size = 20;
+    assert_int_equal(ub_frame_tpl_init(&t, &h), UB_OK);
+    assert_int_equal(ub_frame_tpl_finish(NULL, frame, sizeof frame, 20, 1), UB_ERR_INVAL);
+    assert_int_equal(ub_frame_tpl_finish(&t, NULL, sizeof frame, 20, 1), UB_ERR_INVAL);
+    assert_int_equal(ub_frame_tpl_finish(&t, frame, UB_FRAME_HEADER_LEN + 19, 20, 1), UB_ERR_NOSPACE);
+    assert_int_equal(ub_frame_tpl_finish(&t, frame, sizeof frame, UB_MAX_PAYLOAD + 1, 1), UB_ERR_RANGE);
+    assert_int_equal(ub_frame_tpl_finish(&t, frame, sizeof frame, 20, 1), UB_FRAME_HEADER_LEN + 20);
+}
+
+/* A random valid frame, plain or with one of the trailers (random trailer bytes: the checks cover them). */
+static size_t random_any_frame(test_rng_t *r, uint8_t *out) {
+    static const uint8_t flags[] = {0, UB_FRAME_FLAG_SIGNED, UB_FRAME_FLAG_ENCRYPTED,
+                                    UB_FRAME_FLAG_SIGNED | UB_FRAME_FLAG_ORIGIN,
+                                    UB_FRAME_FLAG_ENCRYPTED | UB_FRAME_FLAG_ORIGIN};
+    ub_frame_header_t h = random_header(r, random_size(r));
+    h.flags = flags[rng_below(r, sizeof flags)];
+    rng_fill(r, out + UB_FRAME_HEADER_LEN, h.payload_size + ub_frame_trailer_len(h.flags));
+    int n = ub_frame_finish(out, UB_FRAME_MAX, &h);
+    assert_true(n > 0);
+    return (size_t)n;
+}
+
+static void test_patch_equals_recompute(void **state) {
+    (void)state;
+    test_rng_t r = {0x5EED28u};
+    for (int row = 0; row < ROWS; row++) {
+        uint8_t want[UB_FRAME_MAX], got[UB_FRAME_MAX];
+        size_t n = random_any_frame(&r, want);
+        memcpy(got, want, n);
+        /* A chain of forwarders (each patching the last one's output), then arbitrary new limits. */
+        for (int hop = 0; hop < 12; hop++) {
+            uint8_t next = hop < 6 ? (uint8_t)(got[UB_FRAME_OFF_HOP_LIMIT] > 1 ? got[UB_FRAME_OFF_HOP_LIMIT] - 1 : 255)
+                                   : (uint8_t)(1 + rng_below(&r, 255));
+            assert_int_equal(ub_frame_set_hop_limit(want, n, next), UB_OK);
+            assert_int_equal(ub_frame_patch_hop_limit(got, n, next), UB_OK);
+            assert_memory_equal(got, want, n);
+            assert_int_equal(ub_frame_parse(got, n, NULL), UB_OK);
+        }
+        /* The same limit again changes nothing. */
+        assert_int_equal(ub_frame_patch_hop_limit(got, n, got[UB_FRAME_OFF_HOP_LIMIT]), UB_OK);
+        assert_memory_equal(got, want, n);
+    }
+}
+
+static void test_patch_keeps_damage_and_errors(void **state) {
+    (void)state;
+    test_rng_t r = {99};
+    uint8_t f[UB_FRAME_MAX];
+    size_t n = random_frame(&r, f, 40);
+    f[UB_FRAME_HEADER_LEN + 5] ^= 0x10; /* a damaged payload: the patch must not make it valid */
+    assert_int_equal(ub_frame_parse(f, n, NULL), UB_ERR_CHECKSUM);
+    assert_int_equal(ub_frame_patch_hop_limit(f, n, 2), UB_OK);
+    assert_int_equal(ub_frame_parse(f, n, NULL), UB_ERR_CHECKSUM);
+    assert_int_equal(ub_frame_patch_hop_limit(f, n, 0), UB_ERR_RANGE);
+    assert_int_equal(ub_frame_patch_hop_limit(NULL, n, 2), UB_ERR_INVAL);
+    assert_int_equal(ub_frame_patch_hop_limit(f, n - 1, 2), UB_ERR_INVAL);
+    assert_int_equal(ub_frame_patch_hop_limit(f, 10, 2), UB_ERR_INVAL);
+}
+
+/* The register over n zero bytes, by feeding real zero bytes through the table path (which works on
+ * finished CRCs: register = ~crc). */
+static uint32_t zeros_reference(uint32_t reg, size_t n) {
+    static const uint8_t zero[UB_FRAME_MAX]; /* const: no state */
+    return ~ub_crc32c_update_portable(~reg, zero, n);
+}
+
+static void test_crc_helpers(void **state) {
+    (void)state;
+    test_rng_t r = {0xC0FFEEu};
+    for (int i = 0; i < 2000; i++) {
+        uint32_t reg = (uint32_t)rng_next(&r);
+        size_t n = rng_below(&r, UB_FRAME_MAX);
+        assert_int_equal(ub_crc32c_zeros(reg, n), zeros_reference(reg, n));
+        uint8_t hdr[UB_FRAME_HEADER_LEN];
+        rng_fill(&r, hdr, sizeof hdr);
+        assert_int_equal(ub_crc32c_header(hdr), ub_crc32c_update_portable(0, hdr + 4, 56));
+        uint8_t d = (uint8_t)rng_next(&r);
+        size_t n1 = rng_below(&r, 64), n2 = rng_below(&r, UB_FRAME_MAX);
+        uint32_t d1 = 0, d2 = ub_crc32c_byte_delta(d, n1, n2, &d1);
+        assert_int_equal(d1, zeros_reference(~ub_crc32c_update_portable(0xFFFFFFFFu, &d, 1), n1));
+        assert_int_equal(d2, zeros_reference(d1, n2));
+        if (i % 16 == 0) { /* both constant tables (ub_crc32c_shift.h), any 16-bit length, and beyond */
+            size_t big = rng_below(&r, 0x14000u);
+            uint32_t want = reg;
+            for (size_t left = big; left > 0;) {
+                size_t step = left < UB_FRAME_MAX ? left : UB_FRAME_MAX;
+                want = zeros_reference(want, step);
+                left -= step;
+            }
+            assert_int_equal(ub_crc32c_zeros(reg, big), want);
+        }
+        uint8_t bytes[8 + 200];
+        size_t len = rng_below(&r, 201);
+        rng_fill(&r, bytes, 8 + len);
+        assert_int_equal(ub_crc32c_zeros(reg, i % 300), zeros_reference(reg, i % 300)); /* every small length */
+        uint32_t head = (uint32_t)rng_next(&r);
+        uint64_t both = ub_crc32c_frame_tail(head, ub_get_u64le(bytes), bytes + 8, len);
+        assert_int_equal((uint32_t)both, ub_crc32c_update_portable(head, bytes, 8));
+        assert_int_equal((uint32_t)(both >> 32), ub_crc32c_update_portable(head, bytes, 8 + len));
+    }
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_template_equals_finish),
+        cmocka_unit_test(test_template_errors),
+        cmocka_unit_test(test_patch_equals_recompute),
+        cmocka_unit_test(test_patch_keeps_damage_and_errors),
+        cmocka_unit_test(test_crc_helpers),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
