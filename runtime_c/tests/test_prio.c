@@ -147,7 +147,10 @@ static void test_per_class_bounds(void **state) {
     for (uint32_t i = 9; i < 20; i++) assert_true(position(m, i) < position(m, i + 1));
     /* Commands first, then telemetry, then bulk. */
     assert_true(position(m, 200 + UB_PRIO_DEPTH_COMMAND - 1) < position(m, 9));
-    assert_true(position(m, 20) < position(m, 100));
+    /* Bulk's share: after UB_PRIO_BULK_EVERY telemetry frames taken while bulk waited, one bulk frame. */
+    assert_int_equal(position(m, 100), 1 + UB_PRIO_DEPTH_COMMAND + UB_PRIO_BULK_EVERY);
+    assert_int_equal(position(m, 9 + UB_PRIO_BULK_EVERY), position(m, 100) + 1);
+    assert_true(position(m, 20) < position(m, 101));
     assert_int_equal(position(m, 199), -1);
     assert_int_equal(m->cap.n, 1 + 12 + UB_PRIO_DEPTH_BULK + UB_PRIO_DEPTH_COMMAND);
     assert_int_equal(ub_impair_pending(&m->imp), 0);
@@ -195,6 +198,26 @@ static void test_fragments_never_delay_a_command_beyond_one_mtu(void **state) {
         assert_true(ub_impair_check_balance(&m->imp));
         free(m);
     }
+}
+
+/* A telemetry flood (174 % of the link) slows bulk to its share but never stops it; without the share it
+ * would get nothing (telemetry always waits). */
+static void test_bulk_keeps_its_share_under_a_flood(void **state) {
+    (void)state;
+    medium_t *m = medium_new(1);
+    uint32_t tel = 1, bulk = 1000000;
+    for (uint64_t t = 0; t < 10000; t++) {
+        (void)ub_impair_service(&m->imp, t);
+        if (t % 10 == 0) assert_true(offer(m, tel++, 100, UB_PRIO_TELEMETRY, t) >= 0);
+        while (offer(m, bulk, 200, UB_PRIO_BULK, t) == UB_OK) bulk++;
+    }
+    size_t n_tel = 0, n_bulk = 0;
+    for (size_t i = 0; i < m->cap.n; i++) *(m->cap.id[i] >= 1000000 ? &n_bulk : &n_tel) += 1;
+    assert_true(m->imp.stats.shed > 0);                    /* the flood was real */
+    assert_true(n_bulk * UB_PRIO_BULK_EVERY >= n_tel - 16); /* one bulk frame per UB_PRIO_BULK_EVERY telemetry */
+    assert_true(n_bulk * UB_PRIO_BULK_EVERY <= n_tel + 16);
+    assert_true(ub_impair_check_balance(&m->imp));
+    free(m);
 }
 
 /* Without priorities the same stream holds a command behind the whole queue: the bound above is the
@@ -279,6 +302,7 @@ int main(void) {
         cmocka_unit_test(test_priority_order),
         cmocka_unit_test(test_per_class_bounds),
         cmocka_unit_test(test_fragments_never_delay_a_command_beyond_one_mtu),
+        cmocka_unit_test(test_bulk_keeps_its_share_under_a_flood),
         cmocka_unit_test(test_without_priorities_a_command_waits_behind_the_queue),
         cmocka_unit_test(test_node_derives_class_and_counts_sheds),
     };

@@ -98,6 +98,11 @@
 #ifndef UB_PRIO_DEPTH_BULK
 #define UB_PRIO_DEPTH_BULK 4
 #endif
+/** Bulk's share of a link flooded by telemetry: one bulk frame after this many telemetry frames taken while
+ *  bulk waited (a large directory slows down under a flood, never stops; commands and control still go first). */
+#ifndef UB_PRIO_BULK_EVERY
+#define UB_PRIO_BULK_EVERY 8
+#endif
 
 /** Hop limit written into frames this node originates. */
 #ifndef UB_DEFAULT_HOP_LIMIT

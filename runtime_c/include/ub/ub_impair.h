@@ -46,7 +46,9 @@
  * (ub_impair_ops.send_class) wait in per-class queues of UB_PRIO_DEPTH_* frames (ub_config.h) instead of
  * taking the medium in send order. Whenever the medium is free it takes the oldest frame of the highest
  * class that has arrived by then, and carries it whole (a frame on the medium is never interrupted): a
- * command waits at most for the frame being carried. A full telemetry queue drops its oldest frame for the
+ * command waits at most for the frame being carried. Bulk keeps a share under a telemetry flood: after
+ * UB_PRIO_BULK_EVERY telemetry copies in a row while bulk waited, the oldest bulk copy goes (never ahead of
+ * a command or control copy). A full telemetry queue drops its oldest frame for the
  * new one (counted `shed`, and reported to the node, which counts the drop `shed` on the link); a full
  * queue of another class pushes back (UB_ERR_AGAIN, `queue_full`). Frames sent without a class (send())
  * are telemetry. With `prio` 0 every frame takes the medium in send order, as before.
@@ -139,6 +141,7 @@ typedef struct ub_impair {
     uint64_t busy_until_us; /**< the medium carries the last copy until then (byte rate) */
     size_t count;
     uint16_t waiting[UB_PRIO_CLASSES]; /**< `prio`: copies waiting per class */
+    uint16_t tel_run;       /**< `prio`: telemetry copies taken in a row while bulk waited (bulk's share) */
     ub_impair_stats_t stats;
     ub_impair_frame_t queue[UB_IMPAIR_DEPTH];
 } ub_impair_t;

@@ -21,7 +21,8 @@
  * a full telemetry queue drops its **oldest** frame for the new one (counted `shed`); a full queue of any
  * other class pushes back (UB_ERR_AGAIN, counted `backpressure`: fragments pause and go on later, a
  * request is sent again by its retry). A frame on the medium is never interrupted, so a command waits at
- * most the frame being sent: one MTU time.
+ * most the frame being sent: one MTU time. Bulk is not starved by a telemetry flood: after
+ * UB_PRIO_BULK_EVERY telemetry frames taken while bulk waited, one bulk frame goes.
  */
 #ifndef UB_PRIO_H
 #define UB_PRIO_H

@@ -156,6 +156,21 @@ static void medium_pump(ub_impair_t *imp, uint64_t now_ms) {
             const ub_impair_frame_t *b = &imp->queue[best];
             if (f->cls < b->cls || (f->cls == b->cls && f->order < b->order)) best = (long)i;
         }
+        if (imp->queue[best].cls == UB_PRIO_TELEMETRY) {
+            /* Bulk's share: after UB_PRIO_BULK_EVERY telemetry copies taken while bulk waited, the oldest bulk
+             * copy goes, so a telemetry flood slows a large directory down but never stops it. Commands and
+             * control are never held back by it. */
+            long bulk = -1;
+            for (size_t i = 0; i < imp->count; i++) {
+                const ub_impair_frame_t *o = &imp->queue[i];
+                if (o->waiting && o->cls == UB_PRIO_BULK && o->arrival_us <= start_us &&
+                    (bulk < 0 || o->order < imp->queue[bulk].order))
+                    bulk = (long)i;
+            }
+            if (bulk >= 0 && imp->tel_run >= UB_PRIO_BULK_EVERY) best = bulk;
+            else if (bulk >= 0) imp->tel_run++;
+        }
+        if (imp->queue[best].cls == UB_PRIO_BULK) imp->tel_run = 0;
         ub_impair_frame_t *f = &imp->queue[best];
         for (size_t i = 0; i < imp->count; i++) {
             const ub_impair_frame_t *o = &imp->queue[i];

@@ -119,7 +119,7 @@ def ub_ports_describe(ports: Any, link: str) -> dict[str, Any] | None:
         s = lib.ub_impair_stats(ffi.addressof(p.impair))
         out["impair"] = {k: int(getattr(s, k)) for k in ("offered", "lost", "duplicated", "reordered", "delayed",
                                                         "queue_full", "passed", "inner_again", "inner_errors",
-                                                        "too_big", "rate_waits", "bytes")}
+                                                        "too_big", "rate_waits", "bytes", "shed", "overtaken")}
     return out
 
 
