@@ -87,7 +87,7 @@ def main() -> None:
     print(f"sizes\tcompact-command\t{len(stop[1])}\tmavlink2-command\t{len(cmd[1])}\tfragment\t{len(frags[1])}")
 
     cases = [
-        ("mavlink2", "0", cmd_f, "-", tel["mavlink2"]),
+        ("MAVLink 2", "0", cmd_f, "-", tel["mavlink2"]),
         ("uavbus compact", "0", stop_f, "-", tel["compact"]),
         ("uavbus compact", "1", stop_f, "-", tel["compact"]),
         ("uavbus compact", "0", stop_f, frag_f, tel["compact"]),

@@ -43,7 +43,7 @@ def render(raw: Path, w: Callable[[str], None], goals: list[Goal]) -> None:
     w("about 1.7 times what the link carries; a command every 250-299 ms (uavbus: a PUB_STOP admin frame, class")
     w("command; MAVLink 2: COMMAND_LONG), retried every ms while the link refuses it; latency = first offer to last")
     w("byte at the far side. `prio` 0 = one 32-frame FIFO (what MAVLink radios and routers have), 1 = per-class")
-    w("queues (`prio=1`, ub_prio.h). \"+ fragments\": a 16 KiB directory's 255-byte FRAGMENT packets offered as")
+    w("queues (`prio=1`, ub_prio.h). \"+ fragments\": a 16 KiB directory's FRAGMENT packets (255-byte MTU) offered as")
     w(f"fast as the link takes them. Frame sizes: {sizes}.")
     w("")
     w("| link | priorities | command p50 | command p99 | command max | telemetry offered/s | delivered/s | "
@@ -59,7 +59,7 @@ def render(raw: Path, w: Callable[[str], None], goals: list[Goal]) -> None:
     def find(label: str, prio: float, bulk: float) -> dict | None:
         return next((r for r in rows if r["label"] == label and r["prio"] == prio and r["bulk"] == bulk), None)
 
-    on, off, mav = find("uavbus compact", 1, 0), find("uavbus compact", 0, 0), find("mavlink2", 0, 0)
+    on, off, mav = find("uavbus compact", 1, 0), find("uavbus compact", 0, 0), find("MAVLink 2", 0, 0)
     frag_on = find("uavbus compact", 1, 1)
     if on is not None:
         worst = max(on["p99"], frag_on["p99"] if frag_on else 0)
