@@ -1,0 +1,66 @@
+"""Priorities on slow links from Python (issue 28): the content classes a node is given decide how a burst is
+queued on a byte-budget port (an impairment with rate=5760 and prio on). Injected clock: the burst happens at
+one instant, so what waits, what is shed and what is pushed back depends only on the classes and the bounds
+(UB_PRIO_DEPTH_*), never on the machine's speed."""
+
+from __future__ import annotations
+
+import pytest
+
+from binding_testutil import TABLE2, FakeClock, Generated
+from uavbus import Node
+from uavbus._bindings.ub_error import InvalidArgumentError
+
+pytestmark = pytest.mark.timeout(60)
+BURST = 40
+
+
+def burst(flightsw: Generated, classes: dict[str, str] | None) -> tuple[dict, dict]:
+    clock = FakeClock()
+    gcs = Node(flightsw.catalogue, config=TABLE2, node="gcs", clock=clock)
+    air = Node(flightsw.catalogue, config=TABLE2, node="primary", clock=clock)
+    try:
+        gcs.open_port("gcsPortDatalink1", "udp:bind=127.0.0.1:0")
+        pg = gcs.local_port("gcsPortDatalink1")
+        air.open_port("onboardPortDatalink1", f"udp:bind=127.0.0.1:0,peer=127.0.0.1:{pg}")
+        air.set_link_impairment("onboardPortDatalink1", rate=5760, prio=True)
+        if classes is not None:
+            air.wire.set_priorities(classes)
+        for _ in range(BURST):  # one instant: the medium takes the first frame, the rest wait by class
+            air.send("rmax1ob1", "gpsOut", "gcs1")
+        link = air.link_counters()["onboardPortDatalink1"]
+        imp = air.port_info("onboardPortDatalink1")["impair"]
+        return link, imp
+    finally:
+        gcs.close()
+        air.close()
+
+
+def test_telemetry_burst_sheds_oldest_and_counts_it(flightsw: Generated) -> None:
+    link, imp = burst(flightsw, None)
+    # gpsOut is telemetry by default: 1 on the medium, 12 waiting (UB_PRIO_DEPTH_TELEMETRY), the rest each shed
+    # the oldest waiting one; nothing is pushed back.
+    assert link["drops"]["shed"] == imp["shed"] == BURST - 1 - 12
+    assert link["drops"]["backpressure"] == 0
+    assert link["frames_out"] == BURST
+
+
+def test_control_content_is_pushed_back_not_shed(flightsw: Generated) -> None:
+    link, imp = burst(flightsw, {"gpsOut": "control"})
+    # Configured control: its queue holds 8 (UB_PRIO_DEPTH_CONTROL); the rest are refused, never shed.
+    assert link["drops"]["shed"] == imp["shed"] == 0
+    assert link["drops"]["backpressure"] == imp["queue_full"] == BURST - 1 - 8
+    assert link["frames_out"] == 1 + 8
+
+
+def test_priorities_refuse_unknown_names(flightsw: Generated) -> None:
+    node = Node(flightsw.catalogue, config=TABLE2, node="primary", clock=FakeClock())
+    try:
+        with pytest.raises(InvalidArgumentError, match="urgent"):
+            node.wire.set_priorities({"gpsOut": "urgent"})
+        with pytest.raises(InvalidArgumentError, match="noSuchContent"):
+            node.wire.set_priorities({"noSuchContent": "control"})
+        node.wire.set_priorities({"gpsOut": "bulk"})
+        node.wire.set_priorities(None)
+    finally:
+        node.close()
