@@ -10,11 +10,13 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "ub/ub_impair.h"
 #include "ub/ub_node.h"
+#include "ub/ub_nodecfg.h"
 #include "ub/ub_prio.h"
 #include "support/ub_test_pair.h"
 
@@ -296,6 +298,52 @@ static void test_node_derives_class_and_counts_sheds(void **state) {
     pair_free(p);
 }
 
+/* ---- the configuration's "priorities" ---- */
+
+static int parse_cfg(ub_nodecfg_t *cfg, const char *priorities, char *err, size_t cap) {
+    char text[1024];
+    (void)snprintf(text, sizeof text,
+                   "{\"entities\": [{\"name\": \"a\", \"links\": [\"l0\"], \"linktoentity\": [\"0x00000000\"]}],\n"
+                   " \"hosts\": [\"a\"],\n \"priorities\": %s}",
+                   priorities);
+    return ub_nodecfg_parse(cfg, text, strlen(text), "prio.json", err, cap);
+}
+
+static void test_config_priorities(void **state) {
+    (void)state;
+    ub_nodecfg_t *cfg = calloc(1, sizeof *cfg);
+    assert_non_null(cfg);
+    char err[UB_NODECFG_ERR_LEN];
+    /* The first pattern in file order decides; unnamed contents are telemetry. */
+    assert_int_equal(parse_cfg(cfg, "{\"gps*\": \"control\", \"*Out\": \"bulk\"}", err, sizeof err), UB_OK);
+    pair_t *p = pair_new(NULL);
+    uint8_t classes[8];
+    size_t n = ub_test_cat.n_instances;
+    assert_int_equal(ub_nodecfg_apply_priorities(cfg, p->pub_node, &ub_test_cat, classes, n, err, sizeof err), UB_OK);
+    assert_int_equal(classes[TEST_GPS], UB_PRIO_CONTROL);
+    assert_int_equal(classes[TEST_IMU], UB_PRIO_BULK);
+    class_capture_t cc = {0};
+    assert_int_equal(ub_node_link_attach(p->pub_node, p->pub_link, &cc_ops, &cc), UB_OK);
+    assert_int_equal(ub_node_send_data(p->pub_node, p->pub, TEST_GPS, p->sub_id, 10), 1);
+    assert_int_equal(cc.cls[0], UB_PRIO_CONTROL);
+    /* A pattern that matches nothing is a mistake the operator hears of, with its line. */
+    assert_int_equal(parse_cfg(cfg, "{\"gpsOut\": \"command\",\n \"gpsOutt\": \"bulk\"}", err, sizeof err), UB_OK);
+    assert_int_equal(ub_nodecfg_apply_priorities(cfg, p->pub_node, &ub_test_cat, classes, n, err, sizeof err),
+                     UB_ERR_CONFIG);
+    assert_non_null(strstr(err, "prio.json:4: field 'priorities.gpsOutt': matches no content"));
+    /* Refused at parse: an unknown class, a non-object, a bad pattern; each names file:line. */
+    assert_int_equal(parse_cfg(cfg, "{\"gpsOut\": \"urgent\"}", err, sizeof err), UB_ERR_CONFIG);
+    assert_non_null(strstr(err, "prio.json:3:"));
+    assert_non_null(strstr(err, "\"command\", \"control\", \"telemetry\", \"bulk\""));
+    assert_int_equal(parse_cfg(cfg, "[\"gpsOut\"]", err, sizeof err), UB_ERR_CONFIG);
+    assert_int_equal(parse_cfg(cfg, "{\"gps Out\": \"bulk\"}", err, sizeof err), UB_ERR_CONFIG);
+    /* No section: nothing applied, the node keeps its table. */
+    assert_int_equal(parse_cfg(cfg, "{}", err, sizeof err), UB_OK);
+    assert_int_equal(ub_nodecfg_apply_priorities(cfg, p->pub_node, &ub_test_cat, NULL, 0, err, sizeof err), UB_OK);
+    pair_free(p);
+    free(cfg);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_class_of_admin_codes),
@@ -305,6 +353,7 @@ int main(void) {
         cmocka_unit_test(test_bulk_keeps_its_share_under_a_flood),
         cmocka_unit_test(test_without_priorities_a_command_waits_behind_the_queue),
         cmocka_unit_test(test_node_derives_class_and_counts_sheds),
+        cmocka_unit_test(test_config_priorities),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -202,6 +202,10 @@ class Node:
                 cfg = cfg.select_node(node)
             try:
                 ub_nodecfg.ub_nodecfg_apply(cfg.c_config, self._c)
+                # contents' priority classes on slow links (the "priorities" section; docs/pubsub.md)
+                classes = ub_nodecfg.ub_nodecfg_apply_priorities(cfg.c_config, self._c, c_catalogue)
+                if classes is not None:
+                    self.wire._classes = classes  # the C node keeps a pointer: keep the table alive
                 # keys, counter file and frame policy of the "security" section (C: ub_nodecfg_apply_security)
                 applied = ub_nodecfg.ub_nodecfg_apply_security(cfg.c_config, self._c)
             except UbError as exc:
