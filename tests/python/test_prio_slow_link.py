@@ -5,20 +5,23 @@ one instant, so what waits, what is shed and what is pushed back depends only on
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import pytest
 
 from binding_testutil import TABLE2, FakeClock, Generated
 from uavbus import Node
-from uavbus._bindings.ub_error import InvalidArgumentError
+from uavbus._bindings.ub_error import ConfigError, InvalidArgumentError
 
 pytestmark = pytest.mark.timeout(60)
 BURST = 40
 
 
-def burst(flightsw: Generated, classes: dict[str, str] | None) -> tuple[dict, dict]:
+def burst(flightsw: Generated, classes: dict[str, str] | None, config: Path = TABLE2) -> tuple[dict, dict]:
     clock = FakeClock()
-    gcs = Node(flightsw.catalogue, config=TABLE2, node="gcs", clock=clock)
-    air = Node(flightsw.catalogue, config=TABLE2, node="primary", clock=clock)
+    gcs = Node(flightsw.catalogue, config=config, node="gcs", clock=clock)
+    air = Node(flightsw.catalogue, config=config, node="primary", clock=clock)
     try:
         gcs.open_port("gcsPortDatalink1", "udp:bind=127.0.0.1:0")
         pg = gcs.local_port("gcsPortDatalink1")
@@ -51,6 +54,21 @@ def test_control_content_is_pushed_back_not_shed(flightsw: Generated) -> None:
     assert link["drops"]["shed"] == imp["shed"] == 0
     assert link["drops"]["backpressure"] == imp["queue_full"] == BURST - 1 - 8
     assert link["frames_out"] == 1 + 8
+
+
+def test_config_priorities_section(flightsw: Generated, tmp_path: Path) -> None:
+    """The same classes from the config file's "priorities" section (every node of the fleet reads it)."""
+    cfg = json.loads(TABLE2.read_text())
+    cfg["priorities"] = {"gps*": "control"}
+    path = tmp_path / "table2_prio.json"
+    path.write_text(json.dumps(cfg))
+    link, imp = burst(flightsw, None, path)
+    assert link["drops"]["shed"] == imp["shed"] == 0
+    assert link["drops"]["backpressure"] == BURST - 1 - 8
+    cfg["priorities"] = {"gpsOutTypo": "control"}
+    path.write_text(json.dumps(cfg))
+    with pytest.raises(ConfigError, match="priorities.gpsOutTypo': matches no content"):
+        Node(flightsw.catalogue, config=path, node="primary", clock=FakeClock())
 
 
 def test_priorities_refuse_unknown_names(flightsw: Generated) -> None:
