@@ -222,6 +222,21 @@ static void test_bulk_keeps_its_share_under_a_flood(void **state) {
     free(m);
 }
 
+/* Taken away (ub_ports drains a decorator with a time later than any due time): every waiting frame leaves,
+ * in class order, none stays behind uncounted. */
+static void test_drain_leaves_nothing_waiting(void **state) {
+    (void)state;
+    medium_t *m = medium_new(1);
+    for (uint32_t i = 1; i <= 10; i++) assert_true(offer(m, i, 200, UB_PRIO_TELEMETRY, 5) >= 0);
+    assert_int_equal(offer(m, 99, 40, UB_PRIO_COMMAND, 5), UB_OK);
+    assert_int_equal(ub_impair_service(&m->imp, UINT64_MAX / 2), 11); /* frame 1 was on the medium, due later */
+    assert_int_equal(ub_impair_pending(&m->imp), 0);
+    assert_int_equal(m->cap.n, 11);
+    assert_int_equal(position(m, 99), 1);
+    assert_true(ub_impair_check_balance(&m->imp));
+    free(m);
+}
+
 /* Without priorities the same stream holds a command behind the whole queue: the bound above is the
  * priorities' doing (this is the test that fails if the classes are ignored). */
 static void test_without_priorities_a_command_waits_behind_the_queue(void **state) {
@@ -351,6 +366,7 @@ int main(void) {
         cmocka_unit_test(test_per_class_bounds),
         cmocka_unit_test(test_fragments_never_delay_a_command_beyond_one_mtu),
         cmocka_unit_test(test_bulk_keeps_its_share_under_a_flood),
+        cmocka_unit_test(test_drain_leaves_nothing_waiting),
         cmocka_unit_test(test_without_priorities_a_command_waits_behind_the_queue),
         cmocka_unit_test(test_node_derives_class_and_counts_sheds),
         cmocka_unit_test(test_config_priorities),

@@ -141,7 +141,8 @@ static bool medium_next_start(const ub_impair_t *imp, uint64_t *start_us) {
  * start the oldest copy of the highest class that had arrived by then. A copy on the medium has its leave
  * time and goes out through the ordinary release (ub_impair_service()). */
 static void medium_pump(ub_impair_t *imp, uint64_t now_ms) {
-    uint64_t now_us = now_ms * 1000u;
+    /* Saturated: ub_ports drains a decorator it takes away with a time later than any due time. */
+    uint64_t now_us = now_ms > UINT64_MAX / 1000u ? UINT64_MAX : now_ms * 1000u;
     uint64_t start_us;
     while (medium_next_start(imp, &start_us) && start_us <= now_us) {
         long best = -1;
