@@ -6,6 +6,7 @@ one instant, so what waits, what is shed and what is pushed back depends only on
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -80,5 +81,64 @@ def test_priorities_refuse_unknown_names(flightsw: Generated) -> None:
             node.wire.set_priorities({"noSuchContent": "control"})
         node.wire.set_priorities({"gpsOut": "bulk"})
         node.wire.set_priorities(None)
+    finally:
+        node.close()
+
+
+def frames_in(data: bytes) -> list[bytes]:
+    """Full uavbus frames in a byte stream (sync A5 5B, msg_size at offset 6), in order."""
+    out, i = [], 0
+    while True:
+        i = data.find(b"\xa5\x5b", i)
+        if i < 0 or i + 8 > len(data):
+            return out
+        size = data[i + 6] | data[i + 7] << 8
+        if size < 64 or i + size > len(data):
+            i += 1
+            continue
+        out.append(data[i:i + size])
+        i += size
+
+
+def test_serial_port_with_prio_sends_a_command_ahead_of_a_telemetry_burst(flightsw: Generated) -> None:
+    """`prio=1` on a serial port: the bandwidth model at the port's own baud rate (57,600 -> 5,760 B/s) sends by
+    class, so the request queued behind a burst of telemetry reaches the wire right after the frame that was
+    already on it. The other end of the pty is read after the fact: nothing here depends on the machine's speed."""
+    master, slave = os.openpty()
+    clock = FakeClock()
+    air = Node(flightsw.catalogue, config=TABLE2, node="primary", clock=clock)
+    try:
+        os.set_blocking(master, False)
+        air.open_port("onboardPortDatalink1", f"serial:device={os.ttyname(slave)},baud=57600,prio=1")
+        assert air.port_info("onboardPortDatalink1")["spec"].endswith(",prio=1")
+        for _ in range(BURST):
+            air.send("rmax1ob1", "gpsOut", "gcs1")
+        air.subscribe("rmax1ob1", "imuOut", source="gcs1", period_ms=1000)  # a SUB_REQUEST: class command
+        data = b""
+        for _ in range(400):  # 2 s of injected time: the burst that was kept drains at 5,760 B/s
+            clock.t += 5
+            air.poll(0)
+            try:
+                data += os.read(master, 65536)
+            except BlockingIOError:
+                pass
+        admin = [f[48] for f in frames_in(data)]
+        assert admin[0] == 0 and admin[1] == 1, str(admin)  # DATA already on the wire, then the PUB_REQUEST
+        # The burst that was kept: the frame on the wire and the 12 the telemetry queue holds (the rest shed);
+        # the request's retries go ahead of what is left of it too.
+        assert admin.count(0) == 1 + 12, str(admin)
+        link = air.link_counters()["onboardPortDatalink1"]
+        assert link["drops"]["shed"] == BURST - 1 - 12
+    finally:
+        air.close()
+        os.close(master)
+        os.close(slave)
+
+
+def test_prio_needs_a_byte_rate(flightsw: Generated) -> None:
+    node = Node(flightsw.catalogue, config=TABLE2, node="primary", clock=FakeClock())
+    try:
+        with pytest.raises(Exception, match="prio=1' needs the port's byte rate"):
+            node.open_port("onboardPortDatalink1", "udp:bind=127.0.0.1:0,prio=1")
     finally:
         node.close()
