@@ -19,7 +19,9 @@
  *
  * Every socket and serial port also takes `encoding=full|compact` (the link's wire encoding,
  * ub_compact.h; both ends alike) and `mtu=BYTES` (64..65535: the largest frame the link carries on
- * the wire; larger directories go in fragments, larger forwarded frames are dropped `too_big`).
+ * the wire; larger directories go in fragments, larger forwarded frames are dropped `too_big`), and a
+ * serial port `prio=1` (send by priority class at its byte rate, baud / 10: the bandwidth model of
+ * ub_impair.h with `prio` in front of it, on top of any impairment; ub_prio.h).
  *
  * HOST is a dotted IPv4 address (127.0.0.1), or `localhost`.
  *
