@@ -324,6 +324,11 @@ say "figure 10: remote read round trip over 1 and 2 hops"
 cmake --build build --target uavbus_node >/dev/null
 sample "$raw/inspect.txt" 900 "$VPY" bench/inspect_bench.py --n "${INSPECT_N:-300}" 2>"$raw/inspect.log"
 
+# ---- figure 11: priorities on a 57,600-baud radio (issue 28): simulated clock, bench/prio_bench.py ----
+say "figure 11: commands beside a telemetry flood on a simulated 57,600-baud radio, with and without priorities"
+gcc "${CFLAGS[@]}" bench/src/prio_bench.c "$LIBUB" $SODIUM -o "$bin/prio_bench"
+sample "$raw/prio.txt" 900 "$VPY" bench/prio_bench.py "$gen/benchcat.catalogue.json" "$bin/prio_bench" "$build/prio-frames"
+
 # ---- internals kept from the first bench (frame codec, router costs, false-accept rate) ----
 "$SAMPLE" "$raw/frame_bench.txt" 600 "$build/runtime_c/ub_frame_bench"
 "$SAMPLE" "$raw/router_bench.txt" 600 "$build/runtime_c/ub_router_bench"

@@ -813,6 +813,12 @@ def main() -> None:
 
         inspect_section(raw, w, goals)
 
+    with section(out, broken, "figure 11: priorities on slow links (bench/prio_tables.py)"):
+        # ---- figure 11: priorities on a 57,600-baud radio (bench/prio_tables.py) ----
+        from prio_tables import render as prio_section  # bench/ is the script's own directory
+
+        prio_section(raw, w, goals)
+
     with section(out, broken, "before and after (BENCH_BASE)"):
         out.extend(before_after(raw))
     with section(out, broken, "instruction counts along the history (BENCH_COUNTS_AT)"):

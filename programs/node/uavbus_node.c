@@ -283,9 +283,9 @@ static void out_impair(ub_app_t *app, const ub_port_t *p) {
     const ub_impair_stats_t *s = ub_impair_stats(&p->impair);
     ub_app_out(app, ",\"impair\":{\"offered\":%" PRIu64 ",\"lost\":%" PRIu64 ",\"duplicated\":%" PRIu64 ",\"reordered\":%" PRIu64
         ",\"delayed\":%" PRIu64 ",\"queue_full\":%" PRIu64 ",\"passed\":%" PRIu64 ",\"inner_again\":%" PRIu64
-        ",\"inner_errors\":%" PRIu64 ",\"pending\":%zu}",
+        ",\"inner_errors\":%" PRIu64 ",\"shed\":%" PRIu64 ",\"pending\":%zu}",
         s->offered, s->lost, s->duplicated, s->reordered, s->delayed, s->queue_full, s->passed, s->inner_again,
-        s->inner_errors, ub_impair_pending(&p->impair));
+        s->inner_errors, s->shed, ub_impair_pending(&p->impair));
 }
 
 /* The port's driver object ("udp":{...}), written by its driver table (ub_driver.h), built-in or registered. */

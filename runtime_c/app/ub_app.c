@@ -409,6 +409,13 @@ void ub_app_start(ub_app_t *app, const ub_catalogue_t *catalogue, ub_frag_t *fra
         if (ub_node_set_frag(&app->node, frag) != UB_OK) ub_app_die(app, "%s: fragment state refused", name);
     }
     if (ub_nodecfg_apply(&app->cfg, &app->node, err, sizeof err) != UB_OK) ub_app_die(app, "%s", err);
+    /* Priority classes of contents on slow links (docs/pubsub.md, "Priorities on slow links"). */
+    if (app->cfg.priority_count > 0 && catalogue->n_instances > UB_APP_MAX_CONTENTS)
+        ub_app_die(app, "%s: priorities: the catalogue has %zu contents, this program classes at most %d "
+                   "(UB_APP_MAX_CONTENTS)", app->cfg.source, (size_t)catalogue->n_instances, UB_APP_MAX_CONTENTS);
+    if (ub_nodecfg_apply_priorities(&app->cfg, &app->node, catalogue, app->content_class, catalogue->n_instances, err,
+                                    sizeof err) != UB_OK)
+        ub_app_die(app, "%s", err);
     /* Keys, counter file and policy of the "security" section (none: the node stays unsigned). */
     char sec_err[UB_NODECFG_ERR_LEN + UB_SECFILE_ERR_LEN];
     if (ub_nodecfg_apply_security(&app->cfg, &app->node, &app->sec, &app->counter, NULL, ub_app_unix_us(), sec_err,

@@ -59,6 +59,7 @@
 
 #define UB_APP_EXIT_USAGE 2          /* bad command line or set-up: the message names argv[i] or file:line */
 #define UB_APP_MAX_PORT_ARGS 16      /* --port options */
+#define UB_APP_MAX_CONTENTS 1024     /* catalogue instances the config's "priorities" can class */
 #define UB_APP_MAX_WAIT_MS 1         /* publications are due on whole ms: wake at least every ms */
 #define UB_APP_OUT_CAP (1 << 16)     /* one event line; a longer one becomes an error event */
 #define UB_APP_LINE_CAP 1024         /* one stdin command line, newline included */
@@ -115,6 +116,7 @@ struct ub_app {
     ub_node_t node;
     ub_sec_t sec;            /* used when the configuration has a "security" section */
     ub_counter_file_t counter;
+    uint8_t content_class[UB_APP_MAX_CONTENTS]; /* the config's "priorities" per instance (ub_prio.h) */
     /* Identity per entity (issue 23): used when the "security" section names an authority. The revocation
      * service spreads and persists revocations (ub_revoke.h); its records are the store's. */
     bool ident_on;

@@ -32,7 +32,7 @@ add_executable(ub_router_bench ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/router_
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/svc/ub_admin.c ${CMAKE_CURRENT_SOURCE_DIR}/src/core/ub_link.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/svc/ub_route.c ${CMAKE_CURRENT_SOURCE_DIR}/src/svc/ub_member.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/svc/ub_inspect.c ${CMAKE_CURRENT_SOURCE_DIR}/src/svc/ub_node_std.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/src/core/ub_node_svc.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/core/ub_node_svc.c ${CMAKE_CURRENT_SOURCE_DIR}/src/core/ub_prio.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/core/ub_node_sec.c ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_sec.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/drivers/ub_memlink.c ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_frame.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_crc32c.c ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_catalogue.c

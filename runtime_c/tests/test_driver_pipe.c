@@ -289,7 +289,7 @@ static void test_specs_in_every_form(void **state) {
     assert_int_equal(ub_ports_spec_parse(ports, "pipe:fd=x", &s, err, sizeof err), UB_ERR_INVAL);
     assert_string_equal(err, "'fd=x': give a descriptor number");
     assert_int_equal(ub_ports_spec_parse(ports, "pipe:fd=1,speed=9", &s, err, sizeof err), UB_ERR_INVAL);
-    assert_string_equal(err, "unknown parameter 'speed' for pipe (expected: fd, encoding, mtu)");
+    assert_string_equal(err, "unknown parameter 'speed' for pipe (expected: fd, encoding, mtu, prio)");
     /* --port form: "pipe:fd=3" alone is a spec without a link name. */
     assert_int_equal(ub_ports_arg_parse(ports, "pubPort=pipe:fd=3", name, sizeof name, &s, err, sizeof err), UB_OK);
     assert_string_equal(name, "pubPort");

@@ -92,7 +92,7 @@ static void test_spec_parse_errors(void **state) {
         {"udp:bind=example.com:1,peer=127.0.0.1:1", "dotted IPv4"},
         {"udp:bind=127.0.0.1:0,peer=127.0.0.1:0", "peer port must not be 0"},
         {"udp:bind=127.0.0.1:0,bind=127.0.0.1:0,peer=127.0.0.1:1", "'bind' given twice"},
-        {"udp:listen=127.0.0.1:1", "unknown parameter 'listen' for udp (expected: bind, peer, accept, encoding, mtu)"},
+        {"udp:listen=127.0.0.1:1", "unknown parameter 'listen' for udp (expected: bind, peer, accept, encoding, mtu, prio)"},
         {"tcp", "tcp needs listen=HOST:PORT (server) or connect=HOST:PORT (client)"},
         {"tcp:listen=127.0.0.1:1,connect=127.0.0.1:2", "either listens or connects"},
         {"tcp:connect=127.0.0.1:0", "must not be 0"},

@@ -52,7 +52,7 @@ static void test_spec_text_refusals(void **state) {
     refused("udp:bind=127.0.0.1:0,mtu=lots", "'mtu=lots': give the largest frame");
     refused("udp:bind=127.0.0.1:0,mtu=64,mtu=128", "'mtu=128': given twice: give it once");
     refused("udp:bind=127.0.0.1:0,colour=red", "unknown parameter 'colour' for udp (expected: ");
-    refused("udp:bind=127.0.0.1:0,colour=red", ", encoding, mtu)");
+    refused("udp:bind=127.0.0.1:0,colour=red", ", encoding, mtu, prio)");
     /* mem takes no parameters and has no wire parameters to offer. */
     assert_int_equal(ub_port_spec_parse("mem:mtu=100", &s, err, sizeof err), UB_ERR_INVAL);
     assert_string_equal(err, "unknown parameter 'mtu' for mem (expected: none)");

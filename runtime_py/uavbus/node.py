@@ -210,6 +210,10 @@ class Node:
                 cfg = cfg.select_node(node)
             try:
                 ub_nodecfg.ub_nodecfg_apply(cfg.c_config, self._c)
+                # contents' priority classes on slow links (the "priorities" section; docs/pubsub.md)
+                classes = ub_nodecfg.ub_nodecfg_apply_priorities(cfg.c_config, self._c, c_catalogue)
+                if classes is not None:
+                    self.wire._classes = classes  # the C node keeps a pointer: keep the table alive
                 # keys, counter file and frame policy of the "security" section (C: ub_nodecfg_apply_security)
                 applied = ub_nodecfg.ub_nodecfg_apply_security(cfg.c_config, self._c)
             except UbError as exc:
@@ -621,18 +625,21 @@ class Node:
         return None if self._ports is None else ub_ports.ub_ports_describe(self._ports, link)
 
     def set_impairment(self, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0, delay: int = 0,
-                       jitter: int = 0, hold: int = 0, seed: int = 0, rate: int = 0, mtu: int = 0) -> None:
+                       jitter: int = 0, hold: int = 0, seed: int = 0, rate: int = 0, mtu: int = 0,
+                       prio: bool = False) -> None:
         """Seeded impairment in front of every socket/serial port, now and later (Contract 4). `rate`: bytes
-        per second the medium carries (a 57,600-baud radio: 5760); `mtu`: its longest packet (0: no limit)."""
-        ub_ports.ub_ports_set_impairment(self._ports_obj(), loss, dup, reorder, delay, jitter, hold, seed, rate, mtu)
+        per second the medium carries (a 57,600-baud radio: 5760); `mtu`: its longest packet (0: no limit);
+        `prio`: send by priority class on that budget (docs/pubsub.md, "Priorities on slow links")."""
+        ub_ports.ub_ports_set_impairment(self._ports_obj(), loss, dup, reorder, delay, jitter, hold, seed, rate, mtu,
+                                         prio)
 
     def set_link_impairment(self, link: str, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0,
                             delay: int = 0, jitter: int = 0, hold: int = 0, seed: int = 0, rate: int = 0,
-                            mtu: int = 0) -> None:
+                            mtu: int = 0, prio: bool = False) -> None:
         """The open port of `link` gets its own seeded impairment, over set_impairment()'s (e.g. loss=1: a
-        radio out of range; rate=5760: a 57,600-baud radio); all zero removes it."""
+        radio out of range; rate=5760: a 57,600-baud radio; prio=True: by priority class); all zero removes it."""
         ub_ports.ub_ports_set_link_impairment(self._ports_obj(), link, loss, dup, reorder, delay, jitter, hold, seed,
-                                              rate, mtu)
+                                              rate, mtu, prio)
 
     def _keep_alive(self, transport: Any) -> None:
         """Keeps a Python transport (uavbus.pylink.PyLink) alive as long as the node: C points at it."""
@@ -1060,6 +1067,28 @@ class Wire:
             raise InvalidArgumentError(f"mtu {mtu}: give 0 (no limit) or 64..65535 bytes")
         ub_node.ub_node_link_set_mtu(self.node._c, self.node.link_id(link), mtu,
                                      f"mtu {mtu} of link {link!r} (64..65535)")
+
+    def set_priorities(self, classes: dict[str, str] | None) -> None:
+        """Each content's priority class on slow links (docs/pubsub.md, "Priorities on slow links"): a dict
+        instance name -> "command", "control", "telemetry" (the default of every content not named) or "bulk".
+        A link whose transport queues by class (an impairment with `rate=` and `prio=1`) sends by it; admin
+        frames are always "command", fragments "bulk". Give every node of a fleet the same table. None: every
+        content telemetry."""
+        if classes is None:
+            self._classes = ub_node.ub_node_set_content_classes(self.node._c, None, "priorities")
+            return
+        cat = self.node.catalogue
+        table = [ub_node.PRIO_CLASSES.index("telemetry")] * len(cat)
+        for name, cls in classes.items():
+            if cls not in ub_node.PRIO_CLASSES:
+                raise InvalidArgumentError(
+                    f"priority of {name!r}: {cls!r} is not a class (use one of {', '.join(ub_node.PRIO_CLASSES)})")
+            try:
+                table[cat.instance(name).index] = ub_node.PRIO_CLASSES.index(cls)
+            except KeyError as e:
+                raise InvalidArgumentError(f"priority of {name!r}: {e.args[0]}") from None
+        # the C node keeps a pointer to the table: keep it alive
+        self._classes = ub_node.ub_node_set_content_classes(self.node._c, table, "priorities")
 
     def fragment_counters(self) -> dict[str, int]:
         """The fragment state's counters (ub_frag.h): transfers sent, reassembled, timed out..."""

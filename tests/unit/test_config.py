@@ -29,7 +29,8 @@ SCHEMA_REJECTS = {
     "lte_bad_key", "lte_wrong_type", "hosts_duplicate", "hosts_not_name", "nodes_empty_list", "nodes_bad_name",
     "nodes_not_object", "ports_missing_transport", "ports_bad_transport", "ports_bad_param_value", "ports_bad_key",
     "ports_not_object", "ports_value_too_long", "ports_value_float", "top_unknown_field_long",
-    "top_unknown_field_unsafe", "entity_name_escaped_nul", "hex_non_ascii",
+    "top_unknown_field_unsafe", "entity_name_escaped_nul", "hex_non_ascii", "priorities_bad_class",
+    "priorities_not_object",
 }
 
 

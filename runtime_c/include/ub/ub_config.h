@@ -80,6 +80,30 @@
 #ifndef UB_MAX_KEYS
 #define UB_MAX_KEYS 4
 #endif
+/* ---- priorities on slow links (ub_prio.h, issue 28) ---- */
+/** Frames that may wait per priority class on a byte-budget link that queues by class (ub_impair.h with
+ *  `prio=1`). Commands and control are rare and small; telemetry is the flood (its oldest frame is dropped
+ *  for a newer one, counted `shed`, so what waits stays fresh: 12 ATTITUDE frames are 80 ms of a
+ *  57,600-baud radio); bulk fragments pause on a full queue and go on later. Together they must not exceed
+ *  the link's buffer (UB_IMPAIR_DEPTH, 32 frames). */
+#ifndef UB_PRIO_DEPTH_COMMAND
+#define UB_PRIO_DEPTH_COMMAND 8
+#endif
+#ifndef UB_PRIO_DEPTH_CONTROL
+#define UB_PRIO_DEPTH_CONTROL 8
+#endif
+#ifndef UB_PRIO_DEPTH_TELEMETRY
+#define UB_PRIO_DEPTH_TELEMETRY 12
+#endif
+#ifndef UB_PRIO_DEPTH_BULK
+#define UB_PRIO_DEPTH_BULK 4
+#endif
+/** Bulk's share of a link flooded by telemetry: one bulk frame after this many telemetry frames taken while
+ *  bulk waited (a large directory slows down under a flood, never stops; commands and control still go first). */
+#ifndef UB_PRIO_BULK_EVERY
+#define UB_PRIO_BULK_EVERY 8
+#endif
+
 /** Hop limit written into frames this node originates. */
 #ifndef UB_DEFAULT_HOP_LIMIT
 #define UB_DEFAULT_HOP_LIMIT 8

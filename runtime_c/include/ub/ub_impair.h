@@ -40,7 +40,18 @@
  * `queue_full` for either. A queued copy the inner transport later refuses is
  * counted `inner_again` / `inner_errors`. Nothing is lost uncounted:
  *
- *     offered + duplicated == too_big + lost + queue_full + passed + inner_again + inner_errors + pending
+ *     offered + duplicated == too_big + lost + queue_full + shed + passed + inner_again + inner_errors + pending
+ *
+ * **Priorities** (`prio` = 1, with a byte rate; ub_prio.h): frames the node sends with their class
+ * (ub_impair_ops.send_class) wait in per-class queues of UB_PRIO_DEPTH_* frames (ub_config.h) instead of
+ * taking the medium in send order. Whenever the medium is free it takes the oldest frame of the highest
+ * class that has arrived by then, and carries it whole (a frame on the medium is never interrupted): a
+ * command waits at most for the frame being carried. Bulk keeps a share under a telemetry flood: after
+ * UB_PRIO_BULK_EVERY telemetry copies in a row while bulk waited, the oldest bulk copy goes (never ahead of
+ * a command or control copy). A full telemetry queue drops its oldest frame for the
+ * new one (counted `shed`, and reported to the node, which counts the drop `shed` on the link); a full
+ * queue of another class pushes back (UB_ERR_AGAIN, `queue_full`). Frames sent without a class (send())
+ * are telemetry. With `prio` 0 every frame takes the medium in send order, as before.
  *
  * where `passed` counts copies the inner transport accepted (ub_impair_check_balance()).
  *
@@ -62,6 +73,7 @@
 #include "ub_error.h"
 #include "ub_frame.h"
 #include "ub_link.h"
+#include "ub_prio.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -86,6 +98,7 @@ typedef struct ub_impair_params {
     uint32_t reorder_hold_ms; /**< 0 = UB_IMPAIR_REORDER_HOLD_MS */
     uint32_t rate_Bps;        /**< bytes per second the medium carries; 0 = no limit */
     uint32_t mtu;             /**< longest frame the medium carries, bytes; 0 = no limit */
+    uint32_t prio;            /**< 1: with a byte rate, send by priority class (ub_prio.h); 0: in send order */
 } ub_impair_params_t;
 
 /** Counters (frames sent by this end). */
@@ -102,12 +115,18 @@ typedef struct ub_impair_stats {
     uint64_t too_big;      /**< frames longer than `mtu`: not sent */
     uint64_t rate_waits;   /**< copies that waited for the medium (byte rate) */
     uint64_t bytes;        /**< bytes of the copies handed to the inner transport */
+    uint64_t shed;         /**< `prio`: oldest telemetry copies dropped for newer ones (full telemetry queue) */
+    uint64_t overtaken;    /**< `prio`: copies that took the medium ahead of an older copy of a lower class */
 } ub_impair_stats_t;
 
 typedef struct ub_impair_frame {
     uint64_t due_ms;
     uint64_t order;       /**< send order, ties and "after the next one" */
     uint8_t held;         /**< reordered: leaves after a later frame, or at due_ms + hold */
+    uint8_t waiting;      /**< `prio`: waits for the medium in its class queue (due_ms not set yet) */
+    uint8_t cls;          /**< priority class (ub_prio.h) */
+    uint32_t delay_ms;    /**< `prio`: delay and jitter to add once the medium has carried it */
+    uint64_t arrival_us;  /**< `prio`: when the node sent it */
     uint16_t len;
     uint8_t bytes[UB_FRAME_MAX];
 } ub_impair_frame_t;
@@ -121,6 +140,8 @@ typedef struct ub_impair {
     uint64_t next_order;
     uint64_t busy_until_us; /**< the medium carries the last copy until then (byte rate) */
     size_t count;
+    uint16_t waiting[UB_PRIO_CLASSES]; /**< `prio`: copies waiting per class */
+    uint16_t tel_run;       /**< `prio`: telemetry copies taken in a row while bulk waited (bulk's share) */
     ub_impair_stats_t stats;
     ub_impair_frame_t queue[UB_IMPAIR_DEPTH];
 } ub_impair_t;
@@ -175,7 +196,7 @@ bool ub_impair_check_balance(const ub_impair_t *imp);
  * Parses the command-line form "loss=0.2,reorder=0.2,dup=0,delay=5,jitter=0,seed=1"
  * (any subset, any order; probabilities 0..1 as decimals with up to 6
  * fraction digits, times in whole ms; "hold=" sets reorder_hold_ms;
- * "rate=" bytes per second and "mtu=" bytes, whole numbers). Keys not
+ * "rate=" bytes per second and "mtu=" bytes, whole numbers; "prio=" 0 or 1). Keys not
  * given are zero; `seed` (may be NULL) is left alone when not given.
  * @return UB_OK, or UB_ERR_INVAL with `err` saying which item is wrong and what is expected.
  */

@@ -74,6 +74,9 @@ typedef enum ub_drop_reason {
     UB_DROP_BAD_ORIGIN,      /**< origin tag wrong for its source and destination, or hop limit above the origin's */
     UB_DROP_NO_ORIGIN,       /**< no origin block where the destination requires one */
     UB_DROP_NO_IDENTITY,     /**< the peer's identity is unknown, revoked or expired (the identity store refused it) */
+    /* Priorities on slow links (ub_prio.h). */
+    UB_DROP_SHED,            /**< an older telemetry frame a byte-budget link dropped from its full telemetry queue to take a
+                                  newer one (ub_link_ops_t.send_class returned how many) */
     UB_DROP_REASON_COUNT
 } ub_drop_reason_t;
 
@@ -114,6 +117,14 @@ typedef struct ub_link_ops {
     int (*send)(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms);
     /** @return a pollable file descriptor, or -1 if the transport has none. May be NULL (= -1). */
     int (*fileno)(void *impl);
+    /**
+     * Optional: send() with the frame's priority class (ub_prio.h), for a transport that queues by class
+     * (a byte-budget link). When set, the node calls it instead of send(), with the class it derived from
+     * the full frame (before any compact encoding). Same contract as send(), except that a positive return
+     * means "taken, and that many older telemetry frames were dropped from the queue to make room": the
+     * node counts them `shed` on the link. NULL: the node calls send().
+     */
+    int (*send_class)(void *impl, const uint8_t *frame, size_t len, uint8_t cls, uint64_t now_ms);
 } ub_link_ops_t;
 
 /** One link slot of a node. Owned by ub_node_t; treat the fields as read-only. */

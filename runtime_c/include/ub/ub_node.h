@@ -282,6 +282,7 @@ struct ub_node {
     ub_binding_t bindings[UB_MAX_BINDINGS];
     size_t n_bindings;
     void *const *bind_table;    /**< per-instance storage (ub_node_bind_table()), or NULL */
+    const uint8_t *content_class; /**< per-instance priority class (ub_node_set_content_classes()), or NULL */
     uint32_t next_seq;          /**< without a security context; with one, counters come from it */
     uint64_t rng_state;         /**< seeded fallback generator of request ids (ub_random.h) */
     const ub_policy_t *policy;  /**< NULL: no authorization (the paper's closed lab) */
@@ -452,6 +453,18 @@ UB_CHECK int ub_node_bind(ub_node_t *node, uint32_t instance, void *storage);
  *         `n` != n_instances). A NULL table removes a previous one (returns 0).
  */
 UB_CHECK int ub_node_bind_table(ub_node_t *node, void *const *table, size_t n);
+
+/**
+ * Gives every catalogued content its priority class on slow links (ub_prio.h), from `classes`, indexed by
+ * catalogue instance index, with exactly `n` == n_instances entries, each a ub_prio_class_t (0..3). The
+ * node reads it when a frame leaves on a link whose transport queues by class (ub_link_ops_t.send_class):
+ * DATA takes its content's class, a content not in the catalogue telemetry. Give every node of a fleet the
+ * same table (the config's "priorities", docs/config-format.md), so that a frame has one class at every
+ * hop: the class is derived at each hop, never carried on the wire. The table must outlive the node.
+ * NULL removes it (every DATA is telemetry).
+ * @return UB_OK; UB_ERR_INVAL (NULL node, `n` != n_instances, a class out of range).
+ */
+UB_CHECK int ub_node_set_content_classes(ub_node_t *node, const uint8_t *classes, size_t n);
 
 /** @return the storage bound to `instance` (ub_node_bind(), else the bind table), or NULL. */
 void *ub_node_binding(const ub_node_t *node, uint32_t instance);

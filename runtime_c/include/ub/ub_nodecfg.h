@@ -90,6 +90,10 @@ extern "C" {
 #ifndef UB_NODECFG_MAX_PORT_PARAMS
 #define UB_NODECFG_MAX_PORT_PARAMS 6
 #endif
+/** Entries of the "priorities" section (content pattern -> priority class, ub_prio.h). */
+#ifndef UB_NODECFG_MAX_PRIORITIES
+#define UB_NODECFG_MAX_PRIORITIES 16
+#endif
 /** Recommended size of the error-message buffers passed to this API (a config path of a few hundred characters
  *  and the longest message, the security section's list of fields, fit). */
 #define UB_NODECFG_ERR_LEN 512
@@ -200,6 +204,14 @@ typedef struct ub_nodecfg {
     ub_policy_t policy;
     ub_nodecfg_security_t security;
     ub_nodecfg_identity_t identity;
+    /** "priorities": content-name patterns and their class (ub_prio.h), in file order; applied by
+     *  ub_nodecfg_apply_priorities(). */
+    uint8_t priority_count;
+    struct {
+        char content[UB_POLICY_PATTERN_MAX + 1]; /**< catalogue instance name pattern (`*` = any run) */
+        uint8_t cls;                             /**< ub_prio_class_t */
+        uint32_t line;
+    } priorities[UB_NODECFG_MAX_PRIORITIES];
 } ub_nodecfg_t;
 
 /**
@@ -273,6 +285,17 @@ UB_CHECK int ub_nodecfg_mask(const ub_nodecfg_t *cfg, const char *from, const ch
 /* Hex masks on their own ("0x00000110"): ub_link_mask_parse() / ub_link_mask_format() in ub_link.h. */
 
 struct ub_node; /* ub_node.h; only a pointer is needed here */
+
+/**
+ * Gives the node the "priorities" of the file (docs/config-format.md; ub_prio.h): `classes` (caller-owned,
+ * `n` == the node's catalogue's n_instances entries, outliving the node) is filled with each content's class
+ * (the first pattern in file order that matches its instance name; telemetry when none does) and set with
+ * ub_node_set_content_classes(). Without a "priorities" section it does nothing (`classes` may be NULL).
+ * @return UB_OK; UB_ERR_CONFIG with `err` ("file:line: field 'priorities.X': ...") when a pattern matches no
+ *         content of the catalogue; UB_ERR_INVAL (NULL, `n` wrong).
+ */
+UB_CHECK int ub_nodecfg_apply_priorities(const ub_nodecfg_t *cfg, struct ub_node *node, const ub_catalogue_t *cat,
+                                         uint8_t *classes, size_t n, char *err, size_t err_cap);
 
 /**
  * Applies the table to a node initialised with ub_node_init():

@@ -19,7 +19,9 @@
  *
  * Every socket and serial port also takes `encoding=full|compact` (the link's wire encoding,
  * ub_compact.h; both ends alike) and `mtu=BYTES` (64..65535: the largest frame the link carries on
- * the wire; larger directories go in fragments, larger forwarded frames are dropped `too_big`).
+ * the wire; larger directories go in fragments, larger forwarded frames are dropped `too_big`), and a
+ * serial port `prio=1` (send by priority class at its byte rate, baud / 10: the bandwidth model of
+ * ub_impair.h with `prio` in front of it, on top of any impairment; ub_prio.h).
  *
  * HOST is a dotted IPv4 address (127.0.0.1), or `localhost`.
  *
@@ -122,6 +124,7 @@ typedef struct ub_port_spec {
     uint32_t baud;                    /**< serial rate */
     uint8_t encoding;                 /**< UB_PORT_ENCODING_FULL or UB_PORT_ENCODING_COMPACT */
     uint16_t mtu;                     /**< 0: no limit */
+    uint8_t prio;                     /**< prio=1: send by priority class at the port's byte rate (serial: baud / 10) */
 } ub_port_spec_t;
 
 #define UB_PORT_ENCODING_FULL 0u
@@ -198,6 +201,7 @@ typedef struct ub_port {
     ub_compact_t compact;     /**< the link's compact state while the spec asks for encoding=compact */
     ub_impair_params_t own_params;
     uint64_t own_seed;
+    ub_impair_params_t eff_params; /**< what is in force when the spec asks for prio=1: the impairment + the byte budget */
     ub_foreign_cb foreign;    /**< ub_ports_set_foreign(): given to every instance of this port, NULL: none */
     void *foreign_user;
 } ub_port_t;

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "ub/ub_node.h"
+#include "ub/ub_prio.h"
 #include "ub/ub_sec.h"
 #include "ub/ub_identfile.h"
 #include "ub/ub_secfile.h"
@@ -766,10 +767,77 @@ static int parse_security(const parser_t *p, const ub_json_value_t *obj) {
     return UB_OK;
 }
 
+/* ---- priorities: {"content pattern": "class", ...} (ub_prio.h) ---- */
+
+static int parse_priorities(const parser_t *p, const ub_json_value_t *obj) {
+    ub_nodecfg_t *cfg = p->cfg;
+    ub_json_iter_t it;
+    ub_json_value_t key, v;
+    char path[PATH_LEN], name[KEY_BUF], cls_text[16];
+    if (obj->kind != UB_JSON_OBJECT)
+        return fail(p, obj->line, NULL, "priorities",
+                    "must be an object mapping content names to a class: {\"gcsCommand\": \"command\", "
+                    "\"setpoint\": \"control\", \"mapTile*\": \"bulk\"}");
+    ub_json_iter_begin(&it, &p->doc, obj);
+    while (ub_json_iter_next(&it, &key, &v)) {
+        size_t n = key_text(p, &key, name);
+        if (n == 0 || n >= KEY_BUF || n > UB_POLICY_PATTERN_MAX || !ub_policy_pattern_ok(name, UB_POLICY_PATTERN_MAX))
+            return fail(p, key.line, NULL, "priorities",
+                        "keys are content names or patterns (letters, digits, _ [ ] . and * for any run), at most %d "
+                        "characters", UB_POLICY_PATTERN_MAX);
+        (void)snprintf(path, sizeof path, "priorities.%s", name);
+        for (int i = 0; i < cfg->priority_count; i++)
+            if (strcmp(cfg->priorities[i].content, name) == 0)
+                return fail(p, key.line, NULL, path, "duplicate field (first given on line %lu)",
+                            (unsigned long)cfg->priorities[i].line);
+        if (cfg->priority_count == UB_NODECFG_MAX_PRIORITIES)
+            return fail(p, key.line, NULL, path, "too many entries: this build holds %d (UB_NODECFG_MAX_PRIORITIES)",
+                        UB_NODECFG_MAX_PRIORITIES);
+        ub_prio_class_t cls;
+        size_t cn = v.kind == UB_JSON_STRING ? ub_json_string(&p->doc, &v, cls_text, sizeof cls_text) : 0;
+        if (cn == 0 || cn >= sizeof cls_text || ub_prio_class_parse(cls_text, &cls) != UB_OK)
+            return fail(p, v.line, NULL, path, "must be one of \"command\", \"control\", \"telemetry\", \"bulk\"");
+        memcpy(cfg->priorities[cfg->priority_count].content, name, n + 1);
+        cfg->priorities[cfg->priority_count].cls = (uint8_t)cls;
+        cfg->priorities[cfg->priority_count].line = key.line;
+        cfg->priority_count++;
+    }
+    return UB_OK;
+}
+
+int ub_nodecfg_apply_priorities(const ub_nodecfg_t *cfg, struct ub_node *node, const ub_catalogue_t *cat,
+                                uint8_t *classes, size_t n, char *err, size_t err_cap) {
+    if (cfg == NULL || node == NULL || cat == NULL || (err == NULL && err_cap > 0)) return UB_ERR_INVAL;
+    if (cfg->priority_count == 0) return UB_OK;
+    if (classes == NULL || n != cat->n_instances) return UB_ERR_INVAL;
+    for (size_t i = 0; i < n; i++) classes[i] = UB_PRIO_TELEMETRY;
+    for (int k = 0; k < cfg->priority_count; k++) {
+        bool matched = false;
+        for (size_t i = 0; i < n; i++) {
+            const char *name = cat->instances[i].name;
+            if (name == NULL || !ub_policy_match(cfg->priorities[k].content, name, strlen(name))) continue;
+            matched = true;
+            /* The first pattern in file order decides: a later, broader one does not undo it. */
+            bool earlier = false;
+            for (int j = 0; j < k && !earlier; j++)
+                earlier = ub_policy_match(cfg->priorities[j].content, name, strlen(name));
+            if (!earlier) classes[i] = cfg->priorities[k].cls;
+        }
+        if (!matched) {
+            if (err_cap > 0)
+                (void)snprintf(err, err_cap, "%s:%lu: field 'priorities.%s': matches no content of the catalogue "
+                                             "(write an instance name of it, or a pattern with *)",
+                               cfg->source, (unsigned long)cfg->priorities[k].line, cfg->priorities[k].content);
+            return UB_ERR_CONFIG;
+        }
+    }
+    return ub_node_set_content_classes(node, classes, n);
+}
+
 /* ---- top level ---- */
 
-static const char *const TOP_FIELDS[] = {"system", "entities", "hosts", "nodes", "ports", "security"};
-enum { T_SYSTEM, T_ENTITIES, T_HOSTS, T_NODES, T_PORTS, T_SECURITY, N_TOP_FIELDS };
+static const char *const TOP_FIELDS[] = {"system", "entities", "hosts", "nodes", "ports", "security", "priorities"};
+enum { T_SYSTEM, T_ENTITIES, T_HOSTS, T_NODES, T_PORTS, T_SECURITY, T_PRIORITIES, N_TOP_FIELDS };
 
 static int parse_document(const parser_t *p, const ub_json_value_t *root) {
     ub_nodecfg_t *cfg = p->cfg;
@@ -794,6 +862,7 @@ static int parse_document(const parser_t *p, const ub_json_value_t *root) {
     if (values[T_NODES].kind != 0 && (rc = parse_nodes(p, &values[T_NODES])) != UB_OK) return rc;
     if (values[T_PORTS].kind != 0 && (rc = parse_ports(p, &values[T_PORTS])) != UB_OK) return rc;
     if (values[T_SECURITY].kind != 0 && (rc = parse_security(p, &values[T_SECURITY])) != UB_OK) return rc;
+    if (values[T_PRIORITIES].kind != 0 && (rc = parse_priorities(p, &values[T_PRIORITIES])) != UB_OK) return rc;
     return UB_OK;
 }
 

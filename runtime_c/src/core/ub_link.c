@@ -27,6 +27,7 @@ static const char *const drop_reason_names[UB_DROP_REASON_COUNT] = {
     [UB_DROP_BAD_ORIGIN] = "bad_origin",
     [UB_DROP_NO_ORIGIN] = "no_origin",
     [UB_DROP_NO_IDENTITY] = "no_identity",
+    [UB_DROP_SHED] = "shed",
 };
 
 const char *ub_drop_reason_name(ub_drop_reason_t reason) {

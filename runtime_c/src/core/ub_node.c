@@ -2,6 +2,7 @@
 
 #include <string.h>
 
+#include "ub/ub_prio.h"
 #include "ub/ub_wire.h"
 #include "core/ub_rng_private.h"
 #include "core/ub_node_private.h"
@@ -303,6 +304,19 @@ int ub_node_bind_table(ub_node_t *node, void *const *table, size_t n) {
     return bound;
 }
 
+int ub_node_set_content_classes(ub_node_t *node, const uint8_t *classes, size_t n) {
+    if (node == NULL) return UB_ERR_INVAL;
+    if (classes == NULL) {
+        node->content_class = NULL;
+        return UB_OK;
+    }
+    if (n != node->cat->n_instances) return UB_ERR_INVAL;
+    for (size_t i = 0; i < n; i++)
+        if (classes[i] >= UB_PRIO_CLASSES) return UB_ERR_INVAL;
+    node->content_class = classes;
+    return UB_OK;
+}
+
 void *ub_node_binding(const ub_node_t *node, uint32_t instance) {
     if (node == NULL) return NULL;
     for (size_t b = 0; b < node->n_bindings; b++)
@@ -351,6 +365,30 @@ static void count_refusal(ub_node_t *node, int link_id, int rc) {
                                       : UB_DROP_TX_ERROR);
 }
 
+static int content_index(ub_node_t *node, const uint8_t dir_id[UB_DIR_ID_LEN]);
+
+/* The priority class of a full frame where it leaves (ub_prio.h): from its admin code, and for DATA from its
+ * content's configured class. Derived at every hop from the same configuration, never read from the wire. */
+static ub_prio_class_t frame_class(ub_node_t *node, const uint8_t *frame) {
+    uint8_t admin = frame[UB_FRAME_OFF_ADMIN];
+    ub_prio_class_t data_class = UB_PRIO_TELEMETRY;
+    if (admin == UB_ADMIN_DATA && node->content_class != NULL) {
+        int idx = content_index(node, frame + UB_FRAME_OFF_DIR_ID);
+        if (idx >= 0) data_class = (ub_prio_class_t)node->content_class[idx];
+    }
+    return ub_prio_class_of(admin, data_class);
+}
+
+/* Hands `out` (the wire form of the full `frame`) to a transport that queues by class; the older telemetry
+ * frames it dropped to take this one are counted `shed` on the link. */
+static __attribute__((noinline)) int send_classed(ub_node_t *node, int link_id, const uint8_t *frame,
+                                                  const uint8_t *out, size_t n, uint64_t now_ms) {
+    ub_link_t *link = &node->links[link_id];
+    int rc = link->ops->send_class(link->impl, out, n, (uint8_t)frame_class(node, frame), now_ms);
+    for (int i = 0; i < rc; i++) count_drop(node, link_id, UB_DROP_SHED);
+    return rc > 0 ? UB_OK : rc;
+}
+
 /* transmit() for a link with an MTU or the compact encoding: the frame is encoded for the wire, measured
  * against the MTU, and the counters count wire bytes; the tap still sees the full frame. Out of line, so the
  * plain path keeps its small stack. */
@@ -374,7 +412,8 @@ static __attribute__((noinline)) bool transmit_shaped(ub_node_t *node, int link_
         if (link->compact != NULL) ub_compact_tx_forget(link->compact, frame + UB_FRAME_OFF_SRC_ID);
         return false;
     }
-    int rc = link->ops->send(link->impl, out, n, now_ms);
+    int rc = link->ops->send_class != NULL ? send_classed(node, link_id, frame, out, n, now_ms)
+                                           : link->ops->send(link->impl, out, n, now_ms);
     if (rc < 0) {
         count_refusal(node, link_id, rc);
         /* Its next frame carries all 32 sequence bits: the peer may not have the reference this one set. */
@@ -394,7 +433,8 @@ static bool transmit(ub_node_t *node, int link_id, const uint8_t *frame, size_t 
         return false;
     }
     if (__builtin_expect(link->compact != NULL || link->mtu != 0, 0)) return transmit_shaped(node, link_id, frame, len, now_ms);
-    int rc = link->ops->send(link->impl, frame, len, now_ms);
+    int rc = __builtin_expect(link->ops->send_class != NULL, 0) ? send_classed(node, link_id, frame, frame, len, now_ms)
+                                                                : link->ops->send(link->impl, frame, len, now_ms);
     if (rc < 0) {
         count_refusal(node, link_id, rc);
         return false;

@@ -75,6 +75,7 @@ static int inner_send(ub_impair_t *imp, const uint8_t *frame, size_t len, uint64
 }
 
 static void remove_at(ub_impair_t *imp, size_t i) {
+    if (imp->queue[i].waiting) imp->waiting[imp->queue[i].cls]--;
     imp->count--;
     if (i != imp->count) imp->queue[i] = imp->queue[imp->count];
 }
@@ -92,6 +93,7 @@ static long next_ready(const ub_impair_t *imp, uint64_t now_ms, uint64_t release
     for (size_t i = 0; i < imp->count; i++) {
         const ub_impair_frame_t *f = &imp->queue[i];
         bool ready;
+        if (f->waiting) continue; /* still waiting for the medium (prio) */
         if (!f->held) {
             ready = f->due_ms <= now_ms;
         } else {
@@ -114,8 +116,107 @@ static long next_ready(const ub_impair_t *imp, uint64_t now_ms, uint64_t release
     return best;
 }
 
+/* ---- priorities (prio = 1): the medium takes the highest class waiting whenever it is free ---- */
+
+static uint64_t carry_us(const ub_impair_t *imp, size_t len) {
+    if (imp->params.rate_Bps == 0) return 0; /* the rate was taken away while copies waited: they go at once */
+    return ((uint64_t)len * 1000000u + imp->params.rate_Bps - 1) / imp->params.rate_Bps;
+}
+
+/* When the medium can start its next copy: once it is free and a copy has arrived. False: none waits. */
+static bool medium_next_start(const ub_impair_t *imp, uint64_t *start_us) {
+    bool any = false;
+    uint64_t first = UINT64_MAX;
+    for (size_t i = 0; i < imp->count; i++) {
+        const ub_impair_frame_t *f = &imp->queue[i];
+        if (f->waiting && f->arrival_us < first) first = f->arrival_us;
+        any |= f->waiting != 0;
+    }
+    if (!any) return false;
+    *start_us = imp->busy_until_us > first ? imp->busy_until_us : first;
+    return true;
+}
+
+/* Puts waiting copies on the medium, one after the other, for as long as it is free by `now_ms`: at each
+ * start the oldest copy of the highest class that had arrived by then. A copy on the medium has its leave
+ * time and goes out through the ordinary release (ub_impair_service()). */
+static void medium_pump(ub_impair_t *imp, uint64_t now_ms) {
+    /* Saturated: ub_ports drains a decorator it takes away with a time later than any due time. */
+    uint64_t now_us = now_ms > UINT64_MAX / 1000u ? UINT64_MAX : now_ms * 1000u;
+    uint64_t start_us;
+    while (medium_next_start(imp, &start_us) && start_us <= now_us) {
+        long best = -1;
+        bool older_lower = false;
+        for (size_t i = 0; i < imp->count; i++) {
+            const ub_impair_frame_t *f = &imp->queue[i];
+            if (!f->waiting || f->arrival_us > start_us) continue;
+            if (best < 0) {
+                best = (long)i;
+                continue;
+            }
+            const ub_impair_frame_t *b = &imp->queue[best];
+            if (f->cls < b->cls || (f->cls == b->cls && f->order < b->order)) best = (long)i;
+        }
+        if (imp->queue[best].cls == UB_PRIO_TELEMETRY) {
+            /* Bulk's share: after UB_PRIO_BULK_EVERY telemetry copies taken while bulk waited, the oldest bulk
+             * copy goes, so a telemetry flood slows a large directory down but never stops it. Commands and
+             * control are never held back by it. */
+            long bulk = -1;
+            for (size_t i = 0; i < imp->count; i++) {
+                const ub_impair_frame_t *o = &imp->queue[i];
+                if (o->waiting && o->cls == UB_PRIO_BULK && o->arrival_us <= start_us &&
+                    (bulk < 0 || o->order < imp->queue[bulk].order))
+                    bulk = (long)i;
+            }
+            if (bulk >= 0 && imp->tel_run >= UB_PRIO_BULK_EVERY) best = bulk;
+            else if (bulk >= 0) imp->tel_run++;
+        }
+        if (imp->queue[best].cls == UB_PRIO_BULK) imp->tel_run = 0;
+        ub_impair_frame_t *f = &imp->queue[best];
+        for (size_t i = 0; i < imp->count; i++) {
+            const ub_impair_frame_t *o = &imp->queue[i];
+            if (o->waiting && o->arrival_us <= start_us && o->cls > f->cls && o->order < f->order) older_lower = true;
+        }
+        if (older_lower) imp->stats.overtaken++;
+        imp->busy_until_us = start_us + carry_us(imp, f->len);
+        uint64_t leaves_ms = (imp->busy_until_us + 999u) / 1000u;
+        if (leaves_ms * 1000u > f->arrival_us + 999u) imp->stats.rate_waits++;
+        f->waiting = 0;
+        imp->waiting[f->cls]--;
+        f->due_ms = leaves_ms + f->delay_ms;
+    }
+}
+
+static uint16_t class_depth(uint8_t cls) {
+    switch (cls) {
+    case UB_PRIO_COMMAND: return UB_PRIO_DEPTH_COMMAND;
+    case UB_PRIO_CONTROL: return UB_PRIO_DEPTH_CONTROL;
+    case UB_PRIO_BULK: return UB_PRIO_DEPTH_BULK;
+    default: return UB_PRIO_DEPTH_TELEMETRY;
+    }
+}
+
+_Static_assert(UB_PRIO_DEPTH_COMMAND + UB_PRIO_DEPTH_CONTROL + UB_PRIO_DEPTH_TELEMETRY + UB_PRIO_DEPTH_BULK
+                   <= UB_IMPAIR_DEPTH,
+               "the per-class queues must fit in the link's buffer (UB_IMPAIR_DEPTH)");
+
+/* Drops the oldest waiting telemetry copy (to take a newer one). @return false when none waits. */
+static bool shed_oldest_telemetry(ub_impair_t *imp) {
+    long oldest = -1;
+    for (size_t i = 0; i < imp->count; i++) {
+        const ub_impair_frame_t *f = &imp->queue[i];
+        if (f->waiting && f->cls == UB_PRIO_TELEMETRY && (oldest < 0 || f->order < imp->queue[oldest].order))
+            oldest = (long)i;
+    }
+    if (oldest < 0) return false;
+    imp->stats.shed++;
+    remove_at(imp, (size_t)oldest);
+    return true;
+}
+
 size_t ub_impair_service(ub_impair_t *imp, uint64_t now_ms) {
     if (imp == NULL || imp->inner_ops == NULL) return 0;
+    medium_pump(imp, now_ms);
     size_t accepted = 0;
     uint64_t last_order = 0;
     bool any = false;
@@ -132,6 +233,8 @@ size_t ub_impair_service(ub_impair_t *imp, uint64_t now_ms) {
     return accepted;
 }
 
+static uint64_t now_us_of(uint64_t ms) { return ms * 1000u; }
+
 /* Queues one copy; false (counted queue_full) when the queue is full. */
 static bool enqueue(ub_impair_t *imp, const uint8_t *frame, size_t len, uint64_t due_ms, bool held) {
     if (imp->count >= UB_IMPAIR_DEPTH) {
@@ -142,6 +245,10 @@ static bool enqueue(ub_impair_t *imp, const uint8_t *frame, size_t len, uint64_t
     f->due_ms = due_ms;
     f->order = ++imp->next_order;
     f->held = held ? 1 : 0;
+    f->waiting = 0;
+    f->cls = UB_PRIO_TELEMETRY;
+    f->delay_ms = 0;
+    f->arrival_us = now_us_of(due_ms);
     f->len = (uint16_t)len;
     memcpy(f->bytes, frame, len);
     return true;
@@ -149,10 +256,32 @@ static bool enqueue(ub_impair_t *imp, const uint8_t *frame, size_t len, uint64_t
 
 /* One copy: decide its delay and whether it is held back, then send now or queue. Returns the result the
  * node should see for this copy. */
-static int send_copy(ub_impair_t *imp, const uint8_t *frame, size_t len, uint64_t now_ms) {
+static int send_copy(ub_impair_t *imp, const uint8_t *frame, size_t len, uint8_t cls, uint64_t now_ms) {
     uint32_t delay = imp->params.delay_ms + uniform(imp, imp->params.jitter_ms);
     bool held = chance(imp, imp->params.reorder_ppm);
     uint64_t leaves_ms = now_ms;
+    if (imp->params.rate_Bps != 0 && imp->params.prio != 0) {
+        /* Wait in the class queue; the medium takes copies by class whenever it is free (medium_pump()). */
+        int shed = 0;
+        if (imp->waiting[cls] >= class_depth(cls) || imp->count >= UB_IMPAIR_DEPTH) {
+            if (cls != UB_PRIO_TELEMETRY || !shed_oldest_telemetry(imp)) {
+                imp->stats.queue_full++;
+                return UB_ERR_AGAIN;
+            }
+            shed = 1;
+        }
+        if (delay > 0) imp->stats.delayed++;
+        if (held) imp->stats.reordered++;
+        (void)enqueue(imp, frame, len, 0, held); /* room made above */
+        ub_impair_frame_t *f = &imp->queue[imp->count - 1];
+        f->waiting = 1;
+        f->cls = cls;
+        f->delay_ms = delay;
+        f->arrival_us = now_ms * 1000u;
+        imp->waiting[cls]++;
+        (void)ub_impair_service(imp, now_ms);
+        return shed;
+    }
     if (imp->params.rate_Bps != 0) {
         /* The medium carries one copy after the other: this one starts when it is free and takes len/rate. */
         if (imp->count >= UB_IMPAIR_DEPTH) { /* the radio's buffer is full: push back before taking the medium */
@@ -177,9 +306,10 @@ static int send_copy(ub_impair_t *imp, const uint8_t *frame, size_t len, uint64_
     return UB_OK;
 }
 
-static int impair_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms) {
+static int impair_send_class(void *impl, const uint8_t *frame, size_t len, uint8_t cls, uint64_t now_ms) {
     ub_impair_t *imp = impl;
     if (imp == NULL || frame == NULL || len == 0 || len > UB_FRAME_MAX) return UB_ERR_INVAL;
+    if (cls >= UB_PRIO_CLASSES) cls = UB_PRIO_TELEMETRY;
     imp->stats.offered++;
     if (imp->inner_ops == NULL) {
         imp->stats.inner_errors++;
@@ -194,12 +324,20 @@ static int impair_send(void *impl, const uint8_t *frame, size_t len, uint64_t no
         return UB_OK;
     }
     bool dup = chance(imp, imp->params.dup_ppm);
-    int rc = send_copy(imp, frame, len, now_ms);
+    int rc = send_copy(imp, frame, len, cls, now_ms);
     if (dup) {
         imp->stats.duplicated++;
-        (void)send_copy(imp, frame, len, now_ms); /* its failure is counted; the node sent one frame */
+        int rc2 = send_copy(imp, frame, len, cls, now_ms); /* its failure is counted; the node sent one frame */
+        if (rc >= 0 && rc2 > 0) rc += rc2;
     }
     return rc;
+}
+
+/* Without a class (a caller that is not a node, the benches' raw streams): telemetry. A shed is counted
+ * here; send() itself answers only UB_OK or an error. */
+static int impair_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    int rc = impair_send_class(impl, frame, len, UB_PRIO_TELEMETRY, now_ms);
+    return rc > 0 ? UB_OK : rc;
 }
 
 static int impair_fileno(void *impl) {
@@ -208,15 +346,19 @@ static int impair_fileno(void *impl) {
     return imp->inner_ops->fileno(imp->inner);
 }
 
-const ub_link_ops_t ub_impair_ops = {.kind = "impair", .send = impair_send, .fileno = impair_fileno};
+const ub_link_ops_t ub_impair_ops = {
+    .kind = "impair", .send = impair_send, .fileno = impair_fileno, .send_class = impair_send_class};
 
 size_t ub_impair_pending(const ub_impair_t *imp) { return imp != NULL ? imp->count : 0; }
 
 bool ub_impair_next_due(const ub_impair_t *imp, uint64_t *due_ms) {
     if (imp == NULL || imp->count == 0) return false;
     uint64_t best = UINT64_MAX;
+    uint64_t start_us;
+    if (medium_next_start(imp, &start_us)) best = (start_us + 999u) / 1000u; /* the medium takes the next copy */
     for (size_t i = 0; i < imp->count; i++) {
         const ub_impair_frame_t *f = &imp->queue[i];
+        if (f->waiting) continue;
         /* A held copy may leave earlier (after a successor), but that happens inside a send or service. */
         uint64_t due = f->held ? held_deadline(imp, f) : f->due_ms;
         if (due < best) best = due;
@@ -231,7 +373,7 @@ bool ub_impair_check_balance(const ub_impair_t *imp) {
     if (imp == NULL) return false;
     const ub_impair_stats_t *s = &imp->stats;
     return s->offered + s->duplicated
-           == s->too_big + s->lost + s->queue_full + s->passed + s->inner_again + s->inner_errors + imp->count;
+           == s->too_big + s->lost + s->queue_full + s->shed + s->passed + s->inner_again + s->inner_errors + imp->count;
 }
 
 /* ---- "loss=0.2,reorder=0.1,delay=5" ------------------------------------------------------------------ */
@@ -293,7 +435,7 @@ int ub_impair_parse(const char *text, ub_impair_params_t *params, uint64_t *seed
         size_t n = end != NULL ? (size_t)(end - s) : strlen(s);
         const char *eq = memchr(s, '=', n);
         if (eq == NULL) {
-            set_err(err, err_cap, "expected KEY=VALUE (keys: loss, dup, reorder, delay, jitter, hold, rate, mtu, seed)",
+            set_err(err, err_cap, "expected KEY=VALUE (keys: loss, dup, reorder, delay, jitter, hold, rate, mtu, prio, seed)",
                     s, n);
             return UB_ERR_INVAL;
         }
@@ -332,6 +474,12 @@ int ub_impair_parse(const char *text, ub_impair_params_t *params, uint64_t *seed
             }
             if (KEY_IS("mtu")) p.mtu = (uint32_t)u;
             else p.rate_Bps = (uint32_t)u;
+        } else if (KEY_IS("prio")) {
+            if (vn != 1 || (v[0] != '0' && v[0] != '1')) {
+                set_err(err, err_cap, "prio must be 0 (send order) or 1 (by priority class, with rate=)", s, n);
+                return UB_ERR_INVAL;
+            }
+            p.prio = (uint32_t)(v[0] - '0');
         } else if (KEY_IS("seed")) {
             ok = parse_uint(v, vn, UINT64_MAX, &u);
             if (!ok) {
@@ -342,7 +490,7 @@ int ub_impair_parse(const char *text, ub_impair_params_t *params, uint64_t *seed
             seed_given = true;
         } else {
             set_err(err, err_cap,
-                    "unknown key (expected one of: loss, dup, reorder, delay, jitter, hold, rate, mtu, seed)", s, n);
+                    "unknown key (expected one of: loss, dup, reorder, delay, jitter, hold, rate, mtu, prio, seed)", s, n);
             return UB_ERR_INVAL;
         }
 #undef KEY_IS

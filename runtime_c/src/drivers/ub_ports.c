@@ -159,7 +159,7 @@ const char *ub_port_spec_transport(const ub_port_spec_t *spec) {
 typedef struct spec_builder {
     ub_port_spec_t spec;
     uint32_t seen;
-    bool has_encoding, has_mtu;
+    bool has_encoding, has_mtu, has_prio;
 } spec_builder_t;
 
 static int builder_start(spec_builder_t *b, registry_t r, const char *transport, char *err, size_t cap) {
@@ -214,8 +214,19 @@ static int builder_param(spec_builder_t *b, const char *key, const char *value, 
         b->has_mtu = true;
         return UB_OK;
     }
+    if (d->wire_params && strcmp(key, "prio") == 0) {
+        if (b->has_prio || (strcmp(value, "0") != 0 && strcmp(value, "1") != 0)) {
+            fail(err, cap, "'prio=%.20s': %s", value,
+                 b->has_prio ? "given twice: give it once"
+                             : "give 1 (send by priority class at the port's byte rate: a serial port's baud / 10) or 0");
+            return UB_ERR_INVAL;
+        }
+        s->prio = value[0] == '1' ? 1 : 0;
+        b->has_prio = true;
+        return UB_OK;
+    }
     fail(err, cap, "unknown parameter '%.20s' for %s (expected: %s%s)", key, d->name, d->keys,
-         d->wire_params ? ", encoding, mtu" : "");
+         d->wire_params ? ", encoding, mtu, prio" : "");
     return UB_ERR_INVAL;
 }
 
@@ -224,6 +235,11 @@ static int builder_finish(spec_builder_t *b, ub_port_spec_t *out, char *err, siz
     char msg[UB_PORTS_ERR_LEN] = "";
     if (d->spec_finish != NULL && d->spec_finish(&b->spec, b->seen, msg, sizeof msg) != UB_OK) {
         fail(err, cap, "%s", msg);
+        return UB_ERR_INVAL;
+    }
+    if (b->spec.prio && (b->spec.kind != UB_PORT_SERIAL || b->spec.baud < 10)) {
+        fail(err, cap, "'prio=1' needs the port's byte rate: a serial port with baud= (on another transport give the "
+                       "impairment a rate: --impair rate=BYTES_PER_S,prio=1)");
         return UB_ERR_INVAL;
     }
     *out = b->spec;
@@ -362,6 +378,7 @@ void ub_port_spec_format(const ub_port_spec_t *spec, char *out, size_t cap) {
     if (n >= 0 && (size_t)n < cap && spec->encoding == UB_PORT_ENCODING_COMPACT)
         n += snprintf(out + n, cap - (size_t)n, ",encoding=compact");
     if (n >= 0 && (size_t)n < cap && spec->mtu != 0) n += snprintf(out + n, cap - (size_t)n, ",mtu=%u", (unsigned)spec->mtu);
+    if (n >= 0 && (size_t)n < cap && spec->prio != 0) n += snprintf(out + n, cap - (size_t)n, ",prio=1");
     /* A cut text ends in "..." so it cannot be mistaken for a whole spec (diagnostics only). */
     if ((n < 0 || (size_t)n >= cap) && cap >= 4) memcpy(out + cap - 4, "...", 4);
 }
@@ -457,14 +474,25 @@ static uint64_t port_seed(uint64_t seed, int link_id) {
     return seed ^ ((uint64_t)(link_id + 1) * 0xD1B54A32D192ED03ULL);
 }
 
-/* The impairment in force for a port: its own, else the node-wide one, else none (NULL). */
-static const ub_impair_params_t *port_params(const ub_ports_t *ports, const ub_port_t *p, uint64_t *seed) {
+/* The impairment in force for a port: its own, else the node-wide one, else none (NULL). A port whose spec
+ * asks for priorities (prio=1) always has one: the bandwidth model at the port's own byte rate (serial 8N1:
+ * baud / 10) sending by class (ub_prio.h), on top of whatever impairment is set; frames then reach the UART no
+ * faster than it drains them, so its buffer stays about one frame long and the class decides the order. */
+static const ub_impair_params_t *port_params(const ub_ports_t *ports, ub_port_t *p, uint64_t *seed) {
+    const ub_impair_params_t *base;
     if (p->own_impair) {
         *seed = p->own_seed;
-        return &p->own_params;
+        base = &p->own_params;
+    } else {
+        *seed = ports->impair_seed;
+        base = ports->impair_on ? &ports->impair_params : NULL;
     }
-    *seed = ports->impair_seed;
-    return ports->impair_on ? &ports->impair_params : NULL;
+    if (!p->spec.prio) return base;
+    if (base != NULL) p->eff_params = *base;
+    else memset(&p->eff_params, 0, sizeof p->eff_params);
+    if (p->eff_params.rate_Bps == 0) p->eff_params.rate_Bps = p->spec.baud / 10u;
+    p->eff_params.prio = 1;
+    return &p->eff_params;
 }
 
 /* Puts the impairment in front of the port's current driver (slot transport swapped, stream kept). */
@@ -804,7 +832,8 @@ int ub_ports_set_impairment(ub_ports_t *ports, const ub_impair_params_t *params,
     for (size_t i = 0; i < UB_PORTS_MAX; i++) {
         ub_port_t *p = &ports->port[i];
         if (!p->in_use || p->own_impair) continue; /* a port with its own impairment keeps it */
-        if (on) {
+        uint64_t unused_seed;
+        if (port_params(ports, p, &unused_seed) != NULL) { /* the node-wide one, or a prio=1 port's budget */
             if (p->impaired && reseed) ub_impair_reseed(&p->impair, port_seed(seed, p->link_id));
             impair_install(ports, p);
         } else {
@@ -828,7 +857,8 @@ int ub_ports_set_link_impairment(ub_ports_t *ports, const char *link_name, const
         impair_install(ports, p);
     } else {
         p->own_impair = 0;
-        if (ports->impair_on) impair_install(ports, p);
+        uint64_t unused_seed;
+        if (port_params(ports, p, &unused_seed) != NULL) impair_install(ports, p);
         else impair_remove(ports, p);
     }
     return UB_OK;

@@ -16,7 +16,7 @@
 #include "ub/ub_admin.h"
 
 static int sink_send(void *impl, const uint8_t *f, size_t n, uint64_t t) { (void)impl; (void)f; (void)n; (void)t; return 0; }
-static const ub_link_ops_t sink_ops = {"sink", sink_send, NULL};
+static const ub_link_ops_t sink_ops = {.kind = "sink", .send = sink_send, .fileno = NULL};
 static double now_s(void) { struct timespec ts; clock_gettime(CLOCK_MONOTONIC, &ts); return ts.tv_sec + ts.tv_nsec * 1e-9; }
 
 int main(void) {

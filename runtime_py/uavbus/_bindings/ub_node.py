@@ -172,6 +172,21 @@ def ub_node_link_set_compact(node: Any, link_id: int, compact: bool, what: str) 
     return state if compact else None
 
 
+PRIO_CLASSES: tuple[str, ...] = tuple(
+    ffi.string(lib.ub_prio_class_name(c)).decode("ascii") for c in range(lib.UB_PRIO_CLASSES))
+
+
+def ub_node_set_content_classes(node: Any, classes: list[int] | None, what: str) -> Any:
+    """Gives every catalogue instance its priority class (indices into PRIO_CLASSES), or none (None). Returns the
+    table the C node points to (keep it alive), or None."""
+    if classes is None:
+        ensure(lib.ub_node_set_content_classes(node, ffi.NULL, 0), what)
+        return None
+    table = ffi.new("uint8_t[]", classes) if classes else ffi.new("uint8_t[]", 1)
+    ensure(lib.ub_node_set_content_classes(node, table, len(classes)), what)
+    return table
+
+
 def ub_node_link_set_mtu(node: Any, link_id: int, mtu: int, what: str) -> None:
     ensure(lib.ub_node_link_set_mtu(node, link_id, mtu), what)
 

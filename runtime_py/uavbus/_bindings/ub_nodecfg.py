@@ -73,6 +73,18 @@ def ub_nodecfg_apply(cfg: Any, node: Any) -> None:
     ensure(lib.ub_nodecfg_apply(cfg, node, err, ERR_LEN), text(err) or "ub_nodecfg_apply")
 
 
+def ub_nodecfg_apply_priorities(cfg: Any, node: Any, cat: Any) -> Any:
+    """The file's "priorities" onto the node (ub_prio.h). Returns the class table the C node points to (keep it
+    alive), or None when the file has no such section."""
+    if cfg.priority_count == 0:
+        return None
+    err = _err()
+    table = ffi.new("uint8_t[]", max(1, cat.n_instances))
+    ensure(lib.ub_nodecfg_apply_priorities(cfg, node, cat, table, cat.n_instances, err, ERR_LEN),
+           text(err) or "ub_nodecfg_apply_priorities")
+    return table
+
+
 def hosted_entities(cfg: Any) -> tuple[str, ...]:
     return tuple(text(cfg.entities[cfg.hosts[k]].name) for k in range(cfg.host_count))
 

@@ -119,7 +119,7 @@ def ub_ports_describe(ports: Any, link: str) -> dict[str, Any] | None:
         s = lib.ub_impair_stats(ffi.addressof(p.impair))
         out["impair"] = {k: int(getattr(s, k)) for k in ("offered", "lost", "duplicated", "reordered", "delayed",
                                                         "queue_full", "passed", "inner_again", "inner_errors",
-                                                        "too_big", "rate_waits", "bytes")}
+                                                        "too_big", "rate_waits", "bytes", "shed", "overtaken")}
     return out
 
 
@@ -148,7 +148,7 @@ def ub_ports_notices(ports: Any) -> list[str]:
 
 
 def _impair_params(loss: float, dup: float, reorder: float, delay_ms: int, jitter_ms: int, hold_ms: int,
-                   rate: int = 0, mtu: int = 0) -> Any:
+                   rate: int = 0, mtu: int = 0, prio: bool = False) -> Any:
     params = ffi.new("ub_impair_params_t *")
     for name, p in (("loss", loss), ("dup", dup), ("reorder", reorder)):
         if not 0.0 <= p <= 1.0:
@@ -159,22 +159,23 @@ def _impair_params(loss: float, dup: float, reorder: float, delay_ms: int, jitte
     params.loss_ppm, params.dup_ppm = round(loss * PPM), round(dup * PPM)
     params.reorder_ppm, params.delay_ms, params.jitter_ms = round(reorder * PPM), delay_ms, jitter_ms
     params.reorder_hold_ms, params.rate_Bps, params.mtu = hold_ms, rate, mtu
+    params.prio = 1 if prio else 0
     return params
 
 
 def ub_ports_set_impairment(ports: Any, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0,
                             delay_ms: int = 0, jitter_ms: int = 0, hold_ms: int = 0, seed: int = 0,
-                            rate: int = 0, mtu: int = 0) -> None:
-    """Probabilities in 0..1 (converted to parts per million), rate in bytes/s, mtu in bytes; all zero removes
-    the impairment."""
-    params = _impair_params(loss, dup, reorder, delay_ms, jitter_ms, hold_ms, rate, mtu)
+                            rate: int = 0, mtu: int = 0, prio: bool = False) -> None:
+    """Probabilities in 0..1 (converted to parts per million), rate in bytes/s, mtu in bytes, prio: send by
+    priority class on the byte budget (ub_prio.h); all zero removes the impairment."""
+    params = _impair_params(loss, dup, reorder, delay_ms, jitter_ms, hold_ms, rate, mtu, prio)
     ensure(lib.ub_ports_set_impairment(ports, params, seed), "ub_ports_set_impairment")
 
 
 def ub_ports_set_link_impairment(ports: Any, link: str, loss: float = 0.0, dup: float = 0.0, reorder: float = 0.0,
                                  delay_ms: int = 0, jitter_ms: int = 0, hold_ms: int = 0, seed: int = 0,
-                                 rate: int = 0, mtu: int = 0) -> None:
+                                 rate: int = 0, mtu: int = 0, prio: bool = False) -> None:
     """One open port's own impairment, over the node-wide one; all zero removes it."""
-    params = _impair_params(loss, dup, reorder, delay_ms, jitter_ms, hold_ms, rate, mtu)
+    params = _impair_params(loss, dup, reorder, delay_ms, jitter_ms, hold_ms, rate, mtu, prio)
     ensure(lib.ub_ports_set_link_impairment(ports, link.encode("utf-8"), params, seed),
            f"port {link!r} is not open")

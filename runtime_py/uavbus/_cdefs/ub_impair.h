@@ -11,6 +11,7 @@ typedef struct ub_impair_params {
     uint32_t reorder_hold_ms;
     uint32_t rate_Bps;
     uint32_t mtu;
+    uint32_t prio;
     ...;
 } ub_impair_params_t;
 
@@ -27,6 +28,8 @@ typedef struct ub_impair_stats {
     uint64_t too_big;
     uint64_t rate_waits;
     uint64_t bytes;
+    uint64_t shed;
+    uint64_t overtaken;
     ...;
 } ub_impair_stats_t;
 

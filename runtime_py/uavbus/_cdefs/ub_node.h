@@ -93,6 +93,7 @@ int ub_node_link_attach(ub_node_t *node, int link_id, const ub_link_ops_t *ops, 
 int ub_node_link_detach(ub_node_t *node, int link_id);
 uint64_t ub_node_link_bad_frames(const ub_node_t *node, int link_id, ub_rx_reason_t reason);
 int ub_node_bind(ub_node_t *node, uint32_t instance, void *storage);
+int ub_node_set_content_classes(ub_node_t *node, const uint8_t *classes, size_t n);
 void *ub_node_binding(const ub_node_t *node, uint32_t instance);
 int ub_node_rx(ub_node_t *node, int link_id, const uint8_t *data, size_t len, uint64_t now_ms);
 int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms);

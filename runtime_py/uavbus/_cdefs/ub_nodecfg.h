@@ -61,6 +61,7 @@ typedef struct ub_nodecfg {
     uint8_t has_policy;
     ub_nodecfg_security_t security;
     ub_nodecfg_identity_t identity;
+    uint8_t priority_count;
     ...;
 } ub_nodecfg_t;
 
@@ -82,6 +83,8 @@ int ub_nodecfg_select_node(ub_nodecfg_t *cfg, const char *node, char *err, size_
 int ub_nodecfg_find_entity(const ub_nodecfg_t *cfg, const char *name);
 int ub_nodecfg_mask(const ub_nodecfg_t *cfg, const char *from, const char *to);
 int ub_nodecfg_apply(const ub_nodecfg_t *cfg, ub_node_t *node, char *err, size_t err_cap);
+int ub_nodecfg_apply_priorities(const ub_nodecfg_t *cfg, ub_node_t *node, const ub_catalogue_t *cat, uint8_t *classes,
+                                size_t n, char *err, size_t err_cap);
 
 /* ub_sec.h / ub_secfile.h types (declared in full in _cdefs/ub_sec.h and ub_secfile.h, which load later). */
 typedef struct ub_sec_options ub_sec_options_t;
