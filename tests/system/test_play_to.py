@@ -1,7 +1,7 @@
 """Playback that stimulates the component you choose (issue 25, item 4): a recorded imuOut stream (fcs20 ->
 gcs1) is played into a *different* entity, a new estimator process (`uavbus_node` hosting est1), with the
 recorded timing; on a signed network it works with the player's own key and is refused, with the reason in
-one line, without it; an entity that does not know the player gets a one-line reason too.
+one line, without it or with a key that is not the fleet's; an entity that does not know the player gets a one-line reason too.
 
 The estimator records what it receives (its own ub_log): arrivals are measured by the receiving process,
 not by the player.
@@ -22,7 +22,7 @@ from uavbus.logfile import LogReader
 from uavbus.sim.hitl import catalogue_for
 from uavbus.sim.portalloc import PortAllocator
 from uavbus.sim.process import NodeProcess
-from uavbus.sim.secure import signed_config
+from uavbus.sim.secure import new_key, signed_config
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -173,6 +173,14 @@ def test_signed_replay_needs_the_players_key_and_says_why(recording: Path, progr
         assert refused.returncode != 0
         line = refused.stderr.strip().splitlines()[-1]
         assert line.startswith("uavbus log play: no answer from est1") and "key is missing (--key FILE)" in line, line
+        # A key that is not the fleet's (same id, other bytes): refused too, and the line says which case it is.
+        wrong = new_key(tmp_path / "other", 1)
+        refused = play(recording, "--to", "est1", "--into", f"udp:bind={player},peer={mine}", "--only", "imuOut",
+                       "--key", str(wrong))
+        assert refused.returncode != 0
+        line = refused.stderr.strip().splitlines()[-1]
+        assert line.startswith("uavbus log play: no answer from est1") and f"signed with {wrong}" in line \
+            and "the key is not the fleet key" in line, line
         ok = play(recording, "--to", "est1", "--into", f"udp:bind={player},peer={mine}", "--only", "imuOut",
                   "--key", str(keys / "fleet-1.key"), "--fast")
         assert ok.returncode == 0, ok.stderr
@@ -184,8 +192,10 @@ def test_signed_replay_needs_the_players_key_and_says_why(recording: Path, progr
         proc.stop()
     got = arrivals(log, "fcs20", "est1")
     assert len(got) == report["frames"], (len(got), report)
-    # The estimator refused the unsigned attempt's frames (the probe) as unsigned; nothing got in unsigned.
-    assert stats["node"]["drops"].get("unsigned", 0) > 0, stats["node"]["drops"]
+    # The estimator refused the unsigned attempt's frames (the probe) as unsigned and the wrong key's as bad tags:
+    # nothing got in from either.
+    drops = stats["node"]["drops"]
+    assert drops.get("unsigned", 0) > 0 and drops.get("bad_tag", 0) > 0, drops
 
 
 def test_an_entity_that_does_not_know_the_player_gets_a_reason(recording: Path, program: Path, tmp_path: Path) -> None:
