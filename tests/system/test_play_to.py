@@ -109,17 +109,26 @@ def two_sources(program: Path, tmp_path_factory: pytest.TempPathFactory) -> Path
     return d / "gcs1.ublog"
 
 
-def estimator(program: Path, tmp: Path, *, signed_with: Path | None = None,
+def estimator(program: Path, tmp: Path, *, signed_with: Path | None = None, identities: Path | None = None,
               knows: tuple[str, ...] = ("fcs20",)) -> tuple[NodeProcess, str, str, Path]:
-    """A new estimator process hosting est1; it knows fcs20 (its configuration says so), not gcs1."""
+    """A new estimator process hosting est1; it knows fcs20 (its configuration says so), not gcs1. With
+    `identities`, a fleet with an identity per entity made there (`uavbus keys fleet`): origin tags required,
+    and a write rule that lets est1 store what the known entities send it unasked."""
     alloc = PortAllocator()
     mine, player = alloc.addr(), alloc.addr()
     cfg = tmp / "est.json"
-    cfg.write_text(json.dumps({"system": "replay", "nodes": {"est": ["est1"]}, "entities": [
+    doc: dict = {"system": "replay", "nodes": {"est": ["est1"]}, "entities": [
         {"name": "est1", "links": ["in"], "linktoentity": {k: "0x00000001" for k in knows}},
-        *({"name": k} for k in knows)]}))
+        *({"name": k} for k in knows)]}
+    if identities is not None:
+        doc["security"] = {"write": {"est1": [{"from": list(knows), "content": "*"}]}}
+    cfg.write_text(json.dumps(doc))
     if signed_with is not None:
         cfg = signed_config(cfg, tmp, keys_dir=signed_with)
+    if identities is not None:
+        from uavbus import keys
+
+        cfg, _roles = keys.fleet(str(cfg), str(identities), days=1)
     log = tmp / "est1.ublog"
     proc = NodeProcess([str(program), "--config", str(cfg), "--node", "est", "--port", f"in=udp:bind={mine}",
                         "--record", str(log)], "est")
@@ -196,6 +205,38 @@ def test_signed_replay_needs_the_players_key_and_says_why(recording: Path, progr
     # nothing got in from either.
     drops = stats["node"]["drops"]
     assert drops.get("unsigned", 0) > 0 and drops.get("bad_tag", 0) > 0, drops
+
+
+def test_identity_fleet_replay_carries_the_players_origin_tags(recording: Path, program: Path, tmp_path: Path) -> None:
+    """In a fleet with identities (issue 23) the group key is not enough: est1 refuses frames without an origin
+    tag, and the line says that may be why; with the player's identity file (--identity) the replay is
+    delivered, and est1's write rule is what lets it store the data."""
+    fleet = tmp_path / "fleet"
+    proc, mine, player, log = estimator(program, tmp_path, identities=fleet)
+    try:
+        into = f"udp:bind={player},peer={mine}"
+        refused = play(recording, "--to", "est1", "--into", into, "--only", "imuOut", "--key", str(fleet / "fleet-1.key"))
+        assert refused.returncode != 0
+        line = refused.stderr.strip().splitlines()[-1]
+        assert line.startswith("uavbus log play: no answer from est1") and "est1 checks origin tags" in line \
+            and "no_origin" in line, line
+        ok = play(recording, "--to", "est1", "--into", into, "--only", "imuOut", "--key", str(fleet / "fleet-1.key"),
+                  "--identity", str(fleet / "fcs20.id"), "--fast")
+        assert ok.returncode == 0, ok.stderr
+        report = json.loads(ok.stdout.strip().splitlines()[-1])
+        assert report["signed"] and report["identity"] and report["frames"] >= FRAMES - 2, report
+        time.sleep(0.3)
+        drops = proc.request_stats()["node"]["drops"]
+    finally:
+        proc.stop()
+    assert len(arrivals(log, "fcs20", "est1")) == report["frames"], report
+    assert drops.get("no_origin", 0) > 0 and drops.get("not_allowed", 0) == 0, drops   # the first try's, not these
+    bad = play(recording, "--to", "est1", "--into", f"udp:bind={player},peer={mine}", "--key",
+               str(fleet / "fleet-1.key"), "--identity", str(fleet / "nobody.id"))
+    assert bad.returncode != 0 and "nobody.id not found" in bad.stderr.strip().splitlines()[-1], bad.stderr
+    bad = play(recording, "--to", "est1", "--into", f"udp:bind={player},peer={mine}",
+               "--identity", str(fleet / "fcs20.id"))
+    assert bad.returncode != 0 and "--identity goes with --key FILE" in bad.stderr, bad.stderr
 
 
 def test_an_entity_that_does_not_know_the_player_gets_a_reason(recording: Path, program: Path, tmp_path: Path) -> None:
