@@ -110,18 +110,18 @@ def two_sources(program: Path, tmp_path_factory: pytest.TempPathFactory) -> Path
 
 
 def estimator(program: Path, tmp: Path, *, signed_with: Path | None = None, identities: Path | None = None,
-              knows: tuple[str, ...] = ("fcs20",)) -> tuple[NodeProcess, str, str, Path]:
+              write: bool = True, knows: tuple[str, ...] = ("fcs20",)) -> tuple[NodeProcess, str, str, Path]:
     """A new estimator process hosting est1; it knows fcs20 (its configuration says so), not gcs1. With
     `identities`, a fleet with an identity per entity made there (`uavbus keys fleet`): origin tags required,
-    and a write rule that lets est1 store what the known entities send it unasked."""
+    and (`write`) a write rule that lets est1 store what the known entities send it unasked."""
     alloc = PortAllocator()
     mine, player = alloc.addr(), alloc.addr()
     cfg = tmp / "est.json"
     doc: dict = {"system": "replay", "nodes": {"est": ["est1"]}, "entities": [
         {"name": "est1", "links": ["in"], "linktoentity": {k: "0x00000001" for k in knows}},
         *({"name": k} for k in knows)]}
-    if identities is not None:
-        doc["security"] = {"write": {"est1": [{"from": list(knows), "content": "*"}]}}
+    if identities is not None:   # the identities' roles turn the policy on: without a rule, unasked DATA is refused
+        doc["security"] = {"write": {"est1": [{"from": list(knows), "content": "*"}]} if write else {}}
     cfg.write_text(json.dumps(doc))
     if signed_with is not None:
         cfg = signed_config(cfg, tmp, keys_dir=signed_with)
@@ -165,6 +165,7 @@ def test_recorded_stream_into_another_entity_with_its_timing(recording: Path, pr
         assert r.returncode == 0, r.stderr
         report = json.loads(r.stdout.strip().splitlines()[-1])
         assert report["to"] == "est1" and report["as"] == "fcs20" and report["frames"] == len(recorded), report
+        assert report["stored"] is True, report   # est1's imuOut, read back: the last frame played
         time.sleep(0.3)
     finally:
         proc.stop()
@@ -225,12 +226,31 @@ def test_identity_fleet_replay_carries_the_players_origin_tags(recording: Path, 
         assert ok.returncode == 0, ok.stderr
         report = json.loads(ok.stdout.strip().splitlines()[-1])
         assert report["signed"] and report["identity"] and report["frames"] >= FRAMES - 2, report
+        assert report["stored"] is True, report
         time.sleep(0.3)
         drops = proc.request_stats()["node"]["drops"]
     finally:
         proc.stop()
     assert len(arrivals(log, "fcs20", "est1")) == report["frames"], report
     assert drops.get("no_origin", 0) > 0 and drops.get("not_allowed", 0) == 0, drops   # the first try's, not these
+    # The same replay into an estimator whose write policy does not take it: delivered, refused there
+    # (not_allowed), and the player says so instead of reporting a success.
+    (tmp_path / "nowrite").mkdir()
+    proc, mine, player, log = estimator(program, tmp_path / "nowrite", identities=tmp_path / "fleet2", write=False)
+    try:
+        r = play(recording, "--to", "est1", "--into", f"udp:bind={player},peer={mine}", "--only", "imuOut",
+                 "--key", str(tmp_path / "fleet2" / "fleet-1.key"), "--identity", str(tmp_path / "fleet2" / "fcs20.id"),
+                 "--fast")
+        time.sleep(0.3)
+        drops = proc.request_stats()["node"]["drops"]
+    finally:
+        proc.stop()
+    assert r.returncode != 0, r.stdout
+    report = json.loads(r.stdout.strip().splitlines()[-1])
+    assert report["stored"] is False and drops["not_allowed"] == report["frames"] > 0, (report, drops)
+    line = r.stderr.strip().splitlines()[-1]
+    assert line.startswith(f"uavbus log play: est1 stored none of the {report['frames']} frames played") \
+        and "write policy" in line, line
     bad = play(recording, "--to", "est1", "--into", f"udp:bind={player},peer={mine}", "--key",
                str(fleet / "fleet-1.key"), "--identity", str(fleet / "nobody.id"))
     assert bad.returncode != 0 and "nobody.id not found" in bad.stderr.strip().splitlines()[-1], bad.stderr

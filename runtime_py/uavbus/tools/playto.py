@@ -17,7 +17,9 @@ identity: authority.pub and fleet.certs come from its folder, as `uavbus keys fl
 
 Before the first frame the player asks ENTITY for one of the recorded directories (an INSPECT read, which
 every node answers): silence means the frames would vanish too, and the player says why in one line instead
-of playing into the void (no route, ENTITY does not know the player, or a wrong or missing key).
+of playing into the void (no route, ENTITY does not know the player, or a wrong or missing key). After the
+last frame it reads that frame's directory back: a receiver whose write policy refused every frame (dropped
+without a word) still holds what it held before, and the run ends with that reason instead of a success.
 """
 
 from __future__ import annotations
@@ -154,6 +156,8 @@ def play_to(log: Any, contents: Any, records: list[Any], args: Any, out: IO[str]
             played = sorted({contents.name(r.header) for r in data})
             dirs = {n: node.bind(n) for n in played}
             _probe(node, args, identity, played[0], NoAnswerError, RefusedError)
+            last, unanswered = data[-1], (NoAnswerError, RefusedError)
+            before = _read(node, args.to, contents.name(last.header), unanswered)
             sent = failed = slips = 0
             slipped_s = 0.0
             start = clock()
@@ -183,18 +187,35 @@ def play_to(log: Any, contents: Any, records: list[Any], args: Any, out: IO[str]
             while clock() < end:
                 node.poll(0.01)
             drops = {k: v for k, v in node.counters()["drops"].items() if v}
+            # The receiver's write policy drops refused DATA without a word: what it holds afterwards is the
+            # player's only evidence (an INSPECT read, which the probe showed it answers).
+            after = _read(node, args.to, contents.name(last.header), unanswered)
+            stored = None if after is None else after == bytes(last.payload)
             report = {"event": "played", "file": args.file, "to": args.to,
                       "as": identity if len(names) == 1 else names, "plays_as": plays_as, "into": args.into,
                       "signed": bool(args.key), "identity": bool(identity_file), "frames": sent,
                       "slips": slips, "slipped_ms": round(slipped_s * 1000.0, 1), "not_sent": failed, "encrypted_skipped": len(encrypted),
-                      "drops": drops, "sources": sources}
+                      "drops": drops, "stored": stored, "sources": sources}
         finally:
             node.close()
     print(json.dumps(report), file=out)
     if failed:
         raise PlayError(f"{failed} of {len(data)} frames were not sent to {args.to} "
                         f"({', '.join(f'{k}={v}' for k, v in drops.items()) or 'the port refused them'})")
+    if sent and stored is False and after == before:
+        raise PlayError(f"{args.to} stored none of the {sent} frames played: its {contents.name(data[-1].header)} "
+                        f"is what it was before the replay; most likely its write policy refused them (not_allowed "
+                        f"in its stats: give {args.to} a write rule for {', '.join(names)} or a subscription of its "
+                        "own)")
     return 0
+
+
+def _read(node: Any, to: str, content: str, unanswered: tuple[type, ...]) -> bytes | None:
+    """`to`'s directory `content` as it holds it now (INSPECT read), or None when it does not answer it."""
+    try:
+        return bytes(node.remote(to, timeout=PROBE_S).read_raw(content))
+    except unanswered:
+        return None
 
 
 def _check_identity(identity: str, key: str | None, names: list[str]) -> None:
