@@ -110,7 +110,8 @@ def two_sources(program: Path, tmp_path_factory: pytest.TempPathFactory) -> Path
 
 
 def estimator(program: Path, tmp: Path, *, signed_with: Path | None = None, identities: Path | None = None,
-              write: bool = True, knows: tuple[str, ...] = ("fcs20",)) -> tuple[NodeProcess, str, str, Path]:
+              write: bool = True, knows: tuple[str, ...] = ("fcs20",), port: str = "udp:bind={mine}",
+              ) -> tuple[NodeProcess, str, str, Path]:
     """A new estimator process hosting est1; it knows fcs20 (its configuration says so), not gcs1. With
     `identities`, a fleet with an identity per entity made there (`uavbus keys fleet`): origin tags required,
     and (`write`) a write rule that lets est1 store what the known entities send it unasked."""
@@ -130,7 +131,7 @@ def estimator(program: Path, tmp: Path, *, signed_with: Path | None = None, iden
 
         cfg, _roles = keys.fleet(str(cfg), str(identities), days=1)
     log = tmp / "est1.ublog"
-    proc = NodeProcess([str(program), "--config", str(cfg), "--node", "est", "--port", f"in=udp:bind={mine}",
+    proc = NodeProcess([str(program), "--config", str(cfg), "--node", "est", "--port", "in=" + port.format(mine=mine),
                         "--record", str(log)], "est")
     proc.start()
     proc.wait_ready(8.0)
@@ -257,6 +258,20 @@ def test_identity_fleet_replay_carries_the_players_origin_tags(recording: Path, 
     bad = play(recording, "--to", "est1", "--into", f"udp:bind={player},peer={mine}",
                "--identity", str(fleet / "fcs20.id"))
     assert bad.returncode != 0 and "--identity goes with --key FILE" in bad.stderr, bad.stderr
+
+
+def test_played_over_tcp(recording: Path, program: Path, tmp_path: Path) -> None:
+    """Any port a node has: the estimator listens on TCP, the player connects."""
+    proc, mine, _player, log = estimator(program, tmp_path, port="tcp:listen={mine}")
+    try:
+        r = play(recording, "--to", "est1", "--into", f"tcp:connect={mine}", "--only", "imuOut", "--fast")
+        assert r.returncode == 0, r.stderr
+        report = json.loads(r.stdout.strip().splitlines()[-1])
+        time.sleep(0.3)
+    finally:
+        proc.stop()
+    assert report["frames"] >= FRAMES - 2 and report["stored"] is True, report
+    assert len(arrivals(log, "fcs20", "est1")) == report["frames"], report
 
 
 def test_an_entity_that_does_not_know_the_player_gets_a_reason(recording: Path, program: Path, tmp_path: Path) -> None:
