@@ -270,7 +270,10 @@ cmake -S examples/mcu -B "$build/mcu" -G Ninja -DCMAKE_BUILD_TYPE=MinSizeRel -DU
 cmake --build "$build/mcu" >/dev/null
 { arm-none-eabi-size "$build/mcu/firmware.elf" | tail -1 | sed 's/^/firmware /'
   arm-none-eabi-size -t "$build/mcu/uavbus/runtime_c/libub.a" | tail -1 | sed 's/^/libub /'
-  arm-none-eabi-nm -S --size-sort "$build/mcu/firmware.elf" | sed 's/^/sym /'; } >"$raw/mcu.txt"
+  arm-none-eabi-nm -S --size-sort "$build/mcu/firmware.elf" | sed 's/^/sym /'
+  # The capacities the sizes hold for, as the ELF records them (firmware.c's fw_capacities).
+  "$VPY" -c 'import sys; from uavbus.sim.qemu import firmware_capacities as c
+print("caps", *(f"{k}={v}" for k, v in c(sys.argv[1]).items()))' "$build/mcu/firmware.elf"; } >"$raw/mcu.txt"
 # Origin authentication's state on the same target and capacities (figure 1c): sizeof(ub_origin_t), 64 pairs.
 printf '#include "ub/ub_origin.h"\nub_origin_t bench_origin;\n' >"$build/mcu/origin_size.c"
 for peers in 64 8; do   # 64 known peers (the issue's figure); 8: the firmware's provisioned pairs (mcu_ub_config.h)

@@ -10,7 +10,8 @@ libsodium on the target; docs/security.md). Each is a check:
  - gcs1 changes the rate (20 -> 40 ms, on the board's row and on its own administration row) and receives
    about 25 Hz;
  - gcs1 writes the board's gyro bias and the next imuOut shows it;
- - the firmware fits 128 KiB flash / 64 KiB RAM, measured from the ELF (the summary states both).
+ - the firmware fits 128 KiB flash / 64 KiB RAM, measured from the ELF, with the capacities the ELF records
+   (16 entities, 4 links, 32 rows; the summary states all three).
 
 Returns the `"firmware"` section of demo-out/summary.json and adds the board's imuOut row to the summary.
 
@@ -26,7 +27,7 @@ from typing import Any, Callable
 
 from uavbus.sim.hitl import Hitl, HitlOptions
 from uavbus.sim.metrics import StreamMeter, SummaryRow
-from uavbus.sim.qemu import FirmwareMissing, QemuBoard, firmware_elf, firmware_size, qemu_missing
+from uavbus.sim.qemu import FirmwareMissing, QemuBoard, firmware_capacities, firmware_elf, firmware_size, qemu_missing
 
 REPO = Path(__file__).resolve().parents[2]
 CONFIG = REPO / "examples" / "configs" / "table2.json"
@@ -58,9 +59,12 @@ def firmware_part(program: Path, rows: list[SummaryRow], check: Check, say: Call
         check("firmware: built", False, str(e))
         return {"error": str(e)}
     size = firmware_size(elf)
+    caps = firmware_capacities(elf)
     out: dict[str, Any] = {"elf": str(elf.relative_to(REPO)) if elf.is_relative_to(REPO) else str(elf),
-                           "flash_bytes": size.flash, "ram_bytes": size.ram, "machine": "mps2-an386"}
-    check("firmware: fits a flight controller", size.fits(), str(size))
+                           "flash_bytes": size.flash, "ram_bytes": size.ram, "capacities": caps,
+                           "machine": "mps2-an386"}
+    check("firmware: fits a flight controller", size.fits(),
+          f"{size}, with {caps['entities']} entities, {caps['node_links']} links, {caps['pubsub_rows']} rows")
     measure_s = 1.5 if short else 3.0
     hops: list[int] = []
     with QemuBoard(elf) as board:

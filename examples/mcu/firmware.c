@@ -54,6 +54,15 @@ gpsOut_t gpsOut;
 static ub_node_t node;
 static flight_model_t model;
 
+/* The capacities this image was built with (mcu_ub_config.h and any -D), kept in the ELF for whoever
+ * measures it: tests/hitl, the demo and make bench (figure 6b) read them beside the sizes, so a budget
+ * figure names the capacities it holds for instead of trusting the header. Order fixed (FW_CAPACITIES in
+ * uavbus.sim.qemu). The code never reads it: its section is KEEP in the board's linker script, so
+ * --gc-sections leaves its 12 bytes of flash in. */
+__attribute__((used, section(".fw_info"))) const uint16_t fw_capacities[6] = {
+    UB_MAX_ENTITIES,       UB_MAX_NODE_LINKS,  UB_MAX_LINKS_PER_ENTITY,
+    UB_MAX_LOCAL_ENTITIES, UB_MAX_PUBSUB_ROWS, UB_DEDUP_SOURCES};
+
 /* Why the board stopped (readable with a debugger, or over the bus if it ever got that far). */
 volatile int fw_fault;
 

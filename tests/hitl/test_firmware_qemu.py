@@ -18,9 +18,11 @@ from typing import Any
 import pytest
 
 from uavbus import Node
-from uavbus.sim.qemu import FLASH_BUDGET, RAM_BUDGET, QemuBoard, firmware_size
+from uavbus.sim.qemu import FLASH_BUDGET, RAM_BUDGET, QemuBoard, firmware_capacities, firmware_size
 
 IMU_MS = 20
+# Issue 25's vehicle: 16 entities, 4 links, 32 rows (the budget must hold with at least these).
+VEHICLE = {"entities": 16, "node_links": 4, "links_per_entity": 4, "pubsub_rows": 32}
 TURN_R = 0.2 * 0.971343      # flight_model.c: yaw rate of the coordinated turn, body z (rad/s)
 
 
@@ -59,6 +61,9 @@ def collect(node: Any, content: str, seconds: float) -> list[dict[str, Any]]:
 def test_firmware_fits_a_flight_controller(firmware: Path) -> None:
     size = firmware_size(firmware)
     assert size.flash <= FLASH_BUDGET and size.ram <= RAM_BUDGET, str(size)
+    # ... with a vehicle's capacities, as the ELF records them (not as mcu_ub_config.h says them).
+    caps = firmware_capacities(firmware)
+    assert all(caps[k] >= v for k, v in VEHICLE.items()), caps
     # The core, the catalogue and the static node are really in there (not an empty image).
     assert size.text > 30_000 and size.bss > 16 * 1024, str(size)
 
@@ -114,6 +119,8 @@ def test_stm32f4_board_support_builds_and_fits(tmp_path: Path) -> None:
     elf = build_firmware(tmp_path / "stm32f4", board="stm32f4")
     size = firmware_size(elf)
     assert size.fits(), str(size)
+    caps = firmware_capacities(elf)   # its record sits in flash at 0x08...: read through the section table
+    assert all(caps[k] >= v for k, v in VEHICLE.items()), caps
     sections = subprocess.run(["arm-none-eabi-objdump", "-h", str(elf)], check=True, stdout=subprocess.PIPE,
                               text=True).stdout
     text = [line.split() for line in sections.splitlines() if " .text " in line][0]

@@ -1,18 +1,18 @@
 """A scenario that mixes real and simulated nodes (issue 25, item 3): the emulated board (fcs20, a run: external
 member on its UART's pty, no routing engine: a fixed entity table) beside a simulated vehicle process, both
-linked to a Python ground station. `uavbus sim` connects to the board, includes it in the flows and the
-report, kills and restarts the ground station (item 5), and kills the simulated vehicle for good: its flow
-turns stale in the report."""
+linked to a Python ground station. `uavbus sim` (run as a user runs it) connects to the board, includes it in
+the flows and the report, kills and restarts the ground station (item 5), and kills the simulated vehicle for
+good: its flow turns stale in the report."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
-from uavbus.sim.fleet import FleetRun
 from uavbus.sim.qemu import QemuBoard
 from uavbus.sim.scenario import load_scenario
 
@@ -55,8 +55,18 @@ def test_check_says_the_board_is_external(scenario_file: Path) -> None:
 
 
 def test_scenario_with_the_board_as_external_member(scenario_file: Path, program: Path, tmp_path: Path) -> None:
-    summary = FleetRun(load_scenario(scenario_file), tmp_path, program=program, log=lambda s: None).run()
+    """As a user runs it: `uavbus sim FILE`, its printed report and its summary.json."""
+    r = subprocess.run([sys.executable, "-m", "uavbus.cli", "sim", str(scenario_file), "--out", str(tmp_path),
+                        "--program", str(program)], capture_output=True, text=True, timeout=150)
+    assert r.returncode == 0, r.stderr[-3000:]
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    # The printed report names the board as external and lists its flow with what reached the ground station.
+    report = r.stdout.splitlines()
+    assert any(line.strip().startswith("fcs20: external on serial:device=/dev/pts/") for line in report), r.stdout
+    (imu_line,) = [line for line in report if line.strip().startswith("imu20 ")]
+    assert "fcs20 -> gcs1" in imu_line and "flowing" in imu_line, imu_line
     flows = {f["name"]: f for f in summary["flows"]}
+    assert f"delivered {flows['imu20']['delivered']:5d}" in imu_line, imu_line
     assert summary["external"] == {"fcs20": {"port": load_scenario(scenario_file).station("fcs20").port,
                                              "routing": False}}
     imu = flows["imu20"]

@@ -1,7 +1,7 @@
 """Playback that stimulates the component you choose (issue 25, item 4): a recorded imuOut stream (fcs20 ->
 gcs1) is played into a *different* entity, a new estimator process (`uavbus_node` hosting est1), with the
 recorded timing; on a signed network it works with the player's own key and is refused, with the reason in
-one line, without it; an entity that does not know the player gets a one-line reason too.
+one line, without it or with a key that is not the fleet's; an entity that does not know the player gets a one-line reason too.
 
 The estimator records what it receives (its own ub_log): arrivals are measured by the receiving process,
 not by the player.
@@ -22,7 +22,7 @@ from uavbus.logfile import LogReader
 from uavbus.sim.hitl import catalogue_for
 from uavbus.sim.portalloc import PortAllocator
 from uavbus.sim.process import NodeProcess
-from uavbus.sim.secure import signed_config
+from uavbus.sim.secure import new_key, signed_config
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -109,19 +109,29 @@ def two_sources(program: Path, tmp_path_factory: pytest.TempPathFactory) -> Path
     return d / "gcs1.ublog"
 
 
-def estimator(program: Path, tmp: Path, *, signed_with: Path | None = None,
-              knows: tuple[str, ...] = ("fcs20",)) -> tuple[NodeProcess, str, str, Path]:
-    """A new estimator process hosting est1; it knows fcs20 (its configuration says so), not gcs1."""
+def estimator(program: Path, tmp: Path, *, signed_with: Path | None = None, identities: Path | None = None,
+              write: bool = True, knows: tuple[str, ...] = ("fcs20",), port: str = "udp:bind={mine}",
+              ) -> tuple[NodeProcess, str, str, Path]:
+    """A new estimator process hosting est1; it knows fcs20 (its configuration says so), not gcs1. With
+    `identities`, a fleet with an identity per entity made there (`uavbus keys fleet`): origin tags required,
+    and (`write`) a write rule that lets est1 store what the known entities send it unasked."""
     alloc = PortAllocator()
     mine, player = alloc.addr(), alloc.addr()
     cfg = tmp / "est.json"
-    cfg.write_text(json.dumps({"system": "replay", "nodes": {"est": ["est1"]}, "entities": [
+    doc: dict = {"system": "replay", "nodes": {"est": ["est1"]}, "entities": [
         {"name": "est1", "links": ["in"], "linktoentity": {k: "0x00000001" for k in knows}},
-        *({"name": k} for k in knows)]}))
+        *({"name": k} for k in knows)]}
+    if identities is not None:   # the identities' roles turn the policy on: without a rule, unasked DATA is refused
+        doc["security"] = {"write": {"est1": [{"from": list(knows), "content": "*"}]} if write else {}}
+    cfg.write_text(json.dumps(doc))
     if signed_with is not None:
         cfg = signed_config(cfg, tmp, keys_dir=signed_with)
+    if identities is not None:
+        from uavbus import keys
+
+        cfg, _roles = keys.fleet(str(cfg), str(identities), days=1)
     log = tmp / "est1.ublog"
-    proc = NodeProcess([str(program), "--config", str(cfg), "--node", "est", "--port", f"in=udp:bind={mine}",
+    proc = NodeProcess([str(program), "--config", str(cfg), "--node", "est", "--port", "in=" + port.format(mine=mine),
                         "--record", str(log)], "est")
     proc.start()
     proc.wait_ready(8.0)
@@ -156,6 +166,7 @@ def test_recorded_stream_into_another_entity_with_its_timing(recording: Path, pr
         assert r.returncode == 0, r.stderr
         report = json.loads(r.stdout.strip().splitlines()[-1])
         assert report["to"] == "est1" and report["as"] == "fcs20" and report["frames"] == len(recorded), report
+        assert report["stored"] is True, report   # est1's imuOut, read back: the last frame played
         time.sleep(0.3)
     finally:
         proc.stop()
@@ -173,6 +184,14 @@ def test_signed_replay_needs_the_players_key_and_says_why(recording: Path, progr
         assert refused.returncode != 0
         line = refused.stderr.strip().splitlines()[-1]
         assert line.startswith("uavbus log play: no answer from est1") and "key is missing (--key FILE)" in line, line
+        # A key that is not the fleet's (same id, other bytes): refused too, and the line says which case it is.
+        wrong = new_key(tmp_path / "other", 1)
+        refused = play(recording, "--to", "est1", "--into", f"udp:bind={player},peer={mine}", "--only", "imuOut",
+                       "--key", str(wrong))
+        assert refused.returncode != 0
+        line = refused.stderr.strip().splitlines()[-1]
+        assert line.startswith("uavbus log play: no answer from est1") and f"signed with {wrong}" in line \
+            and "the key is not the fleet key" in line, line
         ok = play(recording, "--to", "est1", "--into", f"udp:bind={player},peer={mine}", "--only", "imuOut",
                   "--key", str(keys / "fleet-1.key"), "--fast")
         assert ok.returncode == 0, ok.stderr
@@ -184,8 +203,75 @@ def test_signed_replay_needs_the_players_key_and_says_why(recording: Path, progr
         proc.stop()
     got = arrivals(log, "fcs20", "est1")
     assert len(got) == report["frames"], (len(got), report)
-    # The estimator refused the unsigned attempt's frames (the probe) as unsigned; nothing got in unsigned.
-    assert stats["node"]["drops"].get("unsigned", 0) > 0, stats["node"]["drops"]
+    # The estimator refused the unsigned attempt's frames (the probe) as unsigned and the wrong key's as bad tags:
+    # nothing got in from either.
+    drops = stats["node"]["drops"]
+    assert drops.get("unsigned", 0) > 0 and drops.get("bad_tag", 0) > 0, drops
+
+
+def test_identity_fleet_replay_carries_the_players_origin_tags(recording: Path, program: Path, tmp_path: Path) -> None:
+    """In a fleet with identities (issue 23) the group key is not enough: est1 refuses frames without an origin
+    tag, and the line says that may be why; with the player's identity file (--identity) the replay is
+    delivered, and est1's write rule is what lets it store the data."""
+    fleet = tmp_path / "fleet"
+    proc, mine, player, log = estimator(program, tmp_path, identities=fleet)
+    try:
+        into = f"udp:bind={player},peer={mine}"
+        refused = play(recording, "--to", "est1", "--into", into, "--only", "imuOut", "--key", str(fleet / "fleet-1.key"))
+        assert refused.returncode != 0
+        line = refused.stderr.strip().splitlines()[-1]
+        assert line.startswith("uavbus log play: no answer from est1") and "est1 checks origin tags" in line \
+            and "no_origin" in line, line
+        ok = play(recording, "--to", "est1", "--into", into, "--only", "imuOut", "--key", str(fleet / "fleet-1.key"),
+                  "--identity", str(fleet / "fcs20.id"), "--fast")
+        assert ok.returncode == 0, ok.stderr
+        report = json.loads(ok.stdout.strip().splitlines()[-1])
+        assert report["signed"] and report["identity"] and report["frames"] >= FRAMES - 2, report
+        assert report["stored"] is True, report
+        time.sleep(0.3)
+        drops = proc.request_stats()["node"]["drops"]
+    finally:
+        proc.stop()
+    assert len(arrivals(log, "fcs20", "est1")) == report["frames"], report
+    assert drops.get("no_origin", 0) > 0 and drops.get("not_allowed", 0) == 0, drops   # the first try's, not these
+    # The same replay into an estimator whose write policy does not take it: delivered, refused there
+    # (not_allowed), and the player says so instead of reporting a success.
+    (tmp_path / "nowrite").mkdir()
+    proc, mine, player, log = estimator(program, tmp_path / "nowrite", identities=tmp_path / "fleet2", write=False)
+    try:
+        r = play(recording, "--to", "est1", "--into", f"udp:bind={player},peer={mine}", "--only", "imuOut",
+                 "--key", str(tmp_path / "fleet2" / "fleet-1.key"), "--identity", str(tmp_path / "fleet2" / "fcs20.id"),
+                 "--fast")
+        time.sleep(0.3)
+        drops = proc.request_stats()["node"]["drops"]
+    finally:
+        proc.stop()
+    assert r.returncode != 0, r.stdout
+    report = json.loads(r.stdout.strip().splitlines()[-1])
+    assert report["stored"] is False and drops["not_allowed"] == report["frames"] > 0, (report, drops)
+    line = r.stderr.strip().splitlines()[-1]
+    assert line.startswith(f"uavbus log play: est1 stored none of the {report['frames']} frames played") \
+        and "write policy" in line, line
+    bad = play(recording, "--to", "est1", "--into", f"udp:bind={player},peer={mine}", "--key",
+               str(fleet / "fleet-1.key"), "--identity", str(fleet / "nobody.id"))
+    assert bad.returncode != 0 and "nobody.id not found" in bad.stderr.strip().splitlines()[-1], bad.stderr
+    bad = play(recording, "--to", "est1", "--into", f"udp:bind={player},peer={mine}",
+               "--identity", str(fleet / "fcs20.id"))
+    assert bad.returncode != 0 and "--identity goes with --key FILE" in bad.stderr, bad.stderr
+
+
+def test_played_over_tcp(recording: Path, program: Path, tmp_path: Path) -> None:
+    """Any port a node has: the estimator listens on TCP, the player connects."""
+    proc, mine, _player, log = estimator(program, tmp_path, port="tcp:listen={mine}")
+    try:
+        r = play(recording, "--to", "est1", "--into", f"tcp:connect={mine}", "--only", "imuOut", "--fast")
+        assert r.returncode == 0, r.stderr
+        report = json.loads(r.stdout.strip().splitlines()[-1])
+        time.sleep(0.3)
+    finally:
+        proc.stop()
+    assert report["frames"] >= FRAMES - 2 and report["stored"] is True, report
+    assert len(arrivals(log, "fcs20", "est1")) == report["frames"], report
 
 
 def test_an_entity_that_does_not_know_the_player_gets_a_reason(recording: Path, program: Path, tmp_path: Path) -> None:

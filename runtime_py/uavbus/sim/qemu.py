@@ -17,6 +17,7 @@ import os
 import re
 import shutil
 import signal
+import struct
 import subprocess
 import sys
 import termios
@@ -28,14 +29,16 @@ from pathlib import Path
 
 from uavbus.sim.build import REPO
 
-__all__ = ["MACHINE", "FirmwareMissing", "FirmwareSize", "QemuBoard", "build_firmware", "firmware_elf", "firmware_size",
-           "qemu_missing"]
+__all__ = ["FW_CAPACITIES", "MACHINE", "FirmwareMissing", "FirmwareSize", "QemuBoard", "build_firmware",
+           "firmware_capacities", "firmware_elf", "firmware_size", "qemu_missing"]
 
 MACHINE = "mps2-an386"
 QEMU = "qemu-system-arm"
 BUILD_DIR = REPO / "build-mcu"
 TOOLCHAIN = REPO / "cmake" / "toolchains" / "arm-none-eabi-cortex-m4.cmake"
 FLASH_BUDGET, RAM_BUDGET = 128 * 1024, 64 * 1024
+# examples/mcu/firmware.c's fw_capacities, in its order: the ub_config.h capacities the image was built with.
+FW_CAPACITIES = ("entities", "node_links", "links_per_entity", "local_entities", "pubsub_rows", "dedup_sources")
 
 
 class FirmwareMissing(RuntimeError):
@@ -112,6 +115,28 @@ def firmware_size(elf: str | Path) -> FirmwareSize:
     out = subprocess.run(["arm-none-eabi-size", str(elf)], check=True, stdout=subprocess.PIPE, text=True).stdout
     text, data, bss = (int(x) for x in out.splitlines()[1].split()[:3])
     return FirmwareSize(text, data, bss)
+
+
+def firmware_capacities(elf: str | Path) -> dict[str, int]:
+    """The capacities the image was built with, read from the ELF (the firmware's `fw_capacities`, little-endian
+    uint16 in flash): what a size figure holds for, whatever the headers or the command line said."""
+    syms = subprocess.run(["arm-none-eabi-nm", "-S", str(elf)], check=True, stdout=subprocess.PIPE, text=True).stdout
+    found = [line.split() for line in syms.splitlines() if line.endswith(" fw_capacities")]
+    if len(found) != 1 or len(found[0]) != 4 or int(found[0][1], 16) != 2 * len(FW_CAPACITIES):
+        raise FirmwareMissing(f"{elf}: no fw_capacities of {len(FW_CAPACITIES)} uint16 (not examples/mcu's firmware, "
+                              "or one older than its capacity record): rebuild with `make firmware`")
+    addr, size = int(found[0][0], 16), int(found[0][1], 16)
+    img = Path(elf).read_bytes()
+    if img[:6] != b"\x7fELF\x01\x01":
+        raise FirmwareMissing(f"{elf}: not a 32-bit little-endian ELF")
+    shoff, = struct.unpack_from("<I", img, 32)
+    shentsize, shnum = struct.unpack_from("<HH", img, 46)
+    for k in range(shnum):   # the loaded section (SHF_ALLOC) whose file bytes hold it (not NOBITS: type 8)
+        _name, kind, flags, sh_addr, sh_offset, sh_size = struct.unpack_from("<6I", img, shoff + k * shentsize)
+        if kind != 8 and flags & 2 and sh_addr <= addr and addr + size <= sh_addr + sh_size:
+            raw = img[sh_offset + addr - sh_addr:sh_offset + addr - sh_addr + size]
+            return dict(zip(FW_CAPACITIES, struct.unpack(f"<{len(FW_CAPACITIES)}H", raw)))
+    raise FirmwareMissing(f"{elf}: fw_capacities at {addr:#x} is in no section with contents")
 
 
 _PTY = re.compile(r"char device redirected to (/dev/pts/\d+)")

@@ -4,7 +4,8 @@
     uavbus log export FILE (--csv | --jsonl) [--only NAME[,NAME...]]... [--admin] [--numeric] [-o OUT]
     uavbus log export FILE --mcap OUT [--only NAME[,NAME...]]...
     uavbus log play FILE --into SPEC [--only NAME[,NAME...]]... [--speed X | --fast] [--dir rx|tx|all]
-    uavbus log play FILE --to ENTITY --into PORTSPEC [--as NAME | --map SRC=NAME...] [--key FILE] [--only ...]
+    uavbus log play FILE --to ENTITY --into PORTSPEC [--as NAME | --map SRC=NAME...] [--key FILE [--identity FILE]]
+                     [--only ...]
 
 Every subcommand takes `--catalogue CAT.json`: the catalogue to decode with instead of the one embedded in the
 log, for a log whose header (both copies) is damaged or that has none.
@@ -209,8 +210,9 @@ def cmd_play(args: argparse.Namespace, out: IO[str], sleep: Callable[[float], No
         from uavbus.tools.playto import play_to
 
         return play_to(log, contents, chosen, args, out, clock=clock)
-    if args.as_name or args.map or args.key:
-        raise SystemExit("uavbus log play: --as, --map and --key go with --to ENTITY (the player as an entity); "
+    if args.as_name or args.map or args.key or args.identity:
+        raise SystemExit("uavbus log play: --as, --map, --key and --identity go with --to ENTITY (the player as an "
+                         "entity); "
                          "without --to the recorded frames are sent as they are")
     try:
         sink = open_sink(args.into)
@@ -285,6 +287,10 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--map", action="append", metavar="SRC=NAME",
                       help="with --to: play the records of recorded source SRC as entity NAME (repeatable; several "
                            "identities need a udp port: each gets its own local port, at most 4)")
+    play.add_argument("--identity", metavar="FILE",
+                      help="with --to and --key in a fleet with identities (docs/security.md): the player's identity "
+                           "file (NAME.id of `uavbus keys`, for the one entity it plays as); authority.pub and "
+                           "fleet.certs are taken from the same folder. Its frames then carry origin tags")
     play.add_argument("--key", metavar="FILE",
                       help="with --to on a signed network: sign with this key file as the player's own identity "
                            "(never the recorded tags); its counter is kept in FILE's folder, play-state/")

@@ -11,11 +11,15 @@ write policy decide.
 
 On a signed network (`--key FILE`, the operator's explicit choice) the player signs with its own identity
 and counter: the recorded tags are never reused (they name the recorded source and its counter, which the
-receiver has already seen). The receiver challenges the new source once; the player answers.
+receiver has already seen). The receiver challenges the new source once; the player answers. In a fleet
+with identities (origin tags required, docs/security.md) `--identity NAME.id` adds the played entity's
+identity: authority.pub and fleet.certs come from its folder, as `uavbus keys fleet` lays them out.
 
 Before the first frame the player asks ENTITY for one of the recorded directories (an INSPECT read, which
 every node answers): silence means the frames would vanish too, and the player says why in one line instead
-of playing into the void (no route, ENTITY does not know the player, or a wrong or missing key).
+of playing into the void (no route, ENTITY does not know the player, or a wrong or missing key). After the
+last frame it reads that frame's directory back: a receiver whose write policy refused every frame (dropped
+without a word) still holds what it held before, and the run ends with that reason instead of a success.
 """
 
 from __future__ import annotations
@@ -61,9 +65,11 @@ def _identities(sources: list[str], as_name: str | None, mapping: dict[str, str]
     return out
 
 
-def _config(names: list[str], to: str, spec: str, key: str | None, work: Path) -> Path:
+def _config(names: list[str], to: str, spec: str, key: str | None, work: Path, identity: str | None = None) -> Path:
     """The player's node: each identity with one link toward `to`: the port `spec` for the first, the same
-    with a free local port (bind HOST:0) for the others (udp); with a key, signed."""
+    with a free local port (bind HOST:0) for the others (udp); with a key, signed; with an identity file too,
+    origin-tagged (authority.pub and fleet.certs from the identity's folder, as `uavbus keys fleet` lays
+    them out)."""
     entities: list[dict[str, Any]] = []
     ports: dict[str, Any] = {}
     for k, name in enumerate(names):
@@ -83,6 +89,10 @@ def _config(names: list[str], to: str, spec: str, key: str | None, work: Path) -
         # so the receiver's replay window never mistakes it for a replay.
         doc["security"] = {"keys": [str(kp)], "require_signed": True,
                            "counter_file": str(state / "{entity}.counter")}
+        if identity:
+            ip = Path(identity).resolve()
+            doc["security"].update({"authority": str(ip.parent / "authority.pub"), "identity": str(ip),
+                                    "certificates": str(ip.parent / "fleet.certs")})
     path = work / "player.json"
     path.write_text(json.dumps(doc, indent=1) + "\n")
     return path
@@ -129,9 +139,13 @@ def play_to(log: Any, contents: Any, records: list[Any], args: Any, out: IO[str]
     if not data:
         raise PlayError(f"{args.file}: every selected frame was recorded encrypted (ciphertext); record in the clear "
                         "or on a signing-only link")
+    identity_file = getattr(args, "identity", None)
+    if identity_file:
+        _check_identity(identity_file, args.key, names)
     with tempfile.TemporaryDirectory(prefix="uavbus-play-") as work:
         try:
-            node = Node(contents.catalogue, config=_config(names, args.to, args.into, args.key, Path(work)))
+            node = Node(contents.catalogue, config=_config(names, args.to, args.into, args.key, Path(work),
+                                                           identity_file))
         except (ConfigError, UbError, OSError) as exc:
             raise PlayError(f"cannot be {', '.join(names)} on {args.into}: {exc}") from None
         try:
@@ -142,6 +156,8 @@ def play_to(log: Any, contents: Any, records: list[Any], args: Any, out: IO[str]
             played = sorted({contents.name(r.header) for r in data})
             dirs = {n: node.bind(n) for n in played}
             _probe(node, args, identity, played[0], NoAnswerError, RefusedError)
+            last, unanswered = data[-1], (NoAnswerError, RefusedError)
+            before = _read(node, args.to, contents.name(last.header), unanswered)
             sent = failed = slips = 0
             slipped_s = 0.0
             start = clock()
@@ -171,18 +187,51 @@ def play_to(log: Any, contents: Any, records: list[Any], args: Any, out: IO[str]
             while clock() < end:
                 node.poll(0.01)
             drops = {k: v for k, v in node.counters()["drops"].items() if v}
+            # The receiver's write policy drops refused DATA without a word: what it holds afterwards is the
+            # player's only evidence (an INSPECT read, which the probe showed it answers).
+            after = _read(node, args.to, contents.name(last.header), unanswered)
+            stored = None if after is None else after == bytes(last.payload)
             report = {"event": "played", "file": args.file, "to": args.to,
                       "as": identity if len(names) == 1 else names, "plays_as": plays_as, "into": args.into,
-                      "signed": bool(args.key), "frames": sent,
+                      "signed": bool(args.key), "identity": bool(identity_file), "frames": sent,
                       "slips": slips, "slipped_ms": round(slipped_s * 1000.0, 1), "not_sent": failed, "encrypted_skipped": len(encrypted),
-                      "drops": drops, "sources": sources}
+                      "drops": drops, "stored": stored, "sources": sources}
         finally:
             node.close()
     print(json.dumps(report), file=out)
     if failed:
         raise PlayError(f"{failed} of {len(data)} frames were not sent to {args.to} "
                         f"({', '.join(f'{k}={v}' for k, v in drops.items()) or 'the port refused them'})")
+    if sent and stored is False and after == before:
+        raise PlayError(f"{args.to} stored none of the {sent} frames played: its {contents.name(data[-1].header)} "
+                        f"is what it was before the replay; most likely its write policy refused them (not_allowed "
+                        f"in its stats: give {args.to} a write rule for {', '.join(names)} or a subscription of its "
+                        "own)")
     return 0
+
+
+def _read(node: Any, to: str, content: str, unanswered: tuple[type, ...]) -> bytes | None:
+    """`to`'s directory `content` as it holds it now (INSPECT read), or None when it does not answer it."""
+    try:
+        return bytes(node.remote(to, timeout=PROBE_S).read_raw(content))
+    except unanswered:
+        return None
+
+
+def _check_identity(identity: str, key: str | None, names: list[str]) -> None:
+    """--identity goes with --key (the hop tag stays the group key's) and one played entity (an identity file is
+    one entity's); its folder holds what the node needs beside it."""
+    if not key:
+        raise PlayError("--identity goes with --key FILE (the fleet's group key signs each hop; the identity adds "
+                        "the origin tag)")
+    if len(names) != 1:
+        raise PlayError(f"--identity {identity}: one identity file is one entity's; the player plays as "
+                        f"{', '.join(names)}: give --as NAME (or --only one source)")
+    folder = Path(identity).resolve().parent
+    missing = [str(p) for p in (Path(identity), folder / "authority.pub", folder / "fleet.certs") if not p.exists()]
+    if missing:
+        raise PlayError(f"--identity {identity}: {', '.join(missing)} not found (the layout `uavbus keys fleet` "
+                        "writes: NAME.id, authority.pub and fleet.certs in one folder)")
 
 
 def _is_data(rec: Any) -> bool:
@@ -203,4 +252,15 @@ def _probe(node: Any, args: Any, identity: str, content: str, no_answer: type, r
         raise PlayError(f"no answer from {args.to} over {args.into} in {PROBE_S:g} s (the player is {identity}, "
                         f"{key}): {args.to} does not know {identity} or has no route back to it (add it to "
                         f"{args.to}'s configuration, or play --as an entity it knows), or the network is signed "
-                        f"and the key is {'not the fleet key' if args.key else 'missing (--key FILE)'}") from None
+                        f"and the key is {'not the fleet key' if args.key else 'missing (--key FILE)'}"
+                        f"{_origin_hint(args)}") from None
+
+
+def _origin_hint(args: Any) -> str:
+    """A fleet with identities (`uavbus keys fleet`: authority.pub beside the group key) also refuses frames without
+    an origin tag from their source (`no_origin`): the group key alone is not enough there, and the line must not
+    blame the key the operator got right."""
+    if not args.key or not (Path(args.key).resolve().parent / "authority.pub").exists():
+        return ""
+    return (f", or {args.to} checks origin tags (an authority.pub lies beside {args.key}: a fleet with identities) "
+            "and refuses the player's frames as no_origin: the player signs with the group key only")
