@@ -151,6 +151,8 @@ typedef struct ub_route_link_stats {
     uint64_t neighbour_changes; /**< a different entity started answering on this link */
     uint64_t link_downs;     /**< the neighbour went silent for 16 hello intervals and was forgotten */
     uint64_t over_limit_in;  /**< entries ignored: the neighbour already had max_dests destinations */
+    uint64_t fast_hellos_out; /**< of hellos_out, the fast ones on a link carrying the neighbour's traffic (a repeated
+                                   hello seqno: liveness evidence, docs/routing.md "Transport evidence") */
 } ub_route_link_stats_t;
 
 /** Engine-wide counters. */

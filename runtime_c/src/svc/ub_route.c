@@ -517,6 +517,41 @@ static void put_update(ub_route_t *rt, int slot, int e, uint8_t *ent, uint16_t s
     ds->fd_touched_ms = now_ms;
 }
 
+/* The 24-byte hello part (docs/routing.md, "Frame layouts"). */
+static void put_hello_part(const ub_route_t *rt, const ub_route_link_t *l, uint8_t *buf, uint16_t seq, unsigned n_upd,
+                           unsigned n_req) {
+    buf[OFF_VERSION] = UB_ROUTE_WIRE_VERSION;
+    buf[OFF_FLAGS] = 0;
+    ub_put_u16le(buf + OFF_HELLO_SEQ, seq);
+    ub_put_u16le(buf + OFF_HELLO_MS, (uint16_t)rt->opt.hello_ms);
+    ub_put_u16le(buf + OFF_UPDATE_MS, (uint16_t)rt->opt.update_ms);
+    ub_put_u16le(buf + OFF_IHU_COST, rxcost_of(rt, l));
+    buf[OFF_N_UPDATES] = (uint8_t)n_upd;
+    buf[OFF_N_REQUESTS] = (uint8_t)n_req;
+    if (l->nb_in_use) memcpy(buf + OFF_IHU_ID, l->nb_id, UB_ENTITY_ID_LEN);
+    else memset(buf + OFF_IHU_ID, 0, UB_ENTITY_ID_LEN);
+}
+
+/* A fast hello (a link carrying the neighbour's traffic, docs/routing.md "Transport evidence"): a HELLO that
+ * repeats the hello seqno of the last routing frame instead of taking a new one. The receiver's history counts
+ * hellos per hello interval, so the repeats prove liveness (a gap in them is the neighbour's evidence) without
+ * making the link cost more sensitive to a brief gap: a repeated seqno shifts nothing in (hello_heard(): one
+ * step back, then the same bit again). The hello timer is left alone. */
+static void send_fast_hello(ub_route_t *rt, int link_id, uint64_t now_ms) {
+    ub_route_link_t *l = &rt->links[link_id];
+    uint8_t buf[UB_ROUTE_HDR_LEN];
+    put_hello_part(rt, l, buf, (uint16_t)(l->hello_seq - 1u), 0, 0);
+    l->last_tx_ms = now_ms;
+    if (ub_node_send_link_local(rt->node, link_id, UB_ADMIN_HELLO, buf, UB_ROUTE_HDR_LEN, now_ms) != 1) {
+        l->stats.refused_out++;
+        return;
+    }
+    l->stats.frames_out++;
+    l->stats.bytes_out += UB_ROUTE_HDR_LEN;
+    l->stats.hellos_out++;
+    l->stats.fast_hellos_out++;
+}
+
 static void send_frame(ub_route_t *rt, int link_id, bool triggered, uint64_t now_ms) {
     const ub_link_t *link = node_link(rt, link_id);
     ub_route_link_t *l = &rt->links[link_id];
@@ -567,20 +602,11 @@ static void send_frame(ub_route_t *rt, int link_id, bool triggered, uint64_t now
     }
     memcpy(ent + n_upd * UB_ROUTE_ENTRY_LEN, reqs, n_req * UB_ROUTE_ENTRY_LEN);
 
-    buf[OFF_VERSION] = UB_ROUTE_WIRE_VERSION;
-    buf[OFF_FLAGS] = 0;
-    ub_put_u16le(buf + OFF_HELLO_SEQ, l->hello_seq++);
-    ub_put_u16le(buf + OFF_HELLO_MS, (uint16_t)rt->opt.hello_ms);
-    ub_put_u16le(buf + OFF_UPDATE_MS, (uint16_t)rt->opt.update_ms);
-    ub_put_u16le(buf + OFF_IHU_COST, rxcost_of(rt, l));
-    buf[OFF_N_UPDATES] = (uint8_t)n_upd;
-    buf[OFF_N_REQUESTS] = (uint8_t)n_req;
-    if (l->nb_in_use) memcpy(buf + OFF_IHU_ID, l->nb_id, UB_ENTITY_ID_LEN);
-    else memset(buf + OFF_IHU_ID, 0, UB_ENTITY_ID_LEN);
+    put_hello_part(rt, l, buf, l->hello_seq++, n_upd, n_req);
     uint16_t len = (uint16_t)(UB_ROUTE_HDR_LEN + (n_upd + n_req) * UB_ROUTE_ENTRY_LEN);
     ub_admin_code_t code = n_upd + n_req > 0 ? UB_ADMIN_ROUTE_UPDATE : UB_ADMIN_HELLO;
 
-    l->next_hello_ms = now_ms + (now_ms < l->carry_until_ms ? rt->opt.fast_hello_ms : rt->opt.hello_ms);
+    l->next_hello_ms = now_ms + rt->opt.hello_ms;
     l->last_tx_ms = now_ms;
     l->sent_any = 1;
     if (ub_node_send_link_local(rt->node, link_id, code, buf, len, now_ms) != 1) {
@@ -695,8 +721,6 @@ static void watch_link(ub_route_t *rt, int lid, const ub_link_t *link, uint64_t 
     if (acc != l->rx_seen) {
         uint64_t routing = l->stats.frames_in - l->routing_seen;
         if (acc - l->rx_seen > routing) {
-            if (now_ms >= l->carry_until_ms && l->next_hello_ms > now_ms + rt->opt.fast_hello_ms)
-                l->next_hello_ms = now_ms + rt->opt.fast_hello_ms; /* it starts relying on us: speed up now */
             l->carry_until_ms = now_ms + rt->opt.hello_ms;
         }
         if (l->last_rx_ms != 0 && now_ms > l->last_rx_ms) {
@@ -766,12 +790,12 @@ static void route_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms
         const ub_link_t *link = node_link(rt, lid);
         if (link == NULL || link->ops == NULL) continue; /* detached: the neighbour will time us out */
         ub_route_link_t *l = &rt->links[lid];
-        if (now_ms < l->carry_until_ms && l->next_hello_ms > l->last_tx_ms + rt->opt.fast_hello_ms)
-            l->next_hello_ms = l->last_tx_ms + rt->opt.fast_hello_ms;
         bool due = now_ms >= l->next_hello_ms;
         bool trigger = !due && now_ms >= l->last_tx_ms + rt->opt.trigger_gap_ms &&
                        owes(rt, link->owner, (uint8_t)(1u << link->index));
         if (due || trigger) send_frame(rt, lid, trigger, now_ms);
+        else if (l->sent_any && now_ms < l->carry_until_ms && now_ms >= l->last_tx_ms + rt->opt.fast_hello_ms)
+            send_fast_hello(rt, lid, now_ms);
     }
 }
 
@@ -801,10 +825,8 @@ static bool route_next_due(const ub_service_t *svc, const ub_node_t *node, uint6
         if (doubt_armed(l, now_ms)) earliest(&best, l->last_rx_ms + doubt_after(gap_estimate(l)));
         if (link->counters.frames_out != l->tx_seen) earliest(&best, now_ms); /* the tick notes what we sent */
         if (link->ops == NULL) continue;
-        uint64_t hello = l->next_hello_ms;
-        if (now_ms < l->carry_until_ms && hello > l->last_tx_ms + rt->opt.fast_hello_ms)
-            hello = l->last_tx_ms + rt->opt.fast_hello_ms;
-        earliest(&best, hello);
+        earliest(&best, l->next_hello_ms);
+        if (l->sent_any && now_ms < l->carry_until_ms) earliest(&best, l->last_tx_ms + rt->opt.fast_hello_ms);
         if (owes(rt, link->owner, (uint8_t)(1u << link->index))) earliest(&best, l->last_tx_ms + rt->opt.trigger_gap_ms);
     }
     for (int e = 0; e < UB_MAX_ENTITIES && best > now_ms; e++) {
