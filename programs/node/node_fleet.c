@@ -595,6 +595,11 @@ bool fleet_command(const char *verb, char **save, uint64_t now_ms) {
     return true;
 }
 
+uint64_t fleet_next_due(uint64_t now_ms) {
+    (void)now_ms;
+    return g_next_flows_ms;
+}
+
 void fleet_poll(uint64_t now_ms) {
     for (int r = 0; g_member_on && r < UB_MAX_MEMBER_REQUESTS; r++) {
         ub_member_info_t info;

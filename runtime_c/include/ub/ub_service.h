@@ -186,8 +186,8 @@ struct ub_service {
     ub_service_open_fn open;
     /** Transport evidence about a link (above); NULL: not interested. */
     ub_service_link_event_fn link_event;
-    /** Next due time of `tick` (above). NULL with a `tick`: the node assumes it is due at every call (it is
-     *  polled every millisecond, as before this hook existed). */
+    /** Next due time of `tick` (above). NULL with a `tick`: the node assumes it is due every millisecond (it is
+     *  polled, as before this hook existed). */
     ub_service_next_due_fn next_due;
     void *user;                      /**< the engine's state, for the callbacks */
 };
@@ -219,7 +219,7 @@ void ub_node_link_event(ub_node_t *node, int link_id, ub_link_event_t ev, uint64
 
 /**
  * The earliest time ub_node_tick() has work: the minimum over the services' `next_due` answers (a service with a
- * tick but no `next_due` counts as due at `now_ms`). Frames arriving earlier are handled by the receive path
+ * tick but no `next_due` counts as due at `now_ms` + 1: polled every millisecond). Frames arriving earlier are handled by the receive path
  * whatever this says; a caller sleeps until min(this, its own timers, input). Returns UINT64_MAX when nothing
  * is due ever (no ticking service). Exact: calling ub_node_tick() earlier does nothing a later call would not.
  */

@@ -998,8 +998,8 @@ uint64_t ub_node_next_due(const ub_node_t *node, uint64_t now_ms) {
         uint64_t due;
         if (svc->next_due != NULL) {
             if (svc->next_due(svc, node, now_ms, &due) && due < best) best = due;
-        } else if (svc->tick != NULL) {
-            best = now_ms; /* a tick with no due time: poll it, as before next_due existed */
+        } else if (svc->tick != NULL && now_ms + 1u < best) {
+            best = now_ms + 1u; /* a tick with no due time: poll it every millisecond, as before next_due existed */
         }
     }
     return best < now_ms ? now_ms : best;
