@@ -185,7 +185,7 @@ typedef struct ub_route_link {
     uint8_t nb_id[UB_ENTITY_ID_LEN];
     uint8_t samples;         /* valid bits of history, <= 16 */
     uint8_t dumping;         /* a full table is being sent in slices */
-    uint8_t dump_cursor;     /* next entity index of the slice */
+    uint16_t dump_cursor;    /* next entity index of the slice (UB_MAX_ENTITIES may exceed 255) */
     uint8_t sent_any;
     uint16_t history;        /* bit 0 = most recent expected hello: 1 heard, 0 missed */
     uint16_t expected_seq;
