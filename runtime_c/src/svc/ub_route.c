@@ -273,7 +273,7 @@ static void select_route(ub_route_t *rt, int slot, int e, uint64_t now_ms) {
     /* In doubt with no other feasible successor but unfeasible alternatives: ask for a newer seqno now, as a
      * starving router would, so that the alternatives are feasible by the time the doubt is confirmed (or to
      * be sent on meanwhile). A brief gap costs one request per hello interval, nothing else. */
-    if (best >= 0 && unfeasible_left && rt->links[best].doubt && popcount16(compute_mask(rt, slot, e)) < 2) {
+    if (best >= 0 && unfeasible_left && rt->links[best].doubt == 2 && popcount16(compute_mask(rt, slot, e)) < 2) {
         if (ds->req_links == 0 && (ds->starve_at_ms == 0 || now_ms >= ds->starve_at_ms + rt->opt.hello_ms)) {
             request_seqno(rt, slot, e, now_ms);
         }
@@ -747,6 +747,9 @@ static void watch_link(ub_route_t *rt, int lid, const ub_link_t *link, uint64_t 
         l->doubt = 1;
         rt->counters.link_doubts++;
         mark_slot(rt, lid);
+    } else if (l->doubt == 1 && now_ms >= l->last_rx_ms + 2u * doubt_after(gap_estimate(l))) {
+        l->doubt = 2; /* still silent: no scheduling hiccup; worth a seqno request where nothing else is feasible */
+        mark_slot(rt, lid);
     }
 }
 
@@ -823,6 +826,7 @@ static bool route_next_due(const ub_service_t *svc, const ub_node_t *node, uint6
         }
         if (l->nb_in_use) earliest(&best, l->next_miss_ms);
         if (doubt_armed(l, now_ms)) earliest(&best, l->last_rx_ms + doubt_after(gap_estimate(l)));
+        if (l->doubt == 1) earliest(&best, l->last_rx_ms + 2u * doubt_after(gap_estimate(l)));
         if (link->counters.frames_out != l->tx_seen) earliest(&best, now_ms); /* the tick notes what we sent */
         if (link->ops == NULL) continue;
         earliest(&best, l->next_hello_ms);
