@@ -488,8 +488,8 @@ int main(int argc, char **argv) {
            unrecovered, range_changes, (long long)r50, (long long)r99, (long long)d50, (long long)d99, (long long)e50,
            (long long)e99, (long long)a50, (long long)a99,
            eq ? (double)dq / (double)eq : 0.0, ef ? (double)df / (double)ef : 0.0,
-           (double)(frames_q1 - frames_q0) / (link_ends * (QUIET_MS / 1000.0)),
-           (double)(fast_q1 - fast_q0) / (link_ends * (QUIET_MS / 1000.0)),
+           frames_q1 >= frames_q0 ? (double)(frames_q1 - frames_q0) / (link_ends * (QUIET_MS / 1000.0)) : 0.0,
+           fast_q1 >= fast_q0 ? (double)(fast_q1 - fast_q0) / (link_ends * (QUIET_MS / 1000.0)) : 0.0, /* 0: run ended first */
            1000.0 * node_cpu / sim_s / n_st, 1000.0 * node_cpu_quiet / (QUIET_MS / 1000.0) / n_st, harness_cpu,
            (unsigned long long)drops[UB_DROP_NO_ROUTE], (unsigned long long)drops[UB_DROP_HOP_LIMIT],
            (unsigned long long)drops[UB_DROP_BACKPRESSURE], (unsigned long long)drops[UB_DROP_DUPLICATE],
