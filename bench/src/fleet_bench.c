@@ -1,7 +1,9 @@
 /*
  * Fleet bench, in process (bench figure 8, issue 12): N vehicles and 2 ground stations, one node each, with
  * automatic routes (ub_route) over memlinks whose connectivity follows a range model, on a simulated clock
- * (1 ms steps: every node ticks, then every memlink is pumped until quiet -- as uavbus_node wakes every ms).
+ * (1 ms steps: every node whose next due time (ub_node_next_due()) has come ticks, then every memlink is pumped
+ * until quiet, and a node that received frames is due again -- as uavbus_node sleeps until its next due time or
+ * input). FLEET_BENCH_END_S=S stops the run after S simulated seconds (a scale check: 1000 vehicles).
  *
  *   fleet_bench N [HELLO_MS] [SEED] [LOSS_PPM]    -> one "fleet_inproc n=N key=value ..." line on stdout
  *
@@ -22,7 +24,7 @@
  * second; the harness (range model, BFS, path walks) is measured apart.
  *
  * Build (bench/run.sh): every runtime source and this file with -DUB_MAX_ENTITIES=128 -DUB_DEDUP_SOURCES=128
- * -DUB_MAX_LOCAL_ENTITIES=1 (a fleet of 102 entities does not fit the default 16).
+ * -DUB_MAX_LOCAL_ENTITIES=1 (a fleet of 102 entities does not fit the default 16); 1000 vehicles: 1024.
  */
 #define _GNU_SOURCE
 #include <math.h>
@@ -292,15 +294,19 @@ static int64_t pct(int64_t *v, int n, double q) {
     return v[k < 0 ? 0 : k >= n ? n - 1 : k];
 }
 
-static uint64_t routing_frames(void) {
+/* Routing frames sent so far; `fast`: only the fast hellos (liveness on links carrying traffic, the price of
+ * noticing a cut from a gap). */
+static uint64_t routing_frames_of(bool fast) {
     uint64_t n = 0;
     for (int k = 0; k < n_st; k++)
         for (int i = 0; i < st[k].n_links; i++) {
             ub_route_link_info_t li;
-            if (ub_route_link_info(&st[k].rt, st[k].link_id[i], &li) == UB_OK) n += li.stats.frames_out;
+            if (ub_route_link_info(&st[k].rt, st[k].link_id[i], &li) == UB_OK)
+                n += fast ? li.stats.fast_hellos_out : li.stats.frames_out;
         }
     return n;
 }
+static uint64_t routing_frames(void) { return routing_frames_of(false); }
 
 /* The station whose next hop toward v's ground station is over pair p (on v's current path). */
 static int upstream(int v, int p) {
@@ -363,23 +369,44 @@ int main(int argc, char **argv) {
     double t_build = wall_s();
     build(n, hello_ms, loss_ppm);
     uint8_t *comp = calloc((size_t)n_st, 1);
-    const uint64_t end = WARMUP_MS + QUIET_MS + FAIL_MS + DRAIN_MS;
+    uint64_t end = WARMUP_MS + QUIET_MS + FAIL_MS + DRAIN_MS;
+    const char *end_s = getenv("FLEET_BENCH_END_S");
+    if (end_s != NULL && atoi(end_s) > 0 && (uint64_t)atoi(end_s) * 1000u < end) end = (uint64_t)atoi(end_s) * 1000u;
+    uint64_t *due = calloc((size_t)n_st, sizeof *due);
+    uint64_t ticks = 0;
+    if (due == NULL) die("calloc", UB_ERR_NOSPACE);
     double node_cpu = 0, node_cpu_quiet = 0, harness_cpu = 0, wall0 = wall_s();
-    uint64_t frames_q0 = 0, frames_q1 = 0, next_fail = WARMUP_MS + QUIET_MS;
+    uint64_t frames_q0 = 0, frames_q1 = 0, fast_q0 = 0, fast_q1 = 0, next_fail = WARMUP_MS + QUIET_MS;
     int failures = 0, range_changes = 0;
     for (now_ms = 1; now_ms <= end; now_ms++) {
         double c0 = cpu_s();
-        for (int k = 0; k < n_st; k++) ub_node_tick(&st[k].node, now_ms);
+        for (int k = 0; k < n_st; k++) {
+            if (now_ms < due[k]) continue;
+            ub_node_tick(&st[k].node, now_ms);
+            due[k] = ub_node_next_due(&st[k].node, now_ms);
+            if (due[k] <= now_ms) due[k] = now_ms + 1u; /* handled what it could at now_ms: the next step */
+            ticks++;
+        }
         for (int round = 0; round < 64; round++) {
             size_t moved = 0;
-            for (int p = 0; p < n_pairs; p++) moved += ub_memlink_pump(&pairs[p].ml, now_ms);
+            for (int p = 0; p < n_pairs; p++) {
+                size_t m = ub_memlink_pump(&pairs[p].ml, now_ms);
+                if (m == 0) continue;
+                /* Frames arrived at one end or both: each is due at once (its services look at what came). */
+                for (int end_k = 0; end_k < 2; end_k++) {
+                    int k = end_k == 0 ? pairs[p].a : pairs[p].b;
+                    uint64_t d = ub_node_next_due(&st[k].node, now_ms);
+                    if (d < due[k]) due[k] = d <= now_ms ? now_ms + 1u : d;
+                }
+                moved += m;
+            }
             if (moved == 0) break;
         }
         double c1 = cpu_s();
         node_cpu += c1 - c0;
         if (now_ms > WARMUP_MS && now_ms <= WARMUP_MS + QUIET_MS) node_cpu_quiet += c1 - c0;
-        if (now_ms == WARMUP_MS) frames_q0 = routing_frames();
-        if (now_ms == WARMUP_MS + QUIET_MS) frames_q1 = routing_frames();
+        if (now_ms == WARMUP_MS) frames_q0 = routing_frames(), fast_q0 = routing_frames_of(true);
+        if (now_ms == WARMUP_MS + QUIET_MS) frames_q1 = routing_frames(), fast_q1 = routing_frames_of(true);
         if (now_ms % 100 == 0) {
             /* Range model, restorations, and what the data could reach this period. */
             double t_s = now_ms / 1000.0;
@@ -446,23 +473,26 @@ int main(int argc, char **argv) {
     }
     int link_ends = 2 * n_pairs;
     double sim_s = end / 1000.0;
+    free(due);
     int64_t r50 = pct(route, nr, 0.5), r99 = pct(route, nr, 0.99), d50 = pct(data, nd, 0.5), d99 = pct(data, nd, 0.99);
     int64_t e50 = pct(detect, ne, 0.5), e99 = pct(detect, ne, 0.99), a50 = pct(after, na, 0.5), a99 = pct(after, na, 0.99);
     printf("fleet_inproc n=%d gcs=2 hello_ms=%u loss_ppm=%u links=%d sim_s=%.0f wall_s=%.2f build_s=%.2f "
            "realtime_factor=%.1f failures=%d samples=%d unrecovered=%d range_changes=%d "
            "route_p50_ms=%lld route_p99_ms=%lld data_p50_ms=%lld data_p99_ms=%lld detect_p50_ms=%lld detect_p99_ms=%lld "
            "after_detect_p50_ms=%lld after_detect_p99_ms=%lld "
-           "delivery_quiet=%.5f delivery_failures=%.5f frames_per_link_end_s=%.3f "
+           "delivery_quiet=%.5f delivery_failures=%.5f frames_per_link_end_s=%.3f fast_hellos_per_link_end_s=%.3f "
            "cpu_ms_per_vehicle_s=%.4f cpu_ms_per_vehicle_s_quiet=%.4f harness_cpu_s=%.2f "
-           "no_route=%llu hop_limit=%llu backpressure=%llu duplicate=%llu learn_full=%llu node_bytes=%zu\n",
+           "no_route=%llu hop_limit=%llu backpressure=%llu duplicate=%llu learn_full=%llu node_bytes=%zu "
+           "ticks_per_node_s=%.1f\n",
            n, hello_ms, loss_ppm, n_pairs, sim_s, wall, wall0 - t_build, sim_s / wall, failures, n_samples,
            unrecovered, range_changes, (long long)r50, (long long)r99, (long long)d50, (long long)d99, (long long)e50,
            (long long)e99, (long long)a50, (long long)a99,
            eq ? (double)dq / (double)eq : 0.0, ef ? (double)df / (double)ef : 0.0,
-           (double)(frames_q1 - frames_q0) / (link_ends * (QUIET_MS / 1000.0)),
+           frames_q1 >= frames_q0 ? (double)(frames_q1 - frames_q0) / (link_ends * (QUIET_MS / 1000.0)) : 0.0,
+           fast_q1 >= fast_q0 ? (double)(fast_q1 - fast_q0) / (link_ends * (QUIET_MS / 1000.0)) : 0.0, /* 0: run ended first */
            1000.0 * node_cpu / sim_s / n_st, 1000.0 * node_cpu_quiet / (QUIET_MS / 1000.0) / n_st, harness_cpu,
            (unsigned long long)drops[UB_DROP_NO_ROUTE], (unsigned long long)drops[UB_DROP_HOP_LIMIT],
            (unsigned long long)drops[UB_DROP_BACKPRESSURE], (unsigned long long)drops[UB_DROP_DUPLICATE],
-           (unsigned long long)learn_full, sizeof(station_t));
+           (unsigned long long)learn_full, sizeof(station_t), (double)ticks / n_st / sim_s);
     return 0;
 }

@@ -449,9 +449,10 @@ static void event_routes(uint64_t now_ms) {
         if (li.neighbour) ub_app_entity(g_app, li.neighbour_id);
         else ub_app_out(g_app, "null");
         ub_app_out(g_app, ",\"cost\":%u,\"rxcost\":%u,\"txcost\":%u,\"frames_out\":%" PRIu64 ",\"hellos_out\":%" PRIu64
-            ",\"triggered_out\":%" PRIu64 ",\"bytes_out\":%" PRIu64 ",\"frames_in\":%" PRIu64 ",\"bad_in\":%" PRIu64 "}",
+            ",\"triggered_out\":%" PRIu64 ",\"bytes_out\":%" PRIu64 ",\"frames_in\":%" PRIu64 ",\"bad_in\":%" PRIu64
+            ",\"fast_hellos_out\":%" PRIu64 "}",
             li.cost, li.rxcost, li.txcost, li.stats.frames_out, li.stats.hellos_out, li.stats.triggered_out,
-            li.stats.bytes_out, li.stats.frames_in, li.stats.bad_in);
+            li.stats.bytes_out, li.stats.frames_in, li.stats.bad_in, li.stats.fast_hellos_out);
     }
     ub_app_out(g_app, "}");
     if (g_route_on) {
@@ -459,10 +460,11 @@ static void event_routes(uint64_t now_ms) {
         ub_app_out(g_app, ",\"counters\":{\"route_changes\":%" PRIu64 ",\"routes_found\":%" PRIu64 ",\"routes_lost\":%" PRIu64
             ",\"unfeasible\":%" PRIu64 ",\"expired\":%" PRIu64 ",\"starvation_requests\":%" PRIu64
             ",\"seqno_bumps\":%" PRIu64 ",\"learned\":%" PRIu64 ",\"learn_full\":%" PRIu64 ",\"learn_expired\":%" PRIu64
-            ",\"pinned_skips\":%" PRIu64 ",\"neighbour_limit\":%" PRIu64 ",\"dest_refused\":%" PRIu64 "}",
+            ",\"pinned_skips\":%" PRIu64 ",\"neighbour_limit\":%" PRIu64 ",\"dest_refused\":%" PRIu64
+            ",\"link_evidence_down\":%" PRIu64 ",\"link_doubts\":%" PRIu64 "}",
             c->route_changes, c->routes_found, c->routes_lost, c->unfeasible, c->expired, c->starvation_requests,
             c->seqno_bumps, c->learned, c->learn_full, c->learn_expired, c->pinned_skips, c->neighbour_limit,
-            c->dest_refused);
+            c->dest_refused, c->link_evidence_down, c->link_doubts);
     }
     const ub_node_counters_t *n = ub_node_counters(g_node_p);
     ub_app_out(g_app, ",\"membership\":{\"entities_added\":%" PRIu64 ",\"entities_removed\":%" PRIu64 ",\"links_added\":%" PRIu64
@@ -583,6 +585,11 @@ bool fleet_command(const char *verb, char **save, uint64_t now_ms) {
         return false;
     }
     return true;
+}
+
+uint64_t fleet_next_due(uint64_t now_ms) {
+    (void)now_ms;
+    return g_next_flows_ms;
 }
 
 void fleet_poll(uint64_t now_ms) {

@@ -41,6 +41,8 @@ bool fleet_command(const char *verb, char **save, uint64_t now_ms);
 
 /* Every loop turn: answers of membership requests, periodic flows events. */
 void fleet_poll(uint64_t now_ms);
+/* When fleet_poll() next has a timer due (the flows event); UINT64_MAX: none. */
+uint64_t fleet_next_due(uint64_t now_ms);
 
 /* Writes `,"routing":{...}` (the learned-entity bounds: learned, learn_full, learn_expired) into the stats
  * event while automatic routes run; nothing otherwise. */

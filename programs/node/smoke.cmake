@@ -1,5 +1,5 @@
 # Smoke test of uavbus_node (ctest programs_uavbus_node_smoke): one process with a UDP port publishing
-# gpsOut for 300 ms exits 0 with a ready event, stats and frames sent; a bad port spec exits 2 with a
+# gpsOut for 300 ms exits 0 with a ready event, stats and frames sent, waking far less than every ms; a bad port spec exits 2 with a
 # message naming the argument. The multi-process behaviour is tested from Python (tests/system).
 #   cmake -DNODE=<uavbus_node> -DCONFIG=<table2.json> -P smoke.cmake
 execute_process(
@@ -16,6 +16,13 @@ foreach(want "\"event\":\"ready\",\"node\":\"primary\"" "\"local_port\":[1-9]" "
     message(FATAL_ERROR "uavbus_node output lacks /${want}/:\n${out}")
   endif()
 endforeach()
+# The loop sleeps until the next due time (ub_node_next_due(), the motion models' samples, the stats): in 300 ms
+# it wakes for the 20 ms publication, the 10/20/100 ms motion models and the stats -- a 1 ms loop would wake ~300
+# times, and did before ub_node_next_due().
+string(REGEX MATCH "\"final\":true[^\n]*\"wakeups\":([0-9]+)" final_line "${out}")
+if(NOT CMAKE_MATCH_1 OR CMAKE_MATCH_1 GREATER 200)
+  message(FATAL_ERROR "uavbus_node woke ${CMAKE_MATCH_1} times in 300 ms (expected <= 200: it should sleep until its next due time):\n${out}")
+endif()
 execute_process(
   COMMAND ${NODE} --config ${CONFIG} --node primary --port onboardPortRelay=udp:peer=127.0.0.1:9
   INPUT_FILE /dev/null OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 20)

@@ -517,7 +517,7 @@ static void event_stats(ub_app_t *app, uint64_t now_ms, bool final) {
     out_security(app);
     out_identity(app);
     fleet_stats(app);
-    ub_app_out(app, ",\"stdin_dropped\":%" PRIu64 "}", app->stdin_dropped);
+    ub_app_out(app, ",\"stdin_dropped\":%" PRIu64 ",\"wakeups\":%" PRIu64 "}", app->stdin_dropped, app->wakeups);
     ub_app_flush(app);
 }
 
@@ -699,6 +699,18 @@ static void after_tick(ub_app_t *app, uint64_t now_ms) {
     fleet_poll(now_ms);
 }
 
+/* The program's own timers: the motion models' next samples and the fleet's "flows" events. (Membership
+ * results arrive with frames, which wake the loop anyway.) */
+static uint64_t program_next_due(ub_app_t *app, uint64_t now_ms) {
+    (void)app;
+    uint64_t best = fleet_next_due(now_ms);
+    for (size_t i = 0; i < N_DIRS; i++) {
+        const dir_state_t *d = &g_dirs[i];
+        if (d->produced && k_dirs[i].motion != MOTION_NONE && d->next_ms < best) best = d->next_ms;
+    }
+    return best;
+}
+
 /* The log's rotation: every file deleted to keep --record-max-files is said, never silent. */
 static void on_log_event(void *user, ub_log_event_t event, uint32_t index, const char *name) {
     ub_app_t *app = user;
@@ -769,6 +781,7 @@ static const ub_app_program_t k_program = {
     .close = close_log,
     .before_tick = before_tick,
     .after_tick = after_tick,
+    .next_due = program_next_due,
     .stats = event_stats,
 };
 

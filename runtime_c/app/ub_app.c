@@ -572,17 +572,19 @@ int ub_app_run(ub_app_t *app) {
             stdin_slot = n;
             fds[n++] = (struct pollfd){.fd = STDIN_FILENO, .events = POLLIN};
         }
-        /* Sleep until the next due time: a port's, the stats', the end's -- and at most
-         * UB_APP_MAX_WAIT_MS, for the node's publications and the program's own timers (the node
-         * offers no "next due" query yet; with one, this cap becomes that time). */
-        uint64_t due = min_u64(next_stats, end);
-        int cap = due <= now ? 0 : (int)min_u64(due - now, UB_APP_MAX_WAIT_MS);
+        /* Sleep until the next due time: the node's (its services' timers), the program's, a port's, the
+         * stats', the end's. Input wakes the loop earlier; the tick then runs whatever it brought. */
+        uint64_t due = min_u64(min_u64(next_stats, end), ub_node_next_due(&app->node, now));
+        if (prog->next_due != NULL) due = min_u64(due, prog->next_due(app, now));
+        else if (prog->before_tick != NULL || prog->after_tick != NULL) due = min_u64(due, now + UB_APP_MAX_WAIT_MS);
+        int cap = due <= now ? 0 : (int)min_u64(due - now, INT32_MAX);
         if (poll(fds, (nfds_t)n, ub_ports_poll_timeout(&app->ports, now, cap)) < 0 && errno != EINTR) {
             char msg[128];
             snprintf(msg, sizeof msg, "poll: %s", strerror(errno));
             ub_app_error(app, msg);
         }
         now = ub_app_mono_ms();
+        app->wakeups++;
         if (stdin_slot >= 0 && (fds[stdin_slot].revents & (POLLIN | POLLHUP | POLLERR)) != 0) {
             app->stdin_open = read_stdin(app, now);
         }

@@ -19,8 +19,10 @@
  *   - SIGINT/SIGTERM stop the loop as `quit` does; SIGPIPE (a supervisor gone) and SIGXFSZ (a
  *     file-size limit: the log sees EFBIG and rotates) are ignored;
  *   - the loop: poll() on the ports, the program's descriptors and stdin, sleeping until the next
- *     due time -- a port's (TCP reconnect, serial reopen, impairment queue), the stats, the end of
- *     --duration-ms -- and at most UB_APP_MAX_WAIT_MS, because publications fall due on whole ms.
+ *     due time -- the node's (ub_node_next_due(): publications, routing timers, ...), the program's
+ *     (its `next_due` hook), a port's (TCP reconnect, serial reopen, impairment queue), the stats, the
+ *     end of --duration-ms. A program with tick hooks but no `next_due` is woken every
+ *     UB_APP_MAX_WAIT_MS, as before the node could say when it is due.
  *
  * Compiled into each program (the `ub_app` CMake target carries the source, not an archive): a
  * program may build the runtime with its own capacities (UB_CONFIG_FILE, as the MAVLink bridge
@@ -60,7 +62,7 @@
 #define UB_APP_EXIT_USAGE 2          /* bad command line or set-up: the message names argv[i] or file:line */
 #define UB_APP_MAX_PORT_ARGS 16      /* --port options */
 #define UB_APP_MAX_CONTENTS 1024     /* catalogue instances the config's "priorities" can class */
-#define UB_APP_MAX_WAIT_MS 1         /* publications are due on whole ms: wake at least every ms */
+#define UB_APP_MAX_WAIT_MS 1         /* a program with tick hooks and no next_due hook: wake every ms */
 #define UB_APP_OUT_CAP (1 << 16)     /* one event line; a longer one becomes an error event */
 #define UB_APP_LINE_CAP 1024         /* one stdin command line, newline included */
 #define UB_APP_CONFIG_CAP (1 << 16)  /* the configuration file's text */
@@ -91,6 +93,10 @@ typedef struct ub_app_program {
     /* Every loop turn once the ports are serviced: before and after ub_node_tick(). */
     void (*before_tick)(ub_app_t *app, uint64_t now_ms);
     void (*after_tick)(ub_app_t *app, uint64_t now_ms);
+    /* When the program's tick hooks next have work (its own timers); UINT64_MAX: none. NULL with a tick
+     * hook: every UB_APP_MAX_WAIT_MS. The loop sleeps until the earliest of this, ub_node_next_due(), the
+     * ports', the stats' and the end, or until input. */
+    uint64_t (*next_due)(ub_app_t *app, uint64_t now_ms);
     /* The program's "stats" event (periodic, on `stats`, and with final true at exit). */
     void (*stats)(ub_app_t *app, uint64_t now_ms, bool final);
     void *user;
@@ -150,6 +156,7 @@ struct ub_app {
     bool discarding;         /* the rest of an over-long line is dropped up to its newline */
     bool stdin_open;
     uint64_t stdin_dropped;  /* bytes of over-long command lines */
+    uint64_t wakeups;        /* loop turns (poll() returns): what sleeping until the next due time saves */
     bool stop;
 };
 

@@ -192,6 +192,38 @@ static void test_api_contracts(void **state) {
     pair_free(p);
 }
 
+/* ub_node_next_due() is exact: a loop that sleeps until the earliest due time of both nodes (as uavbus_node does)
+ * wakes about once per 100 ms publication -- not every millisecond -- and the data still leaves on time. The
+ * subscription's renewals are due too (its retry and renewal pace), so the bound leaves room for them; a 1 ms
+ * loop would wake 2000 times. */
+static void test_next_due_is_exact(void **state) {
+    (void)state;
+    pair_t *p = pair_new(NULL);
+    assert_true(ub_pubsub_publish(p->pub_node, p->pub, TEST_GPS, p->sub_id, 100, 0) >= 0);
+    uint64_t now = 0, wakeups = 0;
+    while (now < 2000) {
+        ub_node_tick(p->pub_node, now);
+        ub_node_tick(p->sub_node, now);
+        while (ub_memlink_pump(p->ml, now) > 0) {
+        }
+        uint64_t due_pub = ub_node_next_due(p->pub_node, now);
+        uint64_t due_sub = ub_node_next_due(p->sub_node, now);
+        /* After a tick at a publication's due time, the next one is exactly one period on. */
+        if (now % 100 == 0) assert_int_equal(due_pub, now + 100);
+        uint64_t due = due_pub < due_sub ? due_pub : due_sub;
+        assert_true(due > now); /* nothing left undone at `now`: no busy loop */
+        now = due;
+        wakeups++;
+    }
+    assert_in_range(wakeups, 20, 40);
+    assert_in_range(delivery_count(&p->log, p->sub, TEST_GPS, 0, 2000), 19, 21);
+    /* Nothing published, nothing asked: nothing due (a program may sleep until its own timers or input). */
+    pair_t *idle = pair_new(NULL);
+    assert_int_equal(ub_node_next_due(idle->pub_node, 0), UINT64_MAX);
+    pair_free(idle);
+    pair_free(p);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_publication_rate_does_not_drift),
@@ -204,6 +236,7 @@ int main(void) {
         cmocka_unit_test(test_stop_removes_both_ends),
         cmocka_unit_test(test_refused_request_backs_off),
         cmocka_unit_test(test_api_contracts),
+        cmocka_unit_test(test_next_due_is_exact),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

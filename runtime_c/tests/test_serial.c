@@ -20,6 +20,7 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include "support/ub_test_link_events.h"
 #include "support/ub_test_pair.h"
 #include "ub/ub_pubsub.h"
 #include "ub/ub_serial.h"
@@ -226,11 +227,17 @@ static void test_hangup_detected_counted_and_reopened(void **state) {
     }
     uint64_t before = p->log.n;
     assert_true(before > 5);
+    link_events_t ev;
+    assert_int_equal(link_events_attach(&ev, p->sub_node), UB_OK);
 
     /* The far end goes away. */
     ub_serial_close(&far);
     close(master);
     assert_int_equal(ub_serial_service(&dev, p->sub_node, now), 0);
+    /* Transport evidence: the hang-up reaches the node's services as a link event in that very call. */
+    assert_int_equal(ev.downs, 1);
+    assert_int_equal(ev.last_link, p->sub_link);
+    assert_int_equal(ev.last_ms, now);
     const ub_serial_stats_t *st = ub_serial_stats(&dev);
     assert_int_equal(st->hangups, 1);
     assert_int_equal(ub_serial_state(&dev), UB_SERIAL_DOWN);
@@ -274,6 +281,7 @@ static void test_hangup_detected_counted_and_reopened(void **state) {
     assert_int_equal(ub_serial_service(&dev, p->sub_node, t), 0);
     assert_int_equal(ub_serial_state(&dev), UB_SERIAL_UP);
     assert_int_equal(st->reopens, 1);
+    assert_int_equal(ev.ups, 1); /* and the reopen as UP */
     assert_true(ub_serial_fileno(&dev) >= 0);
     assert_false(ub_serial_next_retry(&dev, &due));
     for (uint64_t end = t + 2000; t < end; t += 10) {

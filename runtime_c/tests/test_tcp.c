@@ -18,6 +18,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include "support/ub_test_link_events.h"
 #include "support/ub_test_pair.h"
 #include "ub/ub_pubsub.h"
 #include "ub/ub_tcp.h"
@@ -325,6 +326,52 @@ static void test_peer_half_close_is_a_lost_connection(void **state) {
     tcp_pair_free(t);
 }
 
+/* Transport evidence: the peer's close (FIN) or reset reaches the node's services as a link event DOWN on the
+ * server's link during the service call that saw it, and the next connection as UP (docs/routing.md,
+ * "Transport evidence": the routing engine takes the link down at once instead of after two missed hellos). */
+static void test_close_and_reset_are_link_events(void **state) {
+    (void)state;
+    tcp_pair_t *t = tcp_pair_new();
+    link_events_t ev_server, ev_client;
+    assert_int_equal(link_events_attach(&ev_server, t->p->sub_node), UB_OK);
+    assert_int_equal(link_events_attach(&ev_client, t->p->pub_node), UB_OK);
+    uint64_t now = run_until_connected(t, 0);
+    assert_true(ev_server.ups >= 1);
+    assert_true(ev_client.ups >= 1);
+    assert_int_equal(ev_server.downs, 0);
+    /* Orderly close by the client: the server hears FIN. */
+    ub_tcp_close(&t->client);
+    for (int i = 0; i < 2000 && ev_server.downs == 0; i++) {
+        wait_ready(t, 2);
+        ub_node_tick(t->p->sub_node, now);
+        assert_true(ub_tcp_service(&t->server, t->p->sub_node, now++) >= 0);
+    }
+    assert_int_equal(ev_server.downs, 1);
+    assert_int_equal(ev_server.last_link, t->p->sub_link);
+    /* A reset: a raw peer that closes with SO_LINGER 0 sends RST. */
+    int raw = socket(AF_INET, SOCK_STREAM, 0);
+    assert_true(raw >= 0);
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons(t->port)};
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    assert_int_equal(connect(raw, (struct sockaddr *)&a, sizeof a), 0);
+    for (int i = 0; i < 2000 && ub_tcp_state(&t->server) != UB_TCP_UP; i++) {
+        wait_ready(t, 2);
+        assert_true(ub_tcp_service(&t->server, t->p->sub_node, now++) >= 0);
+    }
+    int ups = ev_server.ups;
+    assert_true(ups >= 2);
+    struct linger lg = {.l_onoff = 1, .l_linger = 0};
+    assert_int_equal(setsockopt(raw, SOL_SOCKET, SO_LINGER, &lg, sizeof lg), 0);
+    close(raw);
+    for (int i = 0; i < 2000 && ev_server.downs == 1; i++) {
+        wait_ready(t, 2);
+        assert_true(ub_tcp_service(&t->server, t->p->sub_node, now++) >= 0);
+    }
+    assert_int_equal(ev_server.downs, 2);
+    assert_int_equal(ub_tcp_state(&t->server), UB_TCP_DOWN);
+    tcp_pair_free(t);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_two_nodes_exchange_over_tcp),
@@ -334,6 +381,7 @@ int main(void) {
         cmocka_unit_test(test_batching_collects_frames_for_one_write),
         cmocka_unit_test(test_send_without_connection_is_counted),
         cmocka_unit_test(test_peer_half_close_is_a_lost_connection),
+        cmocka_unit_test(test_close_and_reset_are_link_events),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -12,10 +12,12 @@
 #include <arpa/inet.h>
 #include <stdlib.h>
 #include <stdio.h>
+#include <poll.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include "support/ub_test_link_events.h"
 #include "support/ub_test_pair.h"
 #include "ub/ub_pubsub.h"
 #include "ub/ub_sec.h"
@@ -506,6 +508,33 @@ static void test_argument_errors(void **state) {
     assert_int_equal(ub_udp_fileno(&u), -1);
 }
 
+/* Transport evidence: the peer's socket is gone, so the kernel answers our datagram with ICMP "port unreachable";
+ * it surfaces as ECONNREFUSED on the next receive (IP_RECVERR) and reaches the node's services as a link event
+ * DOWN on the link, counted `refused` -- where before only two missed hellos said so. */
+static void test_icmp_unreachable_is_a_link_event(void **state) {
+    (void)state;
+    udp_pair_t *u = udp_pair_new();
+    pair_t *p = u->p;
+    link_events_t ev;
+    assert_int_equal(link_events_attach(&ev, p->pub_node), UB_OK);
+    assert_true(ub_node_send_data(p->pub_node, p->pub, TEST_GPS, p->sub_id, 0) == 1);
+    run(u, 0, 5);
+    assert_int_equal(ev.downs, 0); /* a live peer: no evidence */
+    ub_udp_close(&u->b);
+    assert_true(ub_node_send_data(p->pub_node, p->pub, TEST_GPS, p->sub_id, 5) == 1);
+    for (uint64_t now = 5; now < 2000 && ev.downs == 0; now++) {
+        (void)poll(&(struct pollfd){.fd = ub_udp_fileno(&u->a), .events = POLLIN}, 1, 1);
+        ub_node_tick(p->pub_node, now);
+        assert_true(ub_udp_service(&u->a, p->pub_node, now) >= 0);
+    }
+    assert_true(ev.downs >= 1);
+    assert_int_equal(ev.last_link, p->pub_link);
+    assert_true(u->a.stats.refused >= 1);
+    ub_udp_close(&u->a);
+    pair_free(u->p);
+    free(u);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_two_nodes_exchange_over_udp),
@@ -519,6 +548,7 @@ int main(void) {
         cmocka_unit_test(test_refused_sender_is_remembered),
         cmocka_unit_test(test_signed_link_learns_provisional_peers),
         cmocka_unit_test(test_argument_errors),
+        cmocka_unit_test(test_icmp_unreachable_is_a_link_event),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

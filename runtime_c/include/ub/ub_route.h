@@ -127,6 +127,12 @@ typedef struct ub_route_options {
     bool (*accept_dest)(void *user, const uint8_t dest[UB_ENTITY_ID_LEN], const uint8_t neighbour[UB_ENTITY_ID_LEN],
                         uint16_t metric);
     void *accept_user;
+    /** Hello interval on a link that carries the neighbour's traffic toward us (non-routing frames arrived on it
+     *  within the last hello interval), so that the neighbour notices a cut from the gap in our frames within a
+     *  few of these instead of a few hello intervals (docs/routing.md, "Transport evidence"). The advertised
+     *  interval stays hello_ms: the neighbour's hello timeout is unchanged. 10..hello_ms; default hello_ms / 8
+     *  (at least 10); hello_ms: off. */
+    uint32_t fast_hello_ms;
 } ub_route_options_t;
 
 /** Per-link routing counters. */
@@ -145,6 +151,8 @@ typedef struct ub_route_link_stats {
     uint64_t neighbour_changes; /**< a different entity started answering on this link */
     uint64_t link_downs;     /**< the neighbour went silent for 16 hello intervals and was forgotten */
     uint64_t over_limit_in;  /**< entries ignored: the neighbour already had max_dests destinations */
+    uint64_t fast_hellos_out; /**< of hellos_out, the fast ones on a link carrying the neighbour's traffic (a repeated
+                                   hello seqno: liveness evidence, docs/routing.md "Transport evidence") */
 } ub_route_link_stats_t;
 
 /** Engine-wide counters. */
@@ -166,6 +174,8 @@ typedef struct ub_route_counters {
     uint64_t pinned_skips;        /**< masks not written because the operator pinned them */
     uint64_t neighbour_limit;     /**< entries ignored: their neighbour already advertised max_dests destinations */
     uint64_t dest_refused;        /**< entries ignored: the accept_dest filter refused the destination */
+    uint64_t link_evidence_down;  /**< links taken down at once by transport evidence (ub_node_link_event()) */
+    uint64_t link_doubts;         /**< links put in doubt by a gap in their neighbour's frames */
 } ub_route_counters_t;
 
 /** Per-link state. Private: read it with ub_route_link_info(). */
@@ -175,7 +185,7 @@ typedef struct ub_route_link {
     uint8_t nb_id[UB_ENTITY_ID_LEN];
     uint8_t samples;         /* valid bits of history, <= 16 */
     uint8_t dumping;         /* a full table is being sent in slices */
-    uint8_t dump_cursor;     /* next entity index of the slice */
+    uint16_t dump_cursor;    /* next entity index of the slice (UB_MAX_ENTITIES may exceed 255) */
     uint8_t sent_any;
     uint16_t history;        /* bit 0 = most recent expected hello: 1 heard, 0 missed */
     uint16_t expected_seq;
@@ -188,6 +198,21 @@ typedef struct ub_route_link {
     uint64_t next_hello_ms;
     uint64_t last_tx_ms;
     uint64_t dump_due_ms;
+    /* Transport evidence and frame gaps (docs/routing.md, "Transport evidence"). */
+    uint8_t evidence_down;   /* a link event DOWN not yet acted on by the tick */
+    uint8_t doubt;           /* silent for longer than its recent frames predicted: routes over it use every
+                                feasible successor until a frame arrives or the hello timeout decides; 2: silent
+                                twice as long (a seqno request may go out) */
+    uint32_t gap_ms;         /* largest gap between the neighbour's frames in the current window */
+    uint32_t gap_prev_ms;    /* ... in the window before (the estimate is the larger: bursts never lower it) */
+    uint64_t gap_window_ms;  /* start of the current window (one neighbour hello interval long) */
+    uint64_t rx_seen;        /* the node's frames_accepted counter of the link at the last look */
+    uint64_t routing_seen;   /* stats.frames_in at the last look */
+    uint64_t tx_seen;        /* the node's frames_out counter of the link at the last look */
+    uint64_t routing_tx_seen; /* stats.frames_out at the last look */
+    uint64_t sending_until_ms; /* we send traffic over this link: its neighbour sends fast hellos, a gap means doubt */
+    uint64_t last_rx_ms;     /* when a frame was last seen arriving (at tick granularity) */
+    uint64_t carry_until_ms; /* the neighbour's traffic crosses this link toward us: fast hellos until then */
     ub_route_link_stats_t stats;
 } ub_route_link_t;
 

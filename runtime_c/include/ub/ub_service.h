@@ -106,6 +106,25 @@ typedef void (*ub_service_forget_link_fn)(const ub_service_t *svc, ub_node_t *no
 /** Local slot `slot` set a mask by hand (ub_node_set_mask()). */
 typedef void (*ub_service_mask_fn)(const ub_service_t *svc, ub_node_t *node, int slot);
 
+/** Transport evidence about a link (ub_node_link_event()): what a driver or the frame path saw. */
+typedef enum ub_link_event {
+    /** The transport says the link is gone: a TCP connection reset or closed, a serial line hung up, ICMP
+     *  "unreachable" (ECONNREFUSED) on a connected UDP socket, a send that failed outright. Nothing will cross
+     *  the link until it comes back; a service may stop using it now instead of waiting for its own timers. */
+    UB_LINK_EVENT_DOWN = 0,
+    /** The transport is back (a TCP connection up again, a serial device reopened): frames may cross it. */
+    UB_LINK_EVENT_UP = 1
+} ub_link_event_t;
+
+/** Link `link_id` had transport evidence `ev` (ub_node_link_event()). */
+typedef void (*ub_service_link_event_fn)(const ub_service_t *svc, ub_node_t *node, int link_id, ub_link_event_t ev,
+                                         uint64_t now_ms);
+
+/** When the service's tick next has work: true with `*due_ms` set (a time <= now_ms: at once), false when it
+ *  has no timer (only a frame can give it work). ub_node_next_due() takes the earliest over the services. */
+typedef bool (*ub_service_next_due_fn)(const ub_service_t *svc, const ub_node_t *node, uint64_t now_ms,
+                                       uint64_t *due_ms);
+
 /** DATA write policy (ub_policy.h): may DATA of `instance` from `src_id`, received over a link, be stored
  *  for local slot `slot`? Asked only when a policy is attached (without a service answering it, such DATA
  *  is refused: fail closed). */
@@ -165,6 +184,11 @@ struct ub_service {
     /** Origin sealing and opening (above); at most one registered service has them (UB_ERR_EXISTS). */
     ub_service_seal_fn seal;
     ub_service_open_fn open;
+    /** Transport evidence about a link (above); NULL: not interested. */
+    ub_service_link_event_fn link_event;
+    /** Next due time of `tick` (above). NULL with a `tick`: the node assumes it is due every millisecond (it is
+     *  polled, as before this hook existed). */
+    ub_service_next_due_fn next_due;
     void *user;                      /**< the engine's state, for the callbacks */
 };
 
@@ -183,6 +207,23 @@ UB_CHECK int ub_node_add_service(ub_node_t *node, const ub_service_t *svc);
  * @return UB_OK; UB_ERR_INVAL (NULL); UB_ERR_NOTFOUND (not registered).
  */
 UB_CHECK int ub_node_remove_service(ub_node_t *node, const ub_service_t *svc);
+
+/**
+ * Hands transport evidence about link `link_id` to every registered service that takes it (`link_event`), in
+ * their order. Drivers call it (ub_driver.h: TCP reset/close, serial hang-up, UDP ECONNREFUSED); the node calls
+ * it itself when a transport's send fails outright (UB_DROP_TX_ERROR, not backpressure). The core names no
+ * service: what the evidence means (a route switched, a queue flushed) is each service's business.
+ * Ignored for a bad link id.
+ */
+void ub_node_link_event(ub_node_t *node, int link_id, ub_link_event_t ev, uint64_t now_ms);
+
+/**
+ * The earliest time ub_node_tick() has work: the minimum over the services' `next_due` answers (a service with a
+ * tick but no `next_due` counts as due at `now_ms` + 1: polled every millisecond). Frames arriving earlier are handled by the receive path
+ * whatever this says; a caller sleeps until min(this, its own timers, input). Returns UINT64_MAX when nothing
+ * is due ever (no ticking service). Exact: calling ub_node_tick() earlier does nothing a later call would not.
+ */
+uint64_t ub_node_next_due(const ub_node_t *node, uint64_t now_ms);
 
 /** Which of a service's lists ub_node_service_for() looks in. */
 typedef enum ub_service_kind {

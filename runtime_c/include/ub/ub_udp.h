@@ -146,6 +146,7 @@ typedef struct ub_udp_stats {
     uint64_t datagrams_out; /**< datagrams sent */
     uint64_t again;         /**< sends refused because the socket buffer was full */
     uint64_t send_errors;   /**< other send failures */
+    uint64_t refused;       /**< ICMP "unreachable" answers to our datagrams (ECONNREFUSED; a link event DOWN with one peer) */
     uint64_t frames_in;     /**< frames handed to the node (several per datagram when the peer batches) */
     uint64_t frames_out;    /**< frames accepted for sending (sent, or queued when batching) */
     uint64_t rx_calls;      /**< receive system calls that returned data */

@@ -1,5 +1,9 @@
 #include "ub/ub_nodecfg.h"
 
+#if UB_MAX_ENTITIES > 255 || UB_NODECFG_MAX_PORTS > 255
+#error "ub_nodecfg counts entities and ports in uint8_t: keep UB_MAX_ENTITIES and UB_NODECFG_MAX_PORTS <= 255"
+#endif
+
 #include <errno.h>
 #include <fcntl.h>
 #include <stdarg.h>

@@ -357,12 +357,15 @@ uint32_t ub_node_svc_new_request_id(ub_node_t *node) {
 
 /* ---- transmit and routing ---------------------------------------------- */
 
-static void count_refusal(ub_node_t *node, int link_id, int rc) {
+static void count_refusal(ub_node_t *node, int link_id, int rc, uint64_t now_ms) {
     /* UB_ERR_NOROUTE: the transport has nowhere to send yet (a UDP link that has not learned a peer). */
-    count_drop(node, link_id,
-               rc == UB_ERR_AGAIN     ? UB_DROP_BACKPRESSURE
-               : rc == UB_ERR_NOROUTE ? UB_DROP_NO_ROUTE
-                                      : UB_DROP_TX_ERROR);
+    ub_drop_reason_t why = rc == UB_ERR_AGAIN     ? UB_DROP_BACKPRESSURE
+                           : rc == UB_ERR_NOROUTE ? UB_DROP_NO_ROUTE
+                                                  : UB_DROP_TX_ERROR;
+    count_drop(node, link_id, why);
+    /* A send that failed outright (not "later") is transport evidence that the link is gone: the services hear
+     * it now rather than after their own timeouts (docs/routing.md, "Transport evidence"). */
+    if (why == UB_DROP_TX_ERROR) ub_node_link_event(node, link_id, UB_LINK_EVENT_DOWN, now_ms);
 }
 
 static int content_index(ub_node_t *node, const uint8_t dir_id[UB_DIR_ID_LEN]);
@@ -415,7 +418,7 @@ static __attribute__((noinline)) bool transmit_shaped(ub_node_t *node, int link_
     int rc = link->ops->send_class != NULL ? send_classed(node, link_id, frame, out, n, now_ms)
                                            : link->ops->send(link->impl, out, n, now_ms);
     if (rc < 0) {
-        count_refusal(node, link_id, rc);
+        count_refusal(node, link_id, rc, now_ms);
         /* Its next frame carries all 32 sequence bits: the peer may not have the reference this one set. */
         if (link->compact != NULL) ub_compact_tx_forget(link->compact, frame + UB_FRAME_OFF_SRC_ID);
         return false;
@@ -436,7 +439,7 @@ static bool transmit(ub_node_t *node, int link_id, const uint8_t *frame, size_t 
     int rc = __builtin_expect(link->ops->send_class != NULL, 0) ? send_classed(node, link_id, frame, frame, len, now_ms)
                                                                 : link->ops->send(link->impl, frame, len, now_ms);
     if (rc < 0) {
-        count_refusal(node, link_id, rc);
+        count_refusal(node, link_id, rc, now_ms);
         return false;
     }
     link->counters.frames_out++;
@@ -1019,6 +1022,29 @@ bool ub_node_may_administer(const ub_node_t *node, int entity, const uint8_t src
     if (node->sec != NULL && !verified) return false;
     /* The paper's exclusive rights (ub_policy.h): without a policy every entity has them. */
     return node->policy == NULL || ub_policy_is_admin(node->policy, src_id);
+}
+
+void ub_node_link_event(ub_node_t *node, int link_id, ub_link_event_t ev, uint64_t now_ms) {
+    if (node == NULL || !link_id_ok(node, link_id)) return;
+    for (int i = 0; i < node->n_services; i++) {
+        const ub_service_t *svc = node->services[i];
+        if (svc->link_event != NULL) svc->link_event(svc, node, link_id, ev, now_ms);
+    }
+}
+
+uint64_t ub_node_next_due(const ub_node_t *node, uint64_t now_ms) {
+    uint64_t best = UINT64_MAX;
+    if (node == NULL) return best;
+    for (int i = 0; i < node->n_services && best > now_ms; i++) {
+        const ub_service_t *svc = node->services[i];
+        uint64_t due;
+        if (svc->next_due != NULL) {
+            if (svc->next_due(svc, node, now_ms, &due) && due < best) best = due;
+        } else if (svc->tick != NULL && now_ms + 1u < best) {
+            best = now_ms + 1u; /* a tick with no due time: poll it every millisecond, as before next_due existed */
+        }
+    }
+    return best < now_ms ? now_ms : best;
 }
 
 void ub_node_tick(ub_node_t *node, uint64_t now_ms) {

@@ -426,6 +426,26 @@ static void sec_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms) 
     }
 }
 
+/* Next challenge retry (ub_service.h `next_due`); none without a keyring that signs. */
+static bool sec_next_due(const ub_service_t *svc, const ub_node_t *node, uint64_t now_ms, uint64_t *due_ms) {
+    (void)svc;
+    const ub_sec_t *sec = node->sec;
+    if (sec == NULL || ub_sec_tx_key(sec) == 0) return false;
+    uint64_t best = UINT64_MAX;
+    for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
+        const ub_local_entity_t *loc = &node->locals[slot];
+        if (!loc->in_use) continue;
+        for (size_t i = 0; i < UB_DEDUP_SOURCES; i++) {
+            const ub_dedup_entry_t *e = &loc->dedup[i];
+            if (!e->in_use || !e->challenging || e->challenge_tries >= UB_SEC_CHALLENGE_TRIES) continue;
+            uint64_t due = now_ms < e->challenge_ms ? now_ms : e->challenge_ms + sec->opt.challenge_retry_ms;
+            if (due < best) best = due;
+        }
+    }
+    *due_ms = best;
+    return best != UINT64_MAX;
+}
+
 static const uint8_t sec_codes[] = {UB_ADMIN_CHALLENGE, UB_ADMIN_CHALLENGE_REPLY};
 static const uint8_t sec_link_local_codes[] = {UB_ADMIN_CHALLENGE}; /* the link hello */
 
@@ -440,4 +460,5 @@ const ub_service_t ub_priv_sec_service = {
     .order = 50,
     .on_frame = sec_on_frame,
     .tick = sec_tick,
+    .next_due = sec_next_due,
 };

@@ -33,6 +33,20 @@ static void compact_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_
     }
 }
 
+/* Compact links pace their dictionary pages inside ub_compact_hello_due(), which keeps no readable due time:
+ * a node with a compact link is polled every millisecond as before; without one, never. */
+static bool compact_next_due(const ub_service_t *svc, const ub_node_t *node, uint64_t now_ms, uint64_t *due_ms) {
+    (void)svc;
+    for (int l = 0; l < UB_MAX_NODE_LINKS; l++) {
+        const ub_link_t *link = &node->links[l];
+        if (link->in_use && link->compact != NULL && link->ops != NULL) {
+            *due_ms = now_ms + 1u;
+            return true;
+        }
+    }
+    return false;
+}
+
 /* A LINK_HELLO (link-local) arrived on `rx->link_id`: the peer's dictionary page. */
 static bool compact_on_frame(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
                              const ub_frame_header_t *h, const uint8_t *payload, uint64_t now_ms, ub_drop_reason_t *drop) {
@@ -53,6 +67,7 @@ const ub_service_t ub_priv_compact_service = {
     .order = 55,
     .on_frame = compact_on_frame,
     .tick = compact_tick,
+    .next_due = compact_next_due,
 };
 
 /* ---- fragments ----------------------------------------------------------------------------------- */
@@ -280,6 +295,25 @@ static void frag_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms)
     }
 }
 
+/* Reassembly timeouts and senders still pumping fragments (a sender pushed back by its link retries at the next
+ * millisecond, as before). */
+static bool frag_next_due(const ub_service_t *svc, const ub_node_t *node, uint64_t now_ms, uint64_t *due_ms) {
+    (void)svc;
+    const ub_frag_t *f = node->frag;
+    if (f == NULL) return false;
+    uint64_t best = UINT64_MAX;
+    for (size_t i = 0; i < UB_FRAG_SLOTS; i++) {
+        const ub_frag_rx_t *r = &f->rx[i];
+        if (!r->in_use) continue;
+        uint64_t due = now_ms < r->last_ms ? now_ms : r->last_ms + f->params.timeout_ms;
+        if (due < best) best = due;
+    }
+    for (size_t i = 0; i < UB_FRAG_TX_SLOTS; i++)
+        if (f->tx[i].in_use && now_ms + 1u < best) best = now_ms + 1u;
+    *due_ms = best;
+    return best != UINT64_MAX;
+}
+
 static void frag_forget_entity(const ub_service_t *svc, ub_node_t *node, int entity, const uint8_t id[UB_ENTITY_ID_LEN],
                                uint64_t now_ms) {
     (void)svc;
@@ -299,5 +333,6 @@ const ub_service_t ub_priv_frag_service = {
     .order = 60,
     .on_frame = frag_on_frame,
     .tick = frag_tick,
+    .next_due = frag_next_due,
     .forget_entity = frag_forget_entity,
 };

@@ -13,6 +13,7 @@
 
 #include "ub/ub_node.h"
 #include "ub/ub_ports.h"
+#include "ub/ub_service.h"
 #include "drivers/ub_stream_tx_private.h"
 
 typedef struct baud_entry {
@@ -117,6 +118,8 @@ static void hang_up(ub_serial_t *serial, uint64_t now_ms) {
     serial->state = UB_SERIAL_DOWN;
     serial->hung = 1;
     serial->next_attempt_ms = now_ms + serial->backoff_ms;
+    /* Carrier lost, adapter pulled, the pty's other end closed: transport evidence (ub_node_link_event()). */
+    if (serial->node != NULL) ub_node_link_event(serial->node, serial->link_id, UB_LINK_EVENT_DOWN, now_ms);
 }
 
 /* Reopens a device opened by path when its retry is due; a new device re-attaches the node slot, which
@@ -141,6 +144,7 @@ static void try_reopen(ub_serial_t *serial, uint64_t now_ms) {
     /* Only ub_serial_service() gets here, which checked that `serial->node` is the (non-NULL) node it serves. */
     int attached = ub_driver_reattach(serial->node, serial->link_id, serial->ops, serial->ops_impl);
     (void)attached; /* cannot fail: ub_serial_attach() succeeded with these arguments */
+    ub_node_link_event(serial->node, serial->link_id, UB_LINK_EVENT_UP, now_ms); /* the link is back: evidence */
     ub_decoder_restart(serial->dec); /* the same restart for the caller's decoder, keeping its handler (NULL: none) */
 }
 

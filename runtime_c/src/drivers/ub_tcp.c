@@ -13,6 +13,7 @@
 #include "ub/ub_node.h"
 #include "ub/ub_ports.h"
 #include "ub/ub_sec.h"
+#include "ub/ub_service.h"
 #include "drivers/ub_sock_private.h"
 #include "drivers/ub_stream_tx_private.h"
 
@@ -80,7 +81,12 @@ static void connection_lost(ub_tcp_t *tcp, uint64_t now_ms, int was_up) {
     tcp->stats.tx_discarded += tcp->tx_len;
     tcp->tx_len = 0;
     tcp->state = UB_TCP_DOWN;
-    if (was_up) tcp->stats.disconnects++;
+    if (was_up) {
+        tcp->stats.disconnects++;
+        /* Reset, orderly close or a failed write: transport evidence, heard by the routing service at once
+         * instead of after its hello timeout (ub_node_link_event()). */
+        if (tcp->node != NULL) ub_node_link_event(tcp->node, tcp->link_id, UB_LINK_EVENT_DOWN, now_ms);
+    }
     if (tcp->role == UB_TCP_CLIENT) {
         tcp->next_attempt_ms = now_ms + tcp->backoff_ms;
         uint32_t max = tcp->opt.backoff_max_ms;
@@ -148,6 +154,7 @@ static void connection_up(ub_tcp_t *tcp, int fd, uint64_t now_ms) {
     tcp->fd = fd;
     tcp->state = UB_TCP_UP;
     tcp->last_fresh_ms = now_ms;
+    if (tcp->node != NULL) ub_node_link_event(tcp->node, tcp->link_id, UB_LINK_EVENT_UP, now_ms);
     tcp->tx_len = 0;
     tcp->backoff_ms = tcp->opt.backoff_initial_ms;
     tcp->stats.connects++;

@@ -35,6 +35,10 @@ int ub_udp_open(ub_udp_t *udp, const char *bind_addr, uint16_t bind_port, const 
     }
     int fd = socket(AF_INET, SOCK_DGRAM, 0);
     if (fd < 0) return UB_ERR_IO;
+    /* ICMP "port unreachable" for our datagrams surfaces as ECONNREFUSED on the next receive (IP_RECVERR: also on
+     * an unbound-peer socket like this one): transport evidence that the peer is gone (ub_node_link_event()). */
+    int on = 1;
+    (void)setsockopt(fd, IPPROTO_IP, IP_RECVERR, &on, sizeof on);
     if (ub_sock_set_nonblocking(fd) < 0 || bind(fd, (const struct sockaddr *)&local, sizeof local) < 0) {
         ub_sock_close_keep_errno(fd);
         return UB_ERR_IO;
@@ -374,6 +378,21 @@ static void forget_idle(ub_udp_t *udp, uint64_t now_ms) {
     }
 }
 
+/* An ICMP "unreachable" came back: empty the socket's error queue (IP_RECVERR keeps one entry per ICMP) and, when
+ * the link has one configured peer, tell the node its link is down. The peer may simply not be up yet: the
+ * services take it as evidence, not as a verdict (a frame from the peer revives the link). */
+static void refused(ub_udp_t *udp, uint64_t now_ms) {
+    udp->stats.refused++;
+    for (int i = 0; i < 64; i++) {
+        uint8_t buf[64], ctl[256];
+        struct iovec iov = {.iov_base = buf, .iov_len = sizeof buf};
+        struct msghdr m = {.msg_iov = &iov, .msg_iovlen = 1, .msg_control = ctl, .msg_controllen = sizeof ctl};
+        if (recvmsg(udp->fd, &m, MSG_ERRQUEUE | MSG_DONTWAIT) < 0) break;
+    }
+    if (udp->accept == UB_UDP_ACCEPT_PEER && udp->node != NULL)
+        ub_node_link_event(udp->node, udp->link_id, UB_LINK_EVENT_DOWN, now_ms);
+}
+
 int ub_udp_service(ub_udp_t *udp, ub_node_t *node, uint64_t now_ms) {
     if (udp == NULL || udp->fd < 0 || node == NULL || node != udp->node) return UB_ERR_INVAL;
     if (udp->tx_count > 0) {
@@ -404,6 +423,7 @@ int ub_udp_service(ub_udp_t *udp, ub_node_t *node, uint64_t now_ms) {
             /* An earlier send's ICMP "port unreachable" surfaces here; the peer may simply not be up yet. */
             if (errno == ECONNREFUSED) {
                 budget--;
+                refused(udp, now_ms);
                 continue;
             }
             return UB_ERR_IO;
@@ -554,7 +574,7 @@ static size_t udp_counters(const void *state, ub_driver_counter_t *out, size_t c
     const ub_driver_counter_t all[] = {
         {"datagrams_in", s->datagrams_in},   {"rejected", s->rejected},
         {"foreign", s->foreign},             {"datagrams_out", s->datagrams_out},
-        {"again", s->again},                 {"send_errors", s->send_errors},
+        {"again", s->again},                 {"send_errors", s->send_errors}, {"refused", s->refused},
         {"frames_in", s->frames_in},         {"frames_out", s->frames_out},
         {"rx_calls", s->rx_calls},           {"tx_calls", s->tx_calls},
         {"tx_discarded", s->tx_discarded},   {"peers_learned", s->peers_learned},

@@ -411,6 +411,7 @@ static bool spec_ok(const ub_node_t *node, const ub_inspect_spec_t *s) {
 }
 
 static void inspect_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms);
+static bool inspect_next_due(const ub_service_t *svc, const ub_node_t *node, uint64_t now_ms, uint64_t *due_ms);
 
 int ub_inspect_init(ub_inspect_t *in, ub_node_t *node, int entity, const ub_inspect_options_t *opt) {
     if (in == NULL || node == NULL || ub_node_entity_slot(node, entity) < 0) return UB_ERR_INVAL;
@@ -425,6 +426,7 @@ int ub_inspect_init(ub_inspect_t *in, ub_node_t *node, int entity, const ub_insp
     in->entity = entity;
     in->svc = ub_priv_inspect_server;
     in->svc.tick = inspect_tick;
+    in->svc.next_due = inspect_next_due;
     in->svc.user = in;
     int rc = ub_node_add_service(node, &in->svc);
     if (rc != UB_OK && prev != NULL && ub_node_add_service(node, prev) != UB_OK) {
@@ -490,6 +492,19 @@ static void send_request(ub_inspect_t *in, const ub_inspect_row_t *row, uint64_t
     int slot = ub_node_entity_slot(in->node, in->entity);
     (void)ub_node_svc_send_admin(in->node, slot, UB_ADMIN_INSPECT, dir, fingerprint, s->target, p, len, now_ms);
     in->counters.sent++;
+}
+
+/* Pending requests' next sends (ub_service.h `next_due`). */
+static bool inspect_next_due(const ub_service_t *svc, const ub_node_t *node, uint64_t now_ms, uint64_t *due_ms) {
+    (void)node;
+    const ub_inspect_t *in = svc->user;
+    uint64_t best = UINT64_MAX;
+    for (int r = 0; r < UB_MAX_INSPECT_REQUESTS; r++) {
+        const ub_inspect_row_t *row = &in->rows[r];
+        if (row->in_use && row->result.status == UB_INSPECT_PENDING) ub_req_due(row->next_send_ms, now_ms, &best);
+    }
+    *due_ms = best;
+    return best != UINT64_MAX;
 }
 
 static void inspect_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms) {

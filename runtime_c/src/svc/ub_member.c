@@ -169,6 +169,7 @@ static bool member_on_reply(const ub_service_t *svc, ub_node_t *node, const ub_s
 static bool nobody_asked(const ub_service_t *svc, ub_node_t *node, const ub_service_rx_t *rx,
                          const ub_frame_header_t *h, const ub_service_reply_t *r, uint64_t now_ms, ub_drop_reason_t *drop);
 static void member_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms);
+static bool member_next_due(const ub_service_t *svc, const ub_node_t *node, uint64_t now_ms, uint64_t *due_ms);
 
 static const uint8_t member_codes[] = {UB_ADMIN_MEMBERSHIP};
 
@@ -198,6 +199,7 @@ int ub_member_init(ub_member_t *m, ub_node_t *node, int entity, const ub_member_
     m->svc = ub_priv_member_server;
     m->svc.on_reply = member_on_reply;
     m->svc.tick = member_tick;
+    m->svc.next_due = member_next_due;
     m->svc.user = m;
     int rc = ub_node_add_service(node, &m->svc);
     if (rc != UB_OK && prev != NULL && ub_node_add_service(node, prev) != UB_OK) {
@@ -292,6 +294,19 @@ static void member_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_m
             send_request(m, row, now_ms); /* last: a local target answers synchronously */
         }
     }
+}
+
+/* Pending requests' next sends (ub_service.h `next_due`). */
+static bool member_next_due(const ub_service_t *svc, const ub_node_t *node, uint64_t now_ms, uint64_t *due_ms) {
+    (void)node;
+    const ub_member_t *m = svc->user;
+    uint64_t best = UINT64_MAX;
+    for (int r = 0; r < UB_MAX_MEMBER_REQUESTS; r++) {
+        const ub_member_row_t *row = &m->rows[r];
+        if (row->in_use && row->info.status == UB_MEMBER_PENDING) ub_req_due(row->next_send_ms, now_ms, &best);
+    }
+    *due_ms = best;
+    return best != UINT64_MAX;
 }
 
 /* Nobody here asked (no requester attached): counted on the node, as any unusable admin frame. */

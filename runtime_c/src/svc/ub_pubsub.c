@@ -830,6 +830,43 @@ static void pubsub_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_m
     }
 }
 
+static void earliest(uint64_t *best, uint64_t t) {
+    if (t < *best) *best = t;
+}
+
+/* When a row's tick has work (ub_service.h `next_due`), mirroring tick_publication() / tick_subscription(). */
+static void row_due(const ub_node_t *node, const ub_ps_row_t *row, uint64_t now_ms, uint64_t *best) {
+    if (row->kind == UB_PS_PUBLICATION) {
+        /* Past its lease a handed-over row is asked every tick (its keeper's route): poll it as before. */
+        if (row->lease_until_ms != 0) earliest(best, now_ms >= row->lease_until_ms ? now_ms + 1u : row->lease_until_ms);
+        if (on_update(node, row->instance)) {
+            if (row->update_pending) earliest(best, row->next_due_ms > row->period_ms / 2u ? row->next_due_ms - row->period_ms / 2u : 0);
+            return;
+        }
+        earliest(best, row->next_due_ms);
+    } else if (row->kind == UB_PS_SUBSCRIPTION) {
+        const ub_pubsub_timing_t *timing = &ub_node_options(node)->timing;
+        if (row->state != UB_SUB_STOPPING && row->lease_until_ms != 0) earliest(best, row->lease_until_ms);
+        if (row->state == UB_SUB_RECEIVING)
+            earliest(best, row->last_data_ms + ub_pubsub_data_timeout_ms(timing, row->period_ms) + 1u);
+        earliest(best, row->next_due_ms);
+    }
+}
+
+static bool pubsub_next_due(const ub_service_t *svc, const ub_node_t *node, uint64_t now_ms, uint64_t *due_ms) {
+    (void)svc;
+    uint64_t best = UINT64_MAX;
+    for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
+        if (ub_node_slot_entity(node, slot) < 0) continue;
+        const ub_pubsub_table_t *t = ub_node_svc_pubsub_table(node, slot);
+        for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) row_due(node, &t->rows[r], now_ms, &best);
+        /* Administration tables keep their timers inside ub_priv_admin_tick(): polled every millisecond. */
+        if (t->admin != NULL) earliest(&best, now_ms + 1u);
+    }
+    *due_ms = best < now_ms ? now_ms : best;
+    return best != UINT64_MAX;
+}
+
 /* The tables apply their own rules (docs/pubsub.md): rows with nobody left to talk to go at once, rows the
  * entity merely administered live on under their keeper; the node counts. */
 static void pubsub_forget_entity(const ub_service_t *svc, ub_node_t *node, int entity, const uint8_t id[UB_ENTITY_ID_LEN],
@@ -857,6 +894,7 @@ const ub_service_t ub_priv_pubsub_service = {
     .order = UB_SVC_ORDER_PUBSUB,
     .on_frame = pubsub_on_frame,
     .tick = pubsub_tick,
+    .next_due = pubsub_next_due,
     .forget_entity = pubsub_forget_entity,
     .may_write = pubsub_may_write,
     .on_data = pubsub_on_data,

@@ -29,6 +29,12 @@ static inline ub_req_step_t ub_req_step(uint64_t *next_send_ms, uint32_t *attemp
     return UB_REQ_SEND;
 }
 
+/* A pending row's next due time for the service's `next_due` (ub_service.h): its next send, or now. */
+static inline void ub_req_due(uint64_t next_send_ms, uint64_t now_ms, uint64_t *best) {
+    uint64_t due = next_send_ms < now_ms ? now_ms : next_send_ms;
+    if (due < *best) *best = due;
+}
+
 /* Whether an answer from `src_id` that reached local slot `slot` is bound to a pending row asking `target`
  * from entity `requester`: it must come from the target and reach the requesting entity (the request id
  * the caller has matched already). */

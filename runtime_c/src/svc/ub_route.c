@@ -183,14 +183,19 @@ static uint8_t compute_mask(const ub_route_t *rt, int slot, int e) {
     const ub_link_t *sel = node_link(rt, ds->sel_link);
     if (sel == NULL) return 0;
     uint8_t mask = (uint8_t)(1u << sel->index);
-    if (rt->opt.parallel == UB_ROUTE_PARALLEL_BEST) return mask;
+    /* In doubt (its neighbour's frames stopped sooner than they should have, docs/routing.md, "Transport
+     * evidence"): every feasible successor carries the traffic until a frame arrives or the hello timeout
+     * decides. Loop-free as any selection (each successor's metric is below our feasibility distance); the
+     * receivers' duplicate windows keep one copy. */
+    bool doubt = rt->links[ds->sel_link].doubt != 0;
+    if (rt->opt.parallel == UB_ROUTE_PARALLEL_BEST && !doubt) return mask;
     const uint8_t *nb = rt->links[ds->sel_link].nb_id;
     for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) {
         int lid = slot_link(rt, slot, i);
         if (lid < 0) continue;
         const ub_route_link_t *l = &rt->links[lid];
         const ub_route_entry_t *r = &rt->routes[e][lid];
-        if (!l->nb_in_use || memcmp(l->nb_id, nb, UB_ENTITY_ID_LEN) != 0 || cost_of(rt, l) == INF) continue;
+        if (!l->nb_in_use || (!doubt && memcmp(l->nb_id, nb, UB_ENTITY_ID_LEN) != 0) || cost_of(rt, l) == INF) continue;
         if (!r->in_use || r->metric == INF || !feasible(ds, r->seqno, r->metric)) continue;
         mask |= (uint8_t)(1u << i);
     }
@@ -265,6 +270,14 @@ static void select_route(ub_route_t *rt, int slot, int e, uint64_t now_ms) {
     }
     if (best < 0 && unfeasible_left) request_seqno(rt, slot, e, now_ms);
     else ds->starve_at_ms = 0;
+    /* In doubt with no other feasible successor but unfeasible alternatives: ask for a newer seqno now, as a
+     * starving router would, so that the alternatives are feasible by the time the doubt is confirmed (or to
+     * be sent on meanwhile). A brief gap costs one request per hello interval, nothing else. */
+    if (best >= 0 && unfeasible_left && rt->links[best].doubt == 2 && popcount16(compute_mask(rt, slot, e)) < 2) {
+        if (ds->req_links == 0 && (ds->starve_at_ms == 0 || now_ms >= ds->starve_at_ms + rt->opt.hello_ms)) {
+            request_seqno(rt, slot, e, now_ms);
+        }
+    }
     install_mask(rt, slot, e);
 }
 
@@ -504,6 +517,41 @@ static void put_update(ub_route_t *rt, int slot, int e, uint8_t *ent, uint16_t s
     ds->fd_touched_ms = now_ms;
 }
 
+/* The 24-byte hello part (docs/routing.md, "Frame layouts"). */
+static void put_hello_part(const ub_route_t *rt, const ub_route_link_t *l, uint8_t *buf, uint16_t seq, unsigned n_upd,
+                           unsigned n_req) {
+    buf[OFF_VERSION] = UB_ROUTE_WIRE_VERSION;
+    buf[OFF_FLAGS] = 0;
+    ub_put_u16le(buf + OFF_HELLO_SEQ, seq);
+    ub_put_u16le(buf + OFF_HELLO_MS, (uint16_t)rt->opt.hello_ms);
+    ub_put_u16le(buf + OFF_UPDATE_MS, (uint16_t)rt->opt.update_ms);
+    ub_put_u16le(buf + OFF_IHU_COST, rxcost_of(rt, l));
+    buf[OFF_N_UPDATES] = (uint8_t)n_upd;
+    buf[OFF_N_REQUESTS] = (uint8_t)n_req;
+    if (l->nb_in_use) memcpy(buf + OFF_IHU_ID, l->nb_id, UB_ENTITY_ID_LEN);
+    else memset(buf + OFF_IHU_ID, 0, UB_ENTITY_ID_LEN);
+}
+
+/* A fast hello (a link carrying the neighbour's traffic, docs/routing.md "Transport evidence"): a HELLO that
+ * repeats the hello seqno of the last routing frame instead of taking a new one. The receiver's history counts
+ * hellos per hello interval, so the repeats prove liveness (a gap in them is the neighbour's evidence) without
+ * making the link cost more sensitive to a brief gap: a repeated seqno shifts nothing in (hello_heard(): one
+ * step back, then the same bit again). The hello timer is left alone. */
+static void send_fast_hello(ub_route_t *rt, int link_id, uint64_t now_ms) {
+    ub_route_link_t *l = &rt->links[link_id];
+    uint8_t buf[UB_ROUTE_HDR_LEN];
+    put_hello_part(rt, l, buf, (uint16_t)(l->hello_seq - 1u), 0, 0);
+    l->last_tx_ms = now_ms;
+    if (ub_node_send_link_local(rt->node, link_id, UB_ADMIN_HELLO, buf, UB_ROUTE_HDR_LEN, now_ms) != 1) {
+        l->stats.refused_out++;
+        return;
+    }
+    l->stats.frames_out++;
+    l->stats.bytes_out += UB_ROUTE_HDR_LEN;
+    l->stats.hellos_out++;
+    l->stats.fast_hellos_out++;
+}
+
 static void send_frame(ub_route_t *rt, int link_id, bool triggered, uint64_t now_ms) {
     const ub_link_t *link = node_link(rt, link_id);
     ub_route_link_t *l = &rt->links[link_id];
@@ -554,16 +602,7 @@ static void send_frame(ub_route_t *rt, int link_id, bool triggered, uint64_t now
     }
     memcpy(ent + n_upd * UB_ROUTE_ENTRY_LEN, reqs, n_req * UB_ROUTE_ENTRY_LEN);
 
-    buf[OFF_VERSION] = UB_ROUTE_WIRE_VERSION;
-    buf[OFF_FLAGS] = 0;
-    ub_put_u16le(buf + OFF_HELLO_SEQ, l->hello_seq++);
-    ub_put_u16le(buf + OFF_HELLO_MS, (uint16_t)rt->opt.hello_ms);
-    ub_put_u16le(buf + OFF_UPDATE_MS, (uint16_t)rt->opt.update_ms);
-    ub_put_u16le(buf + OFF_IHU_COST, rxcost_of(rt, l));
-    buf[OFF_N_UPDATES] = (uint8_t)n_upd;
-    buf[OFF_N_REQUESTS] = (uint8_t)n_req;
-    if (l->nb_in_use) memcpy(buf + OFF_IHU_ID, l->nb_id, UB_ENTITY_ID_LEN);
-    else memset(buf + OFF_IHU_ID, 0, UB_ENTITY_ID_LEN);
+    put_hello_part(rt, l, buf, l->hello_seq++, n_upd, n_req);
     uint16_t len = (uint16_t)(UB_ROUTE_HDR_LEN + (n_upd + n_req) * UB_ROUTE_ENTRY_LEN);
     ub_admin_code_t code = n_upd + n_req > 0 ? UB_ADMIN_ROUTE_UPDATE : UB_ADMIN_HELLO;
 
@@ -652,6 +691,90 @@ static void route_timers(ub_route_t *rt, uint64_t now_ms) {
     }
 }
 
+/* ---- transport evidence (docs/routing.md, "Transport evidence") --------------------------------------- */
+
+/* Silence after which a link whose recent largest gap between frames was `gap` is in doubt: half as long again,
+ * plus scheduling slack. A brief gap only costs duplicates (every feasible successor is used), never a route. */
+static uint64_t doubt_after(uint32_t gap) { return (uint64_t)gap + gap / 2u + 5u; }
+
+/* Looks at the node's counters of link `lid`: a frame since the last look clears its doubt and measures the gap;
+ * none for longer than its recent gaps predict puts it in doubt. Non-routing frames from the neighbour mean our
+ * silence would be its evidence: hellos go at the fast interval. */
+static uint32_t gap_estimate(const ub_route_link_t *l) { return l->gap_ms > l->gap_prev_ms ? l->gap_ms : l->gap_prev_ms; }
+
+/* Whether link `l` may fall in doubt now: we send traffic over it (so its neighbour sends fast hellos, and a cut
+ * costs us data), it is up, and a gap has been measured. */
+static bool doubt_armed(const ub_route_link_t *l, uint64_t now_ms) {
+    return !l->doubt && l->nb_in_use && l->last_cost != INF && now_ms < l->sending_until_ms && gap_estimate(l) > 0;
+}
+
+static void watch_link(ub_route_t *rt, int lid, const ub_link_t *link, uint64_t now_ms) {
+    ub_route_link_t *l = &rt->links[lid];
+    if (link->counters.frames_out - l->tx_seen > l->stats.frames_out - l->routing_tx_seen) {
+        /* Traffic of ours crossed it: the neighbour keeps fast hellos for a hello interval after each frame; we
+         * expect them for half of that (so the end of a flow is no gap). */
+        l->sending_until_ms = now_ms + rt->opt.hello_ms / 2u;
+    }
+    l->tx_seen = link->counters.frames_out;
+    l->routing_tx_seen = l->stats.frames_out;
+    uint64_t acc = link->counters.frames_accepted;
+    if (acc != l->rx_seen) {
+        uint64_t routing = l->stats.frames_in - l->routing_seen;
+        if (acc - l->rx_seen > routing) {
+            l->carry_until_ms = now_ms + rt->opt.hello_ms;
+        }
+        if (l->last_rx_ms != 0 && now_ms > l->last_rx_ms) {
+            /* Largest gap over the last one or two windows of a neighbour hello interval: a burst of triggered
+             * frames never makes the next regular hello look late. */
+            uint32_t gap = (uint32_t)(now_ms - l->last_rx_ms > 0xFFFFu ? 0xFFFFu : now_ms - l->last_rx_ms);
+            uint32_t window = l->nb_hello_ms != 0 ? l->nb_hello_ms : rt->opt.hello_ms;
+            if (now_ms >= l->gap_window_ms + window) {
+                l->gap_prev_ms = l->gap_ms;
+                l->gap_ms = 0;
+                l->gap_window_ms = now_ms;
+            }
+            /* A gap longer than the neighbour's hello timer allows was an outage, not its rhythm. */
+            if (gap <= window + window / 2u && gap > l->gap_ms) l->gap_ms = gap;
+        }
+        l->rx_seen = acc;
+        l->routing_seen = l->stats.frames_in;
+        l->last_rx_ms = now_ms;
+        if (l->doubt) {
+            l->doubt = 0;
+            mark_slot(rt, lid);
+        }
+    } else if (doubt_armed(l, now_ms) && now_ms >= l->last_rx_ms + doubt_after(gap_estimate(l))) {
+        l->doubt = 1;
+        rt->counters.link_doubts++;
+        mark_slot(rt, lid);
+    } else if (l->doubt == 1 && now_ms >= l->last_rx_ms + 2u * doubt_after(gap_estimate(l))) {
+        l->doubt = 2; /* still silent: no scheduling hiccup; worth a seqno request where nothing else is feasible */
+        mark_slot(rt, lid);
+    }
+}
+
+/* Transport evidence from a driver or the frame path (ub_node_link_event()). DOWN takes the link down now, as
+ * `dead_misses` missed hellos would: routes switch to their feasible alternatives at the next tick (the call may
+ * come from inside a send, so nothing is sent or chosen here). The neighbour and its routes are kept: its next
+ * hello brings the link back with a fresh history. UP: say hello at once. */
+static void route_link_event(const ub_service_t *svc, ub_node_t *node, int link_id, ub_link_event_t ev,
+                             uint64_t now_ms) {
+    (void)node;
+    ub_route_t *rt = svc->user;
+    if (link_id < 0 || link_id >= UB_MAX_NODE_LINKS || !rt->links[link_id].active) return;
+    ub_route_link_t *l = &rt->links[link_id];
+    if (ev == UB_LINK_EVENT_UP) {
+        l->next_hello_ms = now_ms;
+        return;
+    }
+    if (!l->nb_in_use || link_dead(rt, l)) return;
+    l->history = 0;
+    if (l->samples < rt->opt.dead_misses) l->samples = rt->opt.dead_misses;
+    l->doubt = 0;
+    rt->counters.link_evidence_down++;
+    mark_slot(rt, link_id);
+}
+
 /* Timers and sending; called from ub_node_tick(). */
 static void route_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms) {
     (void)node;
@@ -660,6 +783,7 @@ static void route_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms
         const ub_link_t *link = node_link(rt, lid);
         if (link == NULL) continue;
         activate(rt, lid, now_ms);
+        watch_link(rt, lid, link, now_ms);
         link_timers(rt, lid, now_ms);
     }
     route_timers(rt, now_ms);
@@ -673,7 +797,55 @@ static void route_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms
         bool trigger = !due && now_ms >= l->last_tx_ms + rt->opt.trigger_gap_ms &&
                        owes(rt, link->owner, (uint8_t)(1u << link->index));
         if (due || trigger) send_frame(rt, lid, trigger, now_ms);
+        else if (l->sent_any && now_ms < l->carry_until_ms && now_ms >= l->last_tx_ms + rt->opt.fast_hello_ms)
+            send_fast_hello(rt, lid, now_ms);
     }
+}
+
+static void earliest(uint64_t *best, uint64_t t) {
+    if (t < *best) *best = t;
+}
+
+/* The next time route_tick() has work (ub_service.h `next_due`): hellos (fast ones on carrying links), triggered
+ * frames, missed-hello timers, doubt deadlines, route and learned-entity expiry, retractions, starvation retries,
+ * feasibility-distance collection. A frame the node accepted since the last tick makes it due at once (the tick
+ * measures gaps from it). */
+static bool route_next_due(const ub_service_t *svc, const ub_node_t *node, uint64_t now_ms, uint64_t *due_ms) {
+    (void)node;
+    const ub_route_t *rt = svc->user;
+    uint64_t best = UINT64_MAX;
+    for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++)
+        if (rt->reselect[s] && ub_node_slot_entity(rt->node, s) >= 0) earliest(&best, now_ms);
+    for (int lid = 0; lid < UB_MAX_NODE_LINKS && best > now_ms; lid++) {
+        const ub_link_t *link = node_link(rt, lid);
+        if (link == NULL) continue;
+        const ub_route_link_t *l = &rt->links[lid];
+        if (!l->active || link->counters.frames_accepted != l->rx_seen) {
+            earliest(&best, now_ms);
+            break;
+        }
+        if (l->nb_in_use) earliest(&best, l->next_miss_ms);
+        if (doubt_armed(l, now_ms)) earliest(&best, l->last_rx_ms + doubt_after(gap_estimate(l)));
+        if (l->doubt == 1) earliest(&best, l->last_rx_ms + 2u * doubt_after(gap_estimate(l)));
+        if (link->counters.frames_out != l->tx_seen) earliest(&best, now_ms); /* the tick notes what we sent */
+        if (link->ops == NULL) continue;
+        earliest(&best, l->next_hello_ms);
+        if (l->sent_any && now_ms < l->carry_until_ms) earliest(&best, l->last_tx_ms + rt->opt.fast_hello_ms);
+        if (owes(rt, link->owner, (uint8_t)(1u << link->index))) earliest(&best, l->last_tx_ms + rt->opt.trigger_gap_ms);
+    }
+    for (int e = 0; e < UB_MAX_ENTITIES && best > now_ms; e++) {
+        if (rt->learned[e]) earliest(&best, rt->advertised_ms[e] + rt->opt.learn_expiry_ms);
+        for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++)
+            if (rt->routes[e][lid].in_use) earliest(&best, rt->routes[e][lid].expires_ms);
+        for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) {
+            const ub_route_dest_t *ds = &rt->dests[s][e];
+            if (ds->retracting) earliest(&best, ds->retract_until_ms);
+            if (ds->starve_at_ms != 0) earliest(&best, ds->starve_at_ms + rt->opt.hello_ms);
+            if (ds->fd_valid && ds->sel_link < 0 && !ds->retracting) earliest(&best, ds->fd_touched_ms + rt->opt.source_gc_ms);
+        }
+    }
+    *due_ms = best;
+    return best != UINT64_MAX;
 }
 
 /* ---- membership hooks -------------------------------------------------------------------------------- */
@@ -750,8 +922,10 @@ int ub_route_attach(ub_route_t *rt, ub_node_t *node, const ub_route_options_t *o
     if (o.learn_expiry_ms == 0) o.learn_expiry_ms = o.source_gc_ms;
     if (o.dead_misses == 0) o.dead_misses = 2;
     if (o.max_dests == 0) o.max_dests = UB_ROUTE_MAX_DESTS_PER_NEIGHBOUR;
+    if (o.fast_hello_ms == 0) o.fast_hello_ms = o.hello_ms / 8u < 10u ? 10u : o.hello_ms / 8u;
+    if (o.fast_hello_ms > o.hello_ms) o.fast_hello_ms = o.hello_ms;
     if (o.hello_ms < 10u || o.hello_ms > 0xFFFFu || o.update_ms < o.hello_ms || o.update_ms > 0xFFFFu ||
-        o.dead_misses > HISTORY_BITS || o.parallel > UB_ROUTE_PARALLEL_BEST || o.max_dests > UB_MAX_ENTITIES)
+        o.fast_hello_ms < 10u || o.dead_misses > HISTORY_BITS || o.parallel > UB_ROUTE_PARALLEL_BEST || o.max_dests > UB_MAX_ENTITIES)
         return UB_ERR_INVAL;
     /* One routing engine per node: a second attach takes the routing codes over, as it always did. */
     const ub_service_t *prev = ub_node_service_for(node, UB_SVC_LINK_LOCAL, UB_ADMIN_HELLO);
@@ -772,6 +946,8 @@ int ub_route_attach(ub_route_t *rt, ub_node_t *node, const ub_route_options_t *o
                              .forget_entity = route_forget_entity,
                              .forget_link = route_forget_link,
                              .mask_set = route_mask_set,
+                             .link_event = route_link_event,
+                             .next_due = route_next_due,
                              .user = rt};
     int rc = ub_node_add_service(node, &rt->svc);
     if (rc != UB_OK) {

@@ -14,10 +14,12 @@ PARALLEL = {"all": lib.UB_ROUTE_PARALLEL_ALL, "best": lib.UB_ROUTE_PARALLEL_BEST
 OPTION_FIELDS = ("hello_ms", "update_ms", "trigger_gap_ms", "source_gc_ms", "dead_misses", "initial_seqno",
                  "learn_expiry_ms", "max_dests")
 _LINK_STATS = ("frames_out", "hellos_out", "triggered_out", "entries_out", "requests_out", "bytes_out", "refused_out",
-               "frames_in", "entries_in", "requests_in", "bad_in", "neighbour_changes", "link_downs", "over_limit_in")
+               "frames_in", "entries_in", "requests_in", "bad_in", "neighbour_changes", "link_downs", "over_limit_in",
+               "fast_hellos_out")
 _COUNTERS = ("route_changes", "routes_found", "routes_lost", "unfeasible", "expired", "starvation_requests",
              "requests_forwarded", "requests_answered", "requests_dropped", "seqno_bumps", "learned", "learn_full",
-             "learn_refused", "learn_expired", "pinned_skips", "neighbour_limit", "dest_refused")
+             "learn_refused", "learn_expired", "pinned_skips", "neighbour_limit", "dest_refused",
+             "link_evidence_down", "link_doubts")
 
 
 def ub_route_new(node: Any, now_ms: int, parallel: str = "all", learn: bool = True, certified_by: Any = None,

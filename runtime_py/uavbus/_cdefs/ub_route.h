@@ -37,6 +37,7 @@ typedef struct ub_route_link_stats {
     uint64_t neighbour_changes;
     uint64_t link_downs;
     uint64_t over_limit_in;
+    uint64_t fast_hellos_out;
     ...;
 } ub_route_link_stats_t;
 
@@ -58,6 +59,8 @@ typedef struct ub_route_counters {
     uint64_t pinned_skips;
     uint64_t neighbour_limit;
     uint64_t dest_refused;
+    uint64_t link_evidence_down;
+    uint64_t link_doubts;
     ...;
 } ub_route_counters_t;
 

@@ -545,7 +545,10 @@ class FleetRun:
                 for a, b in fl["recent_gaps"]:
                     tr.gaps.add((round(a / 1000.0 - self.epoch, 3), round(b / 1000.0 - self.epoch, 3)))
         elif kind == ROUTES:
-            frames = {name: int(li["frames_out"]) for name, li in ev.get("links", {}).items()}
+            # The hello/update budget: fast hellos (liveness on links carrying traffic, docs/routing.md "Transport
+            # evidence") are counted apart.
+            frames = {name: int(li["frames_out"]) - int(li.get("fast_hellos_out", 0))
+                      for name, li in ev.get("links", {}).items()}
             m.routes_seen.append((ev["t_ms"] / 1000.0 - self.epoch, run, frames))
         elif kind == STATS:
             self.final_stats[m.name] = ev
@@ -574,7 +577,7 @@ class FleetRun:
             if m.proc is not None:
                 m.proc.send("routes")
             elif m.node is not None:
-                frames = {name: li["frames_out"] for name, li in m.node.route_links().items()}
+                frames = {name: li["frames_out"] - li.get("fast_hellos_out", 0) for name, li in m.node.route_links().items()}
                 m.routes_seen.append((t, 0, frames))
 
     def _connectivity(self) -> dict[str, bool]:
