@@ -50,6 +50,30 @@ static void test_template_equals_finish(void **state) {
     }
 }
 
+/* The template's portable build (a CPU without the hardware CRC) against ub_frame_finish: on this machine the
+ * hardware path runs, so the test sets fast_size to what tpl_prime() writes on such a CPU (UINT32_MAX: no
+ * payload size matches) -- white-box, the one way to reach that build here. Every size 0..129 (each remainder
+ * of the 16-byte steps and of the 8/4/2/1 tail) and the largest. */
+static void test_template_portable_equals_finish(void **state) {
+    (void)state;
+    test_rng_t r = {0x5E42u};
+    for (int size = 0; size <= 130; size++) {
+        uint16_t ps = (uint16_t)(size == 130 ? UB_MAX_PAYLOAD : size);
+        ub_frame_header_t h = random_header(&r, ps);
+        ub_frame_tpl_t t;
+        assert_int_equal(ub_frame_tpl_init(&t, &h), UB_OK);
+        t.fast_size = UINT32_MAX;
+        uint8_t want[UB_FRAME_MAX], got[UB_FRAME_MAX];
+        rng_fill(&r, want, sizeof want);
+        memcpy(got, want, sizeof got);
+        int n = ub_frame_finish(want, sizeof want, &h);
+        assert_true(n > 0);
+        assert_int_equal(ub_frame_tpl_finish(&t, got, sizeof got, ps, h.seq), n);
+        assert_memory_equal(got, want, sizeof got);
+        assert_int_equal(ub_frame_tpl_finish(&t, got, (size_t)n - 1, ps, h.seq), UB_ERR_NOSPACE);
+    }
+}
+
 static void test_template_errors(void **state) {
     (void)state;
     test_rng_t r = {7};
@@ -171,6 +195,7 @@ static void test_crc_helpers(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_template_equals_finish),
+        cmocka_unit_test(test_template_portable_equals_finish),
         cmocka_unit_test(test_template_errors),
         cmocka_unit_test(test_patch_equals_recompute),
         cmocka_unit_test(test_patch_keeps_damage_and_errors),

@@ -266,8 +266,14 @@ UB_CHECK int ub_frame_patch_hop_limit(uint8_t *frame, size_t len, uint8_t hop_li
 typedef struct ub_frame_tpl {
     uint8_t header[UB_FRAME_HEADER_LEN]; /* the header bytes with seq and both checks zero */
     uint64_t fingerprint_hi;             /* the fingerprint << 32: header bytes [52,60) are seq | this */
-    uint32_t crc_head;                   /* ub_crc32c() of header bytes [4,52) */
-    uint16_t payload_size;               /* the payload size header[] and crc_head are primed for */
+    uint32_t head_reg;                   /* ~ub_crc32c() of header bytes [4,52): the CRC register there (no
+                                            final inversion), from which the next step continues as is */
+    size_t fast_len;                     /* the frame length (64 + payload_size), compared with the caller's
+                                            room as is: no length arithmetic per frame */
+    size_t fast_len16;                   /* payload_size & ~15: where the CRC's 16-byte steps end */
+    uint32_t fast_size;                  /* payload_size where the CPU has the hardware CRC, else a value no
+                                            uint16_t equals: one compare picks the fast build */
+    uint16_t payload_size;               /* the payload size header[] and head_reg are primed for */
 } ub_frame_tpl_t;
 
 /** Defined where the frame layer has header templates (bench code built against older runtimes tests it). */
