@@ -298,6 +298,16 @@ UB_CHECK int ub_frame_tpl_init(ub_frame_tpl_t *t, const ub_frame_header_t *h);
 UB_CHECK int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size, uint32_t seq);
 
 /**
+ * ub_frame_finish(frame, cap, h) for a plain header (h->flags 0), through the template `t` used as a cache:
+ * when `t` is primed for h's fixed fields (everything but seq; a zeroed `t` matches no header) the build is
+ * ub_frame_tpl_finish(); otherwise `t` is primed from `h` first. Same bytes as ub_frame_finish() either way.
+ * For senders that hold a few templates and do not know which row a header belongs to (the node's send path).
+ * @return total frame length; UB_ERR_INVAL if an argument is NULL or h->flags is not 0; UB_ERR_RANGE if
+ *         h->payload_size > UB_MAX_PAYLOAD or h->hop_limit == 0; UB_ERR_NOSPACE if `cap` is too small.
+ */
+UB_CHECK int ub_frame_tpl_finish_header(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, const ub_frame_header_t *h);
+
+/**
  * Decoder counters. Every byte fed ends up in exactly one place, so
  * `bytes_in == bytes_ok + foreign_bytes + garbage_bytes + ub_decoder_pending(d)` always holds
  * (with no foreign-traffic handler, foreign_bytes stays 0 and these bytes are garbage).

@@ -232,6 +232,23 @@ int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t 
     return tpl_finish_slow(t, frame, cap, payload_size, seq);
 }
 
+/* Whether `t` is primed for h: the header words of h (seq zero, checks zero, as tpl_init stores them) against
+ * the template's bytes, eight 64-bit compares -- a few dozen instructions where a new template or an untemplated
+ * build runs the CRC over the whole header. A zeroed template has no sync bytes, so it never matches. */
+int ub_frame_tpl_finish_header(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, const ub_frame_header_t *h) {
+    if (t == NULL || frame == NULL || h == NULL || h->flags != 0) return UB_ERR_INVAL;
+    uint64_t w[8];
+    header_words(h, 0, w);
+    w[6] &= 0xFFFFFFFFull;
+    uint64_t diff = 0;
+    for (int k = 0; k < 8; k++) diff |= w[k] ^ ub_get_u64le(t->header + 8 * k);
+    if (diff != 0) {
+        int rc = ub_frame_tpl_init(t, h);
+        if (rc < 0) return rc;
+    }
+    return ub_frame_tpl_finish(t, frame, cap, h->payload_size, h->seq);
+}
+
 int ub_frame_parse_reason(const uint8_t *frame, size_t len, ub_frame_header_t *h, ub_rx_reason_t *reason) {
     ub_rx_reason_t why = UB_RX_BAD_SYNC;
     int err = UB_ERR_INVAL;
