@@ -50,6 +50,69 @@ static void test_template_equals_finish(void **state) {
     }
 }
 
+/* The template's portable build (a CPU without the hardware CRC) against ub_frame_finish: on this machine the
+ * hardware path runs, so the test sets fast_size to what tpl_prime() writes on such a CPU (UINT32_MAX: no
+ * payload size matches) -- white-box, the one way to reach that build here. Every size 0..129 (each remainder
+ * of the 16-byte steps and of the 8/4/2/1 tail) and the largest. */
+static void test_template_portable_equals_finish(void **state) {
+    (void)state;
+    test_rng_t r = {0x5E42u};
+    for (int size = 0; size <= 130; size++) {
+        uint16_t ps = (uint16_t)(size == 130 ? UB_MAX_PAYLOAD : size);
+        ub_frame_header_t h = random_header(&r, ps);
+        ub_frame_tpl_t t;
+        assert_int_equal(ub_frame_tpl_init(&t, &h), UB_OK);
+        t.fast_size = UINT32_MAX;
+        uint8_t want[UB_FRAME_MAX], got[UB_FRAME_MAX];
+        rng_fill(&r, want, sizeof want);
+        memcpy(got, want, sizeof got);
+        int n = ub_frame_finish(want, sizeof want, &h);
+        assert_true(n > 0);
+        assert_int_equal(ub_frame_tpl_finish(&t, got, sizeof got, ps, h.seq), n);
+        assert_memory_equal(got, want, sizeof got);
+        assert_int_equal(ub_frame_tpl_finish(&t, got, (size_t)n - 1, ps, h.seq), UB_ERR_NOSPACE);
+    }
+}
+
+/* ub_frame_tpl_finish_header: one template as a cache over headers that change in every fixed field now and
+ * then (a node's send path keeps a few for many rows): same bytes as ub_frame_finish each time, starting from a
+ * zeroed template (which must match no header). */
+static void test_template_cache_equals_finish(void **state) {
+    (void)state;
+    test_rng_t r = {0xCAC4Eu};
+    ub_frame_tpl_t t;
+    memset(&t, 0, sizeof t);
+    ub_frame_header_t h = random_header(&r, random_size(&r));
+    for (int k = 0; k < 2000; k++) {
+        switch (rng_below(&r, 6)) {
+        case 0: h = random_header(&r, random_size(&r)); break; /* another row */
+        case 1: h.hop_limit = (uint8_t)(1 + rng_below(&r, 255)); break;
+        case 2: h.payload_size = random_size(&r); break;
+        case 3: h.admin = (uint8_t)rng_next(&r); break;
+        default: break; /* the same row again */
+        }
+        h.flags = 0;
+        h.seq = (uint32_t)rng_next(&r);
+        uint8_t want[UB_FRAME_MAX], got[UB_FRAME_MAX];
+        rng_fill(&r, want, sizeof want);
+        memcpy(got, want, sizeof got);
+        int n = ub_frame_finish(want, sizeof want, &h);
+        assert_true(n > 0);
+        assert_int_equal(ub_frame_tpl_finish_header(&t, got, sizeof got, &h), n);
+        assert_memory_equal(got, want, sizeof got);
+    }
+    uint8_t frame[UB_FRAME_MAX];
+    assert_int_equal(ub_frame_tpl_finish_header(NULL, frame, sizeof frame, &h), UB_ERR_INVAL);
+    assert_int_equal(ub_frame_tpl_finish_header(&t, frame, sizeof frame, NULL), UB_ERR_INVAL);
+    h.flags = UB_FRAME_FLAG_SIGNED;
+    assert_int_equal(ub_frame_tpl_finish_header(&t, frame, sizeof frame, &h), UB_ERR_INVAL);
+    h.flags = 0;
+    h.hop_limit = 0;
+    assert_int_equal(ub_frame_tpl_finish_header(&t, frame, sizeof frame, &h), UB_ERR_RANGE);
+    h.hop_limit = 1;
+    assert_int_equal(ub_frame_tpl_finish_header(&t, frame, UB_FRAME_HEADER_LEN + h.payload_size - 1u, &h), UB_ERR_NOSPACE);
+}
+
 static void test_template_errors(void **state) {
     (void)state;
     test_rng_t r = {7};
@@ -171,6 +234,8 @@ static void test_crc_helpers(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_template_equals_finish),
+        cmocka_unit_test(test_template_portable_equals_finish),
+        cmocka_unit_test(test_template_cache_equals_finish),
         cmocka_unit_test(test_template_errors),
         cmocka_unit_test(test_patch_equals_recompute),
         cmocka_unit_test(test_patch_keeps_damage_and_errors),

@@ -31,6 +31,13 @@
 #define UB_MAX_ENTITIES 16
 #endif
 /** Links per entity; the paper allows 8 ("a maximum of 8 links originating at one entity"). */
+/* Header templates a node keeps for the plain frames it builds (ub_node_t.tpl): a small direct-mapped
+ * cache keyed by content ID and destination, so a publisher's rows reuse their template (ub_frame_tpl_t,
+ * ~110 bytes each) instead of rebuilding the whole header CRC per frame. */
+#ifndef UB_NODE_TPL_CACHE
+#define UB_NODE_TPL_CACHE 8
+#endif
+
 #ifndef UB_MAX_LINKS_PER_ENTITY
 #define UB_MAX_LINKS_PER_ENTITY 8
 #endif

@@ -266,8 +266,14 @@ UB_CHECK int ub_frame_patch_hop_limit(uint8_t *frame, size_t len, uint8_t hop_li
 typedef struct ub_frame_tpl {
     uint8_t header[UB_FRAME_HEADER_LEN]; /* the header bytes with seq and both checks zero */
     uint64_t fingerprint_hi;             /* the fingerprint << 32: header bytes [52,60) are seq | this */
-    uint32_t crc_head;                   /* ub_crc32c() of header bytes [4,52) */
-    uint16_t payload_size;               /* the payload size header[] and crc_head are primed for */
+    uint32_t head_reg;                   /* ~ub_crc32c() of header bytes [4,52): the CRC register there (no
+                                            final inversion), from which the next step continues as is */
+    size_t fast_len;                     /* the frame length (64 + payload_size), compared with the caller's
+                                            room as is: no length arithmetic per frame */
+    size_t fast_len16;                   /* payload_size & ~15: where the CRC's 16-byte steps end */
+    uint32_t fast_size;                  /* payload_size where the CPU has the hardware CRC, else a value no
+                                            uint16_t equals: one compare picks the fast build */
+    uint16_t payload_size;               /* the payload size header[] and head_reg are primed for */
 } ub_frame_tpl_t;
 
 /** Defined where the frame layer has header templates (bench code built against older runtimes tests it). */
@@ -290,6 +296,16 @@ UB_CHECK int ub_frame_tpl_init(ub_frame_tpl_t *t, const ub_frame_header_t *h);
  *         payload_size > UB_MAX_PAYLOAD; UB_ERR_NOSPACE if `cap` is too small.
  */
 UB_CHECK int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size, uint32_t seq);
+
+/**
+ * ub_frame_finish(frame, cap, h) for a plain header (h->flags 0), through the template `t` used as a cache:
+ * when `t` is primed for h's fixed fields (everything but seq; a zeroed `t` matches no header) the build is
+ * ub_frame_tpl_finish(); otherwise `t` is primed from `h` first. Same bytes as ub_frame_finish() either way.
+ * For senders that hold a few templates and do not know which row a header belongs to (the node's send path).
+ * @return total frame length; UB_ERR_INVAL if an argument is NULL or h->flags is not 0; UB_ERR_RANGE if
+ *         h->payload_size > UB_MAX_PAYLOAD or h->hop_limit == 0; UB_ERR_NOSPACE if `cap` is too small.
+ */
+UB_CHECK int ub_frame_tpl_finish_header(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, const ub_frame_header_t *h);
 
 /**
  * Decoder counters. Every byte fed ends up in exactly one place, so

@@ -296,6 +296,9 @@ struct ub_node {
     ub_frag_t *frag;          /**< fragment state (ub_node_set_frag()), or NULL: no directory above the payload limit */
     uint16_t mtu_links;       /**< links with an MTU set: only then does a send compare frame sizes with MTUs */
     uint32_t last_content;    /**< catalogue index of the last DATA delivered: checked before a search */
+    /** Header templates of the plain frames this node built last (ub_frame_tpl_finish_header()), by a hash of
+     *  content ID and destination: a row sending again reuses its own. Zeroed at init: no entry matches. */
+    ub_frame_tpl_t tpl[UB_NODE_TPL_CACHE];
     ub_node_counters_t counters;
     /* Registered services (ub_service.h), in tick order, and per admin code the index + 1 of the one
      * taking it as a code, as a reply, link-local (0: none): a lookup on the admin path, never on DATA's. */

@@ -61,18 +61,29 @@ uint64_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *b
 /**
  * ub_crc32c_frame_tail()'s SSE4.2 body, inline for callers compiled with target("sse4.2") themselves
  * (ub_frame_tpl_finish's hardware path), so the template's whole build is one function with no call
- * (returns the message CRC, *header_crc the header CRC: inlined, both stay in registers):
- * the tail word from the template's register, the body 8 bytes a step, its last 0-7 bytes in at most
- * three steps. Call only when ub_crc32c_hw_available().
+ * (returns the message CRC, *header_reg the header CRC's register before the final inversion -- the header
+ * CRC is its complement -- inlined, both stay in registers):
+ * the tail word from the template's register, the body 16 bytes a loop trip, its last 0-15 bytes in at most
+ * four steps. Call only when ub_crc32c_hw_available().
  */
 __attribute__((target("sse4.2"), always_inline)) static inline uint32_t ub_crc32c_frame_tail_sse42(
-    uint32_t crc_head, uint64_t tail, const uint8_t *body, size_t len, uint32_t *header_crc) {
-    uint64_t c = _mm_crc32_u64((uint32_t)~crc_head, tail);
-    *header_crc = ~(uint32_t)c;
-    const uint8_t *end8 = body + (len & ~(size_t)7);
-    while (body != end8) {
+    uint32_t head_reg, uint64_t tail, const uint8_t *body, size_t len, size_t len16, uint32_t *header_reg) {
+    uint64_t c = _mm_crc32_u64(head_reg, tail);
+    *header_reg = (uint32_t)c; /* not inverted: the header CRC is ~*header_reg (its fold is the same, see callers) */
+    /* 16 bytes a loop trip (two steps per compare and branch, where 8 a trip paid one each), then at most one
+     * 8-byte step: a 28-byte ATTITUDE payload is one trip and three single steps instead of three trips. */
+    const uint8_t *end16 = body + len16; /* len16 == len & ~15, which a template keeps precomputed */
+    while (body != end16) {
+        uint64_t w0, w1;
+        memcpy(&w0, body, sizeof w0); /* x86 is little-endian, as the CRC wants */
+        memcpy(&w1, body + 8, sizeof w1);
+        c = _mm_crc32_u64(_mm_crc32_u64(c, w0), w1);
+        body += 16;
+    }
+    body = end16; /* the same pointer; said so the compiler does not recompute it from the trip count */
+    if (len & 8) {
         uint64_t word;
-        memcpy(&word, body, sizeof word); /* x86 is little-endian, as the CRC wants */
+        memcpy(&word, body, sizeof word);
         c = _mm_crc32_u64(c, word);
         body += 8;
     }

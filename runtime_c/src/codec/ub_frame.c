@@ -47,7 +47,9 @@ static inline void header_words(const ub_frame_header_t *h, size_t trailer_len, 
     w[7] = h->fingerprint;
 }
 
-static void read_header(const uint8_t *f, ub_frame_header_t *h) {
+/* Inlined (the decoder's delivery and ub_frame_parse): a call here cost the argument and spill moves around it
+ * on every delivered frame. */
+static inline __attribute__((always_inline)) void read_header(const uint8_t *f, ub_frame_header_t *h) {
     h->msg_type = ub_get_u16le(f + UB_FRAME_OFF_MSG_TYPE);
     h->flags = f[UB_FRAME_OFF_VERSION] & UB_FRAME_FLAGS_MASK;
     memcpy(h->dir_id, f + UB_FRAME_OFF_DIR_ID, UB_DIR_ID_LEN);
@@ -88,7 +90,10 @@ static void write_checks(uint8_t *f, size_t body_len) {
 /* Judges the 64 header bytes at `f` (sync already matched). The header check comes
  * first, so a corrupted version or length on a real frame is named as such rather
  * than random bytes after a false sync being blamed on "version". */
-static ub_rx_reason_t judge_header(const uint8_t *f, uint32_t *header_crc, size_t *frame_len) {
+/* Inlined into each caller (the decoder's two scans, ub_frame_parse): as a call it saved and restored three
+ * registers and passed both results through memory, some 12 instructions of a ~300-instruction parse. */
+static inline __attribute__((always_inline)) ub_rx_reason_t judge_header(const uint8_t *f, uint32_t *header_crc,
+                                                                         size_t *frame_len) {
     *header_crc = ub_crc32c_header(f); /* = ub_crc32c(f + UB_FRAME_CHECKED_OFF, UB_FRAME_CHECKED_LEN), unrolled */
     if (fold_crc(*header_crc) != f[UB_FRAME_OFF_HDR_CHECK]) return UB_RX_BAD_HDR_CHECK;
     size_t trailer_plus_one = k_trailer_plus_one[f[UB_FRAME_OFF_VERSION]];
@@ -128,14 +133,20 @@ int ub_frame_finish(uint8_t *frame, size_t cap, const ub_frame_header_t *h) {
  * Why it is exact: CRC-32C is computed left to right through a 32-bit state, and ub_crc32c_update(crc(a), b)
  * == crc(a || b) (ub_frame.h). Header bytes [4,52) are msg_type, msg_size, the three IDs, admin, hop_limit
  * and payload_size: all fixed for a row once its payload size is. So crc([4,52)) is computed once per row
- * (crc_head); each frame continues it over bytes [52,60) (seq, fingerprint) to get the header CRC, and on
+ * (head_reg, kept as the register: ~crc); each frame continues it over bytes [52,60) (seq, fingerprint) to get the header CRC, and on
  * over the payload to get msg_crc -- the same two values a pass from byte 4 gives. The header is the
  * template's bytes copied whole, then seq and the two checks written over their zero bytes. */
 static void tpl_prime(ub_frame_tpl_t *t, uint16_t payload_size) {
     ub_put_u16le(t->header + UB_FRAME_OFF_MSG_SIZE, (uint16_t)(UB_FRAME_HEADER_LEN + payload_size));
     ub_put_u16le(t->header + UB_FRAME_OFF_PAYLOAD_SIZE, payload_size);
     t->payload_size = payload_size;
-    t->crc_head = ub_crc32c(t->header + UB_FRAME_CHECKED_OFF, UB_FRAME_OFF_SEQ - UB_FRAME_CHECKED_OFF);
+    /* Decided once per row, not per frame: the hardware path is taken when the size matches fast_size, so
+     * ub_frame_tpl_finish() needs no separate CPU test (UINT32_MAX: no payload size matches, the portable
+     * build runs). */
+    t->fast_size = ub_crc32c_hw_available() ? payload_size : UINT32_MAX;
+    t->fast_len = UB_FRAME_HEADER_LEN + (size_t)payload_size;
+    t->fast_len16 = payload_size & ~(size_t)15;
+    t->head_reg = ~ub_crc32c(t->header + UB_FRAME_CHECKED_OFF, UB_FRAME_OFF_SEQ - UB_FRAME_CHECKED_OFF);
 }
 
 int ub_frame_tpl_init(ub_frame_tpl_t *t, const ub_frame_header_t *h) {
@@ -164,44 +175,80 @@ static inline int tpl_write(const ub_frame_tpl_t *t, uint8_t *frame, uint32_t se
  * hardware path's function saves no registers for it. */
 static __attribute__((noinline)) int tpl_finish_other(const ub_frame_tpl_t *t, uint8_t *frame, uint32_t seq,
                                                       size_t payload_size) {
-    uint64_t crcs = ub_crc32c_frame_tail(t->crc_head, seq | t->fingerprint_hi, frame + UB_FRAME_HEADER_LEN, payload_size);
+    uint64_t crcs = ub_crc32c_frame_tail(~t->head_reg, seq | t->fingerprint_hi, frame + UB_FRAME_HEADER_LEN, payload_size);
     return tpl_write(t, frame, seq, (uint32_t)crcs, (uint32_t)(crcs >> 32), UB_FRAME_HEADER_LEN + payload_size);
 }
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 /* The hardware build, compiled for SSE4.2 on its own (the library still runs on any x86-64) so the CRC steps
- * inline into it: one function, no call, nothing spilled. */
-__attribute__((target("sse4.2"))) static int tpl_finish_sse42(const ub_frame_tpl_t *t, uint8_t *frame, uint32_t seq,
-                                                              size_t payload_size) {
-    uint32_t header_crc;
-    uint32_t msg_crc = ub_crc32c_frame_tail_sse42(t->crc_head, seq | t->fingerprint_hi, frame + UB_FRAME_HEADER_LEN,
-                                                  payload_size, &header_crc);
-    return tpl_write(t, frame, seq, header_crc, msg_crc, UB_FRAME_HEADER_LEN + payload_size);
+ * inline into it: one function, no call, nothing spilled. It takes ub_frame_tpl_finish()'s own arguments in
+ * their order (cap unused), so the finish reaches it by a bare jump with no register moves. Only with
+ * payload_size == t->fast_size (so the length is t->fast_len). The header check folds the CRC register before
+ * its final inversion: fold_crc() XORs the 4 bytes, and inverting all 4 flips each bit position an even
+ * number of times, so fold_crc(~x) == fold_crc(x) -- one inversion fewer, the same byte. */
+/* noipa (GCC): no constant-propagated clone with its arguments reordered, which cost register moves. */
+#if defined(__clang__)
+#define UB_TPL_KEEP_ARGS __attribute__((noinline))
+#else
+#define UB_TPL_KEEP_ARGS __attribute__((noipa))
+#endif
+__attribute__((target("sse4.2"))) UB_TPL_KEEP_ARGS static int tpl_finish_sse42(const ub_frame_tpl_t *t, uint8_t *frame, size_t cap,
+                                                              uint16_t payload_size, uint32_t seq) {
+    (void)cap;
+    uint32_t header_reg;
+    uint32_t msg_crc = ub_crc32c_frame_tail_sse42(t->head_reg, seq | t->fingerprint_hi, frame + UB_FRAME_HEADER_LEN,
+                                                  payload_size, t->fast_len16, &header_reg);
+    memcpy(frame, t->header, UB_FRAME_HEADER_LEN);
+    frame[UB_FRAME_OFF_HDR_CHECK] = fold_crc(header_reg);
+    ub_put_u32le(frame + UB_FRAME_OFF_SEQ, seq);
+    ub_put_u32le(frame + UB_FRAME_OFF_MSG_CRC, msg_crc);
+    return (int)t->fast_len;
 }
 #define UB_TPL_HW 1
 #endif
 
-/* A payload size other than the primed one (a variable-size type): re-prime, then build as usual. Out of line,
- * like tpl_finish_other(), so the common call saves no registers. */
-static __attribute__((noinline)) int tpl_finish_resized(ub_frame_tpl_t *t, uint8_t *frame, size_t cap,
-                                                        uint16_t payload_size, uint32_t seq) {
-    if (payload_size > UB_MAX_PAYLOAD) return UB_ERR_RANGE;
-    tpl_prime(t, payload_size);
-    return ub_frame_tpl_finish(t, frame, cap, payload_size, seq);
-}
-
-int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size, uint32_t seq) {
-    if (t == NULL || frame == NULL) return UB_ERR_INVAL;
-    if (__builtin_expect(payload_size != t->payload_size, 0)) return tpl_finish_resized(t, frame, cap, payload_size, seq);
+/* Everything but the common case, out of line so that case saves no registers: a payload size other than the
+ * primed one (a variable-size type: re-prime, then build as usual), a CPU without the hardware CRC, and the
+ * size errors in the order the contract gives them (UB_ERR_RANGE before UB_ERR_NOSPACE). */
+static __attribute__((noinline)) int tpl_finish_slow(ub_frame_tpl_t *t, uint8_t *frame, size_t cap,
+                                                     uint16_t payload_size, uint32_t seq) {
+    if (payload_size != t->payload_size) {
+        if (payload_size > UB_MAX_PAYLOAD) return UB_ERR_RANGE;
+        tpl_prime(t, payload_size);
+    }
     if (cap < UB_FRAME_HEADER_LEN + (size_t)payload_size) return UB_ERR_NOSPACE;
 #ifdef UB_TPL_HW
-#if defined(__SSE4_2__)
-    return tpl_finish_sse42(t, frame, seq, payload_size);
-#else
-    if (__builtin_cpu_supports("sse4.2")) return tpl_finish_sse42(t, frame, seq, payload_size); /* GCOVR_EXCL_BR_LINE: CPU dispatch */
-#endif
+    if (t->fast_size == payload_size) return tpl_finish_sse42(t, frame, cap, payload_size, seq);
 #endif
     return tpl_finish_other(t, frame, seq, payload_size);
+}
+
+/* The common case is three compares and a tail jump: a primed size on a CPU with the hardware CRC is one
+ * compare against fast_size (tpl_prime() folds the CPU test into it), then the room check. */
+int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size, uint32_t seq) {
+    if (t == NULL || frame == NULL) return UB_ERR_INVAL;
+#ifdef UB_TPL_HW
+    if (__builtin_expect(payload_size == t->fast_size, 1) && cap >= t->fast_len)
+        return tpl_finish_sse42(t, frame, cap, payload_size, seq);
+#endif
+    return tpl_finish_slow(t, frame, cap, payload_size, seq);
+}
+
+/* Whether `t` is primed for h: the header words of h (seq zero, checks zero, as tpl_init stores them) against
+ * the template's bytes, eight 64-bit compares -- a few dozen instructions where a new template or an untemplated
+ * build runs the CRC over the whole header. A zeroed template has no sync bytes, so it never matches. */
+int ub_frame_tpl_finish_header(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, const ub_frame_header_t *h) {
+    if (t == NULL || frame == NULL || h == NULL || h->flags != 0) return UB_ERR_INVAL;
+    uint64_t w[8];
+    header_words(h, 0, w);
+    w[6] &= 0xFFFFFFFFull;
+    uint64_t diff = 0;
+    for (int k = 0; k < 8; k++) diff |= w[k] ^ ub_get_u64le(t->header + 8 * k);
+    if (diff != 0) {
+        int rc = ub_frame_tpl_init(t, h);
+        if (rc < 0) return rc;
+    }
+    return ub_frame_tpl_finish(t, frame, cap, h->payload_size, h->seq);
 }
 
 int ub_frame_parse_reason(const uint8_t *frame, size_t len, ub_frame_header_t *h, ub_rx_reason_t *reason) {
@@ -416,9 +463,16 @@ static size_t scan_in_place(ub_decoder_t *d, const uint8_t *data, size_t len, si
     size_t delivered = 0;
     size_t run = pos;
     while (pos < len) {
-        const uint8_t *hit = memchr(data + pos, UB_SYNC0, len - pos);
-        pos = hit == NULL ? len : (size_t)(hit - data);
-        if (pos == len) break;
+        /* Frames arrive back to back, so the next one usually starts right here: one byte compare instead of
+         * a memchr() call (about 18 instructions a frame); the search runs only between frames. */
+        if (data[pos] != UB_SYNC0) {
+            const uint8_t *hit = memchr(data + pos, UB_SYNC0, len - pos);
+            if (hit == NULL) {
+                pos = len;
+                break;
+            }
+            pos = (size_t)(hit - data);
+        }
         size_t rest = len - pos;
         if (rest >= 2 && data[pos + 1] != UB_SYNC1) {
             pos++;

@@ -477,7 +477,10 @@ static int form_get(ub_node_t *node, tx_forms_t *f, int form) {
         h.flags = 0;
         h.key_id = 0;
         h.counter_hi = 0;
-        n = ub_frame_finish(f->buf[form], UB_FRAME_MAX, &h);
+        /* Through the node's header templates (by content ID and destination): a row sending again continues
+         * the CRC of its fixed header bytes instead of recomputing it; same bytes as ub_frame_finish(). */
+        unsigned slot = (unsigned)(h.dir_id[UB_DIR_ID_LEN - 1] ^ h.dest_id[UB_ENTITY_ID_LEN - 1]) % UB_NODE_TPL_CACHE;
+        n = ub_frame_tpl_finish_header(&node->tpl[slot], f->buf[form], UB_FRAME_MAX, &h);
     } else {
         h.flags = form == FORM_SIGNED ? UB_FRAME_FLAG_SIGNED : UB_FRAME_FLAG_ENCRYPTED;
         if (f->origin) h.flags |= UB_FRAME_FLAG_ORIGIN;
