@@ -25,6 +25,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "support/ub_test_foreign.h"
 #include "support/ub_test_pair.h"
 #include "support/ub_test_pty.h"
 #include "ub/ub_ports.h"
@@ -187,19 +188,6 @@ static void test_reopen_backoff_reaches_its_ceiling(void **state) {
     assert_int_equal(wait, UB_SERIAL_RETRY_MAX_MS); /* reached, and held for the last retries */
     ub_serial_close(&dev);
     pair_free(p);
-}
-
-typedef struct handler {
-    uint8_t got[256];
-    size_t len;
-} handler_t;
-
-static size_t on_foreign(void *user, const uint8_t *run, size_t len) {
-    handler_t *h = user;
-    assert_true(h->len + len <= sizeof h->got);
-    memcpy(h->got + h->len, run, len);
-    h->len += len;
-    return len;
 }
 
 static void test_foreign_handler_and_refusals(void **state) {

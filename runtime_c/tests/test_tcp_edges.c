@@ -24,6 +24,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include "support/ub_test_foreign.h"
 #include "support/ub_test_pair.h"
 #include "support/ub_test_tcp_pair.h"
 #include "ub/ub_tcp.h"
@@ -44,19 +45,6 @@
     } while (0)
 
 #define CONNECTED(t) (ub_tcp_state(&(t)->client) == UB_TCP_UP && ub_tcp_state(&(t)->server) == UB_TCP_UP)
-
-typedef struct handler {
-    uint8_t got[512];
-    size_t len;
-} handler_t;
-
-static size_t on_foreign(void *user, const uint8_t *run, size_t len) {
-    handler_t *h = user;
-    assert_true(h->len + len <= sizeof h->got);
-    memcpy(h->got + h->len, run, len);
-    h->len += len;
-    return len;
-}
 
 /* A real DATA frame of gpsOut from pub to sub, built by the pub node (captured instead of sent). */
 static size_t data_frame(pair_t *p, uint8_t *out) {
