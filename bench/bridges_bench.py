@@ -39,9 +39,12 @@ import tempfile
 import time
 from pathlib import Path
 
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests" / "bridges"))  # bridge_testutil: the topology the bridge test drives
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import common as mavlink2  # noqa: E402
 
+from bridge_testutil import close_all, two_bridges_config  # noqa: E402
 from uavbus import Node  # noqa: E402
 from uavbus.sim.portalloc import PortAllocator  # noqa: E402
 from uavbus.sim.process import NodeProcess  # noqa: E402
@@ -256,16 +259,8 @@ def zenoh_config(tmp: Path, bridged: bool) -> tuple[Path, int]:
                "nodes": {"A": ["srcA"], "B": ["dstB"]},
                "ports": {"srcA:l": udp_port("A", "B"), "dstB:l": udp_port("B", "A")}}
     else:
-        cfg = {"system": "zbench",
-               "entities": [{"name": "srcA", "links": ["l"], "linktoentity": {"dstB": [0], "gwA": [0], "gwB": [0]}},
-                            {"name": "gwA", "links": ["site", "zenoh"],
-                             "linktoentity": {"srcA": ["site"], "dstB": ["zenoh"], "gwB": ["zenoh"]}},
-                            {"name": "gwB", "links": ["site", "zenoh"],
-                             "linktoentity": {"dstB": ["site"], "srcA": ["zenoh"], "gwA": ["zenoh"]}},
-                            {"name": "dstB", "links": ["l"], "linktoentity": {"srcA": [0], "gwA": [0], "gwB": [0]}}],
-               "nodes": {"A": ["srcA"], "B": ["dstB"], "gwA": ["gwA"], "gwB": ["gwB"]},
-               "ports": {"srcA:l": udp_port("A", "gwA"), "gwA:site": udp_port("gwA", "A"),
-                         "gwB:site": udp_port("gwB", "B"), "dstB:l": udp_port("B", "gwB")}}
+        # the one topology the Zenoh bridge test drives (tests/bridges/bridge_testutil.py), with these ports
+        cfg = two_bridges_config("zbench", a, HOST)
     path = tmp / ("zbridged.json" if bridged else "zdirect.json")
     path.write_text(json.dumps(cfg))
     return path, ports.port()
@@ -493,11 +488,7 @@ def zenoh_calls_per_frame(catalogue: str, tmp: Path, n: int = 2000) -> dict:
                 "loop_cpu_us_per_frame": timed["cpu_s"] / timed["crossed"] * 1e6 if timed["crossed"] else float("nan"),
                 "in_process_rate": timed["crossed"] / timed["wall_s"] if timed["wall_s"] else 0.0}
     finally:
-        for close in reversed(closers):
-            try:
-                close()
-            except Exception:  # noqa: BLE001 (closing anyway)
-                pass
+        close_all(closers)
 
 
 def lat_summary(xs: list[float]) -> dict:

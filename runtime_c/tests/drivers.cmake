@@ -1,6 +1,7 @@
 # Socket and serial driver tests (test_udp, test_tcp, test_serial, test_legacy_link, test_tcp_edges,
 # test_serial_edges): they reuse the router tests' support (hand-written catalogue, the two-node pair) and
-# replace the pair's memlink with a real transport.
+# replace the pair's memlink with a real transport (header-only: support/ub_test_pty.h,
+# support/ub_test_tcp_pair.h, support/ub_test_foreign.h).
 foreach(t test_udp test_tcp test_serial test_legacy_link test_tcp_edges test_serial_edges)
   if(TARGET ${t})
     target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c

@@ -26,6 +26,14 @@ static ub_frame_header_t vector_header(const frame_vector_t *v) {
     return h;
 }
 
+/* Lays vector `v`'s payload into `frame` (UB_FRAME_MAX bytes, the rest 0xEE so that a byte the builder
+ * forgets shows) and returns its header, ready for a builder to finish. */
+static ub_frame_header_t vector_frame(const frame_vector_t *v, uint8_t *frame) {
+    memset(frame, 0xEE, UB_FRAME_MAX);
+    memcpy(frame + UB_FRAME_HEADER_LEN, v->payload, v->payload_len);
+    return vector_header(v);
+}
+
 static void assert_header_matches(const ub_frame_header_t *got, const frame_vector_t *v) {
     assert_int_equal(got->msg_type, UB_MSG_TYPE_PUBSUB);
     assert_memory_equal(got->dir_id, v->dir_id, UB_DIR_ID_LEN);
@@ -49,9 +57,7 @@ static void test_build_matches_reference_byte_for_byte(void **state) {
     for (size_t i = 0; i < FRAME_VECTOR_COUNT; i++) {
         const frame_vector_t *v = &frame_vectors[i];
         uint8_t frame[UB_FRAME_MAX];
-        memset(frame, 0xEE, sizeof frame);
-        memcpy(frame + UB_FRAME_HEADER_LEN, v->payload, v->payload_len);
-        ub_frame_header_t h = vector_header(v);
+        ub_frame_header_t h = vector_frame(v, frame);
         h.msg_type = 0x1234; /* ignored by finish: it always writes UB_MSG_TYPE_PUBSUB */
         print_message("vector %s (%zu bytes)\n", v->name, v->frame_len);
         assert_int_equal(ub_frame_finish(frame, sizeof frame, &h), (int)v->frame_len);
@@ -152,9 +158,7 @@ static void test_fast_paths_reproduce_vectors(void **state) {
     for (size_t i = 0; i < FRAME_VECTOR_COUNT; i++) {
         const frame_vector_t *v = &frame_vectors[i];
         uint8_t frame[UB_FRAME_MAX];
-        memset(frame, 0xEE, sizeof frame);
-        memcpy(frame + UB_FRAME_HEADER_LEN, v->payload, v->payload_len);
-        ub_frame_header_t h = vector_header(v);
+        ub_frame_header_t h = vector_frame(v, frame);
         ub_frame_tpl_t t;
         assert_int_equal(ub_frame_tpl_init(&t, &h), UB_OK);
         assert_int_equal(ub_frame_tpl_finish(&t, frame, sizeof frame, (uint16_t)v->payload_len, v->seq), (int)v->frame_len);

@@ -28,6 +28,7 @@
 #include <unistd.h>
 
 #include "support/ub_test_pair.h"
+#include "support/ub_test_pty.h"
 #include "ub/ub_frame.h"
 #include "ub/ub_legacy_link.h"
 #include "ub/ub_ports.h"
@@ -35,18 +36,6 @@
 #include "ub/ub_wire.h"
 
 #define UAVBUS_TYPE 200u
-
-static int open_pty_master(char *slave_path, size_t cap) {
-    int master = posix_openpt(O_RDWR | O_NOCTTY | O_NONBLOCK);
-    assert_true(master >= 0);
-    assert_int_equal(grantpt(master), 0);
-    assert_int_equal(unlockpt(master), 0);
-    const char *name = ptsname(master);
-    assert_non_null(name);
-    assert_true(strlen(name) < cap);
-    strcpy(slave_path, name);
-    return master;
-}
 
 static void write_all(int fd, const uint8_t *data, size_t len) {
     size_t off = 0;
@@ -135,7 +124,7 @@ static void test_frames_and_legacy_messages_share_the_wire(void **state) {
     assert_non_null(ports);
     assert_int_equal(ub_ports_init(ports, p->sub_node), UB_OK);
     char slave[128], spec[200], err[UB_PORTS_ERR_LEN];
-    int master = open_pty_master(slave, sizeof slave);
+    int master = open_pty_master(slave, sizeof slave, O_NONBLOCK);
     snprintf(spec, sizeof spec, "legacy:device=%s,baud=57600,type=%u", slave, UAVBUS_TYPE);
     assert_int_equal(ub_ports_open_text(ports, "subPort", spec, 0, err, sizeof err), UB_OK);
     handler_t h = {.take_max = SIZE_MAX};
@@ -236,10 +225,8 @@ static void test_hangup_reopens_and_starts_the_parser_afresh(void **state) {
     assert_non_null(ports);
     assert_int_equal(ub_ports_init(ports, p->sub_node), UB_OK);
     char slave[128], link_path[96], spec[200], err[UB_PORTS_ERR_LEN];
-    int master = open_pty_master(slave, sizeof slave);
-    snprintf(link_path, sizeof link_path, "/tmp/ub_test_legacy_tty_%ld", (long)getpid());
-    unlink(link_path);
-    assert_int_equal(symlink(slave, link_path), 0);
+    int master = open_pty_master(slave, sizeof slave, O_NONBLOCK);
+    pty_symlink(link_path, sizeof link_path, "legacy_tty", slave);
     snprintf(spec, sizeof spec, "legacy:device=%s", link_path); /* default baud and type */
     assert_int_equal(ub_ports_open_text(ports, "subPort", spec, 0, err, sizeof err), UB_OK);
     assert_int_equal(lk(ports)->type, UB_LEGACY_DEFAULT_TYPE);
@@ -265,7 +252,7 @@ static void test_hangup_reopens_and_starts_the_parser_afresh(void **state) {
     assert_true(timeout >= 0 && timeout <= (int)UB_SERIAL_RETRY_MIN_MS);
 
     /* Re-plugged: a new pty behind the same path. At the retry time the port reopens it. */
-    master = open_pty_master(slave, sizeof slave);
+    master = open_pty_master(slave, sizeof slave, O_NONBLOCK);
     unlink(link_path);
     assert_int_equal(symlink(slave, link_path), 0);
     uint64_t noise = counter(ports, "noise_bytes");

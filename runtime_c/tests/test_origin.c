@@ -380,17 +380,34 @@ static void test_revoked_peer_is_refused_within_the_recheck(void **state) {
     line_free(L);
 }
 
+/* The pair-cache tests' fleet: "me" (index 0), then UB_ORIGIN_PEERS + 8 peers p0.. (indexes 1..), more than
+ * the cache holds. */
+static void fleet_me_and_peers(fleet_t *fl) {
+    memset(fl, 0, sizeof *fl);
+    fleet_add(fl, "me");
+    char name[16];
+    for (int i = 0; i < UB_ORIGIN_PEERS + 8; i++) {
+        snprintf(name, sizeof name, "p%d", i);
+        fleet_add(fl, name);
+    }
+}
+
+/* A header from "me" (fleet index 0) to fleet member `peer`, hop limit 8, for a payload of `payload_size`. */
+static ub_frame_header_t me_to(const fleet_t *fl, int peer, uint16_t payload_size) {
+    ub_frame_header_t h;
+    memset(&h, 0, sizeof h);
+    memcpy(h.dest_id, fl->id[peer], UB_ENTITY_ID_LEN);
+    memcpy(h.src_id, fl->id[0], UB_ENTITY_ID_LEN);
+    h.hop_limit = 8;
+    h.payload_size = payload_size;
+    return h;
+}
+
 /* Seals through the service's hook for `n` distinct peers, touching peer 0 before each new one. */
 static void test_pair_cache_evicts_the_least_recently_used(void **state) {
     (void)state;
     static fleet_t fl;
-    memset(&fl, 0, sizeof fl);
-    fleet_add(&fl, "me");
-    char name[16];
-    for (int i = 0; i < UB_ORIGIN_PEERS + 8; i++) {
-        snprintf(name, sizeof name, "p%d", i);
-        fleet_add(&fl, name);
-    }
+    fleet_me_and_peers(&fl);
     world_t *w = world_new();
     ub_node_t *n = world_node(w, &ub_test_cat, NULL);
     int me = ub_node_add_entity_name(n, "me", true);
@@ -404,12 +421,7 @@ static void test_pair_cache_evicts_the_least_recently_used(void **state) {
     for (int i = 1; i <= UB_ORIGIN_PEERS + 8; i++) {
         for (int pass = 0; pass < 2; pass++) {
             int peer = pass == 0 ? 1 : i;
-            ub_frame_header_t h;
-            memset(&h, 0, sizeof h);
-            memcpy(h.dest_id, fl.id[peer], UB_ENTITY_ID_LEN);
-            memcpy(h.src_id, fl.id[0], UB_ENTITY_ID_LEN);
-            h.hop_limit = 8;
-            h.payload_size = sizeof payload;
+            ub_frame_header_t h = me_to(&fl, peer, sizeof payload);
             ub_drop_reason_t drop = UB_DROP_NO_ROUTE;
             assert_int_equal(org.svc.seal(&org.svc, n, slot, &h, payload, 10, &drop), 1);
             assert_int_equal(h.origin_hop0, 8);
@@ -503,13 +515,7 @@ static void test_provisioned_pairs_interoperate_with_derived_ones(void **state) 
 static void test_provisioned_pairs_are_never_evicted(void **state) {
     (void)state;
     static fleet_t fl;
-    memset(&fl, 0, sizeof fl);
-    fleet_add(&fl, "me");
-    char name[16];
-    for (int i = 0; i < UB_ORIGIN_PEERS + 8; i++) {
-        snprintf(name, sizeof name, "p%d", i);
-        fleet_add(&fl, name);
-    }
+    fleet_me_and_peers(&fl);
     world_t *w = world_new();
     ub_node_t *n = world_node(w, &ub_test_cat, NULL);
     int slot = ub_node_entity_slot(n, ub_node_add_entity_name(n, "me", true));
@@ -522,22 +528,12 @@ static void test_provisioned_pairs_are_never_evicted(void **state) {
     assert_int_equal(ub_origin_add_pair(&org, fl.id[0], fl.id[1], k_tx, k_rx), UB_OK);
     uint8_t payload[4] = {1, 2, 3, 4};
     for (int i = 2; i <= UB_ORIGIN_PEERS + 8; i++) {
-        ub_frame_header_t h;
-        memset(&h, 0, sizeof h);
-        memcpy(h.dest_id, fl.id[i], UB_ENTITY_ID_LEN);
-        memcpy(h.src_id, fl.id[0], UB_ENTITY_ID_LEN);
-        h.hop_limit = 8;
-        h.payload_size = sizeof payload;
+        ub_frame_header_t h = me_to(&fl, i, sizeof payload);
         ub_drop_reason_t drop = UB_DROP_NO_ROUTE;
         assert_int_equal(org.svc.seal(&org.svc, n, slot, &h, payload, 10, &drop), 1);
     }
     uint64_t lookups = ub_origin_stats(&org)->lookups;
-    ub_frame_header_t h;
-    memset(&h, 0, sizeof h);
-    memcpy(h.dest_id, fl.id[1], UB_ENTITY_ID_LEN);
-    memcpy(h.src_id, fl.id[0], UB_ENTITY_ID_LEN);
-    h.hop_limit = 8;
-    h.payload_size = sizeof payload;
+    ub_frame_header_t h = me_to(&fl, 1, sizeof payload);
     ub_drop_reason_t drop = UB_DROP_NO_ROUTE;
     assert_int_equal(org.svc.seal(&org.svc, n, slot, &h, payload, 10000, &drop), 1);   /* long after any recheck */
     uint8_t want[8];

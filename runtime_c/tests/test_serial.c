@@ -22,6 +22,7 @@
 
 #include "support/ub_test_link_events.h"
 #include "support/ub_test_pair.h"
+#include "support/ub_test_pty.h"
 #include "ub/ub_pubsub.h"
 #include "ub/ub_serial.h"
 
@@ -32,24 +33,12 @@ typedef struct serial_pair {
     ub_serial_t master_end; /* pub side */
 } serial_pair_t;
 
-static int open_pty_master(char *slave_path, size_t cap) {
-    int master = posix_openpt(O_RDWR | O_NOCTTY);
-    assert_true(master >= 0);
-    assert_int_equal(grantpt(master), 0);
-    assert_int_equal(unlockpt(master), 0);
-    const char *name = ptsname(master);
-    assert_non_null(name);
-    assert_true(strlen(name) < cap);
-    strcpy(slave_path, name);
-    return master;
-}
-
 static serial_pair_t *serial_pair_new(void) {
     serial_pair_t *s = calloc(1, sizeof *s);
     assert_non_null(s);
     s->p = pair_new(NULL);
     char slave_path[128];
-    s->master = open_pty_master(slave_path, sizeof slave_path);
+    s->master = open_pty_master(slave_path, sizeof slave_path, 0);
     /* Raw mode on the slave first: with the default line discipline the pty would echo and translate bytes. */
     assert_int_equal(ub_serial_open(&s->slave_end, slave_path, 115200), UB_OK);
     assert_int_equal(ub_serial_adopt(&s->master_end, s->master, 0), UB_OK);
@@ -206,10 +195,8 @@ static void test_hangup_detected_counted_and_reopened(void **state) {
     (void)state;
     pair_t *p = pair_new(NULL);
     char slave_path[128], link_path[96];
-    int master = open_pty_master(slave_path, sizeof slave_path);
-    snprintf(link_path, sizeof link_path, "/tmp/ub_test_tty_%ld", (long)getpid());
-    unlink(link_path);
-    assert_int_equal(symlink(slave_path, link_path), 0);
+    int master = open_pty_master(slave_path, sizeof slave_path, 0);
+    pty_symlink(link_path, sizeof link_path, "tty", slave_path);
     ub_serial_t dev, far;
     assert_int_equal(ub_serial_open(&dev, link_path, 115200), UB_OK);
     assert_int_equal(ub_serial_adopt(&far, master, 0), UB_OK);
@@ -272,7 +259,7 @@ static void test_hangup_detected_counted_and_reopened(void **state) {
         assert_int_equal(due, t + expected_wait);
     }
     /* Re-plugged: the symlink now names a new pty. The driver reopens it and the data flows again. */
-    master = open_pty_master(slave_path, sizeof slave_path);
+    master = open_pty_master(slave_path, sizeof slave_path, 0);
     unlink(link_path);
     assert_int_equal(symlink(slave_path, link_path), 0);
     assert_int_equal(ub_serial_adopt(&far, master, 0), UB_OK);

@@ -25,21 +25,11 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "support/ub_test_foreign.h"
 #include "support/ub_test_pair.h"
+#include "support/ub_test_pty.h"
 #include "ub/ub_ports.h"
 #include "ub/ub_serial.h"
-
-static int open_pty_master(char *slave_path, size_t cap) {
-    int master = posix_openpt(O_RDWR | O_NOCTTY | O_NONBLOCK);
-    assert_true(master >= 0);
-    assert_int_equal(grantpt(master), 0);
-    assert_int_equal(unlockpt(master), 0);
-    const char *name = ptsname(master);
-    assert_non_null(name);
-    assert_true(strlen(name) < cap);
-    strcpy(slave_path, name);
-    return master;
-}
 
 #define MSG_LEN 200
 
@@ -66,7 +56,7 @@ static void test_backpressure_then_flush_at_service(void **state) {
     (void)state;
     pair_t *p = pair_new(NULL);
     char slave[128];
-    int master = open_pty_master(slave, sizeof slave);
+    int master = open_pty_master(slave, sizeof slave, O_NONBLOCK);
     static ub_serial_t dev;
     assert_int_equal(ub_serial_open(&dev, slave, 115200), UB_OK);
     assert_int_equal(ub_serial_attach(&dev, p->sub_node, p->sub_link), UB_OK);
@@ -170,10 +160,8 @@ static void test_reopen_backoff_reaches_its_ceiling(void **state) {
     (void)state;
     pair_t *p = pair_new(NULL);
     char slave[128], link_path[96];
-    int master = open_pty_master(slave, sizeof slave);
-    snprintf(link_path, sizeof link_path, "/tmp/ub_test_tty_edges_%ld", (long)getpid());
-    unlink(link_path);
-    assert_int_equal(symlink(slave, link_path), 0);
+    int master = open_pty_master(slave, sizeof slave, O_NONBLOCK);
+    pty_symlink(link_path, sizeof link_path, "tty_edges", slave);
     static ub_serial_t dev;
     assert_int_equal(ub_serial_open(&dev, link_path, 9600), UB_OK);
     assert_int_equal(ub_serial_attach(&dev, p->sub_node, p->sub_link), UB_OK);
@@ -202,24 +190,11 @@ static void test_reopen_backoff_reaches_its_ceiling(void **state) {
     pair_free(p);
 }
 
-typedef struct handler {
-    uint8_t got[256];
-    size_t len;
-} handler_t;
-
-static size_t on_foreign(void *user, const uint8_t *run, size_t len) {
-    handler_t *h = user;
-    assert_true(h->len + len <= sizeof h->got);
-    memcpy(h->got + h->len, run, len);
-    h->len += len;
-    return len;
-}
-
 static void test_foreign_handler_and_refusals(void **state) {
     (void)state;
     pair_t *p = pair_new(NULL);
     char slave[128];
-    int master = open_pty_master(slave, sizeof slave);
+    int master = open_pty_master(slave, sizeof slave, O_NONBLOCK);
     static ub_serial_t dev;
     assert_int_equal(ub_serial_open(&dev, slave, 115200), UB_OK);
     /* refusals before it is attached */

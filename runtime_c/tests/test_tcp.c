@@ -20,39 +20,9 @@
 
 #include "support/ub_test_link_events.h"
 #include "support/ub_test_pair.h"
+#include "support/ub_test_tcp_pair.h"
 #include "ub/ub_pubsub.h"
 #include "ub/ub_tcp.h"
-
-typedef struct tcp_pair {
-    pair_t *p;
-    ub_tcp_t client; /* pub side */
-    ub_tcp_t server; /* sub side */
-    uint16_t port;
-} tcp_pair_t;
-
-static void open_server(tcp_pair_t *t, uint16_t port) {
-    assert_int_equal(ub_tcp_server_open(&t->server, "127.0.0.1", port, NULL), UB_OK);
-    assert_int_equal(ub_tcp_local_port(&t->server, &t->port), UB_OK);
-    assert_int_equal(ub_tcp_attach(&t->server, t->p->sub_node, t->p->sub_link), UB_OK);
-}
-
-static tcp_pair_t *tcp_pair_new(void) {
-    tcp_pair_t *t = calloc(1, sizeof *t);
-    assert_non_null(t);
-    t->p = pair_new(NULL);
-    open_server(t, 0);
-    ub_tcp_options_t opt = {.backoff_initial_ms = 20, .backoff_max_ms = 160};
-    assert_int_equal(ub_tcp_client_init(&t->client, "127.0.0.1", t->port, &opt), UB_OK);
-    assert_int_equal(ub_tcp_attach(&t->client, t->p->pub_node, t->p->pub_link), UB_OK);
-    return t;
-}
-
-static void tcp_pair_free(tcp_pair_t *t) {
-    ub_tcp_close(&t->client);
-    ub_tcp_close(&t->server);
-    pair_free(t->p);
-    free(t);
-}
 
 /* Waits (real time, at most `wait_ms`) until one of the pair's descriptors has something to do. */
 static void wait_ready(tcp_pair_t *t, int wait_ms) {
@@ -129,7 +99,7 @@ static void test_server_restart_client_reconnects(void **state) {
     assert_true(ub_node_link(p->pub_node, p->pub_link)->counters.drops[UB_DROP_TX_ERROR] >= 1); /* counted gap */
     size_t during = p->log.n;
 
-    open_server(t, port); /* restarted on the same port */
+    tcp_pair_open_server(t, port); /* restarted on the same port */
     now = run_until_connected(t, now);
     run(t, now, now + 500);
     assert_int_equal(ub_tcp_stats(&t->client)->reconnects, 1);

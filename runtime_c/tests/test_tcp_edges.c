@@ -24,35 +24,10 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include "support/ub_test_foreign.h"
 #include "support/ub_test_pair.h"
+#include "support/ub_test_tcp_pair.h"
 #include "ub/ub_tcp.h"
-
-typedef struct tcp_pair {
-    pair_t *p;
-    ub_tcp_t client; /* pub side */
-    ub_tcp_t server; /* sub side */
-    uint16_t port;
-} tcp_pair_t;
-
-static tcp_pair_t *tcp_pair_new(void) {
-    tcp_pair_t *t = calloc(1, sizeof *t);
-    assert_non_null(t);
-    t->p = pair_new(NULL);
-    assert_int_equal(ub_tcp_server_open(&t->server, "127.0.0.1", 0, NULL), UB_OK);
-    assert_int_equal(ub_tcp_local_port(&t->server, &t->port), UB_OK);
-    assert_int_equal(ub_tcp_attach(&t->server, t->p->sub_node, t->p->sub_link), UB_OK);
-    ub_tcp_options_t opt = {.backoff_initial_ms = 20, .backoff_max_ms = 160};
-    assert_int_equal(ub_tcp_client_init(&t->client, "127.0.0.1", t->port, &opt), UB_OK);
-    assert_int_equal(ub_tcp_attach(&t->client, t->p->pub_node, t->p->pub_link), UB_OK);
-    return t;
-}
-
-static void tcp_pair_free(tcp_pair_t *t) {
-    ub_tcp_close(&t->client);
-    ub_tcp_close(&t->server);
-    pair_free(t->p);
-    free(t);
-}
 
 /* Serves both ends (simulated clock `*now`, advanced 1 ms a round) until `cond` holds; at most ~4 s real. */
 #define SERVE_UNTIL(t, now, cond)                                                                             \
@@ -70,19 +45,6 @@ static void tcp_pair_free(tcp_pair_t *t) {
     } while (0)
 
 #define CONNECTED(t) (ub_tcp_state(&(t)->client) == UB_TCP_UP && ub_tcp_state(&(t)->server) == UB_TCP_UP)
-
-typedef struct handler {
-    uint8_t got[512];
-    size_t len;
-} handler_t;
-
-static size_t on_foreign(void *user, const uint8_t *run, size_t len) {
-    handler_t *h = user;
-    assert_true(h->len + len <= sizeof h->got);
-    memcpy(h->got + h->len, run, len);
-    h->len += len;
-    return len;
-}
 
 /* A real DATA frame of gpsOut from pub to sub, built by the pub node (captured instead of sent). */
 static size_t data_frame(pair_t *p, uint8_t *out) {

@@ -14,6 +14,7 @@ import shutil
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -26,19 +27,10 @@ import tables  # noqa: E402  (bench/tables.py)
 
 
 @pytest.fixture(scope="session")
-def loop_bench(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def loop_bench(tmp_path_factory: pytest.TempPathFactory, build_bench: Callable[..., Path]) -> Path:
     out = tmp_path_factory.mktemp("loop_bench")
-    subprocess.run([sys.executable, "-m", "uavbus.cli", "gen", str(ROOT / "bench/catalogue/bench_msgs.h"), "--name",
-                    "benchcat", "-o", str(out / "gen")], check=True, cwd=ROOT, capture_output=True)
-    sodium = subprocess.run(["pkg-config", "--libs", "libsodium"], capture_output=True, text=True,
-                            check=True).stdout.split()
-    exe = out / "loop_bench"
-    subprocess.run(["gcc", "-O1", "-std=gnu11", "-Wall", "-Wextra", "-Werror", "-D_POSIX_C_SOURCE=200809L",
-                    "-DUB_SECURITY=1", "-Iruntime_c/include", "-Iruntime_c/src", "-Ibench/catalogue",
-                    f"-I{out / 'gen'}", "bench/src/loop_bench.c", str(out / "gen/benchcat.c"),
-                    *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "runtime_c/src").glob("*/*.c")),
-                    *sodium, "-lm", "-o", str(exe)], check=True, cwd=ROOT)
-    return exe
+    # its own catalogue code too: loop_bench packs the bench contents itself
+    return build_bench(out, "loop_bench", "-Ibench/catalogue", f"-I{out / 'gen'}", str(out / "gen/benchcat.c"))
 
 
 def kv(line: str) -> dict[str, str]:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -19,17 +20,9 @@ import prio_tables  # noqa: E402  (bench/prio_tables.py)
 
 
 @pytest.fixture(scope="module")
-def figure(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def figure(tmp_path_factory: pytest.TempPathFactory, build_bench: Callable[..., Path]) -> Path:
     out = tmp_path_factory.mktemp("prio")
-    subprocess.run([sys.executable, "-m", "uavbus.cli", "gen", str(ROOT / "bench/catalogue/bench_msgs.h"), "--name",
-                    "benchcat", "-o", str(out / "gen")], check=True, cwd=ROOT, capture_output=True)
-    sodium = subprocess.run(["pkg-config", "--libs", "libsodium"], capture_output=True, text=True,
-                            check=True).stdout.split()
-    exe = out / "prio_bench"
-    subprocess.run(["gcc", "-O1", "-std=gnu11", "-Wall", "-Wextra", "-Werror", "-D_POSIX_C_SOURCE=200809L",
-                    "-DUB_SECURITY=1", "-Iruntime_c/include", "-Iruntime_c/src", "bench/src/prio_bench.c",
-                    *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "runtime_c/src").glob("*/*.c")),
-                    *sodium, "-lm", "-o", str(exe)], check=True, cwd=ROOT)
+    exe = build_bench(out, "prio_bench")
     raw = out / "raw"
     raw.mkdir()
     r = subprocess.run([sys.executable, "bench/prio_bench.py", str(out / "gen/benchcat.catalogue.json"), str(exe),

@@ -16,6 +16,7 @@ import time
 
 import pytest
 
+from bridge_testutil import close_all, two_bridges_config
 from uavbus import Node
 from uavbus._bindings import ub_batchlink
 from uavbus.bridges.zenoh_bridge import (BATCH_HEADER, BatchError, ZenohBridge, batch_spans, encode_batch,
@@ -85,21 +86,7 @@ def test_damaged_and_foreign_payloads_are_refused_by_reason():
 
 def _config(path, ports: PortAllocator) -> None:
     a = {k: ports.port() for k in ("A", "B", "gwA", "gwB")}
-
-    def udp(bind: str, peer: str) -> dict:
-        return {"transport": "udp", "bind": f"127.0.0.1:{a[bind]}", "peer": f"127.0.0.1:{a[peer]}"}
-
-    path.write_text(json.dumps({
-        "system": "zbatch",
-        "entities": [{"name": "srcA", "links": ["l"], "linktoentity": {"dstB": [0], "gwA": [0], "gwB": [0]}},
-                     {"name": "gwA", "links": ["site", "zenoh"],
-                      "linktoentity": {"srcA": ["site"], "dstB": ["zenoh"], "gwB": ["zenoh"]}},
-                     {"name": "gwB", "links": ["site", "zenoh"],
-                      "linktoentity": {"dstB": ["site"], "srcA": ["zenoh"], "gwA": ["zenoh"]}},
-                     {"name": "dstB", "links": ["l"], "linktoentity": {"srcA": [0], "gwA": [0], "gwB": [0]}}],
-        "nodes": {"A": ["srcA"], "B": ["dstB"], "gwA": ["gwA"], "gwB": ["gwB"]},
-        "ports": {"srcA:l": udp("A", "gwA"), "gwA:site": udp("gwA", "A"),
-                  "gwB:site": udp("gwB", "B"), "dstB:l": udp("B", "gwB")}}))
+    path.write_text(json.dumps(two_bridges_config("zbatch", a)))
 
 
 def test_burst_through_two_bridges_arrives_whole_in_order(tmp_path, uavbus_node):
@@ -182,11 +169,7 @@ def test_burst_through_two_bridges_arrives_whole_in_order(tmp_path, uavbus_node)
         assert sorted(e["reason"] for e in gb.events if e.get("event") == "refused") == \
             ["batch_foreign", "batch_malformed", "batch_version"]
     finally:
-        for close in reversed(closers):
-            try:
-                close()
-            except Exception:  # noqa: BLE001 (closing anyway)
-                pass
+        close_all(closers)
 
 
 def test_a_lone_frame_leaves_at_once_and_followers_share_a_sample(tmp_path, uavbus_node):
@@ -242,8 +225,4 @@ def test_a_lone_frame_leaves_at_once_and_followers_share_a_sample(tmp_path, uavb
         assert gw.counters["published"] == 7 and gw.zlink.pending == 0 and not gw.holding()
         assert gw.counters["samples_out"] >= 3 and gw.counters["put_errors"] == 0
     finally:
-        for close in reversed(closers):
-            try:
-                close()
-            except Exception:  # noqa: BLE001 (closing anyway)
-                pass
+        close_all(closers)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import os
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -27,10 +27,6 @@ from uavbus.sim.qemu import QemuBoard, qemu_missing
 IMU_MS = 20
 TURN_R = 0.2 * 0.971343      # flight_model.c: yaw rate of the coordinated turn, body z (rad/s)
 PROVISION_ADDR = 0x1F000     # bsp/mps2_an386/mps2_an386.ld: the PROVISION sector
-
-
-def catalogue_of(elf: Path) -> Path:
-    return elf.parent / "uavbus" / "fcs" / "fcs.catalogue.json"
 
 
 @pytest.fixture(scope="module")
@@ -58,30 +54,15 @@ def secure_board(firmware: Path, fleet: Path) -> Iterator[QemuBoard]:
 
 
 @pytest.fixture(scope="module")
-def gcs(secure_board: QemuBoard, firmware: Path, fleet: Path) -> Iterator[Node]:
-    node = Node(catalogue_of(firmware), config=fleet, node="gcs")
-    assert node.identity is not None
-    node.bind("imuOut")
-    node.inbox = []   # (name, source, value) of every DATA delivered
-    node.on_data(lambda msg: node.inbox.append((msg.name, msg.source, msg.value)))
-    node.open_port("uart", f"serial:device={secure_board.pty},baud=115200")
-    yield node
-    node.close()
+def gcs(secure_board: QemuBoard, open_host: Callable[..., Node], fleet: Path) -> Node:
+    def has_identity(node: Node) -> None:
+        assert node.identity is not None
+
+    return open_host(secure_board.pty, config=fleet, setup=has_identity)
 
 
-def pump(node: Node, seconds: float) -> None:
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        node.poll(0.02)
-
-
-def collect(node: Node, content: str, seconds: float) -> list[dict]:
-    start = len(node.inbox)
-    pump(node, seconds)
-    return [v for name, source, v in node.inbox[start:] if name == content and source == "fcs20"]
-
-
-def test_board_answers_a_subscription_with_verified_origin_tags(secure_board: QemuBoard, gcs: Node) -> None:
+def test_board_answers_a_subscription_with_verified_origin_tags(secure_board: QemuBoard, gcs: Node,
+                                                                collect: Callable[..., list[dict]]) -> None:
     gcs.subscribe("gcs1", "imuOut", "fcs20", IMU_MS)
     deadline = time.monotonic() + 30.0   # boot, then each side challenges the other once
     first: list[dict] = []
@@ -97,8 +78,9 @@ def test_board_answers_a_subscription_with_verified_origin_tags(secure_board: Qe
     assert drops["bad_origin"] == drops["no_origin"] == drops["bad_tag"] == 0, drops
 
 
-def test_board_refuses_frames_in_gcs1s_name_without_its_key(secure_board: QemuBoard, gcs: Node,
-                                                          fleet: Path) -> None:
+def test_board_refuses_frames_in_gcs1s_name_without_its_key(secure_board: QemuBoard, gcs: Node, fleet: Path,
+                                                          pump: Callable[..., None],
+                                                          collect: Callable[..., list[dict]]) -> None:
     fcs = gcs.remote("fcs20", timeout=10.0)
     cal = fcs.get("imuCalibration")           # an origin-tagged request, verified on the board, answered
     assert cal["gyro"]["scale"] == [1.0, 1.0, 1.0], cal

@@ -11,7 +11,7 @@ defines, and the firmware's own tables read back over the bus.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -26,36 +26,14 @@ VEHICLE = {"entities": 16, "node_links": 4, "links_per_entity": 4, "pubsub_rows"
 TURN_R = 0.2 * 0.971343      # flight_model.c: yaw rate of the coordinated turn, body z (rad/s)
 
 
-def catalogue_of(elf: Path) -> Path:
-    return elf.parent / "uavbus" / "fcs" / "fcs.catalogue.json"
-
-
 @pytest.fixture(scope="module")
-def gcs(board: QemuBoard, firmware: Path) -> Iterator[Node]:
-    node = Node(catalogue_of(firmware), node="gcs")
-    node.add_entity("gcs1", local=True)
-    node.add_entity("fcs20")
-    node.add_link("gcs1", 0, "uart")
-    node.set_mask("gcs1", "fcs20", 1)
-    node.bind("imuOut")
-    node.inbox = []   # (name, source, value) of every DATA delivered
-    node.on_data(lambda msg: node.inbox.append((msg.name, msg.source, msg.value)))
-    node.open_port("uart", f"serial:device={board.pty},baud=115200")
-    yield node
-    node.close()
-
-
-def pump(node: Node, seconds: float) -> None:
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        node.poll(0.02)
-
-
-def collect(node: Any, content: str, seconds: float) -> list[dict[str, Any]]:
-    """What the board sent of `content` during the next `seconds`."""
-    start = len(node.inbox)
-    pump(node, seconds)
-    return [value for name, source, value in node.inbox[start:] if name == content and source == "fcs20"]
+def gcs(board: QemuBoard, open_host: Callable[..., Node]) -> Node:
+    def entities(node: Node) -> None:
+        node.add_entity("gcs1", local=True)
+        node.add_entity("fcs20")
+        node.add_link("gcs1", 0, "uart")
+        node.set_mask("gcs1", "fcs20", 1)
+    return open_host(board.pty, setup=entities)
 
 
 def test_firmware_fits_a_flight_controller(firmware: Path) -> None:
@@ -68,7 +46,7 @@ def test_firmware_fits_a_flight_controller(firmware: Path) -> None:
     assert size.text > 30_000 and size.bss > 16 * 1024, str(size)
 
 
-def test_board_answers_a_subscription(board: QemuBoard, gcs: Node) -> None:
+def test_board_answers_a_subscription(board: QemuBoard, gcs: Node, collect: Callable[..., Any]) -> None:
     gcs.subscribe("gcs1", "imuOut", "fcs20", IMU_MS)
     deadline = time.monotonic() + 20.0   # boot + the request's retries; generous on a loaded machine
     first: list[dict[str, Any]] = []
@@ -90,7 +68,8 @@ def test_board_answers_a_subscription(board: QemuBoard, gcs: Node) -> None:
     assert len(pubs) == 1 and pubs[0]["kind"] == "publication" and pubs[0]["period_ms"] == IMU_MS, pubs
 
 
-def test_board_is_inspected_and_written_over_the_bus(board: QemuBoard, gcs: Node) -> None:
+def test_board_is_inspected_and_written_over_the_bus(board: QemuBoard, gcs: Node, pump: Callable[..., None],
+                                                    collect: Callable[..., Any]) -> None:
     fcs = gcs.remote("fcs20", timeout=5.0)
     cal = fcs.get("imuCalibration")
     assert cal["gyro"]["scale"] == [1.0, 1.0, 1.0] and cal["calibrationDate"] == 20261126, cal

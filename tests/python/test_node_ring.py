@@ -21,24 +21,29 @@ flag_t flagOut;
 """
 
 
+def generate(tmp_path_factory: pytest.TempPathFactory, folder: str, name: str, header: str) -> Catalogue:
+    d = tmp_path_factory.mktemp(folder)
+    (d / f"{name}.h").write_text(header)
+    subprocess.run([sys.executable, "-m", "uavbus.cli", "gen", str(d / f"{name}.h"), "--name", name, "-o",
+                    str(d / "out")], check=True, capture_output=True)
+    return Catalogue.load(d / "out" / f"{name}.catalogue.json")
+
+
 @pytest.fixture(scope="module")
 def cat(tmp_path_factory: pytest.TempPathFactory) -> Catalogue:
-    d = tmp_path_factory.mktemp("ring")
-    (d / "ticks.h").write_text(HEADER)
-    subprocess.run([sys.executable, "-m", "uavbus.cli", "gen", str(d / "ticks.h"), "--name", "ticks", "-o",
-                    str(d / "out")], check=True, capture_output=True)
-    return Catalogue.load(d / "out" / "ticks.catalogue.json")
+    return generate(tmp_path_factory, "ring", "ticks", HEADER)
 
 
-def pair(cat: Catalogue, ring_records: int | None = None) -> tuple[Node, Node, MemLink]:
+def pair(cat: Catalogue, ring_records: int | None = None,
+         binds: tuple[str, ...] = ("tickOut", "flagOut")) -> tuple[Node, Node, MemLink]:
     tx = Node(cat, clock=lambda: 5.0)
     rx = Node(cat, clock=lambda: 5.0, ring_records=ring_records)
     tx.add_entity("tx", local=True), tx.add_entity("rx")
     rx.add_entity("rx", local=True), rx.add_entity("tx")
     tx.add_link("tx", 0, "l0"), rx.add_link("rx", 0, "l0")
     tx.set_mask("tx", "rx", 1)
-    rx.bind("tickOut")
-    rx.bind("flagOut")
+    for name in binds:
+        rx.bind(name)
     return tx, rx, MemLink(tx, "l0", rx, "l0")
 
 
@@ -143,23 +148,11 @@ pos_t posOut;
 
 @pytest.fixture(scope="module")
 def plain(tmp_path_factory: pytest.TempPathFactory) -> Catalogue:
-    d = tmp_path_factory.mktemp("ringplain")
-    (d / "plain.h").write_text(PLAIN)
-    subprocess.run([sys.executable, "-m", "uavbus.cli", "gen", str(d / "plain.h"), "--name", "plain", "-o",
-                    str(d / "out")], check=True, capture_output=True)
-    return Catalogue.load(d / "out" / "plain.catalogue.json")
+    return generate(tmp_path_factory, "ringplain", "plain", PLAIN)
 
 
 def plain_pair(cat: Catalogue, ring_records: int | None = None) -> tuple[Node, Node, MemLink]:
-    tx = Node(cat, clock=lambda: 5.0)
-    rx = Node(cat, clock=lambda: 5.0, ring_records=ring_records)
-    tx.add_entity("tx", local=True), tx.add_entity("rx")
-    rx.add_entity("rx", local=True), rx.add_entity("tx")
-    tx.add_link("tx", 0, "l0"), rx.add_link("rx", 0, "l0")
-    tx.set_mask("tx", "rx", 1)
-    rx.bind("tickOut")
-    rx.bind("posOut")
-    return tx, rx, MemLink(tx, "l0", rx, "l0")
+    return pair(cat, ring_records, binds=("tickOut", "posOut"))
 
 
 def test_overflow_over_several_c_calls_before_one_drain(plain: Catalogue) -> None:
