@@ -426,40 +426,10 @@ __attribute__((unused)) static uint32_t zeros_portable(uint32_t reg, size_t n) {
 
 #if defined(UB_CRC32C_X86)
 /* Compiled for SSE4.2 on its own, so the rest of the library still runs on any x86-64. */
-/* 16 bytes a loop trip, then the last 0-15 bytes in at most four steps (8, 4, 2, 1) with no loop: the
- * decoder's body check of a small frame (28 payload bytes: one trip and two steps) was half loop overhead
- * with 8 bytes a trip and a byte loop for the last 0-3. */
+/* The same steps the template build inlines (ub_crc32c_steps_sse42() in ub_crc32c_impl.h), with the
+ * CRC's inversion on either side. */
 __attribute__((target("sse4.2"))) static uint32_t crc32c_sse42(uint32_t crc, const uint8_t *data, size_t len) {
-    uint64_t c = (uint32_t)~crc;
-    const uint8_t *end16 = data + (len & ~(size_t)15);
-    while (data != end16) {
-        uint64_t w0, w1;
-        memcpy(&w0, data, sizeof w0); /* x86 is little-endian, as the CRC wants */
-        memcpy(&w1, data + 8, sizeof w1);
-        c = _mm_crc32_u64(_mm_crc32_u64(c, w0), w1);
-        data += 16;
-    }
-    if (len & 8) {
-        uint64_t word;
-        memcpy(&word, data, sizeof word);
-        c = _mm_crc32_u64(c, word);
-        data += 8;
-    }
-    uint32_t c32 = (uint32_t)c;
-    if (len & 4) {
-        uint32_t word;
-        memcpy(&word, data, sizeof word);
-        c32 = _mm_crc32_u32(c32, word);
-        data += 4;
-    }
-    if (len & 2) {
-        uint16_t word;
-        memcpy(&word, data, sizeof word);
-        c32 = _mm_crc32_u16(c32, word);
-        data += 2;
-    }
-    if (len & 1) c32 = _mm_crc32_u8(c32, *data);
-    return ~c32;
+    return ~ub_crc32c_steps_sse42((uint32_t)~crc, data, len, data + (len & ~(size_t)15));
 }
 
 /* ub_crc32c_header(): bytes [4,60) as one 4-byte step, six 8-byte steps, one 4-byte step; no loop. */

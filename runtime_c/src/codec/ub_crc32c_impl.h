@@ -59,49 +59,56 @@ uint64_t ub_crc32c_frame_tail(uint32_t crc_head, uint64_t tail, const uint8_t *b
 #include <nmmintrin.h>
 #include <string.h>
 /**
+ * The SSE4.2 steps over `len` bytes from the register `c` (no inversion either side): 16 bytes a loop trip up
+ * to `end16` (== data + (len & ~15), which a template keeps precomputed), then at most one 8-, 4-, 2- and
+ * 1-byte step. One body for ub_crc32c_update_hw() and the template build: 16 bytes a trip pays one compare
+ * and branch per two steps, and a 28-byte ATTITUDE payload is one trip and three single steps.
+ */
+__attribute__((target("sse4.2"), always_inline)) static inline uint32_t ub_crc32c_steps_sse42(
+    uint64_t c, const uint8_t *data, size_t len, const uint8_t *end16) {
+    while (data != end16) {
+        uint64_t w0, w1;
+        memcpy(&w0, data, sizeof w0); /* x86 is little-endian, as the CRC wants */
+        memcpy(&w1, data + 8, sizeof w1);
+        c = _mm_crc32_u64(_mm_crc32_u64(c, w0), w1);
+        data += 16;
+    }
+    data = end16; /* the same pointer; said so the compiler does not recompute it from the trip count */
+    if (len & 8) {
+        uint64_t word;
+        memcpy(&word, data, sizeof word);
+        c = _mm_crc32_u64(c, word);
+        data += 8;
+    }
+    uint32_t c32 = (uint32_t)c;
+    if (len & 4) {
+        uint32_t word;
+        memcpy(&word, data, sizeof word);
+        c32 = _mm_crc32_u32(c32, word);
+        data += 4;
+    }
+    if (len & 2) {
+        uint16_t word;
+        memcpy(&word, data, sizeof word);
+        c32 = _mm_crc32_u16(c32, word);
+        data += 2;
+    }
+    if (len & 1) c32 = _mm_crc32_u8(c32, *data);
+    return c32;
+}
+
+/**
  * ub_crc32c_frame_tail()'s SSE4.2 body, inline for callers compiled with target("sse4.2") themselves
  * (ub_frame_tpl_finish's hardware path), so the template's whole build is one function with no call
  * (returns the message CRC, *header_reg the header CRC's register before the final inversion -- the header
- * CRC is its complement -- inlined, both stay in registers):
- * the tail word from the template's register, the body 16 bytes a loop trip, its last 0-15 bytes in at most
- * four steps. Call only when ub_crc32c_hw_available().
+ * CRC is its complement -- inlined, both stay in registers): the tail word from the template's register, then
+ * the body's steps. Call only when ub_crc32c_hw_available().
  */
 __attribute__((target("sse4.2"), always_inline)) static inline uint32_t ub_crc32c_frame_tail_sse42(
     uint32_t head_reg, uint64_t tail, const uint8_t *body, size_t len, size_t len16, uint32_t *header_reg) {
     uint64_t c = _mm_crc32_u64(head_reg, tail);
     *header_reg = (uint32_t)c; /* not inverted: the header CRC is ~*header_reg (its fold is the same, see callers) */
-    /* 16 bytes a loop trip (two steps per compare and branch, where 8 a trip paid one each), then at most one
-     * 8-byte step: a 28-byte ATTITUDE payload is one trip and three single steps instead of three trips. */
-    const uint8_t *end16 = body + len16; /* len16 == len & ~15, which a template keeps precomputed */
-    while (body != end16) {
-        uint64_t w0, w1;
-        memcpy(&w0, body, sizeof w0); /* x86 is little-endian, as the CRC wants */
-        memcpy(&w1, body + 8, sizeof w1);
-        c = _mm_crc32_u64(_mm_crc32_u64(c, w0), w1);
-        body += 16;
-    }
-    body = end16; /* the same pointer; said so the compiler does not recompute it from the trip count */
-    if (len & 8) {
-        uint64_t word;
-        memcpy(&word, body, sizeof word);
-        c = _mm_crc32_u64(c, word);
-        body += 8;
-    }
-    uint32_t c32 = (uint32_t)c;
-    if (len & 4) {
-        uint32_t word;
-        memcpy(&word, body, sizeof word);
-        c32 = _mm_crc32_u32(c32, word);
-        body += 4;
-    }
-    if (len & 2) {
-        uint16_t word;
-        memcpy(&word, body, sizeof word);
-        c32 = _mm_crc32_u16(c32, word);
-        body += 2;
-    }
-    if (len & 1) c32 = _mm_crc32_u8(c32, *body);
-    return ~c32;
+    return ~ub_crc32c_steps_sse42(c, body, len, body + len16);
 }
 #endif
 
