@@ -54,6 +54,12 @@ if ! command -v valgrind >/dev/null; then
   SUDO=""; [ "$(id -u)" = 0 ] || SUDO=sudo
   $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq valgrind >/dev/null
 fi
+# perf (Debian's linux-perf) profiles the 1,000-vehicle fleet run; without it that profile is reported missing.
+if ! command -v perf >/dev/null; then
+  say "installing perf (Debian linux-perf) for the 1,000-vehicle profile"
+  SUDO=""; [ "$(id -u)" = 0 ] || SUDO=sudo
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq linux-perf >/dev/null 2>&1 || say "perf not installed: no fleet profile"
+fi
 say "installing the bench extra (pymavlink, lcm) into .venv"
 timeout -k 5 1800 "$VPY" -m pip install -q -e '.[bench]' --no-build-isolation 2>&1 | grep -v -i -E "warning|^ *!!|^ *\*|^ *$|corresp|wheel_obj|Please|By 2027|See https|name as your package" >&2 || true
 site=$("$VPY" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
@@ -146,6 +152,10 @@ for h in 1 3; do
     if [ -n "$base_bin" ]; then "$SAMPLE" "$raw/base_router.txt" 600 taskset -c 0 "$base_bin/router_hops" "$h"; fi
   done
 done
+# The profile of figure 2 (results.md's appendix, issue #28: a miss explained by a profile of the same run):
+# router_hops 1 and 3 under callgrind, 20,000 frames each (~10 s); also the before-and-after's count of figure 2.
+counts_for "$bin" "$raw/callgrind" 2
+echo "valgrind --tool=callgrind $bin/router_hops 1|3 callgrind (figure 2's profile)" >>"$raw/commands.txt"
 
 # ---- figure 3: loopback between 2 processes, in a private network namespace (only lo) ----
 say "figure 3: loopback UDP/TCP/raw UDP/LCM udpm, $RUNS interleaved rounds"
@@ -181,7 +191,7 @@ echo "unshare -rn: loop_bench blast udp|tcp 1000000, udp 300000 nobatch, raw-udp
 # ---- before and after by instruction count: figures 2 and 3 for both runtimes, figure 1 for the base ----
 if [ -n "$base_bin" ] || [ -n "${BENCH_COUNTS_AT:-}" ]; then
   say "figures 1-3 by instruction count (callgrind), this tree${BENCH_BASE:+ and $BENCH_BASE}"
-  counts_for "$bin" "$raw/callgrind" 2 3
+  counts_for "$bin" "$raw/callgrind" 3   # figure 2's count was taken after figure 2 (its profile)
   [ -z "$base_bin" ] || counts_for "$base_bin" "$raw/base_callgrind" 1 2 3
   echo "valgrind --tool=callgrind: codec_bench callgrind; router_hops 1|3 callgrind; loop_bench rtt udp|tcp 2000 same" \
     "(the programs of this tree${BENCH_BASE:+ and of the base})" >>"$raw/commands.txt"
@@ -215,6 +225,8 @@ fi
 # ---- figure 4: Python ----
 say "figure 4: Python"
 for p in 1 2 3; do sample "$raw/py.txt" 900 taskset -c 0 .venv/bin/python bench/py_bench.py "$gen/benchcat.catalogue.json" "$peers/lcmpy"; done
+# Its profile (results.md's appendix): the same batched publish + receive under cProfile, 32,000 messages a type.
+sample "$raw/profile_py.txt" 300 taskset -c 0 "$VPY" bench/py_profile.py "$gen/benchcat.catalogue.json" "$peers/lcmpy"
 
 # ---- figure 5: generator time on synthetic headers ----
 say "figure 5: generator"
@@ -323,7 +335,22 @@ done
 ar rcs "$build/fleet1k-lib/libub.a" "$build"/fleet1k-lib/*.o
 gcc "${CFLAGS[@]}" "${FLEET1K_CAPS[@]}" bench/src/fleet_bench.c "$gen/benchcat.c" "$build/fleet1k-lib/libub.a" $SODIUM -lm \
   -o "$bin/fleet_bench_1k"
-sample "$raw/fleet.txt" 2400 env FLEET_BENCH_END_S=16 taskset -c 0 "$bin/fleet_bench_1k" 1000
+# Its profile (results.md's appendix) is taken around the sample itself: perf record at 199 Hz, no call graph,
+# which costs the run nothing measurable; without a working perf the appendix says there is no profile.
+perf_rec=()
+if command -v perf >/dev/null && perf record -q -o "$raw/perf-check.data" -- true 2>/dev/null; then
+  perf_rec=(perf record -q -F 199 -o "$raw/fleet1k.perf.data" --)
+else
+  echo "status=failed exit=0 deadline_s=0 out=profile_fleet1k.txt cmd=\"perf record\" reason=\"perf is missing or not" \
+    "allowed here (kernel.perf_event_paranoid): no profile of the 1,000-vehicle run\"" >>"$raw/failures.txt"
+fi
+rm -f "$raw/perf-check.data"
+sample "$raw/fleet.txt" 2400 env FLEET_BENCH_END_S=16 "${perf_rec[@]}" taskset -c 0 "$bin/fleet_bench_1k" 1000
+if [ ${#perf_rec[@]} -gt 0 ]; then
+  sample "$raw/profile_fleet1k.txt" 300 perf report -i "$raw/fleet1k.perf.data" --stdio --no-children --sort dso,symbol -q
+  rm -f "$raw/fleet1k.perf.data"
+  echo "perf record -F 199 around fleet_bench_1k 1000; perf report --no-children --sort dso,symbol" >>"$raw/commands.txt"
+fi
 cmake -S . -B "$build/fleet-node" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DUAVBUS_BUILD_TESTS=OFF \
   -DUAVBUS_PYTHON="$VPY" "-DCMAKE_C_FLAGS=-DUB_MAX_ENTITIES=64 -DUB_DEDUP_SOURCES=64" >/dev/null
 cmake --build "$build/fleet-node" --target uavbus_node >/dev/null
