@@ -20,6 +20,9 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
+import goal_tables  # bench/ is the script's own directory
+import profile_tables
+
 MSGS = ["ATTITUDE", "GPS_RAW_INT", "HIGHRES_IMU"]
 
 
@@ -230,23 +233,49 @@ def failures_section(fails: list[dict[str, str]]) -> list[str]:
     return out + [""]
 
 
-def misses_section(goals: list, notes: Path | None) -> list[str]:
-    """"What holds a miss back": the misses with this run's figures (generated), then the hand-kept analysis
-    labelled with the run it analysed: its figures are that run's, never presented as this one's."""
+def notes_keys(notes: Path | None) -> set[str]:
+    """The goals of issue #28 the hand-kept notes have an item for: a line "- **KEY..." (case ignored)."""
+    if notes is None or not notes.exists():
+        return set()
+    text = notes.read_text()
+    return {s.key for s in goal_tables.SPECS
+            if re.search(r"^- \*\*" + re.escape(s.key), text, re.M | re.I)}
+
+
+def misses_section(goals: list, notes: Path | None, g28: list | None = None,
+                   profiles: set[str] | frozenset[str] = frozenset()) -> list[str]:
+    """"What holds a miss back": the misses with this run's figures (generated), issue #28's each with a link to
+    its profile in this run's appendix and to its next step in the notes, then the hand-kept analysis labelled
+    with the run it analysed: its figures are that run's, never presented as this one's."""
     out = ["## What holds a miss back", "", "Goals missed in this run, with this run's figures (generated):", ""]
+    keys = notes_keys(notes)
+    for r in g28 or []:
+        if not r.met:
+            out.append(f"- **{r.spec.key}** (issue #28, figure {r.spec.figure}): goal {r.spec.goal}; measured "
+                       f"{r.measured}{goal_tables.failed_note(r)}. {goal_tables.explain(r, keys, profiles).capitalize()}.")
     missed = [g for g in goals if not g[3]]
-    out += [f"- **{fig}**: goal {goal}; measured {measured}." for fig, goal, measured, _ok, _note in missed] or [
-        "- none"]
+    out += [f"- **{fig}**: goal {goal}; measured {measured}." for fig, goal, measured, _ok, _note in missed]
+    if out[-1] == "":
+        out.append("- none")
     out.append("")
     if notes is not None and notes.exists():
         text = notes.read_text().rstrip().splitlines()
         m = next((re.match(r"^analysed-run:\s*(.+)$", ln) for ln in text if ln.startswith("analysed-run:")), None)
         body = [ln for ln in text if not ln.startswith("analysed-run:") and not ln.startswith("# ")]
         run = m.group(1) if m else "an unnamed earlier run"
-        out += [f"### Analysis kept by hand (bench/results_notes.md), written for {run}", "",
+        out += ['<a id="notes"></a>', "", f"### Analysis kept by hand (bench/results_notes.md), written for {run}", "",
                 f"*The profiles and figures below are from {run}, not from this run; this run's figures are the "
                 "tables above and the list just above.*", ""] + body + [""]
     return out
+
+
+# Goals of the figures that issue #28 restates (its table rows replace them); "issue 28" in a figure's own goal
+# or note marks the others.
+SUPERSEDED = ("frame build", "frame parse", "in-process, 3 hops", "Python receive", "Python publish", "11 priorities")
+
+
+def earlier_goals(goals: list) -> list:
+    return [g for g in goals if g[0] not in SUPERSEDED and "issue 28" not in g[1] and "issue 28" not in g[4]]
 
 
 class section:  # noqa: N801 - used as `with section(...)`, a statement about a block
@@ -835,12 +864,27 @@ def main() -> None:
     with section(out, broken, "instruction counts along the history (BENCH_COUNTS_AT)"):
         out.extend(history_section(raw))
 
-    # ---- goals ----
+    # ---- goals: issue #28's, each from this run's raw outputs, then the earlier ones still tracked ----
+    notes = None if core else Path(__file__).with_name("results_notes.md")
+    g28 = [r for r in goal_tables.measure(raw, read_failures(raw)) if not core or r.spec.figure in ("1", "2")]
+    profiles: set[str] = set()
+    if not core:  # the appendix is written at the end; which profiles it has is known now
+        profile_lines: list[str] = []
+        with section(profile_lines, broken, "profiles of the in-process goals"):
+            profiles = profile_tables.render(raw, profile_lines.append)
     w("## Goals")
+    w("")
+    w("Issue #28's goals, each measured from this run's raw outputs (bench/goal_tables.py); a goal whose samples "
+      "failed or are missing is reported as such and not met. A miss links to its profile in this run's appendix "
+      "and its next step in the hand-kept notes.")
+    w("")
+    goal_tables.render(g28, notes_keys(notes), profiles, w)
+    w("")
+    w("Earlier goals still tracked (from the figures above):")
     w("")
     w("| figure | goal | measured (this run) | met |")
     w("|---|---|---|:---:|")
-    for fig, goal, measured, ok, note in goals:
+    for fig, goal, measured, ok, note in earlier_goals(goals):
         w(f"| {fig} | {goal} | {measured} | {'✓' if ok else '✗'} |")
     w("")
     if broken:
@@ -848,7 +892,7 @@ def main() -> None:
         w("")
         w("".join(f"- {b}\n" for b in broken))
     # The hand-kept analysis is about full runs; a core run lists its misses only.
-    out.extend(misses_section(goals, None if core else Path(__file__).with_name("results_notes.md")))
+    out.extend(misses_section(earlier_goals(goals), notes, g28, profiles))
 
     # ---- commands and raw internals ----
     w("## Exact commands")
@@ -869,6 +913,8 @@ def main() -> None:
             w((raw / f).read_text().rstrip())
             w("```")
             w("")
+    if not core:
+        out.extend(profile_lines)
     out_path.write_text("\n".join(out) + "\n")
 
 
