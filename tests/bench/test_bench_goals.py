@@ -8,6 +8,7 @@ function by function) or says there is none. No timing is asserted.
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -199,3 +200,8 @@ def test_a_missed_in_process_goal_links_to_this_runs_profile_or_says_there_is_no
     # A met goal points nowhere.
     assert row(text, spec("parse").goal)[4] == "-"
 
+
+def test_the_notes_hold_a_next_step_for_every_goal_of_issue_28_and_name_their_run() -> None:
+    notes = ROOT / "bench" / "results_notes.md"
+    assert tables.notes_keys(notes) == {s.key for s in goal_tables.SPECS}
+    assert re.search(r"^analysed-run: .+", notes.read_text(), re.M)
