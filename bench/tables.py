@@ -242,6 +242,10 @@ def notes_keys(notes: Path | None) -> set[str]:
             if re.search(r"^- \*\*" + re.escape(s.key), text, re.M | re.I)}
 
 
+def upper_first(text: str) -> str:
+    return text[:1].upper() + text[1:]
+
+
 def misses_section(goals: list, notes: Path | None, g28: list | None = None,
                    profiles: set[str] | frozenset[str] = frozenset()) -> list[str]:
     """"What holds a miss back": the misses with this run's figures (generated), issue #28's each with a link to
@@ -252,7 +256,7 @@ def misses_section(goals: list, notes: Path | None, g28: list | None = None,
     for r in g28 or []:
         if not r.met:
             out.append(f"- **{r.spec.key}** (issue #28, figure {r.spec.figure}): goal {r.spec.goal}; measured "
-                       f"{r.measured}{goal_tables.failed_note(r)}. {goal_tables.explain(r, keys, profiles).capitalize()}.")
+                       f"{r.measured}{goal_tables.failed_note(r)}. {upper_first(goal_tables.explain(r, keys, profiles))}.")
     missed = [g for g in goals if not g[3]]
     out += [f"- **{fig}**: goal {goal}; measured {measured}." for fig, goal, measured, _ok, _note in missed]
     if out[-1] == "":
@@ -886,6 +890,8 @@ def main() -> None:
     w("|---|---|---|:---:|")
     for fig, goal, measured, ok, note in earlier_goals(goals):
         w(f"| {fig} | {goal} | {measured} | {'✓' if ok else '✗'} |")
+    if not earlier_goals(goals):
+        w("| - | none measured in this run (no figure above produced one) | - | - |")
     w("")
     if broken:
         w("## Figures not produced in this run")
