@@ -205,3 +205,30 @@ def test_the_notes_hold_a_next_step_for_every_goal_of_issue_28_and_name_their_ru
     notes = ROOT / "bench" / "results_notes.md"
     assert tables.notes_keys(notes) == {s.key for s in goal_tables.SPECS}
     assert re.search(r"^analysed-run: .+", notes.read_text(), re.M)
+
+
+def test_python_and_fleet_profiles_are_rendered_per_message_and_linked(tmp_path: Path) -> None:
+    # bench/py_profile.py's lines and perf report's flat profile, as make bench writes them.
+    raw = tmp_path / "raw"
+    write_raw(raw, rtf=(16, 320))  # Python receive misses (0.83x LCM), 1,000 vehicles too
+    (raw / "profile_py.txt").write_text("".join(
+        f"pyprof\t{m}\t6400\t{name}\t{calls}\t{tot}\t{cum}\n" for m in MSGS for name, calls, tot, cum in (
+            ("py_bench.py:92(receive_batch)", 200, 0.0004, 0.0224),
+            ("py_bench.py:89(publish_batch)", 200, 0.0002, 0.0080),
+            ("node.py:837(rows)", 200, 0.0064, 0.0090),
+            ("<built-in method uavbus._ub.ub_memlink_pump>", 400, 0.0032, 0.0032))))
+    (raw / "profile_fleet1k.txt").write_text(
+        "    18.37%  fleet_bench_1k     [.] route_tick                -      -\n"
+        "     1.17%  [kernel.kallsyms]  [k] finish_task_switch.isra.0 -      -\n")
+    text = render(raw)
+    py = text.split('<a id="profile-python"></a>', 1)[1].split("<a id=", 1)[0]
+    assert "**ATTITUDE** (6,400 messages)" in py
+    assert "| `node.py:837(rows)` | 0.031 | 1.000 | 1.406 |" in py  # per message: 6.4 ms / 6,400
+    # the two sides' totals first, then the functions by own time
+    assert py.index("(receive_batch)") < py.index("(rows)") < py.index("ub_memlink_pump")
+    fleet = text.split('<a id="profile-fleet-1000"></a>', 1)[1]
+    assert "| `route_tick (fleet_bench_1k)` | 18.37 % |" in fleet
+    assert "| `finish_task_switch.isra.0 ([kernel.kallsyms])` | 1.17 % |" in fleet
+    assert row(text, spec("Python receive").goal)[4].startswith("profile: [this run's](#profile-python)")
+    assert row(text, spec("1,000 vehicles").goal)[4].startswith("profile: [this run's](#profile-fleet-1000)")
+    assert row(text, spec("1,000 vehicles").goal)[2].startswith("real-time factor 0.050 ")
