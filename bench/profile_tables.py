@@ -50,8 +50,8 @@ def parse_callgrind(path: Path, names: dict[str, str] | None = None) -> tuple[in
         elif line.startswith("events:"):
             ev = line.split()[1:]
             col = ev.index("Ir") if "Ir" in ev else 0
-        elif line.startswith("summary:"):
-            total = int(line.split()[1])
+        elif line.startswith(("summary:", "totals:")) and total == 0:
+            total = int(line.split()[1 + col])
         elif line.startswith("fn="):
             m = re.match(r"fn=(?:\((\d+)\))?\s*(.*)$", line)
             ident, name = m.group(1), m.group(2)
