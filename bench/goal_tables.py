@@ -120,7 +120,9 @@ def _python(raw: Path, ours: str, mav: str, lcm: str) -> tuple[str, bool]:
     worst: dict[str, tuple[float, str]] = {}
     for peer in (mav, lcm):
         for m in MSGS:
-            r = _med(py.get((ours, m), [])) / _med(py.get((peer, m), []))
+            if not py.get((ours, m)) or not py.get((peer, m)):
+                raise NoSample(f"no '{ours}' or '{peer}' sample for {m} in py.txt")
+            r = _med(py[(ours, m)]) / _med(py[(peer, m)])
             if peer not in worst or r < worst[peer][0]:
                 worst[peer] = (r, m)
     (rm, mm), (rl, ml) = worst[mav], worst[lcm]

@@ -232,3 +232,17 @@ def test_python_and_fleet_profiles_are_rendered_per_message_and_linked(tmp_path:
     assert row(text, spec("Python receive").goal)[4].startswith("profile: [this run's](#profile-python)")
     assert row(text, spec("1,000 vehicles").goal)[4].startswith("profile: [this run's](#profile-fleet-1000)")
     assert row(text, spec("1,000 vehicles").goal)[2].startswith("real-time factor 0.050 ")
+
+
+def test_a_message_missing_from_a_figure_is_no_sample_not_a_partial_verdict(tmp_path: Path) -> None:
+    # "3 messages": a run whose HIGHRES_IMU lines are gone must not be judged on the other two.
+    raw = tmp_path / "raw"
+    write_raw(raw)
+    for name in ("py.txt", "codec.tsv"):
+        f = raw / name
+        f.write_text("".join(ln for ln in f.read_text().splitlines(keepends=True) if "HIGHRES_IMU" not in ln))
+    text = render(raw)
+    assert row(text, spec("Python publish").goal)[2:4] == [
+        "**no sample in this run** (no 'uavbus publish' or 'pymavlink encode' sample for HIGHRES_IMU in py.txt)", "✗"]
+    assert row(text, spec("frame build").goal)[2:4] == [
+        "**no sample in this run** (no ub_frame_build or mav_pack sample for HIGHRES_IMU in codec.tsv)", "✗"]
