@@ -744,9 +744,6 @@ static void watch_link(ub_route_t *rt, int lid, const ub_link_t *link, uint64_t 
         l->doubt = 1;
         rt->counters.link_doubts++;
         mark_slot(rt, lid);
-    } else if (l->doubt == 1 && now_ms >= l->last_rx_ms + 2u * doubt_after(gap_estimate(l))) {
-        l->doubt = 2; /* still silent: no scheduling hiccup (kept for the inspection of links; it sends nothing by itself) */
-        mark_slot(rt, lid);
     }
 }
 
@@ -823,7 +820,6 @@ static bool route_next_due(const ub_service_t *svc, const ub_node_t *node, uint6
         }
         if (l->nb_in_use) earliest(&best, l->next_miss_ms);
         if (doubt_armed(l, now_ms)) earliest(&best, l->last_rx_ms + doubt_after(gap_estimate(l)));
-        if (l->doubt == 1) earliest(&best, l->last_rx_ms + 2u * doubt_after(gap_estimate(l)));
         if (link->counters.frames_out != l->tx_seen) earliest(&best, now_ms); /* the tick notes what we sent */
         if (link->ops == NULL) continue;
         earliest(&best, l->next_hello_ms);
