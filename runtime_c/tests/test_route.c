@@ -1003,6 +1003,44 @@ static void test_gap_in_neighbour_frames_sends_on_every_successor(void **state) 
     fleet_free(f);
 }
 
+/* The grid's tie: v0 reaches v2 directly; its neighbour v1 reaches v2 directly too, at the metric v0 advertises, so
+ * the feasibility condition (strictly below) refuses v1 as a successor, though its route cannot pass through v0
+ * (that would cost one more link). v3 hangs off v0 and routes through it. In doubt, v1 carries the data at once;
+ * v3 never does. */
+static void test_doubt_uses_a_neighbour_whose_route_avoids_us(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(4, NULL);
+    int direct = fleet_link(f, 0, 2);
+    fleet_link(f, 1, 2);
+    int side = fleet_link(f, 0, 1);
+    int tail = fleet_link(f, 0, 3);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    stream_to(f, 2, f->w->now_ms + 4 * HELLO_MS, 10); /* traffic: v2 sends v0 fast hellos */
+    ub_route_info_t ri = route(f, 0, 2);
+    assert_int_equal(ri.link_id, f->edge[direct].la);
+    assert_int_equal(ri.feasible, 1); /* v1's route is not feasible: equal metric */
+    uint64_t rx0 = f->rx_count[2][0];
+    fleet_cut(f, direct);
+    uint64_t t_cut = f->w->now_ms;
+    while (f->w->now_ms - t_cut < HELLO_MS && f->rx_count[2][0] == rx0) stream_to(f, 2, f->w->now_ms + 1, 10);
+    assert_true(f->rx_count[2][0] > rx0);
+    assert_true(f->w->now_ms - t_cut < HELLO_MS / 2);
+    ri = route(f, 0, 2);
+    assert_int_equal(ri.link_id, f->edge[direct].la); /* in doubt, not torn down */
+    uint8_t via_v1 = (uint8_t)(1u << ub_node_link(&f->w->nodes[0], f->edge[side].la)->index);
+    uint8_t via_v3 = (uint8_t)(1u << ub_node_link(&f->w->nodes[0], f->edge[tail].la)->index);
+    assert_true((ri.mask & via_v1) != 0);
+    assert_true((ri.mask & via_v3) == 0);
+    /* Healed before the hello timeout: one successor again, and nothing was selected but the direct link. */
+    fleet_heal(f, direct);
+    stream_to(f, 2, f->w->now_ms + 2 * HELLO_MS, 10);
+    ri = route(f, 0, 2);
+    assert_int_equal(ri.link_id, f->edge[direct].la);
+    assert_int_equal(__builtin_popcount(ri.mask), 1);
+    fleet_free(f);
+}
+
 /* A brief gap (shorter than the hello timeout) costs duplicates, never the link, a route or a frame. (The
  * hellos it swallowed still count in the link's ETX as before: a route may move to an equal successor.) */
 static void test_brief_gap_is_harmless(void **state) {
@@ -1078,6 +1116,7 @@ int main(void) {
         cmocka_unit_test(test_link_local_addressing),
         cmocka_unit_test(test_options_checked),
         cmocka_unit_test(test_gap_in_neighbour_frames_sends_on_every_successor),
+        cmocka_unit_test(test_doubt_uses_a_neighbour_whose_route_avoids_us),
         cmocka_unit_test(test_brief_gap_is_harmless),
         cmocka_unit_test(test_link_event_down_switches_at_once),
     };

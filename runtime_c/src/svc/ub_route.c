@@ -177,6 +177,16 @@ static void request_seqno(ub_route_t *rt, int slot, int e, uint64_t now_ms) {
     rt->counters.starvation_requests++;
 }
 
+/* Whether a neighbour's route cannot pass through us (a successor for data while in doubt, never for selection):
+ * every route through us adds at least one link cost (>= UB_ROUTE_LINK_COST) to a metric we advertised for that
+ * seqno, and all of those are >= our feasibility distance. So a route at the FD's seqno with a metric below
+ * FD + one link cost does not go through us -- the equal-metric neighbour of a grid, which the feasibility
+ * condition (strictly below FD) refuses. Two such neighbours may both be in doubt and hand a frame to each other:
+ * the duplicate window of the one that sent it first drops it, so a frame never circles. */
+static bool around_us(const ub_route_dest_t *ds, const ub_route_entry_t *r) {
+    return ds->fd_valid && r->seqno == ds->fd_seqno && (uint32_t)r->metric < (uint32_t)ds->fd_metric + UB_ROUTE_LINK_COST;
+}
+
 static uint8_t compute_mask(const ub_route_t *rt, int slot, int e) {
     const ub_route_dest_t *ds = &rt->dests[slot][e];
     if (ds->sel_link < 0) return 0;
@@ -184,9 +194,9 @@ static uint8_t compute_mask(const ub_route_t *rt, int slot, int e) {
     if (sel == NULL) return 0;
     uint8_t mask = (uint8_t)(1u << sel->index);
     /* In doubt (its neighbour's frames stopped sooner than they should have, docs/routing.md, "Transport
-     * evidence"): every feasible successor carries the traffic until a frame arrives or the hello timeout
-     * decides. Loop-free as any selection (each successor's metric is below our feasibility distance); the
-     * receivers' duplicate windows keep one copy. */
+     * evidence"): every feasible successor, and every neighbour whose route cannot pass through us (around_us()),
+     * carries the traffic until a frame arrives or the hello timeout decides. The receivers' duplicate windows
+     * keep one copy. Nothing is advertised differently: the routing frames do not change. */
     bool doubt = rt->links[ds->sel_link].doubt != 0;
     if (rt->opt.parallel == UB_ROUTE_PARALLEL_BEST && !doubt) return mask;
     const uint8_t *nb = rt->links[ds->sel_link].nb_id;
@@ -196,7 +206,8 @@ static uint8_t compute_mask(const ub_route_t *rt, int slot, int e) {
         const ub_route_link_t *l = &rt->links[lid];
         const ub_route_entry_t *r = &rt->routes[e][lid];
         if (!l->nb_in_use || (!doubt && memcmp(l->nb_id, nb, UB_ENTITY_ID_LEN) != 0) || cost_of(rt, l) == INF) continue;
-        if (!r->in_use || r->metric == INF || !feasible(ds, r->seqno, r->metric)) continue;
+        if (!r->in_use || r->metric == INF) continue;
+        if (!feasible(ds, r->seqno, r->metric) && !(doubt && around_us(ds, r))) continue;
         mask |= (uint8_t)(1u << i);
     }
     return mask;
