@@ -1041,6 +1041,42 @@ static void test_doubt_uses_a_neighbour_whose_route_avoids_us(void **state) {
     fleet_free(f);
 }
 
+/* The tie that feasibility cannot see through: v1 reaches v2 through v0 or through v3 at one metric and kept v0 (its
+ * link to v3 came later: hysteresis), so to v0 its route looks like one through v0. Cut v0-v2: v0, in doubt with
+ * no successor known to avoid it, hands the data to every neighbour with a route; v1 gets it from its own next hop
+ * and sends it on over its other feasible successor (its bounce mask), not back. */
+static void test_doubt_reaches_a_tied_neighbour_that_routes_through_us(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(4, NULL);
+    int direct = fleet_link(f, 0, 2);
+    int side = fleet_link(f, 0, 1);
+    fleet_link(f, 3, 2);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    int late = fleet_link(f, 1, 3);
+    world_run(f->w, f->w->now_ms + 6 * HELLO_MS, 1);
+    stream_to(f, 2, f->w->now_ms + 4 * HELLO_MS, 10);
+    ub_route_info_t r1 = route(f, 1, 2);
+    assert_int_equal(r1.link_id, f->edge[side].lb);     /* v1 kept v0 ... */
+    assert_int_equal(r1.feasible, 2);                     /* ... though v3 is feasible for it too */
+    assert_int_equal(route(f, 0, 2).feasible, 1);         /* to v0, v1's route is no successor */
+    uint8_t v2[UB_ENTITY_ID_LEN];
+    vid(2, v2);
+    int d = ub_node_find_entity(&f->w->nodes[1], v2);
+    assert_true(d >= 0);
+    uint8_t bounce = f->w->nodes[1].locals[0].bounce[d]; /* v1 is the node's one local entity */
+    assert_int_equal(bounce, (uint8_t)(1u << ub_node_link(&f->w->nodes[1], f->edge[late].la)->index));
+    uint64_t rx0 = f->rx_count[2][0], nr0 = ub_node_counters(&f->w->nodes[1])->drops[UB_DROP_NO_ROUTE];
+    fleet_cut(f, direct);
+    uint64_t t_cut = f->w->now_ms;
+    while (f->w->now_ms - t_cut < HELLO_MS && f->rx_count[2][0] == rx0) stream_to(f, 2, f->w->now_ms + 1, 10);
+    assert_true(f->rx_count[2][0] > rx0);
+    assert_true(f->w->now_ms - t_cut < HELLO_MS / 2);
+    assert_int_equal(route(f, 1, 2).link_id, f->edge[side].lb); /* nothing reselected: the frames went around */
+    assert_int_equal(ub_node_counters(&f->w->nodes[1])->drops[UB_DROP_NO_ROUTE], nr0);
+    fleet_free(f);
+}
+
 /* A brief gap (shorter than the hello timeout) costs duplicates, never the link, a route or a frame. (The
  * hellos it swallowed still count in the link's ETX as before: a route may move to an equal successor.) */
 static void test_brief_gap_is_harmless(void **state) {
@@ -1117,6 +1153,7 @@ int main(void) {
         cmocka_unit_test(test_options_checked),
         cmocka_unit_test(test_gap_in_neighbour_frames_sends_on_every_successor),
         cmocka_unit_test(test_doubt_uses_a_neighbour_whose_route_avoids_us),
+        cmocka_unit_test(test_doubt_reaches_a_tied_neighbour_that_routes_through_us),
         cmocka_unit_test(test_brief_gap_is_harmless),
         cmocka_unit_test(test_link_event_down_switches_at_once),
     };

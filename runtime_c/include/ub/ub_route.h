@@ -231,6 +231,7 @@ typedef struct ub_route_dest {
     uint8_t req_links;       /* bit i: a seqno request is to go on link[i] */
     uint8_t req_hops;
     uint8_t mask;            /* last mask computed */
+    uint8_t bounce;          /* last bounce mask written (ub_node_set_bounce_mask()) */
     uint16_t metric;         /* advertised metric */
     uint16_t seqno;          /* advertised seqno */
     uint16_t fd_seqno;
