@@ -1077,6 +1077,39 @@ static void test_doubt_reaches_a_tied_neighbour_that_routes_through_us(void **st
     fleet_free(f);
 }
 
+/* The node's side of the bounce mask, without an engine: v1's mask toward v3 is its link to v0; a frame for v3
+ * that v0 sends it comes back over that link and goes out over the bounce mask (to v2), unless the entry is pinned;
+ * removing the link clears the bit. */
+static void test_bounce_mask_takes_frames_sent_back(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(4, NULL);
+    int ab = fleet_link(f, 0, 1), bc = fleet_link(f, 1, 2);
+    uint8_t v3[UB_ENTITY_ID_LEN];
+    vid(3, v3);
+    ub_node_t *a = &f->w->nodes[0], *b = &f->w->nodes[1];
+    int da = ub_node_add_entity(a, v3, false), db = ub_node_add_entity(b, v3, false);
+    assert_true(da >= 0 && db >= 0);
+    uint8_t to_a = (uint8_t)(1u << ub_node_link(b, f->edge[ab].lb)->index);
+    uint8_t to_c = (uint8_t)(1u << ub_node_link(b, f->edge[bc].la)->index);
+    assert_int_equal(ub_node_set_mask(a, f->self[0], da, (uint8_t)(1u << ub_node_link(a, f->edge[ab].la)->index)), UB_OK);
+    assert_int_equal(ub_node_set_auto_mask(b, f->self[1], db, to_a), UB_OK);
+    assert_int_equal(ub_node_set_bounce_mask(b, f->self[1], db, 0x80), UB_ERR_NOTFOUND); /* no link[7] */
+    assert_int_equal(ub_node_set_bounce_mask(b, f->self[1], db, to_c), UB_OK);
+    const ub_link_t *c_in = ub_node_link(&f->w->nodes[2], f->edge[bc].lb);
+    uint64_t c0 = c_in->counters.frames_accepted;
+    assert_true(ub_node_send_data(a, f->self[0], TEST_GPS, v3, f->w->now_ms) >= 0);
+    world_run(f->w, f->w->now_ms + 5, 1);
+    assert_int_equal(c_in->counters.frames_accepted, c0 + 1); /* sent back by its next hop: over the bounce mask */
+    /* A pinned entry is the operator's route: nothing goes around it. */
+    assert_int_equal(ub_node_set_mask(b, f->self[1], db, to_a), UB_OK);
+    uint64_t nr = ub_node_counters(b)->drops[UB_DROP_NO_ROUTE];
+    assert_true(ub_node_send_data(a, f->self[0], TEST_GPS, v3, f->w->now_ms) >= 0);
+    world_run(f->w, f->w->now_ms + 5, 1);
+    assert_int_equal(c_in->counters.frames_accepted, c0 + 1);
+    assert_int_equal(ub_node_counters(b)->drops[UB_DROP_NO_ROUTE], nr + 1);
+    fleet_free(f);
+}
+
 /* A brief gap (shorter than the hello timeout) costs duplicates, never the link, a route or a frame. (The
  * hellos it swallowed still count in the link's ETX as before: a route may move to an equal successor.) */
 static void test_brief_gap_is_harmless(void **state) {
@@ -1154,6 +1187,7 @@ int main(void) {
         cmocka_unit_test(test_gap_in_neighbour_frames_sends_on_every_successor),
         cmocka_unit_test(test_doubt_uses_a_neighbour_whose_route_avoids_us),
         cmocka_unit_test(test_doubt_reaches_a_tied_neighbour_that_routes_through_us),
+        cmocka_unit_test(test_bounce_mask_takes_frames_sent_back),
         cmocka_unit_test(test_brief_gap_is_harmless),
         cmocka_unit_test(test_link_event_down_switches_at_once),
     };
