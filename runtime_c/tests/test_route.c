@@ -1003,6 +1003,113 @@ static void test_gap_in_neighbour_frames_sends_on_every_successor(void **state) 
     fleet_free(f);
 }
 
+/* The grid's tie: v0 reaches v2 directly; its neighbour v1 reaches v2 directly too, at the metric v0 advertises, so
+ * the feasibility condition (strictly below) refuses v1 as a successor, though its route cannot pass through v0
+ * (that would cost one more link). v3 hangs off v0 and routes through it. In doubt, v1 carries the data at once;
+ * v3 never does. */
+static void test_doubt_uses_a_neighbour_whose_route_avoids_us(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(4, NULL);
+    int direct = fleet_link(f, 0, 2);
+    fleet_link(f, 1, 2);
+    int side = fleet_link(f, 0, 1);
+    int tail = fleet_link(f, 0, 3);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    stream_to(f, 2, f->w->now_ms + 4 * HELLO_MS, 10); /* traffic: v2 sends v0 fast hellos */
+    ub_route_info_t ri = route(f, 0, 2);
+    assert_int_equal(ri.link_id, f->edge[direct].la);
+    assert_int_equal(ri.feasible, 1); /* v1's route is not feasible: equal metric */
+    uint64_t rx0 = f->rx_count[2][0];
+    fleet_cut(f, direct);
+    uint64_t t_cut = f->w->now_ms;
+    while (f->w->now_ms - t_cut < HELLO_MS && f->rx_count[2][0] == rx0) stream_to(f, 2, f->w->now_ms + 1, 10);
+    assert_true(f->rx_count[2][0] > rx0);
+    assert_true(f->w->now_ms - t_cut < HELLO_MS / 2);
+    ri = route(f, 0, 2);
+    assert_int_equal(ri.link_id, f->edge[direct].la); /* in doubt, not torn down */
+    uint8_t via_v1 = (uint8_t)(1u << ub_node_link(&f->w->nodes[0], f->edge[side].la)->index);
+    uint8_t via_v3 = (uint8_t)(1u << ub_node_link(&f->w->nodes[0], f->edge[tail].la)->index);
+    assert_true((ri.mask & via_v1) != 0);
+    assert_true((ri.mask & via_v3) == 0);
+    /* Healed before the hello timeout: one successor again, and nothing was selected but the direct link. */
+    fleet_heal(f, direct);
+    stream_to(f, 2, f->w->now_ms + 2 * HELLO_MS, 10);
+    ri = route(f, 0, 2);
+    assert_int_equal(ri.link_id, f->edge[direct].la);
+    assert_int_equal(__builtin_popcount(ri.mask), 1);
+    fleet_free(f);
+}
+
+/* The tie that feasibility cannot see through: v1 reaches v2 through v0 or through v3 at one metric and kept v0 (its
+ * link to v3 came later: hysteresis), so to v0 its route looks like one through v0. Cut v0-v2: v0, in doubt with
+ * no successor known to avoid it, hands the data to every neighbour with a route; v1 gets it from its own next hop
+ * and sends it on over its other feasible successor (its bounce mask), not back. */
+static void test_doubt_reaches_a_tied_neighbour_that_routes_through_us(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(4, NULL);
+    int direct = fleet_link(f, 0, 2);
+    int side = fleet_link(f, 0, 1);
+    fleet_link(f, 3, 2);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    int late = fleet_link(f, 1, 3);
+    world_run(f->w, f->w->now_ms + 6 * HELLO_MS, 1);
+    stream_to(f, 2, f->w->now_ms + 4 * HELLO_MS, 10);
+    ub_route_info_t r1 = route(f, 1, 2);
+    assert_int_equal(r1.link_id, f->edge[side].lb);     /* v1 kept v0 ... */
+    assert_int_equal(r1.feasible, 2);                     /* ... though v3 is feasible for it too */
+    assert_int_equal(route(f, 0, 2).feasible, 1);         /* to v0, v1's route is no successor */
+    uint8_t v2[UB_ENTITY_ID_LEN];
+    vid(2, v2);
+    int d = ub_node_find_entity(&f->w->nodes[1], v2);
+    assert_true(d >= 0);
+    uint8_t bounce = f->w->nodes[1].locals[0].bounce[d]; /* v1 is the node's one local entity */
+    assert_int_equal(bounce, (uint8_t)(1u << ub_node_link(&f->w->nodes[1], f->edge[late].la)->index));
+    uint64_t rx0 = f->rx_count[2][0], nr0 = ub_node_counters(&f->w->nodes[1])->drops[UB_DROP_NO_ROUTE];
+    fleet_cut(f, direct);
+    uint64_t t_cut = f->w->now_ms;
+    while (f->w->now_ms - t_cut < HELLO_MS && f->rx_count[2][0] == rx0) stream_to(f, 2, f->w->now_ms + 1, 10);
+    assert_true(f->rx_count[2][0] > rx0);
+    assert_true(f->w->now_ms - t_cut < HELLO_MS / 2);
+    assert_int_equal(route(f, 1, 2).link_id, f->edge[side].lb); /* nothing reselected: the frames went around */
+    assert_int_equal(ub_node_counters(&f->w->nodes[1])->drops[UB_DROP_NO_ROUTE], nr0);
+    fleet_free(f);
+}
+
+/* The node's side of the bounce mask, without an engine: v1's mask toward v3 is its link to v0; a frame for v3
+ * that v0 sends it comes back over that link and goes out over the bounce mask (to v2), unless the entry is pinned;
+ * removing the link clears the bit. */
+static void test_bounce_mask_takes_frames_sent_back(void **state) {
+    (void)state;
+    fleet_t *f = fleet_new(4, NULL);
+    int ab = fleet_link(f, 0, 1), bc = fleet_link(f, 1, 2);
+    uint8_t v3[UB_ENTITY_ID_LEN];
+    vid(3, v3);
+    ub_node_t *a = &f->w->nodes[0], *b = &f->w->nodes[1];
+    int da = ub_node_add_entity(a, v3, false), db = ub_node_add_entity(b, v3, false);
+    assert_true(da >= 0 && db >= 0);
+    uint8_t to_a = (uint8_t)(1u << ub_node_link(b, f->edge[ab].lb)->index);
+    uint8_t to_c = (uint8_t)(1u << ub_node_link(b, f->edge[bc].la)->index);
+    assert_int_equal(ub_node_set_mask(a, f->self[0], da, (uint8_t)(1u << ub_node_link(a, f->edge[ab].la)->index)), UB_OK);
+    assert_int_equal(ub_node_set_auto_mask(b, f->self[1], db, to_a), UB_OK);
+    assert_int_equal(ub_node_set_bounce_mask(b, f->self[1], db, 0x80), UB_ERR_NOTFOUND); /* no link[7] */
+    assert_int_equal(ub_node_set_bounce_mask(b, f->self[1], db, to_c), UB_OK);
+    const ub_link_t *c_in = ub_node_link(&f->w->nodes[2], f->edge[bc].lb);
+    uint64_t c0 = c_in->counters.frames_accepted;
+    assert_true(ub_node_send_data(a, f->self[0], TEST_GPS, v3, f->w->now_ms) >= 0);
+    world_run(f->w, f->w->now_ms + 5, 1);
+    assert_int_equal(c_in->counters.frames_accepted, c0 + 1); /* sent back by its next hop: over the bounce mask */
+    /* A pinned entry is the operator's route: nothing goes around it. */
+    assert_int_equal(ub_node_set_mask(b, f->self[1], db, to_a), UB_OK);
+    uint64_t nr = ub_node_counters(b)->drops[UB_DROP_NO_ROUTE];
+    assert_true(ub_node_send_data(a, f->self[0], TEST_GPS, v3, f->w->now_ms) >= 0);
+    world_run(f->w, f->w->now_ms + 5, 1);
+    assert_int_equal(c_in->counters.frames_accepted, c0 + 1);
+    assert_int_equal(ub_node_counters(b)->drops[UB_DROP_NO_ROUTE], nr + 1);
+    fleet_free(f);
+}
+
 /* A brief gap (shorter than the hello timeout) costs duplicates, never the link, a route or a frame. (The
  * hellos it swallowed still count in the link's ETX as before: a route may move to an equal successor.) */
 static void test_brief_gap_is_harmless(void **state) {
@@ -1078,6 +1185,9 @@ int main(void) {
         cmocka_unit_test(test_link_local_addressing),
         cmocka_unit_test(test_options_checked),
         cmocka_unit_test(test_gap_in_neighbour_frames_sends_on_every_successor),
+        cmocka_unit_test(test_doubt_uses_a_neighbour_whose_route_avoids_us),
+        cmocka_unit_test(test_doubt_reaches_a_tied_neighbour_that_routes_through_us),
+        cmocka_unit_test(test_bounce_mask_takes_frames_sent_back),
         cmocka_unit_test(test_brief_gap_is_harmless),
         cmocka_unit_test(test_link_event_down_switches_at_once),
     };

@@ -17,6 +17,7 @@ import pytest
 
 from uavbus.sim.build import REPO
 from uavbus.sim.fleet import FleetRun
+from uavbus.sim.fleet_report import window_delivery
 from uavbus.sim.run_scenario import render
 from uavbus.sim.scenario import load_scenario
 
@@ -49,7 +50,12 @@ def test_every_event_happened_and_every_flow_recovered(fleet) -> None:
     # affected recovered (above) and is among the flows through uav1: the kill disturbed nothing else.
     assert set(kill["affected"]) <= {"gps3", "gps5"}, kill
     fail = next(e for e in events if e["event"] == "fail_link")
-    assert "imu5to2" in fail["affected"], fail  # uav5 -> uav3 -> uav2, rerouted through uav4 and uav1
+    # imu5to2 went uav5 -> uav3 -> uav2 and is rerouted through uav4 and uav1. uav3's link in doubt hands the data
+    # to its other neighbours, and one that routed through uav3 sends it on over its bounce mask (docs/routing.md,
+    # "Transport evidence"), often before the flow falls silent: then it is not `affected`, and it must have kept
+    # its rate through the failure -- which a hello timeout alone (3 x 200 ms of silence in these 2 s) cannot.
+    kept = window_delivery(run.flows["imu5to2"], fail["t"], fail["t"] + 2.0)
+    assert "imu5to2" in fail["affected"] or (kept is not None and kept >= 0.85), (fail, kept)
     back = [e for e in events if e["event"] == "in_range" and "uav6" in e["target"]]
     assert back and any("nav6" in e["affected"] for e in back), back  # uav6 out of everyone's range, and back
     assert summary["processes"]["uav1"]["starts"] == 2 and summary["processes"]["uav1"]["running"]

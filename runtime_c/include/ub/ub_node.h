@@ -257,6 +257,7 @@ typedef struct ub_local_entity {
     int16_t link_ids[UB_MAX_LINKS_PER_ENTITY];   /**< link[i] -> link slot, -1 if none */
     uint8_t masks[UB_MAX_ENTITIES];              /**< per destination entity-table index */
     uint8_t pinned[UB_MAX_ENTITIES];             /**< 1: the mask was set by hand (routing leaves it alone) */
+    uint8_t bounce[UB_MAX_ENTITIES];             /**< links for a frame sent back by its next hop (ub_node_set_bounce_mask()) */
     ub_dedup_entry_t dedup[UB_DEDUP_SOURCES];
     ub_pubsub_table_t ps;                        /**< kept for the publish/subscribe service (ub_pubsub.h) */
 } ub_local_entity_t;
@@ -404,6 +405,16 @@ UB_CHECK int ub_node_set_mask(ub_node_t *node, int entity, int dest, uint8_t mas
  *         errors of ub_node_set_mask().
  */
 UB_CHECK int ub_node_set_auto_mask(ub_node_t *node, int entity, int dest, uint8_t mask);
+
+/**
+ * Sets, on behalf of a routing engine, where a frame toward `dest` goes when it comes back over a link of the
+ * mask -- the next hop sent it back, having no other way (it routes through us, or its link onward is in
+ * doubt): the other loop-free successors the engine knows (docs/routing.md, "Transport evidence"). Used only
+ * then, and never for a pinned entry; 0 (the default) drops such a frame `no_route` as before. Cleared with
+ * the mask when `dest` or a link goes.
+ * @return UB_OK; the errors of ub_node_set_mask().
+ */
+UB_CHECK int ub_node_set_bounce_mask(ub_node_t *node, int entity, int dest, uint8_t mask);
 
 /** @return true if local entity `entity`'s mask toward `dest` was set by hand (pinned). */
 bool ub_node_mask_pinned(const ub_node_t *node, int entity, int dest);

@@ -199,10 +199,8 @@ typedef struct ub_route_link {
     uint64_t last_tx_ms;
     uint64_t dump_due_ms;
     /* Transport evidence and frame gaps (docs/routing.md, "Transport evidence"). */
-    uint8_t evidence_down;   /* a link event DOWN not yet acted on by the tick */
     uint8_t doubt;           /* silent for longer than its recent frames predicted: routes over it use every
-                                feasible successor until a frame arrives or the hello timeout decides; 2: silent
-                                twice as long (a seqno request may go out) */
+                                feasible successor until a frame arrives or the hello timeout decides */
     uint32_t gap_ms;         /* largest gap between the neighbour's frames in the current window */
     uint32_t gap_prev_ms;    /* ... in the window before (the estimate is the larger: bursts never lower it) */
     uint64_t gap_window_ms;  /* start of the current window (one neighbour hello interval long) */
@@ -233,6 +231,7 @@ typedef struct ub_route_dest {
     uint8_t req_links;       /* bit i: a seqno request is to go on link[i] */
     uint8_t req_hops;
     uint8_t mask;            /* last mask computed */
+    uint8_t bounce;          /* last bounce mask written (ub_node_set_bounce_mask()) */
     uint16_t metric;         /* advertised metric */
     uint16_t seqno;          /* advertised seqno */
     uint16_t fd_seqno;

@@ -130,6 +130,7 @@ int ub_node_remove_entity(ub_node_t *node, int entity, uint64_t now_ms) {
         }
         loc->masks[entity] = 0;
         loc->pinned[entity] = 0;
+        loc->bounce[entity] = 0;
     }
     memset(&node->entities[entity], 0, sizeof node->entities[entity]);
     node->entities[entity].local = -1;
@@ -183,6 +184,7 @@ int ub_node_remove_link(ub_node_t *node, int link_id) {
     uint8_t bit = (uint8_t)(1u << link->index);
     for (int d = 0; d < UB_MAX_ENTITIES; d++) {
         loc->masks[d] &= (uint8_t)~bit;
+        loc->bounce[d] &= (uint8_t)~bit;
         if (loc->masks[d] == 0) loc->pinned[d] = 0;
     }
     loc->link_ids[link->index] = -1;
@@ -228,6 +230,16 @@ int ub_node_set_mask(ub_node_t *node, int entity, int dest, uint8_t mask) {
 
 int ub_node_set_auto_mask(ub_node_t *node, int entity, int dest, uint8_t mask) {
     return write_mask(node, entity, dest, mask, false);
+}
+
+int ub_node_set_bounce_mask(ub_node_t *node, int entity, int dest, uint8_t mask) {
+    if (node == NULL) return UB_ERR_INVAL;
+    int slot = ub_node_entity_slot(node, entity);
+    if (slot < 0 || !entity_index_ok(node, dest) || (dest == entity && mask != 0)) return UB_ERR_INVAL;
+    for (unsigned i = 0; i < 8; i++)
+        if ((mask & (1u << i)) && (i >= UB_MAX_LINKS_PER_ENTITY || node->locals[slot].link_ids[i] < 0)) return UB_ERR_NOTFOUND;
+    node->locals[slot].bounce[dest] = mask;
+    return UB_OK;
 }
 
 bool ub_node_mask_pinned(const ub_node_t *node, int entity, int dest) {
@@ -797,7 +809,10 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
         return UB_VERDICT_ACCEPTED;
     }
     const ub_local_entity_t *owner = &node->locals[link->owner];
-    uint8_t mask = (uint8_t)(dest_row >= 0 ? owner->masks[dest_row] & ~(1u << link->index) : 0u);
+    uint8_t in_bit = (uint8_t)(1u << link->index);
+    uint8_t mask = (uint8_t)(dest_row >= 0 ? owner->masks[dest_row] & ~in_bit : 0u);
+    if (mask == 0 && dest_row >= 0 && (owner->masks[dest_row] & in_bit) && !owner->pinned[dest_row])
+        mask = (uint8_t)(owner->bounce[dest_row] & ~in_bit); /* sent back by its next hop: the other successors */
     if (mask == 0) {
         count_drop(node, link_id, UB_DROP_NO_ROUTE);
         return UB_VERDICT_ACCEPTED;

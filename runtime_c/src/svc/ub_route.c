@@ -177,6 +177,16 @@ static void request_seqno(ub_route_t *rt, int slot, int e, uint64_t now_ms) {
     rt->counters.starvation_requests++;
 }
 
+/* Whether a neighbour's route cannot pass through us (a successor for data while in doubt, never for selection):
+ * every route through us adds at least one link cost (>= UB_ROUTE_LINK_COST) to a metric we advertised for that
+ * seqno, and all of those are >= our feasibility distance. So a route at the FD's seqno with a metric below
+ * FD + one link cost does not go through us -- the equal-metric neighbour of a grid, which the feasibility
+ * condition (strictly below FD) refuses. Two such neighbours may both be in doubt and hand a frame to each other:
+ * the duplicate window of the one that sent it first drops it, so a frame never circles. */
+static bool around_us(const ub_route_dest_t *ds, const ub_route_entry_t *r) {
+    return ds->fd_valid && r->seqno == ds->fd_seqno && (uint32_t)r->metric < (uint32_t)ds->fd_metric + UB_ROUTE_LINK_COST;
+}
+
 static uint8_t compute_mask(const ub_route_t *rt, int slot, int e) {
     const ub_route_dest_t *ds = &rt->dests[slot][e];
     if (ds->sel_link < 0) return 0;
@@ -184,9 +194,9 @@ static uint8_t compute_mask(const ub_route_t *rt, int slot, int e) {
     if (sel == NULL) return 0;
     uint8_t mask = (uint8_t)(1u << sel->index);
     /* In doubt (its neighbour's frames stopped sooner than they should have, docs/routing.md, "Transport
-     * evidence"): every feasible successor carries the traffic until a frame arrives or the hello timeout
-     * decides. Loop-free as any selection (each successor's metric is below our feasibility distance); the
-     * receivers' duplicate windows keep one copy. */
+     * evidence"): every feasible successor, and every neighbour whose route cannot pass through us (around_us()),
+     * carries the traffic until a frame arrives or the hello timeout decides. The receivers' duplicate windows
+     * keep one copy. Nothing is advertised differently: the routing frames do not change. */
     bool doubt = rt->links[ds->sel_link].doubt != 0;
     if (rt->opt.parallel == UB_ROUTE_PARALLEL_BEST && !doubt) return mask;
     const uint8_t *nb = rt->links[ds->sel_link].nb_id;
@@ -196,14 +206,51 @@ static uint8_t compute_mask(const ub_route_t *rt, int slot, int e) {
         const ub_route_link_t *l = &rt->links[lid];
         const ub_route_entry_t *r = &rt->routes[e][lid];
         if (!l->nb_in_use || (!doubt && memcmp(l->nb_id, nb, UB_ENTITY_ID_LEN) != 0) || cost_of(rt, l) == INF) continue;
-        if (!r->in_use || r->metric == INF || !feasible(ds, r->seqno, r->metric)) continue;
+        if (!r->in_use || r->metric == INF) continue;
+        if (!feasible(ds, r->seqno, r->metric) && !(doubt && around_us(ds, r))) continue;
         mask |= (uint8_t)(1u << i);
+    }
+    if (doubt && mask == (uint8_t)(1u << sel->index)) {
+        /* No successor known to avoid us: every neighbour with a route gets the data. One that routes through us
+         * has only us in its mask, so it hands the frame to its own feasible successors (its bounce mask,
+         * compute_bounce()) or drops it (`no_route`); none sends it back, and a frame seen twice is dropped as
+         * a duplicate anyway. */
+        for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) {
+            int lid = slot_link(rt, slot, i);
+            if (lid < 0) continue;
+            const ub_route_entry_t *r = &rt->routes[e][lid];
+            if (rt->links[lid].nb_in_use && cost_of(rt, &rt->links[lid]) != INF && r->in_use && r->metric != INF)
+                mask |= (uint8_t)(1u << i);
+        }
+    }
+    return mask;
+}
+
+/* Where the node sends a frame toward `e` that its next hop sent back (ub_node_set_bounce_mask()): every feasible
+ * successor behind another neighbour. A neighbour tied between us and another way keeps the route through us
+ * (hysteresis); when our link onward falls in doubt and we hand it the data, this is its way around. Loop-free as
+ * any selection (feasible successors only). */
+static uint8_t compute_bounce(const ub_route_t *rt, int slot, int e) {
+    const ub_route_dest_t *ds = &rt->dests[slot][e];
+    if (ds->sel_link < 0) return 0;
+    const uint8_t *nb = rt->links[ds->sel_link].nb_id;
+    uint8_t mask = 0;
+    for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) {
+        int lid = slot_link(rt, slot, i);
+        if (lid < 0) continue;
+        const ub_route_link_t *l = &rt->links[lid];
+        const ub_route_entry_t *r = &rt->routes[e][lid];
+        if (!l->nb_in_use || memcmp(l->nb_id, nb, UB_ENTITY_ID_LEN) == 0 || cost_of(rt, l) == INF) continue;
+        if (r->in_use && r->metric != INF && feasible(ds, r->seqno, r->metric)) mask |= (uint8_t)(1u << i);
     }
     return mask;
 }
 
 static void install_mask(ub_route_t *rt, int slot, int e) {
     int self = ub_node_slot_entity(rt->node, slot);
+    uint8_t bounce = compute_bounce(rt, slot, e);
+    if (bounce != rt->dests[slot][e].bounce && ub_node_set_bounce_mask(rt->node, self, e, bounce) == UB_OK)
+        rt->dests[slot][e].bounce = bounce;
     uint8_t want = compute_mask(rt, slot, e);
     uint8_t before = rt->dests[slot][e].mask;
     rt->dests[slot][e].mask = want;
@@ -744,9 +791,6 @@ static void watch_link(ub_route_t *rt, int lid, const ub_link_t *link, uint64_t 
         l->doubt = 1;
         rt->counters.link_doubts++;
         mark_slot(rt, lid);
-    } else if (l->doubt == 1 && now_ms >= l->last_rx_ms + 2u * doubt_after(gap_estimate(l))) {
-        l->doubt = 2; /* still silent: no scheduling hiccup (kept for the inspection of links; it sends nothing by itself) */
-        mark_slot(rt, lid);
     }
 }
 
@@ -823,7 +867,6 @@ static bool route_next_due(const ub_service_t *svc, const ub_node_t *node, uint6
         }
         if (l->nb_in_use) earliest(&best, l->next_miss_ms);
         if (doubt_armed(l, now_ms)) earliest(&best, l->last_rx_ms + doubt_after(gap_estimate(l)));
-        if (l->doubt == 1) earliest(&best, l->last_rx_ms + 2u * doubt_after(gap_estimate(l)));
         if (link->counters.frames_out != l->tx_seen) earliest(&best, now_ms); /* the tick notes what we sent */
         if (link->ops == NULL) continue;
         earliest(&best, l->next_hello_ms);
@@ -962,11 +1005,15 @@ void ub_route_detach(ub_route_t *rt) {
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
         int self = ub_node_slot_entity(node, slot);
         if (self < 0) continue;
-        for (int e = 0; e < UB_MAX_ENTITIES; e++)
+        for (int e = 0; e < UB_MAX_ENTITIES; e++) {
             if ((ub_node_entity_id(node, e) != NULL) && !ub_node_mask_pinned(node, self, e) && e != self &&
                 ub_node_set_auto_mask(node, self, e, 0) != UB_OK) {
                 /* cannot fail: an unpinned entry toward a known entity */
             }
+            if (e != self && ub_node_set_bounce_mask(node, self, e, 0) != UB_OK) {
+                /* cannot fail: mask 0 toward another entity-table row */
+            }
+        }
     }
     if (ub_node_remove_service(node, &rt->svc) != UB_OK) {
         /* another engine took over (ub_route_attach() again): nothing of ours to remove */

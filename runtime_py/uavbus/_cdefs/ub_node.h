@@ -81,6 +81,7 @@ int ub_node_add_entity_name(ub_node_t *node, const char *name, bool local);
 int ub_node_remove_entity(ub_node_t *node, int entity, uint64_t now_ms);
 int ub_node_remove_link(ub_node_t *node, int link_id);
 int ub_node_set_auto_mask(ub_node_t *node, int entity, int dest, uint8_t mask);
+int ub_node_set_bounce_mask(ub_node_t *node, int entity, int dest, uint8_t mask);
 bool ub_node_mask_pinned(const ub_node_t *node, int entity, int dest);
 int ub_node_find_entity(const ub_node_t *node, const uint8_t id[]);
 const uint8_t *ub_node_entity_id(const ub_node_t *node, int entity);
