@@ -115,12 +115,16 @@ class FlowTrack:
     expected: float = 0.0             # deliveries expected while both ends were up
     expected_connected: float = 0.0   # ... and a path existed
     delivered_connected: float = 0.0
+    run_s: float = math.inf           # the scenario's duration: what is expected is counted in [0, run_s)
+    in_run: int = 0                   # deliveries in [0, run_s), the ones the expectations are about
 
     def add(self, t: float, n: int = 1) -> None:
         self.count += n
         if t >= 0.0:  # before t = 0 the processes are still starting
             key = int(t / 0.5)
             self.bins[key] = self.bins.get(key, 0) + n
+            if t < self.run_s:
+                self.in_run += n
 
 
 class FleetRun:
@@ -139,7 +143,7 @@ class FleetRun:
         self.alloc = PortAllocator()
         self.members: dict[str, Member] = {s.name: Member(s, FlightModel(s.motion)) for s in scenario.stations}
         self.links: list[RunLink] = []
-        self.flows = {f.name: FlowTrack(f) for f in scenario.flows}
+        self.flows = {f.name: FlowTrack(f, run_s=scenario.duration_s) for f in scenario.flows}
         self.timeline: list[dict[str, Any]] = []   # fired events, range transitions
         self.epoch = 0.0
         self.catalogue: Any = None

@@ -1,7 +1,9 @@
 """What a fleet run measured (uavbus.sim.fleet): summary.json and timeline.png.
 
 - **delivery per flow**: deliveries / what the period promises while both ends run (`delivery_ratio`) and
-  while a path of connected links exists (`delivery_ratio_connected`), from the launcher's own link states;
+  while a path of connected links exists (`delivery_ratio_connected`), from the launcher's own link states; both
+  over the run's span [0, duration) (`delivered` counts every delivery, before t = 0 and while the last stats are
+  collected too);
 - **reconvergence after each event** (kill, restart, add, link failure and repair, out of and back into
   range): for every flow that has a path after the event, the outage of that flow around the event (silence
   longer than the flow's gap, 3 periods, at least 300 ms) ends at its first delivery; the event's
@@ -209,8 +211,11 @@ def summarize(run: FleetRun) -> dict[str, Any]:
         flows.append({
             "name": name, "content": f.content, "source": f.source, "destination": f.destination,
             "period_ms": f.period_ms, "delivered": tr.count, "expected": round(tr.expected, 1),
-            "delivery_ratio": round(min(1.0, tr.count / tr.expected), 4) if tr.expected > 0 else None,
-            "delivery_ratio_connected": (round(min(1.0, tr.count / tr.expected_connected), 4)
+            # Deliveries and expectations over the same span, [0, duration): the flows that start while the
+            # processes come up deliver before t = 0, and every flow goes on while the run's last stats are
+            # collected; counted, those made multi-hop flows look 4-6 points better than they were.
+            "delivery_ratio": round(min(1.0, tr.in_run / tr.expected), 4) if tr.expected > 0 else None,
+            "delivery_ratio_connected": (round(min(1.0, tr.in_run / tr.expected_connected), 4)
                                          if tr.expected_connected > 0 else None),
             "hops": tr.hops,
             "outages": [[round(a, 3), round(b, 3)] + (["open"] if o else []) for a, b, o in gaps],
