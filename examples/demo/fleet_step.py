@@ -26,13 +26,17 @@ from pathlib import Path
 from typing import Any, Callable
 
 from uavbus.sim.fleet import FleetRun
-from uavbus.sim.fleet_report import window_delivery
+from uavbus.sim.fleet_report import radio_share, window_delivery
 from uavbus.sim.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parents[2]
 SCENARIO = REPO / "examples" / "scenarios" / "fleet12.yaml"
 RECONVERGED_S = 2.5       # bound on any event's reconvergence (measured ~0.2-0.8 s; the machine is shared)
-DELIVERY = 0.9            # where a path exists
+# Where a path exists, a flow delivers at least this share of what the radio leaves of it: fleet12's radio
+# loses 2 % on every hop and nothing resends telemetry, so 5 hops carry 0.98^5 = 90.4 % at best and a bound
+# of 90 % of the whole rate would test the dice, not the routes (it failed 2 of 3 clean-clone runs; measured
+# over [0, duration) gps12 read 0.874-0.929). The bound is on routing: 90 % of (1 - loss)^hops.
+DELIVERY = 0.9
 SECOND_ADMIN_T = 5.0      # gcs2 asks for gcs1's imu7to3 at another rate
 SAMPLE_T = 12.0           # both rows read back
 
@@ -84,9 +88,11 @@ def fleet_part(out: Path, program: Path | None, check: Check, say: Callable[[str
 
     for f in summary["flows"]:
         ratio = f["delivery_ratio_connected"]
-        check(f"fleet flow {f['name']} delivers where a path exists", ratio is not None and ratio >= DELIVERY,
+        check(f"fleet flow {f['name']} delivers where a path exists",
+              ratio is not None and ratio >= DELIVERY * f["radio_share"],
               f"{f['source']} -> {f['destination']}: {100 * (ratio or 0):.1f} % of its rate while a path existed, "
-              f"{f['hops']} hops")
+              f"{f['hops']} hops (the radio leaves {100 * f['radio_share']:.1f} %, bound "
+              f"{100 * DELIVERY * f['radio_share']:.1f} %)")
     for e in events:
         rec = e["reconverged_s"]
         check(f"fleet event reconverges: {e['text'].split(' (')[0]}", rec is not None and rec <= RECONVERGED_S,
@@ -97,7 +103,8 @@ def fleet_part(out: Path, program: Path | None, check: Check, say: Callable[[str
     if left is not None:
         after = window_delivery(tracks["gps11"], left["t"] + 1.0, left["t"] + 6.0)
         check("fleet: uav11 out of gcs1's range, reached through relays",
-              flows["gps11"]["hops"] >= 2 and after is not None and after >= DELIVERY,
+              flows["gps11"]["hops"] >= 2 and after is not None
+              and after >= DELIVERY * radio_share(run, flows["gps11"]["hops"]),
               f"out of range at t={left['t']:.1f} s; {100 * (after or 0):.0f} % delivered in the next 5 s, "
               f"{flows['gps11']['hops']} hops")
     else:
@@ -113,7 +120,7 @@ def fleet_part(out: Path, program: Path | None, check: Check, say: Callable[[str
     imu_rate = window_delivery(tracks["imu7to3"], SECOND_ADMIN_T + 1.0, SAMPLE_T)
     check("fleet: two administrators, no wrong status",
           g1.get("status") == "active" and g2.get("status") == "failed" and g2.get("nack_reason") == "other_admin"
-          and imu_rate is not None and imu_rate >= DELIVERY,
+          and imu_rate is not None and imu_rate >= DELIVERY * radio_share(run, flows["imu7to3"]["hops"]),
           f"gcs1 (100 ms) {g1.get('status')}, gcs2 (500 ms) {g2.get('status')} ({g2.get('nack_reason')}); "
           f"the flow ran at {100 * (imu_rate or 0):.0f} % of 10 Hz")
 
@@ -126,7 +133,8 @@ def fleet_part(out: Path, program: Path | None, check: Check, say: Callable[[str
         own = window_delivery(tracks["gps4"], w0, w1)
         kept = summary["counters"]
         check("fleet: gcs1 out of range, vehicle-to-vehicle flows continue",
-              all(v is not None and v >= DELIVERY for v in v2v.values()) and (own or 0.0) < 0.1
+              all(v is not None and v >= DELIVERY * radio_share(run, flows[n]["hops"]) for n, v in v2v.items())
+              and (own or 0.0) < 0.1
               and kept["uav3"]["handovers"] >= 1 and kept["uav10"]["handovers"] >= 1,
               f"gcs1 out of everyone's range from t={t_gone:.1f} s; in the {w1 - w0:.0f} s after: "
               + ", ".join(f"{n} {100 * (v or 0):.0f} %" for n, v in v2v.items())

@@ -4,11 +4,14 @@ outage is listed with its cause; a flow whose source is gone for good is `stale`
 
 from __future__ import annotations
 
+from pathlib import Path
 from types import SimpleNamespace
 
+import pytest
+
 from uavbus.sim.fleet import FlowTrack
-from uavbus.sim.fleet_report import _reconvergence, explained_outages, source_gone
-from uavbus.sim.scenario import FlowSpec, Station
+from uavbus.sim.fleet_report import _reconvergence, explained_outages, radio_share, source_gone
+from uavbus.sim.scenario import FlowSpec, Station, load_scenario
 
 PERIOD_MS = 100
 
@@ -87,3 +90,14 @@ def test_delivery_is_counted_over_the_span_the_expectation_covers() -> None:
         tr.add(t)
     assert tr.count == 7
     assert tr.in_run == 3
+
+
+def test_radio_share_is_what_the_links_loss_leaves_over_the_hops() -> None:
+    # The demo's own scenario: its links take the radio's 2 % loss.
+    run = SimpleNamespace(sc=load_scenario(Path(__file__).resolve().parents[2] / "examples/scenarios/fleet12.yaml"))
+    losses = sorted(link.loss for link in run.sc.links)
+    loss = losses[len(losses) // 2]
+    assert loss > 0.0                                   # the scenario's radio loses frames: the share must show it
+    assert radio_share(run, 5) == pytest.approx((1.0 - loss) ** 5)
+    assert radio_share(run, 1) > radio_share(run, 5)
+    assert radio_share(run, None) == radio_share(run, 1)  # a flow that never delivered counts as one hop

@@ -17,7 +17,7 @@ import pytest
 
 from uavbus.sim.build import REPO
 from uavbus.sim.fleet import FleetRun
-from uavbus.sim.fleet_report import window_delivery
+from uavbus.sim.fleet_report import radio_share, window_delivery
 from uavbus.sim.run_scenario import render
 from uavbus.sim.scenario import load_scenario
 
@@ -55,7 +55,8 @@ def test_every_event_happened_and_every_flow_recovered(fleet) -> None:
     # "Transport evidence"), often before the flow falls silent: then it is not `affected`, and it must have kept
     # its rate through the failure -- which a hello timeout alone (3 x 200 ms of silence in these 2 s) cannot.
     kept = window_delivery(run.flows["imu5to2"], fail["t"], fail["t"] + 2.0)
-    assert "imu5to2" in fail["affected"] or (kept is not None and kept >= 0.85), (fail, kept)
+    share = radio_share(run, run.flows["imu5to2"].hops)
+    assert "imu5to2" in fail["affected"] or (kept is not None and kept >= 0.85 * share), (fail, kept, share)
     back = [e for e in events if e["event"] == "in_range" and "uav6" in e["target"]]
     assert back and any("nav6" in e["affected"] for e in back), back  # uav6 out of everyone's range, and back
     assert summary["processes"]["uav1"]["starts"] == 2 and summary["processes"]["uav1"]["running"]
@@ -64,8 +65,10 @@ def test_every_event_happened_and_every_flow_recovered(fleet) -> None:
 def test_flows_deliver_where_a_path_exists(fleet) -> None:
     _, summary, _ = fleet
     flows = {f["name"]: f for f in summary["flows"]}
+    # 85 % of what the radio's 2 % loss a hop leaves ((1 - loss)^hops: telemetry is not resent), so the bound is
+    # on routing and not on the radio's dice (docs/scenarios.md).
     for f in flows.values():
-        assert f["delivery_ratio_connected"] is not None and f["delivery_ratio_connected"] >= 0.85, f
+        assert f["delivery_ratio_connected"] is not None and f["delivery_ratio_connected"] >= 0.85 * f["radio_share"], f
     # Multi-hop through relays nobody was told about (learned), C and Python alike.
     assert flows["gps3"]["hops"] >= 2 and flows["gps5"]["hops"] >= 3 and flows["imu5to2"]["hops"] >= 2
     # uav6 was out of everyone's range for seconds: delivery over the whole run is lower than where a path exists.

@@ -12,7 +12,9 @@
 - **routing frames per link per second**, per link end from the routing engines' counters (sampled every
   2 s): over the whole run, and `steady_*` over sampling windows with no event in them or in the 2 s before
   (the start counts as one: routes are being learned);
-- **hops** of the last delivery of each flow (from its hop limit);
+- **hops** of the last delivery of each flow (from its hop limit), and `radio_share`, what the radio's own
+  loss leaves of a flow over that many hops ((1 - loss)^hops, `radio_share()`): the links do not retransmit,
+  so a routing check asks for a share of that, not of the whole rate;
 - **every outage with its cause** (`outages_explained`): the event that began it (link down, source gone,
   route change), start-up, no path since an event, or no event at all (loss or load);
 - **stale flows**: a flow whose source is gone for good is `status: stale`, and so is its administration
@@ -28,9 +30,19 @@ if TYPE_CHECKING:
     from uavbus.sim.fleet import FleetRun, FlowTrack
 
 __all__ = ["summarize", "plot_timeline", "flow_gaps", "window_delivery", "explained_outages", "outage_cause",
-           "source_gone"]
+           "source_gone", "radio_share"]
 
 SETTLE_S = 2.0
+
+
+def radio_share(run: FleetRun, hops: int | None) -> float:
+    """What the radio's own loss leaves of a flow over `hops` hops: (1 - loss)^hops, loss the median of the
+    scenario's link losses (a scenario's radio default; a link given its own worse loss is a detour, not the
+    path). Telemetry is not retransmitted (docs/pubsub.md), so a 2 % radio gives 0.98^5 = 90.4 % over 5 hops
+    however well routes hold: a delivery check of routing compares against this share, not the whole rate."""
+    losses = sorted(link.loss for link in run.sc.links)
+    loss = losses[len(losses) // 2] if losses else 0.0
+    return (1.0 - loss) ** (hops or 1)
 
 
 def flow_gaps(tr: FlowTrack, end: float) -> list[tuple[float, float, bool]]:
@@ -218,6 +230,7 @@ def summarize(run: FleetRun) -> dict[str, Any]:
             "delivery_ratio_connected": (round(min(1.0, tr.in_run / tr.expected_connected), 4)
                                          if tr.expected_connected > 0 else None),
             "hops": tr.hops,
+            "radio_share": round(radio_share(run, tr.hops), 4),
             "outages": [[round(a, 3), round(b, 3)] + (["open"] if o else []) for a, b, o in gaps],
             "outages_explained": explained[name],
             # stale: the source is gone for good; what the destination holds is its last value, not a live one
