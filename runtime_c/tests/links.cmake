@@ -1,6 +1,7 @@
 # Link-layer tests of the links issue (test_log, test_ports): they reuse the router tests' support
 # (hand-written catalogue, worlds, the two-node pair). test_impair needs none.
-foreach(t test_log test_log_damage test_ports test_ports_refusals test_driver_pipe test_accounting test_contracts test_prio)
+foreach(t test_log test_log_damage test_ports test_ports_refusals test_driver_pipe test_accounting test_contracts test_prio
+        test_batchlink)
   if(TARGET ${t})
     target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_fig9.c

@@ -5,7 +5,8 @@
 #  - ub_noalloc_nm: the static library must not reference any allocator symbol at all.
 
 set(UB_ROUTER_TESTS test_node test_router test_pubsub test_admin test_memlink test_table1 test_faults test_loops test_handover
-                    test_layout test_noalloc test_authz test_route test_member test_rxring)
+                    test_layout test_noalloc test_authz test_route test_member test_rxring test_route_due
+                    test_memlink_edges)
 foreach(t ${UB_ROUTER_TESTS})
   if(TARGET ${t})
     target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c

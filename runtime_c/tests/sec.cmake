@@ -20,7 +20,8 @@ if(TARGET test_sec_vectors)
   target_include_directories(test_sec_vectors PRIVATE ${UB_SEC_GEN_DIR})
 endif()
 
-foreach(t test_node_sec test_lockout test_tcp_sec test_secfile test_sec_noalloc test_origin test_origin_vectors)
+foreach(t test_node_sec test_lockout test_tcp_sec test_secfile test_sec_noalloc test_origin test_origin_vectors
+          test_node_sec_setup)
   if(TARGET ${t})
     target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_fig9.c

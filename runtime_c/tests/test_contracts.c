@@ -401,7 +401,9 @@ static void test_error_names(void **state) {
              {UB_ERR_EXISTS, "UB_ERR_EXISTS"}, {UB_ERR_CHECKSUM, "UB_ERR_CHECKSUM"}, {UB_ERR_LAYOUT, "UB_ERR_LAYOUT"},
              {UB_ERR_NOROUTE, "UB_ERR_NOROUTE"}, {UB_ERR_IO, "UB_ERR_IO"},     {UB_ERR_AGAIN, "UB_ERR_AGAIN"},
              {UB_ERR_CONFIG, "UB_ERR_CONFIG"}, {UB_ERR_CLOSED, "UB_ERR_CLOSED"}, {UB_ERR_RANGE, "UB_ERR_RANGE"},
-             {-99, "UB_ERR_UNKNOWN"},    {7, "UB_OK"}};
+             {UB_ERR_AUTH, "UB_ERR_AUTH"}, {UB_ERR_UNSUPPORTED, "UB_ERR_UNSUPPORTED"},
+             {UB_ERR_REFUSED, "UB_ERR_REFUSED"}, {UB_ERR_NOANSWER, "UB_ERR_NOANSWER"},
+             {-17, "UB_ERR_UNKNOWN"},    {-99, "UB_ERR_UNKNOWN"},    {7, "UB_OK"}};
     for (size_t i = 0; i < sizeof k / sizeof k[0]; i++) assert_string_equal(ub_strerror(k[i].code), k[i].name);
 }
 

@@ -83,8 +83,11 @@ static void test_short_cap_and_null(void **state) {
     assert_string_equal(v[0].member, "latitudeDeg");
     assert_null(v[2].member);
     assert_int_equal(ub_nmea_dir_values(&n, NULL, 0), 18);
+    assert_int_equal(ub_nmea_dir_values(&n, NULL, 5), 18); /* a cap but nowhere to write: counted only */
     assert_int_equal(ub_nmea_dir_values(NULL, v, 3), 0);
     assert_int_equal(ub_ubx_dir_values(NULL, v, 3), 0);
+    assert_int_equal(ub_ubx_cfg_dir_values(NULL, v, 3), 0);
+    assert_null(v[2].member);
 }
 
 /* The CFG-RATE exchange both adapters run: sent when the wanted rate changes, not again once answered, a NAK

@@ -290,12 +290,69 @@ static void test_store_setup(void **state) {
     assert_int_equal(ub_ident_revocation_count(&g_store), 0);
 }
 
+/* A certificates file at its bounds: UB_CERTFILE_MAX_CERTS entities, then another refused FULL (one line
+ * naming the file) while an entity already held is still replaced in place; loaded into a store with room
+ * for UB_IDENT_MAX_PEERS, refused FULL; a certificate not valid yet is skipped, not an error. And a header
+ * whose reserved bytes are set is another format. */
+static void test_certificate_file_bounds_and_reserved_header_bytes(void **state) {
+    (void)state;
+    const char *cs = path_of("many.cs");
+    (void)unlink(cs);
+    ub_cert_t c;
+    uint8_t seed[UB_IDENT_SEED_LEN], kx_sk[UB_IDENT_KX_SK_LEN], cert[UB_CERT_LEN];
+    make_cert(&c, seed, kx_sk);
+    for (unsigned i = 0; i <= UB_CERTFILE_MAX_CERTS; i++) {
+        memset(c.entity, 0, UB_ENTITY_ID_LEN);
+        snprintf((char *)c.entity, UB_ENTITY_ID_LEN, "v%u", i);
+        c.serial = 100u + i;
+        assert_int_equal(ub_cert_sign(&c, g_auth_sk), UB_OK);
+        assert_int_equal(ub_cert_encode(&c, cert), UB_OK);
+        int rc = ub_certfile_put(cs, cert, sizeof cert, g_err, sizeof g_err);
+        if (i < UB_CERTFILE_MAX_CERTS) {
+            assert_int_equal(rc, UB_OK);
+        } else {
+            assert_int_equal(rc, UB_ERR_FULL);
+            one_line_about("many.cs");
+        }
+    }
+    memset(c.entity, 0, UB_ENTITY_ID_LEN);
+    memcpy(c.entity, "v7", 2);
+    c.serial = 999;
+    assert_int_equal(ub_cert_sign(&c, g_auth_sk), UB_OK);
+    assert_int_equal(ub_cert_encode(&c, cert), UB_OK);
+    assert_int_equal(ub_certfile_put(cs, cert, sizeof cert, g_err, sizeof g_err), UB_OK); /* held: replaced */
+    ub_ident_store_init(&g_store);
+    assert_int_equal(ub_ident_set_authority(&g_store, g_auth_pk), UB_OK);
+    assert_int_equal(ub_certfile_load(cs, &g_store, NOW, g_err, sizeof g_err), UB_ERR_FULL);
+    one_line_about("many.cs");
+    /* one certificate, not valid before NOW - 10: skipped at NOW - 100 */
+    const char *one = path_of("one.cs");
+    (void)unlink(one);
+    assert_int_equal(ub_certfile_put(one, cert, sizeof cert, g_err, sizeof g_err), UB_OK);
+    ub_ident_store_init(&g_store);
+    assert_int_equal(ub_ident_set_authority(&g_store, g_auth_pk), UB_OK);
+    assert_int_equal(ub_certfile_load(one, &g_store, NOW - 100, g_err, sizeof g_err), 0);
+    assert_int_equal(ub_certfile_load(one, &g_store, NOW, g_err, sizeof g_err), 1);
+    /* reserved header bytes 5 and 6: refused as another format, naming the file */
+    uint8_t b[UB_IDENTFILE_HEADER_LEN + UB_CERT_LEN];
+    for (int k = 5; k <= 6; k++) {
+        header(b, "UBCS", 1);
+        b[k] = 1;
+        memcpy(b + UB_IDENTFILE_HEADER_LEN, cert, sizeof cert);
+        write_raw(one, b, sizeof b, 0644);
+        assert_int_equal(ub_certfile_load(one, &g_store, NOW, g_err, sizeof g_err), UB_ERR_CONFIG);
+        one_line_about("one.cs");
+        assert_non_null(strstr(g_err, "format"));
+    }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_identity_file_refusals),
         cmocka_unit_test(test_authority_files),
         cmocka_unit_test(test_revocation_and_certificate_files),
         cmocka_unit_test(test_store_setup),
+        cmocka_unit_test(test_certificate_file_bounds_and_reserved_header_bytes),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -125,10 +125,71 @@ static void test_context_contracts(void **state) {
     assert_non_null(ub_origin_stats(&g_o));
 }
 
+/* A provisioning table (docs/security.md, "Origin authentication"): header, n entries, CRC-32C. */
+static size_t pairs_table(uint8_t *t, size_t n, const char *self, bool group) {
+    size_t len = UB_ORIGIN_PAIRS_LEN(n);
+    memset(t, 0, len);
+    memcpy(t, UB_ORIGIN_PAIRS_MAGIC, 4);
+    t[4] = 1;
+    t[5] = (uint8_t)n;
+    memcpy(t + 8, self, strlen(self));
+    t[20] = 7;
+    t[21] = group ? 1 : 0;
+    if (group) memset(t + 24, 0x6B, 32);
+    for (size_t i = 0; i < n; i++) {
+        uint8_t *e = t + UB_ORIGIN_PAIRS_HEADER_LEN + i * UB_ORIGIN_PAIRS_ENTRY_LEN;
+        e[0] = 'p';
+        e[1] = (uint8_t)('a' + i);
+        memset(e + UB_ENTITY_ID_LEN, (int)(0x10 + i), 2 * UB_ORIGIN_KEY_LEN);
+    }
+    uint32_t crc = ub_crc32c(t, len - 4);
+    for (int k = 0; k < 4; k++) t[len - 4 + (size_t)k] = (uint8_t)(crc >> (8 * k));
+    return len;
+}
+
+/* Every way a table is not one is refused CONFIG, before anything is installed; a good one installs its pairs
+ * and hands back the group key. */
+static void test_pairs_table_refusals(void **state) {
+    (void)state;
+    static ub_origin_t o;
+    ub_origin_options_t none = {0};
+    ub_origin_provision_t out;
+    static uint8_t t[UB_ORIGIN_PAIRS_LEN(UB_ORIGIN_PEERS + 1)], bad[UB_ORIGIN_PAIRS_LEN(UB_ORIGIN_PEERS + 1)];
+    memset(&o, 0, sizeof o);
+    size_t len = pairs_table(t, 2, "gcs", true);
+    assert_int_equal(ub_origin_load_pairs(&o, t, len, &out), UB_ERR_INVAL); /* not initialised */
+    assert_int_equal(ub_origin_init(&o, &none), UB_OK);
+    assert_int_equal(ub_origin_load_pairs(NULL, t, len, &out), UB_ERR_INVAL);
+    assert_int_equal(ub_origin_load_pairs(&o, NULL, len, &out), UB_ERR_INVAL);
+    assert_int_equal(ub_origin_load_pairs(&o, t, len, NULL), UB_ERR_INVAL);
+    assert_int_equal(ub_origin_load_pairs(&o, t, UB_ORIGIN_PAIRS_LEN(0) - 1, &out), UB_ERR_CONFIG); /* too short */
+    memcpy(bad, t, len);
+    bad[0] = 'X'; /* magic */
+    assert_int_equal(ub_origin_load_pairs(&o, bad, len, &out), UB_ERR_CONFIG);
+    memcpy(bad, t, len);
+    bad[4] = 2; /* version */
+    assert_int_equal(ub_origin_load_pairs(&o, bad, len, &out), UB_ERR_CONFIG);
+    assert_int_equal(ub_origin_load_pairs(&o, t, len - 1, &out), UB_ERR_CONFIG); /* length is not n's */
+    memcpy(bad, t, len);
+    bad[60] ^= 1; /* a key bit: the CRC fails */
+    assert_int_equal(ub_origin_load_pairs(&o, bad, len, &out), UB_ERR_CONFIG);
+    size_t self_len = pairs_table(bad, 1, "pa", false); /* its one pair is with itself */
+    assert_int_equal(ub_origin_load_pairs(&o, bad, self_len, &out), UB_ERR_CONFIG);
+    size_t many = pairs_table(bad, UB_ORIGIN_PEERS + 1, "gcs", false);
+    assert_int_equal(ub_origin_load_pairs(&o, bad, many, &out), UB_ERR_FULL);
+    assert_int_equal(ub_origin_cached(&o), 0); /* nothing installed by any of them */
+    assert_int_equal(ub_origin_load_pairs(&o, t, len, &out), 2);
+    assert_int_equal(ub_origin_cached(&o), 2);
+    assert_true(out.has_group_key);
+    assert_int_equal(out.group_key_id, 7);
+    assert_int_equal(out.group_key[0], 0x6B);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_pure_function_contracts),
         cmocka_unit_test(test_context_contracts),
+        cmocka_unit_test(test_pairs_table_refusals),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -4,7 +4,7 @@
 if(TARGET test_compact_vectors)
   target_include_directories(test_compact_vectors PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
 endif()
-foreach(t test_compact test_frag test_wire_paths)
+foreach(t test_compact test_frag test_wire_paths test_wire_edges)
   if(TARGET ${t})
     target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_fig9.c

@@ -225,7 +225,8 @@ typedef struct ub_inspect {
 
 /**
  * Writes the INSPECT payload of `spec` with `request_id` into `p` (`cap` bytes): the fixed part, then
- * WRITE's data or SET_MASK's subject. @return its length, or 0 if it does not fit in `cap`.
+ * WRITE's data or SET_MASK's subject. @return its length, or 0 if it does not fit in `cap` (or `p` or
+ * `spec` is NULL).
  */
 size_t ub_inspect_put_request(uint8_t *p, size_t cap, uint32_t request_id, const ub_inspect_spec_t *spec);
 

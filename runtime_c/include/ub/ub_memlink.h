@@ -130,7 +130,7 @@ void ub_memlink_set_faults(ub_memlink_t *ml, const ub_memlink_faults_t *faults);
  * Attaches end 0 to (`a`, `link_a`) and end 1 to (`b`, `link_b`) with
  * ub_node_link_attach(). `a` and `b` may be the same node (two of its
  * entities joined by a real link).
- * @return UB_OK or the error of ub_node_link_attach().
+ * @return UB_OK or the error of ub_node_link_attach(); then neither end is attached.
  */
 UB_CHECK int ub_memlink_connect(ub_memlink_t *ml, ub_node_t *a, int link_a, ub_node_t *b, int link_b);
 

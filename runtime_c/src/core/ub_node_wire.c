@@ -272,9 +272,8 @@ static void frag_on_fragment(ub_node_t *node, int slot, int link_id, const ub_fr
         whole.admin = UB_ADMIN_DATA;
         whole.payload_size = (uint16_t)total;
         ub_priv_deliver_data(node, slot, link_id, &whole, data, now_ms);
-    } else if (r < 0) {
-        ub_priv_count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
     }
+    /* No error to count here: ub_frag_take() fails only on a payload ub_frag_parse() refuses, refused above. */
 }
 
 /* Timeouts of reassemblies; transfers that were pushed back go on. */

@@ -100,7 +100,12 @@ int ub_memlink_connect(ub_memlink_t *ml, ub_node_t *a, int link_a, ub_node_t *b,
     int rc = ub_node_link_attach(a, link_a, &ub_memlink_ops, &ml->end[0]);
     if (rc < 0) return rc;
     rc = ub_node_link_attach(b, link_b, &ub_memlink_ops, &ml->end[1]);
-    if (rc < 0) return rc;
+    if (rc < 0) {
+        /* Half a link would queue a's frames toward nobody: a goes back to detached (dropped, counted). */
+        int undone = ub_node_link_detach(a, link_a);
+        (void)undone; /* it was attached just above */
+        return rc;
+    }
     ml->end[0].node = a;
     ml->end[0].link_id = link_a;
     ml->end[1].node = b;

@@ -191,8 +191,9 @@ void ub_inspect_put_admin_rec(uint8_t p[UB_INSPECT_ADMIN_REC], const ub_inspect_
 }
 
 size_t ub_inspect_put_request(uint8_t *p, size_t cap, uint32_t request_id, const ub_inspect_spec_t *s) {
+    if (p == NULL || s == NULL) return 0; /* before `s` is read */
     size_t extra = s->op == UB_INSPECT_WRITE ? s->len : s->op == UB_INSPECT_SET_MASK ? UB_ENTITY_ID_LEN : 0;
-    if (p == NULL || s == NULL || extra > UB_INSPECT_CHUNK || cap < UB_INSPECT_REQ_DATA + extra) return 0;
+    if (extra > UB_INSPECT_CHUNK || cap < UB_INSPECT_REQ_DATA + extra) return 0;
     ub_put_u32le(p + UB_INSPECT_REQ_ID, request_id);
     p[UB_INSPECT_REQ_OP] = s->op;
     p[UB_INSPECT_REQ_ARG] = s->arg;
