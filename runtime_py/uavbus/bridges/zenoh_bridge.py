@@ -21,9 +21,9 @@ decremented) behind a 2-byte length, so a signed or encrypted frame's trailer ar
 verified end to end by its destination. The per-frame work is C's (ub_batchlink.h packs what the router
 sends, ub_batch_rx() unpacks into the router; ub_ports_drain() services the site's sockets until their
 input goes idle); the loop handles samples. A batch leaves when the site's input goes quiet (nothing
-readable for --batch-idle-us), when it holds --batch-bytes, or --batch-age-us after its turn began: no
-timer holds a lone frame, a burst shares samples. On a signed
-network the bridges verify like any forwarder (they hold the fleet key, docs/security.md) but never
+new within --batch-idle-us), when --batch-bytes are pending, --batch-age-us after its first frame, or
+when a Zenoh sample waits: no timer holds a lone frame, a burst shares samples. Samples travel in
+Zenoh's own transmission batches unless --express. On a signed network the bridges verify like any forwarder (they hold the fleet key, docs/security.md) but never
 re-sign: the tag the destination checks is the source's.
 
 **Key expressions**, one chunk per part, so Zenoh tools and ACLs can select flows:
