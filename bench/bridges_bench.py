@@ -446,8 +446,10 @@ def zenoh_calls_per_frame(catalogue: str, tmp: Path, n: int = 2000) -> dict:
         nodes["B"].on_data(lambda m: got.__setitem__(0, got[0] + 1))
 
         cpu = [0.0]
+        turns = [0]
 
         def turn(profiled: bool) -> None:
+            turns[0] += 1
             if profiled:
                 sys.setprofile(count)
             t = time.thread_time()
@@ -477,7 +479,7 @@ def zenoh_calls_per_frame(catalogue: str, tmp: Path, n: int = 2000) -> dict:
         def burst(profiled: bool) -> dict:
             """n frames from A in turns of 25 (within the UDP sockets' buffers), until all crossed gwB (what
             B's socket then drops on a busy machine is not the bridges' work)."""
-            got[0] = calls[0] = 0
+            got[0] = calls[0] = turns[0] = 0
             cpu[0] = 0.0
             base = bridges["gwB"].counters["received"]
             base_samples = bridges["gwB"].counters.get("samples_in", 0)
@@ -495,10 +497,12 @@ def zenoh_calls_per_frame(catalogue: str, tmp: Path, n: int = 2000) -> dict:
             for _ in range(5):
                 turn(False)
             return {"crossed": crossed, "samples": bridges["gwB"].counters.get("samples_in", 0) - base_samples,
+                    "turns": turns[0],
                     "calls": calls[0], "cpu_s": cpu[0], "wall_s": wall}
 
         counted, timed = burst(True), burst(False)
         return {"frames": n, "crossed": counted["crossed"], "samples": counted["samples"], "calls": counted["calls"],
+                "turns": counted["turns"],
                 "calls_per_frame": counted["calls"] / counted["crossed"] if counted["crossed"] else float("nan"),
                 "loop_cpu_us_per_frame": timed["cpu_s"] / timed["crossed"] * 1e6 if timed["crossed"] else float("nan"),
                 "in_process_rate": timed["crossed"] / timed["wall_s"] if timed["wall_s"] else 0.0}

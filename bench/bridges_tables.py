@@ -67,12 +67,13 @@ def bridges_section(raw: Path, w: Callable[[str], None]) -> None:
     calls = d.get("zenoh_calls") or []
     if calls:
         w("| the two Zenoh bridges' own work per frame (a burst, both bridges in one process, real sessions) "
-          "| Python-level calls | loop CPU µs | frames per sample |")
-        w("|---|---:|---:|---:|")
+          "| Python-level calls | loop CPU µs | frames per sample | calls per turn of both bridges |")
+        w("|---|---:|---:|---:|---:|")
         w(f"| calls and C calls (sys.setprofile) around the bridges' turn(); thread CPU time | "
           f"{_band([r['calls_per_frame'] for r in calls], '{:.1f}')} | "
           f"{_band([r.get('loop_cpu_us_per_frame', float('nan')) for r in calls], '{:.1f}')} | "
-          f"{_band([r['crossed'] / r['samples'] if r.get('samples') else float('nan') for r in calls], '{:.0f}')} |")
+          f"{_band([r['crossed'] / r['samples'] if r.get('samples') else float('nan') for r in calls], '{:.0f}')} | "
+          f"{_band([r['calls'] / r['turns'] if r.get('turns') else float('nan') for r in calls], '{:.1f}')} |")
         w("")
     z = d["ub_zenoh_tput"]
     if z and "gw_cpu_us_per_frame" in z[0]:

@@ -226,6 +226,7 @@ class ZenohBridge:
         # The site's sockets drained in C (ub_ports_drain) while the Zenoh link holds frames; a node without
         # ports (memlinks only) runs its Python service instead.
         self._bl = self.zlink.bl
+        self._clock = node._clock  # the node's clock in ms (node.now() without its call)
         self._drain = None if node._ports is None else ub_ports.new_drain(
             self._wake_r, idle_us, age_us, ub_batchlink.pending_bytes_ptr(self._bl), batch_bytes)
         self._lock = threading.Lock()
@@ -345,18 +346,21 @@ class ZenohBridge:
     def turn(self, now_ms: int | None = None, woken: bool = True) -> int:
         """One turn of the loop (the caller holds node_lock, or is the only thread touching the node):
         queued samples into the router, the site's sockets drained until idle or a bound (C), then every
-        pending batch published. `woken`: the wake pipe may hold bytes (empty it). Returns frames moved."""
-        if woken:
+        pending batch published. `woken` (run() passes what poll() saw; a caller without a poll() keeps
+        True): the wake pipe may hold bytes, emptied first, as it is whenever samples are queued: a pipe
+        left readable would end every drain at once (WOKEN). Returns frames moved."""
+        inbox = self._inbox
+        if woken or inbox:
             try:
                 while os.read(self._wake_r, 4096):
                     pass
             except BlockingIOError:
                 pass
-        now = self.node.now() if now_ms is None else now_ms
+        now = int(self._clock()) if now_ms is None else now_ms
         moved = 0
-        if self._inbox:
-            while self._inbox:
-                moved += self._take(self._inbox.popleft(), now)
+        if inbox:
+            while inbox:
+                moved += self._take(inbox.popleft(), now)
         if self._drain is not None:
             ub_ports.ub_ports_drain(self.node._ports, self._drain, now)
         else:
