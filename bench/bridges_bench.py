@@ -14,14 +14,17 @@ Side by side in one run, each case against the same path without the bridge:
       direct:   node A -> UDP -> node B
       bridged:  node A -> UDP -> uavbus bridge zenoh [gwA] -> Zenoh (tcp) -> [gwB] -> UDP -> node B
     latency at 200 Hz as above; throughput = frames delivered to B per second when A sends N back to
-    back (A and B in one process, interleaved: their Python cost is in both columns alike).
+    back (A and B in one process, interleaved: their Python cost is in both columns alike); beside it each
+    bridge process's CPU time per frame carried (every thread, Zenoh's included: /proc schedstat) and why
+    gwA's batches left (idle, full, aged, woken: ub_ports_drain), figures a busy machine changes far less.
     load-proof: Python-level calls per frame in the two bridges (sys.setprofile, calls and C calls, counted
     around the bridges' loop work only), both bridges in this process with real Zenoh sessions on
     tcp/127.0.0.1; a figure a busy machine does not change.
     Zenoh alone: one-way latency of a plain Zenoh publisher and subscriber in two Python processes at
     the same rate, so "added by the bridges" can be read net of Zenoh's own share. Beside it the loops' CPU time per frame
     (thread CPU time, unprofiled pass; Zenoh's own threads not included).
-`--only zenoh` runs the Zenoh part alone (`--blast N`, `--lat-n N` for small counts).
+`--only zenoh` runs the Zenoh part alone (`--blast N`, `--lat-n N` for small counts; `--bridge-arg=ARG`
+passes an option to both bridge processes, e.g. `--bridge-arg=--batch-idle-us=0`).
 The autopilot role is played by this script (pymavlink's encoder, prebuilt packets). Every loop is
 bounded by a count and a deadline; only 127.0.0.1 is used. Output: one JSON document.
 """

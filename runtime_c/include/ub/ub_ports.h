@@ -361,13 +361,14 @@ typedef struct ub_ports_drain {
 /**
  * The input side of a forwarding loop in one call (the Zenoh bridge's turn): services the ports (every
  * datagram they hold goes to the node), and while the caller's output holds something (`*pending` > 0)
- * sleeps `idle_us` (waking early only for `wake_fd`) and services them again, until a round after a gap
+ * sleeps a gap (waking early only for `wake_fd`: `idle_us` first, doubled after each round that read
+ * something) and services them again, until a round after a gap
  * reads nothing (the input went idle), the output reaches `flush_at` bytes, `max_us` have passed since the
  * first frame was pending, or `wake_fd` is readable; then refreshes fds[] and ticks the node once at
  * `now_ms`. The caller sends its output after any non-EMPTY end, so nothing waits beyond one drain: a lone
  * frame after a quiet spell leaves one gap later, a burst leaves in batches of up to `flush_at` bytes or
- * `max_us` of input. The gap is slept through whole, so a busy input costs a round per gap, not a wake-up
- * per datagram. Time is read from CLOCK_MONOTONIC only to bound the drain.
+ * `max_us` of input. The gap is slept through whole, so a busy input costs a few rounds per drain, not a
+ * wake-up per datagram. Time is read from CLOCK_MONOTONIC only to bound the drain.
  * @return a ub_drain_end_t; UB_ERR_INVAL on a NULL argument or a port set without a node; the error of
  *         ub_ports_pollfds() (cannot happen: fds[] has room for every port).
  */
