@@ -184,7 +184,9 @@ class ZenohLink:
     def refused(self) -> int:
         return int(self.bl.c.refused)
 
-    def take(self) -> tuple[bytes, list[int]]:
+    def take(self) -> tuple[Any, list[int]]:
+        """The pending batches as a view of the link's memory (valid until the node runs again) and their
+        end offsets; the link is emptied."""
         return ub_batchlink.ub_batchlink_take(self.bl)
 
     def detach(self) -> None:
@@ -372,7 +374,7 @@ class ZenohBridge:
 
     def _flush(self) -> int:
         """Every pending batch published, each copied once out of the batch link's memory. Frames."""
-        view, ends = ub_batchlink.ub_batchlink_take(self._bl)
+        view, ends = self.zlink.take()
         moved, start = 0, 0
         for end in ends:
             moved += self._publish(view, start, end)
