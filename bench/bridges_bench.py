@@ -14,14 +14,17 @@ Side by side in one run, each case against the same path without the bridge:
       direct:   node A -> UDP -> node B
       bridged:  node A -> UDP -> uavbus bridge zenoh [gwA] -> Zenoh (tcp) -> [gwB] -> UDP -> node B
     latency at 200 Hz as above; throughput = frames delivered to B per second when A sends N back to
-    back (A and B in one process, interleaved: their Python cost is in both columns alike).
+    back (A and B in one process, interleaved: their Python cost is in both columns alike); beside it each
+    bridge process's CPU time per frame carried (every thread, Zenoh's included: /proc schedstat) and why
+    gwA's batches left (idle, full, aged, woken: ub_ports_drain), figures a busy machine changes far less.
     load-proof: Python-level calls per frame in the two bridges (sys.setprofile, calls and C calls, counted
     around the bridges' loop work only), both bridges in this process with real Zenoh sessions on
     tcp/127.0.0.1; a figure a busy machine does not change.
     Zenoh alone: one-way latency of a plain Zenoh publisher and subscriber in two Python processes at
     the same rate, so "added by the bridges" can be read net of Zenoh's own share. Beside it the loops' CPU time per frame
     (thread CPU time, unprofiled pass; Zenoh's own threads not included).
-`--only zenoh` runs the Zenoh part alone (`--blast N`, `--lat-n N` for small counts).
+`--only zenoh` runs the Zenoh part alone (`--blast N`, `--lat-n N` for small counts; `--bridge-arg=ARG`
+passes an option to both bridge processes, e.g. `--bridge-arg=--batch-idle-us=0`).
 The autopilot role is played by this script (pymavlink's encoder, prebuilt packets). Every loop is
 bounded by a count and a deadline; only 127.0.0.1 is used. Output: one JSON document.
 """
@@ -51,6 +54,7 @@ from uavbus.sim.process import NodeProcess  # noqa: E402
 
 LAT_N, LAT_HZ = 600, 200
 BLAST_MAV, BLAST_UB = 100_000, 20_000
+BRIDGE_ARGS: list[str] = []  # --bridge-arg: options for both Zenoh bridge processes (e.g. --batch-idle-us 0)
 HOST = "127.0.0.1"
 
 
@@ -275,7 +279,7 @@ class UbPair:
         if bridged:
             for name, zargs in (("gwA", ["--listen", f"tcp/{HOST}:{zport}"]), ("gwB", ["--connect", f"tcp/{HOST}:{zport}"])):
                 p = NodeProcess([sys.executable, "-m", "uavbus.cli", "bridge", "zenoh", "--config", str(self.cfg),
-                                 "--node", name, "--catalogue", catalogue, *zargs], name).start()
+                                 "--node", name, "--catalogue", catalogue, *zargs, *BRIDGE_ARGS], name).start()
                 p.wait_ready(15)
                 self.procs.append(p)
         self.a = Node(catalogue, config=self.cfg, node="A")
@@ -313,6 +317,8 @@ class UbPair:
 
     def throughput(self) -> dict:
         self.got.clear()
+        before = [p.request_stats()["zenoh"] for p in self.procs]  # flush_* absent before ub_ports_drain: 0
+        cpu0 = [proc_cpu_s(p.pid) for p in self.procs]
         t0 = time.perf_counter()
         for k in range(1, BLAST_UB + 1):
             self.pub.directory.solutionCount = k
@@ -333,7 +339,16 @@ class UbPair:
         if self.procs:  # where frames went: into gwA, over Zenoh, out of gwB (the rest: UDP socket buffers)
             a, b = (p.request_stats() for p in self.procs)
             out.update(gw_in=a["links"]["site"]["frames_in"], zenoh_published=a["zenoh"]["published"],
-                       zenoh_received=b["zenoh"]["received"], gw_out=b["links"]["site"]["frames_out"])
+                       zenoh_received=b["zenoh"]["received"], gw_out=b["links"]["site"]["frames_out"],
+                       zenoh_samples=b["zenoh"]["samples_in"])
+            # CPU time of each bridge process (all its threads, Zenoh's included) per frame it carried: a
+            # figure a busy machine changes far less than the rates (getrusage's clock, from /proc)
+            cpu = [proc_cpu_s(p.pid) - c for p, c in zip(self.procs, cpu0)]
+            carried = max(1, b["zenoh"]["received"])
+            out.update(gw_cpu_us_per_frame=[c / carried * 1e6 for c in cpu])
+            # why gwA's batches left (ub_drain_end_t) and how many samples carried the burst
+            out.update(gwA_ends={k: a["zenoh"].get(k, 0) - before[0].get(k, 0)
+                                 for k in ("flush_idle", "flush_full", "flush_aged", "flush_woken", "samples_out", "published")})
         return out
 
     def close(self) -> None:
@@ -434,16 +449,21 @@ def zenoh_calls_per_frame(catalogue: str, tmp: Path, n: int = 2000) -> dict:
         nodes["B"].on_data(lambda m: got.__setitem__(0, got[0] + 1))
 
         cpu = [0.0]
+        turns = [0]
 
         def turn(profiled: bool) -> None:
+            turns[0] += 1
             if profiled:
                 sys.setprofile(count)
             t = time.thread_time()
             for name, bridge in bridges.items():
-                now = nodes[name].now()
-                bridge.pump(now)
-                nodes[name].service(now, dispatch=False)
-                bridge.pump(now)
+                if hasattr(bridge, "turn"):
+                    bridge.turn()
+                else:  # a bridge before ub_ports_drain (BENCH_BASE comparisons): its pump/service/pump
+                    now = nodes[name].now()
+                    bridge.pump(now)
+                    nodes[name].service(now, dispatch=False)
+                    bridge.pump(now)
             cpu[0] += time.thread_time() - t
             if profiled:
                 sys.setprofile(None)
@@ -462,7 +482,7 @@ def zenoh_calls_per_frame(catalogue: str, tmp: Path, n: int = 2000) -> dict:
         def burst(profiled: bool) -> dict:
             """n frames from A in turns of 25 (within the UDP sockets' buffers), until all crossed gwB (what
             B's socket then drops on a busy machine is not the bridges' work)."""
-            got[0] = calls[0] = 0
+            got[0] = calls[0] = turns[0] = 0
             cpu[0] = 0.0
             base = bridges["gwB"].counters["received"]
             base_samples = bridges["gwB"].counters.get("samples_in", 0)
@@ -480,10 +500,12 @@ def zenoh_calls_per_frame(catalogue: str, tmp: Path, n: int = 2000) -> dict:
             for _ in range(5):
                 turn(False)
             return {"crossed": crossed, "samples": bridges["gwB"].counters.get("samples_in", 0) - base_samples,
+                    "turns": turns[0],
                     "calls": calls[0], "cpu_s": cpu[0], "wall_s": wall}
 
         counted, timed = burst(True), burst(False)
         return {"frames": n, "crossed": counted["crossed"], "samples": counted["samples"], "calls": counted["calls"],
+                "turns": counted["turns"],
                 "calls_per_frame": counted["calls"] / counted["crossed"] if counted["crossed"] else float("nan"),
                 "loop_cpu_us_per_frame": timed["cpu_s"] / timed["crossed"] * 1e6 if timed["crossed"] else float("nan"),
                 "in_process_rate": timed["crossed"] / timed["wall_s"] if timed["wall_s"] else 0.0}
@@ -491,12 +513,28 @@ def zenoh_calls_per_frame(catalogue: str, tmp: Path, n: int = 2000) -> dict:
         close_all(closers)
 
 
+def proc_cpu_s(pid: int | None) -> float:
+    """CPU seconds process `pid` has run so far, every thread (Zenoh's included): the sum of
+    /proc/PID/task/*/schedstat's first field (ns; /proc/PID/stat's utime+stime tick at 10 ms, too coarse
+    for a burst of a few thousand frames). Threads that already ended are not in it: the bridges' live for
+    the process."""
+    if pid is None:
+        return 0.0
+    total = 0
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            total += int((task / "schedstat").read_text().split()[0])
+        except (OSError, IndexError, ValueError):
+            pass  # a thread that ended meanwhile
+    return total / 1e9
+
+
 def lat_summary(xs: list[float]) -> dict:
     return {"n": len(xs), "p50_us": pct(xs, 0.5) * 1e6, "p99_us": pct(xs, 0.99) * 1e6}
 
 
 def main() -> int:
-    global LAT_N, BLAST_UB
+    global LAT_N, BLAST_UB, BRIDGE_ARGS
     ap = argparse.ArgumentParser()
     ap.add_argument("--build", required=True)
     ap.add_argument("--out", required=True)
@@ -504,8 +542,10 @@ def main() -> int:
     ap.add_argument("--only", choices=("zenoh",), help="run only the Zenoh part (figure 7's last tables)")
     ap.add_argument("--blast", type=int, help=f"frames per uavbus throughput sample (default {BLAST_UB:,})")
     ap.add_argument("--lat-n", type=int, help=f"messages per latency sample (default {LAT_N})")
+    ap.add_argument("--bridge-arg", action="append", default=[], metavar="ARG",
+                    help="an option for both Zenoh bridge processes, e.g. --bridge-arg=--batch-idle-us=0")
     args = ap.parse_args()
-    LAT_N, BLAST_UB = args.lat_n or LAT_N, args.blast or BLAST_UB
+    LAT_N, BLAST_UB, BRIDGE_ARGS = args.lat_n or LAT_N, args.blast or BLAST_UB, args.bridge_arg
     build = Path(args.build)
     flightsw = str(build / "examples" / "uavbus" / "flightsw" / "flightsw.catalogue.json")
     res: dict[str, list] = {k: [] for k in ("mav_direct_lat", "mav_bridge_lat", "mav_direct_ingest", "mav_bridge_ingest",

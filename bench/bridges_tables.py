@@ -67,14 +67,27 @@ def bridges_section(raw: Path, w: Callable[[str], None]) -> None:
     calls = d.get("zenoh_calls") or []
     if calls:
         w("| the two Zenoh bridges' own work per frame (a burst, both bridges in one process, real sessions) "
-          "| Python-level calls | loop CPU µs | frames per sample |")
-        w("|---|---:|---:|---:|")
-        w(f"| calls and C calls (sys.setprofile) around the bridges' pump/service; thread CPU time | "
+          "| Python-level calls | loop CPU µs | frames per sample | calls per turn of both bridges |")
+        w("|---|---:|---:|---:|---:|")
+        w(f"| calls and C calls (sys.setprofile) around the bridges' turn(); thread CPU time | "
           f"{_band([r['calls_per_frame'] for r in calls], '{:.1f}')} | "
           f"{_band([r.get('loop_cpu_us_per_frame', float('nan')) for r in calls], '{:.1f}')} | "
-          f"{_band([r['crossed'] / r['samples'] if r.get('samples') else float('nan') for r in calls], '{:.0f}')} |")
+          f"{_band([r['crossed'] / r['samples'] if r.get('samples') else float('nan') for r in calls], '{:.0f}')} | "
+          f"{_band([r['calls'] / r['turns'] if r.get('turns') else float('nan') for r in calls], '{:.1f}')} |")
         w("")
     z = d["ub_zenoh_tput"]
+    if z and "gw_cpu_us_per_frame" in z[0]:
+        w("| the bridge processes during the burst (every thread, Zenoh's included; /proc schedstat) "
+          "| gwA CPU µs/frame | gwB CPU µs/frame | frames per sample |")
+        w("|---|---:|---:|---:|")
+        w(f"| per frame gwB received | {_band([r['gw_cpu_us_per_frame'][0] for r in z], '{:.1f}')} | "
+          f"{_band([r['gw_cpu_us_per_frame'][1] for r in z], '{:.1f}')} | "
+          f"{_band([e['published'] / e['samples_out'] if e['samples_out'] else float('nan') for e in (r['gwA_ends'] for r in z)], '{:.0f}')} |")
+        w("")
+        w("Why gwA's batches left during the burst (ub_drain_end_t, per run): " + "; ".join(
+            ", ".join(f"{k.removeprefix('flush_')} {v}" for k, v in r["gwA_ends"].items() if k.startswith("flush_"))
+            for r in z) + ".")
+        w("")
     if z and "zenoh_published" in z[0]:
         w("Where the bridged frames went (per run): " + "; ".join(
             f"{r['gw_in']} into gwA, {r['zenoh_published']} published, {r['zenoh_received']} received by gwB, "

@@ -11,10 +11,13 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <time.h>
+#include <unistd.h>
 
 #include "support/ub_test_pair.h"
 #include "ub/ub_nodecfg.h"
@@ -270,6 +273,120 @@ static void run(net_t *n, uint64_t from_ms, uint64_t to_ms) {
     for (uint64_t t = from_ms; t < to_ms; t++) step(n, t);
 }
 
+static uint64_t mono_us(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+}
+
+typedef struct busy_sender {
+    int fd;
+    struct sockaddr_in to;
+    volatile int stop;
+} busy_sender_t;
+
+/* A datagram every 0.5 ms until told to stop (at most 2 s): an input that never goes idle for 5 ms. */
+static void *send_busily(void *arg) {
+    busy_sender_t *b = arg;
+    for (int i = 0; i < 4000 && !b->stop; i++) {
+        (void)sendto(b->fd, "busy", 4, 0, (const struct sockaddr *)&b->to, sizeof b->to);
+        struct timespec ts = {.tv_sec = 0, .tv_nsec = 500000};
+        nanosleep(&ts, NULL);
+    }
+    return NULL;
+}
+
+/* ub_ports_drain(): each of its ends. Nothing pending: one service, no wait. Pending: a datagram read in
+ * the first round does not end it, a round after the gap that reads nothing does (IDLE, after the gap);
+ * FULL at flush_at at once; the wake descriptor ends a long gap at once (WOKEN); an input that never goes
+ * quiet is cut at max_us (AGED). Datagrams from any sender count as input (accept=any), garbage included:
+ * the node refuses and counts them, the drain only sees that something came. */
+static void test_drain_ends_idle_full_woken_aged(void **state) {
+    (void)state;
+    pair_t *p = pair_new(NULL);
+    ub_ports_t *ports = calloc(1, sizeof *ports);
+    assert_non_null(ports);
+    assert_int_equal(ub_ports_init(ports, p->sub_node), UB_OK);
+    char err[UB_PORTS_ERR_LEN];
+    assert_int_equal(ub_ports_open_text(ports, "subPort", "udp:bind=127.0.0.1:0", 0, err, sizeof err), UB_OK);
+    uint16_t port = 0;
+    assert_int_equal(ub_ports_local_port(ports, "subPort", &port), UB_OK);
+    busy_sender_t b = {.fd = socket(AF_INET, SOCK_DGRAM, 0)};
+    assert_true(b.fd >= 0);
+    b.to.sin_family = AF_INET;
+    b.to.sin_port = htons(port);
+    b.to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    int wake[2];
+    assert_int_equal(pipe(wake), 0);
+
+    size_t pending = 0;
+    ub_ports_drain_t d = {.wake_fd = wake[0], .idle_us = 5000, .max_us = 2000000, .pending = &pending,
+                          .flush_at = 100};
+    assert_int_equal(ub_ports_drain(ports, &d, 0), UB_DRAIN_EMPTY);
+    assert_int_equal(d.rounds, 1);
+    assert_int_equal(d.nfds, 1);
+    assert_int_equal(d.fds_gen, 1);
+    assert_int_equal(d.fds[0].events & POLLIN, POLLIN);
+
+    pending = 1;
+    assert_int_equal(sendto(b.fd, "junk", 4, 0, (const struct sockaddr *)&b.to, sizeof b.to), 4);
+    uint64_t t = mono_us();
+    assert_int_equal(ub_ports_drain(ports, &d, 1), UB_DRAIN_IDLE);
+    assert_true(mono_us() - t >= 5000);
+    assert_int_equal(d.rounds, 3); /* read the datagram, gap, read nothing */
+
+    pending = 100;
+    t = mono_us();
+    assert_int_equal(ub_ports_drain(ports, &d, 2), UB_DRAIN_FULL);
+    assert_int_equal(d.rounds, 4);
+
+    pending = 1;
+    d.idle_us = 1500000;
+    assert_int_equal(write(wake[1], "w", 1), 1);
+    t = mono_us();
+    assert_int_equal(ub_ports_drain(ports, &d, 3), UB_DRAIN_WOKEN);
+    assert_true(mono_us() - t < 1000000);
+    char c;
+    assert_int_equal(read(wake[0], &c, 1), 1);
+
+    d.idle_us = 5000;
+    d.max_us = 50000;
+    pthread_t th;
+    assert_int_equal(pthread_create(&th, NULL, send_busily, &b), 0);
+    struct timespec settle = {.tv_sec = 0, .tv_nsec = 2000000};
+    nanosleep(&settle, NULL);
+    t = mono_us();
+    int end = ub_ports_drain(ports, &d, 4);
+    uint64_t took = mono_us() - t;
+    b.stop = 1;
+    assert_int_equal(pthread_join(th, NULL), 0);
+    assert_int_equal(end, UB_DRAIN_AGED);
+    assert_true(took >= 50000 && took < 1500000);
+
+    assert_int_equal(d.drains, 5);
+    assert_int_equal(d.ends[UB_DRAIN_EMPTY], 1);
+    assert_int_equal(d.ends[UB_DRAIN_IDLE], 1);
+    assert_int_equal(d.ends[UB_DRAIN_FULL], 1);
+    assert_int_equal(d.ends[UB_DRAIN_WOKEN], 1);
+    assert_int_equal(d.ends[UB_DRAIN_AGED], 1);
+    assert_int_equal(d.fds_gen, 1); /* the same socket throughout */
+
+    assert_int_equal(ub_ports_close(ports, "subPort"), UB_OK);
+    pending = 0;
+    assert_int_equal(ub_ports_drain(ports, &d, 5), UB_DRAIN_EMPTY);
+    assert_int_equal(d.nfds, 0);
+    assert_int_equal(d.fds_gen, 2); /* the caller's poller is told to forget the socket */
+    assert_int_equal(ub_ports_drain(NULL, &d, 6), UB_ERR_INVAL);
+    assert_int_equal(ub_ports_drain(ports, NULL, 6), UB_ERR_INVAL);
+
+    close(wake[0]);
+    close(wake[1]);
+    close(b.fd);
+    ub_ports_close_all(ports);
+    free(ports);
+    pair_free(p);
+}
+
 typedef struct foreign_seen {
     uint8_t bytes[128];
     size_t len;
@@ -483,6 +600,7 @@ int main(void) {
         cmocka_unit_test(test_impairment_on_ports),
         cmocka_unit_test(test_impairment_survives_tcp_connects),
         cmocka_unit_test(test_link_impairment_overrides),
+        cmocka_unit_test(test_drain_ends_idle_full_woken_aged),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import json
+import threading
 import time
 
 import pytest
@@ -117,11 +118,8 @@ def test_burst_through_two_bridges_arrives_whole_in_order(tmp_path, uavbus_node)
         nodes["B"].on_data(lambda m: got.append(m.value["solutionCount"]))
 
         def turn() -> None:
-            for name, bridge in (("gwA", ga), ("gwB", gb)):
-                now = nodes[name].now()
-                bridge.pump(now)
-                nodes[name].service(now, dispatch=False)
-                bridge.pump(now)
+            for bridge in (ga, gb):
+                bridge.turn()
             nodes["B"].poll(0.001)
 
         deadline = time.monotonic() + 10
@@ -172,57 +170,109 @@ def test_burst_through_two_bridges_arrives_whole_in_order(tmp_path, uavbus_node)
         close_all(closers)
 
 
-def test_a_lone_frame_leaves_at_once_and_followers_share_a_sample(tmp_path, uavbus_node):
-    """The coalescing window on an injected clock: a frame after a quiet spell is published by the pump
-    that sees it; frames following a sample within the window wait (holding, the loop told how long) and
-    leave as one sample when it closes, or at once when --batch-bytes are pending."""
+def _one_bridge(tmp_path, uavbus_node, closers, **kw):
+    """Node A and bridge gwA (real UDP between them, a real Zenoh session with nobody on the other end)."""
     catalogue = catalogue_for(uavbus_node)
     ports = PortAllocator()
     cfg = tmp_path / "zbatch.json"
     _config(cfg, ports)
+    nodes = {}
+    for name in ("A", "gwA"):
+        n = nodes[name] = Node(catalogue, config=cfg, node=name)
+        closers.append(n.close)
+        n.open_ports_from_config()
+    session = zenoh.open(zenoh_config("peer", [f"tcp/127.0.0.1:{ports.port()}"], []))
+    closers.append(session.close)
+    gw = ZenohBridge(nodes["gwA"], "zenoh", session, "uavbus/zbatch", **kw)
+    closers.append(gw.close)
+    pub = nodes["A"].publisher("srcA", "gpsOut", to="dstB")
+    return gw, pub
+
+
+def _ends(gw) -> tuple[int, int, int, int]:
+    s = gw.stats()
+    return s["flush_idle"], s["flush_full"], s["flush_aged"], s["flush_woken"]
+
+
+def test_a_batch_leaves_when_the_site_goes_idle_not_on_a_timer(tmp_path, uavbus_node):
+    """ub_ports_drain() through the bridge's turn: a lone frame leaves in the turn that reads it, once the
+    site's socket stayed quiet for the idle gap; frames that keep coming closer than the gap join the same
+    sample however long that takes (up to the age bound), and the next frame after the gap starts a new one."""
     closers = []
     try:
-        nodes = {}
-        for name in ("A", "gwA"):
-            n = nodes[name] = Node(catalogue, config=cfg, node=name)
-            closers.append(n.close)
-            n.open_ports_from_config()
-        session = zenoh.open(zenoh_config("peer", [f"tcp/127.0.0.1:{ports.port()}"], []))
-        closers.append(session.close)
-        now = [100.0]
-        gw = ZenohBridge(nodes["gwA"], "zenoh", session, "uavbus/zbatch", batch_bytes=400, batch_delay_us=1000,
-                         clock=lambda: now[0])
-        closers.append(gw.close)
-        pub = nodes["A"].publisher("srcA", "gpsOut", to="dstB")
-
-        def send(k: int) -> None:
-            """k frames from A into gwA's router (real UDP), then one pump."""
-            for _ in range(k):
-                pub.send()
-            deadline = time.monotonic() + 5
-            while gw.zlink.pending_bytes == 0 or gw.zlink.bl.c.frames < sent[0] + k:
-                assert time.monotonic() < deadline, "gwA got nothing from A"
-                nodes["gwA"].service(dispatch=False)
-            sent[0] += k
-            gw.pump()
-
-        sent = [int(gw.zlink.bl.c.frames)]
-        send(1)  # after a quiet spell: out in this very pump
+        idle = 0.15
+        gw, pub = _one_bridge(tmp_path, uavbus_node, closers, idle_us=int(idle * 1e6), age_us=1_000_000)
+        pub.send()  # loopback UDP: in gwA's socket when send() returns
+        t = time.monotonic()
+        assert gw.turn() == 1
+        took = time.monotonic() - t
         assert (gw.counters["samples_out"], gw.counters["published"]) == (1, 1)
-        assert not gw.holding() and gw.zlink.pending == 0
-        now[0] += 0.0002
-        send(1)  # 0.2 ms after a sample: held
-        assert gw.counters["samples_out"] == 1 and gw.holding() and gw.zlink.pending == 1
-        assert 0 < gw.wait_ms() <= 1
-        now[0] += 0.0003
-        send(1)  # still within the window: joins
-        assert gw.counters["samples_out"] == 1 and gw.zlink.pending == 1  # one batch of two frames
-        now[0] += 0.0006  # window closed (1 ms after the first sample)
-        gw.pump()
-        assert (gw.counters["samples_out"], gw.counters["published"]) == (2, 3) and not gw.holding()
-        now[0] += 0.0001
-        send(4)  # within the window again, but more than batch_bytes pending: out at once, cut at 400 bytes
-        assert gw.counters["published"] == 7 and gw.zlink.pending == 0 and not gw.holding()
-        assert gw.counters["samples_out"] >= 3 and gw.counters["put_errors"] == 0
+        assert _ends(gw) == (1, 0, 0, 0)
+        assert took >= idle * 0.9, took  # it waited for company: the idle gap, not less
+        assert gw.zlink.pending == 0
+
+        # Six frames 20 ms apart (gap 150 ms): one turn, one sample, six frames.
+        def sender():
+            for _ in range(5):
+                time.sleep(0.02)
+                pub.send()
+        pub.send()
+        th = threading.Thread(target=sender)
+        th.start()
+        try:
+            moved = gw.turn()
+        finally:
+            th.join()
+        assert moved == 6, moved
+        assert (gw.counters["samples_out"], gw.counters["published"]) == (2, 7)
+        assert _ends(gw) == (2, 0, 0, 0)
+    finally:
+        close_all(closers)
+
+
+def test_batch_size_and_age_bound_the_wait_and_a_sample_from_zenoh_cuts_it_short(tmp_path, uavbus_node):
+    """The bounds of the drain: --batch-bytes pending ends it at once (cut into samples of at most that
+    size, nothing lost), a site that never goes quiet is cut at --batch-age-us, and a sample waiting for
+    the loop (the wake pipe) ends it too."""
+    closers = []
+    try:
+        gw, pub = _one_bridge(tmp_path, uavbus_node, closers, batch_bytes=400, idle_us=1_000_000,
+                              age_us=1_000_000)
+        for _ in range(10):
+            pub.send()
+        t = time.monotonic()
+        assert gw.turn() == 10
+        assert time.monotonic() - t < 0.9  # not the idle gap
+        assert _ends(gw) == (0, 1, 0, 0)
+        assert gw.counters["published"] == 10 and gw.counters["samples_out"] >= 3 and gw.zlink.pending == 0
+
+        pub.send()
+        gw._wake()  # as a Zenoh thread does when it queues a sample
+        t = time.monotonic()
+        assert gw.turn(woken=False) == 1
+        assert time.monotonic() - t < 0.9
+        assert _ends(gw) == (0, 1, 0, 1)
+    finally:
+        close_all(closers)
+    closers = []
+    try:
+        gw, pub = _one_bridge(tmp_path, uavbus_node, closers, idle_us=200_000, age_us=100_000)
+        stop = threading.Event()
+
+        def sender():  # every 5 ms for up to 2 s: never quiet for the 200 ms gap
+            while not stop.wait(0.005):
+                pub.send()
+        th = threading.Thread(target=sender)
+        th.start()
+        try:
+            time.sleep(0.01)
+            t = time.monotonic()
+            moved = gw.turn()
+            took = time.monotonic() - t
+        finally:
+            stop.set()
+            th.join()
+        assert _ends(gw) == (0, 0, 1, 0)
+        assert 0.09 <= took < 0.5 and moved >= 2, (took, moved)
     finally:
         close_all(closers)

@@ -329,6 +329,51 @@ UB_CHECK int ub_ports_local_port(const ub_ports_t *ports, const char *link_name,
  */
 int ub_ports_notice(ub_ports_t *ports, char *out, size_t cap);
 
+/** Why ub_ports_drain() returned. */
+typedef enum ub_drain_end {
+    UB_DRAIN_EMPTY = 0, /**< the output holds nothing: no reason to wait for company */
+    UB_DRAIN_IDLE = 1,  /**< a round after an `idle_us` gap read nothing: the input went quiet, send now */
+    UB_DRAIN_FULL = 2,  /**< the output holds `flush_at` bytes */
+    UB_DRAIN_AGED = 3,  /**< `max_us` since the drain began, the input still busy */
+    UB_DRAIN_WOKEN = 4  /**< `wake_fd` became readable: the caller has other work */
+} ub_drain_end_t;
+
+/** The descriptors a drain watches: every port's (2 * UB_PORTS_MAX) and the caller's wake_fd. */
+#define UB_DRAIN_FDS (2 * UB_PORTS_MAX + 1)
+
+/**
+ * How ub_ports_drain() waits for company, and what it saw (caller-owned; set the first five fields and zero
+ * the rest, e.g. `ub_ports_drain_t d = {.wake_fd = -1, ...}`).
+ */
+typedef struct ub_ports_drain {
+    int wake_fd;           /**< a descriptor whose readiness ends the wait at once (-1: none) */
+    uint32_t idle_us;      /**< the gap: the input is idle when nothing came in this long (0: when a second read finds none) */
+    uint32_t max_us;       /**< a drain ends this long after its first pending frame however busy the input (a batch's age) */
+    const size_t *pending; /**< bytes the caller's output holds (e.g. &batchlink.len); NULL: the drain never waits */
+    size_t flush_at;       /**< *pending reaching this ends the drain (bounds a batch's size) */
+    struct pollfd fds[UB_DRAIN_FDS]; /**< the ports' descriptors as of the last drain (then wake_fd, if any) */
+    int nfds;              /**< entries of fds[] that are the ports' */
+    uint32_t fds_gen;      /**< bumped whenever the ports' descriptors or their events changed */
+    uint64_t drains, rounds; /**< calls; ub_ports_service() rounds in them */
+    uint64_t ends[5];      /**< drains by ub_drain_end_t */
+} ub_ports_drain_t;
+
+/**
+ * The input side of a forwarding loop in one call (the Zenoh bridge's turn): services the ports (every
+ * datagram they hold goes to the node), and while the caller's output holds something (`*pending` > 0)
+ * sleeps a gap (waking early only for `wake_fd`: `idle_us` first, doubled after each round that read
+ * something) and services them again, until a round after a gap
+ * reads nothing (the input went idle), the output reaches `flush_at` bytes, `max_us` have passed since the
+ * first frame was pending, or `wake_fd` is readable; then refreshes fds[] and ticks the node once at
+ * `now_ms`. The caller sends its output after any non-EMPTY end, so nothing waits beyond one drain: a lone
+ * frame after a quiet spell leaves one gap later, a burst leaves in batches of up to `flush_at` bytes or
+ * `max_us` of input. The gap is slept through whole, so a busy input costs a few rounds per drain, not a
+ * wake-up per datagram. Time is read from CLOCK_MONOTONIC only to bound the drain.
+ * @return a ub_drain_end_t; UB_ERR_INVAL on a NULL argument or a port set without a node; the error of
+ *         ub_ports_pollfds() (cannot happen: fds[] has room for every port).
+ */
+UB_CHECK int ub_ports_drain(ub_ports_t *ports, ub_ports_drain_t *how, uint64_t now_ms);
+
 /** @return the UDP driver now behind `link_name` (its stats and peers, ub_udp.h), or NULL if that
  *  link has no open UDP port. */
 const ub_udp_t *ub_ports_udp(const ub_ports_t *ports, const char *link_name);

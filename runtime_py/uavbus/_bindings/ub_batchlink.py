@@ -28,16 +28,23 @@ def ub_batchlink_attach(bl: BatchLink, node: Any, link_id: int) -> None:
     ensure(lib.ub_batchlink_attach(bl.c, node, link_id), f"attaching a batch link to link {link_id}")
 
 
-def ub_batchlink_take(bl: BatchLink) -> tuple[bytes, list[int]]:
-    """The pending batches as one copy of their bytes and each batch's end offset; the link is emptied."""
+def ub_batchlink_take(bl: BatchLink) -> tuple[Any, list[int]]:
+    """The pending batches, without a copy: a view of the link's memory (`view[a:b]` copies out bytes) and
+    each batch's end offset; the link is emptied. The view is valid until the node runs again (its next
+    send writes over it)."""
     c = bl.c
     n = c.n
     if not n:
         return b"", []
-    raw = ffi.buffer(bl.buf, c.len)[:]
+    view = ffi.buffer(bl.buf, c.len)
     ends = ffi.unpack(bl.ends, n)
     lib.ub_batchlink_clear(c)
-    return raw, ends
+    return view, ends
+
+
+def pending_bytes_ptr(bl: BatchLink) -> Any:
+    """A `size_t *` to the link's pending bytes (for ub_ports_drain()'s `pending`), valid while `bl` lives."""
+    return ffi.addressof(bl.c, "len")
 
 
 def ub_batch_check(payload: bytes) -> tuple[int, int]:

@@ -88,6 +88,37 @@ def ub_ports_pollfds(ports: Any, fds: Any) -> list[tuple[int, int]]:
     return [(int(fds[k].fd), int(fds[k].events)) for k in range(n)]
 
 
+def new_drain(wake_fd: int, idle_us: int, max_us: int, pending: Any, flush_at: int) -> Any:
+    """A `ub_ports_drain_t` for ub_ports_drain(): `pending` is a `size_t *` into the caller's output (kept
+    alive by the caller), `flush_at` the bytes that end a drain."""
+    how = ffi.new("ub_ports_drain_t *")
+    how.wake_fd, how.idle_us, how.max_us, how.pending, how.flush_at = wake_fd, idle_us, max_us, pending, flush_at
+    return how
+
+
+def ub_ports_drain(ports: Any, how: Any, now_ms: int) -> int:
+    """One drain (ub_ports.h): the ports serviced until their input goes idle or a bound is reached; returns
+    the ub_drain_end_t (UB_DRAIN_EMPTY: nothing pending)."""
+    rc = lib.ub_ports_drain(ports, how, now_ms)
+    if rc < 0:
+        ensure(rc, "ub_ports_drain")
+    return rc
+
+
+DRAIN_ENDS = {"flush_idle": lib.UB_DRAIN_IDLE, "flush_full": lib.UB_DRAIN_FULL, "flush_aged": lib.UB_DRAIN_AGED,
+              "flush_woken": lib.UB_DRAIN_WOKEN}
+
+
+def drain_ends(how: Any) -> dict[str, int]:
+    """Drains that ended with something to send, by why (ub_drain_end_t)."""
+    return {name: int(how.ends[end]) for name, end in DRAIN_ENDS.items()}
+
+
+def drain_fds(how: Any) -> list[tuple[int, int]]:
+    """(fd, poll events) of the ports as the last drain saw them."""
+    return [(how.fds[i].fd, how.fds[i].events) for i in range(how.nfds)]
+
+
 def ub_ports_poll_timeout(ports: Any, now_ms: int, max_ms: int) -> int:
     return int(lib.ub_ports_poll_timeout(ports, now_ms, max_ms))
 

@@ -35,6 +35,25 @@ typedef struct ub_ports { ...; } ub_ports_t;
 
 struct pollfd { int fd; short events; short revents; ...; };
 
+typedef enum ub_drain_end {
+    UB_DRAIN_EMPTY = 0, UB_DRAIN_IDLE = 1, UB_DRAIN_FULL = 2, UB_DRAIN_AGED = 3, UB_DRAIN_WOKEN = 4
+} ub_drain_end_t;
+
+typedef struct ub_ports_drain {
+    int wake_fd;
+    uint32_t idle_us;
+    uint32_t max_us;
+    const size_t *pending;
+    size_t flush_at;
+    struct pollfd fds[...];
+    int nfds;
+    uint32_t fds_gen;
+    uint64_t drains, rounds;
+    uint64_t ends[5];
+    ...;
+} ub_ports_drain_t;
+
+int ub_ports_drain(ub_ports_t *ports, ub_ports_drain_t *how, uint64_t now_ms);
 const char *ub_port_kind_transport(ub_port_kind_t kind);
 int ub_port_spec_parse(const char *text, ub_port_spec_t *spec, char *err, size_t err_cap);
 void ub_port_spec_format(const ub_port_spec_t *spec, char *out, size_t cap);

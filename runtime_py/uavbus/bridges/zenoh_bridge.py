@@ -3,8 +3,9 @@
     uavbus bridge zenoh --config FILE [--node NAME] --catalogue CAT.json
                         [--link zenoh] [--mode peer|router|client]
                         [--listen ENDPOINT]... [--connect ENDPOINT]...
-                        [--prefix KEY] [--flow DEST[/SOURCE[/DIRECTORY]]]... [--batch]
-                        [--batch-bytes N] [--batch-delay-us US] [--stats-s S] [--duration-s S]
+                        [--prefix KEY] [--flow DEST[/SOURCE[/DIRECTORY]]]... [--express]
+                        [--batch-bytes N] [--batch-idle-us US] [--batch-age-us US]
+                        [--stats-s S] [--duration-s S]
 
 The bridge is a uavbus node like any other: its entity (the one owning --link) has links to its own
 site (ports of the configuration) and one link whose transport is this Zenoh session (a C batch link,
@@ -18,9 +19,11 @@ the loop's last turn go out as batches (docs/bridges.md "Batches"): consecutive 
 expression share one Zenoh sample, each frame's bytes as they left the router (hop limit already
 decremented) behind a 2-byte length, so a signed or encrypted frame's trailer arrives intact and is
 verified end to end by its destination. The per-frame work is C's (ub_batchlink.h packs what the router
-sends, ub_batch_rx() unpacks into the router); the loop handles samples. A frame after a quiet spell
-leaves at once (no Nagle delay); frames that follow a sample within --batch-delay-us leave together. On a signed
-network the bridges verify like any forwarder (they hold the fleet key, docs/security.md) but never
+sends, ub_batch_rx() unpacks into the router; ub_ports_drain() services the site's sockets until their
+input goes idle); the loop handles samples. A batch leaves when the site's input goes quiet (nothing
+new within --batch-idle-us), when --batch-bytes are pending, --batch-age-us after its first frame, or
+when a Zenoh sample waits: no timer holds a lone frame, a burst shares samples. Samples travel in
+Zenoh's own transmission batches unless --express. On a signed network the bridges verify like any forwarder (they hold the fleet key, docs/security.md) but never
 re-sign: the tag the destination checks is the source's.
 
 **Key expressions**, one chunk per part, so Zenoh tools and ACLs can select flows:
@@ -42,6 +45,7 @@ JSON lines on stdout, as uavbus_node: "ready", "remote", "stats", "error"; stdin
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import select
@@ -49,11 +53,11 @@ import sys
 import threading
 import time
 from collections import deque
-from typing import Any, Callable, TextIO
+from typing import Any, TextIO
 
 from uavbus._bindings.ub_error import UbError
 from uavbus._bindings.ub_frame import ub_frame_parse
-from uavbus._bindings import ub_batchlink, ub_link
+from uavbus._bindings import ub_batchlink, ub_link, ub_ports
 from uavbus.catalogue import Catalogue
 from uavbus.errors import ConfigError
 from uavbus.tools.common import admin_name, entity_name
@@ -62,6 +66,7 @@ LIVE_CHUNK = "@live"
 INBOX_MAX = 65536          # frames from Zenoh waiting for the loop; beyond: counted rx_overflow
 PUBLISHERS_MAX = 4096      # declared publishers kept (one per key); beyond: plain put, counted
 LOOP_WAIT_MS = 10          # the loop wakes for descriptors and Zenoh samples anyway; this bounds ticks
+HOUSEKEEPING_S = 0.1       # the full Python service (notices, deliveries to the bridge entity, hooks) this often
 
 # Batch format 1 (docs/bridges.md "Batches"): one Zenoh sample carries one or more frames of one key.
 #   0: 0xA5 (a frame's first sync byte)   1: 0xBA (a frame has 0x5B: a bare frame is told apart)
@@ -70,7 +75,8 @@ LOOP_WAIT_MS = 10          # the loop wakes for descriptors and Zenoh samples an
 BATCH_SYNC, BATCH_MARK, BATCH_VERSION, BATCH_HEADER = 0xA5, 0xBA, 1, 5
 FRAME_MARK = 0x5B          # byte 1 of a bare frame (wire-format.md): what a bridge before batches sent
 BATCH_BYTES = 16384        # default bound of one sample's payload (a frame larger than it goes alone)
-BATCH_DELAY_US = 1000      # default coalescing window after a sample (pump(): a lone frame never waits)
+BATCH_IDLE_US = 20         # default idle gap: the site's input is quiet when nothing came for this long
+BATCH_AGE_US = 1000        # default bound of a drain: a batch waits for company at most this long
 BATCH_REFUSALS = ("batch_foreign", "batch_version", "batch_malformed")
 KEY_AT, KEY_LEN = 8, 41    # dir_id, dest_id, src_id, admin: everything frame_key() reads from a frame
 OUTBOX_BYTES = 1 << 22     # frames from the router waiting for the loop, packed; beyond: backpressure
@@ -178,7 +184,9 @@ class ZenohLink:
     def refused(self) -> int:
         return int(self.bl.c.refused)
 
-    def take(self) -> tuple[bytes, list[int]]:
+    def take(self) -> tuple[Any, list[int]]:
+        """The pending batches as a view of the link's memory (valid until the node runs again) and their
+        end offsets; the link is emptied."""
         return ub_batchlink.ub_batchlink_take(self.bl)
 
     def detach(self) -> None:
@@ -191,25 +199,24 @@ class ZenohLink:
 class ZenohBridge:
     """One node's Zenoh link: outbound frames -> batched samples, subscribed samples -> the router.
 
-    `batch_bytes` bounds a sample's payload; `batch_delay_us` is the coalescing window (pump()): frames
-    following a sample closer than that wait until the window closes, a frame after a quiet spell leaves
-    at once; 0 sends whatever the loop has at each turn."""
+    `batch_bytes` bounds a sample's payload. turn() lets the router take what the site's sockets hold until
+    they go idle (nothing readable for `idle_us`; 0: at once), `batch_bytes` are pending or `age_us` have
+    passed (ub_ports_drain(), in C), then publishes every pending batch: a lone frame waits one idle gap, a
+    burst leaves in full samples."""
 
     def __init__(self, node: Any, link: str, session: Any, prefix: str, flows: list[str] | None = None,
-                 express: bool = True, batch_bytes: int = BATCH_BYTES, batch_delay_us: int = BATCH_DELAY_US,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 express: bool = False, batch_bytes: int = BATCH_BYTES, idle_us: int = BATCH_IDLE_US,
+                 age_us: int = BATCH_AGE_US) -> None:
         import zenoh
 
         if not BATCH_HEADER + 2 <= batch_bytes <= 1 << 24:
             raise BridgeError(f"--batch-bytes {batch_bytes}: give {BATCH_HEADER + 2}..{1 << 24}")
-        if not 0 <= batch_delay_us <= 1_000_000:
-            raise BridgeError(f"--batch-delay-us {batch_delay_us}: give 0..1000000 (0: no waiting)")
+        for flag, v in (("--batch-idle-us", idle_us), ("--batch-age-us", age_us)):
+            if not 0 <= v <= 1_000_000:
+                raise BridgeError(f"{flag} {v}: give 0..1000000 (0: no waiting)")
         self.node, self.link, self.session, self.prefix = node, link, session, prefix
         self.express = express
-        self.batch_bytes, self.batch_delay_s = batch_bytes, batch_delay_us / 1e6
-        self._clock = clock                # seconds, monotonic (a test injects its own)
-        self._last_put = -1e9              # clock() at the last sample sent
-        self._held_until: float | None = None  # frames pending, held for company until then
+        self.batch_bytes, self.idle_us, self.age_us = batch_bytes, idle_us, age_us
         self.entity, self.local_site, self.remote_site = self._sites()
         self.zlink = ZenohLink(node, link, batch_bytes)
         self._counts = ub_batchlink.new_counts()
@@ -219,6 +226,12 @@ class ZenohBridge:
         self._wake_r, self._wake_w = os.pipe()
         os.set_blocking(self._wake_r, False)
         os.set_blocking(self._wake_w, False)
+        # The site's sockets drained in C (ub_ports_drain) while the Zenoh link holds frames; a node without
+        # ports (memlinks only) runs its Python service instead.
+        self._bl = self.zlink.bl
+        self._clock = node._clock  # the node's clock in ms (node.now() without its call)
+        self._drain = None if node._ports is None else ub_ports.new_drain(
+            self._wake_r, idle_us, age_us, ub_batchlink.pending_bytes_ptr(self._bl), batch_bytes)
         self._lock = threading.Lock()
         # Held by whoever touches the node: the loop during its turn (run()), a Zenoh thread taking a sample
         # in the loop's stead (rx_in_callback). Off by default: a caller driving pump() itself (tests, the
@@ -325,50 +338,55 @@ class ZenohBridge:
     def fileno(self) -> int:
         return self._wake_r
 
-    def holding(self) -> bool:
-        """Frames are held for company (see pump()): the loop need not wake for the site's sockets."""
-        return self._held_until is not None
+    def site_fds(self) -> tuple[int, list[tuple[int, int]]]:
+        """(generation, [(fd, events)]) of the site's sockets as the last turn saw them; the generation
+        changes when they do (a TCP connection up or down), so a loop re-registers only then."""
+        how = self._drain
+        if how is None:
+            return -1, self.node.fds()
+        return how.fds_gen, ub_ports.drain_fds(how)
 
-    def wait_ms(self) -> int:
-        """How long the loop may sleep: until held frames are due, else LOOP_WAIT_MS."""
-        if self._held_until is None:
-            return LOOP_WAIT_MS
-        left = self._held_until - self._clock()
-        return max(0, min(LOOP_WAIT_MS, int(left * 1000 + 0.999)))
-
-    def pump(self, now_ms: int | None = None, send: bool = True) -> int:
-        """Frames from Zenoh into the router, then (`send`) the router's frames out to Zenoh. Returns frames
-        moved. run() pumps with send=False before the node's service: what the sockets hold then joins
-        the batches before they leave."""
-        try:
-            while os.read(self._wake_r, 4096):
+    def turn(self, now_ms: int | None = None, woken: bool = True) -> int:
+        """One turn of the loop (the caller holds node_lock, or is the only thread touching the node):
+        queued samples into the router, the site's sockets drained until idle or a bound (C), then every
+        pending batch published. `woken` (run() passes what poll() saw; a caller without a poll() keeps
+        True): the wake pipe may hold bytes, emptied first, as it is whenever samples are queued: a pipe
+        left readable would end every drain at once (WOKEN). Returns frames moved."""
+        inbox = self._inbox
+        if woken or inbox:
+            try:
+                while os.read(self._wake_r, 4096):
+                    pass
+            except BlockingIOError:
                 pass
-        except BlockingIOError:
-            pass
+        now = int(self._clock()) if now_ms is None else now_ms
         moved = 0
-        if self._inbox:
-            now = self.node.now() if now_ms is None else now_ms
-            while self._inbox:
-                moved += self._take(self._inbox.popleft(), now)
-        out = self.zlink
-        if send and out.pending:
-            # Nagle-free coalescing: a frame after a quiet spell (no sample for batch_delay) leaves at once;
-            # frames that follow a sample closer than that wait until batch_delay after it (or until
-            # batch_bytes are pending) and leave together. A busy link sends a sample per batch_delay per
-            # flow, not one per loop turn: the fixed cost of a sample (a turn, a put, Zenoh's threads)
-            # is shared by its frames, and a lone frame never waits.
-            t = self._clock()
-            if t - self._last_put < self.batch_delay_s and out.pending_bytes < self.batch_bytes:
-                self._held_until = self._last_put + self.batch_delay_s
-                return moved
-            self._held_until = None
-            self._last_put = t
-            raw, ends = out.take()
-            start = 0
-            for end in ends:
-                moved += self._publish(raw, start, end)
-                start = end
+        if inbox:
+            while inbox:
+                moved += self._take(inbox.popleft(), now)
+        if self._drain is not None:
+            ub_ports.ub_ports_drain(self.node._ports, self._drain, now)
+        else:
+            self.node.service(now, dispatch=False)
+        if self._bl.c.n:
+            moved += self._flush()
         return moved
+
+    def _flush(self) -> int:
+        """Every pending batch published, each copied once out of the batch link's memory. Frames."""
+        view, ends = self.zlink.take()
+        moved, start = 0, 0
+        for end in ends:
+            moved += self._publish(view, start, end)
+            start = end
+        return moved
+
+    def flush_counts(self) -> dict[str, int]:
+        """Drains ended by reason (ub_drain_end_t) since the start."""
+        how = self._drain
+        if how is None:
+            return {}
+        return ub_ports.drain_ends(how)
 
     def _refuse(self, payload: bytes) -> None:
         """A sample that is no batch of ours: counted by reason, said once per reason (not per sample).
@@ -382,16 +400,17 @@ class ZenohBridge:
         if self.counters[exc.reason] == 1:
             self.events.append({"event": "refused", "reason": exc.reason, "message": f"zenoh sample refused: {exc}"})
 
-    def _publish(self, raw: bytes, start: int, end: int) -> int:
-        """One batch (raw[start:end], frames of one flow) as one sample under that flow's key. Returns frames."""
-        n = raw[start + 3] | raw[start + 4] << 8
+    def _publish(self, raw: Any, start: int, end: int) -> int:
+        """One batch (raw[start:end] of the batch link's memory, frames of one flow) as one sample under
+        that flow's key. Returns frames."""
+        n = raw[start + 3][0] | raw[start + 4][0] << 8
         first = start + BATCH_HEADER + 2
         key_bytes = raw[first + KEY_AT:first + KEY_AT + KEY_LEN]
-        payload = raw[start:end] if start or end != len(raw) else raw
+        payload = raw[start:end]
         try:
             known = self._keys.get(key_bytes)
             if known is None:
-                flen = raw[start + BATCH_HEADER] | raw[start + BATCH_HEADER + 1] << 8
+                flen = raw[start + BATCH_HEADER][0] | raw[start + BATCH_HEADER + 1][0] << 8
                 key = frame_key(self.prefix, raw[first:first + flen], self.node.catalogue)
                 pub = None
                 if len(self._publishers) < PUBLISHERS_MAX:
@@ -416,6 +435,7 @@ class ZenohBridge:
             out = dict(self.counters)
             out["remote_alive"] = sorted(e for e, up in self.remote_alive.items() if up)
         out["outbox_refused"] = self.zlink.refused
+        out.update(self.flush_counts())
         return out
 
     def close(self) -> None:
@@ -467,8 +487,8 @@ def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
         except zenoh.ZError as exc:
             raise BridgeError(f"zenoh: cannot open a {args.mode} session (listen {args.listen}, connect "
                               f"{args.connect}): {exc}") from None
-        bridge = ZenohBridge(node, args.link, session, prefix, args.flow, express=not args.batch,
-                             batch_bytes=args.batch_bytes, batch_delay_us=args.batch_delay_us)
+        bridge = ZenohBridge(node, args.link, session, prefix, args.flow, express=args.express,
+                             batch_bytes=args.batch_bytes, idle_us=args.batch_idle_us, age_us=args.batch_age_us)
         ports = {}
         for name, c in node.link_counters().items():
             if c.get("port") is not None:
@@ -482,52 +502,70 @@ def run(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
                     "local_site": bridge.local_site, "remote_site": bridge.remote_site, "ports": ports})
         end = time.monotonic() + args.duration_s if args.duration_s else None
         next_stats = time.monotonic() + args.stats_s if args.stats_s else None
+        next_housekeeping = time.monotonic()
+        wake_fd, stdin_fd = bridge.fileno(), sys.stdin.fileno()
         stdin_open = True
-        poller, registered = select.poll(), {}
+        poller = select.poll()
+        poller.register(wake_fd, select.POLLIN)
+        poller.register(stdin_fd, select.POLLIN)
+        site: list[tuple[int, int]] = []
+        gen = None
         # The loop holds node_lock except while it sleeps in poll(): then a Zenoh thread may hand a sample
         # to the router itself (ZenohBridge._on_sample), without waking the loop.
+        # What set-up built (catalogue, tables, sessions) lives as long as the process: out of the cyclic
+        # collector's way, whose passes over it were ~10 % of gwA's CPU under a blast (perf: gc_collect_main,
+        # visit_decref) while the loop itself makes no cycles.
+        gc.collect()
+        gc.freeze()
         bridge.node_lock.acquire()
         bridge.rx_in_callback = True
-        while end is None or time.monotonic() < end:
-            # One poller kept across turns, changed only where the descriptors or their events changed.
-            # While frames are held for company the site's sockets can wait: their datagrams join the
-            # batch when the hold ends (one turn for many frames, not one per datagram).
-            want = {} if bridge.holding() else dict(node.fds())
-            want[bridge.fileno()] = select.POLLIN
-            if stdin_open:
-                want[sys.stdin.fileno()] = select.POLLIN
-            if want != registered:
-                for fd in registered.keys() - want.keys():
-                    poller.unregister(fd)
-                for fd, events in want.items():
-                    if fd not in registered:
-                        poller.register(fd, events)
-                    elif registered[fd] != events:
-                        poller.modify(fd, events)
-                registered = want
+        bridge.turn()
+        while True:
+            # A turn is a few Python calls whatever the traffic: poll(), turn() (one C call drains the site's
+            # sockets until idle, ub_ports_drain), one publish per batch. The poller changes only when the
+            # site's descriptors do (site_fds' generation).
+            g, fds = bridge.site_fds()
+            if g != gen or g < 0:
+                if fds != site:
+                    for fd, _ in site:
+                        if fd not in (wake_fd, stdin_fd):
+                            poller.unregister(fd)
+                    for fd, events in fds:
+                        if fd not in (wake_fd, stdin_fd):
+                            poller.register(fd, events)
+                    site = fds
+                gen = g
             bridge.node_lock.release()
             try:
-                ready = dict(poller.poll(bridge.wait_ms()))
+                ready = poller.poll(LOOP_WAIT_MS)
             finally:
                 bridge.node_lock.acquire()
-            if stdin_open and sys.stdin.fileno() in ready:
-                line = sys.stdin.readline()
-                if not line:
-                    stdin_open = False
-                elif line.strip() == "quit":
-                    break
-                elif line.strip() == "stats":
-                    _emit(out, _stats(node, bridge))
-            now = node.now()
-            bridge.pump(now, send=False)
-            node.service(now)
-            bridge.pump(now)
+            woken = False
+            for fd, _ in ready:
+                if fd == wake_fd:
+                    woken = True
+                elif fd == stdin_fd and stdin_open:
+                    line = sys.stdin.readline()
+                    if not line:
+                        stdin_open = False
+                        poller.unregister(stdin_fd)
+                    elif line.strip() == "quit":
+                        end = 0.0
+                    elif line.strip() == "stats":
+                        _emit(out, _stats(node, bridge))
+            bridge.turn(woken=woken)
             bridge.counters["loop_turns"] += 1
+            t = time.monotonic()
+            if t >= next_housekeeping:  # notices, deliveries to the bridge entity, service hooks
+                node.service()
+                next_housekeeping = t + HOUSEKEEPING_S
             while bridge.events:
                 _emit(out, bridge.events.popleft())
-            if next_stats is not None and time.monotonic() >= next_stats:
+            if next_stats is not None and t >= next_stats:
                 _emit(out, _stats(node, bridge))
                 next_stats += args.stats_s
+            if end is not None and t >= end:
+                break
         _emit(out, {**_stats(node, bridge), "final": True})
         return 0
     finally:
@@ -562,14 +600,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--prefix", help="key prefix (default uavbus/<system>)")
     p.add_argument("--flow", action="append", metavar="DEST[/SOURCE[/DIRECTORY]]",
                    help="receive only these flows ('*' = any); default: everything for this site's entities")
-    p.add_argument("--batch", action="store_true", help="let Zenoh batch samples (throughput) instead of express")
+    how = p.add_mutually_exclusive_group()
+    how.add_argument("--express", action="store_true",
+                     help="Zenoh sends each sample at once, never in its own transmission batches (about ten "
+                          "times the CPU per sample, docs/bridges.md)")
+    how.add_argument("--batch", action="store_true",
+                     help="Zenoh may put several samples in one transmission batch (the default; kept for scripts)")
     p.add_argument("--batch-bytes", type=int, default=BATCH_BYTES, metavar="N",
                    help=f"largest sample payload: consecutive frames of one key share a sample up to N bytes "
                         f"(default {BATCH_BYTES})")
-    p.add_argument("--batch-delay-us", type=int, default=BATCH_DELAY_US, metavar="US",
-                   help=f"coalescing window: frames following a sample by less than US microseconds wait until "
-                        f"US after it and leave together; a frame after a quiet spell leaves at once "
-                        f"(default {BATCH_DELAY_US}; 0: each loop turn sends what it has)")
+    p.add_argument("--batch-idle-us", type=int, default=BATCH_IDLE_US, metavar="US",
+                   help=f"a batch leaves when the site's sockets had nothing new for US microseconds "
+                        f"(default {BATCH_IDLE_US}; 0: as soon as they are empty)")
+    p.add_argument("--batch-age-us", type=int, default=BATCH_AGE_US, metavar="US",
+                   help=f"...or US microseconds after its turn began, however busy the site (default {BATCH_AGE_US})")
     p.add_argument("--stats-s", type=float, default=0.0, help="print stats every S seconds (0: on request)")
     p.add_argument("--duration-s", type=float, default=0.0, help="stop after S seconds (0: run until quit)")
     return p
