@@ -140,7 +140,7 @@ static void test_line_converges_when_driven_by_due_times(void **state) {
     for (int a = 0; a < 4; a++)
         for (int b = 0; b < 4; b++) {
             if (a == b) continue;
-            ub_route_info_t ri;
+            ub_route_info_t ri = {0}; /* reaches() writes it only on success */
             assert_true(reaches(t, a, b, &ri));
             assert_true(ri.learned);
         }
