@@ -98,6 +98,28 @@ __attribute__((target("sse4.2"), always_inline)) static inline uint32_t ub_crc32
 }
 
 /**
+ * ub_crc32c_header()'s SSE4.2 body, inline for callers compiled with target("sse4.2") themselves (the
+ * decoder's frame check): bytes [4,60) of the header at `f` as one 4-byte step, six 8-byte steps and one
+ * 4-byte step, no loop. Returns the register before the final inversion (the header CRC is its complement).
+ */
+__attribute__((target("sse4.2"), always_inline)) static inline uint32_t ub_crc32c_header_reg_sse42(const uint8_t *f) {
+    uint32_t w32;
+    uint64_t w64;
+    memcpy(&w32, f + 4, sizeof w32);
+    uint64_t c = _mm_crc32_u32(0xFFFFFFFFu, w32);
+#define UB_HDR_STEP(off) (memcpy(&w64, f + (off), sizeof w64), c = _mm_crc32_u64(c, w64))
+    UB_HDR_STEP(8); /* written out: -O2 keeps a 6-trip loop as a loop */
+    UB_HDR_STEP(16);
+    UB_HDR_STEP(24);
+    UB_HDR_STEP(32);
+    UB_HDR_STEP(40);
+    UB_HDR_STEP(48);
+#undef UB_HDR_STEP
+    memcpy(&w32, f + 56, sizeof w32);
+    return _mm_crc32_u32((uint32_t)c, w32);
+}
+
+/**
  * ub_crc32c_frame_tail()'s SSE4.2 body, inline for callers compiled with target("sse4.2") themselves
  * (ub_frame_tpl_finish's hardware path), so the template's whole build is one function with no call
  * (returns the message CRC, *header_reg the header CRC's register before the final inversion -- the header

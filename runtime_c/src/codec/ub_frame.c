@@ -87,15 +87,11 @@ static void write_checks(uint8_t *f, size_t body_len) {
     ub_put_u32le(f + UB_FRAME_OFF_MSG_CRC, ub_crc32c_update(header_crc, f + UB_FRAME_HEADER_LEN, body_len));
 }
 
-/* Judges the 64 header bytes at `f` (sync already matched). The header check comes
- * first, so a corrupted version or length on a real frame is named as such rather
- * than random bytes after a false sync being blamed on "version". */
-/* Inlined into each caller (the decoder's two scans, ub_frame_parse): as a call it saved and restored three
- * registers and passed both results through memory, some 12 instructions of a ~300-instruction parse. */
-static inline __attribute__((always_inline)) ub_rx_reason_t judge_header(const uint8_t *f, uint32_t *header_crc,
+/* The header's own fields judged, given its CRC: the header check first, so a corrupted version or length
+ * on a real frame is named as such rather than random bytes after a false sync being blamed on "version". */
+static inline __attribute__((always_inline)) ub_rx_reason_t judge_fields(const uint8_t *f, uint32_t header_crc,
                                                                          size_t *frame_len) {
-    *header_crc = ub_crc32c_header(f); /* = ub_crc32c(f + UB_FRAME_CHECKED_OFF, UB_FRAME_CHECKED_LEN), unrolled */
-    if (fold_crc(*header_crc) != f[UB_FRAME_OFF_HDR_CHECK]) return UB_RX_BAD_HDR_CHECK;
+    if (fold_crc(header_crc) != f[UB_FRAME_OFF_HDR_CHECK]) return UB_RX_BAD_HDR_CHECK;
     size_t trailer_plus_one = k_trailer_plus_one[f[UB_FRAME_OFF_VERSION]];
     if (trailer_plus_one == 0 || ub_get_u16le(f + UB_FRAME_OFF_MSG_TYPE) != UB_MSG_TYPE_PUBSUB) return UB_RX_BAD_VERSION;
     size_t trailer = trailer_plus_one - 1u;
@@ -107,9 +103,63 @@ static inline __attribute__((always_inline)) ub_rx_reason_t judge_header(const u
     return HEADER_OK;
 }
 
+/* Judges the 64 header bytes at `f` (sync already matched). */
+/* Inlined into each caller (the decoder's two scans, ub_frame_parse): as a call it saved and restored three
+ * registers and passed both results through memory, some 12 instructions of a ~300-instruction parse. */
+static inline __attribute__((always_inline)) ub_rx_reason_t judge_header(const uint8_t *f, uint32_t *header_crc,
+                                                                         size_t *frame_len) {
+    *header_crc = ub_crc32c_header(f); /* = ub_crc32c(f + UB_FRAME_CHECKED_OFF, UB_FRAME_CHECKED_LEN), unrolled */
+    return judge_fields(f, *header_crc, frame_len);
+}
+
 static int body_crc_ok(const uint8_t *f, size_t frame_len, uint32_t header_crc) {
     uint32_t crc = ub_crc32c_update(header_crc, f + UB_FRAME_HEADER_LEN, frame_len - UB_FRAME_HEADER_LEN);
     return crc == ub_get_u32le(f + UB_FRAME_OFF_MSG_CRC);
+}
+
+/* check_frame()'s verdict for a good header whose frame runs past the `avail` bytes at hand. */
+#define FRAME_SHORT (HEADER_OK + 1)
+
+/* A whole candidate judged where it lies (`avail` bytes from its sync): HEADER_OK when the header and the
+ * body are both right (*frame_len set), FRAME_SHORT when the header is right but the frame is longer than
+ * `avail` (*frame_len set), else the rejection reason. The same verdicts as judge_header() then
+ * body_crc_ok(); it exists for the hardware path below, where both CRCs are one instruction chain in one
+ * function instead of two calls through the CPU dispatch (about 25 instructions of a ~250-instruction
+ * parse + unpack). */
+static ub_rx_reason_t check_frame_portable(const uint8_t *f, size_t avail, size_t *frame_len) {
+    uint32_t header_crc;
+    ub_rx_reason_t why = judge_header(f, &header_crc, frame_len);
+    if (why != HEADER_OK) return why;
+    if (avail < *frame_len) return FRAME_SHORT;
+    return body_crc_ok(f, *frame_len, header_crc) ? HEADER_OK : UB_RX_BAD_CRC;
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+/* Compiled for SSE4.2 on its own (the library still runs on any x86-64); called only when the CPU has it. */
+__attribute__((target("sse4.2"))) static ub_rx_reason_t check_frame_sse42(const uint8_t *f, size_t avail,
+                                                                         size_t *frame_len) {
+    uint32_t header_reg = ub_crc32c_header_reg_sse42(f);
+    /* fold_crc(~x) == fold_crc(x) (see tpl_finish_sse42), so the register is judged as it is */
+    ub_rx_reason_t why = judge_fields(f, header_reg, frame_len);
+    if (why != HEADER_OK) return why;
+    if (avail < *frame_len) return FRAME_SHORT;
+    size_t body_len = *frame_len - UB_FRAME_HEADER_LEN;
+    const uint8_t *body = f + UB_FRAME_HEADER_LEN;
+    uint32_t crc = ~ub_crc32c_steps_sse42(header_reg, body, body_len, body + (body_len & ~(size_t)15));
+    return crc == ub_get_u32le(f + UB_FRAME_OFF_MSG_CRC) ? HEADER_OK : UB_RX_BAD_CRC;
+}
+#define UB_CHECK_FRAME_HW 1
+#endif
+
+static inline __attribute__((always_inline)) ub_rx_reason_t check_frame(const uint8_t *f, size_t avail,
+                                                                        size_t *frame_len) {
+#ifdef UB_CHECK_FRAME_HW
+#if !defined(__SSE4_2__)
+    if (__builtin_cpu_supports("sse4.2")) /* GCOVR_EXCL_BR_LINE: CPU dispatch */
+#endif
+        return check_frame_sse42(f, avail, frame_len);
+#endif
+    return check_frame_portable(f, avail, frame_len); /* GCOVR_EXCL_LINE: hosts without SSE4.2 */
 }
 
 int ub_frame_finish(uint8_t *frame, size_t cap, const ub_frame_header_t *h) {
@@ -251,31 +301,40 @@ int ub_frame_tpl_finish_header(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, co
     return ub_frame_tpl_finish(t, frame, cap, h->payload_size, h->seq);
 }
 
-int ub_frame_parse_reason(const uint8_t *frame, size_t len, ub_frame_header_t *h, ub_rx_reason_t *reason) {
-    ub_rx_reason_t why = UB_RX_BAD_SYNC;
-    int err = UB_ERR_INVAL;
-    uint32_t header_crc = 0;
-    size_t frame_len = 0;
-    if (frame == NULL || len < 2 || frame[0] != UB_SYNC0 || frame[1] != UB_SYNC1) {
-        why = UB_RX_BAD_SYNC;
-        err = frame == NULL || len >= 2 ? UB_ERR_INVAL : UB_ERR_TRUNCATED;
-    } else if (len < UB_FRAME_HEADER_LEN) {
+/* The rejections of ub_frame_parse_reason() once the frame's checks ran (`why` from check_frame()), out of line so
+ * the accepted frame's path saves no registers for them. A length mismatch is named before a bad body CRC. */
+static __attribute__((noinline)) int parse_refusal(ub_rx_reason_t why, size_t len, size_t frame_len,
+                                                   ub_rx_reason_t *reason) {
+    int err;
+    if (why == FRAME_SHORT) {
         why = UB_RX_BAD_LENGTH;
         err = UB_ERR_TRUNCATED;
-    } else if ((why = judge_header(frame, &header_crc, &frame_len)) != HEADER_OK) {
+    } else if (why != HEADER_OK && why != UB_RX_BAD_CRC) {
         err = why == UB_RX_BAD_HDR_CHECK ? UB_ERR_CHECKSUM : UB_ERR_INVAL;
-    } else if (len != frame_len) {
+    } else if (len != frame_len) { /* longer than its frame */
         why = UB_RX_BAD_LENGTH;
-        err = len < frame_len ? UB_ERR_TRUNCATED : UB_ERR_INVAL;
-    } else if (!body_crc_ok(frame, frame_len, header_crc)) {
-        why = UB_RX_BAD_CRC;
-        err = UB_ERR_CHECKSUM;
+        err = UB_ERR_INVAL;
     } else {
-        if (h != NULL) read_header(frame, h);
-        return UB_OK;
+        err = UB_ERR_CHECKSUM; /* UB_RX_BAD_CRC */
     }
     if (reason != NULL) *reason = why;
     return err;
+}
+
+int ub_frame_parse_reason(const uint8_t *frame, size_t len, ub_frame_header_t *h, ub_rx_reason_t *reason) {
+    if (frame == NULL || len < 2 || frame[0] != UB_SYNC0 || frame[1] != UB_SYNC1) {
+        if (reason != NULL) *reason = UB_RX_BAD_SYNC;
+        return frame == NULL || len >= 2 ? UB_ERR_INVAL : UB_ERR_TRUNCATED;
+    }
+    if (len < UB_FRAME_HEADER_LEN) {
+        if (reason != NULL) *reason = UB_RX_BAD_LENGTH;
+        return UB_ERR_TRUNCATED;
+    }
+    size_t frame_len = 0;
+    ub_rx_reason_t why = check_frame(frame, len, &frame_len);
+    if (why != HEADER_OK || len != frame_len) return parse_refusal(why, len, frame_len, reason);
+    if (h != NULL) read_header(frame, h);
+    return UB_OK;
 }
 
 int ub_frame_parse(const uint8_t *frame, size_t len, ub_frame_header_t *h) {
@@ -369,7 +428,8 @@ void ub_decoder_restart(ub_decoder_t *d) {
     d->have = 0;
 }
 
-static void deliver(ub_decoder_t *d, const uint8_t *f, size_t frame_len, ub_frame_cb cb, void *user) {
+/* Inlined: the in-place scan delivers nearly every frame, and the call cost its argument moves. */
+static inline __attribute__((always_inline)) void deliver(ub_decoder_t *d, const uint8_t *f, size_t frame_len, ub_frame_cb cb, void *user) {
     d->stats.frames_ok++;
     d->stats.bytes_ok += frame_len;
     if (cb != NULL) {
@@ -458,7 +518,7 @@ static int advance_carried(ub_decoder_t *d, const uint8_t *data, size_t len, siz
  * an unfinished candidate (shorter than its frame, so it fits) in the buffer. The bytes
  * between frames, rejected candidates' sync bytes included, form one run [run, pos)
  * handed on when a frame is found, a candidate is held, or the chunk ends. */
-static size_t scan_in_place(ub_decoder_t *d, const uint8_t *data, size_t len, size_t pos, ub_frame_cb cb,
+static __attribute__((noinline)) size_t scan_in_place(ub_decoder_t *d, const uint8_t *data, size_t len, size_t pos, ub_frame_cb cb,
                             void *user) {
     size_t delivered = 0;
     size_t run = pos;
@@ -479,17 +539,11 @@ static size_t scan_in_place(ub_decoder_t *d, const uint8_t *data, size_t len, si
             continue;
         }
         if (rest < UB_FRAME_HEADER_LEN) break; /* held below */
-        uint32_t header_crc = 0;
         size_t frame_len = 0;
-        ub_rx_reason_t why = judge_header(data + pos, &header_crc, &frame_len);
+        ub_rx_reason_t why = check_frame(data + pos, rest, &frame_len);
+        if (why == FRAME_SHORT) break; /* held below */
         if (why != HEADER_OK) {
             d->stats.rejected[why]++;
-            pos++;
-            continue;
-        }
-        if (rest < frame_len) break; /* held below */
-        if (!body_crc_ok(data + pos, frame_len, header_crc)) {
-            d->stats.rejected[UB_RX_BAD_CRC]++;
             pos++;
             continue;
         }
@@ -507,13 +561,31 @@ static size_t scan_in_place(ub_decoder_t *d, const uint8_t *data, size_t len, si
     return delivered;
 }
 
-size_t ub_decoder_feed(ub_decoder_t *d, const uint8_t *data, size_t len, ub_frame_cb cb, void *user) {
-    if (d == NULL || (data == NULL && len != 0)) return 0;
-    d->stats.bytes_in += len;
+/* ub_decoder_feed() past its first frame, or from a carried candidate: out of line, so the common case below
+ * (a chunk that starts with a whole frame) saves no registers for the loops. */
+static __attribute__((noinline)) size_t feed_carried(ub_decoder_t *d, const uint8_t *data, size_t len, ub_frame_cb cb,
+                                                     void *user) {
     size_t delivered = 0;
     size_t pos = 0;
     while (d->have > 0) {
         if (!advance_carried(d, data, len, &pos, cb, user, &delivered)) return delivered;
     }
     return delivered + scan_in_place(d, data, len, pos, cb, user);
+}
+
+size_t ub_decoder_feed(ub_decoder_t *d, const uint8_t *data, size_t len, ub_frame_cb cb, void *user) {
+    if (d == NULL || (data == NULL && len != 0)) return 0;
+    d->stats.bytes_in += len;
+    /* Nothing carried and a valid frame at the chunk's start (a datagram, a read that ended on a frame
+     * boundary): delivered here, the rest of the chunk scanned after it -- what scan_in_place() does with its
+     * first frame, without its loop's setup. Anything else (a rejected or unfinished candidate, bytes before a
+     * sync) goes the general way, which judges the candidate again and counts it there, once. */
+    if (d->have == 0 && len >= UB_FRAME_HEADER_LEN && data[0] == UB_SYNC0 && data[1] == UB_SYNC1) {
+        size_t frame_len = 0;
+        if (check_frame(data, len, &frame_len) == HEADER_OK) {
+            deliver(d, data, frame_len, cb, user);
+            return frame_len == len ? 1u : 1u + scan_in_place(d, data, len, frame_len, cb, user);
+        }
+    }
+    return feed_carried(d, data, len, cb, user);
 }
