@@ -608,9 +608,18 @@ static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_head
     dispatch_admin(node, slot, link_id, h, payload, rx, now_ms);
 }
 
-static int local_destination(const ub_node_t *node, const uint8_t dest_id[UB_ENTITY_ID_LEN], int *dest_row) {
+/* The destination's entity row (-1: unknown) in *dest_row, and its local slot (-1: not local). Every originated
+ * and received frame asks, mostly for the destination of the frame before: that row is checked first. */
+static int local_destination(ub_node_t *node, const uint8_t dest_id[UB_ENTITY_ID_LEN], int *dest_row) {
+    const ub_entity_row_t *last = &node->entities[node->last_dest];
+    if (last->in_use && ub_priv_id_eq(last->id, dest_id)) {
+        *dest_row = (int)node->last_dest;
+        return last->local;
+    }
     *dest_row = ub_node_find_entity(node, dest_id);
-    return *dest_row >= 0 ? node->entities[*dest_row].local : -1;
+    if (*dest_row < 0) return -1;
+    node->last_dest = (uint32_t)*dest_row;
+    return node->entities[*dest_row].local;
 }
 
 /* The next freshness counter: from the security context when one is attached (it may refuse: fail
