@@ -119,47 +119,48 @@ static int body_crc_ok(const uint8_t *f, size_t frame_len, uint32_t header_crc) 
 
 /* check_frame()'s verdict for a good header whose frame runs past the `avail` bytes at hand. */
 #define FRAME_SHORT (HEADER_OK + 1)
+/* check_frame() returns a frame's length (at least UB_FRAME_HEADER_LEN) or a verdict (far below it). */
+_Static_assert(FRAME_SHORT < UB_FRAME_HEADER_LEN, "check_frame()'s verdicts must stay below UB_FRAME_HEADER_LEN");
 
-/* A whole candidate judged where it lies (`avail` bytes from its sync): HEADER_OK when the header and the
- * body are both right (*frame_len set), FRAME_SHORT when the header is right but the frame is longer than
- * `avail` (*frame_len set), else the rejection reason. The same verdicts as judge_header() then
- * body_crc_ok(); it exists for the hardware path below, where both CRCs are one instruction chain in one
- * function instead of two calls through the CPU dispatch (about 25 instructions of a ~250-instruction
- * parse + unpack). */
-static ub_rx_reason_t check_frame_portable(const uint8_t *f, size_t avail, size_t *frame_len) {
+/* A whole candidate judged where it lies (`avail` >= UB_FRAME_HEADER_LEN bytes from its sync): its length when
+ * the header and the body are both right, FRAME_SHORT when the header is right but the frame is longer than
+ * `avail`, else the rejection reason (every verdict is below UB_FRAME_HEADER_LEN, so one register says which).
+ * The same verdicts as judge_header() then body_crc_ok(); it exists for the hardware path below, where both
+ * CRCs are one instruction chain in one function instead of two calls through the CPU dispatch. */
+static size_t check_frame_portable(const uint8_t *f, size_t avail) {
     uint32_t header_crc;
-    ub_rx_reason_t why = judge_header(f, &header_crc, frame_len);
+    size_t frame_len = 0;
+    ub_rx_reason_t why = judge_header(f, &header_crc, &frame_len);
     if (why != HEADER_OK) return why;
-    if (avail < *frame_len) return FRAME_SHORT;
-    return body_crc_ok(f, *frame_len, header_crc) ? HEADER_OK : UB_RX_BAD_CRC;
+    if (avail < frame_len) return FRAME_SHORT;
+    return body_crc_ok(f, frame_len, header_crc) ? frame_len : UB_RX_BAD_CRC;
 }
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 /* Compiled for SSE4.2 on its own (the library still runs on any x86-64); called only when the CPU has it. */
-__attribute__((target("sse4.2"))) static ub_rx_reason_t check_frame_sse42(const uint8_t *f, size_t avail,
-                                                                         size_t *frame_len) {
+__attribute__((target("sse4.2"))) static size_t check_frame_sse42(const uint8_t *f, size_t avail) {
     uint32_t header_reg = ub_crc32c_header_reg_sse42(f);
+    size_t frame_len = 0;
     /* fold_crc(~x) == fold_crc(x) (see tpl_finish_sse42), so the register is judged as it is */
-    ub_rx_reason_t why = judge_fields(f, header_reg, frame_len);
+    ub_rx_reason_t why = judge_fields(f, header_reg, &frame_len);
     if (why != HEADER_OK) return why;
-    if (avail < *frame_len) return FRAME_SHORT;
-    size_t body_len = *frame_len - UB_FRAME_HEADER_LEN;
+    if (avail < frame_len) return FRAME_SHORT;
+    size_t body_len = frame_len - UB_FRAME_HEADER_LEN;
     const uint8_t *body = f + UB_FRAME_HEADER_LEN;
     uint32_t crc = ~ub_crc32c_steps_sse42(header_reg, body, body_len, body + (body_len & ~(size_t)15));
-    return crc == ub_get_u32le(f + UB_FRAME_OFF_MSG_CRC) ? HEADER_OK : UB_RX_BAD_CRC;
+    return crc == ub_get_u32le(f + UB_FRAME_OFF_MSG_CRC) ? frame_len : UB_RX_BAD_CRC;
 }
 #define UB_CHECK_FRAME_HW 1
 #endif
 
-static inline __attribute__((always_inline)) ub_rx_reason_t check_frame(const uint8_t *f, size_t avail,
-                                                                        size_t *frame_len) {
+static inline __attribute__((always_inline)) size_t check_frame(const uint8_t *f, size_t avail) {
 #ifdef UB_CHECK_FRAME_HW
 #if !defined(__SSE4_2__)
     if (__builtin_cpu_supports("sse4.2")) /* GCOVR_EXCL_BR_LINE: CPU dispatch */
 #endif
-        return check_frame_sse42(f, avail, frame_len);
+        return check_frame_sse42(f, avail);
 #endif
-    return check_frame_portable(f, avail, frame_len); /* GCOVR_EXCL_LINE: hosts without SSE4.2 */
+    return check_frame_portable(f, avail); /* GCOVR_EXCL_LINE: hosts without SSE4.2 */
 }
 
 int ub_frame_finish(uint8_t *frame, size_t cap, const ub_frame_header_t *h) {
@@ -301,21 +302,22 @@ int ub_frame_tpl_finish_header(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, co
     return ub_frame_tpl_finish(t, frame, cap, h->payload_size, h->seq);
 }
 
-/* The rejections of ub_frame_parse_reason() once the frame's checks ran (`why` from check_frame()), out of line so
+/* The rejections of ub_frame_parse_reason() once the frame's checks ran (`got` from check_frame()), out of line so
  * the accepted frame's path saves no registers for them. A length mismatch is named before a bad body CRC. */
-static __attribute__((noinline)) int parse_refusal(ub_rx_reason_t why, size_t len, size_t frame_len,
+static __attribute__((noinline)) int parse_refusal(const uint8_t *frame, size_t got, size_t len,
                                                    ub_rx_reason_t *reason) {
+    ub_rx_reason_t why;
     int err;
-    if (why == FRAME_SHORT) {
+    if (got == FRAME_SHORT) {
         why = UB_RX_BAD_LENGTH;
         err = UB_ERR_TRUNCATED;
-    } else if (why != HEADER_OK && why != UB_RX_BAD_CRC) {
-        err = why == UB_RX_BAD_HDR_CHECK ? UB_ERR_CHECKSUM : UB_ERR_INVAL;
-    } else if (len != frame_len) { /* longer than its frame */
-        why = UB_RX_BAD_LENGTH;
+    } else if (got >= UB_FRAME_HEADER_LEN ||
+               (got == UB_RX_BAD_CRC && ub_get_u16le(frame + UB_FRAME_OFF_MSG_SIZE) != len)) {
+        why = UB_RX_BAD_LENGTH; /* `len` past the end of a frame (valid, or with a bad CRC: its header was right) */
         err = UB_ERR_INVAL;
     } else {
-        err = UB_ERR_CHECKSUM; /* UB_RX_BAD_CRC */
+        why = (ub_rx_reason_t)got;
+        err = why == UB_RX_BAD_HDR_CHECK || why == UB_RX_BAD_CRC ? UB_ERR_CHECKSUM : UB_ERR_INVAL;
     }
     if (reason != NULL) *reason = why;
     return err;
@@ -330,9 +332,8 @@ int ub_frame_parse_reason(const uint8_t *frame, size_t len, ub_frame_header_t *h
         if (reason != NULL) *reason = UB_RX_BAD_LENGTH;
         return UB_ERR_TRUNCATED;
     }
-    size_t frame_len = 0;
-    ub_rx_reason_t why = check_frame(frame, len, &frame_len);
-    if (why != HEADER_OK || len != frame_len) return parse_refusal(why, len, frame_len, reason);
+    size_t got = check_frame(frame, len);
+    if (got != len) return parse_refusal(frame, got, len, reason);
     if (h != NULL) read_header(frame, h);
     return UB_OK;
 }
@@ -539,11 +540,10 @@ static __attribute__((noinline)) size_t scan_in_place(ub_decoder_t *d, const uin
             continue;
         }
         if (rest < UB_FRAME_HEADER_LEN) break; /* held below */
-        size_t frame_len = 0;
-        ub_rx_reason_t why = check_frame(data + pos, rest, &frame_len);
-        if (why == FRAME_SHORT) break; /* held below */
-        if (why != HEADER_OK) {
-            d->stats.rejected[why]++;
+        size_t frame_len = check_frame(data + pos, rest);
+        if (frame_len == FRAME_SHORT) break; /* held below */
+        if (frame_len < UB_FRAME_HEADER_LEN) { /* a rejection reason */
+            d->stats.rejected[frame_len]++;
             pos++;
             continue;
         }
@@ -581,8 +581,8 @@ size_t ub_decoder_feed(ub_decoder_t *d, const uint8_t *data, size_t len, ub_fram
      * first frame, without its loop's setup. Anything else (a rejected or unfinished candidate, bytes before a
      * sync) goes the general way, which judges the candidate again and counts it there, once. */
     if (d->have == 0 && len >= UB_FRAME_HEADER_LEN && data[0] == UB_SYNC0 && data[1] == UB_SYNC1) {
-        size_t frame_len = 0;
-        if (check_frame(data, len, &frame_len) == HEADER_OK) {
+        size_t frame_len = check_frame(data, len);
+        if (frame_len >= UB_FRAME_HEADER_LEN) {
             deliver(d, data, frame_len, cb, user);
             return frame_len == len ? 1u : 1u + scan_in_place(d, data, len, frame_len, cb, user);
         }
