@@ -6,6 +6,7 @@
  * so chunking never changes what is delivered or counted. */
 #include "ub/ub_frame.h"
 
+#include <stddef.h>
 #include <string.h>
 
 #include "ub/ub_wire.h"
@@ -73,12 +74,18 @@ static inline __attribute__((always_inline)) void read_header(const uint8_t *f, 
             memset(h->origin_tag, 0, UB_FRAME_ORIGIN_TAG_LEN);
         }
     } else {
-        h->key_id = 0;
-        h->counter_hi = 0;
-        h->origin_hop0 = 0;
-        memset(h->origin_tag, 0, UB_FRAME_ORIGIN_TAG_LEN);
+        /* key_id, counter_hi, origin_hop0 and origin_tag end the struct (asserted below): zeroed as one range,
+         * padding included, in one or two wide stores where there were four field stores */
+        memset(&h->key_id, 0, sizeof *h - offsetof(ub_frame_header_t, key_id));
     }
 }
+_Static_assert(offsetof(ub_frame_header_t, key_id) < offsetof(ub_frame_header_t, counter_hi) &&
+                   offsetof(ub_frame_header_t, counter_hi) < offsetof(ub_frame_header_t, origin_hop0) &&
+                   offsetof(ub_frame_header_t, origin_hop0) < offsetof(ub_frame_header_t, origin_tag) &&
+                   offsetof(ub_frame_header_t, fingerprint) < offsetof(ub_frame_header_t, key_id) &&
+                   sizeof(ub_frame_header_t) - offsetof(ub_frame_header_t, origin_tag) - UB_FRAME_ORIGIN_TAG_LEN <
+                       _Alignof(ub_frame_header_t),
+               "read_header() zeroes the trailer fields from key_id to the end of ub_frame_header_t");
 
 /* The one CRC pass: header state first (for hdr_check), then on over the payload and trailer (`body_len`). */
 static void write_checks(uint8_t *f, size_t body_len) {
@@ -580,7 +587,7 @@ size_t ub_decoder_feed(ub_decoder_t *d, const uint8_t *data, size_t len, ub_fram
      * boundary): delivered here, the rest of the chunk scanned after it -- what scan_in_place() does with its
      * first frame, without its loop's setup. Anything else (a rejected or unfinished candidate, bytes before a
      * sync) goes the general way, which judges the candidate again and counts it there, once. */
-    if (d->have == 0 && len >= UB_FRAME_HEADER_LEN && data[0] == UB_SYNC0 && data[1] == UB_SYNC1) {
+    if (d->have == 0 && len >= UB_FRAME_HEADER_LEN && ub_get_u16le(data) == (UB_SYNC0 | UB_SYNC1 << 8)) {
         size_t frame_len = check_frame(data, len);
         if (frame_len >= UB_FRAME_HEADER_LEN) {
             deliver(d, data, frame_len, cb, user);
