@@ -912,10 +912,10 @@ int ub_node_rx(ub_node_t *node, int link_id, const uint8_t *data, size_t len, ui
     return ub_node_rx_stream(node, link_id, NULL, data, len, now_ms, NULL);
 }
 
-int ub_node_rx_frame_verdict(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms,
-                             ub_rx_verdict_t *verdict) {
-    ub_rx_verdict_t ignored;
-    if (verdict == NULL) verdict = &ignored;
+/* ub_node_rx_frame_verdict() with a verdict to write (`verdict` non-NULL); inlined into both entry points, so
+ * ub_node_rx_frame() (every frame a memlink or a datagram link delivers) is not a call to the other. */
+static inline __attribute__((always_inline)) int rx_frame(ub_node_t *node, int link_id, const uint8_t *frame,
+                                                          size_t len, uint64_t now_ms, ub_rx_verdict_t *verdict) {
     *verdict = UB_VERDICT_REFUSED;
     if (node == NULL || !link_id_ok(node, link_id) || frame == NULL) return UB_ERR_INVAL;
     ub_link_t *link = &node->links[link_id];
@@ -937,8 +937,15 @@ int ub_node_rx_frame_verdict(ub_node_t *node, int link_id, const uint8_t *frame,
     return UB_OK;
 }
 
+int ub_node_rx_frame_verdict(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms,
+                             ub_rx_verdict_t *verdict) {
+    ub_rx_verdict_t ignored;
+    return rx_frame(node, link_id, frame, len, now_ms, verdict != NULL ? verdict : &ignored);
+}
+
 int ub_node_rx_frame(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms) {
-    return ub_node_rx_frame_verdict(node, link_id, frame, len, now_ms, NULL);
+    ub_rx_verdict_t ignored;
+    return rx_frame(node, link_id, frame, len, now_ms, &ignored);
 }
 
 /* ---- originating ------------------------------------------------------- */
