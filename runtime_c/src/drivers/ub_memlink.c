@@ -191,24 +191,35 @@ static uint16_t take_at(ub_memlink_end_t *end, size_t p) {
     return index;
 }
 
+/* The frame queued at send position `p` of `end`. */
+static inline const ub_memlink_frame_t *queued_at(const ub_memlink_end_t *end, size_t p) {
+    return &end->queue[end->ring[(end->head + p) % UB_MEMLINK_DEPTH]];
+}
+
 size_t ub_memlink_pump(ub_memlink_t *ml, uint64_t now_ms) {
     uint64_t order_limit = ml->next_order;
     size_t delivered = 0;
+    ub_memlink_end_t *e0 = &ml->end[0], *e1 = &ml->end[1];
     for (;;) {
-        long p0 = earliest_at(&ml->end[0], now_ms, order_limit);
-        long p1 = earliest_at(&ml->end[1], now_ms, order_limit);
-        if (p0 < 0 && p1 < 0) break;
-        int side = p0 < 0 ? 1 : 0;
-        if (p0 >= 0 && p1 >= 0) {
-            const ub_memlink_frame_t *a = &ml->end[0].queue[ml->end[0].ring[(ml->end[0].head + (size_t)p0) % UB_MEMLINK_DEPTH]];
-            const ub_memlink_frame_t *b = &ml->end[1].queue[ml->end[1].ring[(ml->end[1].head + (size_t)p1) % UB_MEMLINK_DEPTH]];
-            side = b->due_ms < a->due_ms || (b->due_ms == a->due_ms && b->order < a->order) ? 1 : 0;
+        /* The earliest due frame of the two ends (ties: send order), by pointer rather than by side index:
+         * an index into ml->end[] multiplied by the end's size at every use. */
+        long p0 = earliest_at(e0, now_ms, order_limit);
+        long p1 = earliest_at(e1, now_ms, order_limit);
+        ub_memlink_end_t *from, *to;
+        long p;
+        if (p1 < 0) {
+            if (p0 < 0) break;
+            from = e0, to = e1, p = p0;
+        } else if (p0 < 0) {
+            from = e1, to = e0, p = p1;
+        } else {
+            const ub_memlink_frame_t *a = queued_at(e0, (size_t)p0), *b = queued_at(e1, (size_t)p1);
+            bool second = b->due_ms < a->due_ms || (b->due_ms == a->due_ms && b->order < a->order);
+            from = second ? e1 : e0, to = second ? e0 : e1, p = second ? p1 : p0;
         }
-        ub_memlink_end_t *from = &ml->end[side];
-        ub_memlink_end_t *to = &ml->end[1 - side];
         /* Out of the queue first, but the slot stays taken while the node handles the frame in place: the
          * delivery may queue replies (into other slots) on this very link. */
-        uint16_t index = take_at(from, (size_t)(side == 0 ? p0 : p1));
+        uint16_t index = take_at(from, (size_t)p);
         from->stats.delivered++;
         delivered++;
         const ub_memlink_frame_t *f = &from->queue[index];
