@@ -434,7 +434,7 @@ __attribute__((target("sse4.2"))) static uint32_t crc32c_sse42(uint32_t crc, con
 
 /* ub_crc32c_header(): the unrolled steps of ub_crc32c_header_reg_sse42() (ub_crc32c_impl.h), then the inversion. */
 __attribute__((target("sse4.2"))) static uint32_t header_bytes_sse42(const uint8_t *f) {
-    return ~ub_crc32c_header_reg_sse42(f);
+    return ~(uint32_t)ub_crc32c_header_reg_sse42(f);
 }
 
 __attribute__((target("sse4.2"))) static uint32_t header_words_sse42(const uint64_t w[8]) {

@@ -99,24 +99,23 @@ __attribute__((target("sse4.2"), always_inline)) static inline uint32_t ub_crc32
 
 /**
  * ub_crc32c_header()'s SSE4.2 body, inline for callers compiled with target("sse4.2") themselves (the
- * decoder's frame check): bytes [4,60) of the header at `f` as one 4-byte step, six 8-byte steps and one
- * 4-byte step, no loop. Returns the register before the final inversion (the header CRC is its complement).
+ * decoder's frame check): bytes [4,60) of the header at `f` as seven 8-byte steps, no loop (the instruction
+ * takes unaligned words, and a CRC does not care where its steps split the bytes). Returns the register before
+ * the final inversion (the header CRC is its complement), as the instruction leaves it: zero-extended to 64
+ * bits, so ub_crc32c_steps_sse42() continues from it with no conversion.
  */
-__attribute__((target("sse4.2"), always_inline)) static inline uint32_t ub_crc32c_header_reg_sse42(const uint8_t *f) {
-    uint32_t w32;
-    uint64_t w64;
-    memcpy(&w32, f + 4, sizeof w32);
-    uint64_t c = _mm_crc32_u32(0xFFFFFFFFu, w32);
+__attribute__((target("sse4.2"), always_inline)) static inline uint64_t ub_crc32c_header_reg_sse42(const uint8_t *f) {
+    uint64_t w64, c = 0xFFFFFFFFu;
 #define UB_HDR_STEP(off) (memcpy(&w64, f + (off), sizeof w64), c = _mm_crc32_u64(c, w64))
-    UB_HDR_STEP(8); /* written out: -O2 keeps a 6-trip loop as a loop */
-    UB_HDR_STEP(16);
-    UB_HDR_STEP(24);
-    UB_HDR_STEP(32);
-    UB_HDR_STEP(40);
-    UB_HDR_STEP(48);
+    UB_HDR_STEP(4); /* written out: -O2 keeps a 7-trip loop as a loop */
+    UB_HDR_STEP(12);
+    UB_HDR_STEP(20);
+    UB_HDR_STEP(28);
+    UB_HDR_STEP(36);
+    UB_HDR_STEP(44);
+    UB_HDR_STEP(52);
 #undef UB_HDR_STEP
-    memcpy(&w32, f + 56, sizeof w32);
-    return _mm_crc32_u32((uint32_t)c, w32);
+    return c;
 }
 
 /**

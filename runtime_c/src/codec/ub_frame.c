@@ -146,10 +146,10 @@ static size_t check_frame_portable(const uint8_t *f, size_t avail) {
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 /* Compiled for SSE4.2 on its own (the library still runs on any x86-64); called only when the CPU has it. */
 __attribute__((target("sse4.2"))) static size_t check_frame_sse42(const uint8_t *f, size_t avail) {
-    uint32_t header_reg = ub_crc32c_header_reg_sse42(f);
+    uint64_t header_reg = ub_crc32c_header_reg_sse42(f);
     size_t frame_len = 0;
     /* fold_crc(~x) == fold_crc(x) (see tpl_finish_sse42), so the register is judged as it is */
-    ub_rx_reason_t why = judge_fields(f, header_reg, &frame_len);
+    ub_rx_reason_t why = judge_fields(f, (uint32_t)header_reg, &frame_len);
     if (why != HEADER_OK) return why;
     if (avail < frame_len) return FRAME_SHORT;
     size_t body_len = frame_len - UB_FRAME_HEADER_LEN;
