@@ -222,6 +222,36 @@ static void test_wire_image_storage(void **state) {
     free(w);
 }
 
+/* The node checks the last destination it routed before searching the entity table: a row freed and taken by
+ * another entity must not keep routing the old ID. (No transport attached: a routed frame is dropped `detached`
+ * and the send returns 0; an unknown destination is UB_ERR_NOROUTE.) */
+static void test_last_destination_follows_removal(void **state) {
+    (void)state;
+    ub_node_t *n = calloc(1, sizeof *n);
+    assert_non_null(n);
+    assert_int_equal(ub_node_init(n, &ub_test_cat, NULL), UB_OK);
+    struct test_gps gps = {1.0, 2.0, 3.0f, 4};
+    assert_int_equal(ub_node_bind(n, TEST_GPS, &gps), UB_OK);
+    int me = ub_node_add_entity_name(n, "me", true);
+    int a = ub_node_add_entity_name(n, "a", false);
+    assert_true(me >= 0 && a >= 0);
+    assert_true(ub_node_add_link(n, me, 0, "out") >= 0);
+    assert_int_equal(ub_node_set_mask(n, me, a, 1), UB_OK);
+    uint8_t a_id[UB_ENTITY_ID_LEN], b_id[UB_ENTITY_ID_LEN];
+    test_eid("a", a_id);
+    test_eid("b", b_id);
+    assert_int_equal(ub_node_send_data(n, me, TEST_GPS, a_id, 0), 0); /* routed (to a detached link) */
+    assert_int_equal(ub_node_send_data(n, me, TEST_GPS, b_id, 0), UB_ERR_NOROUTE);
+    assert_int_equal(ub_node_remove_entity(n, a, 0), UB_OK);
+    assert_int_equal(ub_node_send_data(n, me, TEST_GPS, a_id, 0), UB_ERR_NOROUTE);
+    int b = ub_node_add_entity_name(n, "b", false);
+    assert_int_equal(b, a); /* the freed row */
+    assert_int_equal(ub_node_set_mask(n, me, b, 1), UB_OK);
+    assert_int_equal(ub_node_send_data(n, me, TEST_GPS, b_id, 0), 0);
+    assert_int_equal(ub_node_send_data(n, me, TEST_GPS, a_id, 0), UB_ERR_NOROUTE);
+    free(n);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_setup_api_contracts),
@@ -230,6 +260,7 @@ int main(void) {
         cmocka_unit_test(test_sequence_wraps),
         cmocka_unit_test(test_full_window_table_evicts_least_recent),
         cmocka_unit_test(test_wire_image_storage),
+        cmocka_unit_test(test_last_destination_follows_removal),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

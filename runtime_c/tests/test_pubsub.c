@@ -192,6 +192,38 @@ static void test_api_contracts(void **state) {
     pair_free(p);
 }
 
+/* Searches end at the highest row ever taken (rows are taken lowest first): rows above freed ones stay
+ * findable, freed rows are not, a freed row is taken again before a never-used one, and the last row of a full
+ * table is found. */
+static void test_find_after_rows_freed(void **state) {
+    (void)state;
+    pair_t *p = pair_new(NULL);
+    uint8_t dest[UB_MAX_PUBSUB_ROWS + 3][UB_ENTITY_ID_LEN];
+    memset(dest, 0, sizeof dest);
+    for (int i = 0; i < UB_MAX_PUBSUB_ROWS + 3; i++) {
+        dest[i][0] = 'd';
+        dest[i][1] = (uint8_t)(i + 1);
+    }
+    for (int i = 0; i < 5; i++) assert_int_equal(ub_pubsub_publish(p->pub_node, p->pub, TEST_GPS, dest[i], 10, 0), i);
+    assert_int_equal(ub_pubsub_stop(p->pub_node, p->pub, 0, 0), UB_OK);
+    assert_int_equal(ub_pubsub_stop(p->pub_node, p->pub, 2, 0), UB_OK);
+    assert_int_equal(ub_pubsub_find(p->pub_node, p->pub, UB_PS_PUBLICATION, TEST_GPS, dest[4]), 4);
+    assert_int_equal(ub_pubsub_find(p->pub_node, p->pub, UB_PS_PUBLICATION, TEST_GPS, dest[3]), 3);
+    assert_int_equal(ub_pubsub_find(p->pub_node, p->pub, UB_PS_PUBLICATION, TEST_GPS, dest[0]), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_pubsub_find(p->pub_node, p->pub, UB_PS_PUBLICATION, TEST_GPS, dest[2]), UB_ERR_NOTFOUND);
+    assert_int_equal(ub_pubsub_publish(p->pub_node, p->pub, TEST_GPS, dest[5], 10, 0), 0);
+    assert_int_equal(ub_pubsub_publish(p->pub_node, p->pub, TEST_GPS, dest[6], 10, 0), 2);
+    assert_int_equal(ub_pubsub_publish(p->pub_node, p->pub, TEST_GPS, dest[7], 10, 0), 5);
+    for (int i = 8; i < UB_MAX_PUBSUB_ROWS + 2; i++) /* rows 6 .. the last */
+        assert_int_equal(ub_pubsub_publish(p->pub_node, p->pub, TEST_GPS, dest[i], 10, 0), i - 2);
+    assert_int_equal(ub_pubsub_publish(p->pub_node, p->pub, TEST_GPS, dest[UB_MAX_PUBSUB_ROWS + 2], 10, 0), UB_ERR_FULL);
+    for (int i = 3; i < UB_MAX_PUBSUB_ROWS + 2; i++)
+        assert_true(ub_pubsub_find(p->pub_node, p->pub, UB_PS_PUBLICATION, TEST_GPS, dest[i]) >= 0);
+    assert_int_equal(ub_pubsub_find(p->pub_node, p->pub, UB_PS_PUBLICATION, TEST_GPS, dest[UB_MAX_PUBSUB_ROWS + 1]),
+                     UB_MAX_PUBSUB_ROWS - 1);
+    pair_free(p);
+}
+
 /* ub_node_next_due() is exact: a loop that sleeps until the earliest due time of both nodes (as uavbus_node does)
  * wakes about once per 100 ms publication -- not every millisecond -- and the data still leaves on time. The
  * subscription's renewals are due too (its retry and renewal pace), so the bound leaves room for them; a 1 ms
@@ -237,6 +269,7 @@ int main(void) {
         cmocka_unit_test(test_refused_request_backs_off),
         cmocka_unit_test(test_api_contracts),
         cmocka_unit_test(test_next_due_is_exact),
+        cmocka_unit_test(test_find_after_rows_freed),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

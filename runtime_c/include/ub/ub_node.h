@@ -297,6 +297,8 @@ struct ub_node {
     ub_frag_t *frag;          /**< fragment state (ub_node_set_frag()), or NULL: no directory above the payload limit */
     uint16_t mtu_links;       /**< links with an MTU set: only then does a send compare frame sizes with MTUs */
     uint32_t last_content;    /**< catalogue index of the last DATA delivered: checked before a search */
+    uint32_t last_dest;       /**< entity row of the last destination routed (local_destination()): checked
+                                   before a search (a stale one fails the check: in use and the same ID) */
     /** Header templates of the plain frames this node built last (ub_frame_tpl_finish_header()), by a hash of
      *  content ID and destination: a row sending again reuses its own. Zeroed at init: no entry matches. */
     ub_frame_tpl_t tpl[UB_NODE_TPL_CACHE];

@@ -130,6 +130,7 @@ typedef struct ub_ps_row {
 typedef struct ub_pubsub_table {
     ub_ps_row_t rows[UB_MAX_PUBSUB_ROWS];
     struct ub_admin *admin; /**< the administration table attached to the entity (ub_admin.h), or NULL */
+    uint32_t rows_used;     /**< rows [rows_used, UB_MAX_PUBSUB_ROWS) were never taken, so are free: searches stop there */
 } ub_pubsub_table_t;
 
 /**

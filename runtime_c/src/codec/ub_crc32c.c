@@ -432,22 +432,9 @@ __attribute__((target("sse4.2"))) static uint32_t crc32c_sse42(uint32_t crc, con
     return ~ub_crc32c_steps_sse42((uint32_t)~crc, data, len, data + (len & ~(size_t)15));
 }
 
-/* ub_crc32c_header(): bytes [4,60) as one 4-byte step, six 8-byte steps, one 4-byte step; no loop. */
+/* ub_crc32c_header(): the unrolled steps of ub_crc32c_header_reg_sse42() (ub_crc32c_impl.h), then the inversion. */
 __attribute__((target("sse4.2"))) static uint32_t header_bytes_sse42(const uint8_t *f) {
-    uint32_t w32;
-    uint64_t w64;
-    memcpy(&w32, f + 4, sizeof w32);
-    uint64_t c = _mm_crc32_u32(0xFFFFFFFFu, w32);
-#define UB_HDR_STEP(off) (memcpy(&w64, f + (off), sizeof w64), c = _mm_crc32_u64(c, w64))
-    UB_HDR_STEP(8); /* written out: -O2 keeps a 6-trip loop as a loop */
-    UB_HDR_STEP(16);
-    UB_HDR_STEP(24);
-    UB_HDR_STEP(32);
-    UB_HDR_STEP(40);
-    UB_HDR_STEP(48);
-#undef UB_HDR_STEP
-    memcpy(&w32, f + 56, sizeof w32);
-    return ~_mm_crc32_u32((uint32_t)c, w32);
+    return ~(uint32_t)ub_crc32c_header_reg_sse42(f);
 }
 
 __attribute__((target("sse4.2"))) static uint32_t header_words_sse42(const uint64_t w[8]) {

@@ -6,6 +6,7 @@
  * so chunking never changes what is delivered or counted. */
 #include "ub/ub_frame.h"
 
+#include <stddef.h>
 #include <string.h>
 
 #include "ub/ub_wire.h"
@@ -52,11 +53,10 @@ static inline void header_words(const ub_frame_header_t *h, size_t trailer_len, 
 static inline __attribute__((always_inline)) void read_header(const uint8_t *f, ub_frame_header_t *h) {
     h->msg_type = ub_get_u16le(f + UB_FRAME_OFF_MSG_TYPE);
     h->flags = f[UB_FRAME_OFF_VERSION] & UB_FRAME_FLAGS_MASK;
-    memcpy(h->dir_id, f + UB_FRAME_OFF_DIR_ID, UB_DIR_ID_LEN);
-    memcpy(h->dest_id, f + UB_FRAME_OFF_DEST_ID, UB_ENTITY_ID_LEN);
-    memcpy(h->src_id, f + UB_FRAME_OFF_SRC_ID, UB_ENTITY_ID_LEN);
-    h->admin = f[UB_FRAME_OFF_ADMIN];
-    h->hop_limit = f[UB_FRAME_OFF_HOP_LIMIT];
+    /* dir_id, dest_id, src_id, admin and hop_limit lie in the same order, unpadded, on the wire and in the
+     * struct (asserted below): one 42-byte copy, a few wide moves where there were five field copies */
+    memcpy((uint8_t *)h + offsetof(ub_frame_header_t, dir_id), f + UB_FRAME_OFF_DIR_ID,
+           UB_FRAME_OFF_HOP_LIMIT + 1u - UB_FRAME_OFF_DIR_ID);
     h->payload_size = ub_get_u16le(f + UB_FRAME_OFF_PAYLOAD_SIZE);
     h->seq = ub_get_u32le(f + UB_FRAME_OFF_SEQ);
     h->fingerprint = ub_get_u32le(f + UB_FRAME_OFF_FINGERPRINT);
@@ -73,12 +73,27 @@ static inline __attribute__((always_inline)) void read_header(const uint8_t *f, 
             memset(h->origin_tag, 0, UB_FRAME_ORIGIN_TAG_LEN);
         }
     } else {
-        h->key_id = 0;
-        h->counter_hi = 0;
-        h->origin_hop0 = 0;
-        memset(h->origin_tag, 0, UB_FRAME_ORIGIN_TAG_LEN);
+        /* key_id, counter_hi, origin_hop0 and origin_tag end the struct (asserted below): zeroed as one range,
+         * padding included, in one or two wide stores where there were four field stores */
+        memset(&h->key_id, 0, sizeof *h - offsetof(ub_frame_header_t, key_id));
     }
 }
+_Static_assert(offsetof(ub_frame_header_t, dest_id) - offsetof(ub_frame_header_t, dir_id) ==
+                       UB_FRAME_OFF_DEST_ID - UB_FRAME_OFF_DIR_ID &&
+                   offsetof(ub_frame_header_t, src_id) - offsetof(ub_frame_header_t, dir_id) ==
+                       UB_FRAME_OFF_SRC_ID - UB_FRAME_OFF_DIR_ID &&
+                   offsetof(ub_frame_header_t, admin) - offsetof(ub_frame_header_t, dir_id) ==
+                       UB_FRAME_OFF_ADMIN - UB_FRAME_OFF_DIR_ID &&
+                   offsetof(ub_frame_header_t, hop_limit) - offsetof(ub_frame_header_t, dir_id) ==
+                       UB_FRAME_OFF_HOP_LIMIT - UB_FRAME_OFF_DIR_ID,
+               "read_header() copies dir_id .. hop_limit as one range: the struct must lay them out as the wire does");
+_Static_assert(offsetof(ub_frame_header_t, key_id) < offsetof(ub_frame_header_t, counter_hi) &&
+                   offsetof(ub_frame_header_t, counter_hi) < offsetof(ub_frame_header_t, origin_hop0) &&
+                   offsetof(ub_frame_header_t, origin_hop0) < offsetof(ub_frame_header_t, origin_tag) &&
+                   offsetof(ub_frame_header_t, fingerprint) < offsetof(ub_frame_header_t, key_id) &&
+                   sizeof(ub_frame_header_t) - offsetof(ub_frame_header_t, origin_tag) - UB_FRAME_ORIGIN_TAG_LEN <
+                       _Alignof(ub_frame_header_t),
+               "read_header() zeroes the trailer fields from key_id to the end of ub_frame_header_t");
 
 /* The one CRC pass: header state first (for hdr_check), then on over the payload and trailer (`body_len`). */
 static void write_checks(uint8_t *f, size_t body_len) {
@@ -87,15 +102,11 @@ static void write_checks(uint8_t *f, size_t body_len) {
     ub_put_u32le(f + UB_FRAME_OFF_MSG_CRC, ub_crc32c_update(header_crc, f + UB_FRAME_HEADER_LEN, body_len));
 }
 
-/* Judges the 64 header bytes at `f` (sync already matched). The header check comes
- * first, so a corrupted version or length on a real frame is named as such rather
- * than random bytes after a false sync being blamed on "version". */
-/* Inlined into each caller (the decoder's two scans, ub_frame_parse): as a call it saved and restored three
- * registers and passed both results through memory, some 12 instructions of a ~300-instruction parse. */
-static inline __attribute__((always_inline)) ub_rx_reason_t judge_header(const uint8_t *f, uint32_t *header_crc,
+/* The header's own fields judged, given its CRC: the header check first, so a corrupted version or length
+ * on a real frame is named as such rather than random bytes after a false sync being blamed on "version". */
+static inline __attribute__((always_inline)) ub_rx_reason_t judge_fields(const uint8_t *f, uint32_t header_crc,
                                                                          size_t *frame_len) {
-    *header_crc = ub_crc32c_header(f); /* = ub_crc32c(f + UB_FRAME_CHECKED_OFF, UB_FRAME_CHECKED_LEN), unrolled */
-    if (fold_crc(*header_crc) != f[UB_FRAME_OFF_HDR_CHECK]) return UB_RX_BAD_HDR_CHECK;
+    if (fold_crc(header_crc) != f[UB_FRAME_OFF_HDR_CHECK]) return UB_RX_BAD_HDR_CHECK;
     size_t trailer_plus_one = k_trailer_plus_one[f[UB_FRAME_OFF_VERSION]];
     if (trailer_plus_one == 0 || ub_get_u16le(f + UB_FRAME_OFF_MSG_TYPE) != UB_MSG_TYPE_PUBSUB) return UB_RX_BAD_VERSION;
     size_t trailer = trailer_plus_one - 1u;
@@ -107,9 +118,73 @@ static inline __attribute__((always_inline)) ub_rx_reason_t judge_header(const u
     return HEADER_OK;
 }
 
+/* Judges the 64 header bytes at `f` (sync already matched). */
+/* Inlined into each caller (the decoder's two scans, ub_frame_parse): as a call it saved and restored three
+ * registers and passed both results through memory, some 12 instructions of a ~300-instruction parse. */
+static inline __attribute__((always_inline)) ub_rx_reason_t judge_header(const uint8_t *f, uint32_t *header_crc,
+                                                                         size_t *frame_len) {
+    *header_crc = ub_crc32c_header(f); /* = ub_crc32c(f + UB_FRAME_CHECKED_OFF, UB_FRAME_CHECKED_LEN), unrolled */
+    return judge_fields(f, *header_crc, frame_len);
+}
+
 static int body_crc_ok(const uint8_t *f, size_t frame_len, uint32_t header_crc) {
     uint32_t crc = ub_crc32c_update(header_crc, f + UB_FRAME_HEADER_LEN, frame_len - UB_FRAME_HEADER_LEN);
     return crc == ub_get_u32le(f + UB_FRAME_OFF_MSG_CRC);
+}
+
+/* check_frame()'s verdict for a good header whose frame runs past the `avail` bytes at hand. */
+#define FRAME_SHORT (HEADER_OK + 1)
+/* check_frame() returns a frame's length (at least UB_FRAME_HEADER_LEN) or a verdict (far below it). */
+_Static_assert(FRAME_SHORT < UB_FRAME_HEADER_LEN, "check_frame()'s verdicts must stay below UB_FRAME_HEADER_LEN");
+
+/* A whole candidate judged where it lies (`avail` >= UB_FRAME_HEADER_LEN bytes from its sync): its length when
+ * the header and the body are both right, FRAME_SHORT when the header is right but the frame is longer than
+ * `avail`, else the rejection reason (every verdict is below UB_FRAME_HEADER_LEN, so one register says which).
+ * The same verdicts as judge_header() then body_crc_ok(); it exists for the hardware path below, where both
+ * CRCs are one instruction chain in one function instead of two calls through the CPU dispatch. */
+static size_t check_frame_portable(const uint8_t *f, size_t avail) {
+    uint32_t header_crc;
+    size_t frame_len = 0;
+    ub_rx_reason_t why = judge_header(f, &header_crc, &frame_len);
+    if (why != HEADER_OK) return why;
+    if (avail < frame_len) return FRAME_SHORT;
+    return body_crc_ok(f, frame_len, header_crc) ? frame_len : UB_RX_BAD_CRC;
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+/* Compiled for SSE4.2 on its own (the library still runs on any x86-64); called only when the CPU has it. */
+__attribute__((target("sse4.2"))) static size_t check_frame_sse42(const uint8_t *f, size_t avail) {
+    uint64_t header_reg = ub_crc32c_header_reg_sse42(f);
+    /* judge_fields()'s checks as one condition: a right header takes no branch that must first load the
+     * reason it would return; a wrong one is judged again below to name it (the same checks, so that never
+     * comes back HEADER_OK). fold_crc(~x) == fold_crc(x) (see tpl_finish_sse42), so the register is judged as
+     * it is. */
+    size_t trailer_plus_one = k_trailer_plus_one[f[UB_FRAME_OFF_VERSION]];
+    size_t payload_size = ub_get_u16le(f + UB_FRAME_OFF_PAYLOAD_SIZE);
+    size_t frame_len = ub_get_u16le(f + UB_FRAME_OFF_MSG_SIZE);
+    if (__builtin_expect(fold_crc((uint32_t)header_reg) != f[UB_FRAME_OFF_HDR_CHECK] || trailer_plus_one == 0 ||
+                             ub_get_u16le(f + UB_FRAME_OFF_MSG_TYPE) != UB_MSG_TYPE_PUBSUB ||
+                             payload_size > UB_MAX_PAYLOAD ||
+                             frame_len != UB_FRAME_HEADER_LEN - 1u + payload_size + trailer_plus_one,
+                         0))
+        return judge_fields(f, (uint32_t)header_reg, &frame_len);
+    if (avail < frame_len) return FRAME_SHORT;
+    size_t body_len = frame_len - UB_FRAME_HEADER_LEN;
+    const uint8_t *body = f + UB_FRAME_HEADER_LEN;
+    uint32_t crc = ~ub_crc32c_steps_sse42(header_reg, body, body_len, body + (body_len & ~(size_t)15));
+    return crc == ub_get_u32le(f + UB_FRAME_OFF_MSG_CRC) ? frame_len : UB_RX_BAD_CRC;
+}
+#define UB_CHECK_FRAME_HW 1
+#endif
+
+static inline __attribute__((always_inline)) size_t check_frame(const uint8_t *f, size_t avail) {
+#ifdef UB_CHECK_FRAME_HW
+#if !defined(__SSE4_2__)
+    if (__builtin_cpu_supports("sse4.2")) /* GCOVR_EXCL_BR_LINE: CPU dispatch */
+#endif
+        return check_frame_sse42(f, avail);
+#endif
+    return check_frame_portable(f, avail); /* GCOVR_EXCL_LINE: hosts without SSE4.2 */
 }
 
 int ub_frame_finish(uint8_t *frame, size_t cap, const ub_frame_header_t *h) {
@@ -251,31 +326,40 @@ int ub_frame_tpl_finish_header(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, co
     return ub_frame_tpl_finish(t, frame, cap, h->payload_size, h->seq);
 }
 
-int ub_frame_parse_reason(const uint8_t *frame, size_t len, ub_frame_header_t *h, ub_rx_reason_t *reason) {
-    ub_rx_reason_t why = UB_RX_BAD_SYNC;
-    int err = UB_ERR_INVAL;
-    uint32_t header_crc = 0;
-    size_t frame_len = 0;
-    if (frame == NULL || len < 2 || frame[0] != UB_SYNC0 || frame[1] != UB_SYNC1) {
-        why = UB_RX_BAD_SYNC;
-        err = frame == NULL || len >= 2 ? UB_ERR_INVAL : UB_ERR_TRUNCATED;
-    } else if (len < UB_FRAME_HEADER_LEN) {
+/* The rejections of ub_frame_parse_reason() once the frame's checks ran (`got` from check_frame()), out of line so
+ * the accepted frame's path saves no registers for them. A length mismatch is named before a bad body CRC. */
+static __attribute__((noinline)) int parse_refusal(const uint8_t *frame, size_t got, size_t len,
+                                                   ub_rx_reason_t *reason) {
+    ub_rx_reason_t why;
+    int err;
+    if (got == FRAME_SHORT) {
         why = UB_RX_BAD_LENGTH;
         err = UB_ERR_TRUNCATED;
-    } else if ((why = judge_header(frame, &header_crc, &frame_len)) != HEADER_OK) {
-        err = why == UB_RX_BAD_HDR_CHECK ? UB_ERR_CHECKSUM : UB_ERR_INVAL;
-    } else if (len != frame_len) {
-        why = UB_RX_BAD_LENGTH;
-        err = len < frame_len ? UB_ERR_TRUNCATED : UB_ERR_INVAL;
-    } else if (!body_crc_ok(frame, frame_len, header_crc)) {
-        why = UB_RX_BAD_CRC;
-        err = UB_ERR_CHECKSUM;
+    } else if (got >= UB_FRAME_HEADER_LEN ||
+               (got == UB_RX_BAD_CRC && ub_get_u16le(frame + UB_FRAME_OFF_MSG_SIZE) != len)) {
+        why = UB_RX_BAD_LENGTH; /* `len` past the end of a frame (valid, or with a bad CRC: its header was right) */
+        err = UB_ERR_INVAL;
     } else {
-        if (h != NULL) read_header(frame, h);
-        return UB_OK;
+        why = (ub_rx_reason_t)got;
+        err = why == UB_RX_BAD_HDR_CHECK || why == UB_RX_BAD_CRC ? UB_ERR_CHECKSUM : UB_ERR_INVAL;
     }
     if (reason != NULL) *reason = why;
     return err;
+}
+
+int ub_frame_parse_reason(const uint8_t *frame, size_t len, ub_frame_header_t *h, ub_rx_reason_t *reason) {
+    if (frame == NULL || len < 2 || frame[0] != UB_SYNC0 || frame[1] != UB_SYNC1) {
+        if (reason != NULL) *reason = UB_RX_BAD_SYNC;
+        return frame == NULL || len >= 2 ? UB_ERR_INVAL : UB_ERR_TRUNCATED;
+    }
+    if (len < UB_FRAME_HEADER_LEN) {
+        if (reason != NULL) *reason = UB_RX_BAD_LENGTH;
+        return UB_ERR_TRUNCATED;
+    }
+    size_t got = check_frame(frame, len);
+    if (got != len) return parse_refusal(frame, got, len, reason);
+    if (h != NULL) read_header(frame, h);
+    return UB_OK;
 }
 
 int ub_frame_parse(const uint8_t *frame, size_t len, ub_frame_header_t *h) {
@@ -369,7 +453,8 @@ void ub_decoder_restart(ub_decoder_t *d) {
     d->have = 0;
 }
 
-static void deliver(ub_decoder_t *d, const uint8_t *f, size_t frame_len, ub_frame_cb cb, void *user) {
+/* Inlined: the in-place scan delivers nearly every frame, and the call cost its argument moves. */
+static inline __attribute__((always_inline)) void deliver(ub_decoder_t *d, const uint8_t *f, size_t frame_len, ub_frame_cb cb, void *user) {
     d->stats.frames_ok++;
     d->stats.bytes_ok += frame_len;
     if (cb != NULL) {
@@ -458,7 +543,7 @@ static int advance_carried(ub_decoder_t *d, const uint8_t *data, size_t len, siz
  * an unfinished candidate (shorter than its frame, so it fits) in the buffer. The bytes
  * between frames, rejected candidates' sync bytes included, form one run [run, pos)
  * handed on when a frame is found, a candidate is held, or the chunk ends. */
-static size_t scan_in_place(ub_decoder_t *d, const uint8_t *data, size_t len, size_t pos, ub_frame_cb cb,
+static __attribute__((noinline)) size_t scan_in_place(ub_decoder_t *d, const uint8_t *data, size_t len, size_t pos, ub_frame_cb cb,
                             void *user) {
     size_t delivered = 0;
     size_t run = pos;
@@ -479,17 +564,10 @@ static size_t scan_in_place(ub_decoder_t *d, const uint8_t *data, size_t len, si
             continue;
         }
         if (rest < UB_FRAME_HEADER_LEN) break; /* held below */
-        uint32_t header_crc = 0;
-        size_t frame_len = 0;
-        ub_rx_reason_t why = judge_header(data + pos, &header_crc, &frame_len);
-        if (why != HEADER_OK) {
-            d->stats.rejected[why]++;
-            pos++;
-            continue;
-        }
-        if (rest < frame_len) break; /* held below */
-        if (!body_crc_ok(data + pos, frame_len, header_crc)) {
-            d->stats.rejected[UB_RX_BAD_CRC]++;
+        size_t frame_len = check_frame(data + pos, rest);
+        if (frame_len == FRAME_SHORT) break; /* held below */
+        if (frame_len < UB_FRAME_HEADER_LEN) { /* a rejection reason */
+            d->stats.rejected[frame_len]++;
             pos++;
             continue;
         }
@@ -507,13 +585,31 @@ static size_t scan_in_place(ub_decoder_t *d, const uint8_t *data, size_t len, si
     return delivered;
 }
 
-size_t ub_decoder_feed(ub_decoder_t *d, const uint8_t *data, size_t len, ub_frame_cb cb, void *user) {
-    if (d == NULL || (data == NULL && len != 0)) return 0;
-    d->stats.bytes_in += len;
+/* ub_decoder_feed() past its first frame, or from a carried candidate: out of line, so the common case below
+ * (a chunk that starts with a whole frame) saves no registers for the loops. */
+static __attribute__((noinline)) size_t feed_carried(ub_decoder_t *d, const uint8_t *data, size_t len, ub_frame_cb cb,
+                                                     void *user) {
     size_t delivered = 0;
     size_t pos = 0;
     while (d->have > 0) {
         if (!advance_carried(d, data, len, &pos, cb, user, &delivered)) return delivered;
     }
     return delivered + scan_in_place(d, data, len, pos, cb, user);
+}
+
+size_t ub_decoder_feed(ub_decoder_t *d, const uint8_t *data, size_t len, ub_frame_cb cb, void *user) {
+    if (d == NULL || (data == NULL && len != 0)) return 0;
+    d->stats.bytes_in += len;
+    /* Nothing carried and a valid frame at the chunk's start (a datagram, a read that ended on a frame
+     * boundary): delivered here, the rest of the chunk scanned after it -- what scan_in_place() does with its
+     * first frame, without its loop's setup. Anything else (a rejected or unfinished candidate, bytes before a
+     * sync) goes the general way, which judges the candidate again and counts it there, once. */
+    if (d->have == 0 && len >= UB_FRAME_HEADER_LEN && ub_get_u16le(data) == (UB_SYNC0 | UB_SYNC1 << 8)) {
+        size_t frame_len = check_frame(data, len);
+        if (frame_len >= UB_FRAME_HEADER_LEN) {
+            deliver(d, data, frame_len, cb, user);
+            return frame_len == len ? 1u : 1u + scan_in_place(d, data, len, frame_len, cb, user);
+        }
+    }
+    return feed_carried(d, data, len, cb, user);
 }

@@ -46,6 +46,33 @@ void ub_memlink_set_faults(ub_memlink_t *ml, const ub_memlink_faults_t *faults) 
     if (faults != NULL) ml->faults = *faults;
 }
 
+/* Appends slot `index` (its due time set) to the end's send order; notes when it is due before the frame queued
+ * ahead of it, which makes the pump search the queue instead of taking its head. */
+static inline void ring_push(ub_memlink_end_t *end, uint16_t index) {
+    const ub_memlink_frame_t *slot = &end->queue[index];
+    if (end->count > 0 && slot->due_ms < end->queue[end->ring[(end->head + end->count - 1) % UB_MEMLINK_DEPTH]].due_ms)
+        end->unordered = 1;
+    end->ring[(end->head + end->count) % UB_MEMLINK_DEPTH] = index;
+    end->count++;
+}
+
+/* Queues one copy on a link without faults: due now, nothing drawn (enqueue() with every setting zero draws
+ * nothing either, so the random sequence is the same). */
+static inline bool enqueue_plain(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    if (end->n_free == 0) {
+        end->stats.overflow++;
+        return false;
+    }
+    uint16_t index = end->free_slots[--end->n_free];
+    ub_memlink_frame_t *slot = &end->queue[index];
+    memcpy(slot->bytes, frame, len);
+    slot->len = len;
+    slot->order = end->ml->next_order++;
+    slot->due_ms = now_ms;
+    ring_push(end, index);
+    return true;
+}
+
 /* Queues one copy; false when the queue is full. */
 static bool enqueue(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uint64_t now_ms, bool corrupt) {
     ub_memlink_t *ml = end->ml;
@@ -68,10 +95,7 @@ static bool enqueue(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uin
         uint32_t bit = random_below(ml, (uint32_t)(len * 8u));
         slot->bytes[bit / 8u] ^= (uint8_t)(1u << (bit % 8u));
     }
-    if (end->count > 0 && slot->due_ms < end->queue[end->ring[(end->head + end->count - 1) % UB_MEMLINK_DEPTH]].due_ms)
-        end->unordered = 1;
-    end->ring[(end->head + end->count) % UB_MEMLINK_DEPTH] = index;
-    end->count++;
+    ring_push(end, index);
     return true;
 }
 
@@ -80,6 +104,10 @@ static int memlink_send(void *impl, const uint8_t *frame, size_t len, uint64_t n
     ub_memlink_t *ml = end->ml;
     if (len > UB_FRAME_MAX) return UB_ERR_RANGE;
     end->stats.sent++;
+    const ub_memlink_faults_t *fl = &ml->faults;
+    /* Read at every send, not cached: tests change the settings in place between frames. */
+    if ((fl->loss_ppm | fl->duplicate_ppm | fl->reorder_ppm | fl->corrupt_ppm | fl->delay_ms | fl->jitter_ms) == 0)
+        return enqueue_plain(end, frame, len, now_ms) ? UB_OK : UB_ERR_AGAIN;
     if (happens(ml, ml->faults.loss_ppm)) {
         end->stats.lost++;
         return UB_OK; /* the wire ate it; the sender cannot know */
@@ -128,13 +156,12 @@ void ub_memlink_disconnect(ub_memlink_t *ml) {
     }
 }
 
-/* Position (in send order) of the end's earliest due frame (ties: send order) queued before `order_limit`, or
- * -1. In send order and due in that order (no delay, jitter or reordering): the head or nothing. */
-static long earliest_at(const ub_memlink_end_t *end, uint64_t now_ms, uint64_t order_limit) {
+/* earliest_at() of an end whose frames are not due in send order: the whole queue searched. */
+static __attribute__((noinline)) long earliest_unordered(const ub_memlink_end_t *end, uint64_t now_ms,
+                                                         uint64_t order_limit) {
     long best = -1;
-    size_t n = end->unordered ? end->count : (end->count > 0 ? 1u : 0u);
     const ub_memlink_frame_t *b = NULL;
-    for (size_t p = 0; p < n; p++) {
+    for (size_t p = 0; p < end->count; p++) {
         const ub_memlink_frame_t *f = &end->queue[end->ring[(end->head + p) % UB_MEMLINK_DEPTH]];
         if (f->due_ms > now_ms || f->order >= order_limit) continue;
         if (b == NULL || f->due_ms < b->due_ms || (f->due_ms == b->due_ms && f->order < b->order)) {
@@ -143,6 +170,17 @@ static long earliest_at(const ub_memlink_end_t *end, uint64_t now_ms, uint64_t o
         }
     }
     return best;
+}
+
+/* Position (in send order) of the end's earliest due frame (ties: send order) queued before `order_limit`, or
+ * -1. In send order and due in that order (no delay, jitter or reordering): the head or nothing, decided
+ * inline -- the pump asks both ends before every frame it delivers and once more to stop. */
+static inline __attribute__((always_inline)) long earliest_at(const ub_memlink_end_t *end, uint64_t now_ms,
+                                                              uint64_t order_limit) {
+    if (end->unordered) return earliest_unordered(end, now_ms, order_limit);
+    if (end->count == 0) return -1;
+    const ub_memlink_frame_t *f = &end->queue[end->ring[end->head]];
+    return f->due_ms <= now_ms && f->order < order_limit ? 0 : -1;
 }
 
 /* Takes the frame at send position `p` out of the ring; returns its slot (still owned until released). */
@@ -158,24 +196,35 @@ static uint16_t take_at(ub_memlink_end_t *end, size_t p) {
     return index;
 }
 
+/* The frame queued at send position `p` of `end`. */
+static inline const ub_memlink_frame_t *queued_at(const ub_memlink_end_t *end, size_t p) {
+    return &end->queue[end->ring[(end->head + p) % UB_MEMLINK_DEPTH]];
+}
+
 size_t ub_memlink_pump(ub_memlink_t *ml, uint64_t now_ms) {
     uint64_t order_limit = ml->next_order;
     size_t delivered = 0;
+    ub_memlink_end_t *e0 = &ml->end[0], *e1 = &ml->end[1];
     for (;;) {
-        long p0 = earliest_at(&ml->end[0], now_ms, order_limit);
-        long p1 = earliest_at(&ml->end[1], now_ms, order_limit);
-        if (p0 < 0 && p1 < 0) break;
-        int side = p0 < 0 ? 1 : 0;
-        if (p0 >= 0 && p1 >= 0) {
-            const ub_memlink_frame_t *a = &ml->end[0].queue[ml->end[0].ring[(ml->end[0].head + (size_t)p0) % UB_MEMLINK_DEPTH]];
-            const ub_memlink_frame_t *b = &ml->end[1].queue[ml->end[1].ring[(ml->end[1].head + (size_t)p1) % UB_MEMLINK_DEPTH]];
-            side = b->due_ms < a->due_ms || (b->due_ms == a->due_ms && b->order < a->order) ? 1 : 0;
+        /* The earliest due frame of the two ends (ties: send order), by pointer rather than by side index:
+         * an index into ml->end[] multiplied by the end's size at every use. */
+        long p0 = earliest_at(e0, now_ms, order_limit);
+        long p1 = earliest_at(e1, now_ms, order_limit);
+        ub_memlink_end_t *from, *to;
+        long p;
+        if (p1 < 0) {
+            if (p0 < 0) break;
+            from = e0, to = e1, p = p0;
+        } else if (p0 < 0) {
+            from = e1, to = e0, p = p1;
+        } else {
+            const ub_memlink_frame_t *a = queued_at(e0, (size_t)p0), *b = queued_at(e1, (size_t)p1);
+            bool second = b->due_ms < a->due_ms || (b->due_ms == a->due_ms && b->order < a->order);
+            from = second ? e1 : e0, to = second ? e0 : e1, p = second ? p1 : p0;
         }
-        ub_memlink_end_t *from = &ml->end[side];
-        ub_memlink_end_t *to = &ml->end[1 - side];
         /* Out of the queue first, but the slot stays taken while the node handles the frame in place: the
          * delivery may queue replies (into other slots) on this very link. */
-        uint16_t index = take_at(from, (size_t)(side == 0 ? p0 : p1));
+        uint16_t index = take_at(from, (size_t)p);
         from->stats.delivered++;
         delivered++;
         const ub_memlink_frame_t *f = &from->queue[index];

@@ -30,10 +30,12 @@ static const uint8_t *self_id(const ub_node_t *node, int slot) {
     return ub_node_entity_id(node, ub_node_slot_entity(node, slot));
 }
 
-/* Live = not free and not on its way out; stopping rows are found only when `with_stopping`. */
+/* Live = not free and not on its way out; stopping rows are found only when `with_stopping`. Rows are taken
+ * lowest first (new_row), so the search ends at the highest row ever taken: every delivered DATA frame asks
+ * here, and a table with a few rows used to pay 32 compares for a source it has no row for. */
 static int find_row(const ub_pubsub_table_t *t, ub_ps_kind_t kind, uint32_t instance,
                     const uint8_t peer[UB_ENTITY_ID_LEN], bool with_stopping) {
-    for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
+    for (int r = 0; r < (int)t->rows_used; r++) {
         const ub_ps_row_t *row = &t->rows[r];
         if (row->kind != kind || row->instance != instance) continue;
         if (memcmp(row->peer, peer, UB_ENTITY_ID_LEN) != 0) continue;
@@ -48,6 +50,7 @@ static ub_ps_row_t *new_row(ub_pubsub_table_t *t, ub_ps_kind_t kind, uint32_t in
     for (int r = 0; r < UB_MAX_PUBSUB_ROWS; r++) {
         ub_ps_row_t *row = &t->rows[r];
         if (row->kind != UB_PS_FREE) continue;
+        if ((uint32_t)r >= t->rows_used) t->rows_used = (uint32_t)r + 1u;
         memset(row, 0, sizeof *row);
         row->kind = (uint8_t)kind;
         row->instance = instance;
