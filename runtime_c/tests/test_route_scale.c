@@ -3,7 +3,8 @@
  *  - ub_timeheap.h against a brute-force model under random operations (min, get, the due list in item order);
  *  - on a routing fleet that converges, loses a link, starves and learns and forgets entities, after every
  *    step each node's heap holds exactly the deadlines a scan of its tables gives (the scan route_timers() and
- *    next_due used to do), and the per-link owed counts match the destinations' dirty/request bits.
+ *    next_due used to do), the per-link owed counts match the destinations' dirty/request bits and the per-link
+ *    route-entry counts match the route table.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -120,6 +121,11 @@ static uint64_t scan_deadline(const ub_route_t *rt, int e) {
 
 static void check_bookkeeping(const ub_route_t *rt) {
     for (int e = 0; e < UB_MAX_ENTITIES; e++) assert_true(ub_timeheap_get(&rt->timers, (unsigned)e) == scan_deadline(rt, e));
+    for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) {
+        unsigned in_use = 0;
+        for (int e = 0; e < UB_MAX_ENTITIES; e++) in_use += rt->routes[e][lid].in_use != 0;
+        assert_int_equal(rt->link_routes[lid], in_use);
+    }
     for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++)
         for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) {
             unsigned dirty = 0, req = 0;

@@ -284,6 +284,7 @@ typedef struct ub_route {
     /* Incremental route choice: a selection chooses again only the destinations whose inputs changed (bit set:
      * a route entry, the feasibility distance, a request, a starving destination's retry), or every one when a
      * link's cost, neighbour or doubt changed since the last selection (link_sig) or resel_full is set. */
+    uint16_t link_routes[UB_MAX_NODE_LINKS]; /* route entries in use per link (the neighbour's destinations, admit()) */
     uint64_t resel_bits[UB_MAX_LOCAL_ENTITIES][(UB_MAX_ENTITIES + 63) / 64];
     uint8_t resel_full[UB_MAX_LOCAL_ENTITIES];
     ub_route_link_sig_t link_sig[UB_MAX_LOCAL_ENTITIES][UB_MAX_LINKS_PER_ENTITY];

@@ -157,6 +157,7 @@ static void mark_slot(ub_route_t *rt, int link_id) {
 static void drop_neighbour(ub_route_t *rt, int link_id) {
     ub_route_link_t *l = &rt->links[link_id];
     for (int e = 0; e < UB_MAX_ENTITIES; e++) memset(&rt->routes[e][link_id], 0, sizeof rt->routes[e][link_id]);
+    rt->link_routes[link_id] = 0;
     retime_all(rt);
     l->nb_in_use = 0;
     memset(l->nb_id, 0, sizeof l->nb_id);
@@ -409,12 +410,8 @@ static int destination(ub_route_t *rt, const uint8_t id[UB_ENTITY_ID_LEN], uint1
     return e;
 }
 
-/* Destinations the neighbour on `link_id` has route entries for. */
-static unsigned link_dests(const ub_route_t *rt, int link_id) {
-    unsigned n = 0;
-    for (int e = 0; e < UB_MAX_ENTITIES; e++) n += rt->routes[e][link_id].in_use != 0;
-    return n;
-}
+/* Destinations the neighbour on `link_id` has route entries for (counted where entries are taken and freed). */
+static unsigned link_dests(const ub_route_t *rt, int link_id) { return rt->link_routes[link_id]; }
 
 /* Insider bounds, asked before an entry may take a route-table row (and before its destination is learned):
  * the accept_dest filter, then at most max_dests destinations per neighbour. Entries the neighbour already
@@ -448,6 +445,7 @@ static void on_update(ub_route_t *rt, int slot, int link_id, const uint8_t *ent,
         rt->counters.unfeasible++;
         if (ds->sel_link < 0) request_seqno(rt, slot, e, now_ms);
     }
+    if (!r->in_use) rt->link_routes[link_id]++;
     r->in_use = 1;
     r->seqno = seqno;
     r->metric = metric;
@@ -767,6 +765,7 @@ static void route_timers(ub_route_t *rt, uint64_t now_ms) {
             ub_route_entry_t *r = &rt->routes[e][lid];
             if (!r->in_use || now_ms < r->expires_ms) continue;
             memset(r, 0, sizeof *r);
+            rt->link_routes[lid]--;
             rt->counters.expired++;
             mark_slot(rt, lid);
         }
@@ -946,7 +945,10 @@ static void route_forget_entity(const ub_service_t *svc, ub_node_t *node, int en
     (void)node;
     ub_route_t *rt = svc->user;
     if (entity < 0 || entity >= UB_MAX_ENTITIES) return;
-    for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) memset(&rt->routes[entity][lid], 0, sizeof(ub_route_entry_t));
+    for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) {
+        if (rt->routes[entity][lid].in_use) rt->link_routes[lid]--;
+        memset(&rt->routes[entity][lid], 0, sizeof(ub_route_entry_t));
+    }
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
         set_owed(rt, slot, entity, 0, 0);
         memset(&rt->dests[slot][entity], 0, sizeof(ub_route_dest_t));
