@@ -4,7 +4,8 @@
  *  - on a routing fleet that converges, loses a link, starves and learns and forgets entities, after every
  *    step each node's heap holds exactly the deadlines a scan of its tables gives (the scan route_timers() and
  *    next_due used to do), the per-link owed counts match the destinations' dirty/request bits and the per-link
- *    route-entry counts match the route table.
+ *    route-entry counts match the route table;
+ *  - the node's entity index (ID -> row) against a scan of the entity table under random adds and removes.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -213,11 +214,49 @@ static void test_route_bookkeeping_matches_a_scan(void **state) {
     free(f);
 }
 
+/* ---- the node's entity index --------------------------------------------------------------------------- */
+
+static void test_entity_index_matches_a_scan(void **state) {
+    (void)state;
+    world_t *w = world_new();
+    ub_node_t *node = world_node(w, &ub_test_cat, NULL);
+    uint8_t ids[3 * UB_MAX_ENTITIES][UB_ENTITY_ID_LEN];
+    for (int k = 0; k < 3 * UB_MAX_ENTITIES; k++) {
+        char name[16];
+        snprintf(name, sizeof name, "n%d", k); /* similar IDs: one byte or two apart */
+        test_eid(name, ids[k]);
+    }
+    assert_true(ub_node_add_entity(node, ids[0], true) >= 0); /* a local one stays throughout */
+    for (int step = 0; step < 5000; step++) {
+        int k = 1 + (int)(rnd() % (3 * UB_MAX_ENTITIES - 1));
+        int row = ub_node_find_entity(node, ids[k]);
+        if (row >= 0 && rnd() % 2) {
+            assert_int_equal(ub_node_remove_entity(node, row, 0), UB_OK);
+        } else if (row < 0) {
+            int added = ub_node_add_entity(node, ids[k], false);
+            assert_true(added >= 0 || added == UB_ERR_FULL);
+        } else {
+            assert_int_equal(ub_node_add_entity(node, ids[k], false), UB_ERR_EXISTS);
+        }
+        /* every ID: the index answers what a scan of the table answers */
+        for (int j = 0; j < 3 * UB_MAX_ENTITIES; j++) {
+            int scan = UB_ERR_NOTFOUND;
+            for (int e = 0; e < UB_MAX_ENTITIES; e++) {
+                const uint8_t *id = ub_node_entity_id(node, e);
+                if (id != NULL && memcmp(id, ids[j], UB_ENTITY_ID_LEN) == 0) scan = e;
+            }
+            assert_int_equal(ub_node_find_entity(node, ids[j]), scan);
+        }
+    }
+    free(w);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_timeheap_matches_a_model),
         cmocka_unit_test(test_timeheap_due_respects_cap),
         cmocka_unit_test(test_route_bookkeeping_matches_a_scan),
+        cmocka_unit_test(test_entity_index_matches_a_scan),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
