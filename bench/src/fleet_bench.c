@@ -1,9 +1,9 @@
 /*
  * Fleet bench, in process (bench figure 8, issue 12): N vehicles and 2 ground stations, one node each, with
  * automatic routes (ub_route) over memlinks whose connectivity follows a range model, on a simulated clock
- * (1 ms steps: every node whose next due time (ub_node_next_due()) has come ticks, then every memlink is pumped
- * until quiet, and a node that received frames is due again -- as uavbus_node sleeps until its next due time or
- * input). FLEET_BENCH_END_S=S stops the run after S simulated seconds (a scale check: 1000 vehicles).
+ * (1 ms steps: every node whose next due time (ub_node_next_due()) has come ticks, then the memlinks that may hold
+ * a frame are pumped until quiet, and a node that received frames is due again -- as uavbus_node sleeps until its
+ * next due time or input). FLEET_BENCH_END_S=S stops the run after S simulated seconds (a scale check: 1000 vehicles).
  *
  *   fleet_bench N [HELLO_MS] [SEED] [LOSS_PPM]    -> one "fleet_inproc n=N key=value ..." line on stdout
  *
