@@ -327,8 +327,9 @@ gcc "${CFLAGS[@]}" "${FLEET_CAPS[@]}" bench/src/fleet_bench.c "$gen/benchcat.c" 
 for n in 10 30 100; do sample "$raw/fleet.txt" 1200 "$bin/fleet_bench" "$n"; done
 # 1000 vehicles + 2 ground stations on one core (issue 28 item 5): the same harness with room for 1,002 entities. The
 # configuration loader counts in uint8_t and is left out (the in-process fleet has no configuration files);
-# FLEET_BENCH_END_S bounds the run (the 15 s warm-up and 1 s of quiet: the real-time factor at that scale, measured
-# ~0.02-0.05 on a shared 2-core machine: a 16 s run takes minutes).
+# FLEET_BENCH_END_S bounds the run (the 15 s warm-up and 1 s of quiet). The real-time factor at that scale was
+# ~0.02-0.05 before the routing service's timer heap and incremental route choice; ~1.1 by CPU after (docs/routing.md,
+# "Cost at scale"), so on a loaded machine the printed (wall) factor is lower than the nodes' CPU allows.
 FLEET1K_CAPS=(-DUB_MAX_ENTITIES=1024 -DUB_DEDUP_SOURCES=1024 -DUB_MAX_LOCAL_ENTITIES=1)
 mkdir -p "$build/fleet1k-lib"
 rm -f "$build"/fleet1k-lib/*

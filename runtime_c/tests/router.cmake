@@ -6,7 +6,7 @@
 
 set(UB_ROUTER_TESTS test_node test_router test_pubsub test_admin test_memlink test_table1 test_faults test_loops test_handover
                     test_layout test_noalloc test_authz test_route test_member test_rxring test_route_due
-                    test_memlink_edges)
+                    test_memlink_edges test_route_scale)
 foreach(t ${UB_ROUTER_TESTS})
   if(TARGET ${t})
     target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c
@@ -39,7 +39,8 @@ add_executable(ub_router_bench ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/router_
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_crc32c.c ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_catalogue.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_error.c ${CMAKE_CURRENT_SOURCE_DIR}/src/config/ub_policy.c
                                ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_json.c ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_compact.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_frag.c ${CMAKE_CURRENT_SOURCE_DIR}/src/core/ub_node_wire.c)
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/codec/ub_frag.c ${CMAKE_CURRENT_SOURCE_DIR}/src/core/ub_node_wire.c
+                               ${CMAKE_CURRENT_SOURCE_DIR}/src/core/ub_timeheap.c)
 target_include_directories(ub_router_bench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/include ${CMAKE_CURRENT_SOURCE_DIR}/src
                                                    ${CMAKE_CURRENT_SOURCE_DIR}/tests)
 target_compile_definitions(ub_router_bench PRIVATE _POSIX_C_SOURCE=200809L)

@@ -268,6 +268,25 @@ typedef struct ub_binding {
     uint8_t on_update; /**< published on update, not on a timer (ub_pubsub_set_on_update()) */
 } ub_binding_t;
 
+/* Slots of the node's entity index (open addressing on the entity ID): a power of two at least twice
+ * UB_MAX_ENTITIES, so a lookup probes ~1-2 slots instead of scanning the entity table. */
+#if UB_MAX_ENTITIES <= 16
+#define UB_ENTITY_INDEX_BITS 5
+#elif UB_MAX_ENTITIES <= 64
+#define UB_ENTITY_INDEX_BITS 7
+#elif UB_MAX_ENTITIES <= 256
+#define UB_ENTITY_INDEX_BITS 9
+#elif UB_MAX_ENTITIES <= 1024
+#define UB_ENTITY_INDEX_BITS 11
+#elif UB_MAX_ENTITIES <= 4096
+#define UB_ENTITY_INDEX_BITS 13
+#elif UB_MAX_ENTITIES <= 16384
+#define UB_ENTITY_INDEX_BITS 15
+#else
+#error "the entity index holds rows in int16_t: UB_MAX_ENTITIES must stay <= 16384"
+#endif
+#define UB_ENTITY_INDEX_SLOTS (1u << UB_ENTITY_INDEX_BITS)
+
 /**
  * The node. Caller-owned; treat the fields as private (use the functions; services use ub_node_svc.h).
  * UB_NODE_OPAQUE hides them: the build defines it for the service layer (src/svc/), so a service that
@@ -278,6 +297,7 @@ struct ub_node {
     const ub_catalogue_t *cat;
     ub_node_options_t opt;
     ub_entity_row_t entities[UB_MAX_ENTITIES];
+    int16_t entity_index[UB_ENTITY_INDEX_SLOTS]; /* ID hash -> row, -1 empty (linear probing, kept by add/remove) */
     ub_local_entity_t locals[UB_MAX_LOCAL_ENTITIES];
     ub_link_t links[UB_MAX_NODE_LINKS];
     ub_binding_t bindings[UB_MAX_BINDINGS];

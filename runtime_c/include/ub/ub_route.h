@@ -84,6 +84,7 @@
 #include "ub_config.h"
 #include "ub_error.h"
 #include "ub_node.h"
+#include "ub_timeheap.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -244,6 +245,15 @@ typedef struct ub_route_dest {
 } ub_route_dest_t;
 
 /** An entity removed recently, not to be learned again before `until_ms`. Private. */
+/* What route choice reads of one link of a local slot: a change in it means every destination is chosen again. */
+typedef struct ub_route_link_sig {
+    int16_t link_id;         /* -1: no link at this index */
+    uint16_t cost;
+    uint8_t nb_in_use;
+    uint8_t doubt;
+    uint8_t nb_id[UB_ENTITY_ID_LEN];
+} ub_route_link_sig_t;
+
 typedef struct ub_route_tombstone {
     uint8_t id[UB_ENTITY_ID_LEN];
     uint64_t until_ms;
@@ -263,6 +273,20 @@ typedef struct ub_route {
     ub_route_entry_t routes[UB_MAX_ENTITIES][UB_MAX_NODE_LINKS];
     ub_route_dest_t dests[UB_MAX_LOCAL_ENTITIES][UB_MAX_ENTITIES];
     ub_route_counters_t counters;
+    /* Bookkeeping for the cost of a tick (no state of its own: all derived from the tables above, docs/routing.md
+     * "Cost at scale"). timers: per entity, the earliest of its route expiries, learned-entity expiry, retraction
+     * end, starvation retry and feasibility-distance collection; owed_*: per local slot and link index, how many
+     * destinations owe that link a triggered entry / a seqno request. */
+    ub_timeheap_t timers;
+    uint16_t owed_dirty[UB_MAX_LOCAL_ENTITIES][UB_MAX_LINKS_PER_ENTITY];
+    uint16_t owed_req[UB_MAX_LOCAL_ENTITIES][UB_MAX_LINKS_PER_ENTITY];
+    /* Incremental route choice: a selection chooses again only the destinations whose inputs changed (bit set:
+     * a route entry, the feasibility distance, a request, a starving destination's retry), or every one when a
+     * link's cost, neighbour or doubt changed since the last selection (link_sig) or resel_full is set. */
+    uint16_t link_routes[UB_MAX_NODE_LINKS]; /* route entries in use per link (the neighbour's destinations, admit()) */
+    uint64_t resel_bits[UB_MAX_LOCAL_ENTITIES][(UB_MAX_ENTITIES + 63) / 64];
+    uint8_t resel_full[UB_MAX_LOCAL_ENTITIES];
+    ub_route_link_sig_t link_sig[UB_MAX_LOCAL_ENTITIES][UB_MAX_LINKS_PER_ENTITY];
     ub_service_t svc; /* its registration with the node (ub_service.h): HELLO and ROUTE_UPDATE, link-local */
 } ub_route_t;
 

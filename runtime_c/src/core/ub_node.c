@@ -60,6 +60,7 @@ int ub_node_core_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_
         ub_catalogue_oversize(cat, UB_MAX_DIRECTORY) != NULL)
         return UB_ERR_INVAL;
     memset(node, 0, sizeof *node);
+    memset(node->entity_index, 0xFF, sizeof node->entity_index); /* every slot -1: empty */
     node->cat = cat;
     if (opt != NULL) node->opt = *opt;
     if (node->opt.hop_limit == 0) node->opt.hop_limit = UB_DEFAULT_HOP_LIMIT;
@@ -75,11 +76,51 @@ int ub_node_core_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_
     return rc;
 }
 
+/* ---- the entity index: ID -> row, open addressing with linear probing --------------------------------- */
+
+static unsigned index_home(const uint8_t id[UB_ENTITY_ID_LEN]) {
+    uint64_t a = 0;
+    uint32_t b = 0;
+    memcpy(&a, id, 8);
+    memcpy(&b, id + 8, 4);
+    uint64_t h = a * 0x9E3779B97F4A7C15ull ^ ((uint64_t)b + 0x632BE59BD9B4E019ull) * 0xC2B2AE3D27D4EB4Full;
+    h ^= h >> 31;
+    return (unsigned)(h >> (64 - UB_ENTITY_INDEX_BITS));
+}
+
+#define INDEX_MASK (UB_ENTITY_INDEX_SLOTS - 1u)
+
+static void index_insert(ub_node_t *node, int row) {
+    unsigned i = index_home(node->entities[row].id);
+    while (node->entity_index[i] >= 0) i = (i + 1u) & INDEX_MASK;
+    node->entity_index[i] = (int16_t)row;
+}
+
+/* Removes `row` (still holding its ID) from the index; the entries after it move back so no probe chain breaks. */
+static void index_remove(ub_node_t *node, int row) {
+    unsigned i = index_home(node->entities[row].id);
+    while (node->entity_index[i] != row) {
+        if (node->entity_index[i] < 0) return; /* not indexed (cannot happen: add indexes every row) */
+        i = (i + 1u) & INDEX_MASK;
+    }
+    for (unsigned j = (i + 1u) & INDEX_MASK; node->entity_index[j] >= 0; j = (j + 1u) & INDEX_MASK) {
+        unsigned home = index_home(node->entities[node->entity_index[j]].id);
+        /* j's entry may fill the hole at i unless its home lies cyclically in (i, j]. */
+        bool stays = i <= j ? (home > i && home <= j) : (home > i || home <= j);
+        if (stays) continue;
+        node->entity_index[i] = node->entity_index[j];
+        i = j;
+    }
+    node->entity_index[i] = -1;
+}
+
 int ub_node_find_entity(const ub_node_t *node, const uint8_t id[UB_ENTITY_ID_LEN]) {
     if (node == NULL || id == NULL) return UB_ERR_INVAL;
-    for (int e = 0; e < UB_MAX_ENTITIES; e++)
-        if (node->entities[e].in_use && ub_priv_id_eq(node->entities[e].id, id)) return e;
-    return UB_ERR_NOTFOUND;
+    for (unsigned i = index_home(id);; i = (i + 1u) & INDEX_MASK) {
+        int row = node->entity_index[i];
+        if (row < 0) return UB_ERR_NOTFOUND;
+        if (ub_priv_id_eq(node->entities[row].id, id)) return row;
+    }
 }
 
 const uint8_t *ub_node_entity_id(const ub_node_t *node, int entity) {
@@ -105,6 +146,7 @@ int ub_node_add_entity(ub_node_t *node, const uint8_t id[UB_ENTITY_ID_LEN], bool
     memcpy(node->entities[row].id, id, UB_ENTITY_ID_LEN);
     node->entities[row].in_use = 1;
     node->entities[row].local = (int8_t)slot;
+    index_insert(node, row);
     node->counters.entities_added++;
     return row;
 }
@@ -132,6 +174,7 @@ int ub_node_remove_entity(ub_node_t *node, int entity, uint64_t now_ms) {
         loc->pinned[entity] = 0;
         loc->bounce[entity] = 0;
     }
+    index_remove(node, entity);
     memset(&node->entities[entity], 0, sizeof node->entities[entity]);
     node->entities[entity].local = -1;
     node->counters.entities_removed++;

@@ -74,6 +74,54 @@ static uint8_t all_link_bits(const ub_route_t *rt, int slot) {
     return bits;
 }
 
+/* ---- cost at scale: per-entity deadlines and owed counts (docs/routing.md, "Cost at scale") ------------ */
+
+/* Entity e's earliest deadline: what route_timers() acts on for it. Kept in rt->timers (a heap) so that a tick
+ * and next_due look at the due entities only instead of every entity and link; retime() after every write to
+ * a field it reads (learned, advertised_ms, routes[e][*], dests[*][e]). */
+static uint64_t entity_deadline(const ub_route_t *rt, int e) {
+    uint64_t best = UB_TIMEHEAP_NONE;
+    if (rt->learned[e] && rt->advertised_ms[e] + rt->opt.learn_expiry_ms < best)
+        best = rt->advertised_ms[e] + rt->opt.learn_expiry_ms;
+    for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++)
+        if (rt->routes[e][lid].in_use && rt->routes[e][lid].expires_ms < best) best = rt->routes[e][lid].expires_ms;
+    for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) {
+        const ub_route_dest_t *ds = &rt->dests[s][e];
+        if (ds->retracting && ds->retract_until_ms < best) best = ds->retract_until_ms;
+        if (ds->starve_at_ms != 0 && ds->starve_at_ms + rt->opt.hello_ms < best) best = ds->starve_at_ms + rt->opt.hello_ms;
+        if (ds->fd_valid && ds->sel_link < 0 && !ds->retracting && ds->fd_touched_ms + rt->opt.source_gc_ms < best)
+            best = ds->fd_touched_ms + rt->opt.source_gc_ms;
+    }
+    return best;
+}
+
+static void retime(ub_route_t *rt, int e) { ub_timeheap_set(&rt->timers, (unsigned)e, entity_deadline(rt, e)); }
+
+static void retime_all(ub_route_t *rt) {
+    for (int e = 0; e < UB_MAX_ENTITIES; e++) retime(rt, e);
+}
+
+/* Destination e of `slot` is to be chosen again at the slot's next selection (its inputs changed). */
+static void mark_dest(ub_route_t *rt, int slot, int e) { rt->resel_bits[slot][e / 64] |= 1ull << (e % 64); }
+
+/* Writes dests[slot][e].dirty_links / req_links, keeping the per-link counts that owes() reads. */
+static void set_owed(ub_route_t *rt, int slot, int e, uint8_t dirty, uint8_t req) {
+    ub_route_dest_t *ds = &rt->dests[slot][e];
+    for (uint8_t ch = (uint8_t)(ds->dirty_links ^ dirty); ch != 0; ch &= (uint8_t)(ch - 1u)) {
+        unsigned i = (unsigned)__builtin_ctz(ch);
+        if (dirty & (1u << i)) rt->owed_dirty[slot][i]++;
+        else rt->owed_dirty[slot][i]--;
+    }
+    for (uint8_t ch = (uint8_t)(ds->req_links ^ req); ch != 0; ch &= (uint8_t)(ch - 1u)) {
+        unsigned i = (unsigned)__builtin_ctz(ch);
+        if (req & (1u << i)) rt->owed_req[slot][i]++;
+        else rt->owed_req[slot][i]--;
+    }
+    if (ds->req_links != req) mark_dest(rt, slot, e); /* a starvation request reads req_links */
+    ds->dirty_links = dirty;
+    ds->req_links = req;
+}
+
 /* ---- link quality (RFC 8966 3.4, A.2.2) ------------------------------------------------------------ */
 
 /* Whether the last `dead_misses` expected hellos were all missed. */
@@ -102,13 +150,15 @@ static uint16_t cost_of(const ub_route_t *rt, const ub_route_link_t *l) {
 
 static void mark_slot(ub_route_t *rt, int link_id) {
     const ub_link_t *link = node_link(rt, link_id);
-    if (link != NULL) rt->reselect[link->owner] = 1;
+    if (link != NULL) rt->reselect[link->owner] = rt->resel_full[link->owner] = 1;
 }
 
 /* Forgets the neighbour of a link and every route through it. */
 static void drop_neighbour(ub_route_t *rt, int link_id) {
     ub_route_link_t *l = &rt->links[link_id];
     for (int e = 0; e < UB_MAX_ENTITIES; e++) memset(&rt->routes[e][link_id], 0, sizeof rt->routes[e][link_id]);
+    rt->link_routes[link_id] = 0;
+    retime_all(rt);
     l->nb_in_use = 0;
     memset(l->nb_id, 0, sizeof l->nb_id);
     l->history = 0;
@@ -163,7 +213,9 @@ static bool feasible(const ub_route_dest_t *ds, uint16_t seqno, uint16_t metric)
     return seq_newer(seqno, ds->fd_seqno) || (seqno == ds->fd_seqno && metric < ds->fd_metric);
 }
 
-static void make_dirty(ub_route_t *rt, int slot, int e) { rt->dests[slot][e].dirty_links = all_link_bits(rt, slot); }
+static void make_dirty(ub_route_t *rt, int slot, int e) {
+    set_owed(rt, slot, e, all_link_bits(rt, slot), rt->dests[slot][e].req_links);
+}
 
 /* Asks the neighbours of `slot` for a newer seqno of `e` (starvation, RFC 8966 3.8.2.1); once per hello. */
 static void request_seqno(ub_route_t *rt, int slot, int e, uint64_t now_ms) {
@@ -172,8 +224,9 @@ static void request_seqno(ub_route_t *rt, int slot, int e, uint64_t now_ms) {
     if (ds->req_links != 0 || (ds->starve_at_ms != 0 && now_ms < ds->starve_at_ms + rt->opt.hello_ms)) return;
     ds->req_seqno = (uint16_t)(ds->fd_seqno + 1u);
     ds->req_hops = UB_ROUTE_REQUEST_HOPS;
-    ds->req_links = all_link_bits(rt, slot);
+    set_owed(rt, slot, e, ds->dirty_links, all_link_bits(rt, slot));
     ds->starve_at_ms = now_ms;
+    retime(rt, e);
     rt->counters.starvation_requests++;
 }
 
@@ -322,14 +375,51 @@ static void select_route(ub_route_t *rt, int slot, int e, uint64_t now_ms) {
      * updates echo fleet-wide, which broke the routing-frame budget of the 14-entity demo fleet (1.15-1.2
      * frames per hello against 1.1, tests/system/test_fleet_demo.py). A starving destination (no feasible
      * successor at all) still asks, above; while in doubt the data goes on every feasible successor. */
+    retime(rt, e);
+    if (ds->starve_at_ms != 0) mark_dest(rt, slot, e); /* starving: every selection may ask again (time-dependent) */
     install_mask(rt, slot, e);
 }
 
+/* Whether the links of `slot` changed, for route choice, since the last look (and remembers them). */
+static bool links_changed(ub_route_t *rt, int slot) {
+    bool changed = false;
+    for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) {
+        ub_route_link_sig_t now = {.link_id = -1};
+        int lid = slot_link(rt, slot, i);
+        if (lid >= 0) {
+            const ub_route_link_t *l = &rt->links[lid];
+            now.link_id = (int16_t)lid;
+            now.cost = cost_of(rt, l);
+            now.nb_in_use = l->nb_in_use;
+            now.doubt = l->doubt;
+            memcpy(now.nb_id, l->nb_id, UB_ENTITY_ID_LEN);
+        }
+        if (memcmp(&now, &rt->link_sig[slot][i], sizeof now) != 0) {
+            rt->link_sig[slot][i] = now;
+            changed = true;
+        }
+    }
+    return changed;
+}
+
+/* Chooses the routes of `slot` again: every destination when a link changed (or resel_full), else only the marked
+ * ones -- the others' inputs are as at their last choice, which would choose the same (docs/routing.md, "Cost at
+ * scale"). In table order either way. */
 static void reselect_slot(ub_route_t *rt, int slot, uint64_t now_ms) {
     rt->reselect[slot] = 0;
-    for (int e = 0; e < UB_MAX_ENTITIES; e++) {
-        if (!(ub_node_entity_id(rt->node, e) != NULL) || entity_local(rt, e)) continue;
-        select_route(rt, slot, e, now_ms);
+    bool full = links_changed(rt, slot) || rt->resel_full[slot];
+    rt->resel_full[slot] = 0;
+    uint64_t bits[(UB_MAX_ENTITIES + 63) / 64];
+    memcpy(bits, rt->resel_bits[slot], sizeof bits);
+    memset(rt->resel_bits[slot], 0, sizeof bits); /* select_route() marks a starving destination again */
+    for (size_t w = 0; w < sizeof bits / sizeof bits[0]; w++) {
+        uint64_t todo = full ? UINT64_MAX : bits[w];
+        for (; todo != 0; todo &= todo - 1u) {
+            int e = (int)(w * 64u + (unsigned)__builtin_ctzll(todo));
+            if (e >= UB_MAX_ENTITIES) break;
+            if (!(ub_node_entity_id(rt->node, e) != NULL) || entity_local(rt, e)) continue;
+            select_route(rt, slot, e, now_ms);
+        }
     }
 }
 
@@ -347,6 +437,7 @@ static int destination(ub_route_t *rt, const uint8_t id[UB_ENTITY_ID_LEN], uint1
     int e = ub_node_find_entity(rt->node, id);
     if (e >= 0) {
         if (metric != INF) rt->advertised_ms[e] = now_ms; /* a retraction advertises no route: it expires */
+        if (metric != INF && rt->learned[e]) retime(rt, e);
         return e;
     }
     if (metric == INF) return -1; /* a retraction of something we never knew */
@@ -362,15 +453,12 @@ static int destination(ub_route_t *rt, const uint8_t id[UB_ENTITY_ID_LEN], uint1
     rt->learned[e] = 1;
     rt->advertised_ms[e] = now_ms;
     rt->counters.learned++;
+    retime(rt, e);
     return e;
 }
 
-/* Destinations the neighbour on `link_id` has route entries for. */
-static unsigned link_dests(const ub_route_t *rt, int link_id) {
-    unsigned n = 0;
-    for (int e = 0; e < UB_MAX_ENTITIES; e++) n += rt->routes[e][link_id].in_use != 0;
-    return n;
-}
+/* Destinations the neighbour on `link_id` has route entries for (counted where entries are taken and freed). */
+static unsigned link_dests(const ub_route_t *rt, int link_id) { return rt->link_routes[link_id]; }
 
 /* Insider bounds, asked before an entry may take a route-table row (and before its destination is learned):
  * the accept_dest filter, then at most max_dests destinations per neighbour. Entries the neighbour already
@@ -404,10 +492,13 @@ static void on_update(ub_route_t *rt, int slot, int link_id, const uint8_t *ent,
         rt->counters.unfeasible++;
         if (ds->sel_link < 0) request_seqno(rt, slot, e, now_ms);
     }
+    if (!r->in_use) rt->link_routes[link_id]++;
     r->in_use = 1;
     r->seqno = seqno;
     r->metric = metric;
     r->expires_ms = now_ms + (uint64_t)update_ms * UPDATES_PER_EXPIRY_X2 / 2u;
+    retime(rt, e);
+    mark_dest(rt, slot, e);
     rt->reselect[slot] = 1;
 }
 
@@ -437,7 +528,7 @@ static void on_request(ub_route_t *rt, int slot, int link_id, const uint8_t *fro
     if (ds->sel_link < 0 || ds->metric == INF) {
         rt->counters.requests_dropped++;
     } else if (!seq_newer(seqno, ds->seqno)) {
-        ds->dirty_links |= (uint8_t)(1u << in->index); /* we have it: answer with our route */
+        set_owed(rt, slot, e, (uint8_t)(ds->dirty_links | (1u << in->index)), ds->req_links); /* we have it: answer with our route */
         rt->counters.requests_answered++;
     } else if (hops > 1 && memcmp(rt->links[ds->sel_link].nb_id, from, UB_ENTITY_ID_LEN) != 0) {
         const ub_link_t *out = node_link(rt, ds->sel_link);
@@ -446,7 +537,7 @@ static void on_request(ub_route_t *rt, int slot, int link_id, const uint8_t *fro
         if (!again && !recent) {
             ds->req_seqno = seqno;
             ds->req_hops = (uint8_t)(hops - 1u);
-            ds->req_links |= (uint8_t)(1u << out->index);
+            set_owed(rt, slot, e, ds->dirty_links, (uint8_t)(ds->req_links | (1u << out->index)));
             ds->req_at_ms = now_ms;
             rt->counters.requests_forwarded++;
         }
@@ -506,7 +597,7 @@ static int route_on_frame(ub_route_t *rt, int link_id, const ub_frame_header_t *
             l->dump_cursor = 0;
         }
         l->last_cost = cost;
-        rt->reselect[slot] = 1;
+        rt->reselect[slot] = rt->resel_full[slot] = 1;
     }
     const uint8_t *ent = payload + UB_ROUTE_HDR_LEN;
     for (unsigned i = 0; i < n_upd; i++, ent += UB_ROUTE_ENTRY_LEN) {
@@ -559,6 +650,8 @@ static void put_update(ub_route_t *rt, int slot, int e, uint8_t *ent, uint16_t s
         ds->fd_metric = metric;
     }
     ds->fd_touched_ms = now_ms;
+    retime(rt, e);
+    mark_dest(rt, slot, e); /* the feasibility distance may have moved */
 }
 
 /* The 24-byte hello part (docs/routing.md, "Frame layouts"). */
@@ -609,10 +702,10 @@ static void send_frame(ub_route_t *rt, int link_id, bool triggered, uint64_t now
 
     /* Seqno requests first (they are what a starving neighbour waits for), then triggered entries, then a
      * slice of the full table when one is due. */
-    for (int e = 0; e < UB_MAX_ENTITIES && n_req < MAX_ENTRIES; e++) {
+    for (int e = 0; rt->owed_req[slot][link->index] != 0 && e < UB_MAX_ENTITIES && n_req < MAX_ENTRIES; e++) {
         ub_route_dest_t *ds = &rt->dests[slot][e];
         if (!(ds->req_links & bit)) continue;
-        ds->req_links &= (uint8_t)~bit;
+        set_owed(rt, slot, e, ds->dirty_links, (uint8_t)(ds->req_links & ~bit));
         if (!(ub_node_entity_id(rt->node, e) != NULL)) continue;
         memcpy(reqs[n_req] + ENT_ID, ub_node_entity_id(rt->node, e), UB_ENTITY_ID_LEN);
         ub_put_u16le(reqs[n_req] + ENT_SEQNO, ds->req_seqno);
@@ -621,10 +714,10 @@ static void send_frame(ub_route_t *rt, int link_id, bool triggered, uint64_t now
         n_req++;
     }
     uint8_t *ent = buf + UB_ROUTE_HDR_LEN;
-    for (int e = 0; e < UB_MAX_ENTITIES && n_upd + n_req < MAX_ENTRIES; e++) {
+    for (int e = 0; rt->owed_dirty[slot][link->index] != 0 && e < UB_MAX_ENTITIES && n_upd + n_req < MAX_ENTRIES; e++) {
         ub_route_dest_t *ds = &rt->dests[slot][e];
         if (!(ds->dirty_links & bit)) continue;
-        ds->dirty_links &= (uint8_t)~bit;
+        set_owed(rt, slot, e, (uint8_t)(ds->dirty_links & ~bit), ds->req_links);
         if (!advertised(rt, slot, e, &seqno, &metric)) continue;
         put_update(rt, slot, e, ent + n_upd * UB_ROUTE_ENTRY_LEN, seqno, metric, now_ms);
         in_frame[e] = 1;
@@ -665,13 +758,10 @@ static void send_frame(ub_route_t *rt, int link_id, bool triggered, uint64_t now
     if (triggered) l->stats.triggered_out++;
 }
 
-/* Whether link[bit] of `slot` owes a triggered entry or a request. */
+/* Whether link[bit] of `slot` owes a triggered entry or a request (counted by set_owed()). */
 static bool owes(const ub_route_t *rt, int slot, uint8_t bit) {
-    for (int e = 0; e < UB_MAX_ENTITIES; e++) {
-        const ub_route_dest_t *ds = &rt->dests[slot][e];
-        if ((ds->dirty_links | ds->req_links) & bit) return true;
-    }
-    return false;
+    unsigned i = (unsigned)__builtin_ctz(bit);
+    return rt->owed_dirty[slot][i] != 0 || rt->owed_req[slot][i] != 0;
 }
 
 /* ---- timers ------------------------------------------------------------------------------------------ */
@@ -700,8 +790,14 @@ static void link_timers(ub_route_t *rt, int link_id, uint64_t now_ms) {
 }
 
 static void route_timers(ub_route_t *rt, uint64_t now_ms) {
+    /* Only the entities whose deadline has come (rt->timers); each loop below acts on them in table order, as
+     * the scan of every entity did (the others have nothing due: every action here is one of their deadlines). */
+    if (ub_timeheap_min(&rt->timers) > now_ms) return;
+    uint16_t due[UB_MAX_ENTITIES];
+    size_t n_due = ub_timeheap_due(&rt->timers, now_ms, due, UB_MAX_ENTITIES);
     /* Learned entities nobody advertises any more leave the table (a clock gone backwards waits). */
-    for (int e = 0; e < UB_MAX_ENTITIES; e++) {
+    for (size_t k = 0; k < n_due; k++) {
+        int e = due[k];
         if (!rt->learned[e] || now_ms < rt->advertised_ms[e] || now_ms - rt->advertised_ms[e] < rt->opt.learn_expiry_ms)
             continue;
         rt->expiring = 1;
@@ -710,22 +806,26 @@ static void route_timers(ub_route_t *rt, uint64_t now_ms) {
         rt->learned[e] = 0;
         if (removed == UB_OK) rt->counters.learn_expired++;
     }
-    for (int e = 0; e < UB_MAX_ENTITIES; e++) {
+    for (size_t k = 0; k < n_due; k++) {
+        int e = due[k];
         for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) {
             ub_route_entry_t *r = &rt->routes[e][lid];
             if (!r->in_use || now_ms < r->expires_ms) continue;
             memset(r, 0, sizeof *r);
+            rt->link_routes[lid]--;
             rt->counters.expired++;
             mark_slot(rt, lid);
         }
     }
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
         if (!(ub_node_slot_entity(rt->node, slot) >= 0)) continue;
-        for (int e = 0; e < UB_MAX_ENTITIES; e++) {
+        for (size_t k = 0; k < n_due; k++) {
+            int e = due[k];
             ub_route_dest_t *ds = &rt->dests[slot][e];
             if (ds->retracting && now_ms >= ds->retract_until_ms) ds->retracting = 0;
             if (ds->starve_at_ms != 0 && now_ms >= ds->starve_at_ms + rt->opt.hello_ms)
                 rt->reselect[slot] = 1; /* still starving? selection asks again */
+            mark_dest(rt, slot, e); /* its deadline came: what selection reads may have changed */
             if (ds->fd_valid && ds->sel_link < 0 && !ds->retracting && now_ms >= ds->fd_touched_ms + rt->opt.source_gc_ms) {
                 bool any = false;
                 for (int lid = 0; lid < UB_MAX_NODE_LINKS && !any; lid++) any = rt->routes[e][lid].in_use != 0;
@@ -733,6 +833,7 @@ static void route_timers(ub_route_t *rt, uint64_t now_ms) {
             }
         }
     }
+    for (size_t k = 0; k < n_due; k++) retime(rt, due[k]);
 }
 
 /* ---- transport evidence (docs/routing.md, "Transport evidence") --------------------------------------- */
@@ -873,17 +974,7 @@ static bool route_next_due(const ub_service_t *svc, const ub_node_t *node, uint6
         if (l->sent_any && now_ms < l->carry_until_ms) earliest(&best, l->last_tx_ms + rt->opt.fast_hello_ms);
         if (owes(rt, link->owner, (uint8_t)(1u << link->index))) earliest(&best, l->last_tx_ms + rt->opt.trigger_gap_ms);
     }
-    for (int e = 0; e < UB_MAX_ENTITIES && best > now_ms; e++) {
-        if (rt->learned[e]) earliest(&best, rt->advertised_ms[e] + rt->opt.learn_expiry_ms);
-        for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++)
-            if (rt->routes[e][lid].in_use) earliest(&best, rt->routes[e][lid].expires_ms);
-        for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) {
-            const ub_route_dest_t *ds = &rt->dests[s][e];
-            if (ds->retracting) earliest(&best, ds->retract_until_ms);
-            if (ds->starve_at_ms != 0) earliest(&best, ds->starve_at_ms + rt->opt.hello_ms);
-            if (ds->fd_valid && ds->sel_link < 0 && !ds->retracting) earliest(&best, ds->fd_touched_ms + rt->opt.source_gc_ms);
-        }
-    }
+    earliest(&best, ub_timeheap_min(&rt->timers)); /* every entity's deadlines (entity_deadline()) */
     *due_ms = best;
     return best != UINT64_MAX;
 }
@@ -897,12 +988,18 @@ static void route_forget_entity(const ub_service_t *svc, ub_node_t *node, int en
     (void)node;
     ub_route_t *rt = svc->user;
     if (entity < 0 || entity >= UB_MAX_ENTITIES) return;
-    for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) memset(&rt->routes[entity][lid], 0, sizeof(ub_route_entry_t));
+    for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) {
+        if (rt->routes[entity][lid].in_use) rt->link_routes[lid]--;
+        memset(&rt->routes[entity][lid], 0, sizeof(ub_route_entry_t));
+    }
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
+        set_owed(rt, slot, entity, 0, 0);
         memset(&rt->dests[slot][entity], 0, sizeof(ub_route_dest_t));
         rt->dests[slot][entity].sel_link = -1;
+        mark_dest(rt, slot, entity);
     }
     rt->learned[entity] = 0;
+    retime(rt, entity);
     if (rt->expiring) return; /* nobody advertised it for learn_expiry_ms: it may be learned again at once */
     /* Neighbours keep advertising it until their routes expire: do not learn it back meanwhile. */
     size_t victim = 0;
@@ -917,7 +1014,7 @@ static void route_forget_entity(const ub_service_t *svc, ub_node_t *node, int en
 static void route_mask_set(const ub_service_t *svc, ub_node_t *node, int slot) {
     (void)node;
     ub_route_t *rt = svc->user;
-    if (slot >= 0 && slot < UB_MAX_LOCAL_ENTITIES) rt->reselect[slot] = 1;
+    if (slot >= 0 && slot < UB_MAX_LOCAL_ENTITIES) rt->reselect[slot] = rt->resel_full[slot] = 1;
 }
 
 /* Link slot `link_id` is being removed: forget its neighbour and the routes through it. */
@@ -931,8 +1028,8 @@ static void route_forget_link(const ub_service_t *svc, ub_node_t *node, int link
     if (link != NULL) {
         uint8_t bit = (uint8_t)(1u << link->index);
         for (int e = 0; e < UB_MAX_ENTITIES; e++) {
-            rt->dests[link->owner][e].dirty_links &= (uint8_t)~bit;
-            rt->dests[link->owner][e].req_links &= (uint8_t)~bit;
+            const ub_route_dest_t *ds = &rt->dests[link->owner][e];
+            set_owed(rt, link->owner, e, (uint8_t)(ds->dirty_links & ~bit), (uint8_t)(ds->req_links & ~bit));
         }
     }
     memset(&rt->links[link_id], 0, sizeof rt->links[link_id]);
@@ -971,10 +1068,12 @@ int ub_route_attach(ub_route_t *rt, ub_node_t *node, const ub_route_options_t *o
     const ub_service_t *prev = ub_node_service_for(node, UB_SVC_LINK_LOCAL, UB_ADMIN_HELLO);
     if (prev != NULL && ub_node_remove_service(node, prev) != UB_OK) return UB_ERR_INVAL;
     memset(rt, 0, sizeof *rt);
+    ub_timeheap_init(&rt->timers);
     rt->node = node;
     rt->opt = o;
     for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) {
         rt->seqno[s] = o.initial_seqno;
+        rt->resel_full[s] = 1;
         for (int e = 0; e < UB_MAX_ENTITIES; e++) rt->dests[s][e].sel_link = -1;
     }
     rt->svc = (ub_service_t){.name = "route",
