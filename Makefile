@@ -37,6 +37,8 @@ COV_APT_PKGS := gcovr
 SETUP_STAMP := $(VENV)/.uavbus-setup-stamp
 FUZZ_SECONDS ?= 600
 FUZZ_SMOKE_SECONDS ?= 5
+# make test's fuzz smoke runs two harnesses at once (one a core), each still for FUZZ_SMOKE_SECONDS.
+FUZZ_SMOKE_JOBS ?= 2
 FUZZ_CC     ?= clang-14
 FUZZ_FLAGS  := -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 
@@ -109,7 +111,7 @@ $(FUZZ_PY_STAMP): $(SETUP_STAMP)
 	@touch $@
 
 test-fuzz: fuzz-build $(FUZZ_PY_STAMP)
-	UAVBUS_PYTHON=$(abspath $(VPY)) fuzz/run.sh $(BUILD_FUZZ) $(FUZZ_SMOKE_SECONDS)
+	UAVBUS_PYTHON=$(abspath $(VPY)) FUZZ_JOBS=$(FUZZ_SMOKE_JOBS) fuzz/run.sh $(BUILD_FUZZ) $(FUZZ_SMOKE_SECONDS)
 
 fuzz: fuzz-build $(FUZZ_PY_STAMP)
 	UAVBUS_PYTHON=$(abspath $(VPY)) fuzz/run.sh $(BUILD_FUZZ) $(FUZZ_SECONDS)
