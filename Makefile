@@ -93,8 +93,14 @@ firmware: setup
 	  -DUAVBUS_MCU_SODIUM_SRC=$(MCU_SODIUM) >/dev/null
 	cmake --build $(BUILD_MCU)
 
+# Two passes (tests/conftest.py says which test goes where): the tests whose outcome does not depend on the
+# machine's load (generator, compilers, packaging) two at a time with pytest-xdist, a file to a worker; then
+# the ones that measure rates and deliveries of real processes (fleets, QEMU, browser, bridges) alone, in one
+# process. Each pass lists its slowest tests, so a CI log shows where the time went.
+PYTEST_JOBS ?= 2
 test-py: setup firmware
-	$(VPY) -m pytest -q tests
+	$(VPY) -m pytest -q -m "not serial" -n $(PYTEST_JOBS) --dist loadfile --durations=25 tests
+	$(VPY) -m pytest -q -m serial --durations=25 tests
 
 # The libFuzzer harnesses (fuzz/README.md), clang with ASan and UBSan. The corpus replay runs in test-c.
 fuzz-build: setup
