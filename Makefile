@@ -1,7 +1,7 @@
 # uavbus top-level build.
 #
 #   make demo    the main job (installs what it needs first)
-#   make test    every test (installs what it needs first), after make lint
+#   make test    every test (installs what it needs first), after make lint; docs/testing.md: phases and times
 #   make lint    ruff over the Python tree ([tool.ruff] in pyproject.toml: errors, not style)
 #   make setup   idempotent install: Debian packages + .venv with the uavbus package
 #   make fuzz    every fuzz harness for FUZZ_SECONDS (default 600) each; report in build-fuzz/fuzz-out/
