@@ -1,7 +1,7 @@
 # uavbus top-level build.
 #
 #   make demo    the main job (installs what it needs first)
-#   make test    every test (installs what it needs first), after make lint
+#   make test    every test (installs what it needs first), after make lint; docs/testing.md: phases and times
 #   make lint    ruff over the Python tree ([tool.ruff] in pyproject.toml: errors, not style)
 #   make setup   idempotent install: Debian packages + .venv with the uavbus package
 #   make fuzz    every fuzz harness for FUZZ_SECONDS (default 600) each; report in build-fuzz/fuzz-out/
@@ -37,6 +37,8 @@ COV_APT_PKGS := gcovr
 SETUP_STAMP := $(VENV)/.uavbus-setup-stamp
 FUZZ_SECONDS ?= 600
 FUZZ_SMOKE_SECONDS ?= 5
+# make test's fuzz smoke runs two harnesses at once (one a core), each still for FUZZ_SMOKE_SECONDS.
+FUZZ_SMOKE_JOBS ?= 2
 FUZZ_CC     ?= clang-14
 FUZZ_FLAGS  := -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 
@@ -68,13 +70,18 @@ $(SETUP_STAMP): pyproject.toml setup.py $(FFI_INPUTS)
 	$(VPY) -m pip install -q -e '.[test,demo,web]'
 	@touch $@
 
+# The ASan tree's optimisation and debug info: CMake's RelWithDebInfo (-O2 -g) with line tables only (-g1).
+# A sanitizer's report names file:line from them; full -g (variable locations) doubled the compile time of
+# the large generated codecs (mavcat.c: 36.5 s -> 22.2 s of CPU) and -g never changes the code generated.
+ASAN_BUILD_FLAGS := -O2 -g1 -DNDEBUG
 # C runtime + generated-code tests, plain (Release: -O3 as the bench and most users build it; its inlining
 # shows -Werror warnings that -O2 does not) and under ASan/UBSan.
 test-c: setup
 	cmake -S . -B $(BUILD) -G Ninja -DUAVBUS_PYTHON=$(abspath $(VPY)) -DCMAKE_BUILD_TYPE=Release >/dev/null
 	cmake --build $(BUILD)
 	ctest --test-dir $(BUILD) --output-on-failure
-	cmake -S . -B $(BUILD_ASAN) -G Ninja -DUAVBUS_PYTHON=$(abspath $(VPY)) -DUAVBUS_SANITIZE=ON >/dev/null
+	cmake -S . -B $(BUILD_ASAN) -G Ninja -DUAVBUS_PYTHON=$(abspath $(VPY)) -DUAVBUS_SANITIZE=ON \
+	  "-DCMAKE_C_FLAGS_RELWITHDEBINFO=$(ASAN_BUILD_FLAGS)" >/dev/null
 	cmake --build $(BUILD_ASAN)
 	ctest --test-dir $(BUILD_ASAN) --output-on-failure
 
@@ -91,8 +98,14 @@ firmware: setup
 	  -DUAVBUS_MCU_SODIUM_SRC=$(MCU_SODIUM) >/dev/null
 	cmake --build $(BUILD_MCU)
 
+# Two passes (tests/conftest.py says which test goes where): the tests whose outcome does not depend on the
+# machine's load (generator, compilers, packaging) two at a time with pytest-xdist, a file to a worker; then
+# the ones that measure rates and deliveries of real processes (fleets, QEMU, browser, bridges) alone, in one
+# process. Each pass lists its slowest tests, so a CI log shows where the time went.
+PYTEST_JOBS ?= 2
 test-py: setup firmware
-	$(VPY) -m pytest -q tests
+	$(VPY) -m pytest -q -m "not serial" -n $(PYTEST_JOBS) --dist loadfile --durations=25 tests
+	$(VPY) -m pytest -q -m serial --durations=25 tests
 
 # The libFuzzer harnesses (fuzz/README.md), clang with ASan and UBSan. The corpus replay runs in test-c.
 fuzz-build: setup
@@ -109,7 +122,7 @@ $(FUZZ_PY_STAMP): $(SETUP_STAMP)
 	@touch $@
 
 test-fuzz: fuzz-build $(FUZZ_PY_STAMP)
-	UAVBUS_PYTHON=$(abspath $(VPY)) fuzz/run.sh $(BUILD_FUZZ) $(FUZZ_SMOKE_SECONDS)
+	UAVBUS_PYTHON=$(abspath $(VPY)) FUZZ_JOBS=$(FUZZ_SMOKE_JOBS) fuzz/run.sh $(BUILD_FUZZ) $(FUZZ_SMOKE_SECONDS)
 
 fuzz: fuzz-build $(FUZZ_PY_STAMP)
 	UAVBUS_PYTHON=$(abspath $(VPY)) fuzz/run.sh $(BUILD_FUZZ) $(FUZZ_SECONDS)
