@@ -301,6 +301,53 @@ static void *send_busily(void *arg) {
  * FULL at flush_at at once; the wake descriptor ends a long gap at once (WOKEN); an input that never goes
  * quiet is cut at max_us (AGED). Datagrams from any sender count as input (accept=any), garbage included:
  * the node refuses and counts them, the drain only sees that something came. */
+/* ub_ports_drain() without a wake descriptor (the gap is a plain sleep) and without an output to watch: no
+ * pending pointer never waits; idle_us 0 reads again at once and calls the input idle when that read finds
+ * nothing; a gap that would outlast max_us is cut to what is left; a port set with no node is refused. */
+static void test_drain_without_wake_fd_or_output(void **state) {
+    (void)state;
+    pair_t *p = pair_new(NULL);
+    ub_ports_t *ports = calloc(1, sizeof *ports);
+    assert_non_null(ports);
+    assert_int_equal(ub_ports_init(ports, p->sub_node), UB_OK);
+    char err[UB_PORTS_ERR_LEN];
+    assert_int_equal(ub_ports_open_text(ports, "subPort", "udp:bind=127.0.0.1:0", 0, err, sizeof err), UB_OK);
+    uint16_t port = 0;
+    assert_int_equal(ub_ports_local_port(ports, "subPort", &port), UB_OK);
+    int fd = socket(AF_INET, SOCK_DGRAM, 0);
+    assert_true(fd >= 0);
+    struct sockaddr_in to = {.sin_family = AF_INET, .sin_port = htons(port), .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+
+    ub_ports_drain_t d = {.wake_fd = -1, .idle_us = 0, .max_us = 1000000, .pending = NULL, .flush_at = 100};
+    assert_int_equal(sendto(fd, "junk", 4, 0, (const struct sockaddr *)&to, sizeof to), 4);
+    assert_int_equal(ub_ports_drain(ports, &d, 0), UB_DRAIN_EMPTY); /* no output: one round, never a wait */
+    assert_int_equal(d.rounds, 1);
+
+    size_t pending = 1;
+    d.pending = &pending;
+    assert_int_equal(ub_ports_drain(ports, &d, 1), UB_DRAIN_IDLE); /* idle_us 0: the second read finds nothing */
+    assert_int_equal(d.rounds, 3);
+
+    d.idle_us = 400000; /* longer than what is left of max_us: slept for max_us only, then AGED or IDLE */
+    d.max_us = 20000;
+    assert_int_equal(sendto(fd, "junk", 4, 0, (const struct sockaddr *)&to, sizeof to), 4);
+    uint64_t t = mono_us();
+    int end = ub_ports_drain(ports, &d, 2);
+    uint64_t took = mono_us() - t;
+    assert_true(end == UB_DRAIN_IDLE || end == UB_DRAIN_AGED);
+    assert_true(took >= 20000 && took < 400000);
+    assert_int_equal(d.drains, 3);
+
+    ub_ports_t orphan = {0}; /* never initialised: no node */
+    assert_int_equal(ub_ports_drain(&orphan, &d, 3), UB_ERR_INVAL);
+    assert_int_equal(d.drains, 3);
+
+    close(fd);
+    ub_ports_close_all(ports);
+    free(ports);
+    pair_free(p);
+}
+
 static void test_drain_ends_idle_full_woken_aged(void **state) {
     (void)state;
     pair_t *p = pair_new(NULL);
@@ -601,6 +648,7 @@ int main(void) {
         cmocka_unit_test(test_impairment_survives_tcp_connects),
         cmocka_unit_test(test_link_impairment_overrides),
         cmocka_unit_test(test_drain_ends_idle_full_woken_aged),
+        cmocka_unit_test(test_drain_without_wake_fd_or_output),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
