@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import pytest
 
 from uavbus.sim.fleet import FlowTrack
-from uavbus.sim.fleet_report import _reconvergence, explained_outages, radio_share, source_gone
+from uavbus.sim.fleet_report import _reconvergence, _routing_rates, explained_outages, radio_share, source_gone
 from uavbus.sim.scenario import FlowSpec, Station, load_scenario
 
 PERIOD_MS = 100
@@ -101,3 +101,22 @@ def test_radio_share_is_what_the_links_loss_leaves_over_the_hops() -> None:
     assert radio_share(run, 5) == pytest.approx((1.0 - loss) ** 5)
     assert radio_share(run, 1) > radio_share(run, 5)
     assert radio_share(run, None) == radio_share(run, 1)  # a flow that never delivered counts as one hop
+
+
+def test_routing_budget_allows_a_window_its_phase_not_an_extra_frame() -> None:
+    # Hellos every 200 ms, sampled every ~1.96 s: a window can hold 11 hellos (10 intervals + the phase), which
+    # counted raw is 1.12 per hello with no frame but hellos; an extra triggered update is over the budget.
+    def rates(per_window: list[int]) -> dict:
+        t, n, seen = 0.0, 0, [(0.0, 1, {"l": 0})]
+        for k in per_window:
+            t, n = t + 1.96, n + k
+            seen.append((t, 1, {"l": n}))
+        m = SimpleNamespace(name="uav1", routes_seen=seen)
+        sc = SimpleNamespace(routing=SimpleNamespace(hello_ms=200))
+        return _routing_rates(SimpleNamespace(members={"uav1": m}, timeline=[], sc=sc))
+
+    hellos = rates([10, 10, 11, 10, 11])
+    assert hellos["steady_max"] * 0.2 > 1.1                   # raw: the phase alone looks over budget
+    assert hellos["steady_per_hello_max"] <= 1.1
+    extra = rates([10, 10, 11, 13, 11])                       # two triggered frames in one window
+    assert extra["steady_per_hello_max"] > 1.1

@@ -172,6 +172,7 @@ def _routing_rates(run: FleetRun) -> dict[str, Any]:
     marks = [0.0] + [e["t"] for e in run.timeline]
     total: dict[str, float] = {}
     steady: dict[str, list[float]] = {}
+    phased: list[float] = []
     for m in run.members.values():
         samples = m.routes_seen
         for link in {name for _, _, frames in samples for name in frames}:
@@ -188,6 +189,10 @@ def _routing_rates(run: FleetRun) -> dict[str, Any]:
                 if r0 != r1 or t1 - t0 < 0.5 or any(t0 - SETTLE_S <= x <= t1 for x in marks):
                     continue
                 steady.setdefault(key, []).append((n1 - n0) / (t1 - t0))
+                # Per hello interval, less the window's phase: a window of W s holds W/h hellos or one more,
+                # depending on where it starts, so 11 hellos fall in a 1.96 s window (1.12 per hello counted
+                # raw, coverage's slow node, hellos only). One frame of every window is that phase.
+                phased.append((n1 - n0 - 1) / (t1 - t0))
     flat = [x for xs in steady.values() for x in xs]
     hello_s = run.sc.routing.hello_ms / 1000.0
     return {
@@ -197,7 +202,9 @@ def _routing_rates(run: FleetRun) -> dict[str, Any]:
         "steady_max": round(max(flat), 3) if flat else None,
         "steady_per_link_max": {k: round(max(v), 3) for k, v in sorted(steady.items())},
         "hello_ms": run.sc.routing.hello_ms,
-        "steady_per_hello_max": round(max(flat) * hello_s, 3) if flat else None,
+        # the budget's figure: the most frames per hello interval in any steady window, one frame of phase
+        # allowed (steady_max is the same window counted raw)
+        "steady_per_hello_max": round(max(phased) * hello_s, 3) if phased else None,
         "per_link": {k: round(v, 3) for k, v in sorted(total.items())},
     }
 
