@@ -148,7 +148,9 @@ test: lint test-c test-cross test-fuzz test-py
 # Line and branch coverage of runtime_c/src from the C tests (corpus replay included) and the multi-process
 # tests run against the instrumented uavbus_node (-O0 and the instrumentation make gcc warn about flows and
 # lengths it cannot follow: those two warnings are off here). The short demo is left out: it checks timings,
-# which an -O0 instrumented node does not keep (make test runs it). Prints the totals, every file's
+# which an -O0 instrumented node does not keep (make test runs it); so are fleet6's two timing-bound checks
+# (its routing-frame budget and its reconvergence bounds: the instrumented nodes miss hellos and set off
+# seqno bumps in steady state). Their scenario still runs here for its coverage; make test asserts them. Prints the totals, every file's
 # missed lines and every file's branch figure; fails when a runtime_c/src file but the OS fallback is
 # below 80 % of branches (issue #29 item 6; the exemption and its reason are in coverage.sh).
 coverage: setup
@@ -158,7 +160,7 @@ coverage: setup
 	cmake --build $(BUILD_COV) -j2
 	find $(BUILD_COV) -name '*.gcda' -delete
 	ctest --test-dir $(BUILD_COV) --output-on-failure
-	UAVBUS_BUILD_DIR=$(abspath $(BUILD_COV)) $(VPY) -m pytest -q tests/system -k 'not demo_short'
+	UAVBUS_BUILD_DIR=$(abspath $(BUILD_COV)) $(VPY) -m pytest -q tests/system -k 'not demo_short and not frame_budget_in_steady_state and not every_event_happened'
 	runtime_c/tools/coverage.sh $(BUILD_COV)
 
 # The paper's HITL and Table 1 scenarios end to end (examples/demo/hitl_demo.py). The CMake build
