@@ -56,18 +56,28 @@ static inline void ring_push(ub_memlink_end_t *end, uint16_t index) {
     end->count++;
 }
 
-/* Queues one copy on a link without faults: due now, nothing drawn (enqueue() with every setting zero draws
- * nothing either, so the random sequence is the same). */
-static inline bool enqueue_plain(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uint64_t now_ms) {
+/* Takes a free slot of the end's queue and copies the frame into it, in send order (`order`); NULL when the queue
+ * is full (counted `overflow`). The caller sets the due time and then ring_push()es it: a link without faults
+ * takes it as is (no random draw), enqueue() adds its delay, jitter, reordering and corruption first. */
+static inline ub_memlink_frame_t *slot_take(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uint16_t *index) {
     if (end->n_free == 0) {
         end->stats.overflow++;
-        return false;
+        return NULL;
     }
-    uint16_t index = end->free_slots[--end->n_free];
-    ub_memlink_frame_t *slot = &end->queue[index];
+    *index = end->free_slots[--end->n_free];
+    ub_memlink_frame_t *slot = &end->queue[*index];
     memcpy(slot->bytes, frame, len);
     slot->len = len;
     slot->order = end->ml->next_order++;
+    return slot;
+}
+
+/* Queues one copy on a link without faults: due now, nothing drawn (enqueue() with every setting zero draws
+ * nothing either, so the random sequence is the same). */
+static inline bool enqueue_plain(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    uint16_t index;
+    ub_memlink_frame_t *slot = slot_take(end, frame, len, &index);
+    if (slot == NULL) return false;
     slot->due_ms = now_ms;
     ring_push(end, index);
     return true;
@@ -76,15 +86,9 @@ static inline bool enqueue_plain(ub_memlink_end_t *end, const uint8_t *frame, si
 /* Queues one copy; false when the queue is full. */
 static bool enqueue(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uint64_t now_ms, bool corrupt) {
     ub_memlink_t *ml = end->ml;
-    if (end->n_free == 0) {
-        end->stats.overflow++;
-        return false;
-    }
-    uint16_t index = end->free_slots[--end->n_free];
-    ub_memlink_frame_t *slot = &end->queue[index];
-    memcpy(slot->bytes, frame, len);
-    slot->len = len;
-    slot->order = ml->next_order++;
+    uint16_t index;
+    ub_memlink_frame_t *slot = slot_take(end, frame, len, &index);
+    if (slot == NULL) return false;
     slot->due_ms = now_ms + ml->faults.delay_ms + (ml->faults.jitter_ms != 0 ? random_below(ml, ml->faults.jitter_ms + 1u) : 0u);
     if (happens(ml, ml->faults.reorder_ppm)) {
         end->stats.reordered++;
