@@ -881,10 +881,12 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
         return UB_VERDICT_ACCEPTED;
     }
     bool retag = (h->flags & UB_FRAME_FLAG_ORIGIN) != 0; /* its hop tag covers the hop limit: made again below */
-    memcpy(out, frame, len);
     /* The frame was verified on the way in (decoder, ub_frame_parse() or a compact link's rebuild), so its
-     * checks are patched for the new hop limit by CRC linearity instead of recomputed (ub_frame.h). */
-    if (!retag && ub_frame_patch_hop_limit(out, len, (uint8_t)(h->hop_limit - 1)) < 0) {
+     * checks are patched for the new hop limit by CRC linearity instead of recomputed, in the copy, with the
+     * deltas of the flow's last frame when they are the same (ub_frame.h). */
+    if (retag) {
+        memcpy(out, frame, len);
+    } else if (ub_frame_copy_hop_limit(out, frame, len, (uint8_t)(h->hop_limit - 1), &node->hop_memo) < 0) {
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
         return UB_VERDICT_ACCEPTED;
     }
