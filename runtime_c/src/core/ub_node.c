@@ -799,6 +799,34 @@ static __attribute__((noinline)) void on_link_local(ub_node_t *node, int link_id
         count_drop(node, link_id, drop);
 }
 
+/* A forward to one link whose transport patches the hop limit into its own buffer (ub_link_ops_t.send_hop): the
+ * frame leaves in the form it came in, which that link takes as is (it would pick the same form in send_forms()),
+ * with no compact encoding, MTU, classes or tap, each of which needs the node's own copy. Then the one copy is
+ * the transport's. Returns false, having done nothing, when the frame needs the general path. */
+static inline bool forward_direct(ub_node_t *node, const ub_local_entity_t *owner, uint8_t mask,
+                                  const ub_frame_header_t *h, const uint8_t *frame, size_t len, bool secured,
+                                  uint64_t now_ms) {
+    unsigned i = (unsigned)__builtin_ctz(mask);
+    if (i >= UB_MAX_LINKS_PER_ENTITY || owner->link_ids[i] < 0) return false;
+    int out_id = owner->link_ids[i];
+    ub_link_t *out = &node->links[out_id];
+    if (out->ops == NULL || out->ops->send_hop == NULL || out->ops->send_class != NULL || out->compact != NULL ||
+        out->mtu != 0 || node->tap != NULL)
+        return false;
+    uint8_t prot = h->flags & UB_FRAME_FLAG_PROTECT_MASK;
+    uint8_t wanted = out->encrypt ? UB_FRAME_FLAG_ENCRYPTED : secured ? UB_FRAME_FLAG_SIGNED : 0;
+    if (prot != wanted || (out->encrypt && !secured)) return false; /* another form, or a drop send_forms() counts */
+    node->counters.forwarded++;
+    int rc = out->ops->send_hop(out->impl, frame, len, (uint8_t)(h->hop_limit - 1), &node->hop_memo, now_ms);
+    if (rc < 0) {
+        count_refusal(node, out_id, rc, now_ms);
+        return true;
+    }
+    out->counters.frames_out++;
+    out->counters.bytes_out += len;
+    return true;
+}
+
 /* Routes one verified frame received on `link_id`. Returns the verdict (ub_rx_verdict_t, ub_node.h): a
  * check that refuses a frame for its origin (security, window) returns UB_VERDICT_REFUSED; a genuine copy
  * already handled UB_VERDICT_DUPLICATE; an authentic frame from a source whose freshness is not established
@@ -881,6 +909,8 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
         return UB_VERDICT_ACCEPTED;
     }
     bool retag = (h->flags & UB_FRAME_FLAG_ORIGIN) != 0; /* its hop tag covers the hop limit: made again below */
+    if (!retag && (mask & (mask - 1u)) == 0 && forward_direct(node, owner, mask, h, frame, len, rx.secured, now_ms))
+        return UB_VERDICT_ACCEPTED;
     /* The frame was verified on the way in (decoder, ub_frame_parse() or a compact link's rebuild), so its
      * checks are patched for the new hop limit by CRC linearity instead of recomputed, in the copy, with the
      * deltas of the flow's last frame when they are the same (ub_frame.h). */

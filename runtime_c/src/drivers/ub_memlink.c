@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "ub/ub_node.h"
+#include "ub/ub_wire.h"
 #include "core/ub_rng_private.h"
 
 #define PPM 1000000u
@@ -57,26 +58,34 @@ static inline void ring_push(ub_memlink_end_t *end, uint16_t index) {
 }
 
 /* Takes a free slot of the end's queue and copies the frame into it, in send order (`order`); NULL when the queue
- * is full (counted `overflow`). The caller sets the due time and then ring_push()es it: a link without faults
- * takes it as is (no random draw), enqueue() adds its delay, jitter, reordering and corruption first. */
-static inline ub_memlink_frame_t *slot_take(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uint16_t *index) {
+ * is full (counted `overflow`). With `memo` the copy is a forward's: ub_frame_copy_hop_limit() to `hop_limit`
+ * (the caller checked the length). The caller sets the due time and then ring_push()es it: a link without
+ * faults takes it as is (no random draw), enqueue() adds its delay, jitter, reordering and corruption first. */
+static inline ub_memlink_frame_t *slot_take(ub_memlink_end_t *end, const uint8_t *frame, size_t len,
+                                            uint8_t hop_limit, ub_frame_hop_memo_t *memo, uint16_t *index) {
     if (end->n_free == 0) {
         end->stats.overflow++;
         return NULL;
     }
     *index = end->free_slots[--end->n_free];
     ub_memlink_frame_t *slot = &end->queue[*index];
-    memcpy(slot->bytes, frame, len);
+    if (memo == NULL) {
+        memcpy(slot->bytes, frame, len);
+    } else {
+        int copied = ub_frame_copy_hop_limit(slot->bytes, frame, len, hop_limit, memo);
+        (void)copied; /* UB_OK: memlink_send_hop() checked the hop limit and the length */
+    }
     slot->len = len;
     slot->order = end->ml->next_order++;
     return slot;
 }
 
-/* Queues one copy on a link without faults: due now, nothing drawn (enqueue() with every setting zero draws
- * nothing either, so the random sequence is the same). */
-static inline bool enqueue_plain(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uint64_t now_ms) {
+/* Queues one copy on a link without faults (a forward's with `memo`, as slot_take()): due now, nothing drawn
+ * (enqueue() with every setting zero draws nothing either, so the random sequence is the same). */
+static inline bool enqueue_plain(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uint8_t hop_limit,
+                                 ub_frame_hop_memo_t *memo, uint64_t now_ms) {
     uint16_t index;
-    ub_memlink_frame_t *slot = slot_take(end, frame, len, &index);
+    ub_memlink_frame_t *slot = slot_take(end, frame, len, hop_limit, memo, &index);
     if (slot == NULL) return false;
     slot->due_ms = now_ms;
     ring_push(end, index);
@@ -87,7 +96,7 @@ static inline bool enqueue_plain(ub_memlink_end_t *end, const uint8_t *frame, si
 static bool enqueue(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uint64_t now_ms, bool corrupt) {
     ub_memlink_t *ml = end->ml;
     uint16_t index;
-    ub_memlink_frame_t *slot = slot_take(end, frame, len, &index);
+    ub_memlink_frame_t *slot = slot_take(end, frame, len, 0, NULL, &index);
     if (slot == NULL) return false;
     slot->due_ms = now_ms + ml->faults.delay_ms + (ml->faults.jitter_ms != 0 ? random_below(ml, ml->faults.jitter_ms + 1u) : 0u);
     if (happens(ml, ml->faults.reorder_ppm)) {
@@ -111,7 +120,7 @@ static int memlink_send(void *impl, const uint8_t *frame, size_t len, uint64_t n
     const ub_memlink_faults_t *fl = &ml->faults;
     /* Read at every send, not cached: tests change the settings in place between frames. */
     if ((fl->loss_ppm | fl->duplicate_ppm | fl->reorder_ppm | fl->corrupt_ppm | fl->delay_ms | fl->jitter_ms) == 0)
-        return enqueue_plain(end, frame, len, now_ms) ? UB_OK : UB_ERR_AGAIN;
+        return enqueue_plain(end, frame, len, 0, NULL, now_ms) ? UB_OK : UB_ERR_AGAIN;
     if (happens(ml, ml->faults.loss_ppm)) {
         end->stats.lost++;
         return UB_OK; /* the wire ate it; the sender cannot know */
@@ -121,12 +130,31 @@ static int memlink_send(void *impl, const uint8_t *frame, size_t len, uint64_t n
     return UB_OK;
 }
 
+/* A forward (ub_link_ops_t.send_hop): without faults the hop limit is patched into the queue slot itself; with
+ * faults into a copy that then takes send()'s path, so loss, duplicates and corruption draw as for any frame. */
+static int memlink_send_hop(void *impl, const uint8_t *frame, size_t len, uint8_t hop_limit, ub_frame_hop_memo_t *memo,
+                            uint64_t now_ms) {
+    ub_memlink_end_t *end = impl;
+    const ub_memlink_faults_t *fl = &end->ml->faults;
+    if (len > UB_FRAME_MAX) return UB_ERR_RANGE;
+    if ((fl->loss_ppm | fl->duplicate_ppm | fl->reorder_ppm | fl->corrupt_ppm | fl->delay_ms | fl->jitter_ms) == 0) {
+        if (hop_limit == 0) return UB_ERR_RANGE;
+        if (len < UB_FRAME_HEADER_LEN || len != ub_get_u16le(frame + UB_FRAME_OFF_MSG_SIZE)) return UB_ERR_INVAL;
+        end->stats.sent++;
+        return enqueue_plain(end, frame, len, hop_limit, memo, now_ms) ? UB_OK : UB_ERR_AGAIN;
+    }
+    uint8_t out[UB_FRAME_MAX];
+    int rc = ub_frame_copy_hop_limit(out, frame, len, hop_limit, memo);
+    return rc < 0 ? rc : memlink_send(impl, out, len, now_ms);
+}
+
 static int memlink_fileno(void *impl) {
     (void)impl;
     return -1;
 }
 
-const ub_link_ops_t ub_memlink_ops = {.kind = "mem", .send = memlink_send, .fileno = memlink_fileno};
+const ub_link_ops_t ub_memlink_ops = {
+    .kind = "mem", .send = memlink_send, .fileno = memlink_fileno, .send_hop = memlink_send_hop};
 
 int ub_memlink_connect(ub_memlink_t *ml, ub_node_t *a, int link_a, ub_node_t *b, int link_b) {
     int rc = ub_node_link_attach(a, link_a, &ub_memlink_ops, &ml->end[0]);
