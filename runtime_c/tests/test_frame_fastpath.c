@@ -86,11 +86,16 @@ static void test_template_cache_equals_finish(void **state) {
     memset(&t, 0, sizeof t);
     ub_frame_header_t h = random_header(&r, random_size(&r));
     for (int k = 0; k < 2000; k++) {
-        switch (rng_below(&r, 6)) {
+        switch (rng_below(&r, 9)) {
         case 0: h = random_header(&r, random_size(&r)); break; /* another row */
         case 1: h.hop_limit = (uint8_t)(1 + rng_below(&r, 255)); break;
         case 2: h.payload_size = random_size(&r); break;
         case 3: h.admin = (uint8_t)rng_next(&r); break;
+        case 4: h.fingerprint ^= 1u << rng_below(&r, 32); break;
+        case 5: h.dir_id[rng_below(&r, UB_DIR_ID_LEN)] ^= (uint8_t)(1 + rng_below(&r, 255)); break;
+        case 6: /* one byte of either entity ID: each of the template's compared words */
+            (rng_below(&r, 2) ? h.dest_id : h.src_id)[rng_below(&r, UB_ENTITY_ID_LEN)] ^= (uint8_t)(1 + rng_below(&r, 255));
+            break;
         default: break; /* the same row again */
         }
         h.flags = 0;
@@ -113,6 +118,10 @@ static void test_template_cache_equals_finish(void **state) {
     assert_int_equal(ub_frame_tpl_finish_header(&t, frame, sizeof frame, &h), UB_ERR_RANGE);
     h.hop_limit = 1;
     assert_int_equal(ub_frame_tpl_finish_header(&t, frame, UB_FRAME_HEADER_LEN + h.payload_size - 1u, &h), UB_ERR_NOSPACE);
+    /* A zeroed template matches no header, not even an all-zero one: its hop limit 0 is refused, not built. */
+    memset(&t, 0, sizeof t);
+    memset(&h, 0, sizeof h);
+    assert_int_equal(ub_frame_tpl_finish_header(&t, frame, sizeof frame, &h), UB_ERR_RANGE);
 }
 
 static void test_template_errors(void **state) {

@@ -309,16 +309,20 @@ int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t 
     return tpl_finish_slow(t, frame, cap, payload_size, seq);
 }
 
-/* Whether `t` is primed for h: the header words of h (seq zero, checks zero, as tpl_init stores them) against
- * the template's bytes, eight 64-bit compares -- a few dozen instructions where a new template or an untemplated
- * build runs the CRC over the whole header. A zeroed template has no sync bytes, so it never matches. */
+/* Whether `t` is primed for h, compared where the bytes already lie: h's IDs, admin and hop limit are the same 42
+ * bytes in the struct as on the wire (asserted above), so five 64-bit and one 16-bit compare against the
+ * template's header cover them, and payload size and fingerprint are compared as numbers. The other header
+ * bytes are constants of every plain frame (sync, version, msg_type) or follow from the payload size
+ * (msg_size), and seq and the checks are the build's. A zeroed template has no sync byte, so it never matches.
+ * A few dozen instructions where a new template or an untemplated build runs the CRC over the whole header. */
 int ub_frame_tpl_finish_header(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, const ub_frame_header_t *h) {
     if (t == NULL || frame == NULL || h == NULL || h->flags != 0) return UB_ERR_INVAL;
-    uint64_t w[8];
-    header_words(h, 0, w);
-    w[6] &= 0xFFFFFFFFull;
-    uint64_t diff = 0;
-    for (int k = 0; k < 8; k++) diff |= w[k] ^ ub_get_u64le(t->header + 8 * k);
+    const uint8_t *img = (const uint8_t *)h + offsetof(ub_frame_header_t, dir_id);
+    const uint8_t *tpl = t->header + UB_FRAME_OFF_DIR_ID;
+    uint64_t diff = (uint64_t)(t->header[0] ^ UB_SYNC0) | (uint64_t)(h->payload_size ^ t->payload_size) |
+                    ((uint64_t)h->fingerprint << 32 ^ t->fingerprint_hi) |
+                    (uint64_t)(ub_get_u16le(img + 40) ^ ub_get_u16le(tpl + 40));
+    for (int k = 0; k < 5; k++) diff |= ub_get_u64le(img + 8 * k) ^ ub_get_u64le(tpl + 8 * k);
     if (diff != 0) {
         int rc = ub_frame_tpl_init(t, h);
         if (rc < 0) return rc;
