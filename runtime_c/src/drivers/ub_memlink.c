@@ -233,37 +233,49 @@ static inline const ub_memlink_frame_t *queued_at(const ub_memlink_end_t *end, s
     return &end->queue[end->ring[(end->head + p) % UB_MEMLINK_DEPTH]];
 }
 
+/* Hands the frame at send position `p` of `from` to the node at the other end, `to`. Out of the queue first, but
+ * the slot stays taken while the node handles the frame in place: the delivery may queue replies (into other
+ * slots) on this very link. */
+static inline void deliver_at(ub_memlink_end_t *from, ub_memlink_end_t *to, long p, uint64_t now_ms) {
+    uint16_t index = take_at(from, (size_t)p);
+    from->stats.delivered++;
+    const ub_memlink_frame_t *f = &from->queue[index];
+    uint32_t resets = from->resets;
+    if (to->node != NULL && ub_node_rx_frame(to->node, to->link_id, f->bytes, f->len, now_ms) < 0)
+        from->stats.rejected++;
+    if (from->resets == resets) from->free_slots[from->n_free++] = index; /* else: freed by the disconnect */
+}
+
 size_t ub_memlink_pump(ub_memlink_t *ml, uint64_t now_ms) {
     uint64_t order_limit = ml->next_order;
     size_t delivered = 0;
     ub_memlink_end_t *e0 = &ml->end[0], *e1 = &ml->end[1];
-    for (;;) {
+    /* An end with nothing queued as the pump starts has nothing to deliver in it: what deliveries queue there is
+     * past order_limit. Then the other end's frames go in order without asking it before each one (a flow in
+     * one direction, the common case). */
+    if (e0->count == 0 || e1->count == 0) {
+        ub_memlink_end_t *from = e0->count != 0 ? e0 : e1, *to = from == e0 ? e1 : e0;
+        for (long p; (p = earliest_at(from, now_ms, order_limit)) >= 0; delivered++) deliver_at(from, to, p, now_ms);
+        return delivered;
+    }
+    for (;; delivered++) {
         /* The earliest due frame of the two ends (ties: send order), by pointer rather than by side index:
          * an index into ml->end[] multiplied by the end's size at every use. */
         long p0 = earliest_at(e0, now_ms, order_limit);
         long p1 = earliest_at(e1, now_ms, order_limit);
-        ub_memlink_end_t *from, *to;
-        long p;
         if (p1 < 0) {
             if (p0 < 0) break;
-            from = e0, to = e1, p = p0;
+            deliver_at(e0, e1, p0, now_ms);
         } else if (p0 < 0) {
-            from = e1, to = e0, p = p1;
+            deliver_at(e1, e0, p1, now_ms);
         } else {
             const ub_memlink_frame_t *a = queued_at(e0, (size_t)p0), *b = queued_at(e1, (size_t)p1);
             bool second = b->due_ms < a->due_ms || (b->due_ms == a->due_ms && b->order < a->order);
-            from = second ? e1 : e0, to = second ? e0 : e1, p = second ? p1 : p0;
+            if (second)
+                deliver_at(e1, e0, p1, now_ms);
+            else
+                deliver_at(e0, e1, p0, now_ms);
         }
-        /* Out of the queue first, but the slot stays taken while the node handles the frame in place: the
-         * delivery may queue replies (into other slots) on this very link. */
-        uint16_t index = take_at(from, (size_t)p);
-        from->stats.delivered++;
-        delivered++;
-        const ub_memlink_frame_t *f = &from->queue[index];
-        uint32_t resets = from->resets;
-        if (to->node != NULL && ub_node_rx_frame(to->node, to->link_id, f->bytes, f->len, now_ms) < 0)
-            from->stats.rejected++;
-        if (from->resets == resets) from->free_slots[from->n_free++] = index; /* else: freed by the disconnect */
     }
     return delivered;
 }
