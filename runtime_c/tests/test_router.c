@@ -401,6 +401,36 @@ static void test_memlink_forward_patches_in_its_slot(void **state) {
     free(fw);
 }
 
+/* An originated plain frame on one link (finished in place, no forms) has the bytes the reference build writes
+ * for its header and payload, as on two links (the forms path); the template cache serves both. */
+static void assert_reference_frame(const capture_t *cap, size_t k) {
+    ub_frame_header_t h;
+    assert_int_equal(ub_frame_parse(cap->frame[k], cap->len[k], &h), UB_OK);
+    uint8_t want[UB_FRAME_MAX];
+    memcpy(want + UB_FRAME_HEADER_LEN, cap->frame[k] + UB_FRAME_HEADER_LEN, h.payload_size);
+    assert_int_equal(ub_frame_finish(want, sizeof want, &h), (int)cap->len[k]);
+    assert_memory_equal(cap->frame[k], want, cap->len[k]);
+}
+
+static void test_origin_on_one_link_equals_reference(void **state) {
+    (void)state;
+    fwd_fixture_t *f = fwd_fixture(&ub_test_cat);
+    struct test_imu imu = {0};
+    assert_int_equal(ub_node_bind(&f->node, TEST_IMU, &imu), UB_OK);
+    const uint8_t *far = ub_node_entity_id(&f->node, f->far);
+    for (int k = 0; k < 6; k++) {
+        imu.t_ms = (uint32_t)k * 7u; /* another payload each time */
+        assert_int_equal(ub_node_set_mask(&f->node, f->self, f->far, k % 3 == 2 ? 0x06 : 0x02), UB_OK);
+        assert_int_equal(ub_node_send_data(&f->node, f->self, TEST_IMU, far, (uint64_t)k), k % 3 == 2 ? 2 : 1);
+    }
+    assert_int_equal(f->cap[1].n, 6);
+    assert_int_equal(f->cap[2].n, 2);
+    for (size_t k = 0; k < f->cap[1].n; k++) assert_reference_frame(&f->cap[1], k);
+    for (size_t k = 0; k < f->cap[2].n; k++) assert_reference_frame(&f->cap[2], k);
+    assert_memory_equal(f->cap[1].frame[2], f->cap[2].frame[0], f->cap[1].len[2]); /* the same frame on both */
+    free(f);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_forward_on_mask_minus_ingress_with_hop_decrement),
@@ -413,6 +443,7 @@ int main(void) {
         cmocka_unit_test(test_transport_failures_counted_by_reason),
         cmocka_unit_test(test_direct_forward_equals_general_path),
         cmocka_unit_test(test_memlink_forward_patches_in_its_slot),
+        cmocka_unit_test(test_origin_on_one_link_equals_reference),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

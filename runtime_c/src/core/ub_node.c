@@ -707,10 +707,31 @@ static int stamp(ub_node_t *node, int slot, ub_frame_header_t *h, uint8_t hop_li
     return UB_OK;
 }
 
+/* The plain form of a stamped frame finished in place (as form_get() does) and sent on `link_id`: the frame is
+ * plain (no key, flags or counter bits above 32) and the link does not encrypt. Returns the links used, 0 or 1,
+ * as send_forms() would. */
+static inline int send_plain_one(ub_node_t *node, int link_id, uint8_t *frame, const ub_frame_header_t *h,
+                                 uint64_t now_ms) {
+    unsigned t = (unsigned)(h->dir_id[UB_DIR_ID_LEN - 1] ^ h->dest_id[UB_ENTITY_ID_LEN - 1]) % UB_NODE_TPL_CACHE;
+    int n = ub_frame_tpl_finish_header(&node->tpl[t], frame, UB_FRAME_MAX, h);
+    if (n <= 0) {
+        count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+        return 0;
+    }
+    return transmit(node, link_id, frame, (size_t)n, now_ms) ? 1 : 0;
+}
+
 /* Sends a stamped frame, whose plaintext payload is in place in `frame`, on the links of `mask`: each
  * link gets the form (plain, signed, encrypted) it asks for. */
 static int send_stamped(ub_node_t *node, int slot, uint8_t mask, uint8_t *frame, const ub_frame_header_t *h,
                         uint64_t now_ms) {
+    /* One link and a plain frame it takes plain (most data): no forms to keep apart. */
+    if (mask != 0 && (mask & (mask - 1u)) == 0 && h->key_id == 0 && h->flags == 0 && h->counter_hi == 0) {
+        unsigned i = (unsigned)__builtin_ctz(mask);
+        int link_id = i < UB_MAX_LINKS_PER_ENTITY ? node->locals[slot].link_ids[i] : -1;
+        if (link_id < 0) return 0; /* send_forms() skips a bit without a link */
+        if (!node->links[link_id].encrypt) return send_plain_one(node, link_id, frame, h, now_ms);
+    }
     uint8_t alt[UB_FRAME_MAX];
     tx_forms_t f;
     f.h = h;
