@@ -13,6 +13,7 @@
 
 #include "support/ub_test_pair.h"
 #include "ub/ub_admin.h"
+#include "ub/ub_node_svc.h"
 #include "ub/ub_pubsub.h"
 
 /* The admin table sits on the "sub" entity; rows publish gpsOut from "pub" to "sub". */
@@ -256,6 +257,40 @@ static void test_row_validation(void **state) {
     pair_free(p);
 }
 
+/* Every table of a node carries the mask of its slots with an administration table (admin_slots): DATA
+ * delivered to any slot asks exactly those tables, and a node without one asks none. Attach on two slots, a
+ * second attach on the same slot, detaches in either order. */
+static uint32_t slots_seen(const ub_node_t *node) {
+    uint32_t mask = ub_node_svc_pubsub_table(node, 0)->admin_slots;
+    for (int s = 1; s < UB_MAX_LOCAL_ENTITIES; s++) assert_int_equal(ub_node_svc_pubsub_table(node, s)->admin_slots, mask);
+    return mask;
+}
+
+static void test_admin_slots_follow_attach_and_detach(void **state) {
+    (void)state;
+    pair_t *p = pair_new(NULL);
+    uint8_t ops_id[UB_ENTITY_ID_LEN] = {0x0F, 0x05, 0x02, 0x08};
+    int ops = ub_node_add_entity(p->sub_node, ops_id, true);
+    assert_true(ops >= 0);
+    int sub_slot = ub_node_entity_slot(p->sub_node, p->sub), ops_slot = ub_node_entity_slot(p->sub_node, ops);
+    assert_true(sub_slot >= 0 && ops_slot >= 0 && sub_slot != ops_slot);
+    assert_int_equal(slots_seen(p->sub_node), 0);
+    ub_admin_t a, b, c;
+    assert_int_equal(ub_admin_init(&a, p->sub_node, ops, NULL), UB_OK);
+    assert_int_equal(slots_seen(p->sub_node), 1u << ops_slot);
+    assert_int_equal(ub_admin_init(&b, p->sub_node, p->sub, NULL), UB_OK);
+    assert_int_equal(slots_seen(p->sub_node), (1u << ops_slot) | (1u << sub_slot));
+    assert_int_equal(ub_admin_init(&c, p->sub_node, p->sub, NULL), UB_OK); /* replaces b on that slot */
+    ub_admin_detach(&b);                                                  /* no longer attached: changes nothing */
+    assert_int_equal(slots_seen(p->sub_node), (1u << ops_slot) | (1u << sub_slot));
+    ub_admin_detach(&a);
+    assert_int_equal(slots_seen(p->sub_node), 1u << sub_slot);
+    ub_admin_detach(&c);
+    assert_int_equal(slots_seen(p->sub_node), 0);
+    assert_int_equal(slots_seen(p->pub_node), 0); /* the other node never had one */
+    pair_free(p);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_retried_until_acknowledged),
@@ -267,6 +302,7 @@ int main(void) {
         cmocka_unit_test(test_deactivate_stops_and_row_reads_back),
         cmocka_unit_test(test_admin_as_destination_subscribes),
         cmocka_unit_test(test_row_validation),
+        cmocka_unit_test(test_admin_slots_follow_attach_and_detach),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

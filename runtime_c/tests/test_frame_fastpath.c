@@ -2,12 +2,14 @@
  *  - a row's header template (ub_frame_tpl_finish) writes the bytes ub_frame_finish writes, across payload
  *    sizes (a size change re-primes the template) and sequence numbers;
  *  - patching the hop limit by CRC linearity (ub_frame_patch_hop_limit) writes the bytes recomputing the
- *    checks does (ub_frame_set_hop_limit), plain and flagged frames, every hop limit, chains of hops;
+ *    checks does (ub_frame_set_hop_limit), plain and flagged frames, every hop limit, chains of hops; and so does
+ *    the forwarder's copy with its memo of the last change (ub_frame_copy_hop_limit);
  *  - the CRC helpers under them (ub_crc32c_zeros, ub_crc32c_byte_delta, ub_crc32c_frame_tail, ub_crc32c_header)
  *    against the table path and plain CRCs.
  * The vectors of tests/vectors/frames.json are reproduced by the same fast paths in test_frame_vectors. */
 #include <setjmp.h>
 #include <stdarg.h>
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
@@ -84,11 +86,16 @@ static void test_template_cache_equals_finish(void **state) {
     memset(&t, 0, sizeof t);
     ub_frame_header_t h = random_header(&r, random_size(&r));
     for (int k = 0; k < 2000; k++) {
-        switch (rng_below(&r, 6)) {
+        switch (rng_below(&r, 9)) {
         case 0: h = random_header(&r, random_size(&r)); break; /* another row */
         case 1: h.hop_limit = (uint8_t)(1 + rng_below(&r, 255)); break;
         case 2: h.payload_size = random_size(&r); break;
         case 3: h.admin = (uint8_t)rng_next(&r); break;
+        case 4: h.fingerprint ^= 1u << rng_below(&r, 32); break;
+        case 5: h.dir_id[rng_below(&r, UB_DIR_ID_LEN)] ^= (uint8_t)(1 + rng_below(&r, 255)); break;
+        case 6: /* one byte of either entity ID: each of the template's compared words */
+            (rng_below(&r, 2) ? h.dest_id : h.src_id)[rng_below(&r, UB_ENTITY_ID_LEN)] ^= (uint8_t)(1 + rng_below(&r, 255));
+            break;
         default: break; /* the same row again */
         }
         h.flags = 0;
@@ -111,6 +118,10 @@ static void test_template_cache_equals_finish(void **state) {
     assert_int_equal(ub_frame_tpl_finish_header(&t, frame, sizeof frame, &h), UB_ERR_RANGE);
     h.hop_limit = 1;
     assert_int_equal(ub_frame_tpl_finish_header(&t, frame, UB_FRAME_HEADER_LEN + h.payload_size - 1u, &h), UB_ERR_NOSPACE);
+    /* A zeroed template matches no header, not even an all-zero one: its hop limit 0 is refused, not built. */
+    memset(&t, 0, sizeof t);
+    memset(&h, 0, sizeof h);
+    assert_int_equal(ub_frame_tpl_finish_header(&t, frame, sizeof frame, &h), UB_ERR_RANGE);
 }
 
 static void test_template_errors(void **state) {
@@ -188,6 +199,59 @@ static void test_patch_keeps_damage_and_errors(void **state) {
     assert_int_equal(ub_frame_patch_hop_limit(f, 10, 2), UB_ERR_INVAL);
 }
 
+/* The forwarder's copy (ub_frame_copy_hop_limit) against copying and recomputing: one memo across rows of every
+ * length, chains of hops and arbitrary limits, so the memo is reused (same change, same length), replaced
+ * (another change or length) and found stale; and without a memo. The source is never written. */
+static void test_copy_equals_recompute(void **state) {
+    (void)state;
+    test_rng_t r = {0xC0B7u};
+    ub_frame_hop_memo_t memo;
+    memset(&memo, 0, sizeof memo);
+    unsigned reused = 0;
+    for (int row = 0; row < ROWS; row++) {
+        uint8_t src[UB_FRAME_MAX], keep[UB_FRAME_MAX], want[UB_FRAME_MAX], got[UB_FRAME_MAX];
+        size_t n = random_any_frame(&r, src);
+        for (int k = 0; k < 8; k++) {
+            uint8_t next = k < 4 ? (uint8_t)(src[UB_FRAME_OFF_HOP_LIMIT] > 1 ? src[UB_FRAME_OFF_HOP_LIMIT] - 1 : 255)
+                                 : (uint8_t)(1 + rng_below(&r, 255));
+            memcpy(keep, src, n);
+            memcpy(want, src, n);
+            assert_int_equal(ub_frame_set_hop_limit(want, n, next), UB_OK);
+            bool hit = memo.len == n && memo.d == (src[UB_FRAME_OFF_HOP_LIMIT] ^ next);
+            reused += hit;
+            rng_fill(&r, got, sizeof got);
+            assert_int_equal(ub_frame_copy_hop_limit(got, src, n, next, k % 3 == 2 ? NULL : &memo), UB_OK);
+            assert_memory_equal(got, want, n);
+            assert_memory_equal(src, keep, n);
+            assert_int_equal(ub_frame_parse(got, n, NULL), UB_OK);
+            if (k % 2 == 1) memcpy(src, got, n); /* the next forwarder's input: a chain */
+        }
+    }
+    assert_true(reused > ROWS); /* the memo's path ran, not only the first-change one */
+}
+
+static void test_copy_keeps_damage_and_errors(void **state) {
+    (void)state;
+    test_rng_t r = {77};
+    uint8_t f[UB_FRAME_MAX], out[UB_FRAME_MAX], untouched[UB_FRAME_MAX];
+    size_t n = random_frame(&r, f, 40);
+    ub_frame_hop_memo_t memo;
+    memset(&memo, 0, sizeof memo);
+    f[UB_FRAME_HEADER_LEN + 5] ^= 0x10; /* a damaged payload: neither copy may make it valid */
+    for (int k = 0; k < 2; k++) {       /* the first change, then the memo's */
+        assert_int_equal(ub_frame_copy_hop_limit(out, f, n, 2, &memo), UB_OK);
+        assert_int_equal(ub_frame_parse(out, n, NULL), UB_ERR_CHECKSUM);
+    }
+    memset(out, 0xA5, sizeof out);
+    memcpy(untouched, out, sizeof out);
+    assert_int_equal(ub_frame_copy_hop_limit(out, f, n, 0, &memo), UB_ERR_RANGE);
+    assert_int_equal(ub_frame_copy_hop_limit(NULL, f, n, 2, &memo), UB_ERR_INVAL);
+    assert_int_equal(ub_frame_copy_hop_limit(out, NULL, n, 2, &memo), UB_ERR_INVAL);
+    assert_int_equal(ub_frame_copy_hop_limit(out, f, n - 1, 2, &memo), UB_ERR_INVAL);
+    assert_int_equal(ub_frame_copy_hop_limit(out, f, 10, 2, NULL), UB_ERR_INVAL);
+    assert_memory_equal(out, untouched, sizeof out); /* refused: nothing written */
+}
+
 /* The register over n zero bytes, by feeding real zero bytes through the table path (which works on
  * finished CRCs: register = ~crc). */
 static uint32_t zeros_reference(uint32_t reg, size_t n) {
@@ -239,6 +303,8 @@ int main(void) {
         cmocka_unit_test(test_template_errors),
         cmocka_unit_test(test_patch_equals_recompute),
         cmocka_unit_test(test_patch_keeps_damage_and_errors),
+        cmocka_unit_test(test_copy_equals_recompute),
+        cmocka_unit_test(test_copy_keeps_damage_and_errors),
         cmocka_unit_test(test_crc_helpers),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

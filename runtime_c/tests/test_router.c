@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "support/ub_test_world.h"
+#include "ub/ub_memlink.h"
 #include "ub/ub_node.h"
 
 /* A forwarder "fwd" with three links, all captured; it knows "far" through links 1 and 2. */
@@ -279,6 +280,157 @@ static void test_transport_failures_counted_by_reason(void **state) {
     free(f);
 }
 
+/* A capturing transport that also takes forwards with their hop limit (ub_link_ops_t.send_hop), as a memlink
+ * does, and counts them: the node's direct forward, one copy into the transport's buffer. */
+static unsigned hop_sends;
+static int capture_hop_send(void *impl, const uint8_t *frame, size_t len, uint8_t hop_limit, ub_frame_hop_memo_t *memo,
+                            uint64_t now_ms) {
+    (void)now_ms;
+    capture_t *cap = impl;
+    hop_sends++;
+    if (cap->rc < 0) return cap->rc;
+    assert_true(cap->n < CAPTURE_MAX);
+    int rc = ub_frame_copy_hop_limit(cap->frame[cap->n], frame, len, hop_limit, memo);
+    if (rc < 0) return rc;
+    cap->len[cap->n++] = len;
+    return UB_OK;
+}
+static int capture_plain_send(void *impl, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    return capture_ops.send(impl, frame, len, now_ms);
+}
+static const ub_link_ops_t capture_hop_ops = {.kind = "capture", .send = capture_plain_send, .send_hop = capture_hop_send};
+
+/* A forward to one link whose transport takes send_hop leaves with the bytes and counters of the general path
+ * (the node's patched copy through send()), frame after frame (the memo reused, then replaced by another hop
+ * limit); a refusal is counted the same; a second outgoing link or a tap takes the general path. */
+static void test_direct_forward_equals_general_path(void **state) {
+    (void)state;
+    fwd_fixture_t *g = fwd_fixture(&ub_test_cat), *d = fwd_fixture(&ub_test_cat);
+    for (fwd_fixture_t *f = g; f != NULL; f = f == g ? d : NULL)
+        assert_int_equal(ub_node_set_mask(&f->node, f->self, f->far, 0x02), UB_OK); /* link 1 only */
+    assert_int_equal(ub_node_link_detach(&d->node, d->link[1]), UB_OK);
+    assert_int_equal(ub_node_link_attach(&d->node, d->link[1], &capture_hop_ops, &d->cap[1]), UB_OK);
+    hop_sends = 0;
+    const uint8_t payload[6] = {9, 8, 7, 6, 5, 4};
+    const ub_instance_desc_t *inst = &ub_test_cat.instances[TEST_IMU];
+    for (uint32_t seq = 1; seq <= 6; seq++) {
+        uint8_t frame[UB_FRAME_MAX];
+        size_t len = make_frame(frame, UB_ADMIN_DATA, inst->id, "near", "far", seq, seq <= 3 ? 9 : 200, 77, payload,
+                                (uint16_t)seq);
+        if (seq == 5) d->cap[1].rc = g->cap[1].rc = UB_ERR_AGAIN;
+        if (seq == 6) d->cap[1].rc = g->cap[1].rc = UB_OK;
+        assert_int_equal(ub_node_rx_frame(&g->node, g->link[0], frame, len, 0), UB_OK);
+        assert_int_equal(ub_node_rx_frame(&d->node, d->link[0], frame, len, 0), UB_OK);
+    }
+    assert_int_equal(hop_sends, 6);
+    assert_int_equal(d->cap[1].n, 5);
+    assert_int_equal(g->cap[1].n, d->cap[1].n);
+    for (size_t k = 0; k < d->cap[1].n; k++) {
+        assert_int_equal(d->cap[1].len[k], g->cap[1].len[k]);
+        assert_memory_equal(d->cap[1].frame[k], g->cap[1].frame[k], g->cap[1].len[k]);
+        assert_int_equal(ub_frame_parse(d->cap[1].frame[k], d->cap[1].len[k], NULL), UB_OK);
+    }
+    const ub_link_counters_t *cg = &ub_node_link(&g->node, g->link[1])->counters;
+    const ub_link_counters_t *cd = &ub_node_link(&d->node, d->link[1])->counters;
+    assert_int_equal(cd->frames_out, cg->frames_out);
+    assert_int_equal(cd->bytes_out, cg->bytes_out);
+    assert_int_equal(cd->drops[UB_DROP_BACKPRESSURE], 1);
+    assert_int_equal(cg->drops[UB_DROP_BACKPRESSURE], 1);
+    assert_int_equal(ub_node_counters(&d->node)->forwarded, ub_node_counters(&g->node)->forwarded);
+    /* Two outgoing links, or a tap that must see the frame sent: the general path, same bytes again. */
+    uint8_t frame[UB_FRAME_MAX];
+    size_t len = make_frame(frame, UB_ADMIN_DATA, inst->id, "near", "far", 7, 9, 77, payload, 6);
+    assert_int_equal(ub_node_set_mask(&d->node, d->self, d->far, 0x06), UB_OK);
+    assert_int_equal(ub_node_rx_frame(&d->node, d->link[0], frame, len, 0), UB_OK);
+    assert_int_equal(hop_sends, 6);
+    assert_int_equal(d->cap[2].n, 1);
+    assert_memory_equal(d->cap[1].frame[d->cap[1].n - 1], d->cap[2].frame[0], len);
+    free(g);
+    free(d);
+}
+
+/* A forward over a memlink is patched into the queue slot; with faults (a delay) into a copy taking send()'s
+ * path. Both arrive as ub_frame_set_hop_limit() writes them, seen by the next node's tap. */
+static uint8_t tapped[UB_FRAME_MAX];
+static size_t tapped_len;
+static void tap_rx(void *user, int link_id, ub_tap_dir_t dir, const uint8_t *frame, size_t len, uint64_t now_ms) {
+    (void)user, (void)link_id, (void)now_ms;
+    if (dir != UB_TAP_RX) return;
+    memcpy(tapped, frame, len);
+    tapped_len = len;
+}
+
+static void test_memlink_forward_patches_in_its_slot(void **state) {
+    (void)state;
+    ub_node_t *fw = calloc(2, sizeof *fw), *end = fw + 1;
+    ub_memlink_t ml;
+    assert_non_null(fw);
+    assert_int_equal(ub_node_init(fw, &ub_test_cat, NULL), UB_OK);
+    assert_int_equal(ub_node_init(end, &ub_test_cat, NULL), UB_OK);
+    int self = ub_node_add_entity_name(fw, "fwd", true), far = ub_node_add_entity_name(fw, "far", false);
+    int in = ub_node_add_link(fw, self, 0, "in"), out = ub_node_add_link(fw, self, 1, "out");
+    assert_true(far >= 0 && in >= 0 && out >= 0);
+    capture_t sink = {0};
+    assert_int_equal(ub_node_link_attach(fw, in, &capture_ops, &sink), UB_OK);
+    assert_int_equal(ub_node_set_mask(fw, self, far, 0x02), UB_OK);
+    int end_self = ub_node_add_entity_name(end, "far", true);
+    int back = ub_node_add_link(end, end_self, 0, "back");
+    assert_true(back >= 0);
+    ub_memlink_init(&ml, NULL, 5);
+    assert_int_equal(ub_memlink_connect(&ml, fw, out, end, back), UB_OK);
+    ub_node_set_tap(end, tap_rx, NULL);
+    const ub_instance_desc_t *inst = &ub_test_cat.instances[TEST_IMU];
+    const uint8_t payload[3] = {1, 2, 3};
+    for (int faulty = 0; faulty < 2; faulty++) {
+        ub_memlink_faults_t delay = {.delay_ms = 1};
+        ub_memlink_set_faults(&ml, faulty ? &delay : NULL);
+        uint8_t frame[UB_FRAME_MAX], want[UB_FRAME_MAX];
+        size_t len = make_frame(frame, UB_ADMIN_DATA, inst->id, "near", "far", 10u + (uint32_t)faulty, 7, 77, payload, 3);
+        memcpy(want, frame, len);
+        assert_int_equal(ub_frame_set_hop_limit(want, len, 6), UB_OK);
+        tapped_len = 0;
+        assert_int_equal(ub_node_rx_frame(fw, in, frame, len, 10), UB_OK);
+        assert_int_equal(ub_memlink_pump(&ml, 10), faulty ? 0u : 1u);
+        if (faulty) assert_int_equal(ub_memlink_pump(&ml, 11), 1u);
+        assert_int_equal(tapped_len, len);
+        assert_memory_equal(tapped, want, len);
+        assert_int_equal(ub_memlink_stats(&ml, 0)->sent, (uint64_t)faulty + 1u);
+    }
+    assert_int_equal(ub_node_link(fw, out)->counters.frames_out, 2);
+    ub_memlink_disconnect(&ml);
+    free(fw);
+}
+
+/* An originated plain frame on one link (finished in place, no forms) has the bytes the reference build writes
+ * for its header and payload, as on two links (the forms path); the template cache serves both. */
+static void assert_reference_frame(const capture_t *cap, size_t k) {
+    ub_frame_header_t h;
+    assert_int_equal(ub_frame_parse(cap->frame[k], cap->len[k], &h), UB_OK);
+    uint8_t want[UB_FRAME_MAX];
+    memcpy(want + UB_FRAME_HEADER_LEN, cap->frame[k] + UB_FRAME_HEADER_LEN, h.payload_size);
+    assert_int_equal(ub_frame_finish(want, sizeof want, &h), (int)cap->len[k]);
+    assert_memory_equal(cap->frame[k], want, cap->len[k]);
+}
+
+static void test_origin_on_one_link_equals_reference(void **state) {
+    (void)state;
+    fwd_fixture_t *f = fwd_fixture(&ub_test_cat);
+    struct test_imu imu = {0};
+    assert_int_equal(ub_node_bind(&f->node, TEST_IMU, &imu), UB_OK);
+    const uint8_t *far = ub_node_entity_id(&f->node, f->far);
+    for (int k = 0; k < 6; k++) {
+        imu.t_ms = (uint32_t)k * 7u; /* another payload each time */
+        assert_int_equal(ub_node_set_mask(&f->node, f->self, f->far, k % 3 == 2 ? 0x06 : 0x02), UB_OK);
+        assert_int_equal(ub_node_send_data(&f->node, f->self, TEST_IMU, far, (uint64_t)k), k % 3 == 2 ? 2 : 1);
+    }
+    assert_int_equal(f->cap[1].n, 6);
+    assert_int_equal(f->cap[2].n, 2);
+    for (size_t k = 0; k < f->cap[1].n; k++) assert_reference_frame(&f->cap[1], k);
+    for (size_t k = 0; k < f->cap[2].n; k++) assert_reference_frame(&f->cap[2], k);
+    assert_memory_equal(f->cap[1].frame[2], f->cap[2].frame[0], f->cap[1].len[2]); /* the same frame on both */
+    free(f);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_forward_on_mask_minus_ingress_with_hop_decrement),
@@ -289,6 +441,9 @@ int main(void) {
         cmocka_unit_test(test_stream_rx_any_chunking_and_tap),
         cmocka_unit_test(test_bad_datagram_counted),
         cmocka_unit_test(test_transport_failures_counted_by_reason),
+        cmocka_unit_test(test_direct_forward_equals_general_path),
+        cmocka_unit_test(test_memlink_forward_patches_in_its_slot),
+        cmocka_unit_test(test_origin_on_one_link_equals_reference),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -256,6 +256,31 @@ UB_CHECK int ub_frame_set_hop_limit(uint8_t *frame, size_t len, uint8_t hop_limi
 UB_CHECK int ub_frame_patch_hop_limit(uint8_t *frame, size_t len, uint8_t hop_limit);
 
 /**
+ * The checks' change for one hop-limit change, kept for the next frame (ub_frame_copy_hop_limit()): it depends
+ * only on the old and new hop limit and the frame's length, which all frames of a flow through a forwarder
+ * share, so it is computed once per flow instead of once per frame. Caller-owned (a node keeps one); zeroed =
+ * empty (no frame has length 0). Treat the fields as private.
+ */
+typedef struct ub_frame_hop_memo {
+    uint32_t msg_delta; /* XORed into msg_crc */
+    uint16_t len;       /* the frame length it is for; 0: empty */
+    uint8_t d;          /* old hop limit ^ new hop limit */
+    uint8_t hdr_delta;  /* XORed into hdr_check */
+} ub_frame_hop_memo_t;
+
+/**
+ * ub_frame_patch_hop_limit() into a copy: writes the `len` bytes of `src` to `dst` with the hop limit set to
+ * `hop_limit` and both checks patched, the same bytes as copying and then ub_frame_patch_hop_limit() (a frame
+ * whose checks were wrong stays wrong). The forwarder's one step from a received frame to the one it sends.
+ * `memo` (may be NULL) holds the last change's deltas: the same change on a frame of the same length reuses
+ * them, another one replaces them. `dst` and `src` must not overlap.
+ * @return UB_OK; UB_ERR_RANGE if `hop_limit` is 0; UB_ERR_INVAL if `dst` or `src` is NULL or `len` is not
+ *         the frame's msg_size (then nothing is written).
+ */
+UB_CHECK int ub_frame_copy_hop_limit(uint8_t *dst, const uint8_t *src, size_t len, uint8_t hop_limit,
+                                     ub_frame_hop_memo_t *memo);
+
+/**
  * A per-row header template: the header bytes a row's frames share (everything but seq and the two checks)
  * and the CRC-32C state over header bytes [4,52), which hold only such constant fields. Building a frame
  * from it runs the CRC over 8 header bytes (seq, fingerprint) and the payload instead of the whole header.

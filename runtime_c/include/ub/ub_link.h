@@ -125,6 +125,16 @@ typedef struct ub_link_ops {
      * node counts them `shed` on the link. NULL: the node calls send().
      */
     int (*send_class)(void *impl, const uint8_t *frame, size_t len, uint8_t cls, uint64_t now_ms);
+    /**
+     * Optional: send() of a frame being forwarded, with its hop limit set to `hop_limit` on the way: the
+     * transport writes ub_frame_copy_hop_limit(dst, frame, len, hop_limit, memo) straight into its own buffer,
+     * so a forward costs one copy instead of two (into the node's buffer, then the transport's). `frame` is a
+     * verified frame (its checks patched, never recomputed); `memo` is the node's. Same returns as send(). The
+     * node uses it only for a link without compact encoding, MTU or classes, taking the form the frame came in,
+     * with no tap attached (which is handed the frame sent). NULL: the node patches a copy and calls send().
+     */
+    int (*send_hop)(void *impl, const uint8_t *frame, size_t len, uint8_t hop_limit, ub_frame_hop_memo_t *memo,
+                    uint64_t now_ms);
 } ub_link_ops_t;
 
 /** One link slot of a node. Owned by ub_node_t; treat the fields as read-only. */

@@ -322,6 +322,9 @@ struct ub_node {
     /** Header templates of the plain frames this node built last (ub_frame_tpl_finish_header()), by a hash of
      *  content ID and destination: a row sending again reuses its own. Zeroed at init: no entry matches. */
     ub_frame_tpl_t tpl[UB_NODE_TPL_CACHE];
+    /** The last hop-limit change this node forwarded with (ub_frame_copy_hop_limit()): a flow's frames share it,
+     *  so its check deltas are computed once per flow. Zeroed at init: empty. */
+    ub_frame_hop_memo_t hop_memo;
     ub_node_counters_t counters;
     /* Registered services (ub_service.h), in tick order, and per admin code the index + 1 of the one
      * taking it as a code, as a reply, link-local (0: none): a lookup on the admin path, never on DATA's. */

@@ -131,6 +131,8 @@ typedef struct ub_pubsub_table {
     ub_ps_row_t rows[UB_MAX_PUBSUB_ROWS];
     struct ub_admin *admin; /**< the administration table attached to the entity (ub_admin.h), or NULL */
     uint32_t rows_used;     /**< rows [rows_used, UB_MAX_PUBSUB_ROWS) were never taken, so are free: searches stop there */
+    uint32_t admin_slots;   /**< bit s: local slot s has an administration table attached; the same in every table
+                                 of the node, so DATA (delivered to any slot) asks the tables only when there is one */
 } ub_pubsub_table_t;
 
 /**

@@ -309,16 +309,20 @@ int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t 
     return tpl_finish_slow(t, frame, cap, payload_size, seq);
 }
 
-/* Whether `t` is primed for h: the header words of h (seq zero, checks zero, as tpl_init stores them) against
- * the template's bytes, eight 64-bit compares -- a few dozen instructions where a new template or an untemplated
- * build runs the CRC over the whole header. A zeroed template has no sync bytes, so it never matches. */
+/* Whether `t` is primed for h, compared where the bytes already lie: h's IDs, admin and hop limit are the same 42
+ * bytes in the struct as on the wire (asserted above), so five 64-bit and one 16-bit compare against the
+ * template's header cover them, and payload size and fingerprint are compared as numbers. The other header
+ * bytes are constants of every plain frame (sync, version, msg_type) or follow from the payload size
+ * (msg_size), and seq and the checks are the build's. A zeroed template has no sync byte, so it never matches.
+ * A few dozen instructions where a new template or an untemplated build runs the CRC over the whole header. */
 int ub_frame_tpl_finish_header(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, const ub_frame_header_t *h) {
     if (t == NULL || frame == NULL || h == NULL || h->flags != 0) return UB_ERR_INVAL;
-    uint64_t w[8];
-    header_words(h, 0, w);
-    w[6] &= 0xFFFFFFFFull;
-    uint64_t diff = 0;
-    for (int k = 0; k < 8; k++) diff |= w[k] ^ ub_get_u64le(t->header + 8 * k);
+    const uint8_t *img = (const uint8_t *)h + offsetof(ub_frame_header_t, dir_id);
+    const uint8_t *tpl = t->header + UB_FRAME_OFF_DIR_ID;
+    uint64_t diff = (uint64_t)(t->header[0] ^ UB_SYNC0) | (uint64_t)(h->payload_size ^ t->payload_size) |
+                    ((uint64_t)h->fingerprint << 32 ^ t->fingerprint_hi) |
+                    (uint64_t)(ub_get_u16le(img + 40) ^ ub_get_u16le(tpl + 40));
+    for (int k = 0; k < 5; k++) diff |= ub_get_u64le(img + 8 * k) ^ ub_get_u64le(tpl + 8 * k);
     if (diff != 0) {
         int rc = ub_frame_tpl_init(t, h);
         if (rc < 0) return rc;
@@ -383,18 +387,53 @@ int ub_frame_set_hop_limit(uint8_t *frame, size_t len, uint8_t hop_limit) {
  * R(e, 0) is the register of d alone advanced over the bytes after it: 10 header bytes ([50,60)) for the
  * header CRC, and 10 + the body for msg_crc (which continues the header CRC over the body). hdr_check is
  * the XOR of the header CRC's 4 bytes, also linear: it changes by the fold of the header delta. */
+/* The deltas of both checks for hop limit change `d` on a frame of `len` bytes: R(d, 0) advanced to the end of
+ * the header range, then on to the end of the body. */
+static inline void hop_deltas(uint8_t d, size_t len, ub_frame_hop_memo_t *m) {
+    uint32_t header_delta;
+    m->msg_delta = ub_crc32c_byte_delta(d, UB_FRAME_CHECKED_OFF + UB_FRAME_CHECKED_LEN - (UB_FRAME_OFF_HOP_LIMIT + 1u),
+                                        len - UB_FRAME_HEADER_LEN, &header_delta);
+    m->hdr_delta = fold_crc(header_delta);
+    m->len = (uint16_t)len;
+    m->d = d;
+}
+
+static inline void hop_apply(uint8_t *frame, uint8_t hop_limit, const ub_frame_hop_memo_t *m) {
+    frame[UB_FRAME_OFF_HOP_LIMIT] = hop_limit;
+    frame[UB_FRAME_OFF_HDR_CHECK] ^= m->hdr_delta;
+    ub_put_u32le(frame + UB_FRAME_OFF_MSG_CRC, ub_get_u32le(frame + UB_FRAME_OFF_MSG_CRC) ^ m->msg_delta);
+}
+
 int ub_frame_patch_hop_limit(uint8_t *frame, size_t len, uint8_t hop_limit) {
     if (hop_limit == 0) return UB_ERR_RANGE;
     if (frame == NULL || len < UB_FRAME_HEADER_LEN || len != ub_get_u16le(frame + UB_FRAME_OFF_MSG_SIZE))
         return UB_ERR_INVAL;
-    uint8_t d = frame[UB_FRAME_OFF_HOP_LIMIT] ^ hop_limit;
-    frame[UB_FRAME_OFF_HOP_LIMIT] = hop_limit;
-    /* R(d, 0) advanced to the end of the header range, then on to the end of the body */
-    uint32_t header_delta;
-    uint32_t msg_delta = ub_crc32c_byte_delta(d, UB_FRAME_CHECKED_OFF + UB_FRAME_CHECKED_LEN - (UB_FRAME_OFF_HOP_LIMIT + 1u),
-                                              len - UB_FRAME_HEADER_LEN, &header_delta);
-    frame[UB_FRAME_OFF_HDR_CHECK] ^= fold_crc(header_delta);
-    ub_put_u32le(frame + UB_FRAME_OFF_MSG_CRC, ub_get_u32le(frame + UB_FRAME_OFF_MSG_CRC) ^ msg_delta);
+    ub_frame_hop_memo_t m;
+    hop_deltas(frame[UB_FRAME_OFF_HOP_LIMIT] ^ hop_limit, len, &m);
+    hop_apply(frame, hop_limit, &m);
+    return UB_OK;
+}
+
+/* ub_frame_copy_hop_limit() for a change the memo does not hold (once per flow): out of line, so the memo's
+ * path keeps few registers to save. */
+static __attribute__((noinline)) int copy_hop_limit_new(uint8_t *dst, const uint8_t *src, size_t len, uint8_t hop_limit,
+                                                        ub_frame_hop_memo_t *memo) {
+    ub_frame_hop_memo_t local;
+    ub_frame_hop_memo_t *m = memo != NULL ? memo : &local;
+    hop_deltas(src[UB_FRAME_OFF_HOP_LIMIT] ^ hop_limit, len, m);
+    memcpy(dst, src, len);
+    hop_apply(dst, hop_limit, m);
+    return UB_OK;
+}
+
+int ub_frame_copy_hop_limit(uint8_t *dst, const uint8_t *src, size_t len, uint8_t hop_limit, ub_frame_hop_memo_t *memo) {
+    if (hop_limit == 0) return UB_ERR_RANGE;
+    if (dst == NULL || src == NULL || len < UB_FRAME_HEADER_LEN || len != ub_get_u16le(src + UB_FRAME_OFF_MSG_SIZE))
+        return UB_ERR_INVAL;
+    uint8_t d = src[UB_FRAME_OFF_HOP_LIMIT] ^ hop_limit;
+    if (memo == NULL || memo->len != len || memo->d != d) return copy_hop_limit_new(dst, src, len, hop_limit, memo);
+    memcpy(dst, src, len);
+    hop_apply(dst, hop_limit, memo);
     return UB_OK;
 }
 

@@ -484,7 +484,11 @@ static __attribute__((noinline)) bool transmit_shaped(ub_node_t *node, int link_
     return true;
 }
 
-static bool transmit(ub_node_t *node, int link_id, const uint8_t *frame, size_t len, uint64_t now_ms) {
+/* Hands a finished frame to link `link_id`'s transport and counts it. Inlined into its two callers (the forms
+ * loop, a plain frame on one link): a handful of tests around one indirect call, where a call of its own cost
+ * a dozen instructions per frame. */
+static inline __attribute__((always_inline)) bool transmit(ub_node_t *node, int link_id, const uint8_t *frame, size_t len,
+                                                         uint64_t now_ms) {
     ub_link_t *link = &node->links[link_id];
     if (link->ops == NULL) {
         count_drop(node, link_id, UB_DROP_DETACHED);
@@ -664,8 +668,10 @@ static void dispatch(ub_node_t *node, int slot, int link_id, const ub_frame_head
 }
 
 /* The destination's entity row (-1: unknown) in *dest_row, and its local slot (-1: not local). Every originated
- * and received frame asks, mostly for the destination of the frame before: that row is checked first. */
-static int local_destination(ub_node_t *node, const uint8_t dest_id[UB_ENTITY_ID_LEN], int *dest_row) {
+ * and received frame asks, mostly for the destination of the frame before: that row is checked first, inline
+ * in both callers (the search is the out-of-line part). */
+static inline __attribute__((always_inline)) int local_destination(ub_node_t *node, const uint8_t dest_id[UB_ENTITY_ID_LEN],
+                                                                 int *dest_row) {
     const ub_entity_row_t *last = &node->entities[node->last_dest];
     if (last->in_use && ub_priv_id_eq(last->id, dest_id)) {
         *dest_row = (int)node->last_dest;
@@ -707,10 +713,31 @@ static int stamp(ub_node_t *node, int slot, ub_frame_header_t *h, uint8_t hop_li
     return UB_OK;
 }
 
+/* The plain form of a stamped frame finished in place (as form_get() does) and sent on `link_id`: the frame is
+ * plain (no key, flags or counter bits above 32) and the link does not encrypt. Returns the links used, 0 or 1,
+ * as send_forms() would. */
+static inline int send_plain_one(ub_node_t *node, int link_id, uint8_t *frame, const ub_frame_header_t *h,
+                                 uint64_t now_ms) {
+    unsigned t = (unsigned)(h->dir_id[UB_DIR_ID_LEN - 1] ^ h->dest_id[UB_ENTITY_ID_LEN - 1]) % UB_NODE_TPL_CACHE;
+    int n = ub_frame_tpl_finish_header(&node->tpl[t], frame, UB_FRAME_MAX, h);
+    if (n <= 0) {
+        count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
+        return 0;
+    }
+    return transmit(node, link_id, frame, (size_t)n, now_ms) ? 1 : 0;
+}
+
 /* Sends a stamped frame, whose plaintext payload is in place in `frame`, on the links of `mask`: each
  * link gets the form (plain, signed, encrypted) it asks for. */
 static int send_stamped(ub_node_t *node, int slot, uint8_t mask, uint8_t *frame, const ub_frame_header_t *h,
                         uint64_t now_ms) {
+    /* One link and a plain frame it takes plain (most data): no forms to keep apart. */
+    if (mask != 0 && (mask & (mask - 1u)) == 0 && h->key_id == 0 && h->flags == 0 && h->counter_hi == 0) {
+        unsigned i = (unsigned)__builtin_ctz(mask);
+        int link_id = i < UB_MAX_LINKS_PER_ENTITY ? node->locals[slot].link_ids[i] : -1;
+        if (link_id < 0) return 0; /* send_forms() skips a bit without a link */
+        if (!node->links[link_id].encrypt) return send_plain_one(node, link_id, frame, h, now_ms);
+    }
     uint8_t alt[UB_FRAME_MAX];
     tx_forms_t f;
     f.h = h;
@@ -799,6 +826,34 @@ static __attribute__((noinline)) void on_link_local(ub_node_t *node, int link_id
         count_drop(node, link_id, drop);
 }
 
+/* A forward to one link whose transport patches the hop limit into its own buffer (ub_link_ops_t.send_hop): the
+ * frame leaves in the form it came in, which that link takes as is (it would pick the same form in send_forms()),
+ * with no compact encoding, MTU, classes or tap, each of which needs the node's own copy. Then the one copy is
+ * the transport's. Returns false, having done nothing, when the frame needs the general path. */
+static inline bool forward_direct(ub_node_t *node, const ub_local_entity_t *owner, uint8_t mask,
+                                  const ub_frame_header_t *h, const uint8_t *frame, size_t len, bool secured,
+                                  uint64_t now_ms) {
+    unsigned i = (unsigned)__builtin_ctz(mask);
+    if (i >= UB_MAX_LINKS_PER_ENTITY || owner->link_ids[i] < 0) return false;
+    int out_id = owner->link_ids[i];
+    ub_link_t *out = &node->links[out_id];
+    if (out->ops == NULL || out->ops->send_hop == NULL || out->ops->send_class != NULL || out->compact != NULL ||
+        out->mtu != 0 || node->tap != NULL)
+        return false;
+    uint8_t prot = h->flags & UB_FRAME_FLAG_PROTECT_MASK;
+    uint8_t wanted = out->encrypt ? UB_FRAME_FLAG_ENCRYPTED : secured ? UB_FRAME_FLAG_SIGNED : 0;
+    if (prot != wanted || (out->encrypt && !secured)) return false; /* another form, or a drop send_forms() counts */
+    node->counters.forwarded++;
+    int rc = out->ops->send_hop(out->impl, frame, len, (uint8_t)(h->hop_limit - 1), &node->hop_memo, now_ms);
+    if (rc < 0) {
+        count_refusal(node, out_id, rc, now_ms);
+        return true;
+    }
+    out->counters.frames_out++;
+    out->counters.bytes_out += len;
+    return true;
+}
+
 /* Routes one verified frame received on `link_id`. Returns the verdict (ub_rx_verdict_t, ub_node.h): a
  * check that refuses a frame for its origin (security, window) returns UB_VERDICT_REFUSED; a genuine copy
  * already handled UB_VERDICT_DUPLICATE; an authentic frame from a source whose freshness is not established
@@ -881,10 +936,14 @@ static ub_rx_verdict_t route_received(ub_node_t *node, int link_id, const ub_fra
         return UB_VERDICT_ACCEPTED;
     }
     bool retag = (h->flags & UB_FRAME_FLAG_ORIGIN) != 0; /* its hop tag covers the hop limit: made again below */
-    memcpy(out, frame, len);
+    if (!retag && (mask & (mask - 1u)) == 0 && forward_direct(node, owner, mask, h, frame, len, rx.secured, now_ms))
+        return UB_VERDICT_ACCEPTED;
     /* The frame was verified on the way in (decoder, ub_frame_parse() or a compact link's rebuild), so its
-     * checks are patched for the new hop limit by CRC linearity instead of recomputed (ub_frame.h). */
-    if (!retag && ub_frame_patch_hop_limit(out, len, (uint8_t)(h->hop_limit - 1)) < 0) {
+     * checks are patched for the new hop limit by CRC linearity instead of recomputed, in the copy, with the
+     * deltas of the flow's last frame when they are the same (ub_frame.h). */
+    if (retag) {
+        memcpy(out, frame, len);
+    } else if (ub_frame_copy_hop_limit(out, frame, len, (uint8_t)(h->hop_limit - 1), &node->hop_memo) < 0) {
         count_drop(node, link_id, UB_DROP_BAD_PAYLOAD);
         return UB_VERDICT_ACCEPTED;
     }

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "ub/ub_node.h"
+#include "ub/ub_wire.h"
 #include "core/ub_rng_private.h"
 
 #define PPM 1000000u
@@ -56,18 +57,36 @@ static inline void ring_push(ub_memlink_end_t *end, uint16_t index) {
     end->count++;
 }
 
-/* Queues one copy on a link without faults: due now, nothing drawn (enqueue() with every setting zero draws
- * nothing either, so the random sequence is the same). */
-static inline bool enqueue_plain(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uint64_t now_ms) {
+/* Takes a free slot of the end's queue and copies the frame into it, in send order (`order`); NULL when the queue
+ * is full (counted `overflow`). With `memo` the copy is a forward's: ub_frame_copy_hop_limit() to `hop_limit`
+ * (the caller checked the length). The caller sets the due time and then ring_push()es it: a link without
+ * faults takes it as is (no random draw), enqueue() adds its delay, jitter, reordering and corruption first. */
+static inline ub_memlink_frame_t *slot_take(ub_memlink_end_t *end, const uint8_t *frame, size_t len,
+                                            uint8_t hop_limit, ub_frame_hop_memo_t *memo, uint16_t *index) {
     if (end->n_free == 0) {
         end->stats.overflow++;
-        return false;
+        return NULL;
     }
-    uint16_t index = end->free_slots[--end->n_free];
-    ub_memlink_frame_t *slot = &end->queue[index];
-    memcpy(slot->bytes, frame, len);
+    *index = end->free_slots[--end->n_free];
+    ub_memlink_frame_t *slot = &end->queue[*index];
+    if (memo == NULL) {
+        memcpy(slot->bytes, frame, len);
+    } else {
+        int copied = ub_frame_copy_hop_limit(slot->bytes, frame, len, hop_limit, memo);
+        (void)copied; /* UB_OK: memlink_send_hop() checked the hop limit and the length */
+    }
     slot->len = len;
     slot->order = end->ml->next_order++;
+    return slot;
+}
+
+/* Queues one copy on a link without faults (a forward's with `memo`, as slot_take()): due now, nothing drawn
+ * (enqueue() with every setting zero draws nothing either, so the random sequence is the same). */
+static inline bool enqueue_plain(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uint8_t hop_limit,
+                                 ub_frame_hop_memo_t *memo, uint64_t now_ms) {
+    uint16_t index;
+    ub_memlink_frame_t *slot = slot_take(end, frame, len, hop_limit, memo, &index);
+    if (slot == NULL) return false;
     slot->due_ms = now_ms;
     ring_push(end, index);
     return true;
@@ -76,15 +95,9 @@ static inline bool enqueue_plain(ub_memlink_end_t *end, const uint8_t *frame, si
 /* Queues one copy; false when the queue is full. */
 static bool enqueue(ub_memlink_end_t *end, const uint8_t *frame, size_t len, uint64_t now_ms, bool corrupt) {
     ub_memlink_t *ml = end->ml;
-    if (end->n_free == 0) {
-        end->stats.overflow++;
-        return false;
-    }
-    uint16_t index = end->free_slots[--end->n_free];
-    ub_memlink_frame_t *slot = &end->queue[index];
-    memcpy(slot->bytes, frame, len);
-    slot->len = len;
-    slot->order = ml->next_order++;
+    uint16_t index;
+    ub_memlink_frame_t *slot = slot_take(end, frame, len, 0, NULL, &index);
+    if (slot == NULL) return false;
     slot->due_ms = now_ms + ml->faults.delay_ms + (ml->faults.jitter_ms != 0 ? random_below(ml, ml->faults.jitter_ms + 1u) : 0u);
     if (happens(ml, ml->faults.reorder_ppm)) {
         end->stats.reordered++;
@@ -107,7 +120,7 @@ static int memlink_send(void *impl, const uint8_t *frame, size_t len, uint64_t n
     const ub_memlink_faults_t *fl = &ml->faults;
     /* Read at every send, not cached: tests change the settings in place between frames. */
     if ((fl->loss_ppm | fl->duplicate_ppm | fl->reorder_ppm | fl->corrupt_ppm | fl->delay_ms | fl->jitter_ms) == 0)
-        return enqueue_plain(end, frame, len, now_ms) ? UB_OK : UB_ERR_AGAIN;
+        return enqueue_plain(end, frame, len, 0, NULL, now_ms) ? UB_OK : UB_ERR_AGAIN;
     if (happens(ml, ml->faults.loss_ppm)) {
         end->stats.lost++;
         return UB_OK; /* the wire ate it; the sender cannot know */
@@ -117,12 +130,31 @@ static int memlink_send(void *impl, const uint8_t *frame, size_t len, uint64_t n
     return UB_OK;
 }
 
+/* A forward (ub_link_ops_t.send_hop): without faults the hop limit is patched into the queue slot itself; with
+ * faults into a copy that then takes send()'s path, so loss, duplicates and corruption draw as for any frame. */
+static int memlink_send_hop(void *impl, const uint8_t *frame, size_t len, uint8_t hop_limit, ub_frame_hop_memo_t *memo,
+                            uint64_t now_ms) {
+    ub_memlink_end_t *end = impl;
+    const ub_memlink_faults_t *fl = &end->ml->faults;
+    if (len > UB_FRAME_MAX) return UB_ERR_RANGE;
+    if ((fl->loss_ppm | fl->duplicate_ppm | fl->reorder_ppm | fl->corrupt_ppm | fl->delay_ms | fl->jitter_ms) == 0) {
+        if (hop_limit == 0) return UB_ERR_RANGE;
+        if (len < UB_FRAME_HEADER_LEN || len != ub_get_u16le(frame + UB_FRAME_OFF_MSG_SIZE)) return UB_ERR_INVAL;
+        end->stats.sent++;
+        return enqueue_plain(end, frame, len, hop_limit, memo, now_ms) ? UB_OK : UB_ERR_AGAIN;
+    }
+    uint8_t out[UB_FRAME_MAX];
+    int rc = ub_frame_copy_hop_limit(out, frame, len, hop_limit, memo);
+    return rc < 0 ? rc : memlink_send(impl, out, len, now_ms);
+}
+
 static int memlink_fileno(void *impl) {
     (void)impl;
     return -1;
 }
 
-const ub_link_ops_t ub_memlink_ops = {.kind = "mem", .send = memlink_send, .fileno = memlink_fileno};
+const ub_link_ops_t ub_memlink_ops = {
+    .kind = "mem", .send = memlink_send, .fileno = memlink_fileno, .send_hop = memlink_send_hop};
 
 int ub_memlink_connect(ub_memlink_t *ml, ub_node_t *a, int link_a, ub_node_t *b, int link_b) {
     int rc = ub_node_link_attach(a, link_a, &ub_memlink_ops, &ml->end[0]);
@@ -201,37 +233,49 @@ static inline const ub_memlink_frame_t *queued_at(const ub_memlink_end_t *end, s
     return &end->queue[end->ring[(end->head + p) % UB_MEMLINK_DEPTH]];
 }
 
+/* Hands the frame at send position `p` of `from` to the node at the other end, `to`. Out of the queue first, but
+ * the slot stays taken while the node handles the frame in place: the delivery may queue replies (into other
+ * slots) on this very link. */
+static inline void deliver_at(ub_memlink_end_t *from, ub_memlink_end_t *to, long p, uint64_t now_ms) {
+    uint16_t index = take_at(from, (size_t)p);
+    from->stats.delivered++;
+    const ub_memlink_frame_t *f = &from->queue[index];
+    uint32_t resets = from->resets;
+    if (to->node != NULL && ub_node_rx_frame(to->node, to->link_id, f->bytes, f->len, now_ms) < 0)
+        from->stats.rejected++;
+    if (from->resets == resets) from->free_slots[from->n_free++] = index; /* else: freed by the disconnect */
+}
+
 size_t ub_memlink_pump(ub_memlink_t *ml, uint64_t now_ms) {
     uint64_t order_limit = ml->next_order;
     size_t delivered = 0;
     ub_memlink_end_t *e0 = &ml->end[0], *e1 = &ml->end[1];
-    for (;;) {
+    /* An end with nothing queued as the pump starts has nothing to deliver in it: what deliveries queue there is
+     * past order_limit. Then the other end's frames go in order without asking it before each one (a flow in
+     * one direction, the common case). */
+    if (e0->count == 0 || e1->count == 0) {
+        ub_memlink_end_t *from = e0->count != 0 ? e0 : e1, *to = from == e0 ? e1 : e0;
+        for (long p; (p = earliest_at(from, now_ms, order_limit)) >= 0; delivered++) deliver_at(from, to, p, now_ms);
+        return delivered;
+    }
+    for (;; delivered++) {
         /* The earliest due frame of the two ends (ties: send order), by pointer rather than by side index:
          * an index into ml->end[] multiplied by the end's size at every use. */
         long p0 = earliest_at(e0, now_ms, order_limit);
         long p1 = earliest_at(e1, now_ms, order_limit);
-        ub_memlink_end_t *from, *to;
-        long p;
         if (p1 < 0) {
             if (p0 < 0) break;
-            from = e0, to = e1, p = p0;
+            deliver_at(e0, e1, p0, now_ms);
         } else if (p0 < 0) {
-            from = e1, to = e0, p = p1;
+            deliver_at(e1, e0, p1, now_ms);
         } else {
             const ub_memlink_frame_t *a = queued_at(e0, (size_t)p0), *b = queued_at(e1, (size_t)p1);
             bool second = b->due_ms < a->due_ms || (b->due_ms == a->due_ms && b->order < a->order);
-            from = second ? e1 : e0, to = second ? e0 : e1, p = second ? p1 : p0;
+            if (second)
+                deliver_at(e1, e0, p1, now_ms);
+            else
+                deliver_at(e0, e1, p0, now_ms);
         }
-        /* Out of the queue first, but the slot stays taken while the node handles the frame in place: the
-         * delivery may queue replies (into other slots) on this very link. */
-        uint16_t index = take_at(from, (size_t)p);
-        from->stats.delivered++;
-        delivered++;
-        const ub_memlink_frame_t *f = &from->queue[index];
-        uint32_t resets = from->resets;
-        if (to->node != NULL && ub_node_rx_frame(to->node, to->link_id, f->bytes, f->len, now_ms) < 0)
-            from->stats.rejected++;
-        if (from->resets == resets) from->free_slots[from->n_free++] = index; /* else: freed by the disconnect */
     }
     return delivered;
 }

@@ -51,14 +51,14 @@ int ub_admin_init(ub_admin_t *adm, ub_node_t *node, int entity, const ub_admin_o
     if (adm->opt.max_stop_retries == 0) adm->opt.max_stop_retries = UB_PS_DEFAULT_STOP_RETRIES;
     adm->node = node;
     adm->entity = entity;
-    ub_node_svc_pubsub_table(node, slot)->admin = adm;
+    ub_priv_pubsub_set_admin(node, slot, adm);
     return UB_OK;
 }
 
 void ub_admin_detach(ub_admin_t *adm) {
     if (adm == NULL || adm->node == NULL) return;
     int slot = ub_node_entity_slot(adm->node, adm->entity);
-    if (slot >= 0 && ub_node_svc_pubsub_table(adm->node, slot)->admin == adm) ub_node_svc_pubsub_table(adm->node, slot)->admin = NULL;
+    if (slot >= 0 && ub_node_svc_pubsub_table(adm->node, slot)->admin == adm) ub_priv_pubsub_set_admin(adm->node, slot, NULL);
     adm->node = NULL;
 }
 

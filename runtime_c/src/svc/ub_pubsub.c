@@ -626,18 +626,28 @@ static bool pubsub_may_write(const ub_service_t *svc, const ub_node_t *node, int
 
 /* ---- data and time ----------------------------------------------------- */
 
+void ub_priv_pubsub_set_admin(ub_node_t *node, int slot, ub_admin_t *adm) {
+    table_of(node, slot)->admin = adm;
+    _Static_assert(UB_MAX_LOCAL_ENTITIES <= 32, "admin_slots holds one bit per local slot");
+    uint32_t mask = 0;
+    for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++)
+        if (table_of(node, s)->admin != NULL) mask |= 1u << s;
+    for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) table_of(node, s)->admin_slots = mask;
+}
+
 /* DATA of `instance` from `src_id` was unpacked for local slot `slot`: the subscription bookkeeping. */
 static void pubsub_on_data(const ub_service_t *svc, ub_node_t *node, int slot, uint32_t instance,
                            const uint8_t src_id[UB_ENTITY_ID_LEN], uint64_t now_ms) {
     (void)svc;
+    ub_pubsub_table_t *t = table_of(node, slot);
     /* Administration rows whose data this is (not stale). This runs for every delivered frame, and most
-     * nodes host no administration table: the table pointer is read first, the slot asked only when set. */
-    for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) {
+     * nodes host no administration table: the slots that have one are a mask in every table. */
+    for (uint32_t bits = t->admin_slots; bits != 0; bits &= bits - 1) {
+        int s = __builtin_ctz(bits);
         ub_admin_t *adm = table_of(node, s)->admin;
         if (adm != NULL && ub_node_slot_entity(node, s) >= 0)
             ub_priv_admin_on_data(adm, instance, src_id, self_id(node, slot), now_ms);
     }
-    ub_pubsub_table_t *t = table_of(node, slot);
     int r = find_row(t, UB_PS_SUBSCRIPTION, instance, src_id, false);
     if (r < 0) return;
     ub_ps_row_t *row = &t->rows[r];

@@ -48,6 +48,10 @@ bool ub_priv_admin_routes_to(const ub_admin_t *adm, uint32_t instance, const uin
 
 void ub_priv_admin_tick(ub_admin_t *adm, uint64_t now_ms);
 
+/* Attaches `adm` (NULL: detaches) as local slot `slot`'s administration table and brings every table's
+ * admin_slots up to date (ub_pubsub_table_t): the only writer of both. */
+void ub_priv_pubsub_set_admin(ub_node_t *node, int slot, ub_admin_t *adm);
+
 /* DATA of `instance` from `src_id` reached local entity `dest_id`: the rows it stands for are not stale. */
 void ub_priv_admin_on_data(ub_admin_t *adm, uint32_t instance, const uint8_t src_id[UB_ENTITY_ID_LEN],
                            const uint8_t dest_id[UB_ENTITY_ID_LEN], uint64_t now_ms);
