@@ -413,8 +413,8 @@ static void select_route(ub_route_t *rt, int slot, int e, uint64_t now_ms) {
     else ds->starve_at_ms = 0;
     /* No seqno request is sent merely because the selected link is in doubt: tried (one per hello, then one
      * per update interval per destination), each request bumps the destination's seqno and its triggered
-     * updates echo fleet-wide, which broke the routing-frame budget of the 14-entity demo fleet (1.15-1.2
-     * frames per hello against 1.1, tests/system/test_fleet_demo.py). A starving destination (no feasible
+     * updates echoed fleet-wide (before seqno_changed()), which broke the routing-frame budget of the 14-entity
+     * demo fleet (1.15-1.2 frames per hello against 1.1, tests/system/test_fleet_demo.py). A starving destination (no feasible
      * successor at all) still asks, above; while in doubt the data goes on every feasible successor. */
     retime(rt, e);
     if (ds->starve_at_ms != 0) mark_dest(rt, slot, e); /* starving: every selection may ask again (time-dependent) */
