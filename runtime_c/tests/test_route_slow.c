@@ -339,8 +339,22 @@ static void test_a_stall_past_the_hello_timeout_is_a_failure(void **state) {
     totals_t d = stalled_run(f, 5000u, 700u, 60000u, &late);
     print_totals("stalled up to 700 ms", &(totals_t){0}, &d, f->stalls);
     assert_true(d.lost_down > 0);
-    /* Every loss is counted with its cause. */
+    /* Every loss is counted with its cause, and every request received with what became of it. */
     assert_int_equal(d.lost, d.lost_down + d.lost_gone + d.lost_retr + d.lost_unf);
+    uint64_t in = 0, outcomes = 0;
+    for (int k = 0; k < N; k++) {
+        const ub_route_counters_t *c = ub_route_counters(&f->rt[k]);
+        outcomes += c->requests_forwarded + c->requests_answered + c->requests_dropped + c->requests_suppressed;
+        for (size_t e = 0; e < f->n_edges; e++) {
+            ub_route_link_info_t li;
+            int lid = f->ea[e] == k ? f->la[e] : f->eb[e] == k ? f->lb[e] : -1;
+            if (lid < 0) continue;
+            assert_int_equal(ub_route_link_info(&f->rt[k], lid, &li), UB_OK);
+            in += li.stats.requests_in;
+        }
+    }
+    assert_true(in > 0);
+    assert_int_equal(in, outcomes);
     slow_run(f, 20u * HELLO_MS);
     assert_true(all_reach(f)); /* and the fleet is whole again once nobody stalls */
     slow_fleet_free(f);

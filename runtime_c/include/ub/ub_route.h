@@ -188,6 +188,8 @@ typedef struct ub_route_counters {
     uint64_t owed_request_answer; /**< triggered: answering a neighbour's request with our route or own seqno */
     uint64_t seqno_deferred;      /**< not triggered: a new seqno nobody on that link asked for, carried by the
                                        link's next regular frame (RFC 8966 3.7.2) */
+    uint64_t requests_suppressed; /**< requests not forwarded: the same seqno (or an older one) was forwarded less than
+                                       a hello interval ago or is still waiting to go (its asker is remembered) */
 } ub_route_counters_t;
 
 /** Per-link state. Private: read it with ub_route_link_info(). */

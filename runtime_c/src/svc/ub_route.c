@@ -594,6 +594,8 @@ static void on_request(ub_route_t *rt, int slot, int link_id, const uint8_t *fro
             set_owed(rt, slot, e, ds->dirty_links, (uint8_t)(ds->req_links | (1u << out->index)));
             ds->req_at_ms = now_ms;
             rt->counters.requests_forwarded++;
+        } else {
+            rt->counters.requests_suppressed++;
         }
     } else {
         rt->counters.requests_dropped++;

@@ -69,6 +69,7 @@ typedef struct ub_route_counters {
     uint64_t owed_seqno_asked;
     uint64_t owed_request_answer;
     uint64_t seqno_deferred;
+    uint64_t requests_suppressed;
     ...;
 } ub_route_counters_t;
 
