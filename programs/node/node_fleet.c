@@ -461,10 +461,15 @@ static void event_routes(uint64_t now_ms) {
             ",\"unfeasible\":%" PRIu64 ",\"expired\":%" PRIu64 ",\"starvation_requests\":%" PRIu64
             ",\"seqno_bumps\":%" PRIu64 ",\"learned\":%" PRIu64 ",\"learn_full\":%" PRIu64 ",\"learn_expired\":%" PRIu64
             ",\"pinned_skips\":%" PRIu64 ",\"neighbour_limit\":%" PRIu64 ",\"dest_refused\":%" PRIu64
-            ",\"link_evidence_down\":%" PRIu64 ",\"link_doubts\":%" PRIu64 "}",
+            ",\"link_evidence_down\":%" PRIu64 ",\"link_doubts\":%" PRIu64
+            ",\"lost_link_down\":%" PRIu64 ",\"lost_entry_gone\":%" PRIu64 ",\"lost_retracted\":%" PRIu64
+            ",\"lost_unfeasible\":%" PRIu64 ",\"owed_route_change\":%" PRIu64 ",\"owed_seqno_asked\":%" PRIu64
+            ",\"owed_request_answer\":%" PRIu64 ",\"seqno_deferred\":%" PRIu64 ",\"requests_suppressed\":%" PRIu64 "}",
             c->route_changes, c->routes_found, c->routes_lost, c->unfeasible, c->expired, c->starvation_requests,
             c->seqno_bumps, c->learned, c->learn_full, c->learn_expired, c->pinned_skips, c->neighbour_limit,
-            c->dest_refused, c->link_evidence_down, c->link_doubts);
+            c->dest_refused, c->link_evidence_down, c->link_doubts, c->lost_link_down, c->lost_entry_gone,
+            c->lost_retracted, c->lost_unfeasible, c->owed_route_change, c->owed_seqno_asked, c->owed_request_answer,
+            c->seqno_deferred, c->requests_suppressed);
     }
     const ub_node_counters_t *n = ub_node_counters(g_node_p);
     ub_app_out(g_app, ",\"membership\":{\"entities_added\":%" PRIu64 ",\"entities_removed\":%" PRIu64 ",\"links_added\":%" PRIu64

@@ -6,7 +6,7 @@
 
 set(UB_ROUTER_TESTS test_node test_router test_pubsub test_admin test_memlink test_table1 test_faults test_loops test_handover
                     test_layout test_noalloc test_authz test_route test_member test_rxring test_route_due
-                    test_memlink_edges test_route_scale)
+                    test_memlink_edges test_route_scale test_route_slow)
 foreach(t ${UB_ROUTER_TESTS})
   if(TARGET ${t})
     target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c

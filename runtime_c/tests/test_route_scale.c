@@ -2,9 +2,9 @@
  * The routing service's bookkeeping for cost at scale (docs/routing.md, "Cost at scale"):
  *  - ub_timeheap.h against a brute-force model under random operations (min, get, the due list in item order);
  *  - on a routing fleet that converges, loses a link, starves and learns and forgets entities, after every
- *    step each node's heap holds exactly the deadlines a scan of its tables gives (the scan route_timers() and
- *    next_due used to do), the per-link owed counts match the destinations' dirty/request bits and the per-link
- *    route-entry counts match the route table;
+ *    step each node's heap holds exactly the earliest of the route table's documented timers (stated here in the
+ *    test's own terms, each interval checked when the table records its moment), the per-link owed counts match
+ *    the destinations' dirty/request/lazy bits and the per-link route-entry counts match the route table;
  *  - the node's entity index (ID -> row) against a scan of the entity table under random adds and removes.
  */
 #include <setjmp.h>
@@ -104,24 +104,76 @@ static void test_timeheap_due_respects_cap(void **state) {
 
 #define HELLO_MS 100u
 
-/* The deadline route_timers() acts on for entity e: the scan route_next_due() did before the heap. */
-static uint64_t scan_deadline(const ub_route_t *rt, int e) {
-    uint64_t best = UB_TIMEHEAP_NONE;
-    if (rt->learned[e] && rt->advertised_ms[e] + rt->opt.learn_expiry_ms < best) best = rt->advertised_ms[e] + rt->opt.learn_expiry_ms;
+/*
+ * The oracle: the route table's timers as docs/routing.md ("Updates and timers", "Learning", "Starvation") states
+ * them, each armed by what the table records and due at the moment it records plus the documented interval:
+ *
+ *   learned entity      removed learn_expiry_ms after the last update that advertised a route to it
+ *   route entry         expires 3.5 neighbour update intervals after the update that refreshed it
+ *   retraction          advertised for 2 update intervals after the route was lost, then dropped
+ *   starvation          a new seqno request one hello interval after the last one, while starving
+ *   feasibility dist.   forgotten source_gc_ms after it was last advertised, while unreachable and not retracting
+ *
+ * The moments are read from the table, but the intervals are the test's own: watch() checks each moment when the
+ * table records it (a refresh at t must expire at t + 3.5 x the neighbour's update interval, a loss at t must end its
+ * retraction at t + 2 x update_ms, ...), so a wrong interval or a timer the engine forgot to arm fails here instead
+ * of being copied into the oracle.
+ */
+typedef struct shadow {
+    uint64_t expires[UB_MAX_ENTITIES][UB_MAX_NODE_LINKS];
+    uint8_t retracting[UB_MAX_LOCAL_ENTITIES][UB_MAX_ENTITIES];
+    uint64_t starve_at[UB_MAX_LOCAL_ENTITIES][UB_MAX_ENTITIES];
+    uint64_t fd_touched[UB_MAX_LOCAL_ENTITIES][UB_MAX_ENTITIES];
+    uint64_t advertised[UB_MAX_ENTITIES];
+} shadow_t;
+
+static void earliest(uint64_t *best, uint64_t t) {
+    if (t < *best) *best = t;
+}
+
+static uint64_t documented_deadline(const ub_route_t *rt, int e) {
+    const ub_route_options_t *o = &rt->opt;
+    uint64_t due = UB_TIMEHEAP_NONE;
+    if (rt->learned[e]) earliest(&due, rt->advertised_ms[e] + o->learn_expiry_ms);
     for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++)
-        if (rt->routes[e][lid].in_use && rt->routes[e][lid].expires_ms < best) best = rt->routes[e][lid].expires_ms;
+        if (rt->routes[e][lid].in_use) earliest(&due, rt->routes[e][lid].expires_ms);
     for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) {
         const ub_route_dest_t *ds = &rt->dests[s][e];
-        if (ds->retracting && ds->retract_until_ms < best) best = ds->retract_until_ms;
-        if (ds->starve_at_ms != 0 && ds->starve_at_ms + rt->opt.hello_ms < best) best = ds->starve_at_ms + rt->opt.hello_ms;
-        if (ds->fd_valid && ds->sel_link < 0 && !ds->retracting && ds->fd_touched_ms + rt->opt.source_gc_ms < best)
-            best = ds->fd_touched_ms + rt->opt.source_gc_ms;
+        bool reachable = ds->sel_link >= 0, starving = ds->starve_at_ms != 0;
+        if (ds->retracting) earliest(&due, ds->retract_until_ms);
+        if (starving) earliest(&due, ds->starve_at_ms + o->hello_ms);
+        if (ds->fd_valid && !reachable && !ds->retracting) earliest(&due, ds->fd_touched_ms + o->source_gc_ms);
     }
-    return best;
+    return due;
+}
+
+/* After a step to `now`: every moment the table recorded in this step carries the documented interval. */
+static void watch(const ub_route_t *rt, shadow_t *sh, uint64_t now) {
+    const ub_route_options_t *o = &rt->opt;
+    for (int e = 0; e < UB_MAX_ENTITIES; e++) {
+        for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) {
+            const ub_route_entry_t *r = &rt->routes[e][lid];
+            uint64_t was = sh->expires[e][lid];
+            sh->expires[e][lid] = r->in_use ? r->expires_ms : 0;
+            if (r->in_use && r->expires_ms != was) /* refreshed now: 3.5 of the neighbour's update intervals */
+                assert_true(r->expires_ms == now + rt->links[lid].nb_update_ms * 7u / 2u);
+        }
+        if (rt->learned[e] && rt->advertised_ms[e] != sh->advertised[e]) assert_true(rt->advertised_ms[e] == now);
+        sh->advertised[e] = rt->advertised_ms[e];
+        for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) {
+            const ub_route_dest_t *ds = &rt->dests[s][e];
+            if (ds->retracting && !sh->retracting[s][e]) assert_true(ds->retract_until_ms == now + 2u * o->update_ms);
+            sh->retracting[s][e] = ds->retracting;
+            if (ds->starve_at_ms != 0 && ds->starve_at_ms != sh->starve_at[s][e]) assert_true(ds->starve_at_ms == now);
+            sh->starve_at[s][e] = ds->starve_at_ms;
+            if (ds->fd_valid && ds->fd_touched_ms != sh->fd_touched[s][e]) assert_true(ds->fd_touched_ms == now);
+            sh->fd_touched[s][e] = ds->fd_touched_ms;
+        }
+    }
 }
 
 static void check_bookkeeping(const ub_route_t *rt) {
-    for (int e = 0; e < UB_MAX_ENTITIES; e++) assert_true(ub_timeheap_get(&rt->timers, (unsigned)e) == scan_deadline(rt, e));
+    for (int e = 0; e < UB_MAX_ENTITIES; e++) assert_true(ub_timeheap_get(&rt->timers, (unsigned)e) == documented_deadline(rt, e));
     for (int lid = 0; lid < UB_MAX_NODE_LINKS; lid++) {
         unsigned in_use = 0;
         for (int e = 0; e < UB_MAX_ENTITIES; e++) in_use += rt->routes[e][lid].in_use != 0;
@@ -129,13 +181,15 @@ static void check_bookkeeping(const ub_route_t *rt) {
     }
     for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++)
         for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) {
-            unsigned dirty = 0, req = 0;
+            unsigned dirty = 0, req = 0, lazy = 0;
             for (int e = 0; e < UB_MAX_ENTITIES; e++) {
                 dirty += (rt->dests[s][e].dirty_links >> i) & 1u;
                 req += (rt->dests[s][e].req_links >> i) & 1u;
+                lazy += (rt->dests[s][e].lazy_links >> i) & 1u;
             }
             assert_int_equal(rt->owed_dirty[s][i], dirty);
             assert_int_equal(rt->owed_req[s][i], req);
+            assert_int_equal(rt->owed_lazy[s][i], lazy);
         }
 }
 
@@ -145,6 +199,7 @@ typedef struct fleet {
     int self[WORLD_MAX_NODES];
     unsigned next_index[WORLD_MAX_NODES];
     int link_a[WORLD_MAX_LINKS];
+    shadow_t shadow[WORLD_MAX_NODES];
 } fleet_t;
 
 static int connect(fleet_t *f, int a, int b) {
@@ -163,7 +218,10 @@ static int connect(fleet_t *f, int a, int b) {
 static void run_checked(fleet_t *f, size_t n, uint64_t until_ms) {
     while (f->w->now_ms < until_ms) {
         world_run(f->w, f->w->now_ms + 1, 1);
-        for (size_t i = 0; i < n; i++) check_bookkeeping(&f->rt[i]);
+        for (size_t i = 0; i < n; i++) {
+            watch(&f->rt[i], &f->shadow[i], f->w->now_ms);
+            check_bookkeeping(&f->rt[i]);
+        }
     }
 }
 

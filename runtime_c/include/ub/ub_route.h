@@ -177,6 +177,19 @@ typedef struct ub_route_counters {
     uint64_t dest_refused;        /**< entries ignored: the accept_dest filter refused the destination */
     uint64_t link_evidence_down;  /**< links taken down at once by transport evidence (ub_node_link_event()) */
     uint64_t link_doubts;         /**< links put in doubt by a gap in their neighbour's frames */
+    /* Why routes were lost (the four sum to routes_lost): what had become of the selected route. */
+    uint64_t lost_link_down;      /**< its link went down (missed hellos, no IHU, a link event) */
+    uint64_t lost_entry_gone;     /**< its entry expired or its neighbour was forgotten */
+    uint64_t lost_retracted;      /**< its neighbour retracted it */
+    uint64_t lost_unfeasible;     /**< its neighbour's metric rose to our feasibility distance or above */
+    /* Why entries were owed to links (per destination and link; a triggered frame carries every owed one). */
+    uint64_t owed_route_change;   /**< triggered: a route appeared, was lost, or its metric changed a lot */
+    uint64_t owed_seqno_asked;    /**< triggered: a new seqno toward a neighbour that asked for it */
+    uint64_t owed_request_answer; /**< triggered: answering a neighbour's request with our route or own seqno */
+    uint64_t seqno_deferred;      /**< not triggered: a new seqno nobody on that link asked for, carried by the
+                                       link's next regular frame (RFC 8966 3.7.2) */
+    uint64_t requests_suppressed; /**< requests not forwarded: the same seqno (or an older one) was forwarded less than
+                                       a hello interval ago or is still waiting to go (its asker is remembered) */
 } ub_route_counters_t;
 
 /** Per-link state. Private: read it with ub_route_link_info(). */
@@ -230,6 +243,11 @@ typedef struct ub_route_dest {
     uint8_t fd_valid;
     uint8_t dirty_links;     /* bit i: link[i] still owes a triggered entry */
     uint8_t req_links;       /* bit i: a seqno request is to go on link[i] */
+    uint8_t lazy_links;      /* bit i: link[i] owes an entry at its next regular frame, not a triggered one (a new
+                                seqno nobody on that link asked for: RFC 8966 3.7.2) */
+    uint8_t asked_links;     /* bit i: the neighbour on link[i] asked for seqno >= asked_seqno (a request we forwarded
+                                or suppressed as a duplicate): the new seqno goes to it as a triggered entry */
+    uint16_t asked_seqno;
     uint8_t req_hops;
     uint8_t mask;            /* last mask computed */
     uint8_t bounce;          /* last bounce mask written (ub_node_set_bounce_mask()) */
@@ -280,6 +298,7 @@ typedef struct ub_route {
     ub_timeheap_t timers;
     uint16_t owed_dirty[UB_MAX_LOCAL_ENTITIES][UB_MAX_LINKS_PER_ENTITY];
     uint16_t owed_req[UB_MAX_LOCAL_ENTITIES][UB_MAX_LINKS_PER_ENTITY];
+    uint16_t owed_lazy[UB_MAX_LOCAL_ENTITIES][UB_MAX_LINKS_PER_ENTITY]; /* ... an entry at the next regular frame */
     /* Incremental route choice: a selection chooses again only the destinations whose inputs changed (bit set:
      * a route entry, the feasibility distance, a request, a starving destination's retry), or every one when a
      * link's cost, neighbour or doubt changed since the last selection (link_sig) or resel_full is set. */

@@ -122,6 +122,17 @@ static void set_owed(ub_route_t *rt, int slot, int e, uint8_t dirty, uint8_t req
     ds->req_links = req;
 }
 
+/* Writes dests[slot][e].lazy_links, keeping the per-link counts send_frame() reads. */
+static void set_lazy(ub_route_t *rt, int slot, int e, uint8_t lazy) {
+    ub_route_dest_t *ds = &rt->dests[slot][e];
+    for (uint8_t ch = (uint8_t)(ds->lazy_links ^ lazy); ch != 0; ch &= (uint8_t)(ch - 1u)) {
+        unsigned i = (unsigned)__builtin_ctz(ch);
+        if (lazy & (1u << i)) rt->owed_lazy[slot][i]++;
+        else rt->owed_lazy[slot][i]--;
+    }
+    ds->lazy_links = lazy;
+}
+
 /* ---- link quality (RFC 8966 3.4, A.2.2) ------------------------------------------------------------ */
 
 /* Whether the last `dead_misses` expected hellos were all missed. */
@@ -213,8 +224,30 @@ static bool feasible(const ub_route_dest_t *ds, uint16_t seqno, uint16_t metric)
     return seq_newer(seqno, ds->fd_seqno) || (seqno == ds->fd_seqno && metric < ds->fd_metric);
 }
 
+/* A route change every neighbour must hear now: a triggered entry on every link. */
 static void make_dirty(ub_route_t *rt, int slot, int e) {
     set_owed(rt, slot, e, all_link_bits(rt, slot), rt->dests[slot][e].req_links);
+    rt->dests[slot][e].asked_links = 0; /* answered too */
+    rt->counters.owed_route_change++;
+}
+
+/* Only the seqno changed (a source raised it for someone's request): RFC 8966 3.7.2 -- a node does not send
+ * triggered updates to propagate a new seqno, except to satisfy a request. The links whose neighbour asked for it
+ * get a triggered entry; every other link gets it on its next regular frame (no extra frame: the hello that is due
+ * anyway carries it). Triggering it everywhere made each request echo over every link of the fleet. */
+static void seqno_changed(ub_route_t *rt, int slot, int e, uint16_t seqno) {
+    ub_route_dest_t *ds = &rt->dests[slot][e];
+    uint8_t asked = ds->asked_links != 0 && !seq_newer(ds->asked_seqno, seqno) ? ds->asked_links : 0;
+    uint8_t rest = (uint8_t)(all_link_bits(rt, slot) & ~asked & ~ds->dirty_links);
+    if (asked != 0) {
+        set_owed(rt, slot, e, (uint8_t)(ds->dirty_links | asked), ds->req_links);
+        ds->asked_links = 0;
+        rt->counters.owed_seqno_asked++;
+    }
+    if (rest != 0) {
+        set_lazy(rt, slot, e, (uint8_t)(ds->lazy_links | rest));
+        rt->counters.seqno_deferred++;
+    }
 }
 
 /* Asks the neighbours of `slot` for a newer seqno of `e` (starvation, RFC 8966 3.8.2.1); once per hello. */
@@ -350,7 +383,8 @@ static void select_route(ub_route_t *rt, int slot, int e, uint64_t now_ms) {
         uint16_t seqno = rt->routes[e][best].seqno;
         uint16_t old = ds->metric;
         uint16_t delta = best_metric > old ? (uint16_t)(best_metric - old) : (uint16_t)(old - best_metric);
-        bool significant = !had || ds->retracting || seqno != ds->seqno || delta > UB_ROUTE_LINK_COST / 4u + old / 4u;
+        bool significant = !had || ds->retracting || delta > UB_ROUTE_LINK_COST / 4u + old / 4u;
+        bool new_seqno = seqno != ds->seqno;
         if (had && best != ds->sel_link &&
             memcmp(rt->links[best].nb_id, rt->links[ds->sel_link].nb_id, UB_ENTITY_ID_LEN) != 0)
             rt->counters.route_changes++;
@@ -360,7 +394,14 @@ static void select_route(ub_route_t *rt, int slot, int e, uint64_t now_ms) {
         ds->seqno = seqno;
         ds->retracting = 0;
         if (significant) make_dirty(rt, slot, e);
+        else if (new_seqno) seqno_changed(rt, slot, e, seqno);
     } else if (had) {
+        /* Why the selected route is gone (counted per cause: a loss is what sets off starvation and requests). */
+        const ub_route_entry_t *r0 = &rt->routes[e][ds->sel_link];
+        if (!r0->in_use) rt->counters.lost_entry_gone++;
+        else if (r0->metric == INF) rt->counters.lost_retracted++;
+        else if (cost_of(rt, &rt->links[ds->sel_link]) == INF) rt->counters.lost_link_down++;
+        else rt->counters.lost_unfeasible++;
         ds->sel_link = -1;
         ds->metric = INF;
         ds->retracting = 1;
@@ -372,8 +413,8 @@ static void select_route(ub_route_t *rt, int slot, int e, uint64_t now_ms) {
     else ds->starve_at_ms = 0;
     /* No seqno request is sent merely because the selected link is in doubt: tried (one per hello, then one
      * per update interval per destination), each request bumps the destination's seqno and its triggered
-     * updates echo fleet-wide, which broke the routing-frame budget of the 14-entity demo fleet (1.15-1.2
-     * frames per hello against 1.1, tests/system/test_fleet_demo.py). A starving destination (no feasible
+     * updates echoed fleet-wide (before seqno_changed()), which broke the routing-frame budget of the 14-entity
+     * demo fleet (1.15-1.2 frames per hello against 1.1, tests/system/test_fleet_demo.py). A starving destination (no feasible
      * successor at all) still asks, above; while in doubt the data goes on every feasible successor. */
     retime(rt, e);
     if (ds->starve_at_ms != 0) mark_dest(rt, slot, e); /* starving: every selection may ask again (time-dependent) */
@@ -518,8 +559,17 @@ static void on_request(ub_route_t *rt, int slot, int link_id, const uint8_t *fro
             rt->seqno[here] = seqno;
             rt->counters.seqno_bumps++;
         }
-        for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++)
-            if ((ub_node_slot_entity(rt->node, s) >= 0)) make_dirty(rt, s, e);
+        /* The answer goes at once to the link the request came in on (it leads back to the requester); the other
+         * links hear the new seqno at their next regular frame (seqno_changed()'s reason). */
+        const ub_link_t *from_link = node_link(rt, link_id);
+        for (int s = 0; s < UB_MAX_LOCAL_ENTITIES; s++) {
+            if (ub_node_slot_entity(rt->node, s) < 0) continue;
+            ub_route_dest_t *d = &rt->dests[s][e];
+            uint8_t now_bits = s == slot ? (uint8_t)(1u << from_link->index) : 0;
+            set_owed(rt, s, e, (uint8_t)(d->dirty_links | now_bits), d->req_links);
+            set_lazy(rt, s, e, (uint8_t)(d->lazy_links | (all_link_bits(rt, s) & ~now_bits & ~d->dirty_links)));
+        }
+        rt->counters.owed_request_answer++;
         rt->counters.requests_answered++;
         return;
     }
@@ -529,9 +579,13 @@ static void on_request(ub_route_t *rt, int slot, int link_id, const uint8_t *fro
         rt->counters.requests_dropped++;
     } else if (!seq_newer(seqno, ds->seqno)) {
         set_owed(rt, slot, e, (uint8_t)(ds->dirty_links | (1u << in->index)), ds->req_links); /* we have it: answer with our route */
+        rt->counters.owed_request_answer++;
         rt->counters.requests_answered++;
     } else if (hops > 1 && memcmp(rt->links[ds->sel_link].nb_id, from, UB_ENTITY_ID_LEN) != 0) {
         const ub_link_t *out = node_link(rt, ds->sel_link);
+        /* Remember who asked: the new seqno goes back to it as a triggered entry (seqno_changed()). */
+        if (ds->asked_links == 0 || seq_newer(seqno, ds->asked_seqno)) ds->asked_seqno = seqno;
+        ds->asked_links |= (uint8_t)(1u << in->index);
         bool again = ds->req_links != 0 && !seq_newer(seqno, ds->req_seqno);
         bool recent = ds->req_at_ms != 0 && now_ms < ds->req_at_ms + rt->opt.hello_ms && !seq_newer(seqno, ds->req_seqno);
         if (!again && !recent) {
@@ -540,6 +594,8 @@ static void on_request(ub_route_t *rt, int slot, int link_id, const uint8_t *fro
             set_owed(rt, slot, e, ds->dirty_links, (uint8_t)(ds->req_links | (1u << out->index)));
             ds->req_at_ms = now_ms;
             rt->counters.requests_forwarded++;
+        } else {
+            rt->counters.requests_suppressed++;
         }
     } else {
         rt->counters.requests_dropped++;
@@ -714,10 +770,14 @@ static void send_frame(ub_route_t *rt, int link_id, bool triggered, uint64_t now
         n_req++;
     }
     uint8_t *ent = buf + UB_ROUTE_HDR_LEN;
-    for (int e = 0; rt->owed_dirty[slot][link->index] != 0 && e < UB_MAX_ENTITIES && n_upd + n_req < MAX_ENTRIES; e++) {
+    /* Owed entries: the triggered ones, and those waiting for a regular frame (any frame that goes takes them). */
+    for (int e = 0; rt->owed_dirty[slot][link->index] + rt->owed_lazy[slot][link->index] != 0 && e < UB_MAX_ENTITIES &&
+                    n_upd + n_req < MAX_ENTRIES;
+         e++) {
         ub_route_dest_t *ds = &rt->dests[slot][e];
-        if (!(ds->dirty_links & bit)) continue;
+        if (!((ds->dirty_links | ds->lazy_links) & bit)) continue;
         set_owed(rt, slot, e, (uint8_t)(ds->dirty_links & ~bit), ds->req_links);
+        set_lazy(rt, slot, e, (uint8_t)(ds->lazy_links & ~bit));
         if (!advertised(rt, slot, e, &seqno, &metric)) continue;
         put_update(rt, slot, e, ent + n_upd * UB_ROUTE_ENTRY_LEN, seqno, metric, now_ms);
         in_frame[e] = 1;
@@ -994,6 +1054,7 @@ static void route_forget_entity(const ub_service_t *svc, ub_node_t *node, int en
     }
     for (int slot = 0; slot < UB_MAX_LOCAL_ENTITIES; slot++) {
         set_owed(rt, slot, entity, 0, 0);
+        set_lazy(rt, slot, entity, 0);
         memset(&rt->dests[slot][entity], 0, sizeof(ub_route_dest_t));
         rt->dests[slot][entity].sel_link = -1;
         mark_dest(rt, slot, entity);
@@ -1028,8 +1089,10 @@ static void route_forget_link(const ub_service_t *svc, ub_node_t *node, int link
     if (link != NULL) {
         uint8_t bit = (uint8_t)(1u << link->index);
         for (int e = 0; e < UB_MAX_ENTITIES; e++) {
-            const ub_route_dest_t *ds = &rt->dests[link->owner][e];
+            ub_route_dest_t *ds = &rt->dests[link->owner][e];
             set_owed(rt, link->owner, e, (uint8_t)(ds->dirty_links & ~bit), (uint8_t)(ds->req_links & ~bit));
+            set_lazy(rt, link->owner, e, (uint8_t)(ds->lazy_links & ~bit));
+            ds->asked_links &= (uint8_t)~bit;
         }
     }
     memset(&rt->links[link_id], 0, sizeof rt->links[link_id]);

@@ -61,6 +61,15 @@ typedef struct ub_route_counters {
     uint64_t dest_refused;
     uint64_t link_evidence_down;
     uint64_t link_doubts;
+    uint64_t lost_link_down;
+    uint64_t lost_entry_gone;
+    uint64_t lost_retracted;
+    uint64_t lost_unfeasible;
+    uint64_t owed_route_change;
+    uint64_t owed_seqno_asked;
+    uint64_t owed_request_answer;
+    uint64_t seqno_deferred;
+    uint64_t requests_suppressed;
     ...;
 } ub_route_counters_t;
 
