@@ -126,6 +126,7 @@ typedef struct ub_port_spec {
     uint16_t mtu;                     /**< 0: no limit */
     uint8_t prio;                     /**< prio=1: send by priority class at the port's byte rate (serial: baud / 10) */
     uint8_t batch;                    /**< udp batch=1: several frames per datagram, sent at each flush (ub_udp_set_batching()) */
+    uint32_t rcvbuf;                  /**< udp rcvbuf=BYTES: the socket's receive buffer (ub_udp_set_rcvbuf()); 0: the system's */
 } ub_port_spec_t;
 
 #define UB_PORT_ENCODING_FULL 0u

@@ -232,6 +232,9 @@ class ZenohBridge:
         self._clock = node._clock  # the node's clock in ms (node.now() without its call)
         self._drain = None if node._ports is None else ub_ports.new_drain(
             self._wake_r, idle_us, age_us, ub_batchlink.pending_bytes_ptr(self._bl), batch_bytes)
+        # Site ports with batch=1 (docs/bridges.md): a sample taken on a Zenoh thread is flushed there, so
+        # its frames share datagrams and none waits for the loop's next turn.
+        self._site_batching = node._batching
         self._lock = threading.Lock()
         # Held by whoever touches the node: the loop during its turn (run()), a Zenoh thread taking a sample
         # in the loop's stead (rx_in_callback). Off by default: a caller driving pump() itself (tests, the
@@ -296,6 +299,8 @@ class ZenohBridge:
             try:
                 if not self._inbox and not self._closed:
                     self._take(payload, self.node.now())
+                    if self._site_batching:  # the sample's frames leave in shared datagrams, now
+                        ub_ports.ub_ports_flush(self.node._ports)
                     if self.zlink.pending:  # the router answered onto Zenoh: the loop publishes
                         self._wake()
                     return
