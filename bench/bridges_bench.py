@@ -56,7 +56,7 @@ LAT_N, LAT_HZ = 600, 200
 BLAST_MAV, BLAST_UB = 100_000, 20_000
 BRIDGE_ARGS: list[str] = []  # --bridge-arg: options for both Zenoh bridge processes (e.g. --batch-idle-us 0)
 SITE_BATCH = True  # every site UDP port (direct and bridged alike) packs frames into datagrams ("batch": true)
-SITE_RCVBUF = 1 << 20  # ...and takes a burst into a 1 MiB receive buffer, as uavbus_mavbridge's (UB_MAVIO_RCVBUF)
+SITE_RCVBUF = 4 << 20  # ...and takes a burst into a 4 MiB receive buffer (net.core.rmem_max caps it)
 SEND_CHUNK = 100   # frames per send_many() in the throughput bursts (B is polled between chunks)
 HOST = "127.0.0.1"
 
