@@ -14,7 +14,9 @@ Side by side in one run, each case against the same path without the bridge:
       direct:   node A -> UDP -> node B
       bridged:  node A -> UDP -> uavbus bridge zenoh [gwA] -> Zenoh (tcp) -> [gwB] -> UDP -> node B
     latency at 200 Hz as above; throughput = frames delivered to B per second when A sends N back to
-    back (A and B in one process, interleaved: their Python cost is in both columns alike); beside it each
+    back, 100 per send_many() (A and B in one process, interleaved: their Python cost is in both columns
+    alike). Every site UDP port, direct and bridged, says "batch": true and "rcvbuf": 4 MiB (several frames
+    per datagram, docs/config-format.md; `--no-site-batch`: one datagram per frame, default buffers); beside it each
     bridge process's CPU time per frame carried (every thread, Zenoh's included: /proc schedstat) and why
     gwA's batches left (idle, full, aged, woken: ub_ports_drain), figures a busy machine changes far less.
     load-proof: Python-level calls per frame in the two bridges (sys.setprofile, calls and C calls, counted
