@@ -587,7 +587,8 @@ def main() -> int:
             print(f"bridges bench: run {run + 1}/{args.runs} done", file=sys.stderr)
     res["meta"] = [{"lat_n": LAT_N, "lat_hz": LAT_HZ, "blast_mavlink": BLAST_MAV, "blast_uavbus": BLAST_UB,
                     "runs": args.runs, "only": args.only, "affinity": sorted(os.sched_getaffinity(0)),
-                    "site_batch": SITE_BATCH, "send_chunk": SEND_CHUNK, "bridge_args": BRIDGE_ARGS,
+                    "site_batch": SITE_BATCH, "site_rcvbuf": SITE_RCVBUF if SITE_BATCH else 0, "send_chunk": SEND_CHUNK,
+                    "bridge_args": BRIDGE_ARGS,
                     "loadavg": os.getloadavg()}]
     Path(args.out).write_text(json.dumps(res, indent=1))
     return 0
