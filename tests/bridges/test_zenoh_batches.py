@@ -209,10 +209,12 @@ def test_burst_through_two_bridges_arrives_whole_in_order(tmp_path, uavbus_node,
         close_all(closers)
 
 
-def test_a_sample_taken_on_a_zenoh_thread_leaves_batching_site_ports_at_once(tmp_path, uavbus_node):
-    """gwB takes samples on Zenoh's thread (rx_in_callback, as `uavbus bridge zenoh` runs) and its site port
-    batches ("batch": true): each sample's frames are flushed from that thread in shared datagrams, so B
-    gets them although gwB's loop never turns. Without that flush they would wait in gwB's UDP queue for
+@pytest.mark.parametrize("in_zenoh_thread", [False, True], ids=["python_thread", "zenoh_network_thread"])
+def test_a_sample_taken_on_a_zenoh_thread_leaves_batching_site_ports_at_once(tmp_path, uavbus_node, in_zenoh_thread):
+    """gwB takes samples on a Zenoh callback (rx_in_callback, as `uavbus bridge zenoh` runs; on the Python
+    thread Zenoh wakes for it (--sample-thread python), or on Zenoh's network thread itself, the default) and its
+    site port batches ("batch": true): each sample's frames are flushed from that thread in shared datagrams,
+    so B gets them although gwB's loop never turns. Without that flush they would wait in gwB's UDP queue for
     a turn that never comes here."""
     catalogue = catalogue_for(uavbus_node)
     ports = PortAllocator()
@@ -232,7 +234,7 @@ def test_a_sample_taken_on_a_zenoh_thread_leaves_batching_site_ports_at_once(tmp
         closers.append(sb.close)
         ga = ZenohBridge(nodes["gwA"], "zenoh", sa, "uavbus/zbatch")
         closers.append(ga.close)
-        gb = ZenohBridge(nodes["gwB"], "zenoh", sb, "uavbus/zbatch")
+        gb = ZenohBridge(nodes["gwB"], "zenoh", sb, "uavbus/zbatch", in_zenoh_thread=in_zenoh_thread)
         closers.append(gb.close)
         gb.rx_in_callback = True  # from here on gwB's node is touched under its node_lock only
         pub = nodes["A"].publisher("srcA", "gpsOut", to="dstB")
