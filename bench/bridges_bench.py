@@ -14,7 +14,9 @@ Side by side in one run, each case against the same path without the bridge:
       direct:   node A -> UDP -> node B
       bridged:  node A -> UDP -> uavbus bridge zenoh [gwA] -> Zenoh (tcp) -> [gwB] -> UDP -> node B
     latency at 200 Hz as above; throughput = frames delivered to B per second when A sends N back to
-    back (A and B in one process, interleaved: their Python cost is in both columns alike); beside it each
+    back, 100 per send_many() (A and B in one process, interleaved: their Python cost is in both columns
+    alike). Every site UDP port, direct and bridged, says "batch": true and "rcvbuf": 4 MiB (several frames
+    per datagram, docs/config-format.md; `--no-site-batch`: one datagram per frame, default buffers); beside it each
     bridge process's CPU time per frame carried (every thread, Zenoh's included: /proc schedstat) and why
     gwA's batches left (idle, full, aged, woken: ub_ports_drain), figures a busy machine changes far less.
     load-proof: Python-level calls per frame in the two bridges (sys.setprofile, calls and C calls, counted
@@ -55,6 +57,9 @@ from uavbus.sim.process import NodeProcess  # noqa: E402
 LAT_N, LAT_HZ = 600, 200
 BLAST_MAV, BLAST_UB = 100_000, 20_000
 BRIDGE_ARGS: list[str] = []  # --bridge-arg: options for both Zenoh bridge processes (e.g. --batch-idle-us 0)
+SITE_BATCH = True  # every site UDP port (direct and bridged alike) packs frames into datagrams ("batch": true)
+SITE_RCVBUF = 4 << 20  # ...and takes a burst into a 4 MiB receive buffer (net.core.rmem_max caps it)
+SEND_CHUNK = 100   # frames per send_many() in the throughput bursts (B is polled between chunks)
 HOST = "127.0.0.1"
 
 
@@ -254,7 +259,8 @@ def zenoh_config(tmp: Path, bridged: bool) -> tuple[Path, int]:
     a = {k: ports.port() for k in ("A", "B", "gwA", "gwB")}
 
     def udp_port(bind: str, peer: str) -> dict:
-        return {"transport": "udp", "bind": f"{HOST}:{a[bind]}", "peer": f"{HOST}:{a[peer]}"}
+        port = {"transport": "udp", "bind": f"{HOST}:{a[bind]}", "peer": f"{HOST}:{a[peer]}"}
+        return {**port, "batch": True, "rcvbuf": SITE_RCVBUF} if SITE_BATCH else port
 
     if not bridged:
         cfg = {"system": "zbench",
@@ -264,7 +270,8 @@ def zenoh_config(tmp: Path, bridged: bool) -> tuple[Path, int]:
                "ports": {"srcA:l": udp_port("A", "B"), "dstB:l": udp_port("B", "A")}}
     else:
         # the one topology the Zenoh bridge test drives (tests/bridges/bridge_testutil.py), with these ports
-        cfg = two_bridges_config("zbench", a, HOST)
+        cfg = two_bridges_config("zbench", a, HOST, batch=SITE_BATCH,
+                                 rcvbuf=SITE_RCVBUF if SITE_BATCH else 0)
     path = tmp / ("zbridged.json" if bridged else "zdirect.json")
     path.write_text(json.dumps(cfg))
     return path, ports.port()
@@ -320,11 +327,9 @@ class UbPair:
         before = [p.request_stats()["zenoh"] for p in self.procs]  # flush_* absent before ub_ports_drain: 0
         cpu0 = [proc_cpu_s(p.pid) for p in self.procs]
         t0 = time.perf_counter()
-        for k in range(1, BLAST_UB + 1):
-            self.pub.directory.solutionCount = k
-            self.pub.send()
-            if k % 100 == 0:
-                self.b.poll(0)
+        for k in range(1, BLAST_UB + 1, SEND_CHUNK):  # A's burst: frames k.. in one send_many() (C), B polled
+            self.pub.send_many(range(k, min(k + SEND_CHUNK, BLAST_UB + 1)), field="solutionCount")
+            self.b.poll(0)
         deadline = time.perf_counter() + 3
         last, since = -1, time.perf_counter()
         while time.perf_counter() < deadline:
@@ -480,16 +485,15 @@ def zenoh_calls_per_frame(catalogue: str, tmp: Path, n: int = 2000) -> dict:
             turn(False)
             time.sleep(0.001)
         def burst(profiled: bool) -> dict:
-            """n frames from A in turns of 25 (within the UDP sockets' buffers), until all crossed gwB (what
+            """n frames from A in turns of 25 (one send_many(), within the UDP sockets' buffers), until all crossed gwB (what
             B's socket then drops on a busy machine is not the bridges' work)."""
             got[0] = calls[0] = turns[0] = 0
             cpu[0] = 0.0
             base = bridges["gwB"].counters["received"]
             base_samples = bridges["gwB"].counters.get("samples_in", 0)
             t0 = time.perf_counter()
-            for _ in range(n // 25):
-                for _ in range(25):
-                    pub.send()
+            for k in range(n // 25):
+                pub.send_many(range(25 * k, 25 * k + 25), field="solutionCount")
                 turn(profiled)
             deadline = time.monotonic() + 10
             while bridges["gwB"].counters["received"] - base < n and time.monotonic() < deadline:
@@ -534,7 +538,7 @@ def lat_summary(xs: list[float]) -> dict:
 
 
 def main() -> int:
-    global LAT_N, BLAST_UB, BRIDGE_ARGS
+    global LAT_N, BLAST_UB, BRIDGE_ARGS, SITE_BATCH
     ap = argparse.ArgumentParser()
     ap.add_argument("--build", required=True)
     ap.add_argument("--out", required=True)
@@ -544,8 +548,12 @@ def main() -> int:
     ap.add_argument("--lat-n", type=int, help=f"messages per latency sample (default {LAT_N})")
     ap.add_argument("--bridge-arg", action="append", default=[], metavar="ARG",
                     help="an option for both Zenoh bridge processes, e.g. --bridge-arg=--batch-idle-us=0")
+    ap.add_argument("--no-site-batch", action="store_true",
+                    help="one datagram per frame and the default receive buffer on the site UDP links (as before "
+                         "\"batch\" and \"rcvbuf\"; for comparisons)")
     args = ap.parse_args()
     LAT_N, BLAST_UB, BRIDGE_ARGS = args.lat_n or LAT_N, args.blast or BLAST_UB, args.bridge_arg
+    SITE_BATCH = not args.no_site_batch
     build = Path(args.build)
     flightsw = str(build / "examples" / "uavbus" / "flightsw" / "flightsw.catalogue.json")
     res: dict[str, list] = {k: [] for k in ("mav_direct_lat", "mav_bridge_lat", "mav_direct_ingest", "mav_bridge_ingest",
@@ -578,7 +586,10 @@ def main() -> int:
             res["zenoh_calls"].append(zenoh_calls_per_frame(flightsw, tmp))
             print(f"bridges bench: run {run + 1}/{args.runs} done", file=sys.stderr)
     res["meta"] = [{"lat_n": LAT_N, "lat_hz": LAT_HZ, "blast_mavlink": BLAST_MAV, "blast_uavbus": BLAST_UB,
-                    "runs": args.runs, "only": args.only, "affinity": sorted(os.sched_getaffinity(0))}]
+                    "runs": args.runs, "only": args.only, "affinity": sorted(os.sched_getaffinity(0)),
+                    "site_batch": SITE_BATCH, "site_rcvbuf": SITE_RCVBUF if SITE_BATCH else 0, "send_chunk": SEND_CHUNK,
+                    "bridge_args": BRIDGE_ARGS,
+                    "loadavg": os.getloadavg()}]
     Path(args.out).write_text(json.dumps(res, indent=1))
     return 0
 

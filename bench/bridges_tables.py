@@ -60,6 +60,12 @@ def bridges_section(raw: Path, w: Callable[[str], None]) -> None:
     w(rate_row("direct: one UDP link", "ub_direct_tput"))
     w(rate_row("bridged: two Zenoh bridges (frames batched per sample in C, ub_batchlink.h)", "ub_zenoh_tput"))
     w("")
+    if "site_batch" in meta:  # the site links' settings (direct and bridged alike), from the run itself
+        w("Site UDP ports in both paths: " + (f"several frames per datagram (`\"batch\": true`) and "
+          f"{meta.get('site_rcvbuf', 0) / 2**20:g} MiB receive buffers, A sending {meta.get('send_chunk', '?')} frames "
+          "per `send_many()`" if meta["site_batch"] else
+          "one datagram per frame, default receive buffers (`--no-site-batch`)") + ".")
+        w("")
     ratios = [b["rate"] / a["rate"] for a, b in zip(d["ub_direct_tput"], d["ub_zenoh_tput"]) if a["rate"]]
     if ratios:
         w(f"Bridged / direct delivery rate, per run (same run, same load): {_band(ratios, '{:.2f}')}.")

@@ -594,6 +594,9 @@ int ub_app_run(ub_app_t *app) {
         if (prog->before_tick != NULL) prog->before_tick(app, now);
         ub_node_tick(&app->node, now);
         if (prog->after_tick != NULL) prog->after_tick(app, now);
+        /* What the tick queued on batching ports (udp batch=1) leaves in this turn, not after one more
+         * poll() woken by POLLOUT. */
+        (void)ub_ports_flush(&app->ports);
         if (now >= next_stats) {
             if (prog->stats != NULL) prog->stats(app, now, false);
             next_stats += app->stats_ms;

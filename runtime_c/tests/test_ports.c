@@ -52,6 +52,19 @@ static void test_spec_parse_forms(void **state) {
                      UB_OK);
     ub_port_spec_format(&s, text, sizeof text);
     assert_string_equal(text, "udp:bind=0.0.0.0:5001,peer=127.0.0.1:6,accept=any");
+    /* batch=1 (several frames per datagram) is written back; batch=0 is the default and is not. */
+    assert_int_equal(ub_port_spec_parse("udp:bind=127.0.0.1:0,peer=127.0.0.1:6,batch=1", &s, err, sizeof err), UB_OK);
+    assert_int_equal(s.batch, 1);
+    ub_port_spec_format(&s, text, sizeof text);
+    assert_string_equal(text, "udp:bind=127.0.0.1:0,peer=127.0.0.1:6,batch=1");
+    assert_int_equal(ub_port_spec_parse("udp:bind=127.0.0.1:0,peer=127.0.0.1:6,batch=0", &s, err, sizeof err), UB_OK);
+    assert_int_equal(s.batch, 0);
+    ub_port_spec_format(&s, text, sizeof text);
+    assert_string_equal(text, "udp:bind=127.0.0.1:0,peer=127.0.0.1:6");
+    assert_int_equal(ub_port_spec_parse("udp:bind=127.0.0.1:0,rcvbuf=1048576,batch=1", &s, err, sizeof err), UB_OK);
+    assert_int_equal(s.rcvbuf, 1048576);
+    ub_port_spec_format(&s, text, sizeof text);
+    assert_string_equal(text, "udp:bind=127.0.0.1:0,batch=1,rcvbuf=1048576");
     assert_int_equal(ub_port_spec_parse("tcp:connect=127.0.0.1:5001", &s, err, sizeof err), UB_OK);
     assert_int_equal(s.kind, UB_PORT_TCP_CONNECT);
     assert_int_equal(ub_port_spec_parse("tcp:listen=0.0.0.0:0", &s, err, sizeof err), UB_OK);
@@ -95,7 +108,13 @@ static void test_spec_parse_errors(void **state) {
         {"udp:bind=example.com:1,peer=127.0.0.1:1", "dotted IPv4"},
         {"udp:bind=127.0.0.1:0,peer=127.0.0.1:0", "peer port must not be 0"},
         {"udp:bind=127.0.0.1:0,bind=127.0.0.1:0,peer=127.0.0.1:1", "'bind' given twice"},
-        {"udp:listen=127.0.0.1:1", "unknown parameter 'listen' for udp (expected: bind, peer, accept, encoding, mtu, prio)"},
+        {"udp:listen=127.0.0.1:1",
+         "unknown parameter 'listen' for udp (expected: bind, peer, accept, batch, rcvbuf, encoding, mtu, prio)"},
+        {"udp:bind=127.0.0.1:0,rcvbuf=100", "'rcvbuf=100': give the socket's receive buffer in bytes, 4096..67108864"},
+        {"udp:bind=127.0.0.1:0,rcvbuf=1M", "'rcvbuf=1M': give the socket's receive buffer in bytes"},
+        {"udp:bind=127.0.0.1:0,batch=yes", "'batch=yes': give 1 (several frames per datagram, sent once per loop turn) "
+                                           "or 0 (one datagram per frame, the default)"},
+        {"udp:bind=127.0.0.1:0,batch=1,batch=0", "'batch=0': given twice: give it once"},
         {"tcp", "tcp needs listen=HOST:PORT (server) or connect=HOST:PORT (client)"},
         {"tcp:listen=127.0.0.1:1,connect=127.0.0.1:2", "either listens or connects"},
         {"tcp:connect=127.0.0.1:0", "must not be 0"},
@@ -168,7 +187,7 @@ static const char k_config[] = "{\n"
                                "               {\"name\": \"sub\", \"links\": [\"subPort\"]}],\n"
                                "  \"ports\": {\n"
                                "    \"pubPort\": {\"transport\": \"udp\", \"bind\": \"127.0.0.1:0\",\n"
-                               "                  \"peer\": \"127.0.0.1:9\"},\n"
+                               "                  \"peer\": \"127.0.0.1:9\", \"batch\": true},\n"
                                "    \"sub:subPort\": {\"transport\": \"tcp\", \"listen\": 5001}\n"
                                "  }\n"
                                "}\n";
@@ -184,6 +203,7 @@ static void test_config_entries(void **state) {
     assert_int_equal(ub_port_spec_from_config(&cfg->ports[0], cfg->source, &s, err, sizeof err), UB_OK);
     assert_int_equal(s.kind, UB_PORT_UDP);
     assert_int_equal(s.peer_port, 9);
+    assert_int_equal(s.batch, 1); /* JSON true, as batch=1 on a command line */
     assert_int_equal(ub_port_spec_from_config(&cfg->ports[1], cfg->source, &s, err, sizeof err), UB_ERR_CONFIG);
     assert_string_equal(err, "t.json:7: port 'sub:subPort', field 'listen': 'listen=5001': expected HOST:PORT with a "
                              "dotted IPv4 host and a port 0..65535, e.g. 127.0.0.1:5001");
@@ -296,43 +316,65 @@ static void *send_busily(void *arg) {
     return NULL;
 }
 
-/* ub_ports_drain(): each of its ends. Nothing pending: one service, no wait. Pending: a datagram read in
- * the first round does not end it, a round after the gap that reads nothing does (IDLE, after the gap);
- * FULL at flush_at at once; the wake descriptor ends a long gap at once (WOKEN); an input that never goes
- * quiet is cut at max_us (AGED). Datagrams from any sender count as input (accept=any), garbage included:
- * the node refuses and counts them, the drain only sees that something came. */
+/* The drain tests' set-up: node "sub" of a test pair with its ports, subPort on UDP accepting any sender
+ * (accept=any: garbage counts as input, the node refuses and counts it; the drain only sees that something
+ * came), and a socket that sends to that port. */
+typedef struct drain_fix {
+    pair_t *p;
+    ub_ports_t *ports;
+    int fd;                /* the sender's socket */
+    struct sockaddr_in to; /* subPort's address */
+} drain_fix_t;
+
+static drain_fix_t drain_fix_new(void) {
+    drain_fix_t f = {.p = pair_new(NULL), .ports = calloc(1, sizeof *f.ports), .fd = socket(AF_INET, SOCK_DGRAM, 0)};
+    assert_non_null(f.ports);
+    assert_true(f.fd >= 0);
+    assert_int_equal(ub_ports_init(f.ports, f.p->sub_node), UB_OK);
+    char err[UB_PORTS_ERR_LEN];
+    assert_int_equal(ub_ports_open_text(f.ports, "subPort", "udp:bind=127.0.0.1:0", 0, err, sizeof err), UB_OK);
+    uint16_t port = 0;
+    assert_int_equal(ub_ports_local_port(f.ports, "subPort", &port), UB_OK);
+    f.to.sin_family = AF_INET;
+    f.to.sin_port = htons(port);
+    f.to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    return f;
+}
+
+/* One datagram of garbage into subPort. */
+static void drain_fix_send(const drain_fix_t *f) {
+    assert_int_equal(sendto(f->fd, "junk", 4, 0, (const struct sockaddr *)&f->to, sizeof f->to), 4);
+}
+
+static void drain_fix_free(drain_fix_t *f) {
+    close(f->fd);
+    ub_ports_close_all(f->ports);
+    free(f->ports);
+    pair_free(f->p);
+}
+
 /* ub_ports_drain() without a wake descriptor (the gap is a plain sleep) and without an output to watch: no
  * pending pointer never waits; idle_us 0 reads again at once and calls the input idle when that read finds
  * nothing; a gap that would outlast max_us is cut to what is left; a port set with no node is refused. */
 static void test_drain_without_wake_fd_or_output(void **state) {
     (void)state;
-    pair_t *p = pair_new(NULL);
-    ub_ports_t *ports = calloc(1, sizeof *ports);
-    assert_non_null(ports);
-    assert_int_equal(ub_ports_init(ports, p->sub_node), UB_OK);
-    char err[UB_PORTS_ERR_LEN];
-    assert_int_equal(ub_ports_open_text(ports, "subPort", "udp:bind=127.0.0.1:0", 0, err, sizeof err), UB_OK);
-    uint16_t port = 0;
-    assert_int_equal(ub_ports_local_port(ports, "subPort", &port), UB_OK);
-    int fd = socket(AF_INET, SOCK_DGRAM, 0);
-    assert_true(fd >= 0);
-    struct sockaddr_in to = {.sin_family = AF_INET, .sin_port = htons(port), .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    drain_fix_t f = drain_fix_new();
 
     ub_ports_drain_t d = {.wake_fd = -1, .idle_us = 0, .max_us = 1000000, .pending = NULL, .flush_at = 100};
-    assert_int_equal(sendto(fd, "junk", 4, 0, (const struct sockaddr *)&to, sizeof to), 4);
-    assert_int_equal(ub_ports_drain(ports, &d, 0), UB_DRAIN_EMPTY); /* no output: one round, never a wait */
+    drain_fix_send(&f);
+    assert_int_equal(ub_ports_drain(f.ports, &d, 0), UB_DRAIN_EMPTY); /* no output: one round, never a wait */
     assert_int_equal(d.rounds, 1);
 
     size_t pending = 1;
     d.pending = &pending;
-    assert_int_equal(ub_ports_drain(ports, &d, 1), UB_DRAIN_IDLE); /* idle_us 0: the second read finds nothing */
+    assert_int_equal(ub_ports_drain(f.ports, &d, 1), UB_DRAIN_IDLE); /* idle_us 0: the second read finds nothing */
     assert_int_equal(d.rounds, 3);
 
     d.idle_us = 400000; /* longer than what is left of max_us: slept for max_us only, then AGED or IDLE */
     d.max_us = 20000;
-    assert_int_equal(sendto(fd, "junk", 4, 0, (const struct sockaddr *)&to, sizeof to), 4);
+    drain_fix_send(&f);
     uint64_t t = mono_us();
-    int end = ub_ports_drain(ports, &d, 2);
+    int end = ub_ports_drain(f.ports, &d, 2);
     uint64_t took = mono_us() - t;
     assert_true(end == UB_DRAIN_IDLE || end == UB_DRAIN_AGED);
     assert_true(took >= 20000 && took < 400000);
@@ -342,27 +384,18 @@ static void test_drain_without_wake_fd_or_output(void **state) {
     assert_int_equal(ub_ports_drain(&orphan, &d, 3), UB_ERR_INVAL);
     assert_int_equal(d.drains, 3);
 
-    close(fd);
-    ub_ports_close_all(ports);
-    free(ports);
-    pair_free(p);
+    drain_fix_free(&f);
 }
 
+/* ub_ports_drain(): each of its ends. Nothing pending: one service, no wait. Pending: a datagram read in
+ * the first round does not end it, a round after the gap that reads nothing does (IDLE, after the gap);
+ * FULL at flush_at at once; the wake descriptor ends a long gap at once (WOKEN); an input that never goes
+ * quiet is cut at max_us (AGED). */
 static void test_drain_ends_idle_full_woken_aged(void **state) {
     (void)state;
-    pair_t *p = pair_new(NULL);
-    ub_ports_t *ports = calloc(1, sizeof *ports);
-    assert_non_null(ports);
-    assert_int_equal(ub_ports_init(ports, p->sub_node), UB_OK);
-    char err[UB_PORTS_ERR_LEN];
-    assert_int_equal(ub_ports_open_text(ports, "subPort", "udp:bind=127.0.0.1:0", 0, err, sizeof err), UB_OK);
-    uint16_t port = 0;
-    assert_int_equal(ub_ports_local_port(ports, "subPort", &port), UB_OK);
-    busy_sender_t b = {.fd = socket(AF_INET, SOCK_DGRAM, 0)};
-    assert_true(b.fd >= 0);
-    b.to.sin_family = AF_INET;
-    b.to.sin_port = htons(port);
-    b.to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    drain_fix_t f = drain_fix_new();
+    ub_ports_t *ports = f.ports;
+    busy_sender_t b = {.fd = f.fd, .to = f.to};
     int wake[2];
     assert_int_equal(pipe(wake), 0);
 
@@ -376,7 +409,7 @@ static void test_drain_ends_idle_full_woken_aged(void **state) {
     assert_int_equal(d.fds[0].events & POLLIN, POLLIN);
 
     pending = 1;
-    assert_int_equal(sendto(b.fd, "junk", 4, 0, (const struct sockaddr *)&b.to, sizeof b.to), 4);
+    drain_fix_send(&f);
     uint64_t t = mono_us();
     assert_int_equal(ub_ports_drain(ports, &d, 1), UB_DRAIN_IDLE);
     assert_true(mono_us() - t >= 5000);
@@ -428,10 +461,68 @@ static void test_drain_ends_idle_full_woken_aged(void **state) {
 
     close(wake[0]);
     close(wake[1]);
-    close(b.fd);
-    ub_ports_close_all(ports);
-    free(ports);
-    pair_free(p);
+    drain_fix_free(&f);
+}
+
+/* batch=1 on a UDP port: frames the node sends between loop turns wait in the driver and leave together
+ * as one datagram at ub_ports_flush() (or the next service), which the receiving port splits back into
+ * every frame. Without batch (subPort's answers) each frame leaves at once in its own datagram. A drain
+ * flushes what its tick queued before the caller sleeps. */
+static void test_udp_batch_port(void **state) {
+    (void)state;
+    net_t n = net_new();
+    pair_t *p = n.p;
+    char err[UB_PORTS_ERR_LEN], spec[128];
+    uint16_t sub_port = 0;
+    assert_int_equal(ub_ports_open_text(n.b, "subPort", "udp:bind=127.0.0.1:0,rcvbuf=65536", 0, err, sizeof err), UB_OK);
+    assert_int_equal(ub_ports_local_port(n.b, "subPort", &sub_port), UB_OK);
+    snprintf(spec, sizeof spec, "udp:bind=127.0.0.1:0,peer=127.0.0.1:%u,batch=1", (unsigned)sub_port);
+    assert_int_equal(ub_ports_open_text(n.a, "pubPort", spec, 0, err, sizeof err), UB_OK);
+    const ub_udp_t *a = ub_ports_udp(n.a, "pubPort");
+    const ub_udp_t *b = ub_ports_udp(n.b, "subPort");
+    assert_non_null(a);
+    assert_non_null(b);
+    /* rcvbuf=65536: the kernel reports what it granted (twice the bytes asked, for its own accounting);
+     * the default, 212992 here, would read otherwise. */
+    int granted = 0;
+    socklen_t glen = sizeof granted;
+    assert_int_equal(getsockopt(ub_udp_fileno(b), SOL_SOCKET, SO_RCVBUF, &granted, &glen), 0);
+    assert_int_equal(granted, 2 * 65536);
+
+    for (int i = 0; i < 5; i++) assert_int_equal(ub_node_send_data(p->pub_node, p->pub, TEST_GPS, p->sub_id, 0), 1);
+    assert_int_equal(ub_udp_tx_pending(a), 5); /* queued, not sent */
+    assert_int_equal(a->stats.datagrams_out, 0);
+    assert_int_equal(ub_ports_flush(n.a), 0);   /* all left */
+    assert_int_equal(ub_udp_tx_pending(a), 0);
+    assert_int_equal(a->stats.datagrams_out, 1);
+    assert_int_equal(a->stats.frames_out, 5);
+    assert_int_equal(a->stats.tx_calls, 1);
+    struct pollfd pfd = {.fd = ub_udp_fileno(b), .events = POLLIN};
+    assert_int_equal(poll(&pfd, 1, 1000), 1);
+    assert_int_equal(ub_ports_service(n.b, 1), 1); /* one datagram... */
+    assert_int_equal(b->stats.frames_in, 5);       /* ...of five frames, each to the node */
+    assert_int_equal(ub_node_link(p->sub_node, p->sub_link)->counters.frames_in, 5);
+
+    /* A drain's tick queues frames (the publication of a subscription, every 20 ms): they leave before the
+     * drain returns, so the caller's poll() never sleeps on a queue it does not know of. */
+    assert_true(ub_pubsub_subscribe(p->sub_node, p->sub, TEST_GPS, p->pub_id, 20, 1) >= 0);
+    ub_ports_drain_t d = {.wake_fd = -1, .idle_us = 0, .max_us = 1000, .pending = NULL, .flush_at = 1};
+    uint64_t before = a->stats.frames_out;
+    for (uint64_t t = 1; t < 300; t++) {
+        (void)ub_ports_service(n.b, t);
+        ub_node_tick(p->sub_node, t);
+        assert_int_equal(ub_ports_drain(n.a, &d, t), UB_DRAIN_EMPTY);
+        assert_int_equal(ub_udp_tx_pending(a), 0);
+        assert_int_equal(d.fds[0].events & POLLOUT, 0); /* nothing queued: no POLLOUT to poll for */
+    }
+    assert_true(a->stats.frames_out >= before + 10); /* ~14 publications in 280 ms */
+    assert_true(a->stats.datagrams_out + 4 <= a->stats.frames_out); /* the first five shared one datagram */
+    (void)poll(&pfd, 1, 50); /* the last drain's frames, if it sent any */
+    (void)ub_ports_service(n.b, 300);
+    assert_int_equal(b->stats.frames_in, a->stats.frames_out); /* every frame arrived, none left behind */
+
+    assert_int_equal(ub_ports_flush(NULL), UB_ERR_INVAL);
+    net_free(&n);
 }
 
 typedef struct foreign_seen {
@@ -649,6 +740,7 @@ int main(void) {
         cmocka_unit_test(test_link_impairment_overrides),
         cmocka_unit_test(test_drain_ends_idle_full_woken_aged),
         cmocka_unit_test(test_drain_without_wake_fd_or_output),
+        cmocka_unit_test(test_udp_batch_port),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -195,6 +195,9 @@ class Node:
         self._membership: Membership | None = None
         self.inspect = Inspection(self)
         self._ports: Any = None
+        # An open port batches (udp batch=1): what a send queued leaves at the end of that send() or
+        # send_many() (one flush, so a burst from send_many shares datagrams and a lone frame waits for nothing).
+        self._batching = False
         self._foreign_handlers: dict[str, Any] = {}  # link -> cffi handle of its foreign-traffic handler
         self._pollfds = ub_ports.pollfd_array()
         self._log: Any = None
@@ -335,6 +338,8 @@ class Node:
         inst = self.catalogue.instance(content)
         self.bind(content)
         n = ub_node.ub_node_send_data(self._c, self.entity_index(entity), inst.index, to, self.now())
+        if self._batching:
+            ub_ports.ub_ports_flush(self._ports)
         self._dispatch()  # a local destination is delivered synchronously
         return n
 
@@ -530,6 +535,8 @@ class Node:
         for m in self._memlinks:
             ub_memlink.ub_memlink_pump(m._c, now)
         ub_node.ub_node_tick(self._c, now)
+        if self._batching:  # what the tick queued leaves now, not at the next poll()
+            ub_ports.ub_ports_flush(self._ports)
         return self._dispatch() if dispatch else 0
 
     def messages(self, timeout: float | None = None, poll_s: float = 0.01) -> Iterator[Message]:
@@ -580,12 +587,24 @@ class Node:
         """Opens (or, if open, switches at run time) the transport of `link`: "udp:bind=H:P,peer=H:P",
         "tcp:listen=H:P", "tcp:connect=H:P", "serial:device=PATH[,baud=N]" (Contract 1)."""
         ub_ports.ub_ports_open_text(self._ports_obj(), link, spec, self.now())
+        self._note_batching()
 
     def open_ports_from_config(self) -> int:
         """Opens every port of the config's "ports" section that names a link of this node."""
         if self.config is None:
             raise InvalidArgumentError("open_ports_from_config() needs Node(..., config=...)")
-        return ub_ports.ub_ports_open_config(self._ports_obj(), self.config.c_config, self.now())
+        n = ub_ports.ub_ports_open_config(self._ports_obj(), self.config.c_config, self.now())
+        self._note_batching()
+        return n
+
+    def _note_batching(self) -> None:
+        names = [ub_node.link_counters(self._c, i)["name"] for i in ub_node.ub_node_links(self._c)]
+        self._batching = ub_ports.ub_ports_batching(self._ports, names)
+
+    def flush(self) -> int:
+        """Sends what batching ports (udp `batch=1`) queued now; send(), send_many() and poll() do it
+        themselves. Returns the frames a full socket buffer still holds back (the next poll() sends them)."""
+        return 0 if self._ports is None else ub_ports.ub_ports_flush(self._ports)
 
     def set_foreign_handler(self, link: str, handler: Callable[[bytes], int | None] | None) -> None:
         """Gives `link`'s port a foreign-traffic handler (docs/adapters.md): every run of received bytes that is
@@ -615,6 +634,7 @@ class Node:
     def close_port(self, link: str) -> None:
         """Closes the transport of `link` (the link stays, detached)."""
         ub_ports.ub_ports_close(self._ports_obj(), link)
+        self._note_batching()
 
     def local_port(self, link: str) -> int:
         """The local UDP/TCP port number `link`'s transport is bound to (e.g. after bind=...:0)."""
@@ -760,6 +780,9 @@ class Publisher:
         """Returns the links whose transport accepted the frame (0: delivered locally, or every
         transport refused it: counted per link as tx_error/backpressure/detached)."""
         n = ub_node.ub_node_send_data_id(self._c, self._entity, self._instance, self._dest, self._now(), self._what)
+        node = self.node
+        if node._batching:
+            ub_ports.ub_ports_flush(node._ports)
         if self._local:
             self.node._dispatch()  # a local destination is delivered synchronously
         return n
@@ -789,6 +812,8 @@ class Publisher:
             n = len(data) // size
         sent = ub_rxring.ub_send_many(self._c, self._entity, self._instance, self._dest, self.node.now(),
                                       d._offset + offset, size, data, n, d.instance.name if d.instance else "")
+        if self.node._batching:  # the burst leaves now, several frames per datagram
+            ub_ports.ub_ports_flush(self.node._ports)
         if self._local:
             self.node._dispatch()
         return sent

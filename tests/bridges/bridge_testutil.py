@@ -19,13 +19,17 @@ def autopilot_argv(port: int, key: Path | None = None, duration: float = 60.0, s
     return argv
 
 
-def two_bridges_config(system: str, a: Mapping[str, int], host: str = "127.0.0.1") -> dict:
+def two_bridges_config(system: str, a: Mapping[str, int], host: str = "127.0.0.1", batch: bool = False,
+                       rcvbuf: int = 0) -> dict:
     """A node configuration of two sites joined by two gateways: srcA (node A) reaches dstB (node B) through
     gwA and gwB, whose "zenoh" links are the bridge's; every site link is UDP on `host`, node k's port a[k]
-    for k in A, B, gwA, gwB (the Zenoh bridge test and bench/bridges_bench.py)."""
+    for k in A, B, gwA, gwB (the Zenoh bridge test and bench/bridges_bench.py); `batch`: every site port
+    packs several frames per datagram ("batch": true), `rcvbuf`: and asks for that receive buffer
+    (docs/config-format.md)."""
 
     def udp(bind: str, peer: str) -> dict:
-        return {"transport": "udp", "bind": f"{host}:{a[bind]}", "peer": f"{host}:{a[peer]}"}
+        port = {"transport": "udp", "bind": f"{host}:{a[bind]}", "peer": f"{host}:{a[peer]}"}
+        return {**port, **({"batch": True} if batch else {}), **({"rcvbuf": rcvbuf} if rcvbuf else {})}
 
     return {"system": system,
             "entities": [{"name": "srcA", "links": ["l"], "linktoentity": {"dstB": [0], "gwA": [0], "gwB": [0]}},

@@ -114,3 +114,28 @@ def test_asyncio_helper(udp_pair) -> None:
 
     asyncio.run(main())
     assert len(got) >= 3
+
+
+def test_batch_port_shares_datagrams_and_holds_nothing_back(udp_pair) -> None:
+    """A port opened with batch=1: send_many()'s frames leave in shared datagrams at the end of the call, and a
+    lone send() leaves at once, neither waiting for the sender's poll() (the sender is never polled here)."""
+    gcs, air, pg = udp_pair
+    pa = air.local_port("onboardPortDatalink1")
+    air.open_port("onboardPortDatalink1", f"udp:bind=127.0.0.1:{pa},peer=127.0.0.1:{pg},batch=1")
+    assert air.port_info("onboardPortDatalink1")["spec"].endswith(",batch=1")
+    pub = air.publisher("rmax1ob1", "gpsOut", to="gcs1")
+    got: list[int] = []
+    gcs.bind("gpsOut")
+    gcs.on_data(lambda m: got.append(m.value["solutionCount"]) if m.name == "gpsOut" else None)
+    before = air.port_info("onboardPortDatalink1")["udp"]
+    pub.send_many(range(1, 41), field="solutionCount")
+    wait_for([gcs], lambda: len(got) >= 40)
+    after = air.port_info("onboardPortDatalink1")["udp"]
+    assert got == list(range(1, 41))
+    frames, datagrams = after["frames_out"] - before["frames_out"], after["datagrams_out"] - before["datagrams_out"]
+    assert frames == 40 and datagrams == 4, (frames, datagrams)  # 10 gpsOut frames (134 B) per 1,472 bytes
+    pub.directory.solutionCount = 99
+    pub.send()
+    wait_for([gcs], lambda: got[-1] == 99)
+    air.open_port("onboardPortDatalink1", f"udp:bind=127.0.0.1:{pa},peer=127.0.0.1:{pg}")  # batch off again
+    assert not air._batching

@@ -138,6 +138,10 @@ typedef struct ub_driver {
      *  onto the link, whole or not at all, between frames. ub_ports_write_foreign() calls it. NULL: the
      *  transport cannot (UB_ERR_UNSUPPORTED). @return UB_OK, UB_ERR_AGAIN (full: later), UB_ERR_CLOSED. */
     int (*write_foreign)(void *state, const uint8_t *data, size_t len, uint64_t now_ms);
+    /** Optional: sends what the instance queued (UDP with batch=1), reading nothing; ub_ports_flush() calls it.
+     *  @return frames still queued (the socket refused them: poll for POLLOUT), or a negative code.
+     *  NULL: the transport sends at once (nothing is ever queued between calls). */
+    int (*flush)(void *state);
 } ub_driver_t;
 
 /**

@@ -125,6 +125,8 @@ typedef struct ub_port_spec {
     uint8_t encoding;                 /**< UB_PORT_ENCODING_FULL or UB_PORT_ENCODING_COMPACT */
     uint16_t mtu;                     /**< 0: no limit */
     uint8_t prio;                     /**< prio=1: send by priority class at the port's byte rate (serial: baud / 10) */
+    uint8_t batch;                    /**< udp batch=1: several frames per datagram, sent at each flush (ub_udp_set_batching()) */
+    uint32_t rcvbuf;                  /**< udp rcvbuf=BYTES: the socket's receive buffer (ub_udp_set_rcvbuf()); 0: the system's */
 } ub_port_spec_t;
 
 #define UB_PORT_ENCODING_FULL 0u
@@ -299,6 +301,16 @@ void ub_ports_close_all(ub_ports_t *ports);
 int ub_ports_service(ub_ports_t *ports, uint64_t now_ms);
 
 /**
+ * Sends what every port holds queued (a UDP port with batch=1 packs frames into datagrams and sends them
+ * at a flush: ub_udp_flush()), without reading anything. A program that sends from outside its poll loop
+ * (a Zenoh thread handing a sample to the router, a Python publish) calls it after its sends, so nothing
+ * waits for the next turn; ub_ports_service() and ub_ports_drain() flush too.
+ * @return frames still queued because a socket refused them (a full buffer: poll for POLLOUT, the next
+ *         service sends them), 0 when all left; UB_ERR_INVAL (NULL).
+ */
+int ub_ports_flush(ub_ports_t *ports);
+
+/**
  * Fills `fds` with the descriptors to poll: POLLIN for every socket and
  * device (TCP servers: listening and connected), plus POLLOUT while output is
  * pending or a TCP connect is in progress.
@@ -364,8 +376,9 @@ typedef struct ub_ports_drain {
  * sleeps a gap (waking early only for `wake_fd`: `idle_us` first, doubled after each round that read
  * something) and services them again, until a round after a gap
  * reads nothing (the input went idle), the output reaches `flush_at` bytes, `max_us` have passed since the
- * first frame was pending, or `wake_fd` is readable; then refreshes fds[] and ticks the node once at
- * `now_ms`. The caller sends its output after any non-EMPTY end, so nothing waits beyond one drain: a lone
+ * first frame was pending, or `wake_fd` is readable; then ticks the node once at `now_ms`, flushes what
+ * the ports queued (ub_ports_flush(): the tick's frames leave now, not a poll timeout later) and refreshes
+ * fds[]. The caller sends its output after any non-EMPTY end, so nothing waits beyond one drain: a lone
  * frame after a quiet spell leaves one gap later, a burst leaves in batches of up to `flush_at` bytes or
  * `max_us` of input. The gap is slept through whole, so a busy input costs a few rounds per drain, not a
  * wake-up per datagram. Time is read from CLOCK_MONOTONIC only to bound the drain.

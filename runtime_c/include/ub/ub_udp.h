@@ -235,6 +235,19 @@ UB_CHECK int ub_udp_service(ub_udp_t *udp, ub_node_t *node, uint64_t now_ms);
  */
 UB_CHECK int ub_udp_set_batching(ub_udp_t *udp, int on);
 
+/** Receive buffers one port may ask for (ub_udp_set_rcvbuf(), spec `rcvbuf=`), in bytes. */
+#define UB_UDP_RCVBUF_MIN 4096u
+#define UB_UDP_RCVBUF_MAX (64u << 20)
+
+/**
+ * Asks the kernel for a receive buffer of `bytes` (SO_RCVBUF; Linux grants up to net.core.rmem_max and
+ * doubles it for its own accounting): what a burst from a batching peer can queue while this process is not
+ * running. A datagram that finds the buffer full is lost in the kernel, never seen by the driver, so a
+ * forwarder on a busy machine (the Zenoh bridge's site port) asks for more than the default.
+ * @return UB_OK; UB_ERR_INVAL (NULL, closed, `bytes` outside UB_UDP_RCVBUF_MIN..UB_UDP_RCVBUF_MAX); UB_ERR_IO.
+ */
+UB_CHECK int ub_udp_set_rcvbuf(ub_udp_t *udp, uint32_t bytes);
+
 /**
  * Foreign traffic on a datagram link (issue #24): a datagram from an accepted sender (the peer rules above
  * still decide who may send) that does not start with the uavbus sync pair is handed whole to `cb` as one

@@ -720,6 +720,20 @@ int ub_ports_service(ub_ports_t *ports, uint64_t now_ms) {
     return total;
 }
 
+int ub_ports_flush(ub_ports_t *ports) {
+    if (ports == NULL) return UB_ERR_INVAL;
+    int left = 0;
+    for (size_t i = 0; i < UB_PORTS_MAX; i++) {
+        ub_port_t *p = &ports->port[i];
+        ub_port_driver_t *d = &p->drv[p->active];
+        if (!p->in_use || d->driver == NULL || d->driver->flush == NULL) continue;
+        int n = d->driver->flush(&d->state);
+        if (n < 0) p->service_errors++;
+        else left += n;
+    }
+    return left;
+}
+
 int ub_ports_pollfds(const ub_ports_t *ports, struct pollfd *fds, int cap) {
     if (ports == NULL || (fds == NULL && cap > 0) || cap < 0) return UB_ERR_INVAL;
     int n = 0;

@@ -75,8 +75,11 @@ int ub_ports_drain(ub_ports_t *ports, ub_ports_drain_t *how, uint64_t now_ms) {
             (void)nanosleep(&ts, NULL); /* EINTR: a shorter gap, the next round decides */
         }
     }
-    int n = refresh_fds(ports, how);
     ub_node_tick(ports->node, now_ms);
+    /* What the rounds' last service and the tick queued on batching ports leaves now: the caller sleeps in
+     * poll() next, and a queue it does not know of would wait for its timeout. */
+    (void)ub_ports_flush(ports);
+    int n = refresh_fds(ports, how);
     how->ends[end]++;
     return n < 0 ? n : (int)end;
 }

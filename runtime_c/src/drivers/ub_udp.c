@@ -246,6 +246,12 @@ int ub_udp_set_batching(ub_udp_t *udp, int on) {
     return UB_OK;
 }
 
+int ub_udp_set_rcvbuf(ub_udp_t *udp, uint32_t bytes) {
+    if (udp == NULL || udp->fd < 0 || bytes < UB_UDP_RCVBUF_MIN || bytes > UB_UDP_RCVBUF_MAX) return UB_ERR_INVAL;
+    int v = (int)bytes;
+    return setsockopt(udp->fd, SOL_SOCKET, SO_RCVBUF, &v, sizeof v) == 0 ? UB_OK : UB_ERR_IO;
+}
+
 size_t ub_udp_tx_pending(const ub_udp_t *udp) { return udp == NULL ? 0 : queued_frames(udp); }
 
 static int udp_fileno(void *impl) { return ub_udp_fileno(impl); }
@@ -473,9 +479,9 @@ void ub_udp_close(ub_udp_t *udp) {
     udp->fd = -1;
 }
 
-/* ---- the driver entry (ub_driver.h): "udp:bind=HOST:PORT[,peer=HOST:PORT][,accept=peer|learn|any]" ---- */
+/* ---- the driver entry (ub_driver.h): "udp:bind=HOST:PORT[,peer=HOST:PORT][,accept=peer|learn|any][,batch=1][,rcvbuf=BYTES]" ---- */
 
-enum { SEEN_BIND = 1u, SEEN_PEER = 2u, SEEN_ACCEPT = 4u };
+enum { SEEN_BIND = 1u, SEEN_PEER = 2u, SEEN_ACCEPT = 4u, SEEN_BATCH = 8u, SEEN_RCVBUF = 16u };
 static const char *const k_accept_words[] = {"peer", "learn", "any"};
 
 static void udp_spec_init(ub_port_spec_t *spec) { spec->kind = UB_PORT_UDP; }
@@ -515,6 +521,34 @@ static int udp_spec_param(ub_port_spec_t *s, uint32_t *seen, const char *key, co
         *seen |= SEEN_ACCEPT;
         return UB_OK;
     }
+    if (strcmp(key, "batch") == 0) {
+        /* 1/0 on a command line, true/false (or 1/0) in a JSON configuration. */
+        bool on = strcmp(value, "1") == 0 || strcmp(value, "true") == 0;
+        if ((*seen & SEEN_BATCH) || !(on || strcmp(value, "0") == 0 || strcmp(value, "false") == 0)) {
+            snprintf(err, cap, "'batch=%.20s': %s", value,
+                     (*seen & SEEN_BATCH) ? "given twice: give it once"
+                                          : "give 1 (several frames per datagram, sent once per loop turn) or 0 "
+                                            "(one datagram per frame, the default)");
+            return UB_ERR_INVAL;
+        }
+        s->batch = on ? 1 : 0;
+        *seen |= SEEN_BATCH;
+        return UB_OK;
+    }
+    if (strcmp(key, "rcvbuf") == 0) {
+        uint32_t bytes = 0;
+        if ((*seen & SEEN_RCVBUF) || !ub_driver_parse_u32(value, UB_UDP_RCVBUF_MAX, &bytes) || bytes < UB_UDP_RCVBUF_MIN) {
+            snprintf(err, cap, "'rcvbuf=%.20s': %s", value,
+                     (*seen & SEEN_RCVBUF) ? "given twice: give it once"
+                                           : "give the socket's receive buffer in bytes, 4096..67108864 (e.g. "
+                                             "1048576 for a forwarder taking bursts; the kernel caps it at "
+                                             "net.core.rmem_max)");
+            return UB_ERR_INVAL;
+        }
+        s->rcvbuf = bytes;
+        *seen |= SEEN_RCVBUF;
+        return UB_OK;
+    }
     return UB_ERR_NOTFOUND;
 }
 
@@ -538,15 +572,20 @@ static int udp_spec_format(const ub_port_spec_t *spec, char *out, size_t cap) {
     unsigned implied = peer ? UB_UDP_ACCEPT_PEER : UB_UDP_ACCEPT_ANY;
     char peer_text[UB_PORT_HOST_LEN + 16] = "";
     if (peer) snprintf(peer_text, sizeof peer_text, ",peer=%s:%u", spec->peer_host, (unsigned)spec->peer_port);
-    return snprintf(out, cap, "udp:bind=%s:%u%s%s%s", spec->host, (unsigned)spec->port, peer_text,
+    char rcvbuf[24] = "";
+    if (spec->rcvbuf != 0) snprintf(rcvbuf, sizeof rcvbuf, ",rcvbuf=%lu", (unsigned long)spec->rcvbuf);
+    return snprintf(out, cap, "udp:bind=%s:%u%s%s%s%s%s", spec->host, (unsigned)spec->port, peer_text,
                     spec->accept != implied ? ",accept=" : "",
-                    spec->accept != implied ? k_accept_words[spec->accept % 3] : "");
+                    spec->accept != implied ? k_accept_words[spec->accept % 3] : "", spec->batch ? ",batch=1" : "",
+                    rcvbuf);
 }
 
 static int udp_open(void *state, const ub_port_spec_t *spec) {
     ub_udp_t *udp = state;
     int rc = ub_udp_open(udp, spec->host, spec->port, spec->peer_port != 0 ? spec->peer_host : NULL, spec->peer_port);
     if (rc == UB_OK) rc = ub_udp_set_accept(udp, (ub_udp_accept_t)spec->accept);
+    if (rc == UB_OK && spec->batch) rc = ub_udp_set_batching(udp, 1);
+    if (rc == UB_OK && spec->rcvbuf != 0) rc = ub_udp_set_rcvbuf(udp, spec->rcvbuf);
     if (rc != UB_OK) ub_udp_close(udp);
     return rc;
 }
@@ -554,6 +593,7 @@ static int udp_open(void *state, const ub_port_spec_t *spec) {
 static void udp_close(void *state) { ub_udp_close(state); }
 static int udp_attach(void *state, ub_node_t *node, int link_id) { return ub_udp_attach(state, node, link_id); }
 static int udp_service(void *state, ub_node_t *node, uint64_t now_ms) { return ub_udp_service(state, node, now_ms); }
+static int udp_flush(void *state) { return ub_udp_flush(state); }
 
 static int udp_pollfds(const void *state, struct pollfd *fds, int cap) {
     const ub_udp_t *udp = state;
@@ -633,7 +673,7 @@ static int udp_notice(const void *state, const char *link_name, char *out, size_
 
 const ub_driver_t ub_udp_driver = {
     .name = "udp",
-    .keys = "bind, peer, accept",
+    .keys = "bind, peer, accept, batch, rcvbuf",
     .examples = "udp:bind=127.0.0.1:0,peer=127.0.0.1:5001 | udp:bind=0.0.0.0:5001 (peers learned)",
     .wire_params = true,
     .state_size = sizeof(ub_udp_t),
@@ -652,4 +692,5 @@ const ub_driver_t ub_udp_driver = {
     .describe = udp_describe,
     .notice = udp_notice,
     .set_foreign = udp_set_foreign_op,
+    .flush = udp_flush,
 };

@@ -77,6 +77,20 @@ def ub_ports_service(ports: Any, now_ms: int) -> int:
     return int(lib.ub_ports_service(ports, now_ms))
 
 
+def ub_ports_flush(ports: Any) -> int:
+    """Sends what batching ports (udp batch=1) queued; returns the frames a full socket still holds back."""
+    return ensure(lib.ub_ports_flush(ports), "ub_ports_flush")
+
+
+def ub_ports_batching(ports: Any, links: Any) -> bool:
+    """True when the open port of one of `links` (names) packs several frames per datagram (udp batch=1)."""
+    for link in links:
+        p = lib.ub_ports_find(ports, _c_name(link))
+        if p != ffi.NULL and p.spec.batch:
+            return True
+    return False
+
+
 def pollfd_array() -> Any:
     """Room for ub_ports_pollfds(): POLLFD_CAP `struct pollfd` (allocate once per set of ports)."""
     return ffi.new("struct pollfd[]", POLLFD_CAP)

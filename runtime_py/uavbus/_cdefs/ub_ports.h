@@ -17,6 +17,7 @@ typedef struct ub_port_spec {
     uint8_t accept;
     char device[...];
     uint32_t baud;
+    uint8_t batch;
     ...;
 } ub_port_spec_t;
 
@@ -66,6 +67,7 @@ int ub_ports_open_config(ub_ports_t *ports, const ub_nodecfg_t *cfg, uint64_t no
 int ub_ports_close(ub_ports_t *ports, const char *link_name);
 void ub_ports_close_all(ub_ports_t *ports);
 int ub_ports_service(ub_ports_t *ports, uint64_t now_ms);
+int ub_ports_flush(ub_ports_t *ports);
 int ub_ports_pollfds(const ub_ports_t *ports, struct pollfd *fds, int cap);
 int ub_ports_poll_timeout(const ub_ports_t *ports, uint64_t now_ms, int max_ms);
 int ub_ports_local_port(const ub_ports_t *ports, const char *link_name, uint16_t *port);
