@@ -18,8 +18,17 @@ import pytest
 HERE = Path(__file__).resolve().parent
 PARALLEL = frozenset({"bench", "golden", "integration", "packaging", "realworld", "unit"})
 # Single files of a serial folder that time nothing: the command line's error statuses and its seeded fuzz
-# loop (a fixed number of iterations, ~10 % of the tools folder's time).
-PARALLEL_FILES = frozenset({"tools/test_cli.py"})
+# loop (a fixed number of iterations, ~10 % of the tools folder's time); the log reader and the log tools on
+# files the test writes (a follower waits for its writer's `done`, whatever the pace; `log play` on an injected
+# clock; the spy that waits 0.3 s for nothing to come); the C writer's logs and the tables tool over in-process
+# memlinks pumped by the test; the bridges' refusals, their MCAP export of a memlink log and a CMake configure.
+# Those eight files took 43 s of a one-process run at load 6 (10.8 s of CPU, mostly `uavbus` subprocesses).
+PARALLEL_FILES = frozenset({
+    "tools/test_cli.py",
+    "tools/test_logfile.py", "tools/test_log_tools.py", "tools/test_log_damage_findings.py",
+    "tools/test_c_log_and_tables.py", "tools/test_tools_truth.py",
+    "bridges/test_bridge_errors.py", "bridges/test_mcap_export.py", "bridges/test_mavbridge_packaging.py",
+})
 
 
 def pytest_configure(config: pytest.Config) -> None:

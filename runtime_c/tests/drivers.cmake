@@ -4,9 +4,7 @@
 # support/ub_test_tcp_pair.h, support/ub_test_foreign.h).
 foreach(t test_udp test_tcp test_serial test_legacy_link test_tcp_edges test_serial_edges)
   if(TARGET ${t})
-    target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_fig9.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_pair.c)
+    target_link_libraries(${t} PRIVATE ub_test_support)
     target_include_directories(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests)
     set_tests_properties(${t} PROPERTIES TIMEOUT 60)
   endif()

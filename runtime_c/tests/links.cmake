@@ -3,9 +3,7 @@
 foreach(t test_log test_log_damage test_ports test_ports_refusals test_driver_pipe test_accounting test_contracts test_prio
         test_batchlink)
   if(TARGET ${t})
-    target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_fig9.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_pair.c)
+    target_link_libraries(${t} PRIVATE ub_test_support)
     target_include_directories(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests)
     set_tests_properties(${t} PROPERTIES TIMEOUT 60)
   endif()

@@ -9,10 +9,7 @@ set(UB_ROUTER_TESTS test_node test_router test_pubsub test_admin test_memlink te
                     test_memlink_edges test_route_scale test_route_slow)
 foreach(t ${UB_ROUTER_TESTS})
   if(TARGET ${t})
-    target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_fig9.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_pair.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_authz.c)
+    target_link_libraries(${t} PRIVATE ub_test_support)
     target_include_directories(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests ${CMAKE_CURRENT_SOURCE_DIR}/src)
   endif()
 endforeach()

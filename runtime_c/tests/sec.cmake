@@ -23,9 +23,7 @@ endif()
 foreach(t test_node_sec test_lockout test_tcp_sec test_secfile test_sec_noalloc test_origin test_origin_vectors
           test_node_sec_setup)
   if(TARGET ${t})
-    target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_fig9.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_pair.c)
+    target_link_libraries(${t} PRIVATE ub_test_support)
     target_include_directories(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests ${CMAKE_CURRENT_SOURCE_DIR}/src)
     set_tests_properties(${t} PROPERTIES TIMEOUT 60)
   endif()

@@ -6,7 +6,7 @@
 #    (runtime_c/tools/check_layers.cmake);
 #  - ub_layer_check_selftest: the check passes on the tree and fails on planted breaches.
 if(TARGET test_service)
-  target_sources(test_service PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c)
+  target_link_libraries(test_service PRIVATE ub_test_support)
   target_include_directories(test_service PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests)
 endif()
 

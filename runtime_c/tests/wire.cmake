@@ -6,9 +6,7 @@ if(TARGET test_compact_vectors)
 endif()
 foreach(t test_compact test_frag test_wire_paths test_wire_edges)
   if(TARGET ${t})
-    target_sources(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_world.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_fig9.c
-                               ${CMAKE_CURRENT_SOURCE_DIR}/tests/support/ub_test_pair.c)
+    target_link_libraries(${t} PRIVATE ub_test_support)
     target_include_directories(${t} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/tests ${CMAKE_CURRENT_SOURCE_DIR}/src)
   endif()
 endforeach()
