@@ -637,7 +637,9 @@ static __attribute__((noinline)) size_t feed_carried(ub_decoder_t *d, const uint
 }
 
 size_t ub_decoder_feed(ub_decoder_t *d, const uint8_t *data, size_t len, ub_frame_cb cb, void *user) {
-    if (d == NULL || (data == NULL && len != 0)) return 0;
+    /* An empty chunk decides nothing (a carried candidate is always short of its next verdict), and NULL + 0 or
+     * memcpy(p, NULL, 0) further in would be undefined behaviour: (NULL, 0) is allowed and returns here. */
+    if (d == NULL || data == NULL || len == 0) return 0;
     d->stats.bytes_in += len;
     /* Nothing carried and a valid frame at the chunk's start (a datagram, a read that ended on a frame
      * boundary): delivered here, the rest of the chunk scanned after it -- what scan_in_place() does with its
