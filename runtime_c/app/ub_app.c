@@ -585,6 +585,7 @@ int ub_app_run(ub_app_t *app) {
         }
         now = ub_app_mono_ms();
         app->wakeups++;
+        if (prog->wake != NULL) prog->wake(app, now);
         if (stdin_slot >= 0 && (fds[stdin_slot].revents & (POLLIN | POLLHUP | POLLERR)) != 0) {
             app->stdin_open = read_stdin(app, now);
         }
