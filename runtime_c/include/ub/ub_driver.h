@@ -138,6 +138,12 @@ typedef struct ub_driver {
      *  onto the link, whole or not at all, between frames. ub_ports_write_foreign() calls it. NULL: the
      *  transport cannot (UB_ERR_UNSUPPORTED). @return UB_OK, UB_ERR_AGAIN (full: later), UB_ERR_CLOSED. */
     int (*write_foreign)(void *state, const uint8_t *data, size_t len, uint64_t now_ms);
+    /** true when service() has work only while one of the instance's descriptors is ready (poll()'s
+     *  revents: input, room for pending output, an error) or next_due() has come: every timer of the
+     *  instance is in next_due(). ub_ports_service_ready() then skips the instance on the other loop turns
+     *  (no read that finds nothing). false (the default, e.g. a device adapter that writes on its own
+     *  schedule): serviced on every turn. */
+    bool ready_only;
 } ub_driver_t;
 
 /**
