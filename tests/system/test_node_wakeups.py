@@ -42,9 +42,10 @@ def config(tmp_path: Path) -> Path:
     return path
 
 
-def start_vehicle(group: ProcessGroup, program: Path, config: Path, epoch_ms: int) -> tuple[NodeProcess, int]:
+def start_vehicle(group: ProcessGroup, program: Path, config: Path, epoch_ms: int,
+                  *extra: str) -> tuple[NodeProcess, int]:
     proc = group.spawn([program, "--config", config, "--node", "vehicle", "--port", "radio=udp:bind=127.0.0.1:0",
-                        "--stats-ms", "0", "--motion", MOTION, "--epoch-ms", str(epoch_ms)], "vehicle",
+                        "--stats-ms", "0", "--motion", MOTION, "--epoch-ms", str(epoch_ms), *extra], "vehicle",
                        ready_timeout=8.0)
     return proc, int(proc.wait_ready()["ports"]["radio"]["local_port"])
 
@@ -78,14 +79,16 @@ def check_on_grid(imu: dict, epoch_ms: int, model: FlightModel) -> int:
 def test_an_idle_node_sleeps_and_a_dump_reads_the_current_sample(program: Path, config: Path) -> None:
     """No subscriber: the node wakes at most IDLE_WAKEUPS_PER_S a second, yet `dump` after a long sleep gives
     the sample of the latest instant (not the one at its last wake-up), equal to the model's at that instant,
-    and its counter counts every instant since the first sample."""
+    and its counter counts every instant since the first sample. A `flows` report every 20 ms with nothing
+    delivered is neither printed nor woken for (the launcher learns nothing from an unchanged one); the
+    `flows` command still answers."""
     from uavbus import Catalogue
 
     cat = Catalogue.load(catalogue_for(program))
     model = FlightModel(MOTION)
     epoch_ms = int(time.monotonic() * 1000.0) - 5000  # the path started 5 s ago: t > 0 from the first sample
     with ProcessGroup() as group:
-        vehicle, _ = start_vehicle(group, program, config, epoch_ms)
+        vehicle, _ = start_vehicle(group, program, config, epoch_ms, "--flows-ms", "20")
         imu0, _, _ = dump(vehicle, cat, "imuOutPrimary")
         k0 = check_on_grid(imu0, epoch_ms, model)
         w0 = vehicle.request_stats()["wakeups"]
@@ -95,6 +98,10 @@ def test_an_idle_node_sleeps_and_a_dump_reads_the_current_sample(program: Path, 
         idle_s = time.monotonic() - t0
         imu1, before, after = dump(vehicle, cat, "imuOutPrimary")
         k1 = check_on_grid(imu1, epoch_ms, model)
+        assert vehicle.all("flows") == [], "periodic flows events with nothing delivered"
+        m = vehicle.mark()
+        vehicle.send("flows")
+        assert vehicle.wait_event("flows", 5.0, since=m)["flows"] == []
     woke = w1 - w0 - 1  # the second `stats` command wakes it once
     assert woke <= IDLE_WAKEUPS_PER_S * idle_s, f"{woke} wake-ups in {idle_s:.2f} s with nobody reading a sample"
     at_ms = epoch_ms + k1 * IMU_MS
