@@ -732,17 +732,16 @@ static bool instance_has_work(const ub_port_driver_t *d, const struct pollfd *fd
     const ub_driver_t *drv = d->driver;
     if (drv == NULL) return false;
     if (!drv->ready_only) return true;
-    uint64_t due;
-    if (drv->next_due != NULL && drv->next_due(&d->state, &due) && due <= now_ms) return true;
     struct pollfd own[2]; /* ub_driver.h: at most 2 per instance */
     int k = drv->pollfds(&d->state, own, 2);
-    if (k <= 0) return k < 0; /* no descriptor: nothing can be ready (a closed socket) */
+    if (k < 0) return true;
     for (int j = 0; j < k; j++) {
         for (int i = 0; i < nfds; i++) {
             if (fds[i].fd == own[j].fd && fds[i].revents != 0) return true;
         }
     }
-    return false;
+    uint64_t due; /* last: the readiness above is what most turns find */
+    return drv->next_due != NULL && drv->next_due(&d->state, &due) && due <= now_ms;
 }
 
 int ub_ports_service_ready(ub_ports_t *ports, const struct pollfd *fds, int nfds, uint64_t now_ms) {
