@@ -6,7 +6,7 @@
 
 void node_motion_init(node_motion_t *m) { ub_motion_default(&m->path); }
 
-void node_motion_gps(const node_motion_t *m, double t_s, timeTag_t stamp, gpsOut_t *out) {
+void node_motion_gps(const node_motion_t *m, double t_s, timeTag_t stamp, uint32_t count, gpsOut_t *out) {
     ub_motion_state_t s;
     ub_motion_sample(&m->path, t_s, &s);
     out->time = stamp;
@@ -21,10 +21,10 @@ void node_motion_gps(const node_motion_t *m, double t_s, timeTag_t stamp, gpsOut
     out->satellitesUsed = 9;
     out->status.antennaOk = 1;
     out->status.almanacValid = 1;
-    out->solutionCount++;
+    out->solutionCount = count;
 }
 
-void node_motion_imu(const node_motion_t *m, double t_s, double dt_s, timeTag_t stamp, imuOut_t *out) {
+void node_motion_imu(const node_motion_t *m, double t_s, double dt_s, timeTag_t stamp, uint32_t count, imuOut_t *out) {
     ub_motion_state_t s;
     ub_motion_sample(&m->path, t_s, &s);
     out->time = stamp;
@@ -35,12 +35,12 @@ void node_motion_imu(const node_motion_t *m, double t_s, double dt_s, timeTag_t 
     out->deltaVelocity = (vector3d_t){s.specific_force[0] * dt_s, s.specific_force[1] * dt_s, s.specific_force[2] * dt_s};
     out->deltaAngle = (vector3d_t){out->p * dt_s, out->q * dt_s, out->r * dt_s};
     out->temperatureC = 35.0f;
-    out->sampleCount++;
+    out->sampleCount = count;
     out->saturated = 0;
     out->health = HEALTH_OK;
 }
 
-void node_motion_nav(const node_motion_t *m, double t_s, timeTag_t stamp, navFilterState_t *out) {
+void node_motion_nav(const node_motion_t *m, double t_s, timeTag_t stamp, uint32_t count, navFilterState_t *out) {
     ub_motion_state_t s;
     ub_motion_sample(&m->path, t_s, &s);
     double c = cos(s.heading_rad), sn = sin(s.heading_rad);
@@ -51,7 +51,7 @@ void node_motion_nav(const node_motion_t *m, double t_s, timeTag_t stamp, navFil
     const double dcm[3][3] = {{c, -sn, 0.0}, {sn, c, 0.0}, {0.0, 0.0, 1.0}};
     memcpy(out->dcmBodyToNed, dcm, sizeof dcm);
     for (int i = 0; i < NAV_STATES; i++) out->stateStdDev[i] = 0.1f;
-    out->updateCount++;
+    out->updateCount = count;
     out->aligned = 1;
     out->health = HEALTH_OK;
 }

@@ -1,5 +1,5 @@
 # Smoke test of uavbus_node (ctest programs_uavbus_node_smoke): one process with a UDP port publishing
-# gpsOut for 300 ms exits 0 with a ready event, stats and frames sent, waking far less than every ms; a bad port spec exits 2 with a
+# gpsOut for 300 ms exits 0 with a ready event, stats and frames sent, waking only for what is due; a bad port spec exits 2 with a
 # message naming the argument. The multi-process behaviour is tested from Python (tests/system).
 #   cmake -DNODE=<uavbus_node> -DCONFIG=<table2.json> -P smoke.cmake
 execute_process(
@@ -16,12 +16,13 @@ foreach(want "\"event\":\"ready\",\"node\":\"primary\"" "\"local_port\":[1-9]" "
     message(FATAL_ERROR "uavbus_node output lacks /${want}/:\n${out}")
   endif()
 endforeach()
-# The loop sleeps until the next due time (ub_node_next_due(), the motion models' samples, the stats): in 300 ms
-# it wakes for the 20 ms publication, the 10/20/100 ms motion models and the stats -- a 1 ms loop would wake ~300
-# times, and did before ub_node_next_due().
+# The loop sleeps until the next due time (ub_node_next_due(), the stats); the motion models are sampled lazily
+# and wake nothing. In 300 ms it wakes for the 15 publications, the ICMP "port unreachable" each one brings back
+# from port 9, and the stats: 31 here. Sampling the 10 ms model eagerly woke it 46 times, a 1 ms loop ~300
+# (tests/system/test_node_wakeups.py bounds an idle node with a wider margin).
 string(REGEX MATCH "\"final\":true[^\n]*\"wakeups\":([0-9]+)" final_line "${out}")
-if(NOT CMAKE_MATCH_1 OR CMAKE_MATCH_1 GREATER 200)
-  message(FATAL_ERROR "uavbus_node woke ${CMAKE_MATCH_1} times in 300 ms (expected <= 200: it should sleep until its next due time):\n${out}")
+if(NOT CMAKE_MATCH_1 OR CMAKE_MATCH_1 GREATER 40)
+  message(FATAL_ERROR "uavbus_node woke ${CMAKE_MATCH_1} times in 300 ms (expected <= 40: it should sleep until its next due time):\n${out}")
 endif()
 execute_process(
   COMMAND ${NODE} --config ${CONFIG} --node primary --port onboardPortRelay=udp:peer=127.0.0.1:9

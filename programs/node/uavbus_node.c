@@ -89,11 +89,12 @@ static const directory_t k_dirs[] = {
 };
 #define N_DIRS (sizeof k_dirs / sizeof k_dirs[0])
 
-/* Per directory: produced here?, next update, and what was received (latency from the timeTag). */
+/* Per directory: produced here?, which sample its storage holds, and what was received (latency from the timeTag). */
 typedef struct dir_state {
     int instance;
     bool produced;
-    uint64_t next_ms;
+    bool sampled;         /* the storage holds sample `k` of the motion model */
+    int64_t k, first_k;   /* sample instants epoch + k * period_ms; first_k: the first this process wrote */
     uint64_t rx_count;
     double lat_last_ms, lat_max_ms, lat_sum_ms;
 } dir_state_t;
@@ -541,21 +542,46 @@ static void on_deliver(void *user, int entity, uint32_t instance, const ub_frame
     }
 }
 
-static void update_motion(uint64_t now_ms) {
+/* ---- motion models --------------------------------------------------------------------------------------
+ *
+ * A produced directory holds the model's sample at its latest instant s = epoch + k * period_ms <= now
+ * (epoch: --epoch-ms, else the start): the model at t = k * period_ms (t < 0 counts as 0), timeTag s on
+ * CLOCK_MONOTONIC, and its counter (solutionCount, sampleCount, updateCount) k - first_k + 1, first_k being
+ * the instant of the first sample this process wrote (at start). Every field is a function of k alone
+ * (node_motion.h: the model integrates nothing), so a sample is the same whenever it is computed.
+ *
+ * So the models are sampled lazily: motion_catch_up() brings every produced directory to `now` each time
+ * the loop wakes, before stdin, the ports and the tick -- the only places the storage is read (a
+ * publication, a read request, `dump`, the log's copy of what is sent). The models have no timers of their
+ * own: a sample nobody reads wakes nobody (at 100 Hz imuOut and 50 Hz navFilterState it was ~9 wake-ups in
+ * 10, issue 28 item 5). What a reader sees is what sampling every period_ms on time would have left there;
+ * the old eager loop stamped the moment it woke instead, up to its wake-up delay late. */
+
+static int64_t sample_index(uint64_t now_ms, uint64_t epoch_ms, uint32_t period_ms) {
+    if (now_ms >= epoch_ms) return (int64_t)((now_ms - epoch_ms) / period_ms);
+    return -(int64_t)((epoch_ms - now_ms + period_ms - 1) / period_ms); /* floor: the instant at or before now */
+}
+
+static void motion_catch_up(uint64_t now_ms) {
     uint64_t epoch = fleet_epoch_ms(g_app.start_ms);
-    double t_s = now_ms > epoch ? (double)(now_ms - epoch) / 1000.0 : 0.0;
     for (size_t i = 0; i < N_DIRS; i++) {
         dir_state_t *d = &g_dirs[i];
-        const directory_t *k = &k_dirs[i];
-        if (!d->produced || k->motion == MOTION_NONE || now_ms < d->next_ms) continue;
-        /* One update per call even after a stall: the model is a function of time, nothing to catch up. */
-        d->next_ms += k->period_ms;
-        if (d->next_ms <= now_ms) d->next_ms = now_ms + k->period_ms;
-        timeTag_t stamp = mono_stamp();
-        switch (k->motion) {
-        case MOTION_GPS: node_motion_gps(&g_motion, t_s, stamp, k->storage); break;
-        case MOTION_IMU: node_motion_imu(&g_motion, t_s, k->period_ms / 1000.0, stamp, k->storage); break;
-        case MOTION_NAV: node_motion_nav(&g_motion, t_s, stamp, k->storage); break;
+        const directory_t *dk = &k_dirs[i];
+        if (!d->produced || dk->motion == MOTION_NONE) continue;
+        int64_t k = sample_index(now_ms, epoch, dk->period_ms);
+        if (d->sampled && k == d->k) continue; /* now only grows: the storage holds this sample already */
+        if (!d->sampled) d->first_k = k;
+        d->sampled = true;
+        d->k = k;
+        int64_t at_ms = (int64_t)epoch + k * (int64_t)dk->period_ms;
+        if (at_ms < 0) at_ms = 0;
+        timeTag_t stamp = {(uint32_t)(at_ms / 1000), (uint32_t)(at_ms % 1000) * 1000u};
+        double t_s = (double)k * (double)dk->period_ms / 1000.0;
+        uint32_t count = (uint32_t)(k - d->first_k + 1);
+        switch (dk->motion) {
+        case MOTION_GPS: node_motion_gps(&g_motion, t_s, stamp, count, dk->storage); break;
+        case MOTION_IMU: node_motion_imu(&g_motion, t_s, dk->period_ms / 1000.0, stamp, count, dk->storage); break;
+        case MOTION_NAV: node_motion_nav(&g_motion, t_s, stamp, count, dk->storage); break;
         default: break;
         }
     }
@@ -689,9 +715,9 @@ static bool command(ub_app_t *app, const char *verb, char **saved, uint64_t now_
     return true;
 }
 
-static void before_tick(ub_app_t *app, uint64_t now_ms) {
+static void on_wake(ub_app_t *app, uint64_t now_ms) {
     (void)app;
-    update_motion(now_ms);
+    motion_catch_up(now_ms);
 }
 
 static void after_tick(ub_app_t *app, uint64_t now_ms) {
@@ -699,16 +725,11 @@ static void after_tick(ub_app_t *app, uint64_t now_ms) {
     fleet_poll(now_ms);
 }
 
-/* The program's own timers: the motion models' next samples and the fleet's "flows" events. (Membership
- * results arrive with frames, which wake the loop anyway.) */
+/* The program's own timers: the fleet's "flows" events. The motion models have none (sampled lazily, above);
+ * membership results arrive with frames, which wake the loop anyway. */
 static uint64_t program_next_due(ub_app_t *app, uint64_t now_ms) {
     (void)app;
-    uint64_t best = fleet_next_due(now_ms);
-    for (size_t i = 0; i < N_DIRS; i++) {
-        const dir_state_t *d = &g_dirs[i];
-        if (d->produced && k_dirs[i].motion != MOTION_NONE && d->next_ms < best) best = d->next_ms;
-    }
-    return best;
+    return fleet_next_due(now_ms);
 }
 
 /* The log's rotation: every file deleted to keep --record-max-files is said, never silent. */
@@ -734,8 +755,7 @@ static void setup(ub_app_t *app) {
     fleet_setup(app, &g_motion, ub_app_mono_ms());
 
     app->start_ms = ub_app_mono_ms(); /* the motion's t = 0 and --duration-ms count from here */
-    for (size_t i = 0; i < N_DIRS; i++) g_dirs[i].next_ms = app->start_ms;
-    update_motion(app->start_ms); /* storage holds a valid sample before anything can be sent */
+    motion_catch_up(app->start_ms); /* storage holds a valid sample before anything can be sent */
     ub_node_set_deliver_hook(&app->node, on_deliver, NULL);
     if (o->impair != NULL) apply_impair(app, o->impair, true);
     /* Device adapters (docs/adapters.md): a port spec names them like any transport. */
@@ -779,7 +799,7 @@ static const ub_app_program_t k_program = {
     .command = command,
     .setup = setup,
     .close = close_log,
-    .before_tick = before_tick,
+    .wake = on_wake,
     .after_tick = after_tick,
     .next_due = program_next_due,
     .stats = event_stats,

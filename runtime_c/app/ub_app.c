@@ -566,6 +566,7 @@ int ub_app_run(ub_app_t *app) {
     while (!app->stop && !g_signalled && now < end) {
         int n = ub_ports_pollfds(&app->ports, fds, 2 * UB_PORTS_MAX);
         if (n < 0) n = 0; /* cannot happen: 2 * UB_PORTS_MAX always suffices */
+        int n_port_fds = n;
         if (prog->pollfds != NULL) n += prog->pollfds(app, fds + n, UB_APP_MAX_FDS - 1 - n);
         int stdin_slot = -1;
         if (app->stdin_open) {
@@ -585,10 +586,12 @@ int ub_app_run(ub_app_t *app) {
         }
         now = ub_app_mono_ms();
         app->wakeups++;
+        if (prog->wake != NULL) prog->wake(app, now);
         if (stdin_slot >= 0 && (fds[stdin_slot].revents & (POLLIN | POLLHUP | POLLERR)) != 0) {
             app->stdin_open = read_stdin(app, now);
         }
-        (void)ub_ports_service(&app->ports, now);
+        /* Only the ports poll() reported (or that are due): a timer's wake-up reads no socket. */
+        (void)ub_ports_service_ready(&app->ports, fds, n_port_fds, now);
         char notice[512];
         while (ub_ports_notice(&app->ports, notice, sizeof notice) > 0) ub_app_warning(app, notice);
         if (prog->before_tick != NULL) prog->before_tick(app, now);

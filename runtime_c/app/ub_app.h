@@ -90,6 +90,10 @@ typedef struct ub_app_program {
     bool (*command)(ub_app_t *app, const char *verb, char **save, uint64_t now_ms);
     /* Descriptors to poll besides the ports and stdin: how many it wrote to fds[0, max). */
     int (*pollfds)(ub_app_t *app, struct pollfd *fds, int max);
+    /* Every loop turn as poll() returns, before stdin, the ports and the tick read anything: state that is a
+     * function of time is brought up to `now_ms` here, lazily (uavbus_node's motion models). It asks for no
+     * wake-up of its own: a program whose state must change at a time says so through next_due. */
+    void (*wake)(ub_app_t *app, uint64_t now_ms);
     /* Every loop turn once the ports are serviced: before and after ub_node_tick(). */
     void (*before_tick)(ub_app_t *app, uint64_t now_ms);
     void (*after_tick)(ub_app_t *app, uint64_t now_ms);

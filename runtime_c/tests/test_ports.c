@@ -637,6 +637,65 @@ static void test_rebind_tcp_to_udp_keeps_the_subscription(void **state) {
     net_free(&n);
 }
 
+/* ub_ports_service_ready() (issue 28 item 5): a UDP port (a ready_only driver) is read only when poll() reported
+ * its descriptor or its one timer has come (a learned peer to forget); a turn woken by anything else reads
+ * nothing, and the datagram waits for the turn that polls it. ub_ports_service() reads on every call. */
+static void test_service_ready_reads_only_what_poll_reported(void **state) {
+    (void)state;
+    net_t n = net_new();
+    pair_t *p = n.p;
+    char err[UB_PORTS_ERR_LEN], spec[128];
+    uint16_t sub_port = 0;
+    assert_int_equal(ub_ports_open_text(n.b, "subPort", "udp:bind=127.0.0.1:0", 0, err, sizeof err), UB_OK); /* learns */
+    assert_int_equal(ub_ports_local_port(n.b, "subPort", &sub_port), UB_OK);
+    snprintf(spec, sizeof spec, "udp:bind=127.0.0.1:0,peer=127.0.0.1:%u", (unsigned)sub_port);
+    assert_int_equal(ub_ports_open_text(n.a, "pubPort", spec, 0, err, sizeof err), UB_OK);
+    const ub_udp_t *u = ub_ports_udp(n.b, "subPort");
+    assert_non_null(u);
+    assert_true(ub_udp_driver.ready_only);
+    assert_int_equal(ub_ports_poll_timeout(n.b, 0, 5000), 5000); /* no learned peer: no timer */
+
+    assert_true(ub_pubsub_publish(p->pub_node, p->pub, TEST_GPS, p->sub_id, 1000, 0) >= 0);
+    ub_node_tick(p->pub_node, 0); /* the first frame leaves at once */
+    assert_int_equal(ub_node_link(p->pub_node, p->pub_link)->counters.frames_out, 1);
+
+    struct pollfd fds[2 * UB_PORTS_MAX];
+    int nf = ub_ports_pollfds(n.b, fds, 2 * UB_PORTS_MAX);
+    assert_int_equal(nf, 1);
+    assert_int_equal(ub_ports_service_ready(n.b, fds, nf, 1), 0); /* not polled: revents 0, nothing read */
+    assert_int_equal(ub_ports_service_ready(n.b, NULL, 0, 1), 0);
+    assert_int_equal(u->stats.datagrams_in, 0);
+    assert_int_equal(u->stats.rx_calls, 0);
+    assert_int_equal(poll(fds, (nfds_t)nf, 2000), 1); /* the datagram is there all along */
+    assert_int_equal(ub_ports_service_ready(n.b, fds, nf, 1), 1);
+    assert_int_equal(u->stats.datagrams_in, 1);
+    assert_int_equal(u->stats.peers_learned, 1);
+    assert_int_equal(delivery_count(&p->log, p->sub, TEST_GPS, 0, 2), 1);
+
+    /* The learned peer is forgotten after UB_UDP_PEER_IDLE_MS of silence: the driver's timer, which wakes the
+     * loop (ub_ports_poll_timeout) and has the port serviced with no descriptor ready. */
+    assert_int_equal(ub_ports_poll_timeout(n.b, 1, INT32_MAX), UB_UDP_PEER_IDLE_MS);
+    fds[0].revents = 0;
+    (void)ub_ports_service_ready(n.b, fds, nf, UB_UDP_PEER_IDLE_MS);
+    assert_int_equal(u->stats.peers_forgotten, 0);
+    (void)ub_ports_service_ready(n.b, fds, nf, 1 + UB_UDP_PEER_IDLE_MS);
+    assert_int_equal(u->stats.peers_forgotten, 1);
+    assert_int_equal(ub_ports_poll_timeout(n.b, 1 + UB_UDP_PEER_IDLE_MS, 5000), 5000);
+
+    /* ub_ports_service() reads whatever the poll said (here: no poll at all). */
+    uint64_t calls = u->stats.rx_calls;
+    ub_node_tick(p->pub_node, 1000);
+    assert_int_equal(ub_node_link(p->pub_node, p->pub_link)->counters.frames_out, 2);
+    for (int i = 0; i < 200 && u->stats.datagrams_in < 2; i++) {
+        (void)ub_ports_service(n.b, 1 + UB_UDP_PEER_IDLE_MS);
+        struct timespec ts = {.tv_sec = 0, .tv_nsec = 5000000};
+        if (u->stats.datagrams_in < 2) nanosleep(&ts, NULL);
+    }
+    assert_int_equal(u->stats.datagrams_in, 2);
+    assert_true(u->stats.rx_calls > calls);
+    net_free(&n);
+}
+
 /* Impairment in front of real ports: seeded loss on the publisher's UDP port, counted exactly. */
 static void test_impairment_on_ports(void **state) {
     (void)state;
@@ -741,6 +800,7 @@ int main(void) {
         cmocka_unit_test(test_drain_ends_idle_full_woken_aged),
         cmocka_unit_test(test_drain_without_wake_fd_or_output),
         cmocka_unit_test(test_udp_batch_port),
+        cmocka_unit_test(test_service_ready_reads_only_what_poll_reported),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -142,6 +142,12 @@ typedef struct ub_driver {
      *  @return frames still queued (the socket refused them: poll for POLLOUT), or a negative code.
      *  NULL: the transport sends at once (nothing is ever queued between calls). */
     int (*flush)(void *state);
+    /** true when service() has work only while one of the instance's descriptors is ready (poll()'s
+     *  revents: input, room for pending output, an error) or next_due() has come: every timer of the
+     *  instance is in next_due(). ub_ports_service_ready() then skips the instance on the other loop turns
+     *  (no read that finds nothing). false (the default, e.g. a device adapter that writes on its own
+     *  schedule): serviced on every turn. */
+    bool ready_only;
 } ub_driver_t;
 
 /**

@@ -311,6 +311,16 @@ int ub_ports_service(ub_ports_t *ports, uint64_t now_ms);
 int ub_ports_flush(ub_ports_t *ports);
 
 /**
+ * ub_ports_service() after a poll() over ub_ports_pollfds()'s descriptors (`fds[0, nfds)`, revents set by
+ * poll()): a port whose driver is ready_only (ub_driver.h: UDP) is serviced only when poll() reported one of
+ * its descriptors (matched by descriptor, so a port rebound since the poll() is safe) or its next_due() has
+ * come; every other port, and every impairment queue, as ub_ports_service() does. A loop woken by a timer or
+ * by one port's input so reads no socket that has nothing (issue 28 item 5: 3.9 of 4 reads found nothing).
+ * @return frames/datagrams handed to the node; 0 on a NULL `ports`. `fds` NULL counts as no descriptor ready.
+ */
+int ub_ports_service_ready(ub_ports_t *ports, const struct pollfd *fds, int nfds, uint64_t now_ms);
+
+/**
  * Fills `fds` with the descriptors to poll: POLLIN for every socket and
  * device (TCP servers: listening and connected), plus POLLOUT while output is
  * pending or a TCP connect is in progress.

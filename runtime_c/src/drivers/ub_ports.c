@@ -698,24 +698,60 @@ void ub_ports_close_all(ub_ports_t *ports) {
     }
 }
 
+/* The impairment in front of a port: put back after a TCP re-attach, its queue released when due. */
+static void service_impair(ub_ports_t *ports, ub_port_t *p, uint64_t now_ms) {
+    if (!p->impaired) return;
+    /* A TCP driver re-attaches itself when a connection comes up: put the impairment back in front. */
+    const ub_link_t *link = ub_node_link(ports->node, p->link_id);
+    if (link != NULL && link->ops != &ub_impair_ops
+        && ub_node_link_set_transport(ports->node, p->link_id, &ub_impair_ops, &p->impair) != UB_OK) {
+        p->service_errors++; /* cannot happen: the id was resolved */
+    }
+    (void)ub_impair_service(&p->impair, now_ms);
+}
+
+static int service_port(ub_ports_t *ports, ub_port_t *p, bool driver, uint64_t now_ms) {
+    int n = driver ? driver_service(&p->drv[p->active], ports->node, now_ms) : 0;
+    if (n < 0) p->service_errors++;
+    service_impair(ports, p, now_ms);
+    return n < 0 ? 0 : n;
+}
+
 int ub_ports_service(ub_ports_t *ports, uint64_t now_ms) {
     if (ports == NULL || ports->node == NULL) return 0;
     int total = 0;
     for (size_t i = 0; i < UB_PORTS_MAX; i++) {
         ub_port_t *p = &ports->port[i];
-        if (!p->in_use) continue;
-        int n = driver_service(&p->drv[p->active], ports->node, now_ms);
-        if (n < 0) p->service_errors++;
-        else total += n;
-        if (p->impaired) {
-            /* A TCP driver re-attaches itself when a connection comes up: put the impairment back in front. */
-            const ub_link_t *link = ub_node_link(ports->node, p->link_id);
-            if (link != NULL && link->ops != &ub_impair_ops
-                && ub_node_link_set_transport(ports->node, p->link_id, &ub_impair_ops, &p->impair) != UB_OK) {
-                p->service_errors++; /* cannot happen: the id was resolved */
-            }
-            (void)ub_impair_service(&p->impair, now_ms);
+        if (p->in_use) total += service_port(ports, p, true, now_ms);
+    }
+    return total;
+}
+
+/* Has the instance work: not ready_only, due, or one of its descriptors reported by poll()? */
+static bool instance_has_work(const ub_port_driver_t *d, const struct pollfd *fds, int nfds, uint64_t now_ms) {
+    const ub_driver_t *drv = d->driver;
+    if (drv == NULL) return false;
+    if (!drv->ready_only) return true;
+    struct pollfd own[2]; /* ub_driver.h: at most 2 per instance */
+    int k = drv->pollfds(&d->state, own, 2);
+    if (k < 0) return true;
+    for (int j = 0; j < k; j++) {
+        for (int i = 0; i < nfds; i++) {
+            if (fds[i].fd == own[j].fd && fds[i].revents != 0) return true;
         }
+    }
+    uint64_t due; /* last: the readiness above is what most turns find */
+    return drv->next_due != NULL && drv->next_due(&d->state, &due) && due <= now_ms;
+}
+
+int ub_ports_service_ready(ub_ports_t *ports, const struct pollfd *fds, int nfds, uint64_t now_ms) {
+    if (ports == NULL || ports->node == NULL) return 0;
+    if (fds == NULL || nfds < 0) nfds = 0;
+    int total = 0;
+    for (size_t i = 0; i < UB_PORTS_MAX; i++) {
+        ub_port_t *p = &ports->port[i];
+        if (!p->in_use) continue;
+        total += service_port(ports, p, instance_has_work(&p->drv[p->active], fds, nfds, now_ms), now_ms);
     }
     return total;
 }

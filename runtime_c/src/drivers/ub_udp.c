@@ -605,6 +605,24 @@ static int udp_pollfds(const void *state, struct pollfd *fds, int cap) {
     return 1;
 }
 
+/* The one timer of a UDP instance: when forget_idle() next forgets a learned peer (its provisional time runs
+ * out, or it fell silent under accept=any). Everything else it does is poll()'s to report: input, room for the
+ * queued output (POLLOUT), an ICMP error (POLLERR) -- so the driver is ready_only. */
+static bool udp_next_due(const void *state, uint64_t *due_ms) {
+    const ub_udp_t *udp = state;
+    bool any = false;
+    uint64_t best = UINT64_MAX;
+    for (int k = 0; k < UB_UDP_MAX_PEERS; k++) {
+        const ub_udp_peer_t *p = &udp->peers[k];
+        if (!p->in_use || p->configured) continue;
+        if (p->provisional_until_ms != 0 && p->provisional_until_ms < best) best = p->provisional_until_ms, any = true;
+        if (udp->accept == UB_UDP_ACCEPT_ANY && p->last_heard_ms + UB_UDP_PEER_IDLE_MS < best)
+            best = p->last_heard_ms + UB_UDP_PEER_IDLE_MS, any = true;
+    }
+    if (any) *due_ms = best;
+    return any;
+}
+
 static int udp_local_port(const void *state, uint16_t *port) { return ub_udp_local_port(state, port); }
 
 static int udp_set_foreign_op(void *state, ub_foreign_cb cb, void *user) { return ub_udp_set_foreign(state, cb, user); }
@@ -687,6 +705,8 @@ const ub_driver_t ub_udp_driver = {
     .link_ops = &ub_udp_ops,
     .service = udp_service,
     .pollfds = udp_pollfds,
+    .next_due = udp_next_due,
+    .ready_only = true,
     .local_port = udp_local_port,
     .counters = udp_counters,
     .describe = udp_describe,

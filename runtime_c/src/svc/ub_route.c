@@ -1001,6 +1001,13 @@ static void route_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms
         if (due || trigger) send_frame(rt, lid, trigger, now_ms);
         else if (l->sent_any && now_ms < l->carry_until_ms && now_ms >= l->last_tx_ms + rt->opt.fast_hello_ms)
             send_fast_hello(rt, lid, now_ms);
+        /* Frames of ours that are all routing frames are noted here, as watch_link() would note them at the next
+         * tick (only data extends sending_until_ms); left for it, route_next_due() would call that tick due at
+         * once, a second wake-up for every hello (issue 28 item 5: a process sleeping until its due time). */
+        if (link->counters.frames_out - l->tx_seen == l->stats.frames_out - l->routing_tx_seen) {
+            l->tx_seen = link->counters.frames_out;
+            l->routing_tx_seen = l->stats.frames_out;
+        }
     }
 }
 
