@@ -7,7 +7,7 @@
 #   make fuzz    every fuzz harness for FUZZ_SECONDS (default 600) each; report in build-fuzz/fuzz-out/
 #   make coverage  line and branch coverage of runtime_c from the tests (gcovr); report in build-cov/
 #   make test-cross  the runtime and generated codecs on big-endian (s390x) and 32-bit (armhf) targets under
-#                    qemu-user, every tests/vectors file reproduced there, and a clang build (part of make test)
+#                    qemu-user, every tests/vectors file reproduced there (part of make test)
 #
 # Everything below installs only from Debian and PyPI; nothing is downloaded at run time.
 
@@ -20,7 +20,8 @@ BUILD_ASAN  := build-asan
 BUILD_FUZZ  := build-fuzz
 BUILD_COV   := build-cov
 BUILD_CROSS := build-cross
-# clang + libFuzzer: `make test` runs every fuzz harness for a few seconds (make fuzz for longer).
+# clang + libFuzzer: `make test` runs every fuzz harness for a few seconds (make fuzz for longer). The same
+# clang (and its sanitizer runtimes, libclang-rt) builds test-c's ASan/UBSan tree; setup installs both first.
 FUZZ_APT_PKGS := clang-14 libclang-rt-14-dev
 # qemu-user runs the generator's cross-built self-tests (qemu-arm) and test-cross (s390x, armhf); the 32-bit
 # libraries link the generator's -m32 self-test (not gcc-multilib: Debian has it conflict with every cross gcc).
@@ -74,13 +75,22 @@ $(SETUP_STAMP): pyproject.toml setup.py $(FFI_INPUTS)
 # A sanitizer's report names file:line from them; full -g (variable locations) doubled the compile time of
 # the large generated codecs (mavcat.c: 36.5 s -> 22.2 s of CPU) and -g never changes the code generated.
 ASAN_BUILD_FLAGS := -O2 -g1 -DNDEBUG
-# C runtime + generated-code tests, plain (Release: -O3 as the bench and most users build it; its inlining
-# shows -Werror warnings that -O2 does not) and under ASan/UBSan.
+# C runtime + generated-code tests, plain (gcc, Release: -O3 as the bench and most users build it; its inlining
+# shows -Werror warnings that -O2 does not) and under ASan/UBSan with clang. The clang tree is make test's
+# clang build too (the whole tree with -Werror, every ctest, the measurement tools' own sources), so one tree
+# checks both (docs/testing.md: it replaced a separate clang Release tree); clang's UBSan also checks more
+# than gcc's (a null pointer plus zero). SANITIZE_CC=gcc gives the gcc sanitizer tree.
+SANITIZE_CC ?= $(FUZZ_CC)
 test-c: setup
 	cmake -S . -B $(BUILD) -G Ninja -DUAVBUS_PYTHON=$(abspath $(VPY)) -DCMAKE_BUILD_TYPE=Release >/dev/null
 	cmake --build $(BUILD)
 	ctest --test-dir $(BUILD) --output-on-failure
+	@# A tree configured with another compiler starts over: CMake's answer to a changed CMAKE_C_COMPILER is to
+	@# drop the whole cache, UAVBUS_SANITIZE and the flags included, which would leave an unsanitized tree.
+	@[ "$$(cat $(BUILD_ASAN)/.uavbus-cc 2>/dev/null)" = "$(SANITIZE_CC)" ] || \
+	  { rm -rf $(BUILD_ASAN) && mkdir -p $(BUILD_ASAN) && echo "$(SANITIZE_CC)" >$(BUILD_ASAN)/.uavbus-cc; }
 	cmake -S . -B $(BUILD_ASAN) -G Ninja -DUAVBUS_PYTHON=$(abspath $(VPY)) -DUAVBUS_SANITIZE=ON \
+	  -DCMAKE_C_COMPILER=$(SANITIZE_CC) \
 	  "-DCMAKE_C_FLAGS_RELWITHDEBINFO=$(ASAN_BUILD_FLAGS)" >/dev/null
 	cmake --build $(BUILD_ASAN)
 	ctest --test-dir $(BUILD_ASAN) --output-on-failure
@@ -139,7 +149,7 @@ lint: setup
 
 # Every byte order and word size: the runtime, the generated example codecs and the socket-free C tests built
 # for s390x (big-endian) and armhf (32-bit) and run under qemu-user, each tests/vectors file reproduced there
-# byte for byte; then a clang build with its socket-free tests (tests/cross/run.sh says which tests and why).
+# byte for byte (tests/cross/run.sh says which tests and why).
 test-cross: setup
 	tests/cross/run.sh $(BUILD_CROSS) $(abspath $(VPY))
 
