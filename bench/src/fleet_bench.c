@@ -386,6 +386,10 @@ int main(int argc, char **argv) {
     uint64_t end = WARMUP_MS + QUIET_MS + FAIL_MS + DRAIN_MS;
     const char *end_s = getenv("FLEET_BENCH_END_S");
     if (end_s != NULL && atoi(end_s) > 0 && (uint64_t)atoi(end_s) * 1000u < end) end = (uint64_t)atoi(end_s) * 1000u;
+    /* A run cut short (FLEET_BENCH_END_S) ends its quiet window with it: the rates below are per second of the
+     * window that ran, not of the 20 s a full run has (a 16 s scale run read 0 routing frames per second). */
+    uint64_t quiet_end = WARMUP_MS + QUIET_MS < end ? WARMUP_MS + QUIET_MS : end;
+    double quiet_s = quiet_end > WARMUP_MS ? (double)(quiet_end - WARMUP_MS) / 1000.0 : 0.0;
     uint64_t *due = calloc((size_t)n_st, sizeof *due);
     uint64_t ticks = 0;
     if (due == NULL) die("calloc", UB_ERR_NOSPACE);
@@ -433,9 +437,9 @@ int main(int argc, char **argv) {
         }
         double c1 = cpu_s();
         node_cpu += c1 - c0;
-        if (now_ms > WARMUP_MS && now_ms <= WARMUP_MS + QUIET_MS) node_cpu_quiet += c1 - c0;
+        if (now_ms > WARMUP_MS && now_ms <= quiet_end) node_cpu_quiet += c1 - c0;
         if (now_ms == WARMUP_MS) frames_q0 = routing_frames(), fast_q0 = routing_frames_of(true);
-        if (now_ms == WARMUP_MS + QUIET_MS) frames_q1 = routing_frames(), fast_q1 = routing_frames_of(true);
+        if (now_ms == quiet_end) frames_q1 = routing_frames(), fast_q1 = routing_frames_of(true);
         if (now_ms % 100 == 0) {
             /* Range model, restorations, and what the data could reach this period. */
             double t_s = now_ms / 1000.0;
@@ -517,9 +521,9 @@ int main(int argc, char **argv) {
            unrecovered, range_changes, (long long)r50, (long long)r99, (long long)d50, (long long)d99, (long long)e50,
            (long long)e99, (long long)a50, (long long)a99,
            eq ? (double)dq / (double)eq : 0.0, ef ? (double)df / (double)ef : 0.0,
-           frames_q1 >= frames_q0 ? (double)(frames_q1 - frames_q0) / (link_ends * (QUIET_MS / 1000.0)) : 0.0,
-           fast_q1 >= fast_q0 ? (double)(fast_q1 - fast_q0) / (link_ends * (QUIET_MS / 1000.0)) : 0.0, /* 0: run ended first */
-           1000.0 * node_cpu / sim_s / n_st, 1000.0 * node_cpu_quiet / (QUIET_MS / 1000.0) / n_st, harness_cpu,
+           quiet_s > 0 ? (double)(frames_q1 - frames_q0) / (link_ends * quiet_s) : 0.0,
+           quiet_s > 0 ? (double)(fast_q1 - fast_q0) / (link_ends * quiet_s) : 0.0, /* 0: the run ended in its warm-up */
+           1000.0 * node_cpu / sim_s / n_st, quiet_s > 0 ? 1000.0 * node_cpu_quiet / quiet_s / n_st : 0.0, harness_cpu,
            (unsigned long long)drops[UB_DROP_NO_ROUTE], (unsigned long long)drops[UB_DROP_HOP_LIMIT],
            (unsigned long long)drops[UB_DROP_BACKPRESSURE], (unsigned long long)drops[UB_DROP_DUPLICATE],
            (unsigned long long)learn_full, sizeof(station_t), (double)ticks / n_st / sim_s);
