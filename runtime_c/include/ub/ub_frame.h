@@ -320,7 +320,28 @@ UB_CHECK int ub_frame_tpl_init(ub_frame_tpl_t *t, const ub_frame_header_t *h);
  * @return total frame length (64 + payload_size); UB_ERR_INVAL if `t` or `frame` is NULL; UB_ERR_RANGE if
  *         payload_size > UB_MAX_PAYLOAD; UB_ERR_NOSPACE if `cap` is too small.
  */
-UB_CHECK int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size, uint32_t seq);
+static inline UB_CHECK int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size,
+                                               uint32_t seq);
+
+/* The two halves of ub_frame_tpl_finish(), not API (call ub_frame_tpl_finish()): _primed builds a frame of the
+ * size `t` is primed for with room checked (x86-64: the SSE4.2 build, taken only where tpl_prime() found the
+ * instruction at run time, as t->fast_size says); _other everything else (re-priming, the portable CRC, the
+ * errors). */
+UB_CHECK int ub_frame_tpl_finish_primed(const ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size,
+                                        uint32_t seq);
+UB_CHECK int ub_frame_tpl_finish_other(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size,
+                                       uint32_t seq);
+
+/* Inline, so a row's build has no call and no dispatch of its own before the finish: a primed size on a CPU
+ * with the hardware CRC is one compare against fast_size (tpl_prime() folds the run-time CPU test into it:
+ * a value no uint16_t equals where there is none), then the room check. */
+static inline UB_CHECK int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size,
+                                               uint32_t seq) {
+    if (t == NULL || frame == NULL) return UB_ERR_INVAL;
+    if (payload_size == t->fast_size && cap >= t->fast_len)
+        return ub_frame_tpl_finish_primed(t, frame, cap, payload_size, seq);
+    return ub_frame_tpl_finish_other(t, frame, cap, payload_size, seq);
+}
 
 /**
  * ub_frame_finish(frame, cap, h) for a plain header (h->flags 0), through the template `t` used as a cache:

@@ -257,18 +257,13 @@ static __attribute__((noinline)) int tpl_finish_other(const ub_frame_tpl_t *t, u
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 /* The hardware build, compiled for SSE4.2 on its own (the library still runs on any x86-64) so the CRC steps
  * inline into it: one function, no call, nothing spilled. It takes ub_frame_tpl_finish()'s own arguments in
- * their order (cap unused), so the finish reaches it by a bare jump with no register moves. Only with
- * payload_size == t->fast_size (so the length is t->fast_len). The header check folds the CRC register before
- * its final inversion: fold_crc() XORs the 4 bytes, and inverting all 4 flips each bit position an even
- * number of times, so fold_crc(~x) == fold_crc(x) -- one inversion fewer, the same byte. */
-/* noipa (GCC): no constant-propagated clone with its arguments reordered, which cost register moves. */
-#if defined(__clang__)
-#define UB_TPL_KEEP_ARGS __attribute__((noinline))
-#else
-#define UB_TPL_KEEP_ARGS __attribute__((noipa))
-#endif
-__attribute__((target("sse4.2"))) UB_TPL_KEEP_ARGS static int tpl_finish_sse42(const ub_frame_tpl_t *t, uint8_t *frame, size_t cap,
-                                                              uint16_t payload_size, uint32_t seq) {
+ * their order (cap unused), so the inline finish (ub_frame.h) calls it with no register moves. Only with
+ * payload_size == t->fast_size, which tpl_prime() sets only where the CPU has the instruction (so the length is
+ * t->fast_len). The header check folds the CRC register before its final inversion: fold_crc() XORs the 4
+ * bytes, and inverting all 4 flips each bit position an even number of times, so fold_crc(~x) == fold_crc(x)
+ * -- one inversion fewer, the same byte. */
+__attribute__((target("sse4.2"))) int ub_frame_tpl_finish_primed(const ub_frame_tpl_t *t, uint8_t *frame, size_t cap,
+                                                                 uint16_t payload_size, uint32_t seq) {
     (void)cap;
     uint32_t header_reg;
     uint32_t msg_crc = ub_crc32c_frame_tail_sse42(t->head_reg, seq | t->fingerprint_hi, frame + UB_FRAME_HEADER_LEN,
@@ -279,34 +274,27 @@ __attribute__((target("sse4.2"))) UB_TPL_KEEP_ARGS static int tpl_finish_sse42(c
     ub_put_u32le(frame + UB_FRAME_OFF_MSG_CRC, msg_crc);
     return (int)t->fast_len;
 }
-#define UB_TPL_HW 1
+#else
+/* Other hosts (s390x, Arm with or without the CRC instructions, Cortex-M): tpl_prime() sets fast_size where
+ * ub_crc32c_hw_available() says so (Armv8's CRC); the steps dispatch inside ub_crc32c_frame_tail(). */
+int ub_frame_tpl_finish_primed(const ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size,
+                               uint32_t seq) {
+    (void)cap;
+    return tpl_finish_other(t, frame, seq, payload_size);
+}
 #endif
 
 /* Everything but the common case, out of line so that case saves no registers: a payload size other than the
  * primed one (a variable-size type: re-prime, then build as usual), a CPU without the hardware CRC, and the
  * size errors in the order the contract gives them (UB_ERR_RANGE before UB_ERR_NOSPACE). */
-static __attribute__((noinline)) int tpl_finish_slow(ub_frame_tpl_t *t, uint8_t *frame, size_t cap,
-                                                     uint16_t payload_size, uint32_t seq) {
+int ub_frame_tpl_finish_other(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size, uint32_t seq) {
     if (payload_size != t->payload_size) {
         if (payload_size > UB_MAX_PAYLOAD) return UB_ERR_RANGE;
         tpl_prime(t, payload_size);
     }
     if (cap < UB_FRAME_HEADER_LEN + (size_t)payload_size) return UB_ERR_NOSPACE;
-#ifdef UB_TPL_HW
-    if (t->fast_size == payload_size) return tpl_finish_sse42(t, frame, cap, payload_size, seq);
-#endif
+    if (t->fast_size == payload_size) return ub_frame_tpl_finish_primed(t, frame, cap, payload_size, seq);
     return tpl_finish_other(t, frame, seq, payload_size);
-}
-
-/* The common case is three compares and a tail jump: a primed size on a CPU with the hardware CRC is one
- * compare against fast_size (tpl_prime() folds the CPU test into it), then the room check. */
-int ub_frame_tpl_finish(ub_frame_tpl_t *t, uint8_t *frame, size_t cap, uint16_t payload_size, uint32_t seq) {
-    if (t == NULL || frame == NULL) return UB_ERR_INVAL;
-#ifdef UB_TPL_HW
-    if (__builtin_expect(payload_size == t->fast_size, 1) && cap >= t->fast_len)
-        return tpl_finish_sse42(t, frame, cap, payload_size, seq);
-#endif
-    return tpl_finish_slow(t, frame, cap, payload_size, seq);
 }
 
 /* Whether `t` is primed for h, compared where the bytes already lie: h's IDs, admin and hop limit are the same 42
