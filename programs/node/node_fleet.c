@@ -559,6 +559,9 @@ void fleet_setup(ub_app_t *app, node_motion_t *motion, uint64_t now_ms) {
     if (g_opt.route != NULL) {
         ub_route_options_t ro;
         parse_route(g_opt.route, &ro);
+        /* The program sleeps until its next due time: hellos due within a few ms share the wake-up (issue 28
+         * item 5; docs/routing.md "Timer coalescing"). */
+        ro.coalesce_ms = UB_ROUTE_COALESCE_AUTO;
         if (g_route_certified) {
             if (!app->ident_on)
                 ub_app_die(g_app, "uavbus_node: --route certified=1 needs identities: name an authority in the configuration's "

@@ -73,6 +73,10 @@ static void net_start(net_t *t) {
         assert_int_equal(ub_route_attach(&t->rt[i], &t->w->nodes[i], &ro, t->w->now_ms), UB_OK);
 }
 
+static void net_start_opt(net_t *t, const ub_route_options_t *ro) {
+    for (size_t i = 0; i < t->n; i++) assert_int_equal(ub_route_attach(&t->rt[i], &t->w->nodes[i], ro, t->w->now_ms), UB_OK);
+}
+
 static void net_free(net_t *t) {
     free(t->w);
     free(t);
@@ -213,11 +217,48 @@ static void test_own_routing_frames_make_nothing_due_at_once(void **state) {
     net_free(t);
 }
 
+/* Timer coalescing (coalesce_ms, uavbus_node's setting): a regular hello due within the slack goes in a tick that
+ * is awake anyway, not in a wake-up of its own -- and keeps its schedule (the hello rate does not change). Off, a
+ * tick one millisecond early sends nothing (the test above); the slack is bounded by the fast hello interval. */
+static void test_coalescing_sends_a_hello_due_within_the_slack(void **state) {
+    (void)state;
+    for (int on = 0; on <= 1; on++) {
+        net_t *t = net_new(2);
+        (void)net_link(t, 0, 1);
+        ub_route_options_t ro = {.hello_ms = 1000, .coalesce_ms = on ? UB_ROUTE_COALESCE_AUTO : 0};
+        net_start_opt(t, &ro);
+        assert_int_equal(t->rt[0].opt.coalesce_ms, on ? 125u / 8u : 0u); /* fast hellos every 1000 / 8 ms */
+        for (uint64_t ms = 1; ms <= 3500; ms++) { /* routes up, hellos on their schedule */
+            t->w->now_ms = ms;
+            for (size_t i = 0; i < t->n; i++) ub_node_tick(&t->w->nodes[i], ms);
+            pump(t);
+        }
+        ub_route_link_t *l = &t->rt[0].links[0];
+        uint64_t hello = l->next_hello_ms;
+        uint64_t slack = on ? 15u : 0u;
+        assert_true(hello > t->w->now_ms + slack + 1);
+        assert_true(ub_node_next_due(&t->w->nodes[0], t->w->now_ms) <= hello); /* still woken by the deadline */
+        uint64_t sent = l->stats.frames_out; /* the regular frame: a HELLO, or a ROUTE_UPDATE when a dump is due */
+        ub_node_tick(&t->w->nodes[0], hello - slack - 1); /* before the window: nothing */
+        assert_int_equal(l->stats.frames_out, sent);
+        ub_node_tick(&t->w->nodes[0], hello - slack); /* in it (off: the deadline itself) */
+        assert_int_equal(l->stats.frames_out, sent + 1);
+        assert_int_equal(l->next_hello_ms, hello + 1000u); /* early, but the schedule is kept */
+        net_free(t);
+    }
+    /* More slack than an eighth of the fast hello interval is refused: the gaps the neighbour learns stay close. */
+    net_t *t = net_new(1);
+    ub_route_options_t bad = {.hello_ms = 1000, .coalesce_ms = 16};
+    assert_int_equal(ub_route_attach(&t->rt[0], &t->w->nodes[0], &bad, 0), UB_ERR_INVAL);
+    net_free(t);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_line_converges_when_driven_by_due_times),
         cmocka_unit_test(test_ring_cut_and_repair_when_driven_by_due_times),
         cmocka_unit_test(test_own_routing_frames_make_nothing_due_at_once),
+        cmocka_unit_test(test_coalescing_sends_a_hello_due_within_the_slack),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -101,6 +101,10 @@ extern "C" {
 /** Bytes before the entries of a HELLO / ROUTE_UPDATE payload, and bytes per entry. */
 #define UB_ROUTE_HDR_LEN 24u
 #define UB_ROUTE_ENTRY_LEN 16u
+/** ub_route_options_t.coalesce_ms: an eighth of the fast hello interval, at most UB_ROUTE_COALESCE_MAX_MS (16 ms:
+ *  about an eighth of the default fast hello interval at the default 1 s hello). */
+#define UB_ROUTE_COALESCE_AUTO UINT32_MAX
+#define UB_ROUTE_COALESCE_MAX_MS 16u
 
 /** How parallel links to the chosen next hop are used. */
 typedef enum ub_route_parallel {
@@ -134,6 +138,13 @@ typedef struct ub_route_options {
      *  interval stays hello_ms: the neighbour's hello timeout is unchanged. 10..hello_ms; default hello_ms / 8
      *  (at least 10); hello_ms: off. */
     uint32_t fast_hello_ms;
+    /** Timer coalescing (docs/routing.md "Timer coalescing"), for a caller that sleeps until ub_node_next_due(): a
+     *  regular or fast hello due within this many ms goes in the current tick (awake anyway for a frame or another
+     *  timer) instead of a wake-up of its own. Hellos only ever go early by it, never late (the gaps a neighbour
+     *  learns can only shrink); a regular hello sent early keeps its schedule; missed-hello and doubt timers
+     *  have no slack. A tick up to this early may then send a hello (ub_node_next_due() stays the deadline).
+     *  0: off (exact); UB_ROUTE_COALESCE_AUTO; at most fast_hello_ms / 8. */
+    uint32_t coalesce_ms;
 } ub_route_options_t;
 
 /** Per-link routing counters. */

@@ -221,7 +221,9 @@ void ub_node_link_event(ub_node_t *node, int link_id, ub_link_event_t ev, uint64
  * The earliest time ub_node_tick() has work: the minimum over the services' `next_due` answers (a service with a
  * tick but no `next_due` counts as due at `now_ms` + 1: polled every millisecond). Frames arriving earlier are handled by the receive path
  * whatever this says; a caller sleeps until min(this, its own timers, input). Returns UINT64_MAX when nothing
- * is due ever (no ticking service). Exact: calling ub_node_tick() earlier does nothing a later call would not.
+ * is due ever (no ticking service). Exact: calling ub_node_tick() earlier does nothing a later call would not
+ * (except what a service lets go early by choice: a routing engine with `coalesce_ms` sends a hello due within
+ * that slack in the current tick, ub_route.h).
  */
 uint64_t ub_node_next_due(const ub_node_t *node, uint64_t now_ms);
 

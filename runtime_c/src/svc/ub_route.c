@@ -803,7 +803,9 @@ static void send_frame(ub_route_t *rt, int link_id, bool triggered, uint64_t now
     uint16_t len = (uint16_t)(UB_ROUTE_HDR_LEN + (n_upd + n_req) * UB_ROUTE_ENTRY_LEN);
     ub_admin_code_t code = n_upd + n_req > 0 ? UB_ADMIN_ROUTE_UPDATE : UB_ADMIN_HELLO;
 
-    l->next_hello_ms = now_ms + rt->opt.hello_ms;
+    /* A regular hello sent early in a coalesced turn keeps its schedule (the rate stays 1000 / hello_ms); a late,
+     * answering or triggered frame restarts it from now, as before. */
+    l->next_hello_ms = (!triggered && l->next_hello_ms > now_ms ? l->next_hello_ms : now_ms) + rt->opt.hello_ms;
     l->last_tx_ms = now_ms;
     l->sent_any = 1;
     if (ub_node_send_link_local(rt->node, link_id, code, buf, len, now_ms) != 1) {
@@ -995,11 +997,16 @@ static void route_tick(const ub_service_t *svc, ub_node_t *node, uint64_t now_ms
         const ub_link_t *link = node_link(rt, lid);
         if (link == NULL || link->ops == NULL) continue; /* detached: the neighbour will time us out */
         ub_route_link_t *l = &rt->links[lid];
-        bool due = now_ms >= l->next_hello_ms;
+        /* Timer coalescing (issue 28 item 5, docs/routing.md "Timer coalescing"): a hello due within the slack
+         * goes in this turn, which is awake anyway (a frame arrived, the publication is due), instead of a turn of
+         * its own a few ms later. Early only, never late: the gaps the neighbour learns can only shrink, so its
+         * doubt comes no later; the missed-hello and doubt timers have no slack. */
+        uint64_t slack = rt->opt.coalesce_ms;
+        bool due = now_ms + slack >= l->next_hello_ms;
         bool trigger = !due && now_ms >= l->last_tx_ms + rt->opt.trigger_gap_ms &&
                        owes(rt, link->owner, (uint8_t)(1u << link->index));
         if (due || trigger) send_frame(rt, lid, trigger, now_ms);
-        else if (l->sent_any && now_ms < l->carry_until_ms && now_ms >= l->last_tx_ms + rt->opt.fast_hello_ms)
+        else if (l->sent_any && now_ms < l->carry_until_ms && now_ms + slack >= l->last_tx_ms + rt->opt.fast_hello_ms)
             send_fast_hello(rt, lid, now_ms);
         /* Frames of ours that are all routing frames are noted here, as watch_link() would note them at the next
          * tick (only data extends sending_until_ms); left for it, route_next_due() would call that tick due at
@@ -1131,8 +1138,10 @@ int ub_route_attach(ub_route_t *rt, ub_node_t *node, const ub_route_options_t *o
     if (o.max_dests == 0) o.max_dests = UB_ROUTE_MAX_DESTS_PER_NEIGHBOUR;
     if (o.fast_hello_ms == 0) o.fast_hello_ms = o.hello_ms / 8u < 10u ? 10u : o.hello_ms / 8u;
     if (o.fast_hello_ms > o.hello_ms) o.fast_hello_ms = o.hello_ms;
+    if (o.coalesce_ms == UB_ROUTE_COALESCE_AUTO)
+        o.coalesce_ms = o.fast_hello_ms / 8u < UB_ROUTE_COALESCE_MAX_MS ? o.fast_hello_ms / 8u : UB_ROUTE_COALESCE_MAX_MS;
     if (o.hello_ms < 10u || o.hello_ms > 0xFFFFu || o.update_ms < o.hello_ms || o.update_ms > 0xFFFFu ||
-        o.fast_hello_ms < 10u || o.dead_misses > HISTORY_BITS || o.parallel > UB_ROUTE_PARALLEL_BEST || o.max_dests > UB_MAX_ENTITIES)
+        o.fast_hello_ms < 10u || o.coalesce_ms > o.fast_hello_ms / 8u || o.dead_misses > HISTORY_BITS || o.parallel > UB_ROUTE_PARALLEL_BEST || o.max_dests > UB_MAX_ENTITIES)
         return UB_ERR_INVAL;
     /* One routing engine per node: a second attach takes the routing codes over, as it always did. */
     const ub_service_t *prev = ub_node_service_for(node, UB_SVC_LINK_LOCAL, UB_ADMIN_HELLO);
