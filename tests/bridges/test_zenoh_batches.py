@@ -95,26 +95,33 @@ def _udp(node, link: str) -> dict:
     return node.port_info(link)["udp"]
 
 
+def _two_sites(tmp_path, uavbus_node, closers, batch: bool):
+    """Nodes A, B, gwA, gwB on their configured site ports (UDP, batching or not) and two Zenoh sessions joined
+    over TCP (gwA's side listening); everything opened is appended to `closers`."""
+    catalogue = catalogue_for(uavbus_node)
+    ports = PortAllocator()
+    cfg = tmp_path / "zbatch.json"
+    _config(cfg, ports, batch=batch)
+    endpoint = f"tcp/127.0.0.1:{ports.port()}"
+    nodes = {}
+    for name in ("A", "B", "gwA", "gwB"):
+        n = nodes[name] = Node(catalogue, config=cfg, node=name)
+        closers.append(n.close)
+        n.open_ports_from_config()
+    sa = zenoh.open(zenoh_config("peer", [endpoint], []))
+    closers.append(sa.close)
+    sb = zenoh.open(zenoh_config("peer", [], [endpoint]))
+    closers.append(sb.close)
+    return nodes, sa, sb
+
+
 @pytest.mark.parametrize("site_batch", [False, True], ids=["datagram_per_frame", "site_batch"])
 def test_burst_through_two_bridges_arrives_whole_in_order(tmp_path, uavbus_node, site_batch):
     """With site_batch every site port says "batch": true: A's send_many() of 25 frames and gwB's sample of
     ~10 frames each leave in shared datagrams, split back into every frame, in order, by gwA and B."""
-    catalogue = catalogue_for(uavbus_node)
-    ports = PortAllocator()
-    cfg = tmp_path / "zbatch.json"
-    _config(cfg, ports, batch=site_batch)
-    endpoint = f"tcp/127.0.0.1:{ports.port()}"
     closers = []
     try:
-        nodes = {}
-        for name in ("A", "B", "gwA", "gwB"):
-            n = nodes[name] = Node(catalogue, config=cfg, node=name)
-            closers.append(n.close)
-            n.open_ports_from_config()
-        sa = zenoh.open(zenoh_config("peer", [endpoint], []))
-        closers.append(sa.close)
-        sb = zenoh.open(zenoh_config("peer", [], [endpoint]))
-        closers.append(sb.close)
+        nodes, sa, sb = _two_sites(tmp_path, uavbus_node, closers, batch=site_batch)
         # Small samples (~10 frames of gpsOut each) so that the burst takes many, each checked.
         ga = ZenohBridge(nodes["gwA"], "zenoh", sa, "uavbus/zbatch", batch_bytes=1024)
         closers.append(ga.close)
@@ -216,22 +223,9 @@ def test_a_sample_taken_on_a_zenoh_thread_leaves_batching_site_ports_at_once(tmp
     site port batches ("batch": true): each sample's frames are flushed from that thread in shared datagrams,
     so B gets them although gwB's loop never turns. Without that flush they would wait in gwB's UDP queue for
     a turn that never comes here."""
-    catalogue = catalogue_for(uavbus_node)
-    ports = PortAllocator()
-    cfg = tmp_path / "zbatch.json"
-    _config(cfg, ports, batch=True)
-    endpoint = f"tcp/127.0.0.1:{ports.port()}"
     closers = []
     try:
-        nodes = {}
-        for name in ("A", "B", "gwA", "gwB"):
-            n = nodes[name] = Node(catalogue, config=cfg, node=name)
-            closers.append(n.close)
-            n.open_ports_from_config()
-        sa = zenoh.open(zenoh_config("peer", [endpoint], []))
-        closers.append(sa.close)
-        sb = zenoh.open(zenoh_config("peer", [], [endpoint]))
-        closers.append(sb.close)
+        nodes, sa, sb = _two_sites(tmp_path, uavbus_node, closers, batch=True)
         ga = ZenohBridge(nodes["gwA"], "zenoh", sa, "uavbus/zbatch")
         closers.append(ga.close)
         gb = ZenohBridge(nodes["gwB"], "zenoh", sb, "uavbus/zbatch", in_zenoh_thread=in_zenoh_thread)
