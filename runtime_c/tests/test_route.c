@@ -483,6 +483,117 @@ static void test_silent_neighbour_expires(void **state) {
     fleet_free(f);
 }
 
+/* Two nodes and one link, dead_misses 3. v1's routing frames are dropped `lost` times, one frame at a time and two
+ * hello intervals apart, then `quiet` more hello intervals pass, then the link is cut for good. Returns the run of
+ * missed hellos at which v0 took the link down (its rxcost went infinite), having checked that it was up one miss
+ * before. `etx_lost`: the misses v0's ETX window (the last 16 hellos, ub_route_link_info()) shows before the cut. */
+static unsigned misses_to_down(unsigned lost, unsigned quiet, unsigned *etx_lost) {
+    ub_route_options_t ro = {.hello_ms = HELLO_MS, .dead_misses = 3};
+    fleet_t *f = fleet_new(2, &ro);
+    int e = fleet_link(f, 0, 1);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    world_run(f->w, f->w->now_ms + 40 * HELLO_MS, 1); /* a full memory of hellos heard */
+    ub_route_link_info_t li, l1;
+    for (unsigned k = 0; k < lost; k++) {
+        assert_int_equal(ub_route_link_info(&f->rt[1], f->edge[e].lb, &l1), UB_OK);
+        uint64_t sent = l1.stats.frames_out;
+        fleet_cut(f, e);
+        while (l1.stats.frames_out == sent) { /* exactly one of v1's frames goes into the cut */
+            world_run(f->w, f->w->now_ms + 1, 1);
+            assert_int_equal(ub_route_link_info(&f->rt[1], f->edge[e].lb, &l1), UB_OK);
+        }
+        fleet_heal(f, e);
+        world_run(f->w, f->w->now_ms + 2 * HELLO_MS, 1);
+    }
+    world_run(f->w, f->w->now_ms + quiet * HELLO_MS, 1);
+    assert_int_equal(ub_route_link_info(&f->rt[0], f->edge[e].la, &li), UB_OK);
+    assert_int_equal(li.samples, 16);
+    assert_true(li.history & 1u);
+    *etx_lost = 16u - (unsigned)__builtin_popcount(li.history);
+    fleet_cut(f, e);
+    unsigned run = 0;
+    for (;;) {
+        world_run(f->w, f->w->now_ms + 1, 1);
+        assert_int_equal(ub_route_link_info(&f->rt[0], f->edge[e].la, &li), UB_OK);
+        unsigned now = li.history == 0 ? 16u : (unsigned)__builtin_ctz(li.history);
+        if (li.rxcost == UB_ROUTE_INFINITY) {
+            assert_int_equal(now, run + 1); /* down on the miss that made the run long enough, not later */
+            run = now;
+            break;
+        }
+        assert_true(now <= run + 1);
+        run = now;
+        assert_true(run < 16);
+    }
+    fleet_free(f);
+    return run;
+}
+
+/* A run of missed hellos takes a link down only when the link's own loss does not explain it: `dead_misses` in a
+ * row on a link that lost nothing before, one more per hello lost among the 32 expected before the run, at most
+ * `dead_misses` more. fleet6's detour loses 20 % of its hellos: a run of 3 came every ~125 hellos and took it down
+ * each time, and each time the seqno requests and answers crossed the fleet (the frame budget of its steady
+ * windows). */
+static void test_a_lossy_link_needs_a_longer_run_of_misses(void **state) {
+    (void)state;
+    unsigned etx = 0;
+    assert_int_equal(misses_to_down(0, 0, &etx), 3);
+    assert_int_equal(etx, 0);
+    assert_int_equal(misses_to_down(1, 0, &etx), 4);
+    assert_int_equal(etx, 1);
+    assert_int_equal(misses_to_down(2, 0, &etx), 5);
+    assert_int_equal(etx, 2);
+    assert_int_equal(misses_to_down(4, 0, &etx), 6); /* at most twice dead_misses */
+    assert_int_equal(etx, 4);
+    /* Losses that have left the ETX window (the cost is 256 again) are still remembered for this. */
+    assert_int_equal(misses_to_down(2, 18, &etx), 5);
+    assert_int_equal(etx, 0);
+}
+
+/* A lossy link that went down and comes back resumes at the cost it had before the outage: the outage's misses are
+ * dropped, its earlier losses kept. Starting it as a perfect link (256) lowered the feasibility distances of routes
+ * through it, and its true cost a few seconds later made them unfeasible (seqno requests; fleet6's detour). */
+static void test_a_lossy_link_comes_back_at_its_old_cost(void **state) {
+    (void)state;
+    ub_route_options_t ro = {.hello_ms = HELLO_MS, .dead_misses = 3};
+    fleet_t *f = fleet_new(2, &ro);
+    int e = fleet_link(f, 0, 1);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    world_run(f->w, f->w->now_ms + 40 * HELLO_MS, 1);
+    ub_route_link_info_t li, l1;
+    for (unsigned k = 0; k < 3; k++) { /* three of v1's frames lost, two hello intervals apart */
+        assert_int_equal(ub_route_link_info(&f->rt[1], f->edge[e].lb, &l1), UB_OK);
+        uint64_t sent = l1.stats.frames_out;
+        fleet_cut(f, e);
+        while (l1.stats.frames_out == sent) {
+            world_run(f->w, f->w->now_ms + 1, 1);
+            assert_int_equal(ub_route_link_info(&f->rt[1], f->edge[e].lb, &l1), UB_OK);
+        }
+        fleet_heal(f, e);
+        world_run(f->w, f->w->now_ms + 2 * HELLO_MS, 1);
+    }
+    assert_int_equal(ub_route_link_info(&f->rt[0], f->edge[e].la, &li), UB_OK);
+    uint16_t before = li.rxcost;
+    assert_true(before > UB_ROUTE_LINK_COST); /* 16 * 256 / 13 */
+    fleet_cut(f, e);
+    while (li.rxcost != UB_ROUTE_INFINITY) {
+        world_run(f->w, f->w->now_ms + 1, 1);
+        assert_int_equal(ub_route_link_info(&f->rt[0], f->edge[e].la, &li), UB_OK);
+    }
+    fleet_heal(f, e);
+    while (li.rxcost == UB_ROUTE_INFINITY) {
+        world_run(f->w, f->w->now_ms + 1, 1);
+        assert_int_equal(ub_route_link_info(&f->rt[0], f->edge[e].la, &li), UB_OK);
+    }
+    /* Back with its earlier record and the hello that brought it back; the outage is not counted. */
+    assert_true(li.rxcost > UB_ROUTE_LINK_COST);
+    assert_true(li.rxcost <= before);
+    assert_int_equal(li.history & 1u, 1u);
+    fleet_free(f);
+}
+
 /* A partition and its repair: v0-v1 | v2-v3; each side loses the other, and regains it once healed. */
 static void test_partition_and_repair(void **state) {
     (void)state;
@@ -1166,13 +1277,45 @@ static void test_link_event_down_switches_at_once(void **state) {
     fleet_free(f);
 }
 
+/* DEAD_EXPLORE=loss_ppm,hellos,dead_misses: two nodes on one link losing loss_ppm of its frames each way for that
+ * many hello intervals; prints how often v0 took the link down (docs/routing.md, "Neighbours and link cost"). */
+static int explore_dead(const char *env) {
+    unsigned ppm = 200000, hellos = 100000, dead = 3;
+    if (sscanf(env, "%u,%u,%u", &ppm, &hellos, &dead) < 1 || dead == 0 || dead > 16) return 2;
+    ub_route_options_t ro = {.hello_ms = HELLO_MS, .dead_misses = (uint8_t)dead};
+    fleet_t *f = fleet_new(2, &ro);
+    int e = fleet_link(f, 0, 1);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    ub_memlink_faults_t lossy = {.loss_ppm = ppm};
+    ub_memlink_set_faults(&f->w->links[e], &lossy);
+    uint64_t downs = 0, end = f->w->now_ms + (uint64_t)hellos * HELLO_MS;
+    bool was_down = false;
+    while (f->w->now_ms < end) {
+        world_run(f->w, f->w->now_ms + 10, 1);
+        ub_route_link_info_t li;
+        if (ub_route_link_info(&f->rt[0], f->edge[e].la, &li) != UB_OK) return 1;
+        bool down = li.rxcost == UB_ROUTE_INFINITY;
+        if (down && !was_down) downs++;
+        was_down = down;
+    }
+    fprintf(stderr, "loss_ppm=%u hellos=%u dead_misses=%u: %llu link downs (one per %.0f hellos)\n", ppm, hellos, dead,
+            (unsigned long long)downs, downs ? (double)hellos / (double)downs : 0.0);
+    fleet_free(f);
+    return 0;
+}
+
 int main(void) {
+    const char *env = getenv("DEAD_EXPLORE");
+    if (env != NULL) return explore_dead(env);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_line_converges_and_learns),
         cmocka_unit_test(test_steady_state_one_frame_per_link_per_hello),
         cmocka_unit_test(test_no_frame_crosses_a_link_twice_while_reconverging),
         cmocka_unit_test(test_parallel_links),
         cmocka_unit_test(test_silent_neighbour_expires),
+        cmocka_unit_test(test_a_lossy_link_needs_a_longer_run_of_misses),
+        cmocka_unit_test(test_a_lossy_link_comes_back_at_its_old_cost),
         cmocka_unit_test(test_partition_and_repair),
         cmocka_unit_test(test_starvation_is_resolved_by_a_seqno_request),
         cmocka_unit_test(test_starving_neighbours_request_goes_on_at_once),

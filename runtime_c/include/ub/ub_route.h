@@ -22,7 +22,10 @@
  *    fraction received; rxcost = 256 / beta; cost = max(txcost, 256) * rxcost
  *    / 256, txcost being the neighbour's rxcost for us. A loss-free link
  *    costs 256. A link is down (infinite cost) when the last `dead_misses`
- *    expected hellos were missed, or when the neighbour does not hear us.
+ *    expected hellos were missed -- one more for each hello lost before those
+ *    among the last 32 expected, at most `dead_misses` more, so a lossy
+ *    link's usual runs of loss do not take it down -- or when the neighbour
+ *    does not hear us.
  *  - Routes: a destination is an entity; it is its own Babel "source" with a
  *    16-bit sequence number. Route entries are (destination, seqno, metric)
  *    per link; metric of a route = link cost + advertised metric.
@@ -118,7 +121,7 @@ typedef struct ub_route_options {
     uint32_t update_ms;      /**< full-table interval, >= hello_ms, <= 65535; default 4 * hello_ms */
     uint32_t trigger_gap_ms; /**< least time between two frames on one link for triggered updates; default hello_ms / 20 */
     uint32_t source_gc_ms;   /**< forget a feasibility distance unused this long; default 16 * update_ms */
-    uint8_t dead_misses;     /**< consecutive missed hellos that take a link down, 1..16; default 2 */
+    uint8_t dead_misses;     /**< consecutive missed hellos that take a loss-free link down (+1 per hello lost before, at most 2x), 1..16; default 2 */
     uint8_t parallel;        /**< ub_route_parallel_t; default UB_ROUTE_PARALLEL_ALL */
     uint8_t no_learn;        /**< 1: never add entities to the table from updates */
     uint16_t initial_seqno;  /**< first seqno of every local entity; default 0 */
@@ -208,11 +211,11 @@ typedef struct ub_route_link {
     uint8_t active;          /* initialised for the slot's current link */
     uint8_t nb_in_use;
     uint8_t nb_id[UB_ENTITY_ID_LEN];
-    uint8_t samples;         /* valid bits of history, <= 16 */
+    uint8_t samples;         /* valid bits of history, <= 32 (the ETX window is the last 16) */
     uint8_t dumping;         /* a full table is being sent in slices */
     uint16_t dump_cursor;    /* next entity index of the slice (UB_MAX_ENTITIES may exceed 255) */
     uint8_t sent_any;
-    uint16_t history;        /* bit 0 = most recent expected hello: 1 heard, 0 missed */
+    uint32_t history;        /* bit 0 = most recent expected hello: 1 heard, 0 missed */
     uint16_t expected_seq;
     uint16_t txcost;         /* neighbour's rxcost for us (its IHU), UB_ROUTE_INFINITY if none */
     uint16_t hello_seq;      /* ours on this link */
@@ -368,8 +371,8 @@ typedef struct ub_route_link_info {
     uint16_t rxcost;         /**< 256 / fraction of its hellos we received (UB_ROUTE_INFINITY: none / down) */
     uint16_t txcost;         /**< its rxcost for us, from its IHU */
     uint16_t cost;           /**< the link's cost in routes (UB_ROUTE_INFINITY: down) */
-    uint16_t history;        /**< hello history, bit 0 = most recent */
-    uint8_t samples;
+    uint16_t history;        /**< hello history (the ETX window: the last 16), bit 0 = most recent */
+    uint8_t samples;         /**< valid bits of `history`, <= 16 */
     uint32_t neighbour_hello_ms;
     ub_route_link_stats_t stats;
 } ub_route_link_info_t;
