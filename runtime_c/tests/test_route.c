@@ -483,6 +483,23 @@ static void test_silent_neighbour_expires(void **state) {
     fleet_free(f);
 }
 
+/* Drops `n` of v1's routing frames on edge e, one frame at a time (the edge is cut until exactly one more of v1's
+ * frames has gone into it), two hello intervals apart. */
+static void lose_frames_of_v1(fleet_t *f, int e, unsigned n) {
+    for (unsigned k = 0; k < n; k++) {
+        ub_route_link_info_t l1;
+        assert_int_equal(ub_route_link_info(&f->rt[1], f->edge[e].lb, &l1), UB_OK);
+        uint64_t sent = l1.stats.frames_out;
+        fleet_cut(f, e);
+        while (l1.stats.frames_out == sent) {
+            world_run(f->w, f->w->now_ms + 1, 1);
+            assert_int_equal(ub_route_link_info(&f->rt[1], f->edge[e].lb, &l1), UB_OK);
+        }
+        fleet_heal(f, e);
+        world_run(f->w, f->w->now_ms + 2 * HELLO_MS, 1);
+    }
+}
+
 /* Two nodes and one link, dead_misses 3. v1's routing frames are dropped `lost` times, one frame at a time and two
  * hello intervals apart, then `quiet` more hello intervals pass, then the link is cut for good. Returns the run of
  * missed hellos at which v0 took the link down (its rxcost went infinite), having checked that it was up one miss
@@ -494,18 +511,8 @@ static unsigned misses_to_down(unsigned lost, unsigned quiet, unsigned *etx_lost
     fleet_start(f);
     converge(f, 10 * HELLO_MS);
     world_run(f->w, f->w->now_ms + 40 * HELLO_MS, 1); /* a full memory of hellos heard */
-    ub_route_link_info_t li, l1;
-    for (unsigned k = 0; k < lost; k++) {
-        assert_int_equal(ub_route_link_info(&f->rt[1], f->edge[e].lb, &l1), UB_OK);
-        uint64_t sent = l1.stats.frames_out;
-        fleet_cut(f, e);
-        while (l1.stats.frames_out == sent) { /* exactly one of v1's frames goes into the cut */
-            world_run(f->w, f->w->now_ms + 1, 1);
-            assert_int_equal(ub_route_link_info(&f->rt[1], f->edge[e].lb, &l1), UB_OK);
-        }
-        fleet_heal(f, e);
-        world_run(f->w, f->w->now_ms + 2 * HELLO_MS, 1);
-    }
+    ub_route_link_info_t li;
+    lose_frames_of_v1(f, e, lost);
     world_run(f->w, f->w->now_ms + quiet * HELLO_MS, 1);
     assert_int_equal(ub_route_link_info(&f->rt[0], f->edge[e].la, &li), UB_OK);
     assert_int_equal(li.samples, 16);
@@ -562,18 +569,8 @@ static void test_a_lossy_link_comes_back_at_its_old_cost(void **state) {
     fleet_start(f);
     converge(f, 10 * HELLO_MS);
     world_run(f->w, f->w->now_ms + 40 * HELLO_MS, 1);
-    ub_route_link_info_t li, l1;
-    for (unsigned k = 0; k < 3; k++) { /* three of v1's frames lost, two hello intervals apart */
-        assert_int_equal(ub_route_link_info(&f->rt[1], f->edge[e].lb, &l1), UB_OK);
-        uint64_t sent = l1.stats.frames_out;
-        fleet_cut(f, e);
-        while (l1.stats.frames_out == sent) {
-            world_run(f->w, f->w->now_ms + 1, 1);
-            assert_int_equal(ub_route_link_info(&f->rt[1], f->edge[e].lb, &l1), UB_OK);
-        }
-        fleet_heal(f, e);
-        world_run(f->w, f->w->now_ms + 2 * HELLO_MS, 1);
-    }
+    ub_route_link_info_t li;
+    lose_frames_of_v1(f, e, 3);
     assert_int_equal(ub_route_link_info(&f->rt[0], f->edge[e].la, &li), UB_OK);
     uint16_t before = li.rxcost;
     assert_true(before > UB_ROUTE_LINK_COST); /* 16 * 256 / 13 */
