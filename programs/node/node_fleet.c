@@ -465,12 +465,13 @@ static void event_routes(uint64_t now_ms) {
             ",\"link_evidence_down\":%" PRIu64 ",\"link_doubts\":%" PRIu64
             ",\"lost_link_down\":%" PRIu64 ",\"lost_entry_gone\":%" PRIu64 ",\"lost_retracted\":%" PRIu64
             ",\"lost_unfeasible\":%" PRIu64 ",\"owed_route_change\":%" PRIu64 ",\"owed_seqno_asked\":%" PRIu64
-            ",\"owed_request_answer\":%" PRIu64 ",\"seqno_deferred\":%" PRIu64 ",\"requests_suppressed\":%" PRIu64 "}",
+            ",\"owed_request_answer\":%" PRIu64 ",\"seqno_deferred\":%" PRIu64 ",\"requests_suppressed\":%" PRIu64
+            ",\"unfeasible_held\":%" PRIu64 "}",
             c->route_changes, c->routes_found, c->routes_lost, c->unfeasible, c->expired, c->starvation_requests,
             c->seqno_bumps, c->learned, c->learn_full, c->learn_expired, c->pinned_skips, c->neighbour_limit,
             c->dest_refused, c->link_evidence_down, c->link_doubts, c->lost_link_down, c->lost_entry_gone,
             c->lost_retracted, c->lost_unfeasible, c->owed_route_change, c->owed_seqno_asked, c->owed_request_answer,
-            c->seqno_deferred, c->requests_suppressed);
+            c->seqno_deferred, c->requests_suppressed, c->unfeasible_held);
     }
     const ub_node_counters_t *n = ub_node_counters(g_node_p);
     ub_app_out(g_app, ",\"membership\":{\"entities_added\":%" PRIu64 ",\"entities_removed\":%" PRIu64 ",\"links_added\":%" PRIu64

@@ -483,17 +483,18 @@ static void test_silent_neighbour_expires(void **state) {
     fleet_free(f);
 }
 
-/* Drops `n` of v1's routing frames on edge e, one frame at a time (the edge is cut until exactly one more of v1's
- * frames has gone into it), two hello intervals apart. */
-static void lose_frames_of_v1(fleet_t *f, int e, unsigned n) {
+/* Drops `n` of node `who`'s routing frames on edge e (who is one of its ends), one frame at a time (the edge is cut
+ * until exactly one more of its frames has gone into it), two hello intervals apart. */
+static void lose_frames_of(fleet_t *f, int e, int who, unsigned n) {
+    int link = who == f->edge[e].a ? f->edge[e].la : f->edge[e].lb;
     for (unsigned k = 0; k < n; k++) {
         ub_route_link_info_t l1;
-        assert_int_equal(ub_route_link_info(&f->rt[1], f->edge[e].lb, &l1), UB_OK);
+        assert_int_equal(ub_route_link_info(&f->rt[who], link, &l1), UB_OK);
         uint64_t sent = l1.stats.frames_out;
         fleet_cut(f, e);
         while (l1.stats.frames_out == sent) {
             world_run(f->w, f->w->now_ms + 1, 1);
-            assert_int_equal(ub_route_link_info(&f->rt[1], f->edge[e].lb, &l1), UB_OK);
+            assert_int_equal(ub_route_link_info(&f->rt[who], link, &l1), UB_OK);
         }
         fleet_heal(f, e);
         world_run(f->w, f->w->now_ms + 2 * HELLO_MS, 1);
@@ -512,7 +513,7 @@ static unsigned misses_to_down(unsigned lost, unsigned quiet, unsigned *etx_lost
     converge(f, 10 * HELLO_MS);
     world_run(f->w, f->w->now_ms + 40 * HELLO_MS, 1); /* a full memory of hellos heard */
     ub_route_link_info_t li;
-    lose_frames_of_v1(f, e, lost);
+    lose_frames_of(f, e, 1, lost);
     world_run(f->w, f->w->now_ms + quiet * HELLO_MS, 1);
     assert_int_equal(ub_route_link_info(&f->rt[0], f->edge[e].la, &li), UB_OK);
     assert_int_equal(li.samples, 16);
@@ -570,7 +571,7 @@ static void test_a_lossy_link_comes_back_at_its_old_cost(void **state) {
     converge(f, 10 * HELLO_MS);
     world_run(f->w, f->w->now_ms + 40 * HELLO_MS, 1);
     ub_route_link_info_t li;
-    lose_frames_of_v1(f, e, 3);
+    lose_frames_of(f, e, 1, 3);
     assert_int_equal(ub_route_link_info(&f->rt[0], f->edge[e].la, &li), UB_OK);
     uint16_t before = li.rxcost;
     assert_true(before > UB_ROUTE_LINK_COST); /* 16 * 256 / 13 */
@@ -588,6 +589,52 @@ static void test_a_lossy_link_comes_back_at_its_old_cost(void **state) {
     assert_true(li.rxcost > UB_ROUTE_LINK_COST);
     assert_true(li.rxcost <= before);
     assert_int_equal(li.history & 1u, 1u);
+    fleet_free(f);
+}
+
+/* ETX noise on a path must not make a destination starve. v0 -- v1 -- v2: v0 reaches v2 through v1 (metric 512,
+ * its feasibility distance). Every other frame across v1-v2 is lost, so v1's cost to v2, and the metric it advertises
+ * for v2 at the same seqno, rises to 512 and more: unfeasible at v0, which has no other route. Accepting it (before)
+ * lost the route and sent a seqno request to v2, whose new seqno then crossed every link: on fleet6's 20 %-lossy
+ * detour that happened in steady windows. Held back (RFC 8966 3.5.4), the route stays selected at its last feasible
+ * metric while the rise lasts less than its expiry, and is refreshed when the cost comes back; a rise that outlasts
+ * the expiry still starves and asks, so a held metric is never kept for good. */
+static void test_a_metric_rise_on_the_only_route_is_held_not_starved(void **state) {
+    (void)state;
+    ub_route_options_t ro = {.hello_ms = HELLO_MS, .dead_misses = 3};
+    fleet_t *f = fleet_new(3, &ro);
+    fleet_link(f, 0, 1);
+    int far = fleet_link(f, 1, 2);
+    fleet_start(f);
+    converge(f, 10 * HELLO_MS);
+    world_run(f->w, f->w->now_ms + 40 * HELLO_MS, 1);
+    assert_int_equal(route(f, 0, 2).metric, 2 * UB_ROUTE_LINK_COST);
+    uint16_t seq = ub_route_seqno(&f->rt[2], f->self[2]);
+    const ub_route_counters_t *c0 = ub_route_counters(&f->rt[0]);
+    /* A rise that lasts about one expiry (3.5 update intervals = 14 hellos): 6 frames of v2's lost, every other one. */
+    lose_frames_of(f, far, 2, 6);
+    ub_route_link_info_t li;
+    assert_int_equal(ub_route_link_info(&f->rt[1], f->edge[far].la, &li), UB_OK);
+    assert_true(li.cost >= 2 * UB_ROUTE_LINK_COST); /* v1 advertises v2 at 512 or more: unfeasible at v0 */
+    assert_true(route(f, 0, 2).reachable);
+    assert_int_equal(c0->routes_lost, 0);
+    assert_int_equal(c0->starvation_requests, 0);
+    assert_int_equal(ub_route_counters(&f->rt[2])->seqno_bumps, 0);
+    assert_int_equal(ub_route_seqno(&f->rt[2], f->self[2]), seq);
+    assert_true(c0->unfeasible_held >= 1);
+    /* The cost comes back below v0's feasibility distance: the entry is refreshed, the route never lost. */
+    world_run(f->w, f->w->now_ms + 20 * HELLO_MS, 1);
+    assert_true(route(f, 0, 2).reachable);
+    assert_int_equal(c0->routes_lost, 0);
+    assert_int_equal(c0->starvation_requests, 0);
+    assert_int_equal(c0->expired, 0);
+    /* A rise that outlasts the expiry: the held entry expires, v0 starves and asks, v2's new seqno makes the worse
+     * route feasible, and v0 reaches v2 at its true metric. */
+    lose_frames_of(f, far, 2, 30);
+    assert_true(c0->starvation_requests >= 1);
+    assert_true(ub_route_counters(&f->rt[2])->seqno_bumps >= 1);
+    assert_true(route(f, 0, 2).reachable);
+    assert_true(route(f, 0, 2).metric > 2 * UB_ROUTE_LINK_COST);
     fleet_free(f);
 }
 
@@ -1313,6 +1360,7 @@ int main(void) {
         cmocka_unit_test(test_silent_neighbour_expires),
         cmocka_unit_test(test_a_lossy_link_needs_a_longer_run_of_misses),
         cmocka_unit_test(test_a_lossy_link_comes_back_at_its_old_cost),
+        cmocka_unit_test(test_a_metric_rise_on_the_only_route_is_held_not_starved),
         cmocka_unit_test(test_partition_and_repair),
         cmocka_unit_test(test_starvation_is_resolved_by_a_seqno_request),
         cmocka_unit_test(test_starving_neighbours_request_goes_on_at_once),

@@ -35,7 +35,10 @@
  *    feasible when there is no FD, m is infinite (a retraction), s is newer
  *    than FD's seqno, or s equals it and m < FD's metric. Only feasible routes
  *    are selected, so the next-hop graph never has a cycle, even while the
- *    network reconverges.
+ *    network reconverges. An unfeasible update for the selected route at the
+ *    same seqno (its neighbour's metric rose), with no feasible alternative,
+ *    is held back (RFC 8966 3.5.4): the entry keeps its last metric, unrefreshed,
+ *    until a feasible update refreshes it or it expires.
  *  - Starvation: with no feasible route but unfeasible ones, the entity sends
  *    a seqno request (seqno FD + 1) to its neighbours; routers forward it
  *    toward the destination along their selected routes, and the destination
@@ -204,6 +207,9 @@ typedef struct ub_route_counters {
                                        link's next regular frame (RFC 8966 3.7.2) */
     uint64_t requests_suppressed; /**< requests not forwarded: the same seqno (or an older one) was forwarded less than
                                        a hello interval ago or is still waiting to go (its asker is remembered) */
+    uint64_t unfeasible_held;     /**< updates for the selected route held back: its neighbour's metric rose, at the same
+                                       seqno, to our feasibility distance or above with no feasible alternative left
+                                       (RFC 8966 3.5.4; the entry keeps its metric and expires unless refreshed) */
 } ub_route_counters_t;
 
 /** Per-link state. Private: read it with ub_route_link_info(). */

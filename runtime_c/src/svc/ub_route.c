@@ -546,6 +546,33 @@ static bool admit(ub_route_t *rt, int link_id, const uint8_t *ent, uint16_t metr
     return false;
 }
 
+/* Whether an update for the selected route is held back (RFC 8966 3.5.4: an unfeasible update for the selected
+ * route from the same source "MAY be ignored"): its neighbour's metric rose, at the same seqno, to our feasibility
+ * distance or above, and no other feasible route is left to switch to. Accepted, it would leave the destination
+ * starving and send a seqno request across the fleet; on a lossy link the ETX of one link on the path moves by
+ * more than a link's cost every few seconds and back (fleet6's 20 %-lossy detour: uav3's route to uav7 through
+ * uav2 went unfeasible in a steady window, a request, a new seqno everywhere; the frame budget read 1.14 under
+ * load). Held, the entry keeps its last feasible metric and is NOT refreshed: the next feasible update (the cost
+ * coming back) refreshes it, and a rise that lasts lets it expire (3.5+ update intervals), which starves and asks
+ * as before. Loop freedom is untouched: acting as if the update had not come is what the RFC allows. A
+ * retraction, a change of seqno (a restarted source), or an update that leaves a feasible alternative is
+ * accepted as always. */
+static bool hold_unfeasible(const ub_route_t *rt, int slot, int e, int link_id, uint16_t seqno, uint16_t metric) {
+    const ub_route_dest_t *ds = &rt->dests[slot][e];
+    const ub_route_entry_t *r = &rt->routes[e][link_id];
+    if (ds->sel_link != link_id || !r->in_use || metric == INF || seqno != r->seqno || metric <= r->metric ||
+        feasible(ds, seqno, metric))
+        return false;
+    for (unsigned i = 0; i < UB_MAX_LINKS_PER_ENTITY; i++) {
+        int lid = slot_link(rt, slot, i);
+        if (lid < 0 || lid == link_id) continue;
+        const ub_route_entry_t *o = &rt->routes[e][lid];
+        if (o->in_use && o->metric != INF && cost_of(rt, &rt->links[lid]) != INF && feasible(ds, o->seqno, o->metric))
+            return false; /* selection moves to it: no starvation, no request */
+    }
+    return true;
+}
+
 static void on_update(ub_route_t *rt, int slot, int link_id, const uint8_t *ent, uint32_t update_ms, uint64_t now_ms) {
     uint16_t seqno = ub_get_u16le(ent + ENT_SEQNO);
     uint16_t metric = ub_get_u16le(ent + ENT_METRIC);
@@ -554,6 +581,10 @@ static void on_update(ub_route_t *rt, int slot, int link_id, const uint8_t *ent,
     if (e < 0 || entity_local(rt, e)) return; /* ours: we are the source */
     ub_route_entry_t *r = &rt->routes[e][link_id];
     ub_route_dest_t *ds = &rt->dests[slot][e];
+    if (hold_unfeasible(rt, slot, e, link_id, seqno, metric)) {
+        rt->counters.unfeasible_held++;
+        return;
+    }
     if (!feasible(ds, seqno, metric)) {
         /* Kept, never selected while unfeasible (selection checks every time): so that losing the
          * selected route finds the alternatives at once and can ask for a newer seqno (starvation)

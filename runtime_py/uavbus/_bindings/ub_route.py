@@ -21,7 +21,7 @@ _COUNTERS = ("route_changes", "routes_found", "routes_lost", "unfeasible", "expi
              "learn_refused", "learn_expired", "pinned_skips", "neighbour_limit", "dest_refused",
              "link_evidence_down", "link_doubts", "lost_link_down", "lost_entry_gone", "lost_retracted",
              "lost_unfeasible", "owed_route_change", "owed_seqno_asked", "owed_request_answer", "seqno_deferred",
-             "requests_suppressed")
+             "requests_suppressed", "unfeasible_held")
 
 
 def ub_route_new(node: Any, now_ms: int, parallel: str = "all", learn: bool = True, certified_by: Any = None,

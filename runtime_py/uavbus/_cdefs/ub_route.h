@@ -70,6 +70,7 @@ typedef struct ub_route_counters {
     uint64_t owed_request_answer;
     uint64_t seqno_deferred;
     uint64_t requests_suppressed;
+    uint64_t unfeasible_held;
     ...;
 } ub_route_counters_t;
 
