@@ -394,18 +394,20 @@ void ub_app_start(ub_app_t *app, const ub_catalogue_t *catalogue, ub_frag_t *fra
         ub_app_die(app, "%s: no --node given and the file has no \"hosts\": say which node to run (--node NAME)", path);
     }
     app->node_name = app->node_opt != NULL ? app->node_opt : app->cfg.entities[app->cfg.hosts[0]].name;
-    /* Start the sequence numbers from the wall clock, not from 1: receivers keep a 64-frame duplicate
+    /* Start the sequence numbers from the wall clock in microseconds, not from 1 (nor from milliseconds,
+     * which a process sending faster than a frame per ms outruns): receivers keep a 64-frame duplicate
      * window per source, and a restarted process whose new numbers land inside the old window would
-     * have its first frames dropped as duplicates (ub_node.h, "Duplicate window"). */
+     * have its first frames dropped as duplicates (ub_node.h, "Duplicate window"; ub_node_seq_seed()). */
     ub_node_options_t opt = {0};
-    opt.first_seq = (uint32_t)(ub_app_unix_ms() & 0x7FFFFFFFu);
-    if (opt.first_seq == 0) opt.first_seq = 1;
+    opt.first_seq = ub_node_seq_seed(ub_app_unix_us());
     opt.random = ub_random_os; /* unguessable request ids (docs/pubsub.md, "Replies bound to their row") */
     app->first_seq = opt.first_seq;
     if (ub_node_init(&app->node, catalogue, &opt) != UB_OK) ub_app_die(app, "%s: catalogue refused by the runtime", name);
     if (frag != NULL) {
         /* directories above the payload limit or a link's MTU, in fragments (ub_frag.h) */
-        ub_frag_init(frag, NULL, (uint16_t)opt.first_seq);
+        /* transfer numbers from the millisecond clock, as before: +1 per fragmented directory, so a
+         * restart a second later starts past the ones its predecessor may have left in reassembly */
+        ub_frag_init(frag, NULL, (uint16_t)ub_app_unix_ms());
         if (ub_node_set_frag(&app->node, frag) != UB_OK) ub_app_die(app, "%s: fragment state refused", name);
     }
     if (ub_nodecfg_apply(&app->cfg, &app->node, err, sizeof err) != UB_OK) ub_app_die(app, "%s", err);

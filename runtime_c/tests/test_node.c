@@ -163,6 +163,42 @@ static void test_sequence_wraps(void **state) {
     free(f);
 }
 
+/* A process of source "src" seeded with ub_node_seq_seed() at `pred_us` sent `sent` frames; its successor,
+ * seeded at `succ_us`, sends `count` frames to the same receiver. Returns how many of those were delivered.
+ * Only the predecessor's last 64 frames are fed: they alone make the window the successor meets. */
+static int successor_delivered(uint64_t pred_us, uint32_t sent, uint64_t succ_us, int count) {
+    rx_fixture_t *f = rx_fixture();
+    uint32_t last = ub_node_seq_seed(pred_us) + sent - 1u;
+    for (uint32_t k = 0; k < UB_DEDUP_WINDOW && k < sent; k++) assert_int_equal(feed(f, "src", last - k), 1);
+    int delivered = 0;
+    uint32_t first = ub_node_seq_seed(succ_us);
+    for (int k = 0; k < count; k++) delivered += feed(f, "src", first + (uint32_t)k);
+    free(f);
+    return delivered;
+}
+
+/* CI failure of `uavbus list`: the tool before it sent ~755 requests within its first ~100 ms and the next
+ * tool process, hosting the same entity, started ~700 ms later. Seeded from the millisecond clock, the new
+ * process began up to 63 numbers below the old one's last: every retry of its first request (30 in 6 s)
+ * was a duplicate at the forwarder. Seeded by ub_node_seq_seed(), no restart delay loses a frame. */
+static void test_restarted_process_is_not_taken_for_its_predecessor(void **state) {
+    (void)state;
+    const uint64_t t0 = 1795766400123456ull; /* 2026-11-27 08:00:00.123456 UTC, in us */
+    for (uint64_t delay_ms = 1; delay_ms <= 1500; delay_ms++) {
+        int got = successor_delivered(t0, 755, t0 + delay_ms * 1000u, 64);
+        if (got != 64) fail_msg("restart %llu ms after a 755-frame run: %d of 64 frames delivered",
+                                (unsigned long long)delay_ms, got);
+    }
+    /* a predecessor at 50 kHz for 10 ms, then a restart 1 ms later; and one whose numbers wrapped past 2^32 */
+    assert_int_equal(successor_delivered(t0, 500, t0 + 11000u, 64), 64);
+    const uint64_t wrap = (t0 | 0xFFFFFFFFull) - 20000u; /* seeded 20 ms before the seed wraps */
+    assert_int_equal(successor_delivered(wrap, 755, wrap + 700000u, 64), 64);
+    /* a predecessor alive 40 min (> 2^31 us) at 50 Hz: its successor compares behind, and is a restart */
+    assert_int_equal(successor_delivered(t0, 120000, t0 + 2400000000ull, 64), 64);
+    assert_int_equal(ub_node_seq_seed(0), 1u);
+    assert_int_equal(ub_node_seq_seed(1ull << 32), 1u);
+}
+
 static void test_full_window_table_evicts_least_recent(void **state) {
     (void)state;
     rx_fixture_t *f = rx_fixture();
@@ -258,6 +294,7 @@ int main(void) {
         cmocka_unit_test(test_tables_fill_up),
         cmocka_unit_test(test_duplicate_window),
         cmocka_unit_test(test_sequence_wraps),
+        cmocka_unit_test(test_restarted_process_is_not_taken_for_its_predecessor),
         cmocka_unit_test(test_full_window_table_evicts_least_recent),
         cmocka_unit_test(test_wire_image_storage),
         cmocka_unit_test(test_last_destination_follows_removal),

@@ -142,9 +142,10 @@ class Node:
         load_config) is applied through the C loader, hosting the entities of `node` (from its "nodes")
         or of its "hosts"; a refused file raises ConfigError. `clock()` returns ms (default
         CLOCK_MONOTONIC; an injected clock makes the node never sleep, for tests and simulations).
-        `first_seq`: the first sequence number this node sends (default: from the wall clock, so a
-        restarted process is not taken for duplicates of the one before); `hop_limit`, `timing`
-        (ub_pubsub timing, ms) and `random_seed` (seeded request ids, tests only) as in ub_node.h.
+        `first_seq`: the first sequence number this node sends (default: the wall clock in microseconds,
+        ub_node_seq_seed(), so a restarted process is not taken for duplicates of the one before);
+        `hop_limit`, `timing` (ub_pubsub timing, ms) and `random_seed` (seeded request ids, tests only) as in
+        ub_node.h.
         `ring_records`: capacity of the delivery ring (default: ~1 MiB of records, 64 to 4096)."""
         self.catalogue = catalogue if isinstance(catalogue, Catalogue) else Catalogue.load(catalogue)
         enums = catalogue_enums(self.catalogue)
@@ -157,14 +158,18 @@ class Node:
         except (TypeError, ValueError, AttributeError, OverflowError, KeyError) as exc:
             raise CatalogueError(f"{self.catalogue.origin}: the C router cannot use this catalogue "
                                  f"({type(exc).__name__}: {exc}); regenerate it with `uavbus gen`") from None
+        first_transfer = first_seq
         if first_seq is None:
-            # From the wall clock, not 1, as uavbus_node does: receivers keep a 64-frame duplicate window per
-            # source, and a restarted GCS (or a second tool hosting the same entity) whose numbers landed
-            # inside the previous one's window would have its first frames dropped as duplicates.
-            first_seq = (time.time_ns() // 1_000_000) & 0x7FFFFFFF or 1
+            # From the wall clock in microseconds, not 1, as uavbus_node does: receivers keep a 64-frame
+            # duplicate window per source, and a restarted GCS (or the next tool hosting the same entity) whose
+            # numbers landed inside the previous one's window would have its first frames dropped as
+            # duplicates. Milliseconds were not enough: `uavbus list` sends ~755 requests in well under 755 ms.
+            now_ns = time.time_ns()
+            first_seq = ub_node.ub_node_seq_seed(now_ns // 1000)
+            first_transfer = (now_ns // 1_000_000) & 0xFFFF  # fragment transfers: +1 each, ms clock as before
         # Request ids come from the OS (ub_random_os); random_seed: the seeded, guessable ids of tests.
         self._c = ub_node.ub_node_new(c_catalogue, hop_limit, first_seq, timing, random_seed)
-        self.wire = Wire(self, first_seq)  # compact links, MTUs, fragments
+        self.wire = Wire(self, first_transfer)  # compact links, MTUs, fragments
         self._sink = _Sink(self)
         self._handle = ub_node.new_handle(self._sink)
         # Deliveries go to a C-side ring drained once per turn (one cffi call, no callback per frame); a

@@ -69,8 +69,10 @@
  * seen and a 64-bit bitmap below it (UB_DEDUP_WINDOW). A sequence more than the
  * window behind is taken as a restarted source: the window resets to it and
  * the frame is accepted (`dedup_resets`). A source restarting within 64 frames
- * of its old sequence loses at most 64 frames; ub_node_options_t.first_seq
- * lets a node start elsewhere (e.g. from a boot counter). Full source tables
+ * *below* its old sequence loses up to 64 frames; ub_node_options_t.first_seq
+ * lets a node start elsewhere: from ub_node_seq_seed() (the microsecond wall
+ * clock, as uavbus_node and Python nodes do: a restarted process starts ahead
+ * of its predecessor's numbers) or from a boot counter. Full source tables
  * evict the least recently seen source (`dedup_evictions`). That reset is for
  * unsigned traffic only: see "Security" below.
  *
@@ -347,6 +349,19 @@ struct ub_node {
  *         UB_MAX_PAYLOAD travel in fragments, ub_node_set_frag()).
  */
 UB_CHECK int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt);
+
+/**
+ * The first sequence number (ub_node_options_t.first_seq) of a process started at wall-clock time
+ * `unix_us` (microseconds): the clock itself, mod 2^32 (1 if that is 0). A node restarted after a
+ * predecessor that sent N frames in the E microseconds between their starts begins E - N ahead of the
+ * predecessor's last number, so no receiver's duplicate window takes its first frames for the
+ * predecessor's, whatever the predecessor's rate below one frame per microsecond. The clock in
+ * milliseconds was not enough: a `uavbus list` sends ~750 probes in well under 750 ms, and the next
+ * tool process, seeded 700 ms later, landed up to 63 numbers behind them and lost its first requests
+ * as duplicates. Predecessors older than 2^31 us (35.8 min) may compare behind by serial arithmetic:
+ * 64 or more behind is a restart (the window resets), so only a 64-us coincidence loses frames.
+ */
+uint32_t ub_node_seq_seed(uint64_t unix_us);
 
 /**
  * Adds an entity to the entity table; `local` makes it one of this node's

@@ -76,6 +76,11 @@ int ub_node_core_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_
     return rc;
 }
 
+uint32_t ub_node_seq_seed(uint64_t unix_us) {
+    uint32_t seq = (uint32_t)unix_us; /* mod 2^32: the window compares by serial arithmetic */
+    return seq != 0 ? seq : 1u;
+}
+
 /* ---- the entity index: ID -> row, open addressing with linear probing --------------------------------- */
 
 static unsigned index_home(const uint8_t id[UB_ENTITY_ID_LEN]) {

@@ -42,6 +42,12 @@ def entity_name(raw: bytes) -> str:
     return bytes(raw).rstrip(b"\0").decode("utf-8", "replace")
 
 
+def ub_node_seq_seed(unix_us: int) -> int:
+    """The first sequence number of a node started at wall-clock time `unix_us` (ub_node_seq_seed(): the
+    microsecond clock mod 2^32, never 0), so a restarted process starts ahead of its predecessor's numbers."""
+    return int(lib.ub_node_seq_seed(unix_us & 0xFFFFFFFFFFFFFFFF))
+
+
 def ub_node_new(c_catalogue: Any, hop_limit: int = 0, first_seq: int = 0,
                 timing: dict[str, int] | None = None, random_seed: int | None = None) -> Any:
     """A fresh node over `c_catalogue` (which must outlive it), freed with the returned cdata. Request ids

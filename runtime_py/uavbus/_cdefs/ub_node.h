@@ -76,6 +76,7 @@ struct ub_node {
 typedef struct ub_sec ub_sec_t;
 
 int ub_node_init(ub_node_t *node, const ub_catalogue_t *cat, const ub_node_options_t *opt);
+uint32_t ub_node_seq_seed(uint64_t unix_us);
 int ub_node_add_entity(ub_node_t *node, const uint8_t id[], bool local);
 int ub_node_add_entity_name(ub_node_t *node, const char *name, bool local);
 int ub_node_remove_entity(ub_node_t *node, int entity, uint64_t now_ms);
