@@ -527,7 +527,8 @@ class Campaign:
         path to gcs1) and toward gcs1 itself. Before the jump bound it moved both windows past every counter
         fcs20 will ever use, silencing it for good; now each is dropped `counter_jump` (docs/security.md,
         "Lockout") and fcs20's imuOut keeps its rate. `accepted` counts the frame where it got in, plus 1 if
-        imuOut at gcs1 fell below 90 % of its 50 Hz afterwards."""
+        imuOut at gcs1 fell below 90 % of its 50 Hz afterwards (the frames fcs20 stamped in the watch window
+        that reached gcs1: `StreamMeter.sent_rate_hz`)."""
         key_id, key = ub_sec.ub_keyfile_load(str(key_file))
         genuine = [f for f in self.tap.frames("b>a") if _src(f) == "fcs20" and f[48] == DATA]
         payload = _payload(genuine[-1]) if genuine else bytes(self.cat.instance("imuOut").type.packed_size)
@@ -542,7 +543,10 @@ class Campaign:
         self.h.run_for(watch_s)
         t1 = time.monotonic()
         after = self._snap("gcs", "primary")
-        imu = self.h.meter("imuOut", "fcs20").rate_hz(t0, t1)
+        # What fcs20 sent in the window and gcs1 got, placed at fcs20's own timeTags: a harness that stalled
+        # across t0 (the tap and the serial relay are its threads) hands over frames sent before t0 just
+        # after it, which by receive instants read 55.5 Hz for 50 (metrics.py).
+        imu = self.h.meter("imuOut", "fcs20").sent_rate_hz(t0, t1)
         status = self.h.admin.status(self.rows["imu"])["status"] if "imu" in self.rows else "?"
         silenced = int(imu < 0.9 * 1000 / IMU_MS)
         dropped = self._dropped(before, after, where)
@@ -551,7 +555,8 @@ class Campaign:
                          f"imuOut from fcs20 at gcs1 over the next {watch_s:.0f} s: {imu:.1f} Hz "
                          f"({1000 / IMU_MS:.0f} requested); GCS row {status}",
                          ", ".join(f"{ENTITY[n]}:{link}" for n, link in where))
-        r.extra.update(imu_hz=imu, gps_hz=self.h.meter("gpsOut", "rmax1ob1").rate_hz(t0, t1), row_status=status)
+        gps = self.h.meter("gpsOut", "rmax1ob1").sent_rate_hz(t0, t1)
+        r.extra.update(imu_hz=imu, gps_hz=gps, row_status=status, window=(t0, t1))
         return r
 
     # ---- running ----------------------------------------------------------------------------------------
