@@ -180,6 +180,13 @@ class Campaign:
         return {"gpsOut": self.h.meter("gpsOut", "rmax1ob1").rate_hz(t0, t1),
                 "imuOut": self.h.meter("imuOut", "fcs20").rate_hz(t0, t1)}
 
+    def sent_rates(self, t0: float, t1: float) -> dict[str, float]:
+        """The same streams' rates by what their sources stamped in [t0, t1] and gcs1 got (`sent_rate_hz`):
+        for a short window opened right after the harness waited (a lockout's 3 s), where a stall of this
+        process across its start would hand frames sent before it over inside it (CI run 35: 55.5 Hz)."""
+        return {"gpsOut": self.h.meter("gpsOut", "rmax1ob1").sent_rate_hz(t0, t1),
+                "imuOut": self.h.meter("imuOut", "fcs20").sent_rate_hz(t0, t1)}
+
     # ---- observing the victims --------------------------------------------------------------------------
     def _stats(self, node: str) -> dict[str, Any]:
         if node == "gcs":
@@ -546,7 +553,8 @@ class Campaign:
         # What fcs20 sent in the window and gcs1 got, placed at fcs20's own timeTags: a harness that stalled
         # across t0 (the tap and the serial relay are its threads) hands over frames sent before t0 just
         # after it, which by receive instants read 55.5 Hz for 50 (metrics.py).
-        imu = self.h.meter("imuOut", "fcs20").sent_rate_hz(t0, t1)
+        rates = self.sent_rates(t0, t1)
+        imu = rates["imuOut"]
         status = self.h.admin.status(self.rows["imu"])["status"] if "imu" in self.rows else "?"
         silenced = int(imu < 0.9 * 1000 / IMU_MS)
         dropped = self._dropped(before, after, where)
@@ -555,8 +563,7 @@ class Campaign:
                          f"imuOut from fcs20 at gcs1 over the next {watch_s:.0f} s: {imu:.1f} Hz "
                          f"({1000 / IMU_MS:.0f} requested); GCS row {status}",
                          ", ".join(f"{ENTITY[n]}:{link}" for n, link in where))
-        gps = self.h.meter("gpsOut", "rmax1ob1").sent_rate_hz(t0, t1)
-        r.extra.update(imu_hz=imu, gps_hz=gps, row_status=status, window=(t0, t1))
+        r.extra.update(imu_hz=imu, gps_hz=rates["gpsOut"], row_status=status, window=(t0, t1))
         return r
 
     # ---- running ----------------------------------------------------------------------------------------
