@@ -555,15 +555,18 @@ class Campaign:
         # after it, which by receive instants read 55.5 Hz for 50 (metrics.py).
         rates = self.sent_rates(t0, t1)
         imu = rates["imuOut"]
+        # a held backlog shows in the data age of what arrived in the window (the next such failure says where)
+        late = sum(age > 100.0 for age in self.h.meter("imuOut", "fcs20").latencies(t0, t1))
         status = self.h.admin.status(self.rows["imu"])["status"] if "imu" in self.rows else "?"
         silenced = int(imu < 0.9 * 1000 / IMU_MS)
         dropped = self._dropped(before, after, where)
         # not in self.results: those are the keyless attacker's (run()'s list)
         r = AttackResult(LOCKOUT, 2, max(2 - sum(dropped.values()), silenced, 0), dropped,
                          f"imuOut from fcs20 at gcs1 over the next {watch_s:.0f} s: {imu:.1f} Hz "
-                         f"({1000 / IMU_MS:.0f} requested); GCS row {status}",
+                         f"({1000 / IMU_MS:.0f} requested{f'; {late} arrived > 100 ms after fcs20 stamped them' if late else ''}"
+                         f"); GCS row {status}",
                          ", ".join(f"{ENTITY[n]}:{link}" for n, link in where))
-        r.extra.update(imu_hz=imu, gps_hz=rates["gpsOut"], row_status=status, window=(t0, t1))
+        r.extra.update(imu_hz=imu, gps_hz=rates["gpsOut"], row_status=status, window=(t0, t1), imu_late=late)
         return r
 
     # ---- running ----------------------------------------------------------------------------------------
