@@ -164,6 +164,37 @@ def test_metrics_rate_percentiles_gap_and_table() -> None:
     assert "fcs20 -> gcs1" in text and "gcsPortDatalink1:crc=3" in text and "1.5 / 2.5" in text
 
 
+def _stalled_trace(m: StreamMeter, t0: float, stall_s: float, copies: int = 1) -> None:
+    """A 50 Hz source (timeTag every 20 ms, 4 ms transport) whose receiver's harness stalled `stall_s`
+    up to 5 ms after t0: what was sent meanwhile is handed over at t0 + 5 ms, in one burst (CI run 35)."""
+    for i in range(250):
+        stamp = i * 0.02
+        t = stamp + 0.004
+        if t0 - stall_s <= t < t0 + 0.005:
+            t = t0 + 0.005 + i * 1e-5
+        for _ in range(copies):
+            m.add(t, latency_ms=(t - stamp) * 1000.0, stamp=stamp)
+
+
+def test_sent_rate_places_each_message_at_its_sources_stamp() -> None:
+    t0 = 1.01
+    m = StreamMeter("imuOut", "fcs20", "gcs1")
+    _stalled_trace(m, t0, stall_s=0.32)
+    # By receive instants the backlog lands inside the window: CI's 55.5 Hz for a 50 Hz source.
+    assert m.rate_hz(t0, t0 + 3.0) == pytest.approx(55.4, abs=0.2)
+    # By the source's stamps each message is where it was sent: late, neither extra nor missing.
+    assert m.sent_rate_hz(t0, t0 + 3.0) == pytest.approx(50.0)
+    assert m.sent_rate_hz(t0 + 10.0, t0 + 13.0) == 0.0  # nothing sent then: a silenced source reads 0
+    twice = StreamMeter("imuOut", "fcs20", "gcs1")
+    _stalled_trace(twice, t0, stall_s=0.0, copies=2)
+    assert twice.sent_rate_hz(t0, t0 + 3.0) == pytest.approx(100.0, rel=0.01)  # every arrival counts
+    bare = StreamMeter("imuOut", "fcs20", "gcs1")
+    bare.add(1.0)
+    bare.add(1.02)
+    with pytest.raises(ValueError, match="no timeTag"):
+        bare.sent_rate_hz(0.0, 2.0)
+
+
 def test_table2_hops() -> None:
     topo = table2(REPO / "examples/configs/table2.json")
     try:

@@ -180,6 +180,13 @@ class Campaign:
         return {"gpsOut": self.h.meter("gpsOut", "rmax1ob1").rate_hz(t0, t1),
                 "imuOut": self.h.meter("imuOut", "fcs20").rate_hz(t0, t1)}
 
+    def sent_rates(self, t0: float, t1: float) -> dict[str, float]:
+        """The same streams' rates by what their sources stamped in [t0, t1] and gcs1 got (`sent_rate_hz`):
+        for a short window opened right after the harness waited (a lockout's 3 s), where a stall of this
+        process across its start would hand frames sent before it over inside it (CI run 35: 55.5 Hz)."""
+        return {"gpsOut": self.h.meter("gpsOut", "rmax1ob1").sent_rate_hz(t0, t1),
+                "imuOut": self.h.meter("imuOut", "fcs20").sent_rate_hz(t0, t1)}
+
     # ---- observing the victims --------------------------------------------------------------------------
     def _stats(self, node: str) -> dict[str, Any]:
         if node == "gcs":
@@ -527,7 +534,8 @@ class Campaign:
         path to gcs1) and toward gcs1 itself. Before the jump bound it moved both windows past every counter
         fcs20 will ever use, silencing it for good; now each is dropped `counter_jump` (docs/security.md,
         "Lockout") and fcs20's imuOut keeps its rate. `accepted` counts the frame where it got in, plus 1 if
-        imuOut at gcs1 fell below 90 % of its 50 Hz afterwards."""
+        imuOut at gcs1 fell below 90 % of its 50 Hz afterwards (the frames fcs20 stamped in the watch window
+        that reached gcs1: `StreamMeter.sent_rate_hz`)."""
         key_id, key = ub_sec.ub_keyfile_load(str(key_file))
         genuine = [f for f in self.tap.frames("b>a") if _src(f) == "fcs20" and f[48] == DATA]
         payload = _payload(genuine[-1]) if genuine else bytes(self.cat.instance("imuOut").type.packed_size)
@@ -542,16 +550,23 @@ class Campaign:
         self.h.run_for(watch_s)
         t1 = time.monotonic()
         after = self._snap("gcs", "primary")
-        imu = self.h.meter("imuOut", "fcs20").rate_hz(t0, t1)
+        # What fcs20 sent in the window and gcs1 got, placed at fcs20's own timeTags: a harness that stalled
+        # across t0 (the tap and the serial relay are its threads) hands over frames sent before t0 just
+        # after it, which by receive instants read 55.5 Hz for 50 (metrics.py).
+        rates = self.sent_rates(t0, t1)
+        imu = rates["imuOut"]
+        # a held backlog shows in the data age of what arrived in the window (the next such failure says where)
+        late = sum(age > 100.0 for age in self.h.meter("imuOut", "fcs20").latencies(t0, t1))
         status = self.h.admin.status(self.rows["imu"])["status"] if "imu" in self.rows else "?"
         silenced = int(imu < 0.9 * 1000 / IMU_MS)
         dropped = self._dropped(before, after, where)
         # not in self.results: those are the keyless attacker's (run()'s list)
         r = AttackResult(LOCKOUT, 2, max(2 - sum(dropped.values()), silenced, 0), dropped,
                          f"imuOut from fcs20 at gcs1 over the next {watch_s:.0f} s: {imu:.1f} Hz "
-                         f"({1000 / IMU_MS:.0f} requested); GCS row {status}",
+                         f"({1000 / IMU_MS:.0f} requested{f'; {late} arrived > 100 ms after fcs20 stamped them' if late else ''}"
+                         f"); GCS row {status}",
                          ", ".join(f"{ENTITY[n]}:{link}" for n, link in where))
-        r.extra.update(imu_hz=imu, gps_hz=self.h.meter("gpsOut", "rmax1ob1").rate_hz(t0, t1), row_status=status)
+        r.extra.update(imu_hz=imu, gps_hz=rates["gpsOut"], row_status=status, window=(t0, t1), imu_late=late)
         return r
 
     # ---- running ----------------------------------------------------------------------------------------

@@ -30,7 +30,7 @@ from uavbus.sim.process import NodeError, NodeProcess, ProcessGroup, is_addr_in_
 from uavbus.sim.protocol import ERROR, READY, REBOUND, STATS
 from uavbus.sim.topology import TABLE2_NODES, Topology, table2
 
-__all__ = ["HitlOptions", "Hitl", "catalogue_for", "timetag_latency_ms", "C_NODES"]
+__all__ = ["HitlOptions", "Hitl", "catalogue_for", "timetag_latency_ms", "timetag_s", "C_NODES"]
 
 C_NODES = ("secondary", "backup", "primary")   # start order: the TCP server before its client
 
@@ -47,16 +47,20 @@ def catalogue_for(program: Path) -> Path:
     return p
 
 
-def timetag_latency_ms(value: Any, now: float) -> float | None:
-    """now (time.monotonic()) minus the directory's timeTag `time`, in ms; None without a timeTag."""
+def timetag_s(value: Any) -> float | None:
+    """The directory's timeTag `time` in seconds (CLOCK_MONOTONIC of its source); None without one."""
     try:
         tt = value["time"]
         stamp = float(tt["seconds"]) + float(tt["microseconds"]) * 1e-6
     except (KeyError, TypeError, IndexError):
         return None
-    if stamp <= 0.0:
-        return None
-    return (now - stamp) * 1000.0
+    return stamp if stamp > 0.0 else None
+
+
+def timetag_latency_ms(value: Any, now: float) -> float | None:
+    """now (time.monotonic()) minus the directory's timeTag `time`, in ms; None without a timeTag."""
+    stamp = timetag_s(value)
+    return None if stamp is None else (now - stamp) * 1000.0
 
 
 @dataclass
@@ -199,7 +203,8 @@ class Hitl:
         m = self.meters.get(key)
         if m is None:
             m = self.meters[key] = StreamMeter(msg.name, msg.source, getattr(msg, "dest", "gcs1"))
-        m.add(now, timetag_latency_ms(value, now), value)
+        stamp = timetag_s(value)
+        m.add(now, None if stamp is None else (now - stamp) * 1000.0, value, stamp=stamp)
         self.messages.append((now, msg.name, msg.source, int(getattr(msg, "seq", 0)), bytes(msg.raw)))
         if self.on_message is not None:
             self.on_message(msg)

@@ -269,7 +269,7 @@ class InsiderCampaign(Campaign):
         self.h.run_for(watch_s)
         t1 = time.monotonic()
         after = self._snap("gcs", "primary")
-        rates = self.rates(t0, t1)
+        rates = self.sent_rates(t0, t1)   # as Campaign.insider_lockout: not a stalled harness's backlog
         silenced = int(rates["imuOut"] < 0.9 * 1000 / IMU_MS) + int(rates["gpsOut"] < 9.0)
         dropped = self._dropped(before, after, where)
         gps_row = bool([x for x in self._pubsub("primary") if x["content"] == "gpsOut" and x.get("destination") == "gcs1"])
@@ -588,7 +588,7 @@ def group_key_lockout(campaign: Campaign, key_file: Path, watch_s: float = 2.0) 
     t1 = time.monotonic()
     h.admin.deactivate(row)
     after = campaign._snap("gcs", "primary")
-    rates = campaign.rates(t0, t1)
+    rates = campaign.sent_rates(t0, t1)   # what the sources sent in the window: not a stalled harness's backlog
     silenced = int(not admin.endswith("active")) + int(rates["gpsOut"] < 9.0)
     dropped = campaign._dropped(before, after, where)
     r = AttackResult(GROUP_LOCKOUT, 2, max(2 - sum(dropped.values()), silenced, 0), dropped,

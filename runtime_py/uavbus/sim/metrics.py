@@ -14,6 +14,15 @@ both links, so every second copy is dropped as `duplicate`: expected) and everyt
 The achieved rate and the latency percentiles are measured over a window in which the stream is expected to flow (e.g. after the
 subscription became active and before a planned outage), as (messages - 1) / (last - first): it does
 not depend on when the window was opened.
+
+`rate_hz` places each message at its **receive** instant: the harness's, taken when its poll loop handed the
+message over. A harness that stalled (its process descheduled, a garbage-collection pause: the tap and the
+null-modem relays are threads of the same process, so the frames wait in socket and pty buffers meanwhile)
+delivers a backlog in one burst; a stall across the start of a window puts frames sent before it inside
+(a 320 ms stall read a 50 Hz stream as 55.5 Hz). `sent_rate_hz` places each message at its **source's**
+instant instead -- the timeTag the source stamped, on the same clock -- so it counts what the source sent in
+the window and reached the receiver, late or not: a late frame is neither extra nor missing, while a
+message delivered twice still counts twice and a silenced source still reads 0.
 """
 
 from __future__ import annotations
@@ -59,14 +68,22 @@ class StreamMeter:
     latencies_ms: list[float] = field(default_factory=list)
     latency_times: list[float] = field(default_factory=list)  # receive time of each latency sample
     values: list[dict[str, Any]] = field(default_factory=list)  # optional: decoded values for plots
+    stamps: list[float] = field(default_factory=list)        # the source's timeTag of each stamped message, s
+    unstamped: int = 0                                        # messages that carried no timeTag
 
-    def add(self, t: float, latency_ms: float | None = None, value: dict[str, Any] | None = None) -> None:
+    def add(self, t: float, latency_ms: float | None = None, value: dict[str, Any] | None = None,
+            stamp: float | None = None) -> None:
+        """One message received at `t`; `stamp`: when its source stamped it (its timeTag, same clock)."""
         self.times.append(t)
         if latency_ms is not None:
             self.latencies_ms.append(latency_ms)
             self.latency_times.append(t)
         if value is not None:
             self.values.append(value)
+        if stamp is None:
+            self.unstamped += 1
+        else:
+            self.stamps.append(stamp)
 
     def window(self, t0: float | None = None, t1: float | None = None) -> list[float]:
         return [t for t in self.times if (t0 is None or t >= t0) and (t1 is None or t <= t1)]
@@ -79,6 +96,19 @@ class StreamMeter:
 
     def count(self, t0: float | None = None, t1: float | None = None) -> int:
         return len(self.window(t0, t1))
+
+    def sent_rate_hz(self, t0: float, t1: float) -> float:
+        """The rate of the messages the source stamped in [t0, t1] that arrived (whenever: read it once they
+        had time to), as (messages - 1) / (last stamp - first stamp). Every arrival counts, so a message
+        delivered twice counts twice. Raises ValueError for a stream whose messages carry no timeTag (the
+        source's instant is unknown: `rate_hz` is all there is)."""
+        if self.unstamped and not self.stamps:
+            raise ValueError(f"{self.name} from {self.source}: no timeTag in its {self.unstamped} messages; "
+                             "the source's send times are unknown (use rate_hz)")
+        ts = sorted(s for s in self.stamps if t0 <= s <= t1)
+        if len(ts) < 2 or ts[-1] <= ts[0]:
+            return 0.0
+        return (len(ts) - 1) / (ts[-1] - ts[0])
 
     def latencies(self, t0: float | None = None, t1: float | None = None) -> list[float]:
         return [lat for t, lat in zip(self.latency_times, self.latencies_ms)
