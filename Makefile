@@ -158,13 +158,12 @@ test: lint test-c test-cross test-fuzz test-py
 # Line and branch coverage of runtime_c/src from the C tests (corpus replay included) and the multi-process
 # tests run against the instrumented uavbus_node (-O0 and the instrumentation make gcc warn about flows and
 # lengths it cannot follow: those two warnings are off here). The short demo is left out: it checks timings,
-# which an -O0 instrumented node does not keep (make test runs it); so are fleet6's two timing-bound checks
-# (its routing-frame budget and its reconvergence bounds): on a loaded machine the slow nodes plus the 20 %-lossy
-# detour can take that link down inside one of the scenario's two steady windows (3 of 25 coverage runs read over
-# the budget), and its seqno requests and answers cross most of the 7-node fleet (docs/routing.md, "Slow nodes";
-# the fleet-wide echo of each new seqno is gone). Their scenario still runs here for its coverage; make test asserts them. Prints the totals, every file's
-# missed lines and every file's branch figure; fails when a runtime_c/src file but the OS fallback is
-# below 80 % of branches (issue #29 item 6; the exemption and its reason are in coverage.sh).
+# which an -O0 instrumented node does not keep (make test runs it). fleet6's frame budget and reconvergence
+# checks run here again: left out while its 20 %-lossy detour's ETX could cost a steady window a route (3 of 25
+# coverage runs read over budget), they passed 12 of 12 runs against this instrumented node once such a rise was
+# held (docs/routing.md, "Routes, feasibility and selection"), 6 of them beside a CPU-bound process. Prints the
+# totals, every file's missed lines and every file's branch figure; fails when a runtime_c/src file but the OS
+# fallback is below 80 % of branches (issue #29 item 6; the exemption and its reason are in coverage.sh).
 coverage: setup
 	@$(call apt_install,$(COV_APT_PKGS))
 	cmake -S . -B $(BUILD_COV) -G Ninja -DUAVBUS_PYTHON=$(abspath $(VPY)) -DCMAKE_BUILD_TYPE=Debug \
@@ -172,7 +171,7 @@ coverage: setup
 	cmake --build $(BUILD_COV) -j2
 	find $(BUILD_COV) -name '*.gcda' -delete
 	ctest --test-dir $(BUILD_COV) --output-on-failure
-	UAVBUS_BUILD_DIR=$(abspath $(BUILD_COV)) $(VPY) -m pytest -q tests/system -k 'not demo_short and not frame_budget_in_steady_state and not every_event_happened'
+	UAVBUS_BUILD_DIR=$(abspath $(BUILD_COV)) $(VPY) -m pytest -q tests/system -k 'not demo_short'
 	runtime_c/tools/coverage.sh $(BUILD_COV)
 
 # The paper's HITL and Table 1 scenarios end to end (examples/demo/hitl_demo.py). The CMake build
