@@ -166,7 +166,7 @@ def test_metrics_rate_percentiles_gap_and_table() -> None:
 
 def _stalled_trace(m: StreamMeter, t0: float, stall_s: float, copies: int = 1) -> None:
     """A 50 Hz source (timeTag every 20 ms, 4 ms transport) whose receiver's harness stalled `stall_s`
-    up to 5 ms after t0: what was sent meanwhile is handed over at t0 + 5 ms, in one burst (CI run 35)."""
+    up to 5 ms after t0: what was sent meanwhile is handed over at t0 + 5 ms, in one burst (a CI run of 2026-11-27)."""
     for i in range(250):
         stamp = i * 0.02
         t = stamp + 0.004

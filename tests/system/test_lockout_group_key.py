@@ -5,8 +5,8 @@ for good at both. Now each copy is dropped and counted `counter_jump` where it a
 fcs20's imuOut keeps reaching gcs1 at its 50 Hz (within 10 %), the GCS row staying active.
 
 The campaign machinery is uavbus.sim.attacks' (Campaign.insider_lockout), as make demo's attacker step.
-The rate is that of the frames fcs20 stamped in the watch window that reached gcs1 (`sent_rate_hz`): CI run 35
-read 55.5 Hz by receive instants when this test's process (it polls gcs1; the UDP tap and the serial
+The rate is that of the frames fcs20 stamped in the watch window that reached gcs1 (`sent_rate_hz`): a CI run
+of 2026-11-27 read 55.5 Hz by receive instants when this test's process (it polls gcs1; the UDP tap and the serial
 null-modem relay are its threads) stalled ~320 ms across the window's start; the second test makes that stall.
 """
 
@@ -72,7 +72,7 @@ def _hold_the_gil(seconds: float) -> None:
 
 def test_a_harness_stall_across_the_window_start_adds_no_rate(program: Path, tmp_path: Path,
                                                               monkeypatch: pytest.MonkeyPatch) -> None:
-    """The stall of CI run 35, made on purpose: 0.4 s at the end of the settle, so that what fcs20 sent
+    """The stall of a CI run of 2026-11-27, made on purpose: 0.4 s at the end of the settle, so that what fcs20 sent
     meanwhile reaches gcs1 in one burst just after the watch window opened."""
     config = signed_config(TABLE2, tmp_path)
     h, tap = start_with_tap(attack_options(program, config))

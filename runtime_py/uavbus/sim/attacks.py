@@ -183,7 +183,7 @@ class Campaign:
     def sent_rates(self, t0: float, t1: float) -> dict[str, float]:
         """The same streams' rates by what their sources stamped in [t0, t1] and gcs1 got (`sent_rate_hz`):
         for a short window opened right after the harness waited (a lockout's 3 s), where a stall of this
-        process across its start would hand frames sent before it over inside it (CI run 35: 55.5 Hz)."""
+        process across its start would hand frames sent before it over inside it (a CI run of 2026-11-27: 55.5 Hz)."""
         return {"gpsOut": self.h.meter("gpsOut", "rmax1ob1").sent_rate_hz(t0, t1),
                 "imuOut": self.h.meter("imuOut", "fcs20").sent_rate_hz(t0, t1)}
 
